@@ -1,0 +1,1 @@
+"""The ``nlid`` command line (argparse). Entry point: :func:`nlid.cli.main.main`."""

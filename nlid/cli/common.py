@@ -1,0 +1,76 @@
+"""Helpers shared by the subcommands: argument parsing, data loading, output."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from collections.abc import Sequence
+from typing import Any
+
+from ..errors import InputError
+from ..interface import to_jsonable
+from ..record import Record
+
+__all__ = ["Parser", "parse_settings", "load_data", "print_json", "add_data_arguments", "DATA_HELP"]
+
+DATA_HELP = (
+    "data file (.csv, .npz, .mat) or a bundled benchmark as dataset:NAME "
+    "(dataset:emps, dataset:silverbox, dataset:silverbox:arrow; read from $NLID_DATA_DIR)"
+)
+
+
+class Parser(argparse.ArgumentParser):
+    """ArgumentParser whose usage errors are one line and exit with status 2."""
+
+    def error(self, message: str) -> None:  # type: ignore[override]
+        self.exit(2, f"{self.prog}: error: {message} (see {self.prog} --help)\n")
+
+
+def parse_settings(items: Sequence[str] | None) -> dict[str, str]:
+    """``["k=v", ...]`` from repeated ``--set`` into a dict (values stay strings)."""
+    out: dict[str, str] = {}
+    for item in items or ():
+        if "=" not in item:
+            raise InputError(f"--set expects key=value, got {item!r}")
+        key, value = item.split("=", 1)
+        key = key.strip()
+        if not key:
+            raise InputError(f"--set expects key=value, got {item!r}")
+        out[key] = value.strip()
+    return out
+
+
+def add_data_arguments(parser: argparse.ArgumentParser) -> None:
+    """The DATA positional and the options that say how to read it."""
+    parser.add_argument("data", metavar="DATA", help=DATA_HELP)
+    parser.add_argument(
+        "--columns",
+        metavar="MAP",
+        help="which file columns are which channels, with optional scale factors, "
+        "e.g. 'f=vir*gtau,z=qm' (channels t, f, z, v, a; default: columns named like the channels)",
+    )
+    parser.add_argument("--fs", type=float, metavar="HZ", help="sampling frequency when the file has no time column")
+
+
+def load_data(args: argparse.Namespace) -> Record:
+    """Read the record named by ``args.data``."""
+    spec: str = args.data
+    if spec.startswith("dataset:"):
+        from .. import datasets
+
+        if args.columns or args.fs:
+            raise InputError("--columns and --fs do not apply to bundled datasets")
+        parts = spec.split(":")
+        name = parts[1] if len(parts) > 1 else ""
+        part = parts[2] if len(parts) > 2 else "all"
+        return datasets.load(name, part=part)
+    from ..io import read_record
+
+    return read_record(spec, args.columns, fs=args.fs)
+
+
+def print_json(obj: Any) -> None:
+    """One JSON object on stdout (NaN/inf written as null)."""
+    json.dump(to_jsonable(obj), sys.stdout, allow_nan=False)
+    sys.stdout.write("\n")

@@ -1,0 +1,72 @@
+"""``nlid``: the command-line entry point.
+
+Every subcommand lives in its own module with ``add_parser(subparsers)`` and
+``run(args) -> int``. Errors nlid raises on purpose become one line on stderr:
+exit status 2 for bad input (file, term, option, unknown method, broken
+plugin), 1 when an identification ran but cannot be trusted. ``--debug``
+shows the traceback instead.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from collections.abc import Sequence
+
+from .. import __version__
+from ..errors import IdentificationError, NlidError
+from . import cmd_identify, cmd_methods, cmd_simulate, cmd_terms
+from .common import Parser
+
+__all__ = ["main", "build_parser", "COMMANDS"]
+
+#: Subcommand modules, in the order ``nlid --help`` lists them.
+COMMANDS = (cmd_identify, cmd_simulate, cmd_methods, cmd_terms)
+
+DESCRIPTION = """\
+Identify the nonlinear stiffness and friction of a vibrating structure from
+measured force and motion.
+
+Models are lists of terms of the restoring force R(z, v) = f - m z''
+(see 'nlid terms'); identification methods are plugins (see 'nlid methods').
+
+examples:
+  nlid simulate --preset paper-numerical --seed 0 --channels v,a --out x.csv
+  nlid identify x.csv --method rfs --terms "z^3,z^2,v*|v|" --mass 0.2
+  nlid identify dataset:emps --method rfs --terms "sign(v)" --without z
+"""
+
+
+def build_parser() -> Parser:
+    """The full argument parser."""
+    parser = Parser(prog="nlid", description=DESCRIPTION, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--version", action="version", version=f"nlid {__version__}")
+    parser.add_argument("--debug", action="store_true", help="show tracebacks instead of one-line errors")
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=Parser)
+    for module in COMMANDS:
+        module.add_parser(sub)
+    return parser
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Run the command line; returns the exit status."""
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    if args.command is None:
+        parser.print_help()
+        return 0
+    try:
+        return int(args.func(args) or 0)
+    except NlidError as exc:
+        if args.debug:
+            raise
+        status = 1 if isinstance(exc, IdentificationError) else 2
+        print(f"nlid {args.command}: error: {exc}", file=sys.stderr)
+        return status
+    except KeyboardInterrupt:
+        print("nlid: interrupted", file=sys.stderr)
+        return 130
+
+
+if __name__ == "__main__":  # pragma: no cover
+    sys.exit(main())

@@ -1,0 +1,320 @@
+"""Derivative estimation and the filters shared by every identifier.
+
+Every identifier in nlid gets its derivatives from here, so that methods are
+compared on the same estimates.
+
+One zero-phase filter
+    :func:`lowpass`, :func:`differentiate` and :func:`zoh_equivalent` apply
+    their frequency response exactly, in the frequency domain, so that they
+    all treat a record identically and can be mixed in one equation without a
+    phase or gain mismatch. The record is first made smoothly periodic (the
+    straight line through its end samples is removed and transformed
+    analytically; the rest is reflected oddly at both ends and the
+    reflections are tapered to zero), which keeps the FFT's circular
+    wrap-around away from the data:
+
+    * low-pass magnitude ``|H(f)| = 1 / (1 + (f / fc)^(2 n))`` - the response
+      of an order-``n`` Butterworth filter applied forwards and backwards
+      (``n = 4`` by default), with no phase shift;
+    * differentiation by ``(i w)^k`` - exact at every frequency, unlike finite
+      differences (a 5-point stencil is 3 % low at 0.15 fs);
+    * the zero-order-hold response ``sinc(w dt / 2) exp(-i w dt / 2)`` of a
+      signal held over each sample (see :func:`zoh_equivalent`).
+
+    The padding is ``10 fs / fc`` samples (at most the record length): the
+    Butterworth impulse response has decayed long before that. The first and
+    last few filter lengths of a record are less reliable than the rest, as
+    with any filter.
+
+Cut-off
+    :func:`suggest_cutoff` places the default cut-off where the signal's
+    spectrum meets 100 times its noise floor (see there). Pass ``cutoff``
+    explicitly when the band of interest is known.
+
+Integration (:func:`integrate`)
+    Cumulative trapezoidal integration followed by a zero-phase Butterworth
+    high-pass (order 2, forwards-backwards) that removes the unknown constant
+    and the drift that noise and offsets cause. Content below the high-pass
+    frequency (default ``10 / duration``) cannot be recovered from an
+    acceleration record and is removed.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy import fft as sp_fft
+from scipy import signal
+
+from .errors import InputError
+
+__all__ = [
+    "DerivativeFilter",
+    "differentiate",
+    "integrate",
+    "lowpass",
+    "suggest_cutoff",
+    "zoh_equivalent",
+    "FILTER_ORDER",
+]
+
+#: Butterworth order of the default low-pass (applied forwards and backwards).
+FILTER_ORDER = 4
+#: Required ratio of the signal's power spectral density to the noise floor
+#: below the default cut-off (100 = 20 dB in amplitude).
+CUTOFF_SNR = 100.0
+#: Fraction of the signal variance that must lie below the default cut-off.
+CUTOFF_ENERGY = 0.99
+#: Highest default cut-off as a fraction of the sampling frequency.
+CUTOFF_MAX_FRACTION = 0.4
+#: Band (fractions of fs) where the noise floor is estimated.
+NOISE_BAND = (0.35, 0.45)
+#: Padding (in cut-off periods) added at each end before filtering.
+PAD_PERIODS = 10.0
+
+
+@dataclass(frozen=True)
+class DerivativeFilter:
+    """Settings of the zero-phase differentiating filter.
+
+    Attributes
+    ----------
+    cutoff
+        Low-pass cut-off in Hz.
+    order
+        Butterworth order (the magnitude is that of the filter applied twice).
+    """
+
+    cutoff: float
+    order: int = FILTER_ORDER
+
+    def describe(self) -> str:
+        """One line saying what was done, for result provenance."""
+        return (
+            f"zero-phase low-pass (Butterworth order {self.order} magnitude, squared; fc={self.cutoff:.4g} Hz) "
+            "+ spectral differentiation"
+        )
+
+
+def suggest_cutoff(x: np.ndarray, fs: float) -> float:
+    """Suggest a low-pass cut-off for differentiating ``x``.
+
+    The rule: estimate the power spectral density of ``x`` (Welch, segments
+    of 4096 samples) and its noise floor (the median density between
+    ``NOISE_BAND`` = 0.35 and 0.45 fs, where a structure's response has died
+    away and only measurement noise is left). The cut-off is the first
+    frequency above the spectral peak where the density falls below
+    ``CUTOFF_SNR`` (100) times that floor; it is raised, if needed, to the
+    frequency below which ``CUTOFF_ENERGY`` (99 %) of the variance above the
+    floor lies, and capped at ``CUTOFF_MAX_FRACTION`` (0.4) of fs. On
+    noise-free data the cut-off is therefore high; with 2 % noise on the
+    paper's example it is about 45 Hz, just above the band of the response.
+
+    Parameters
+    ----------
+    x
+        The signal (usually displacement).
+    fs
+        Sampling frequency in Hz.
+
+    Returns
+    -------
+    float
+        The cut-off in Hz.
+    """
+    x = np.asarray(x, dtype=float)
+    nperseg = int(min(x.size, 4096))
+    freqs, psd = signal.welch(x - x.mean(), fs=fs, nperseg=nperseg)
+    cap = CUTOFF_MAX_FRACTION * fs
+    band = (freqs >= NOISE_BAND[0] * fs) & (freqs <= NOISE_BAND[1] * fs)
+    floor = float(np.median(psd[band])) if band.any() else 0.0
+    cumulative = np.cumsum(np.clip(psd - floor, 0.0, None))
+    if cumulative[-1] <= 0:
+        return cap
+    f_energy = freqs[min(int(np.searchsorted(cumulative / cumulative[-1], CUTOFF_ENERGY)), freqs.size - 1)]
+    peak = int(np.argmax(psd[1:])) + 1
+    below = np.flatnonzero(psd[peak:] < CUTOFF_SNR * floor)
+    f_snr = freqs[peak + below[0]] if below.size else cap
+    return float(min(max(f_snr, f_energy, freqs[1]), cap))
+
+
+def _check_band(freq: float, fs: float, what: str) -> None:
+    if not (0.0 < freq < fs / 2.0):
+        raise InputError(f"{what} must lie between 0 and the Nyquist frequency {fs / 2:g} Hz, got {freq:g}")
+
+
+def _pad_length(n: int, fs: float, cutoff: float | None) -> int:
+    if cutoff is None:
+        return min(n - 1, 64)
+    return int(min(n - 1, max(64, np.ceil(PAD_PERIODS * fs / cutoff))))
+
+
+def _extend(x: np.ndarray, pad: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Make ``x`` smoothly periodic: remove the line through its end samples,
+    reflect the rest oddly at both ends and taper the reflections to zero.
+
+    Returns the extended detrended signal and the line's offset and slope
+    (per sample), which the caller transforms analytically.
+    """
+    n = x.shape[0]
+    offset = x[0]
+    slope = (x[-1] - x[0]) / (n - 1)
+    k = np.arange(n).reshape((-1,) + (1,) * (x.ndim - 1))
+    d = x - (offset + slope * k)  # zero at both ends
+    taper = (0.5 - 0.5 * np.cos(np.pi * np.arange(pad) / pad)).reshape((-1,) + (1,) * (x.ndim - 1))
+    left = -d[pad:0:-1] * taper
+    right = -d[-2 : -pad - 2 : -1] * taper[::-1]
+    return np.concatenate([left, d, right], axis=0), offset, slope
+
+
+def _apply(
+    x: np.ndarray,
+    fs: float,
+    cutoff: float | None,
+    *,
+    order: int = FILTER_ORDER,
+    derivative: int = 0,
+    hold: bool = False,
+) -> np.ndarray:
+    """Apply the shared zero-phase response along axis 0 (see module docstring)."""
+    x = np.asarray(x, dtype=float)
+    n = x.shape[0]
+    if cutoff is not None:
+        _check_band(cutoff, fs, "cutoff")
+    pad = _pad_length(n, fs, cutoff)
+    ext, offset, slope = _extend(x, pad)
+    size = sp_fft.next_fast_len(ext.shape[0], real=True)
+    spectrum = sp_fft.rfft(ext, size, axis=0)
+    freqs = sp_fft.rfftfreq(size, d=1.0 / fs)
+    response = np.ones(freqs.size, dtype=complex)
+    if cutoff is not None:
+        response *= 1.0 / (1.0 + (freqs / cutoff) ** (2 * order))
+    if derivative:
+        response *= (2j * np.pi * freqs) ** derivative
+    if hold:
+        response *= np.sinc(freqs / fs) * np.exp(-1j * np.pi * freqs / fs)
+    shape = (-1,) + (1,) * (x.ndim - 1)
+    out = sp_fft.irfft(spectrum * response.reshape(shape), size, axis=0)[pad : pad + n]
+    # the removed line passes the low-pass unchanged; a hold delays it by half a sample
+    k = np.arange(n).reshape(shape) - (0.5 if hold else 0.0)
+    if derivative == 0:
+        out += offset + slope * k
+    elif derivative == 1:
+        out += slope * fs
+    return out
+
+
+def lowpass(x: np.ndarray, fs: float, cutoff: float, order: int = FILTER_ORDER) -> np.ndarray:
+    """Zero-phase low-pass of ``x`` along its first axis.
+
+    Parameters
+    ----------
+    x
+        Signal(s), shape ``(N,)`` or ``(N, k)``.
+    fs
+        Sampling frequency in Hz.
+    cutoff
+        Cut-off frequency in Hz, ``0 < cutoff < fs / 2``.
+    order
+        Butterworth order; the magnitude applied is that of the filter run
+        forwards and backwards.
+    """
+    return _apply(x, fs, float(cutoff), order=order)
+
+
+def differentiate(
+    x: np.ndarray,
+    fs: float,
+    *,
+    order: int = 1,
+    cutoff: float | None = None,
+    filter_order: int = FILTER_ORDER,
+) -> tuple[np.ndarray, DerivativeFilter]:
+    """Estimate the first or second time derivative of a sampled signal.
+
+    Parameters
+    ----------
+    x
+        Uniformly sampled signal, shape ``(N,)``, ``N >= 6``.
+    fs
+        Sampling frequency in Hz.
+    order
+        1 for the first derivative (velocity from displacement), 2 for the
+        second (acceleration from displacement).
+    cutoff
+        Low-pass cut-off in Hz. ``None`` chooses :func:`suggest_cutoff`.
+    filter_order
+        Butterworth order of the low-pass.
+
+    Returns
+    -------
+    derivative : numpy.ndarray
+        The estimate, same shape as ``x``.
+    used : DerivativeFilter
+        The filter that was applied (record it with the result).
+    """
+    if order not in (1, 2):
+        raise InputError(f"derivative order must be 1 or 2, got {order}")
+    x = np.asarray(x, dtype=float)
+    if x.ndim != 1 or x.size < 6:
+        raise InputError("differentiate needs a 1-D signal of at least 6 samples")
+    if cutoff is None:
+        cutoff = suggest_cutoff(x, fs)
+    used = DerivativeFilter(cutoff=float(cutoff), order=filter_order)
+    return _apply(x, fs, used.cutoff, order=filter_order, derivative=order), used
+
+
+def zoh_equivalent(x: np.ndarray, fs: float, cutoff: float | None = None, order: int = FILTER_ORDER) -> np.ndarray:
+    """In-band samples of a zero-order-held (staircase) signal, optionally low-passed.
+
+    A force held constant over each sample interval (a DAC output, or the
+    paper's simulation) is, in continuous time, a staircase whose spectrum is
+    ``X(w) sinc(w dt / 2) exp(-i w dt / 2)``: it acts on the structure half a
+    sample later than its sample times, and slightly attenuated. Quantities
+    derived from the motion (a displacement differentiated through the
+    low-pass) see that staircase, so a force compared with them must be
+    passed through the same response.
+
+    Parameters
+    ----------
+    x
+        The held samples, shape ``(N,)`` or ``(N, k)``.
+    fs
+        Sampling frequency in Hz.
+    cutoff
+        Also apply the shared low-pass at this cut-off (Hz).
+    order
+        Butterworth order of that low-pass.
+    """
+    return _apply(x, fs, cutoff, order=order, hold=True)
+
+
+def integrate(x: np.ndarray, fs: float, *, highpass: float | None = None) -> tuple[np.ndarray, float]:
+    """Integrate a sampled signal once, removing drift.
+
+    Parameters
+    ----------
+    x
+        Uniformly sampled signal (e.g. acceleration), shape ``(N,)``.
+    fs
+        Sampling frequency in Hz.
+    highpass
+        Corner of the zero-phase Butterworth high-pass (order 2) that removes
+        the integration constant and drift, in Hz. Default ``10 / duration``.
+
+    Returns
+    -------
+    integral : numpy.ndarray
+        The zero-mean, drift-free integral.
+    highpass : float
+        The high-pass corner that was used, in Hz.
+    """
+    x = np.asarray(x, dtype=float)
+    duration = x.size / fs
+    if highpass is None:
+        highpass = 10.0 / duration
+    _check_band(highpass, fs, "highpass")
+    y = np.concatenate(([0.0], np.cumsum(0.5 * (x[1:] + x[:-1])) / fs))
+    sos = signal.butter(2, highpass, btype="high", fs=fs, output="sos")
+    return signal.sosfiltfilt(sos, y - y.mean()), float(highpass)

@@ -1,0 +1,73 @@
+"""The exceptions nlid raises.
+
+A small hierarchy rooted in :class:`NlidError`. Every error caused by what a
+user gave us (a file, a term, an option, a configuration) is an
+:class:`InputError`; the command line turns those into one line on stderr and
+exit status 2. Errors that mean "the method ran but could not produce a
+trustworthy answer" are :class:`IdentificationError`.
+
+Each class also derives from the matching built-in exception, so callers that
+catch ``ValueError`` or ``RuntimeError`` keep working.
+"""
+
+from __future__ import annotations
+
+__all__ = [
+    "NlidError",
+    "InputError",
+    "DataError",
+    "TermError",
+    "OptionError",
+    "PluginError",
+    "IdentificationError",
+]
+
+
+class NlidError(Exception):
+    """Base class of every error raised by nlid on purpose."""
+
+
+class InputError(NlidError, ValueError):
+    """Something the user supplied is invalid (file, term, option, config)."""
+
+
+class DataError(InputError):
+    """A record or data file is unusable (NaN, unequal lengths, bad time axis...)."""
+
+
+class TermError(InputError):
+    """A model term could not be parsed or evaluated.
+
+    Parameters
+    ----------
+    message
+        What is wrong.
+    text
+        The offending input string, if any.
+    position
+        0-based index of the offending character in ``text``.
+    """
+
+    def __init__(self, message: str, text: str | None = None, position: int | None = None):
+        self.text = text
+        self.position = position
+        self.reason = message
+        if text is not None and position is not None:
+            message = f"{message} at character {position + 1} of {text!r}"
+        super().__init__(message)
+
+
+class OptionError(InputError):
+    """An identifier option is unknown or has a value of the wrong type."""
+
+
+class PluginError(NlidError):
+    """An identifier plugin failed to load, is missing, or broke its contract."""
+
+
+class IdentificationError(NlidError, RuntimeError):
+    """The identification ran but its result cannot be trusted.
+
+    Examples: the underlying-linear system identified by NSI has real
+    eigenvalues, or a regression matrix is rank deficient.
+    """

@@ -1,0 +1,315 @@
+"""The contract between nlid and its identifiers.
+
+An identifier is a class with
+
+* ``name`` (the entry-point name users type, e.g. ``"rfs"``) and ``summary``;
+* ``options``: a tuple of :class:`Option` (typed, with defaults) that the CLI
+  and study configs validate before anything runs;
+* ``needs_mass``: ``True`` if it cannot estimate the mass itself;
+* a constructor that only stores validated settings (``self.settings``), and
+* ``identify(record, model, *, mass=None) -> IdentificationResult``.
+
+Subclassing :class:`Identifier` gives the constructor and the option handling;
+the core only relies on the attributes above (see
+:func:`nlid.testing.check_identifier`).
+
+The identifier returns the coefficients it estimated (every coefficient is the
+coefficient of its term in ``R(z, v) = f - m z''``), the mass if it estimated
+it, and its diagnostics. The core (:func:`nlid.identify`) then fills in what it
+computes the same way for every method: equilibria, modal parameters (unless
+the method measured them itself), the residual ``eps_percent`` (always
+recomputed from the data, never trusted from the plugin) and the wall time.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass, field, fields
+from difflib import get_close_matches
+from typing import Any, ClassVar
+
+import numpy as np
+
+from .errors import OptionError
+from .record import Record
+from .terms import Model
+
+__all__ = ["Option", "Identifier", "IdentificationResult", "resolve_options", "to_jsonable"]
+
+_TYPES = ("int", "float", "bool", "str", "floats")
+_TRUE = {"1", "true", "yes", "on"}
+_FALSE = {"0", "false", "no", "off"}
+
+
+@dataclass(frozen=True)
+class Option:
+    """A declared identifier option.
+
+    Parameters
+    ----------
+    name
+        Option name as typed by users (``--set name=value``, TOML key).
+    type
+        ``"int"``, ``"float"``, ``"bool"``, ``"str"`` or ``"floats"`` (a
+        comma-separated list of floats).
+    default
+        Default value; ``None`` means "automatic" and requires ``nullable``.
+    help
+        One line for ``nlid methods``.
+    choices
+        Allowed values (for ``str`` options).
+    minimum, maximum
+        Inclusive bounds for numbers.
+    nullable
+        Accept ``"auto"`` / ``"none"`` / ``None`` meaning "let the method choose".
+    """
+
+    name: str
+    type: str
+    default: Any
+    help: str
+    choices: tuple[Any, ...] | None = None
+    minimum: float | None = None
+    maximum: float | None = None
+    nullable: bool = False
+
+    def __post_init__(self) -> None:
+        if self.type not in _TYPES:
+            raise ValueError(f"option {self.name!r}: type must be one of {_TYPES}, got {self.type!r}")
+
+    def parse(self, value: Any, where: str = "") -> Any:
+        """Convert and check a value (from the CLI, a config file or Python).
+
+        Raises
+        ------
+        OptionError
+            Naming the option, the value and what was expected.
+        """
+        prefix = f"{where}option {self.name!r}"
+        if value is None or (isinstance(value, str) and value.strip().lower() in ("auto", "none", "null")):
+            if self.nullable:
+                return None
+            raise OptionError(f"{prefix} needs a value of type {self.type}")
+        try:
+            out = self._convert(value)
+        except (TypeError, ValueError):
+            raise OptionError(f"{prefix} expects {self._expects()}, got {value!r}") from None
+        if self.choices is not None and out not in self.choices:
+            raise OptionError(f"{prefix} must be one of {', '.join(map(str, self.choices))}; got {out!r}")
+        values = out if isinstance(out, tuple) else (out,)
+        if self.type in ("int", "float", "floats"):
+            for x in values:
+                if not math.isfinite(x):
+                    raise OptionError(f"{prefix} must be finite, got {x!r}")
+                if self.minimum is not None and x < self.minimum:
+                    raise OptionError(f"{prefix} must be >= {self.minimum:g}, got {x:g}")
+                if self.maximum is not None and x > self.maximum:
+                    raise OptionError(f"{prefix} must be <= {self.maximum:g}, got {x:g}")
+        return out
+
+    def _expects(self) -> str:
+        return {
+            "int": "an integer",
+            "float": "a number",
+            "bool": "true or false",
+            "str": "a string",
+            "floats": "comma-separated numbers",
+        }[self.type] + (" or 'auto'" if self.nullable else "")
+
+    def _convert(self, value: Any) -> Any:
+        if self.type == "bool":
+            if isinstance(value, bool):
+                return value
+            text = str(value).strip().lower()
+            if text in _TRUE:
+                return True
+            if text in _FALSE:
+                return False
+            raise ValueError(value)
+        if self.type == "int":
+            if isinstance(value, bool):
+                raise TypeError(value)
+            if isinstance(value, float) and not value.is_integer():
+                raise ValueError(value)
+            return int(str(value).strip()) if isinstance(value, str) else int(value)
+        if self.type == "float":
+            if isinstance(value, bool):
+                raise TypeError(value)
+            return float(value)
+        if self.type == "floats":
+            items = value.split(",") if isinstance(value, str) else list(value)
+            return tuple(float(x) for x in items if str(x).strip())
+        if not isinstance(value, str):
+            raise TypeError(value)
+        return value
+
+    def describe(self) -> dict[str, Any]:
+        """JSON-friendly description for ``nlid methods --json``."""
+        return {
+            "name": self.name,
+            "type": self.type,
+            "default": "auto" if self.default is None else to_jsonable(self.default),
+            "help": self.help,
+            "choices": None if self.choices is None else list(self.choices),
+        }
+
+
+def resolve_options(declared: tuple[Option, ...], given: Mapping[str, Any], where: str = "") -> dict[str, Any]:
+    """Validate user options against the declared ones and fill defaults.
+
+    Raises
+    ------
+    OptionError
+        For an unknown option (with a suggestion) or a bad value.
+    """
+    by_name = {o.name: o for o in declared}
+    for key in given:
+        if key not in by_name:
+            hint = get_close_matches(key, list(by_name), n=1)
+            known = ", ".join(by_name) or "none"
+            raise OptionError(
+                f"{where}unknown option {key!r}" + (f" (did you mean {hint[0]!r}?)" if hint else "")
+                + f"; known options: {known}"
+            )
+    return {o.name: (o.parse(given[o.name], where) if o.name in given else o.default) for o in declared}
+
+
+class Identifier:
+    """Base class of identifiers (optional: the core relies on the attributes only).
+
+    Subclasses set the class attributes and implement :meth:`identify`.
+
+    Parameters
+    ----------
+    **options
+        Values for the declared :attr:`options`; validated here and stored in
+        :attr:`settings`. No work is done in the constructor.
+    """
+
+    #: Name users select the identifier by (equal to its entry-point name).
+    name: ClassVar[str] = ""
+    #: One line describing the method.
+    summary: ClassVar[str] = ""
+    #: Declared options.
+    options: ClassVar[tuple[Option, ...]] = ()
+    #: True if the method cannot estimate the mass.
+    needs_mass: ClassVar[bool] = False
+
+    def __init__(self, **options: Any) -> None:
+        self.settings: dict[str, Any] = resolve_options(self.options, options, where=f"{self.name}: ")
+
+    def identify(self, record: Record, model: Model, *, mass: float | None = None) -> IdentificationResult:
+        """Estimate the coefficients of ``model`` from ``record``.
+
+        Parameters
+        ----------
+        record
+            The data (validated).
+        model
+            The terms to identify; ``px(z)`` roots are set when used.
+        mass
+            Known mass in kg, or ``None`` (estimate it, or raise
+            :class:`~nlid.errors.InputError` if the method cannot).
+        """
+        raise NotImplementedError
+
+    def __repr__(self) -> str:
+        args = ", ".join(f"{k}={v!r}" for k, v in self.settings.items())
+        return f"{type(self).__name__}({args})"
+
+
+def to_jsonable(value: Any) -> Any:
+    """Convert numpy types, tuples and non-finite floats to plain JSON values."""
+    if isinstance(value, Mapping):
+        return {str(k): to_jsonable(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [to_jsonable(v) for v in value]
+    if isinstance(value, np.ndarray):
+        return to_jsonable(value.tolist())
+    if isinstance(value, (np.bool_, bool)):
+        return bool(value)
+    if isinstance(value, (np.integer,)):
+        return int(value)
+    if isinstance(value, (float, np.floating)):
+        x = float(value)
+        return x if math.isfinite(x) else None
+    if isinstance(value, complex):
+        return {"re": to_jsonable(value.real), "im": to_jsonable(value.imag)}
+    return value
+
+
+@dataclass
+class IdentificationResult:
+    """What an identification produced, as plain data.
+
+    Attributes
+    ----------
+    method
+        Identifier name.
+    coefficients
+        ``{canonical term: coefficient in R}`` in model order.
+    mass
+        Mass used or estimated (kg), ``None`` if unknown.
+    mass_estimated
+        ``True`` if the method estimated the mass.
+    equilibria
+        ``{"stable": [...], "unstable": [...]}`` (m), from the identified K(z).
+    modal
+        ``[{"equilibrium", "fn_hz", "zeta", ...}]`` per stable equilibrium
+        (zeta as a fraction).
+    eps_percent
+        Percentage RMS residual of the restoring surface (Eq. 26), computed
+        by the core from the data.
+    force_residual_percent
+        ``100 RMS(f - m a - R) / RMS(f)``: the same residual relative to the
+        force (the "relative force residual" of inverse-dynamics benchmarks).
+    standard_errors
+        Standard error of each coefficient when the method provides one.
+    diagnostics
+        Method-specific, JSON-serialisable details.
+    warnings
+        Things the user should know (collinear terms, extrapolation...).
+    seconds
+        Wall time of the identification.
+    terms
+        The model's canonical term names.
+    px_roots
+        ``[z-, z+]`` used for ``px(z)``, if any.
+    arrays
+        Large numeric outputs for plots (spectra, singular values); kept out
+        of :meth:`to_dict` and saved with :meth:`save_arrays`.
+    """
+
+    method: str
+    coefficients: dict[str, float]
+    mass: float | None = None
+    mass_estimated: bool = False
+    equilibria: dict[str, list[float]] | None = None
+    modal: list[dict[str, float]] | None = None
+    eps_percent: float | None = None
+    force_residual_percent: float | None = None
+    standard_errors: dict[str, float] | None = None
+    diagnostics: dict[str, Any] = field(default_factory=dict)
+    warnings: list[str] = field(default_factory=list)
+    seconds: float | None = None
+    terms: list[str] = field(default_factory=list)
+    px_roots: list[float] | None = None
+    arrays: dict[str, np.ndarray] = field(default_factory=dict, repr=False)
+
+    _JSON_EXCLUDE: ClassVar[tuple[str, ...]] = ("arrays",)
+
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-serialisable dictionary (without :attr:`arrays`)."""
+        return {f.name: to_jsonable(getattr(self, f.name)) for f in fields(self) if f.name not in self._JSON_EXCLUDE}
+
+    @classmethod
+    def from_dict(cls, data: Mapping[str, Any]) -> IdentificationResult:
+        """Inverse of :meth:`to_dict` (unknown keys are ignored)."""
+        names = {f.name for f in fields(cls)} - set(cls._JSON_EXCLUDE)
+        kwargs = {k: v for k, v in data.items() if k in names}
+        return cls(**kwargs)
+
+    def save_arrays(self, path: str) -> None:
+        """Write :attr:`arrays` to an ``.npz`` file (no pickle)."""
+        np.savez(path, **{k: np.asarray(v) for k, v in self.arrays.items()})

@@ -1,0 +1,253 @@
+"""Running an identifier the same way for every method.
+
+:func:`identify` resolves the identifier, validates its options, runs it
+(timing it and isolating its failures), iterates on the ``px(z)`` roots when
+the model needs them from the identified stiffness, and completes the result
+with what the core computes identically for every method: equilibria, modal
+parameters (unless the method measured them), the residual epsilon of Eq. 26
+(always from the data) and the wall time.
+
+The ``px(z)`` fixed point (paper Sec. 4: "the coefficients alpha, beta,
+gamma, delta are completely defined provided that the roots z+- of p_zeta are
+known"): start from the roots of the stiffness identified without the
+``px`` terms, then repeat identify -> roots of the identified ``p_zeta`` ->
+rebuild ``px`` until the roots move by less than ``px_tol`` (relative). The
+iteration stops with an :class:`~nlid.errors.IdentificationError` when the
+change grows three times in a row (diverging), when it returns to the roots of
+two steps before (oscillating), or after ``px_max_iter`` iterations.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Iterable, Mapping, Sequence
+from typing import Any
+
+import numpy as np
+
+from . import physics
+from .errors import IdentificationError, InputError, NlidError, PluginError
+from .interface import IdentificationResult
+from .record import Record
+from .registry import Registry, default_registry
+from .terms import Model, Term
+
+__all__ = ["identify", "as_model", "complete_result"]
+
+
+def as_model(
+    terms: str | Iterable[str | Term] | Model,
+    *,
+    without: str | Iterable[str] = (),
+    px_roots: Sequence[float] | None = None,
+) -> Model:
+    """A :class:`Model` from a term list (defaults added) or a model."""
+    if isinstance(terms, Model):
+        model = terms.with_terms(remove=without) if without else terms
+        return model if px_roots is None else model.with_px_roots(px_roots)
+    return Model.from_spec(terms, without=without, px_roots=px_roots)
+
+
+def _run(identifier: Any, record: Record, model: Model, mass: float | None) -> IdentificationResult:
+    name = getattr(identifier, "name", type(identifier).__name__)
+    start = time.perf_counter()
+    try:
+        result = identifier.identify(record, model, mass=mass)
+    except NlidError:
+        raise
+    except Exception as exc:  # noqa: BLE001 - a plugin bug is reported by name
+        raise PluginError(f"identifier {name!r} raised {type(exc).__name__}: {exc}") from exc
+    elapsed = time.perf_counter() - start
+    if not isinstance(result, IdentificationResult):
+        raise PluginError(f"identifier {name!r} returned {type(result).__name__}, not IdentificationResult")
+    missing = [n for n in model.names if n not in result.coefficients]
+    extra = [n for n in result.coefficients if n not in model.names]
+    if missing or extra:
+        raise PluginError(
+            f"identifier {name!r} returned coefficients for {sorted(result.coefficients)} "
+            f"but the model is {list(model.names)}"
+        )
+    bad = [n for n, x in result.coefficients.items() if not np.isfinite(x)]
+    if bad:
+        raise IdentificationError(f"identifier {name!r} produced non-finite coefficients for {', '.join(bad)}")
+    result.coefficients = {n: float(result.coefficients[n]) for n in model.names}
+    result.seconds = elapsed
+    return result
+
+
+def _px_fixed_point(
+    identifier: Any,
+    record: Record,
+    model: Model,
+    mass: float | None,
+    tol: float,
+    max_iter: int,
+) -> tuple[IdentificationResult, Model]:
+    z_range = (float(record.z.min()), float(record.z.max()))
+    base = model.with_terms(remove=[t for t in model.terms if t.uses_px])
+    total = 0.0
+    first = _run(identifier, record, base, mass)
+    total += first.seconds or 0.0
+    try:
+        roots = physics.stiffness_roots(base, first.coefficients, z_range)
+    except InputError as exc:
+        raise IdentificationError(f"px(z) iteration could not start: {exc}") from None
+    history: list[dict[str, float]] = [{"z_minus": roots[0], "z_plus": roots[1], "change": float("nan")}]
+    changes: list[float] = []
+    for iteration in range(1, max_iter + 1):
+        current = model.with_px_roots(roots)
+        result = _run(identifier, record, current, mass)
+        total += result.seconds or 0.0
+        try:
+            new = physics.stiffness_roots(current, result.coefficients, z_range)
+        except InputError as exc:
+            raise IdentificationError(f"px(z) iteration {iteration}: {exc}") from None
+        change = max(abs(new[0] - roots[0]), abs(new[1] - roots[1])) / max(abs(roots[0]), abs(roots[1]))
+        changes.append(change)
+        history.append({"z_minus": new[0], "z_plus": new[1], "change": change})
+        if change < tol:
+            result.diagnostics["px_iteration"] = {
+                "converged": True,
+                "iterations": iteration,
+                "tolerance": tol,
+                "history": history,
+            }
+            result.seconds = total
+            return result, model.with_px_roots(new)
+        if len(changes) >= 4 and changes[-1] > changes[-2] > changes[-3] > changes[-4]:
+            raise IdentificationError(
+                f"px(z) iteration is diverging: the roots changed by {', '.join(f'{c:.2e}' for c in changes[-4:])} "
+                "in the last iterations; give the roots explicitly (px_roots) or check the stiffness terms"
+            )
+        if len(history) >= 3:
+            two_back = history[-3]
+            back = max(abs(new[0] - two_back["z_minus"]), abs(new[1] - two_back["z_plus"]))
+            if back / max(abs(new[0]), abs(new[1])) < tol and change > 10 * tol:
+                raise IdentificationError(
+                    f"px(z) iteration is oscillating between roots {tuple(round(x, 6) for x in roots)} and "
+                    f"{tuple(round(x, 6) for x in new)}; give the roots explicitly (px_roots)"
+                )
+        roots = new
+    raise IdentificationError(
+        f"px(z) iteration did not converge in {max_iter} iterations (last relative change {changes[-1]:.2e}, "
+        f"tolerance {tol:g}); raise px_max_iter or give the roots explicitly"
+    )
+
+
+def complete_result(
+    result: IdentificationResult,
+    record: Record,
+    model: Model,
+    mass: float | None,
+    *,
+    cutoff: float | None = None,
+) -> IdentificationResult:
+    """Fill the fields the core computes for every method (in place).
+
+    Equilibria and modal parameters come from :mod:`nlid.physics` (modal only
+    if the identifier did not provide its own), epsilon (Eq. 26) is always
+    recomputed from the data.
+    """
+    result.terms = list(model.names)
+    result.px_roots = None if model.px_roots is None else list(model.px_roots)
+    if mass is not None:
+        result.mass, result.mass_estimated = float(mass), False
+    elif result.mass is not None:
+        result.mass_estimated = True
+    z_range = (float(record.z.min()), float(record.z.max()))
+    try:
+        eq = physics.equilibria(model, result.coefficients, z_range)
+        result.equilibria = eq.to_dict()
+    except NlidError as exc:
+        result.equilibria = None
+        result.warnings.append(f"equilibria not computed: {exc}")
+    if result.modal is None:
+        modal = physics.modal(model, result.coefficients, result.mass, z_range=z_range) if result.equilibria else []
+        result.modal = [m.to_dict() for m in modal]
+    if result.mass is not None:
+        data = physics.regression_data(record, model, cutoff=cutoff)
+        result.eps_percent = physics.residual_percent(record, model, result.coefficients, result.mass, data=data)
+        result.force_residual_percent = physics.force_residual_percent(
+            data, model.vector(result.coefficients), result.mass
+        )
+        result.diagnostics.setdefault("eps_band_hz", data.filtered_at)
+    else:
+        result.eps_percent = None
+        result.force_residual_percent = None
+        result.warnings.append("epsilon not computed: the mass is unknown")
+    return result
+
+
+def identify(
+    record: Record,
+    terms: str | Iterable[str | Term] | Model,
+    method: str | Any = "rfs",
+    *,
+    mass: float | None = None,
+    options: Mapping[str, Any] | None = None,
+    without: str | Iterable[str] = (),
+    px_roots: Sequence[float] | None = None,
+    px_tol: float = 1e-4,
+    px_max_iter: int = 30,
+    cutoff: float | None = None,
+    registry: Registry | None = None,
+) -> IdentificationResult:
+    """Identify the coefficients of a model from a record.
+
+    Parameters
+    ----------
+    record
+        The data.
+    terms
+        The user's terms (``"z^3, z^2, v*|v|"``); ``1``, ``z`` and ``v`` are
+        added unless listed in ``without``. A :class:`Model` is used as is.
+    method
+        Identifier name (entry-point name) or an identifier instance.
+    mass
+        Known mass in kg; ``None`` asks the method to estimate it.
+    options
+        Identifier options (validated against its declaration).
+    without
+        Default terms to remove.
+    px_roots
+        ``(z-, z+)`` for ``px(z)``; default: iterate on the identified
+        stiffness (see module docstring).
+    px_tol, px_max_iter
+        Convergence tolerance (relative change of the roots) and iteration cap.
+    cutoff
+        Differentiating-filter cut-off (Hz) used by the core for epsilon.
+    registry
+        Where to find ``method``; default: the installed plugins.
+
+    Returns
+    -------
+    IdentificationResult
+        Completed by :func:`complete_result`.
+
+    Raises
+    ------
+    InputError
+        Bad terms, options or mass; unknown method.
+    PluginError
+        The identifier is broken (raised an unexpected exception).
+    IdentificationError
+        The identification ran but its answer cannot be trusted.
+    """
+    model = as_model(terms, without=without, px_roots=px_roots)
+    if isinstance(method, str):
+        identifier = (registry or default_registry()).create(method, options)
+    else:
+        if options:
+            raise InputError("options are given to the identifier's constructor when passing an instance")
+        identifier = method
+    if mass is not None:
+        mass = float(mass)
+        if not (np.isfinite(mass) and mass > 0):
+            raise InputError(f"mass must be a positive number of kg, got {mass}")
+    elif getattr(identifier, "needs_mass", False):
+        raise InputError(f"method {identifier.name!r} cannot estimate the mass: give it (--mass, in kg)")
+    if model.uses_px and model.px_roots is None:
+        result, model = _px_fixed_point(identifier, record, model, mass, px_tol, px_max_iter)
+    else:
+        result = _run(identifier, record, model, mass)
+    return complete_result(result, record, model, mass, cutoff=cutoff)

@@ -1,0 +1,279 @@
+"""Simulation presets: the paper's numerical example and an analogue of its rig.
+
+``paper-numerical`` (paper Sec. 3, Eq. 21, parameters from NOTES.md)
+    ``m z'' + c_v z' + mu z'|z'| + k3 z^3 + k2 z^2 - k1 z + m g = f`` with
+    m = 0.2 kg, k3 = 1e6 N/m^3, k2 = 5e3 N/m^2, k1 = 500 N/m (the ``z``
+    coefficient is -500), c_v = 1 N s/m, mu = 5 N s^2/m^2, g = 9.81 m/s^2.
+    Eq. 21 prints the friction as ``mu sign(z') z^2``; its unit says it is
+    quadratic damping ``mu z'|z'|`` (NOTES.md). White Gaussian force of RMS
+    50 N held over each sample, 2048 Hz, 60 s (122 880 samples).
+
+``paper-experimental`` (paper Sec. 4, Eq. 23-24, Table 5)
+    The rig's identified model used as truth: k3 = 7.57e5 N/m^3,
+    k2 = 986 N/m^2, linear term -565 N/m, c_v = 4.26 N s/m, and the
+    position-dependent friction of Eq. 24 with c0 = 1.51 N, c1 = -1.32 N s/m,
+    c2 = -5.86 N s^2/m^2, c3 = 1.84 N s^3/m^3 multiplying ``|px(z)|`` whose
+    roots are those of the true stiffness (z- = -0.02798 m, z+ = 0.02668 m);
+    m = 0.265 kg so m g = 2.60 N. Its stable equilibria are -0.0300 m and
+    +0.0239 m, as measured on the rig (Table 7). Base excitation
+    ``f = -m b''`` with ``b''`` Gaussian, low-passed at 100 Hz (zero-phase
+    Butterworth, order 4, the band of a typical shaker test), scaled to
+    f_rms = 10 N (b''_rms = 37.7 m/s^2 = 3.8 g): the motion then crosses
+    between the wells about 3 times per second and spends about 80 % of the
+    time in the deeper, negative well, like the rig's record (Fig. 17).
+    512 Hz, 120 s (61 440 samples).
+
+Randomness: ``numpy.random.SeedSequence(seed).spawn(4)`` gives independent
+streams for the force and for the noise on z, v and a, so the force of a given
+seed does not depend on which channels are written or how noisy they are.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, replace
+from difflib import get_close_matches
+from typing import Any
+
+import numpy as np
+
+from .errors import InputError
+from .physics import stiffness_roots
+from .record import Record
+from .simulate import random_force, simulate
+from .terms import Model
+
+__all__ = ["Preset", "PRESETS", "get_preset", "RESPONSE_CHANNELS"]
+
+#: Channels that can carry measurement noise.
+RESPONSE_CHANNELS = ("z", "v", "a")
+
+
+@dataclass(frozen=True)
+class Preset:
+    """A simulated test: model, truth, excitation and sampling.
+
+    Attributes
+    ----------
+    name, description
+        Identification and one-line summary.
+    terms
+        The model's terms (comma-separated; ``1``, ``z``, ``v`` are added).
+    coefficients
+        True coefficient of every term in ``R`` (the ``1`` term is ``m g``).
+    mass, g
+        Mass (kg) and gravitational acceleration (m/s^2).
+    fs, duration
+        Sampling frequency (Hz) and length (s).
+    force_rms
+        RMS of the external force (N).
+    band
+        ``(low, high)`` band of the force in Hz, ``None`` for white.
+    excitation
+        ``"force"`` or ``"base"`` (``f = -m b''``; only changes the metadata).
+    x0
+        Initial displacement and velocity.
+    reference
+        Where the preset comes from.
+    """
+
+    name: str
+    description: str
+    terms: str
+    coefficients: Mapping[str, float]
+    mass: float
+    g: float
+    fs: float
+    duration: float
+    force_rms: float
+    band: tuple[float, float] | None = None
+    excitation: str = "force"
+    x0: tuple[float, float] = (0.0, 0.0)
+    reference: str = ""
+
+    @property
+    def n(self) -> int:
+        """Number of samples."""
+        return int(round(self.duration * self.fs))
+
+    def model(self) -> Model:
+        """The true model; ``px(z)`` takes its roots from the true stiffness (Eq. 11)."""
+        model = Model.from_spec(self.terms)
+        if model.uses_px:
+            model = model.with_px_roots(stiffness_roots(model, dict(self.coefficients)))
+        return model
+
+    def truth(self) -> dict[str, Any]:
+        """Reference values: coefficients by canonical name, mass, g, px roots."""
+        model = self.model()
+        coeffs = model.as_dict(model.vector(dict(self.coefficients)))
+        return {
+            "coefficients": coeffs,
+            "mass": self.mass,
+            "g": self.g,
+            "px_roots": None if model.px_roots is None else list(model.px_roots),
+        }
+
+    def with_overrides(self, **overrides: Any) -> Preset:
+        """A copy with fields or coefficients changed.
+
+        Parameters
+        ----------
+        **overrides
+            Preset fields (``mass``, ``force_rms``, ``duration``, ``fs``,
+            ``band``...) and/or ``coefficients={term: value}`` (merged into the
+            preset's coefficients; a changed mass also changes ``m g``
+            unless the ``1`` coefficient is given).
+        """
+        allowed = {f for f in self.__dataclass_fields__ if f not in ("name", "description")}
+        unknown = set(overrides) - allowed
+        if unknown:
+            bad = sorted(unknown)[0]
+            hint = get_close_matches(bad, sorted(allowed), n=1)
+            raise InputError(
+                f"unknown preset parameter {bad!r}" + (f" (did you mean {hint[0]!r}?)" if hint else "")
+                + f"; known: {', '.join(sorted(allowed))}"
+            )
+        coeffs = dict(self.coefficients)
+        new = dict(overrides)
+        if "coefficients" in new:
+            model = Model.from_spec(new.get("terms", self.terms))
+            for key, value in dict(new.pop("coefficients")).items():
+                coeffs[model.terms[model.index(key)].name] = float(value)
+        if ("mass" in new or "g" in new) and "1" not in dict(overrides.get("coefficients", {})):
+            coeffs["1"] = float(new.get("mass", self.mass)) * float(new.get("g", self.g))
+        return replace(self, coefficients=coeffs, **new)
+
+    def force(self, seed: int) -> np.ndarray:
+        """The force record of a seed (N)."""
+        streams = np.random.SeedSequence(seed).spawn(4)
+        return random_force(self.n, self.fs, self.force_rms, np.random.default_rng(streams[0]), self.band)
+
+    def simulate(
+        self,
+        seed: int = 0,
+        *,
+        noise: float | Mapping[str, float] = 0.0,
+        channels: Sequence[str] = RESPONSE_CHANNELS,
+    ) -> Record:
+        """Simulate one record.
+
+        Parameters
+        ----------
+        seed
+            Seed of the force and of the noise.
+        noise
+            Measurement noise as a fraction of each response channel's
+            standard deviation: one number for every channel written, or a
+            mapping such as ``{"z": 0.02}``. The force stays clean.
+        channels
+            Response channels to include (``z`` is always included).
+
+        Returns
+        -------
+        Record
+            With ``meta`` holding ``mass``, ``g``, ``source``, ``truth``,
+            ``seed`` and ``noise``.
+        """
+        channels = tuple(dict.fromkeys(("z", *channels)))
+        for c in channels:
+            if c not in RESPONSE_CHANNELS:
+                raise InputError(f"unknown channel {c!r}; response channels are z, v, a")
+        if isinstance(noise, Mapping):
+            levels = {c: float(noise.get(c, 0.0)) for c in channels}
+            unknown = set(noise) - set(RESPONSE_CHANNELS)
+            if unknown:
+                raise InputError(f"noise given for unknown channel {sorted(unknown)[0]!r}")
+        else:
+            levels = {c: float(noise) for c in channels}
+        if any(not (0.0 <= x < 10.0) or not np.isfinite(x) for x in levels.values()):
+            raise InputError(f"noise levels must be fractions >= 0 (0.02 = 2 %), got {levels}")
+        model = self.model()
+        streams = np.random.SeedSequence(seed).spawn(4)
+        f = random_force(self.n, self.fs, self.force_rms, np.random.default_rng(streams[0]), self.band)
+        z, v, a = simulate(model, dict(self.coefficients), self.mass, f, self.fs, self.x0)
+        exact = {"z": z, "v": v, "a": a}
+        out = {}
+        for c, stream in zip(RESPONSE_CHANNELS, streams[1:], strict=True):
+            if c not in channels:
+                continue
+            x = exact[c]
+            if levels[c] > 0:
+                x = x + levels[c] * x.std() * np.random.default_rng(stream).standard_normal(x.size)
+            out[c] = x
+        meta = {
+            "mass": self.mass,
+            "g": self.g,
+            "source": f"preset:{self.name} seed={seed} noise={_fmt_levels(levels)}",
+            "preset": self.name,
+            "seed": int(seed),
+            "noise": levels,
+            "excitation": self.excitation,
+            "force_hold": "zoh",
+            "truth": self.truth(),
+        }
+        return Record(f=f, fs=self.fs, meta=meta, **out)
+
+
+def _fmt_levels(levels: Mapping[str, float]) -> str:
+    values = set(levels.values())
+    if len(values) == 1:
+        return f"{values.pop():g}"
+    return ",".join(f"{c}:{x:g}" for c, x in levels.items())
+
+
+_G = 9.81
+
+PRESETS: dict[str, Preset] = {
+    p.name: p
+    for p in (
+        Preset(
+            name="paper-numerical",
+            description="Double-well Duffing oscillator with quadratic damping (paper Sec. 3, Eq. 21)",
+            terms="z^3, z^2, v*|v|",
+            coefficients={"z^3": 1e6, "z^2": 5e3, "z": -500.0, "v": 1.0, "v*|v|": 5.0, "1": 0.2 * _G},
+            mass=0.2,
+            g=_G,
+            fs=2048.0,
+            duration=60.0,
+            force_rms=50.0,
+            reference="Zhu et al., Sec. 3 and Tables 1-4",
+        ),
+        Preset(
+            name="paper-experimental",
+            description="Analogue of the paper's rig: position-dependent friction of Eq. 24 (Sec. 4, Table 5)",
+            terms="z^3, z^2, sign(v)*|px(z)|, v*|px(z)|, v*|v|*|px(z)|, v^3*|px(z)|",
+            coefficients={
+                "z^3": 7.57e5,
+                "z^2": 986.0,
+                "z": -565.0,
+                "v": 4.26,
+                "1": 0.265 * _G,
+                "sign(v)*|px(z)|": 1.51,
+                "v*|px(z)|": -1.32,
+                "v*|v|*|px(z)|": -5.86,
+                "v^3*|px(z)|": 1.84,
+            },
+            mass=0.265,
+            g=_G,
+            fs=512.0,
+            duration=120.0,
+            force_rms=10.0,
+            band=(0.0, 100.0),
+            excitation="base",
+            reference="Zhu et al., Sec. 4 and Tables 5-7",
+        ),
+    )
+}
+
+
+def get_preset(name: str) -> Preset:
+    """The preset called ``name`` (error with a suggestion otherwise)."""
+    try:
+        return PRESETS[name]
+    except KeyError:
+        hint = get_close_matches(name, list(PRESETS), n=1)
+        raise InputError(
+            f"unknown preset {name!r}" + (f" (did you mean {hint[0]!r}?)" if hint else "")
+            + f"; available: {', '.join(PRESETS)}"
+        ) from None

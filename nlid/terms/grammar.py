@@ -1,0 +1,344 @@
+"""Parser of the term language (a small recursive-descent grammar, no ``eval``).
+
+Grammar (whitespace is ignored; ``**`` may be written for ``^``)::
+
+    term     := factor ( "*" factor )*
+    factor   := atom ( "^" INTEGER )?
+    atom     := "1"
+              | VARIABLE                       z or v
+              | "px" "(" "z" ")"               Eq. 10-11
+              | "|" product "|"  |  "abs" "(" product ")"
+              | "sign" "(" product ")"         ("sgn" is accepted too)
+              | "exp" "(" "-" "|" VARIABLE "|" "/" NUMBER ")"
+              | "exp" "(" "-" "(" VARIABLE "/" NUMBER ")" "^" "2" ")"
+              | "tanh" "(" VARIABLE "/" NUMBER ")"
+              | "(" product ")"
+    product  := factor ( "*" factor )*
+
+A model is a comma-separated list of terms. Errors carry the position of the
+offending character (:class:`nlid.errors.TermError`).
+"""
+
+from __future__ import annotations
+
+import re
+from collections import Counter
+from dataclasses import dataclass
+
+from ..errors import TermError
+from .term import MAX_POWER, VARIABLES, Term
+
+__all__ = ["parse_term", "split_terms"]
+
+_TOKEN = re.compile(
+    r"\s*(?:(?P<number>\d+\.?\d*(?:[eE][+-]?\d+)?|\.\d+(?:[eE][+-]?\d+)?)"
+    r"|(?P<name>[A-Za-z_][A-Za-z_0-9]*)"
+    r"|(?P<op>\*\*|[*^|()/,+-]))"
+)
+_FUNCTIONS = ("sign", "sgn", "abs", "px", "exp", "tanh")
+
+
+@dataclass(frozen=True)
+class _Tok:
+    kind: str  # number | name | op | end
+    text: str
+    pos: int
+
+
+def _tokenize(text: str) -> list[_Tok]:
+    toks: list[_Tok] = []
+    pos = 0
+    while pos < len(text):
+        if text[pos].isspace():
+            pos += 1
+            continue
+        m = _TOKEN.match(text, pos)
+        if m is None or m.end() == pos:
+            raise TermError(f"unexpected character {text[pos]!r}", text, pos)
+        kind = m.lastgroup or "op"
+        start = m.start(kind)
+        value = m.group(kind)
+        if value == "**":
+            value = "^"
+        toks.append(_Tok(kind, value, start))
+        pos = m.end()
+    toks.append(_Tok("end", "", len(text)))
+    return toks
+
+
+class _Mono:
+    """A product of parts under construction (multiplication and powers)."""
+
+    __slots__ = ("parts", "special")
+
+    def __init__(self, parts: dict[str, tuple[int, int]] | None = None, special: Counter | None = None):
+        self.parts = dict(parts or {})
+        self.special: Counter = Counter(special or {})
+
+    def mul(self, other: _Mono) -> _Mono:
+        parts = dict(self.parts)
+        for var, (p, s) in other.parts.items():
+            p0, s0 = parts.get(var, (0, 0))
+            parts[var] = (p0 + p, (s0 + s) % 2)
+        return _Mono(parts, self.special + other.special)
+
+    def power(self, n: int) -> _Mono:
+        parts = {var: (p * n, (s * n) % 2) for var, (p, s) in self.parts.items()}
+        return _Mono(parts, Counter({k: c * n for k, c in self.special.items()}))
+
+    def absolute(self) -> _Mono | None:
+        if any(k[0] == "tanh" for k in self.special):
+            return None
+        return _Mono({var: (p, 0) for var, (p, s) in self.parts.items()}, self.special)
+
+    def to_term(self) -> Term:
+        kwargs = {}
+        for var in VARIABLES:
+            p, s = self.parts.get(var, (0, 0))
+            if p == 0 and s == 0:
+                continue
+            kwargs[var] = (p, s)
+        special = tuple(sorted((kind, var, scale, mult) for (kind, var, scale), mult in self.special.items() if mult))
+        return Term(special=special, **kwargs)
+
+
+class _Parser:
+    def __init__(self, text: str):
+        self.text = text
+        self.toks = _tokenize(text)
+        self.i = 0
+
+    # ---------------------------------------------------------------- helpers
+    def peek(self) -> _Tok:
+        return self.toks[self.i]
+
+    def take(self) -> _Tok:
+        tok = self.toks[self.i]
+        self.i += 1
+        return tok
+
+    def fail(self, message: str, tok: _Tok | None = None) -> TermError:
+        tok = tok or self.peek()
+        return TermError(message, self.text, tok.pos)
+
+    def expect(self, text: str, what: str | None = None) -> _Tok:
+        tok = self.peek()
+        if tok.text != text or tok.kind == "number":
+            found = "end of term" if tok.kind == "end" else repr(tok.text)
+            raise self.fail(f"expected {what or repr(text)}, found {found}", tok)
+        return self.take()
+
+    def number(self, what: str) -> float:
+        tok = self.peek()
+        if tok.kind != "number":
+            found = "end of term" if tok.kind == "end" else repr(tok.text)
+            raise self.fail(f"expected {what}, found {found}", tok)
+        self.take()
+        return float(tok.text)
+
+    def variable(self, allowed: tuple[str, ...] = ("z", "v")) -> str:
+        tok = self.peek()
+        if tok.kind == "name" and tok.text in allowed:
+            self.take()
+            return tok.text
+        if tok.kind == "name":
+            raise self.fail(f"unknown variable {tok.text!r}: use z for displacement and v for velocity", tok)
+        found = "end of term" if tok.kind == "end" else repr(tok.text)
+        raise self.fail(f"expected a variable (z or v), found {found}", tok)
+
+    # ---------------------------------------------------------------- grammar
+    def parse(self) -> Term:
+        if self.peek().kind == "end":
+            raise self.fail("empty term")
+        mono = self.product(stop=("end",))
+        tok = self.peek()
+        if tok.kind != "end":
+            raise self.fail(f"unexpected {tok.text!r}", tok)
+        return mono.to_term()
+
+    def product(self, stop: tuple[str, ...]) -> _Mono:
+        mono = self.factor()
+        while True:
+            tok = self.peek()
+            if tok.text == "*":
+                self.take()
+                mono = mono.mul(self.factor())
+            elif tok.kind == "end" or tok.text in stop:
+                return mono
+            elif tok.text in ("+", "-"):
+                raise self.fail(
+                    f"{tok.text!r} is not allowed inside a term: separate terms with commas "
+                    "(each term gets its own coefficient)",
+                    tok,
+                )
+            elif tok.text == "/":
+                raise self.fail("division is only allowed as the scale inside exp(...) or tanh(...)", tok)
+            else:
+                raise self.fail(f"expected '*' between factors, found {tok.text!r}", tok)
+
+    def factor(self) -> _Mono:
+        mono = self.atom()
+        if self.peek().text == "^":
+            self.take()
+            tok = self.peek()
+            if tok.kind != "number" or not re.fullmatch(r"\d+", tok.text):
+                raise self.fail("expected a non-negative integer exponent", tok)
+            self.take()
+            n = int(tok.text)
+            if n > MAX_POWER:
+                raise self.fail(f"exponent {n} is larger than the maximum {MAX_POWER}", tok)
+            mono = mono.power(n)
+        return mono
+
+    def atom(self) -> _Mono:
+        tok = self.peek()
+        if tok.kind == "number":
+            if float(tok.text) != 1.0:
+                raise self.fail(
+                    f"a number ({tok.text}) cannot be a factor: coefficients are what nlid estimates; "
+                    "write the constant term as 1",
+                    tok,
+                )
+            self.take()
+            return _Mono()
+        if tok.text == "|":
+            self.take()
+            inner = self.product(stop=("|",))
+            self.expect("|", "closing '|'")
+            out = inner.absolute()
+            if out is None:
+                raise self.fail("|tanh(...)| is not supported", tok)
+            return out
+        if tok.text == "(":
+            self.take()
+            inner = self.product(stop=(")",))
+            self.expect(")", "closing ')'")
+            return inner
+        if tok.kind == "name":
+            name = tok.text
+            if name in ("z", "v"):
+                self.take()
+                return _Mono({name: (1, 1)})
+            if name not in _FUNCTIONS:
+                hint = "use z for displacement and v for velocity" if len(name) <= 2 else (
+                    "known functions: " + ", ".join(f for f in _FUNCTIONS if f != "sgn")
+                )
+                raise self.fail(f"unknown name {name!r}: {hint}", tok)
+            self.take()
+            return getattr(self, "_fn_" + ("sign" if name == "sgn" else name))(tok)
+        found = "end of term" if tok.kind == "end" else repr(tok.text)
+        raise self.fail(f"expected a factor (1, z, v, |...|, sign(...), px(z), exp(...), tanh(...)), found {found}", tok)
+
+    # ---------------------------------------------------------------- functions
+    def _fn_px(self, tok: _Tok) -> _Mono:
+        self.expect("(")
+        arg = self.peek()
+        if arg.text != "z":
+            raise self.fail("px takes the displacement: write px(z)", arg)
+        self.take()
+        self.expect(")", "closing ')'")
+        return _Mono({"px": (1, 1)})
+
+    def _fn_abs(self, tok: _Tok) -> _Mono:
+        self.expect("(")
+        inner = self.product(stop=(")",))
+        self.expect(")", "closing ')'")
+        out = inner.absolute()
+        if out is None:
+            raise self.fail("abs(tanh(...)) is not supported", tok)
+        return out
+
+    def _fn_sign(self, tok: _Tok) -> _Mono:
+        self.expect("(")
+        inner = self.product(stop=(")",))
+        self.expect(")", "closing ')'")
+        if inner.special:
+            raise self.fail("sign(...) of exp or tanh is not supported", tok)
+        # |x|^p > 0, so sign(|x|^p * sign(x)^s) = sign(x)^s
+        return _Mono({var: (0, s) for var, (p, s) in inner.parts.items()})
+
+    def _fn_exp(self, tok: _Tok) -> _Mono:
+        self.expect("(")
+        self.expect("-", "'-' (only decaying exponentials exp(-|v|/c) and exp(-(v/c)^2) are supported)")
+        nxt = self.peek()
+        if nxt.text == "|":
+            self.take()
+            var = self.variable()
+            self.expect("|", "closing '|'")
+            self.expect("/", "'/' followed by a positive scale")
+            scale = self._scale()
+            kind = "exp1"
+        elif nxt.text == "(":
+            self.take()
+            var = self.variable()
+            self.expect("/", "'/' followed by a positive scale")
+            scale = self._scale()
+            self.expect(")", "closing ')'")
+            self.expect("^", "'^2'")
+            two = self.peek()
+            if two.text != "2":
+                raise self.fail("only the Gaussian form exp(-(v/c)^2) is supported", two)
+            self.take()
+            kind = "exp2"
+        else:
+            raise self.fail("expected exp(-|v|/c) or exp(-(v/c)^2)", nxt)
+        self.expect(")", "closing ')'")
+        return _Mono(special=Counter({(kind, var, scale): 1}))
+
+    def _fn_tanh(self, tok: _Tok) -> _Mono:
+        self.expect("(")
+        var = self.variable()
+        self.expect("/", "'/' followed by a positive scale")
+        scale = self._scale()
+        self.expect(")", "closing ')'")
+        return _Mono(special=Counter({("tanh", var, scale): 1}))
+
+    def _scale(self) -> float:
+        tok = self.peek()
+        value = self.number("a positive scale")
+        if not value > 0:
+            raise self.fail("the scale must be positive", tok)
+        return float(format(value, ".6g"))
+
+
+def parse_term(text: str) -> Term:
+    """Parse one term, e.g. ``"sign(v)*|v|^2*|px(z)|"``.
+
+    Parameters
+    ----------
+    text
+        The term as written by a user.
+
+    Returns
+    -------
+    Term
+        The term in normal form; ``parse_term(t).name`` is the canonical
+        spelling.
+
+    Raises
+    ------
+    TermError
+        With the position of the offending character.
+    """
+    if not isinstance(text, str):
+        raise TermError(f"a term must be a string, got {type(text).__name__}")
+    return _Parser(text).parse()
+
+
+def split_terms(spec: str) -> list[tuple[str, int]]:
+    """Split a comma-separated list of terms, keeping each term's offset.
+
+    Empty items (``"z^3,,v"``) are an error.
+    """
+    out: list[tuple[str, int]] = []
+    start = 0
+    for i, ch in enumerate(spec + ","):
+        if ch == ",":
+            piece = spec[start:i]
+            if not piece.strip():
+                if spec.strip():
+                    raise TermError("empty term in list", spec, start)
+            else:
+                out.append((piece, start))
+            start = i + 1
+    return out

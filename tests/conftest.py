@@ -1,0 +1,43 @@
+"""Shared fixtures: simulated presets (built once per session) and the data folder."""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+import pytest
+
+from nlid.presets import get_preset
+
+ROOT = Path(__file__).resolve().parents[1]
+DEFAULT_DATA = (ROOT / ".." / "shared" / "data").resolve()
+
+# The measured benchmarks live outside the repository; tests default to ../shared/data.
+os.environ.setdefault("NLID_DATA_DIR", str(DEFAULT_DATA))
+
+
+@pytest.fixture(scope="session")
+def data_dir() -> Path:
+    """The folder with the measured records; skips when it is absent."""
+    path = Path(os.environ["NLID_DATA_DIR"])
+    if not (path / "emps" / "DATA_EMPS.mat").is_file():
+        pytest.skip(f"measured data not found in NLID_DATA_DIR={path}")
+    return path
+
+
+@pytest.fixture(scope="session")
+def numerical():
+    """The paper-numerical preset."""
+    return get_preset("paper-numerical")
+
+
+@pytest.fixture(scope="session")
+def exact_record(numerical):
+    """paper-numerical, seed 0, noise-free, exact v and a."""
+    return numerical.simulate(0, channels=("z", "v", "a"))
+
+
+@pytest.fixture(scope="session")
+def short_record(numerical):
+    """10 s of paper-numerical, seed 1, noise-free, exact v and a."""
+    return numerical.with_overrides(duration=10.0).simulate(1, channels=("z", "v", "a"))

@@ -1,0 +1,67 @@
+import numpy as np
+import pytest
+
+from nlid import physics
+from nlid.terms import Model
+
+
+def test_potential_is_integral_of_stiffness(numerical):
+    model, theta = numerical.model(), numerical.truth()["coefficients"]
+    z = np.linspace(-0.04, 0.04, 9)
+    expected = 1e6 * z**4 / 4 + 5e3 * z**3 / 3 - 500 * z**2 / 2 + 0.2 * 9.81 * z  # Eq. 7
+    np.testing.assert_allclose(physics.potential(model, theta, z), expected, rtol=1e-10, atol=1e-15)
+
+
+def test_elastic_and_damping_split(numerical, exact_record):
+    model, theta = numerical.model(), numerical.truth()["coefficients"]
+    z, v = exact_record.z[:100], exact_record.v[:100]
+    K = physics.elastic(model, theta, z)
+    D = physics.damping(model, theta, z, v)
+    np.testing.assert_allclose(K, 1e6 * z**3 + 5e3 * z**2 - 500 * z + 1.962)
+    np.testing.assert_allclose(D, v + 5 * v * np.abs(v))
+
+
+def test_numeric_equilibria_agree_with_polynomial():
+    # z*|z| is not a polynomial: solved numerically on the data range.
+    model = Model.from_spec("z^3, z*|z|", without="v")
+    theta = {"z^3": 1e6, "z*|z|": 0.0, "z": -500.0, "1": 1.962}
+    poly = physics.equilibria(Model.from_spec("z^3", without="v"), {"z^3": 1e6, "z": -500.0, "1": 1.962})
+    numeric = physics.equilibria(model, theta, z_range=(-0.05, 0.05))
+    assert numeric.stable == pytest.approx(poly.stable, abs=1e-12)
+    assert numeric.unstable == pytest.approx(poly.unstable, abs=1e-12)
+
+
+def test_modal_damping_uses_the_linearisation():
+    model = Model.from_spec("z^3, v*|px(z)|, sign(v)").with_px_roots((-0.028, 0.0267))
+    theta = {"z^3": 7.57e5, "z": -565.0, "1": 2.6, "v": 4.26, "v*|px(z)|": -1.32, "sign(v)": 1.0}
+    for m in physics.modal(model, theta, 0.265):
+        px = model.px(np.array([m.equilibrium]))[0]
+        assert m.damping == pytest.approx(4.26 - 1.32 * abs(px))  # Coulomb term left out
+        assert m.zeta == pytest.approx(m.damping / (2 * 0.265 * 2 * np.pi * m.fn_hz))
+
+
+def test_stiffness_roots_for_px(numerical):
+    roots = physics.stiffness_roots(numerical.model(), numerical.truth()["coefficients"])
+    expected = np.sort(np.roots([1e6, 5e3, -500]))
+    assert roots == pytest.approx(tuple(expected))
+    with pytest.raises(physics.InputError, match="double well"):
+        physics.stiffness_roots(Model.from_spec("z^3"), {"z^3": 1.0, "z": 1.0})
+
+
+def test_epsilon_eq26():
+    measured = np.array([1.0, -1.0, 1.0, -1.0])
+    assert physics.epsilon(measured, measured) == 0.0
+    assert physics.epsilon(measured, 0.9 * measured) == pytest.approx(10.0)
+
+
+def test_regression_data_filters_consistently_when_acceleration_is_estimated(exact_record, numerical):
+    model = numerical.model()
+    theta = model.vector(numerical.truth()["coefficients"])
+    measured = physics.regression_data(exact_record, model)
+    assert measured.filtered_at is None
+    r = measured.restoring_force(0.2) - measured.G @ theta
+    assert np.max(np.abs(r)) < 1e-9
+    estimated = physics.regression_data(exact_record.without("v", "a"), model)
+    assert estimated.filtered_at is not None
+    eps = physics.epsilon(estimated.restoring_force(0.2), estimated.G @ theta)
+    assert eps < 0.5, "with f and regressors filtered alike, the true model fits in-band"
