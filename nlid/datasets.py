@@ -131,6 +131,7 @@ def load(name: str, *, part: str = "all") -> Record:
         raise InputError(f"unknown silverbox part {part!r}; use all, arrow or multisine")
     hint = get_close_matches(name, list(DATASETS), n=1)
     raise InputError(
-        f"unknown dataset {name!r}" + (f" (did you mean {hint[0]!r}?)" if hint else "")
+        f"unknown dataset {name!r}"
+        + (f" (did you mean {hint[0]!r}?)" if hint else "")
         + f"; available: {', '.join(DATASETS)}"
     )

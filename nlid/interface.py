@@ -169,7 +169,8 @@ def resolve_options(declared: tuple[Option, ...], given: Mapping[str, Any], wher
             hint = get_close_matches(key, list(by_name), n=1)
             known = ", ".join(by_name) or "none"
             raise OptionError(
-                f"{where}unknown option {key!r}" + (f" (did you mean {hint[0]!r}?)" if hint else "")
+                f"{where}unknown option {key!r}"
+                + (f" (did you mean {hint[0]!r}?)" if hint else "")
                 + f"; known options: {known}"
             )
     return {o.name: (o.parse(given[o.name], where) if o.name in given else o.default) for o in declared}

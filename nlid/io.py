@@ -116,8 +116,10 @@ def _parse_expr(channel: str, text: str) -> ColumnExpr:
     while True:
         m = _OPERAND.match(rest, pos)
         if m is None or not m.group(1):
-            raise InputError(f"column map entry {channel}={text.strip()!r}: expected a column name or a number "
-                             f"at character {pos + 1 + int(negate)}")
+            raise InputError(
+                f"column map entry {channel}={text.strip()!r}: expected a column name or a number "
+                f"at character {pos + 1 + int(negate)}"
+            )
         token = m.group(1)
         value: str | float = token if re.match(r"[A-Za-z_]", token) else float(token)
         operands.append((op, value))
@@ -126,8 +128,9 @@ def _parse_expr(channel: str, text: str) -> ColumnExpr:
             break
         op = rest[pos]
         if op not in "*/":
-            raise InputError(f"column map entry {channel}={text.strip()!r}: unexpected {op!r} "
-                             f"(only * and / are allowed)")
+            raise InputError(
+                f"column map entry {channel}={text.strip()!r}: unexpected {op!r} (only * and / are allowed)"
+            )
         pos += 1
     # The column is the first name; every other name is a scalar variable.
     names = [i for i, (o, v) in enumerate(operands) if isinstance(v, str) and o == "*"]
@@ -156,18 +159,25 @@ def read_table(path: str | Path) -> dict[str, np.ndarray]:
         if suffix in (".csv", ".txt"):
             import pandas as pd
 
-            frame = pd.read_csv(path, sep=None if suffix == ".txt" else ",", engine="python" if suffix == ".txt" else "c")
+            frame = pd.read_csv(
+                path, sep=None if suffix == ".txt" else ",", engine="python" if suffix == ".txt" else "c"
+            )
             out = {}
             for name in frame.columns:
                 col = pd.to_numeric(frame[name], errors="coerce")
                 bad = col.isna() & frame[name].notna()
                 if bad.any():
                     i = int(np.argmax(bad.to_numpy()))
-                    raise DataError(f"{path}: column {name!r} has a non-numeric value {frame[name].iloc[i]!r} "
-                                    f"at row {i + 1}")
+                    raise DataError(
+                        f"{path}: column {name!r} has a non-numeric value {frame[name].iloc[i]!r} at row {i + 1}"
+                    )
                 out[str(name).strip()] = col.to_numpy(dtype=float)
             return out
         if suffix == ".npz":
+            import zipfile
+
+            if not zipfile.is_zipfile(path):
+                raise DataError(f"cannot read {path}: not an NPZ (zip) archive")
             with np.load(path, allow_pickle=False) as data:
                 return {k: np.asarray(data[k]) for k in data.files}
         if suffix == ".mat":
@@ -177,8 +187,11 @@ def read_table(path: str | Path) -> dict[str, np.ndarray]:
                 data = sio.loadmat(path)
             except NotImplementedError:
                 raise DataError(f"{path}: MATLAB v7.3 (HDF5) files are not supported; save with -v7") from None
-            return {k: np.asarray(v).squeeze() if np.asarray(v).ndim > 1 else np.asarray(v)
-                    for k, v in data.items() if not k.startswith("__")}
+            return {
+                k: np.asarray(v).squeeze() if np.asarray(v).ndim > 1 else np.asarray(v)
+                for k, v in data.items()
+                if not k.startswith("__")
+            }
     except DataError:
         raise
     except ValueError as exc:

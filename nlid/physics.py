@@ -186,7 +186,9 @@ def equilibria(
     return Equilibria(stable=stable, unstable=unstable)
 
 
-def stiffness_roots(model: Model, coefficients: Coefficients, z_range: Sequence[float] | None = None) -> tuple[float, float]:
+def stiffness_roots(
+    model: Model, coefficients: Coefficients, z_range: Sequence[float] | None = None
+) -> tuple[float, float]:
     """Roots ``z^- < 0 < z^+`` of ``p_zeta`` (Eq. 4) for ``px(z)`` (Eq. 9-11).
 
     ``p_zeta`` is the stiffness without the constant (gravity excluded) and
@@ -410,8 +412,10 @@ def regression_data(record: Record, model: Model, *, cutoff: float | None = None
         a, used = derivatives.differentiate(record.z, fs, order=2, cutoff=fc)
         prov["a"] = f"estimated from z: {used.describe()}"
         # the acceleration of the motion feels a held force half a sample late
-        f = derivatives.zoh_equivalent(record.f, fs, fc) if record.force_hold == "zoh" else derivatives.lowpass(
-            record.f, fs, fc
+        f = (
+            derivatives.zoh_equivalent(record.f, fs, fc)
+            if record.force_hold == "zoh"
+            else derivatives.lowpass(record.f, fs, fc)
         )
     edge = int(np.ceil(EDGE_PERIODS * fs / fc))
     if record.n - 2 * edge < max(64, 4 * len(model)):
@@ -420,9 +424,7 @@ def regression_data(record: Record, model: Model, *, cutoff: float | None = None
             f"at the cut-off {fc:.3g} Hz"
         )
     keep = slice(edge, record.n - edge)
-    return RegressionData(
-        f[keep], a[keep], G[keep], z[keep], None if v is None else v[keep], fc, prov, keep
-    )
+    return RegressionData(f[keep], a[keep], G[keep], z[keep], None if v is None else v[keep], fc, prov, keep)
 
 
 def epsilon(measured: np.ndarray, identified: np.ndarray) -> float:
@@ -472,7 +474,9 @@ def force_residual_percent(data: RegressionData, coefficients: np.ndarray, mass:
     return float(100.0 * np.sqrt(np.mean(resid**2)) / np.sqrt(np.mean(data.f**2)))
 
 
-def rms_contributions(model: Model, coefficients: Coefficients, z: np.ndarray, v: np.ndarray | None) -> dict[str, float]:
+def rms_contributions(
+    model: Model, coefficients: Coefficients, z: np.ndarray, v: np.ndarray | None
+) -> dict[str, float]:
     """RMS of each term's contribution ``theta_i g_i`` to ``R`` (paper Fig. 22)."""
     theta = dict_or_vector(model, coefficients)
     G = model.evaluate(z, v)

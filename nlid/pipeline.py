@@ -12,9 +12,10 @@ gamma, delta are completely defined provided that the roots z+- of p_zeta are
 known"): start from the roots of the stiffness identified without the
 ``px`` terms, then repeat identify -> roots of the identified ``p_zeta`` ->
 rebuild ``px`` until the roots move by less than ``px_tol`` (relative). The
-iteration stops with an :class:`~nlid.errors.IdentificationError` when the
-change grows three times in a row (diverging), when it returns to the roots of
-two steps before (oscillating), or after ``px_max_iter`` iterations.
+iteration stops with an :class:`~nlid.errors.IdentificationError` when it
+returns to the roots of two steps before (oscillating), when the change has
+not shrunk over four iterations (not contracting: diverging), or after
+``px_max_iter`` iterations.
 """
 
 from __future__ import annotations
@@ -114,11 +115,6 @@ def _px_fixed_point(
             }
             result.seconds = total
             return result, model.with_px_roots(new)
-        if len(changes) >= 4 and changes[-1] > changes[-2] > changes[-3] > changes[-4]:
-            raise IdentificationError(
-                f"px(z) iteration is diverging: the roots changed by {', '.join(f'{c:.2e}' for c in changes[-4:])} "
-                "in the last iterations; give the roots explicitly (px_roots) or check the stiffness terms"
-            )
         if len(history) >= 3:
             two_back = history[-3]
             back = max(abs(new[0] - two_back["z_minus"]), abs(new[1] - two_back["z_plus"]))
@@ -127,6 +123,12 @@ def _px_fixed_point(
                     f"px(z) iteration is oscillating between roots {tuple(round(x, 6) for x in roots)} and "
                     f"{tuple(round(x, 6) for x in new)}; give the roots explicitly (px_roots)"
                 )
+        if len(changes) >= 4 and changes[-1] >= changes[-4]:
+            raise IdentificationError(
+                "px(z) iteration is not contracting (diverging): the roots changed by "
+                f"{', '.join(f'{c:.2e}' for c in changes[-4:])} in the last iterations; "
+                "give the roots explicitly (px_roots) or check the stiffness terms"
+            )
         roots = new
     raise IdentificationError(
         f"px(z) iteration did not converge in {max_iter} iterations (last relative change {changes[-1]:.2e}, "

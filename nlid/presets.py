@@ -131,7 +131,8 @@ class Preset:
             bad = sorted(unknown)[0]
             hint = get_close_matches(bad, sorted(allowed), n=1)
             raise InputError(
-                f"unknown preset parameter {bad!r}" + (f" (did you mean {hint[0]!r}?)" if hint else "")
+                f"unknown preset parameter {bad!r}"
+                + (f" (did you mean {hint[0]!r}?)" if hint else "")
                 + f"; known: {', '.join(sorted(allowed))}"
             )
         coeffs = dict(self.coefficients)
@@ -274,6 +275,7 @@ def get_preset(name: str) -> Preset:
     except KeyError:
         hint = get_close_matches(name, list(PRESETS), n=1)
         raise InputError(
-            f"unknown preset {name!r}" + (f" (did you mean {hint[0]!r}?)" if hint else "")
+            f"unknown preset {name!r}"
+            + (f" (did you mean {hint[0]!r}?)" if hint else "")
             + f"; available: {', '.join(PRESETS)}"
         ) from None

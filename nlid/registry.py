@@ -126,7 +126,8 @@ class Registry:
             raise PluginError(f"identifier plugin {name!r} is installed but unusable: {self.failures[name]}")
         hint = get_close_matches(name, self.names(), n=1)
         raise InputError(
-            f"unknown method {name!r}" + (f" (did you mean {hint[0]!r}?)" if hint else "")
+            f"unknown method {name!r}"
+            + (f" (did you mean {hint[0]!r}?)" if hint else "")
             + f"; installed: {', '.join(self.names()) or 'none'}"
         )
 

@@ -114,5 +114,7 @@ def check_identifier(
         truth = record.meta["truth"]["coefficients"]
         for name, value in first.coefficients.items():
             rel = abs(value / truth[name] - 1.0)
-            assert rel <= accuracy, f"{name}: {value:.6g} vs true {truth[name]:.6g} ({100 * rel:.3g} % > {100 * accuracy:g} %)"
+            assert rel <= accuracy, (
+                f"{name}: {value:.6g} vs true {truth[name]:.6g} ({100 * rel:.3g} % > {100 * accuracy:g} %)"
+            )
     return first

@@ -96,7 +96,7 @@ def test_derivative_channels_are_estimated_and_labelled():
     inner = slice(200, -200)
     np.testing.assert_allclose(rec.v[inner], v_true[inner], rtol=0, atol=1e-3 * np.abs(v_true).max())
     assert not rec.is_measured("v") and "fc=60 Hz" in rec.source_of("v")
-    back = Record(f=np.cos(t), z=z, fs=fs, a=-(2 * np.pi * 5) ** 2 * np.sin(2 * np.pi * 5 * t))
+    back = Record(f=np.cos(t), z=z, fs=fs, a=-((2 * np.pi * 5) ** 2) * np.sin(2 * np.pi * 5 * t))
     integrated = back.with_velocity_from_acceleration(highpass=1.0)
     v5 = 2 * np.pi * 5 * np.cos(2 * np.pi * 5 * t)
     settled = slice(2000, -2000)  # beyond the 1 Hz high-pass's edge transient

@@ -23,11 +23,16 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     )
     add_data_arguments(p)
     p.add_argument("--method", default="rfs", metavar="NAME", help="identifier to use (default rfs; see nlid methods)")
-    p.add_argument("--terms", default="", metavar="TERMS", help="comma-separated terms besides 1, z, v, e.g. 'z^3,z^2,v*|v|'")
+    p.add_argument(
+        "--terms", default="", metavar="TERMS", help="comma-separated terms besides 1, z, v, e.g. 'z^3,z^2,v*|v|'"
+    )
     p.add_argument("--without", default="", metavar="TERMS", help="default terms to leave out, e.g. '1' or 'z'")
     p.add_argument("--mass", type=float, metavar="KG", help="known mass in kg (default: estimated by the method)")
-    p.add_argument("--px-roots", metavar="ZMINUS,ZPLUS",
-                   help="roots of px(z) in m (default: taken from the identified stiffness, iterated)")
+    p.add_argument(
+        "--px-roots",
+        metavar="ZMINUS,ZPLUS",
+        help="roots of px(z) in m (default: taken from the identified stiffness, iterated)",
+    )
     p.add_argument("--set", action="append", metavar="KEY=VALUE", help="identifier option (repeatable)")
     p.add_argument("--json", action="store_true", help="print one JSON object instead of a table")
     p.set_defaults(func=run)
@@ -85,7 +90,9 @@ def format_result(result: IdentificationResult) -> str:
         lines.append(f"  at z* = {m['equilibrium']:.6g} m: fn = {m['fn_hz']:.4g} Hz, zeta = {100 * m['zeta']:.3g} %")
     lines.append("")
     if result.eps_percent is not None:
-        lines.append(f"epsilon (Eq. 26): {result.eps_percent:.3g} %   force residual: {result.force_residual_percent:.3g} %")
+        lines.append(
+            f"epsilon (Eq. 26): {result.eps_percent:.3g} %   force residual: {result.force_residual_percent:.3g} %"
+        )
     if result.seconds is not None:
         lines.append(f"time: {result.seconds:.3g} s")
     for w in result.warnings:

@@ -32,7 +32,8 @@ def run(args: argparse.Namespace) -> int:
         else:
             width = max(len(r["term"]) for r in rows)
             for r in rows:
-                print(f"{r['term']:<{width}}  {r['family']:<9}  value in {r['unit']:<8}  coefficient in {r['coefficient_unit']}")
+                units = f"value in {r['unit']:<8}  coefficient in {r['coefficient_unit']}"
+                print(f"{r['term']:<{width}}  {r['family']:<9}  {units}")
         return 0
     if args.json:
         print_json({"language": LANGUAGE, "examples": [{"terms": a, "meaning": b} for a, b in EXAMPLES]})

@@ -220,14 +220,18 @@ class _Parser:
                 self.take()
                 return _Mono({name: (1, 1)})
             if name not in _FUNCTIONS:
-                hint = "use z for displacement and v for velocity" if len(name) <= 2 else (
-                    "known functions: " + ", ".join(f for f in _FUNCTIONS if f != "sgn")
+                hint = (
+                    "use z for displacement and v for velocity"
+                    if len(name) <= 2
+                    else ("known functions: " + ", ".join(f for f in _FUNCTIONS if f != "sgn"))
                 )
                 raise self.fail(f"unknown name {name!r}: {hint}", tok)
             self.take()
             return getattr(self, "_fn_" + ("sign" if name == "sgn" else name))(tok)
         found = "end of term" if tok.kind == "end" else repr(tok.text)
-        raise self.fail(f"expected a factor (1, z, v, |...|, sign(...), px(z), exp(...), tanh(...)), found {found}", tok)
+        raise self.fail(
+            f"expected a factor (1, z, v, |...|, sign(...), px(z), exp(...), tanh(...)), found {found}", tok
+        )
 
     # ---------------------------------------------------------------- functions
     def _fn_px(self, tok: _Tok) -> _Mono:

@@ -221,8 +221,13 @@ class Model:
             out[:, i] = term.evaluate(z, v, px, cache)
         return out
 
-    def evaluate_terms(self, coefficients: dict[str, float] | np.ndarray, z: np.ndarray, v: np.ndarray | None = None,
-                       family: str | None = None) -> np.ndarray:
+    def evaluate_terms(
+        self,
+        coefficients: dict[str, float] | np.ndarray,
+        z: np.ndarray,
+        v: np.ndarray | None = None,
+        family: str | None = None,
+    ) -> np.ndarray:
         """``sum_i theta_i g_i(z, v)`` over all terms or over one family.
 
         Parameters

@@ -32,8 +32,14 @@ class RestoringForceSurface(Identifier):
     name = "rfs"
     summary = "restoring-force-surface least squares: regress f - m a on the model's terms"
     options = (
-        Option("cutoff", "float", None, "low-pass cut-off (Hz) of the differentiating filter for estimated channels",
-               nullable=True, minimum=0.0),
+        Option(
+            "cutoff",
+            "float",
+            None,
+            "low-pass cut-off (Hz) of the differentiating filter for estimated channels",
+            nullable=True,
+            minimum=0.0,
+        ),
         Option("decimate", "int", 1, "keep every q-th sample after the common zero-phase filtering", minimum=1),
     )
     needs_mass = False

@@ -10,9 +10,29 @@ from nlid import TermError
 from nlid.terms import Model, parse_term
 
 CANONICAL = [
-    "1", "z", "z^2", "z^3", "z^5", "v", "v*|v|", "v^3", "sign(v)", "|v|", "|v|^3", "z*|z|",
-    "sign(v)*|px(z)|", "v*|px(z)|", "v*|v|*|px(z)|", "v^3*|px(z)|", "px(z)", "px(z)^2",
-    "sign(v)*exp(-(v/0.01)^2)", "sign(v)*exp(-|v|/0.01)", "tanh(v/0.001)", "z^2*v", "sign(z)*sign(v)",
+    "1",
+    "z",
+    "z^2",
+    "z^3",
+    "z^5",
+    "v",
+    "v*|v|",
+    "v^3",
+    "sign(v)",
+    "|v|",
+    "|v|^3",
+    "z*|z|",
+    "sign(v)*|px(z)|",
+    "v*|px(z)|",
+    "v*|v|*|px(z)|",
+    "v^3*|px(z)|",
+    "px(z)",
+    "px(z)^2",
+    "sign(v)*exp(-(v/0.01)^2)",
+    "sign(v)*exp(-|v|/0.01)",
+    "tanh(v/0.001)",
+    "z^2*v",
+    "sign(z)*sign(v)",
     "v*|v|^3",
 ]
 

@@ -1,0 +1,46 @@
+import json
+
+import pytest
+
+from nlid import IdentificationResult, Option, OptionError
+from nlid.interface import resolve_options
+
+
+def test_option_parsing():
+    assert Option("n", "int", 10, "").parse("12") == 12
+    assert Option("x", "float", 1.0, "").parse("2.5e3") == 2500.0
+    assert Option("b", "bool", False, "").parse("yes") is True
+    assert Option("l", "floats", (), "").parse("-0.03, 0.02") == (-0.03, 0.02)
+    assert Option("k", "float", None, "", nullable=True).parse("auto") is None
+    assert Option("m", "str", "a", "", choices=("a", "b")).parse("b") == "b"
+
+
+@pytest.mark.parametrize(
+    "option, value, message",
+    [
+        (Option("n", "int", 10, "", minimum=1), "0", ">= 1"),
+        (Option("n", "int", 10, ""), "1.5", "expects an integer"),
+        (Option("x", "float", 1.0, ""), "abc", "expects a number"),
+        (Option("x", "float", 1.0, ""), "nan", "finite"),
+        (Option("x", "float", 1.0, ""), "auto", "needs a value"),
+        (Option("b", "bool", False, ""), "maybe", "true or false"),
+        (Option("m", "str", "a", "", choices=("a", "b")), "c", "one of a, b"),
+    ],
+)
+def test_option_errors(option, value, message):
+    with pytest.raises(OptionError, match=message):
+        option.parse(value)
+
+
+def test_resolve_fills_defaults_and_rejects_unknown():
+    declared = (Option("alpha", "float", 1.0, ""), Option("beta", "int", 2, ""))
+    assert resolve_options(declared, {"beta": "5"}) == {"alpha": 1.0, "beta": 5}
+    with pytest.raises(OptionError, match="did you mean 'alpha'"):
+        resolve_options(declared, {"alpah": 1})
+
+
+def test_result_json_round_trip():
+    res = IdentificationResult(method="m", coefficients={"z": -1.0}, diagnostics={"x": float("nan"), "y": (1, 2)})
+    data = json.loads(json.dumps(res.to_dict(), allow_nan=False))
+    assert data["diagnostics"] == {"x": None, "y": [1, 2]}
+    assert IdentificationResult.from_dict(data).coefficients == {"z": -1.0}
