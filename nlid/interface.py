@@ -278,8 +278,12 @@ class IdentificationResult:
     px_roots
         ``[z-, z+]`` used for ``px(z)``, if any.
     arrays
-        Large numeric outputs for plots (spectra, singular values); kept out
-        of :meth:`to_dict` and saved with :meth:`save_arrays`.
+        Large numeric outputs for plots, kept out of :meth:`to_dict` and saved
+        with :meth:`save_arrays`. Keys that reports understand:
+        ``singular_values`` (subspace methods), ``frf_frequency_hz`` and
+        ``frf`` (complex underlying-linear receptance, m/N),
+        ``coef_frequency_hz`` and ``coef_spectrum:<term>`` (complex
+        frequency-dependent coefficient estimates, NSI Eq. 20).
     """
 
     method: str
