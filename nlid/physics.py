@@ -47,6 +47,8 @@ __all__ = [
     "residual_percent",
     "force_residual_percent",
     "rms_contributions",
+    "damping_slice",
+    "DampingSlice",
 ]
 
 Coefficients = Mapping[str, float] | np.ndarray | Sequence[float]
@@ -472,6 +474,71 @@ def force_residual_percent(data: RegressionData, coefficients: np.ndarray, mass:
     """
     resid = data.f - mass * data.a - data.G @ np.asarray(coefficients, dtype=float)
     return float(100.0 * np.sqrt(np.mean(resid**2)) / np.sqrt(np.mean(data.f**2)))
+
+
+@dataclass(frozen=True)
+class DampingSlice:
+    """The damping force near one position (paper Fig. 21 b-d).
+
+    Attributes
+    ----------
+    z0, half_width
+        The slice ``|z - z0| <= half_width`` (m).
+    v
+        Velocities of the samples in the slice (m/s).
+    measured
+        Their measured damping force ``R_e - K(z)`` (N): the restoring force
+        minus the identified elastic part at each sample's own position.
+    v_grid, model
+        The identified ``D(z0, v)`` on a velocity grid spanning the slice.
+    """
+
+    z0: float
+    half_width: float
+    v: np.ndarray
+    measured: np.ndarray
+    v_grid: np.ndarray
+    model: np.ndarray
+
+
+def damping_slice(
+    data: RegressionData,
+    model: Model,
+    coefficients: Coefficients,
+    mass: float,
+    z0: float,
+    half_width: float | None = None,
+    grid: int = 200,
+) -> DampingSlice:
+    """Slice the restoring surface at ``z0`` to compare ``D`` with the data (Fig. 21 b-d).
+
+    Parameters
+    ----------
+    data
+        From :func:`regression_data` (needs velocity: the model must have
+        velocity terms).
+    model, coefficients, mass
+        The identified model.
+    z0
+        Position of the slice (m).
+    half_width
+        Half width of the slice; default 5 % of the displacement range.
+    grid
+        Number of velocity points of the model curve.
+    """
+    if data.v is None:
+        raise InputError("a damping slice needs velocity: the model has no velocity-dependent term")
+    theta = dict_or_vector(model, coefficients)
+    if half_width is None:
+        half_width = 0.05 * float(np.ptp(data.z))
+    near = np.abs(data.z - z0) <= half_width
+    if near.sum() < 3:
+        raise InputError(f"fewer than 3 samples within {half_width:.3g} m of z0 = {z0:.4g} m")
+    z, v = data.z[near], data.v[near]
+    measured = data.restoring_force(mass)[near] - elastic(model, theta, z)
+    v_grid = np.linspace(v.min(), v.max(), grid)
+    curve = damping(model, theta, np.full(grid, float(z0)), v_grid)
+    return DampingSlice(float(z0), float(half_width), v, measured, v_grid, curve)
 
 
 def rms_contributions(

@@ -65,3 +65,13 @@ def test_regression_data_filters_consistently_when_acceleration_is_estimated(exa
     assert estimated.filtered_at is not None
     eps = physics.epsilon(estimated.restoring_force(0.2), estimated.G @ theta)
     assert eps < 0.5, "with f and regressors filtered alike, the true model fits in-band"
+
+
+def test_damping_slice_matches_the_true_damping(exact_record, numerical):
+    model, theta = numerical.model(), numerical.truth()["coefficients"]
+    data = physics.regression_data(exact_record, model)
+    sl = physics.damping_slice(data, model, theta, numerical.mass, z0=-0.02, half_width=0.002)
+    np.testing.assert_allclose(
+        sl.measured, physics.damping(model, theta, data.z, data.v)[np.abs(data.z + 0.02) <= 0.002], atol=1e-9
+    )
+    assert sl.model[0] == pytest.approx(sl.v_grid[0] + 5 * sl.v_grid[0] * abs(sl.v_grid[0]))
