@@ -1,0 +1,233 @@
+"""Least squares with honest standard errors, and collinearity diagnostics.
+
+Shared by the identifiers that regress the force balance ``f - m a = G theta``
+(Eq. 25) on the model's terms (``rfs``, ``sindy``).
+
+Scaling
+    Every column is divided by its RMS before solving, so the condition number
+    reported is that of the scaled matrix: it measures how close the terms are
+    to being linearly dependent on this record, not their units.
+
+Standard errors (:func:`least_squares`)
+    Two estimates of the coefficient covariance are returned:
+
+    * ``covariance_iid = s^2 (X^T X)^-1`` with ``s^2`` the residual variance.
+      It holds when the equation errors are independent, identically
+      distributed and uncorrelated with exact regressors. A force balance
+      formed in a filter band (:func:`nlid.physics.regression_data`) has a
+      coloured residual (correlated over about ``fs / fc`` samples), so this
+      estimate is then too small by roughly ``sqrt(fs / (2 fc))``.
+    * ``covariance`` (the one identifiers report): the sandwich
+      ``(X^T X)^-1 Omega (X^T X)^-1`` with ``Omega`` estimated from the sums
+      of ``x_k e_k`` over contiguous batches of samples (batch means). It
+      holds for a stationary equation error that may be coloured and
+      heteroscedastic, provided it decorrelates within a batch (batches are
+      at least ``BATCH_CORRELATION_LENGTHS`` correlation lengths long).
+
+    Neither covers bias: errors in the regressors themselves (noise on the
+    measured or estimated ``z``, ``v`` - errors-in-variables), a band-limited
+    velocity feeding a nonlinear term, or a missing term. When such biases
+    dominate, the actual error exceeds the standard error, and the scatter of
+    estimates over independent records is the honest measure.
+
+Collinearity (:func:`collinear_pairs`)
+    Two terms whose columns are almost proportional on a record (|correlation|
+    above ``COLLINEAR_CORRELATION``) cannot be told apart: their coefficients
+    trade off and their variances are inflated by ``1 / (1 - r^2)`` (50 at
+    r = 0.99). When the model has a constant term the correlation of two other
+    terms is the centred (Pearson) one, since the constant absorbs the means;
+    otherwise, and for pairs with the constant itself, it is the uncentred
+    cosine of the two columns.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from .errors import IdentificationError
+
+__all__ = [
+    "COLLINEAR_CORRELATION",
+    "LeastSquaresFit",
+    "least_squares",
+    "collinear_pairs",
+    "collinearity_warnings",
+    "column_scale",
+]
+
+#: |correlation| of two regressor columns above which they are reported as
+#: near-collinear (variance inflation 1 / (1 - r^2) >= 50).
+COLLINEAR_CORRELATION = 0.99
+#: Most batches used for the batch-means covariance.
+MAX_BATCHES = 50
+#: Minimum batch length, in correlation lengths of the equation error.
+BATCH_CORRELATION_LENGTHS = 10.0
+
+
+@dataclass(frozen=True)
+class LeastSquaresFit:
+    """The solution of ``X theta = y`` in the least-squares sense.
+
+    Attributes
+    ----------
+    coefficients
+        ``theta``, shape ``(p,)``.
+    covariance
+        Batch-means sandwich covariance of ``theta`` (see module docstring).
+    covariance_iid
+        ``s^2 (X^T X)^-1`` (independent, identically distributed errors).
+    residual
+        ``y - X theta``.
+    condition_number
+        Ratio of the extreme singular values of the RMS-scaled ``X``.
+    batches
+        Number of contiguous batches used for ``covariance`` (0 when there
+        were too few samples and ``covariance`` is the iid one).
+    """
+
+    coefficients: np.ndarray
+    covariance: np.ndarray
+    covariance_iid: np.ndarray
+    residual: np.ndarray
+    condition_number: float
+    batches: int
+
+    @property
+    def standard_errors(self) -> np.ndarray:
+        """Square roots of the diagonal of :attr:`covariance`."""
+        return np.sqrt(np.diag(self.covariance))
+
+    @property
+    def standard_errors_iid(self) -> np.ndarray:
+        """Square roots of the diagonal of :attr:`covariance_iid`."""
+        return np.sqrt(np.diag(self.covariance_iid))
+
+
+def column_scale(X: np.ndarray, names: Sequence[str], context: str = "") -> np.ndarray:
+    """RMS of each column; raise naming the columns that are identically zero."""
+    scale = np.sqrt(np.mean(np.asarray(X, dtype=float) ** 2, axis=0))
+    if np.any(scale == 0):
+        zero = [names[i] for i in np.flatnonzero(scale == 0)]
+        raise IdentificationError(f"{context}the regressor(s) {', '.join(zero)} are identically zero on this record")
+    return scale
+
+
+def least_squares(
+    X: np.ndarray,
+    y: np.ndarray,
+    names: Sequence[str],
+    *,
+    correlation_length: float = 1.0,
+    context: str = "",
+) -> LeastSquaresFit:
+    """Solve ``X theta = y`` by least squares, with standard errors.
+
+    Parameters
+    ----------
+    X
+        Regressor matrix, shape ``(N, p)``.
+    y
+        Left-hand side, shape ``(N,)``.
+    names
+        Column names, for error messages.
+    correlation_length
+        Number of samples over which the equation error stays correlated
+        (about ``fs / fc`` after a low-pass at ``fc``, divided by any
+        decimation factor; 1 for independent errors). Sets the batch length
+        of the batch-means covariance.
+    context
+        Prefix of error messages (e.g. ``"rfs: "``).
+
+    Raises
+    ------
+    IdentificationError
+        If a column is identically zero or ``X`` is rank deficient.
+    """
+    X = np.asarray(X, dtype=float)
+    y = np.asarray(y, dtype=float)
+    n, p = X.shape
+    scale = column_scale(X, names, context)
+    # one QR of [X/scale, y]: the solution, the singular values and (X^T X)^-1 all follow from R
+    R = np.linalg.qr(np.column_stack([X / scale, y]), mode="r")
+    Rx, qy = R[:p, :p], R[:p, p]
+    sv = np.linalg.svd(Rx, compute_uv=False)
+    if sv[-1] <= sv[0] * max(n, p) * np.finfo(float).eps:
+        rank = int(np.sum(sv > sv[0] * max(n, p) * np.finfo(float).eps))
+        raise IdentificationError(f"{context}the regressor matrix is rank deficient (rank {rank} of {p})")
+    Rinv = np.linalg.inv(Rx)
+    inv = Rinv @ Rinv.T  # (Xs^T Xs)^-1
+    theta = (Rinv @ qy) / scale
+    resid = y - X @ theta
+    dof = max(n - p, 1)
+    s2 = float(resid @ resid) / dof
+    cov_iid = s2 * inv / np.outer(scale, scale)
+    batches = int(min(MAX_BATCHES, n // max(1.0, BATCH_CORRELATION_LENGTHS * correlation_length)))
+    if batches >= max(2 * p, 4):
+        bounds = np.linspace(0, n, batches + 1).astype(int)
+        scores = np.add.reduceat(X * resid[:, None], bounds[:-1], axis=0) / scale
+        # the scores sum to zero (normal equations): one degree of freedom is used
+        omega = scores.T @ scores * (batches / (batches - 1)) * (n / dof)
+        cov = inv @ omega @ inv / np.outer(scale, scale)
+    else:
+        batches, cov = 0, cov_iid
+    return LeastSquaresFit(theta, cov, cov_iid, resid, float(sv[0] / sv[-1]), batches)
+
+
+def collinear_pairs(
+    X: np.ndarray, names: Sequence[str], *, threshold: float = COLLINEAR_CORRELATION
+) -> list[tuple[str, str, float]]:
+    """Pairs of regressor columns that are nearly proportional.
+
+    Parameters
+    ----------
+    X
+        Regressor matrix, shape ``(N, p)``.
+    names
+        Column names (the term names).
+    threshold
+        Report pairs with ``|r| >= threshold``.
+
+    Returns
+    -------
+    list of (str, str, float)
+        ``(name_i, name_j, r)`` sorted by decreasing ``|r|``; ``r`` as defined
+        in the module docstring (centred when a constant column is present).
+    """
+    X = np.asarray(X, dtype=float)
+    n, p = X.shape
+    gram = X.T @ X / n
+    mean = X.sum(axis=0) / n
+    ms = np.diag(gram).copy()
+    var = np.clip(ms - mean**2, 0.0, None)
+    rms = np.sqrt(ms)
+    constant = (var <= 1e-12 * ms) & (ms > 0)  # std below 1e-6 of the RMS (above rounding of ms - mean^2)
+    safe_rms = np.where(rms > 0, rms, 1.0)
+    cosine = gram / np.outer(safe_rms, safe_rms)
+    if constant.any():
+        safe_std = np.sqrt(np.where(var > 0, var, 1.0))
+        pearson = (gram - np.outer(mean, mean)) / np.outer(safe_std, safe_std)
+    out = []
+    for i in range(p):
+        for j in range(i + 1, p):
+            if rms[i] == 0 or rms[j] == 0 or (constant[i] and constant[j]):
+                continue
+            use_pearson = constant.any() and not (constant[i] or constant[j])
+            r = float(pearson[i, j] if use_pearson else cosine[i, j])
+            if abs(r) >= threshold:
+                out.append((names[i], names[j], r))
+    return sorted(out, key=lambda t: -abs(t[2]))
+
+
+def collinearity_warnings(
+    X: np.ndarray, names: Sequence[str], *, threshold: float = COLLINEAR_CORRELATION
+) -> list[str]:
+    """One warning per near-collinear pair (see :func:`collinear_pairs`)."""
+    return [
+        f"terms {a!r} and {b!r} are nearly collinear on this record (correlation {r:+.4f}): their coefficients "
+        "trade off against each other and are poorly determined; drop one of them or use a record that "
+        "separates them (e.g. a wider range of velocities)"
+        for a, b, r in collinear_pairs(X, names, threshold=threshold)
+    ]
