@@ -22,7 +22,9 @@ evaluating a nonlinear damping term on a band-limited velocity; see
 ``docs/rfs.md`` for what that means on the paper's example.
 
 Near-collinear terms (|correlation| >= 0.99 on the record) are reported as
-warnings naming the pair.
+warnings naming the pair, and non-smooth velocity terms (``sign(v)``...) when
+the band-limited velocity misses a noticeable part of the velocity reversals
+(:func:`nlid.regression.nonsmooth_warnings`).
 """
 
 from __future__ import annotations
@@ -32,7 +34,7 @@ import numpy as np
 from nlid import IdentificationResult, Identifier, Option, Record
 from nlid.errors import IdentificationError
 from nlid.physics import regression_data
-from nlid.regression import collinearity_warnings, least_squares
+from nlid.regression import collinearity_warnings, least_squares, nonsmooth_warnings
 from nlid.terms import Model
 
 
@@ -81,12 +83,13 @@ class RestoringForceSurface(Identifier):
             if not est_mass > 0:
                 raise IdentificationError(f"rfs: the estimated mass is not positive ({est_mass:.4g} kg)")
             theta, se, se_iid = theta[1:], se[1:], se_iid[1:]
+        sign_fraction, nonsmooth = nonsmooth_warnings(model, data.v, record.fs, data.filtered_at)
         return IdentificationResult(
             method=self.name,
             coefficients=model.as_dict(theta),
             mass=est_mass,
             standard_errors=model.as_dict(se),
-            warnings=collinearity_warnings(X, names),
+            warnings=collinearity_warnings(X, names) + nonsmooth,
             diagnostics={
                 "condition_number": fit.condition_number,
                 "samples_used": int(y.size),
@@ -96,5 +99,6 @@ class RestoringForceSurface(Identifier):
                 "mass_standard_error": mass_se,
                 "standard_errors_iid": model.as_dict(se_iid),
                 "standard_error_batches": fit.batches,
+                "velocity_sign_disagreement": sign_fraction,
             },
         )

@@ -57,7 +57,7 @@ import pysindy as ps
 from nlid import IdentificationResult, Identifier, Option, Record, derivatives
 from nlid.errors import IdentificationError, NlidError
 from nlid.physics import EDGE_PERIODS, regression_data
-from nlid.regression import collinearity_warnings, column_scale, least_squares
+from nlid.regression import collinearity_warnings, column_scale, least_squares, nonsmooth_warnings
 from nlid.terms import Model
 
 from .library import TermLibrary, auto_candidates
@@ -83,6 +83,8 @@ class SindyProblem:
         each column scaled to unit RMS over the rows used.
     u
         Control input ``f``, shape ``(N, 1)``; ``None`` with the mass known.
+    force
+        The force as filtered for the balance, shape ``(N,)``.
     scale
         RMS of the two columns of ``x_dot`` before scaling.
     library
@@ -101,6 +103,7 @@ class SindyProblem:
     x: np.ndarray
     x_dot: np.ndarray
     u: np.ndarray | None
+    force: np.ndarray
     scale: np.ndarray
     library: TermLibrary
     rows: np.ndarray
@@ -174,6 +177,7 @@ def build_problem(
         x=np.column_stack([z, v]),
         x_dot=x_dot / scale,
         u=f.reshape(-1, 1) if mass is None else None,
+        force=f,
         scale=scale,
         library=library,
         rows=rows,
@@ -317,6 +321,13 @@ class SparseIdentification(Identifier):
                 + " (coefficients in R; see diagnostics['extra_terms']); consider adding them"
             )
         notes += collinearity_warnings(theta[:, kept_cols], [columns[j] for j in kept_cols])
+        kept_model = Model(tuple(library_model.terms[j] for j in support), library_model.px_roots) if support else None
+        sign_fraction = None
+        if kept_model is not None:
+            sign_fraction, nonsmooth = nonsmooth_warnings(
+                kept_model, problem.x[problem.rows, 1], 1.0 / problem.dt, problem.filtered_at
+            )
+            notes += nonsmooth
         rule = (
             "given" if choice is None else f"{choice.folds}-fold contiguous cross-validation, one-standard-error rule"
         )
@@ -338,11 +349,17 @@ class SparseIdentification(Identifier):
                 "equation": _equation("v'" if mass is None else f"v' - f/{m:.6g}", xi, feature_names),
                 "kinematic_check": _equation("z'", coef[0], feature_names),
                 "condition_number": None if fit is None else fit.condition_number,
+                "force_residual_percent_of_sparse_equation": None
+                if fit is None
+                else float(
+                    100 * m * np.sqrt(np.mean(fit.residual**2)) / np.sqrt(np.mean(problem.force[problem.rows] ** 2))
+                ),
                 "samples_used": int(theta.shape[0]),
                 "filtered_at_hz": problem.filtered_at,
                 "channels": problem.provenance,
                 "differentiation": self.settings["differentiation"],
                 "mass_standard_error": mass_se,
+                "velocity_sign_disagreement": sign_fraction,
                 "pysindy_version": ps.__version__,
             },
         )

@@ -6,6 +6,7 @@ import pytest
 
 from nlid import IdentificationError, InputError, identify
 from nlid.cli.main import main
+from nlid.datasets import EMPS_REFERENCE, load
 from nlid.terms import Model
 from nlid.testing import check_identifier
 from nlid_sindy import SparseIdentification, TermLibrary, auto_candidates
@@ -158,3 +159,26 @@ def test_cross_validation_prefers_the_sparse_model_it_cannot_reject():
     choice = choose_threshold(X, y, ["a", "b", "c", "d"], folds=5)
     kept = {row["threshold"]: row["kept"] for row in choice.table}
     assert kept[choice.threshold] == ["a", "b"]
+
+
+@pytest.mark.parametrize("method", ["rfs", "sindy"])
+def test_coulomb_friction_on_a_band_limited_velocity_is_flagged(numerical, method):
+    """White force, velocity estimated: many reversals are faster than the band (docs/sindy.md)."""
+    preset = numerical.with_overrides(terms=TERMS + ", sign(v)", coefficients={"sign(v)": 2.0}, duration=20.0)
+    record = preset.simulate(0, noise={"z": 0.02, "a": 0.02}, channels=("z", "a"))
+    res = identify(record, TERMS + ", sign(v)", method, mass=0.2)
+    assert res.diagnostics["velocity_sign_disagreement"] > 0.05
+    assert any("sign(v) is discontinuous" in w for w in res.warnings)
+    assert res.coefficients["sign(v)"] < 2.0  # biased towards zero, as the warning says
+    exact = identify(preset.simulate(0, channels=("z", "v", "a")), TERMS + ", sign(v)", method, mass=0.2)
+    assert exact.diagnostics["velocity_sign_disagreement"] is None and exact.warnings == []
+    assert exact.coefficients["sign(v)"] == pytest.approx(2.0, rel=1e-3)
+
+
+def test_emps_with_sindy_too(data_dir):
+    """sindy (every term kept) regresses a on f: the same coefficients, the mass from 1/xi_f."""
+    res = identify(load("emps"), "sign(v)", "sindy", without="z")
+    assert res.diagnostics["kept_terms"] == ["1", "sign(v)", "v"]
+    assert res.mass == pytest.approx(EMPS_REFERENCE["mass"], rel=0.03)
+    for name, value in EMPS_REFERENCE["coefficients"].items():
+        assert res.coefficients[name] == pytest.approx(value, rel=0.03), name
