@@ -69,6 +69,7 @@ __all__ = [
     "collinear_pairs",
     "collinearity_warnings",
     "column_scale",
+    "triangular_factor",
     "SIGN_DISAGREEMENT",
     "velocity_sign_disagreement",
     "nonsmooth_warnings",
@@ -84,6 +85,37 @@ SIGN_DISAGREEMENT = 0.01
 MAX_BATCHES = 50
 #: Minimum batch length, in correlation lengths of the equation error.
 BATCH_CORRELATION_LENGTHS = 10.0
+
+
+#: Above this condition number of the Cholesky factor, :func:`triangular_factor`
+#: falls back to Householder QR (CholeskyQR2 is accurate well beyond it).
+CHOLESKY_QR_MAX_CONDITION = 1e6
+
+
+def triangular_factor(A: np.ndarray) -> np.ndarray:
+    """Upper-triangular ``R`` with ``R^T R = A^T A`` (the ``R`` of ``A = Q R``).
+
+    Tall, thin matrices are factorised by CholeskyQR2 (Cholesky of the Gram
+    matrix, once more on ``A R1^-1``; Yamamoto et al., 2015): two BLAS
+    products instead of Householder QR, 20-50 times faster here and as
+    accurate while ``A`` is reasonably conditioned. Otherwise, or when the
+    Cholesky factorisation fails, Householder QR is used.
+    """
+    A = np.asarray(A, dtype=float)
+    n, p = A.shape
+    if n >= 4 * p:
+        norms = np.sqrt(np.einsum("ij,ij->j", A, A))
+        norms[norms == 0] = 1.0
+        As = A / norms  # the condition test below must not depend on units
+        try:
+            R1 = np.linalg.cholesky(As.T @ As).T
+            sv = np.linalg.svd(R1, compute_uv=False)
+            if sv[-1] > 0 and sv[0] / sv[-1] < CHOLESKY_QR_MAX_CONDITION:
+                Q1 = np.dot(As, np.linalg.inv(R1))
+                return np.linalg.cholesky(Q1.T @ Q1).T @ R1 * norms
+        except np.linalg.LinAlgError:
+            pass
+    return np.linalg.qr(A, mode="r")
 
 
 @dataclass(frozen=True)
@@ -127,7 +159,8 @@ class LeastSquaresFit:
 
 def column_scale(X: np.ndarray, names: Sequence[str], context: str = "") -> np.ndarray:
     """RMS of each column; raise naming the columns that are identically zero."""
-    scale = np.sqrt(np.mean(np.asarray(X, dtype=float) ** 2, axis=0))
+    X = np.asarray(X, dtype=float)
+    scale = np.sqrt(np.einsum("ij,ij->j", X, X) / X.shape[0])
     if np.any(scale == 0):
         zero = [names[i] for i in np.flatnonzero(scale == 0)]
         raise IdentificationError(f"{context}the regressor(s) {', '.join(zero)} are identically zero on this record")
@@ -141,6 +174,7 @@ def least_squares(
     *,
     correlation_length: float = 1.0,
     context: str = "",
+    coefficients: np.ndarray | None = None,
 ) -> LeastSquaresFit:
     """Solve ``X theta = y`` by least squares, with standard errors.
 
@@ -159,6 +193,10 @@ def least_squares(
         of the batch-means covariance.
     context
         Prefix of error messages (e.g. ``"rfs: "``).
+    coefficients
+        The least-squares solution when the caller already has it (e.g. from
+        pysindy's unbiasing step): only the covariance is computed, from the
+        Gram matrix.
 
     Raises
     ------
@@ -169,16 +207,27 @@ def least_squares(
     y = np.asarray(y, dtype=float)
     n, p = X.shape
     scale = column_scale(X, names, context)
-    # one QR of [X/scale, y]: the solution, the singular values and (X^T X)^-1 all follow from R
-    R = np.linalg.qr(np.column_stack([X / scale, y]), mode="r")
-    Rx, qy = R[:p, :p], R[:p, p]
-    sv = np.linalg.svd(Rx, compute_uv=False)
-    if sv[-1] <= sv[0] * max(n, p) * np.finfo(float).eps:
-        rank = int(np.sum(sv > sv[0] * max(n, p) * np.finfo(float).eps))
-        raise IdentificationError(f"{context}the regressor matrix is rank deficient (rank {rank} of {p})")
-    Rinv = np.linalg.inv(Rx)
-    inv = Rinv @ Rinv.T  # (Xs^T Xs)^-1
-    theta = (Rinv @ qy) / scale
+    tol = max(n, p) * np.finfo(float).eps
+    if coefficients is None:
+        # one QR of [X/scale, y]: the solution, the singular values and (X^T X)^-1 all follow from R
+        R = triangular_factor(np.column_stack([X / scale, y]))
+        Rx = R[:p, :p]
+        sv = np.linalg.svd(Rx, compute_uv=False)
+        if sv[-1] <= sv[0] * tol:
+            raise IdentificationError(
+                f"{context}the regressor matrix is rank deficient (rank {int(np.sum(sv > sv[0] * tol))} of {p})"
+            )
+        Rinv = np.linalg.inv(Rx)
+        inv = Rinv @ Rinv.T  # (Xs^T Xs)^-1
+        theta = (Rinv @ R[:p, p]) / scale
+    else:
+        gram = (X.T @ X) / np.outer(scale, scale)
+        ev = np.linalg.eigvalsh(gram)
+        sv = np.sqrt(np.clip(ev[::-1], 0.0, None))
+        if sv[-1] <= sv[0] * np.sqrt(tol):
+            raise IdentificationError(f"{context}the regressor matrix is (nearly) rank deficient")
+        inv = np.linalg.inv(gram)
+        theta = np.asarray(coefficients, dtype=float)
     resid = y - X @ theta
     dof = max(n - p, 1)
     s2 = float(resid @ resid) / dof

@@ -85,3 +85,7 @@ def test_regression_data_untrimmed_keeps_every_sample(short_record, numerical):
     assert full.G.shape[0] == record.n and full.kept == trimmed.kept
     np.testing.assert_array_equal(full.G[full.kept], trimmed.G)
     np.testing.assert_array_equal(full.a[full.kept], trimmed.a)
+    without = physics.regression_data(record, model, trim=False, regressors=False)
+    assert without.G.shape == (record.n, 0)
+    np.testing.assert_array_equal(without.a, full.a)
+    np.testing.assert_array_equal(without.v, full.v)

@@ -151,7 +151,9 @@ def build_problem(
     if differentiation == "nlid":
         # the force balance without the model's columns (the library evaluates those): the state
         # always needs a velocity, so ask for the velocity term only
-        data = regression_data(record, Model.from_spec("v", defaults=False), cutoff=cutoff, trim=False)
+        data = regression_data(
+            record, Model.from_spec("v", defaults=False), cutoff=cutoff, trim=False, regressors=False
+        )
         z, v, a, f = data.z, data.v, data.a, data.f
         fc = data.filtered_at
         library = TermLibrary(model, fs=fs, cutoff=fc)
@@ -305,12 +307,14 @@ class SparseIdentification(Identifier):
         fit = None
         if kept_cols:
             y = problem.x_dot[problem.rows, 1] * problem.scale[1]
+            # pysindy's unbiasing step solved least squares on the kept columns: reuse its coefficients
             fit = least_squares(
                 theta[:, kept_cols],
                 y,
                 [columns[j] for j in kept_cols],
                 correlation_length=problem.correlation_length,
                 context="sindy: ",
+                coefficients=xi[kept_cols],
             )
         se, mass_se = _standard_errors(fit, library_model, support, mass, m)
         notes = list(caught)

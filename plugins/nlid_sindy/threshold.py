@@ -43,8 +43,9 @@ import numpy as np
 import pysindy as ps
 
 from nlid.errors import InputError
+from nlid.regression import triangular_factor
 
-__all__ = ["MSE_FLOOR", "RIDGE", "stlsq", "choose_threshold", "ThresholdChoice", "triangular_factor"]
+__all__ = ["MSE_FLOOR", "RIDGE", "stlsq", "choose_threshold", "ThresholdChoice", "augmented_factor"]
 
 #: Held-out errors (mean squares of the unit-RMS left-hand side) closer than
 #: this count as equal: a relative RMS of 1e-6, far below any measurement
@@ -66,9 +67,9 @@ def stlsq(threshold: float, n_equations: int) -> ps.STLSQ:
     )
 
 
-def triangular_factor(X: np.ndarray, y: np.ndarray) -> np.ndarray:
-    """Upper-triangular ``R`` of ``[X, y] = Q R`` (``(p+1) x (p+1)``)."""
-    return np.linalg.qr(np.column_stack([X, y]), mode="r")
+def augmented_factor(X: np.ndarray, y: np.ndarray) -> np.ndarray:
+    """Upper-triangular ``R`` of ``[X, y] = Q R`` (at most ``(p+1) x (p+1)``)."""
+    return triangular_factor(np.column_stack([X, y]))
 
 
 @dataclass(frozen=True)
@@ -144,8 +145,8 @@ def choose_threshold(
         )
     inner, full = [], []
     for a, b in zip(bounds[:-1], bounds[1:], strict=True):
-        inner.append(triangular_factor(X[a + gap : b - gap], y[a + gap : b - gap]))
-        ends = [triangular_factor(X[i:j], y[i:j]) for i, j in ((a, a + gap), (b - gap, b)) if j > i]
+        inner.append(augmented_factor(X[a + gap : b - gap], y[a + gap : b - gap]))
+        ends = [augmented_factor(X[i:j], y[i:j]) for i, j in ((a, a + gap), (b - gap, b)) if j > i]
         full.append(np.linalg.qr(np.vstack([inner[-1], *ends]), mode="r") if ends else inner[-1])
     sizes = np.diff(bounds)
     everything = np.linalg.qr(np.vstack(full), mode="r")
