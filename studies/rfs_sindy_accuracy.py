@@ -141,7 +141,8 @@ def tables(frame: pd.DataFrame) -> str:
         lines.append("| --- |" + " --- |" * len(methods))
         for q in order:
             if q in med.index and not (q == "mass" and mass == "known"):
-                lines.append(f"| {q} | " + " | ".join(f"{med.loc[q, m]:.3g}" for m in methods) + " |")
+                label = q.replace("|", "\\|")
+                lines.append(f"| {label} | " + " | ".join(f"{med.loc[q, m]:.3g}" for m in methods) + " |")
     band = frame[frame.case.str.startswith("band")]
     if not band.empty:
         lines.append("\nrfs damping errors against the regressor band factor (signed median %, seeds pooled)\n")

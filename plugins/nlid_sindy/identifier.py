@@ -282,6 +282,10 @@ class SparseIdentification(Identifier):
                 threshold = s["threshold"]
             fitted, caught = fit_sindy(problem, threshold)
             theta = np.asarray(fitted.optimizer.Theta_)
+        if theta.shape != (problem.rows.size, len(columns)):
+            raise IdentificationError(
+                f"sindy: pysindy fitted a {theta.shape} library matrix, expected {(problem.rows.size, len(columns))}"
+            )
         column_scale(theta, columns, "sindy: ")
         return self._result(model, library_model, mass, problem, fitted, theta, threshold, choice, caught)
 
@@ -298,24 +302,25 @@ class SparseIdentification(Identifier):
             m = 1.0 / xi[p]
         else:
             m = float(mass)
+            if not np.any(xi[:p]):
+                raise IdentificationError(
+                    f"sindy: the threshold {threshold:g} dropped every term of the v' equation; lower 'threshold'"
+                )
         all_coeffs = library_model.as_dict(-m * xi[:p])
         coefficients = {n: all_coeffs[n] for n in model.names}
         extra = {n: c for n, c in all_coeffs.items() if n not in model and c != 0}
         support = [j for j in range(p) if xi[j] != 0]
         kept_cols = [*support, *([p] if mass is None else [])]
         columns = [*library_model.names, *(["f"] if mass is None else [])]
-        fit = None
-        if kept_cols:
-            y = problem.x_dot[problem.rows, 1] * problem.scale[1]
-            # pysindy's unbiasing step solved least squares on the kept columns: reuse its coefficients
-            fit = least_squares(
-                theta[:, kept_cols],
-                y,
-                [columns[j] for j in kept_cols],
-                correlation_length=problem.correlation_length,
-                context="sindy: ",
-                coefficients=xi[kept_cols],
-            )
+        # pysindy's unbiasing step solved least squares on the kept columns: reuse its coefficients
+        fit = least_squares(
+            theta[:, kept_cols],
+            problem.x_dot[problem.rows, 1] * problem.scale[1],
+            [columns[j] for j in kept_cols],
+            correlation_length=problem.correlation_length,
+            context="sindy: ",
+            coefficients=xi[kept_cols],
+        )
         se, mass_se = _standard_errors(fit, library_model, support, mass, m)
         notes = list(caught)
         if extra:
@@ -325,9 +330,9 @@ class SparseIdentification(Identifier):
                 + " (coefficients in R; see diagnostics['extra_terms']); consider adding them"
             )
         notes += collinearity_warnings(theta[:, kept_cols], [columns[j] for j in kept_cols])
-        kept_model = Model(tuple(library_model.terms[j] for j in support), library_model.px_roots) if support else None
         sign_fraction = None
-        if kept_model is not None:
+        if support:
+            kept_model = Model(tuple(library_model.terms[j] for j in support), library_model.px_roots)
             sign_fraction, nonsmooth = nonsmooth_warnings(
                 kept_model, problem.x[problem.rows, 1], 1.0 / problem.dt, problem.filtered_at
             )
@@ -352,10 +357,8 @@ class SparseIdentification(Identifier):
                 "extra_terms": extra,
                 "equation": _equation("v'" if mass is None else f"v' - f/{m:.6g}", xi, feature_names),
                 "kinematic_check": _equation("z'", coef[0], feature_names),
-                "condition_number": None if fit is None else fit.condition_number,
-                "force_residual_percent_of_sparse_equation": None
-                if fit is None
-                else float(
+                "condition_number": fit.condition_number,
+                "force_residual_percent_of_sparse_equation": float(
                     100 * m * np.sqrt(np.mean(fit.residual**2)) / np.sqrt(np.mean(problem.force[problem.rows] ** 2))
                 ),
                 "samples_used": int(theta.shape[0]),
@@ -377,8 +380,6 @@ def _standard_errors(fit, library_model: Model, support: list[int], mass: float 
     ``xi``; ``theta_i = -m xi_i`` with the mass known, and with the mass
     estimated ``theta_i = -xi_i / xi_f``, ``m = 1 / xi_f`` (delta method).
     """
-    if fit is None:
-        return {}, None
     cov, xi = fit.covariance, fit.coefficients
     out: dict[str, float] = {}
     if mass is not None:

@@ -114,9 +114,11 @@ def test_a_pysindy_failure_on_the_command_line_is_one_line(tmp_path, capsys, mon
     assert err.count("\n") == 1 and "sindy: pysindy" in err and "LinAlgError: SVD" in err
 
 
-def test_dropping_the_force_is_refused(exact_record):
+def test_dropping_the_force_or_every_term_is_refused(exact_record):
     with pytest.raises(IdentificationError, match="1/m"):
         identify(exact_record, TERMS, "sindy", options={"threshold": 5.0})
+    with pytest.raises(IdentificationError, match="dropped every term.*'threshold'"):
+        identify(exact_record, TERMS, "sindy", mass=0.2, options={"threshold": 5.0})
 
 
 def test_too_few_equations_for_the_folds(short_record):
