@@ -357,7 +357,8 @@ class RegressionData:
     provenance
         Where each channel came from.
     kept
-        The slice of the record's samples the arrays correspond to.
+        The slice of the record's samples that hold a settled force balance;
+        the arrays are these samples (or every sample, with ``trim=False``).
     """
 
     f: np.ndarray
@@ -374,7 +375,9 @@ class RegressionData:
         return self.f - mass * self.a
 
 
-def regression_data(record: Record, model: Model, *, cutoff: float | None = None) -> RegressionData:
+def regression_data(
+    record: Record, model: Model, *, cutoff: float | None = None, trim: bool = True, regressors: bool = True
+) -> RegressionData:
     """Evaluate the model's regressors and the force balance on a record.
 
     Parameters
@@ -387,13 +390,22 @@ def regression_data(record: Record, model: Model, *, cutoff: float | None = None
         Equation band ``fc`` in Hz (default
         :func:`nlid.derivatives.suggest_cutoff` of ``z``); only used when a
         needed channel is estimated.
+    trim
+        Drop the unsettled ends (default). With ``trim=False`` the arrays keep
+        every sample of the record and :attr:`RegressionData.kept` says which
+        of them hold a settled force balance (for callers that filter
+        further, or that mark the ends as missing themselves).
+    regressors
+        Evaluate the model's columns (default). With ``False``, ``G`` has no
+        columns and the model only says which channels are needed: for
+        callers that evaluate the regressors themselves.
     """
     needs_v = model.uses_velocity
     estimated = not record.is_measured("a") or (needs_v and not record.is_measured("v"))
     prov = {c: record.source_of(c) for c in record.channels}
     if not estimated:
         v = record.v if needs_v else None
-        G = model.evaluate(record.z, v)
+        G = model.evaluate(record.z, v) if regressors else np.empty((record.n, 0))
         return RegressionData(record.f, record.a, G, record.z, v, None, prov)
     fs = record.fs
     fc = float(cutoff) if cutoff is not None else derivatives.suggest_cutoff(record.z, fs)
@@ -406,7 +418,7 @@ def regression_data(record: Record, model: Model, *, cutoff: float | None = None
         else:
             v, used = derivatives.differentiate(record.z, fs, order=1, cutoff=wide)
             prov["v"] = f"estimated from z: {used.describe()}"
-    G = derivatives.lowpass(model.evaluate(z, v), fs, fc)
+    G = derivatives.lowpass(model.evaluate(z, v), fs, fc) if regressors else np.empty((record.n, 0))
     if record.is_measured("a"):
         a = derivatives.lowpass(record.a, fs, fc)
         f = derivatives.lowpass(record.f, fs, fc)
@@ -426,6 +438,8 @@ def regression_data(record: Record, model: Model, *, cutoff: float | None = None
             f"at the cut-off {fc:.3g} Hz"
         )
     keep = slice(edge, record.n - edge)
+    if not trim:
+        return RegressionData(f, a, G, z, v, fc, prov, keep)
     return RegressionData(f[keep], a[keep], G[keep], z[keep], None if v is None else v[keep], fc, prov, keep)
 
 

@@ -75,3 +75,17 @@ def test_damping_slice_matches_the_true_damping(exact_record, numerical):
         sl.measured, physics.damping(model, theta, data.z, data.v)[np.abs(data.z + 0.02) <= 0.002], atol=1e-9
     )
     assert sl.model[0] == pytest.approx(sl.v_grid[0] + 5 * sl.v_grid[0] * abs(sl.v_grid[0]))
+
+
+def test_regression_data_untrimmed_keeps_every_sample(short_record, numerical):
+    model = numerical.model()
+    record = short_record.without("v", "a")
+    trimmed = physics.regression_data(record, model)
+    full = physics.regression_data(record, model, trim=False)
+    assert full.G.shape[0] == record.n and full.kept == trimmed.kept
+    np.testing.assert_array_equal(full.G[full.kept], trimmed.G)
+    np.testing.assert_array_equal(full.a[full.kept], trimmed.a)
+    without = physics.regression_data(record, model, trim=False, regressors=False)
+    assert without.G.shape == (record.n, 0)
+    np.testing.assert_array_equal(without.a, full.a)
+    np.testing.assert_array_equal(without.v, full.v)

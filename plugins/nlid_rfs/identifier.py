@@ -6,14 +6,25 @@ unknown the inertia column is added and ``f = m a + G theta`` is solved
 instead (as the IDIM-LS reference method of the EMPS benchmark does).
 
 Derivatives come from the record when measured, otherwise from nlid's
-zero-phase differentiating filter; when the acceleration is estimated, the
-force and every regressor pass through the same zero-phase low-pass
-(:func:`nlid.physics.regression_data`), so no phase error enters.
+zero-phase differentiating filter; when a channel is estimated, the force, the
+acceleration and every regressor pass through the same zero-phase low-pass and
+the unsettled ends are dropped (:func:`nlid.physics.regression_data`), so no
+phase error enters. ``decimate`` then keeps every q-th equation: the equations
+are already band-limited, so this only trades samples for speed.
 
-Standard errors are ``sqrt(diag(s^2 (X^T X)^-1))`` with ``s^2`` the residual
-variance: they hold for independent, identically distributed equation errors
-and exact regressors, and are optimistic when the residual is coloured (after
-low-pass filtering) or the regressors are noisy.
+Standard errors (see :mod:`nlid.regression`): the reported ones are batch-means
+sandwich errors, valid for a stationary equation error that may be coloured
+(as it is after the low-pass) and heteroscedastic, with exact regressors. The
+classical ``s^2 (X^T X)^-1`` values, valid only for independent identically
+distributed errors, are in ``diagnostics["standard_errors_iid"]``. Neither
+covers bias from noise on the regressors (errors-in-variables) or from
+evaluating a nonlinear damping term on a band-limited velocity; see
+``docs/rfs.md`` for what that means on the paper's example.
+
+Near-collinear terms (|correlation| >= 0.99 on the record) are reported as
+warnings naming the pair, and non-smooth velocity terms (``sign(v)``...) when
+the band-limited velocity misses a noticeable part of the velocity reversals
+(:func:`nlid.regression.nonsmooth_warnings`).
 """
 
 from __future__ import annotations
@@ -23,6 +34,7 @@ import numpy as np
 from nlid import IdentificationResult, Identifier, Option, Record
 from nlid.errors import IdentificationError
 from nlid.physics import regression_data
+from nlid.regression import collinearity_warnings, least_squares, nonsmooth_warnings
 from nlid.terms import Model
 
 
@@ -57,36 +69,36 @@ class RestoringForceSurface(Identifier):
             X = G
             y = data.restoring_force(mass)[::q]
             names = list(model.names)
-        scale = np.sqrt(np.mean(X**2, axis=0))
-        if np.any(scale == 0):
-            zero = [names[i] for i in np.flatnonzero(scale == 0)]
-            raise IdentificationError(f"rfs: the regressor(s) {', '.join(zero)} are identically zero on this record")
-        Xs = X / scale
-        sol, _, rank, sv = np.linalg.lstsq(Xs, y, rcond=None)
-        if rank < Xs.shape[1]:
-            raise IdentificationError(f"rfs: the regressor matrix is rank deficient (rank {rank} of {Xs.shape[1]})")
-        theta = sol / scale
-        resid = y - X @ theta
-        dof = max(y.size - X.shape[1], 1)
-        s2 = float(resid @ resid) / dof
-        cov = s2 * np.linalg.inv(Xs.T @ Xs) / np.outer(scale, scale)
-        se = np.sqrt(np.diag(cov))
-        est_mass = None
+        if y.size <= X.shape[1]:
+            raise IdentificationError(
+                f"rfs: {y.size} equations for {X.shape[1]} unknowns after decimating by {q}; lower 'decimate'"
+            )
+        # the filtered equation error stays correlated over about fs / fc samples
+        corr = 1.0 if data.filtered_at is None else record.fs / data.filtered_at / q
+        fit = least_squares(X, y, names, correlation_length=corr, context="rfs: ")
+        theta, se, se_iid = fit.coefficients, fit.standard_errors, fit.standard_errors_iid
+        est_mass = mass_se = None
         if mass is None:
-            est_mass = float(theta[0])
+            est_mass, mass_se = float(theta[0]), float(se[0])
             if not est_mass > 0:
                 raise IdentificationError(f"rfs: the estimated mass is not positive ({est_mass:.4g} kg)")
-            theta, se = theta[1:], se[1:]
+            theta, se, se_iid = theta[1:], se[1:], se_iid[1:]
+        sign_fraction, nonsmooth = nonsmooth_warnings(model, data.v, record.fs, data.filtered_at)
         return IdentificationResult(
             method=self.name,
             coefficients=model.as_dict(theta),
             mass=est_mass,
             standard_errors=model.as_dict(se),
+            warnings=collinearity_warnings(X, names) + nonsmooth,
             diagnostics={
-                "condition_number": float(sv[0] / sv[-1]),
+                "condition_number": fit.condition_number,
                 "samples_used": int(y.size),
+                "decimate": q,
                 "filtered_at_hz": data.filtered_at,
                 "channels": data.provenance,
-                "mass_standard_error": None if mass is not None else float(np.sqrt(cov[0, 0])),
+                "mass_standard_error": mass_se,
+                "standard_errors_iid": model.as_dict(se_iid),
+                "standard_error_batches": fit.batches,
+                "velocity_sign_disagreement": sign_fraction,
             },
         )
