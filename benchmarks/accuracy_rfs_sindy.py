@@ -16,7 +16,7 @@ and damping ratio), and a rerun skips what the CSV already holds, so an
 interrupted run resumes. The script then prints the median absolute errors as
 Markdown tables.
 
-    python studies/rfs_sindy_accuracy.py [--out out/rfs_sindy_accuracy.csv] [--seeds 5]
+    python benchmarks/accuracy_rfs_sindy.py [--out out/rfs_sindy_accuracy.csv] [--seeds 5]
 """
 
 from __future__ import annotations
