@@ -46,9 +46,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     run.add_argument("study", metavar="NAME|PATH", help="a built-in study (see 'nlid study list') or a .toml file")
-    run.add_argument(
-        "--out", metavar="DIR", help="output folder (default: nlid-studies/NAME in the current folder)"
-    )
+    run.add_argument("--out", metavar="DIR", help="output folder (default: nlid-studies/NAME in the current folder)")
     run.add_argument(
         "--executor",
         choices=("local", "dask"),
@@ -86,13 +84,14 @@ def run_command(args: argparse.Namespace) -> int:
         raise InputError(f"--out {out} exists and is not a folder")
     previous = signal.signal(signal.SIGTERM, _terminate)  # stop children and keep what is saved
     try:
-        outcome = run_study(config, out, executor=executor, rerun=args.rerun, progress=False if args.no_progress else None)
+        outcome = run_study(
+            config, out, executor=executor, rerun=args.rerun, progress=False if args.no_progress else None
+        )
     finally:
         signal.signal(signal.SIGTERM, previous)
     print(outcome.summary)
     print(
-        f"nlid study: {outcome.executed} runs executed, {outcome.skipped} reused; "
-        f"report: {outcome.report}",
+        f"nlid study: {outcome.executed} runs executed, {outcome.skipped} reused; report: {outcome.report}",
         file=sys.stderr,
     )
     return 0

@@ -434,9 +434,7 @@ def _validate_options(source: str, key: str, registry: Registry, ident: str, opt
         raise ConfigError(source, key, str(exc)) from None
 
 
-def _dataset(
-    source: str, key: str, entry: dict[str, Any], base: Path, reps: int, timeout: float
-) -> DatasetConfig:
+def _dataset(source: str, key: str, entry: dict[str, Any], base: Path, reps: int, timeout: float) -> DatasetConfig:
     _check_keys(source, f"{key}.", entry, _DATASET_KEYS)
     kinds = [k for k in ("preset", "dataset", "file") if k in entry]
     if len(kinds) != 1:

@@ -117,7 +117,7 @@ class DaskExecutor:
                     n_workers=self.jobs or default_jobs(),
                     threads_per_worker=1,
                     processes=True,
-                    dashboard_address=None,
+                    dashboard_address=":0",
                 )
             client = Client(cluster)
         try:

@@ -169,11 +169,18 @@ def free_run(heldout: Record | None, model: Model, result: IdentificationResult,
     model = identified_model(model, result)
     z = heldout.z
     scale = float(np.std(z))
-    v0 = float(heldout.v[0]) if heldout.v is not None else float(derivatives.differentiate(z, heldout.fs, order=1)[0][0])
+    v0 = (
+        float(heldout.v[0]) if heldout.v is not None else float(derivatives.differentiate(z, heldout.fs, order=1)[0][0])
+    )
     try:
         z1, _, _ = simulate(model, result.coefficients, result.mass, heldout.f, heldout.fs, (float(z[0]), v0))
         z2, _, _ = simulate(
-            model, result.coefficients, result.mass, heldout.f, heldout.fs, (float(z[0]) + SENSITIVITY_DELTA * scale, v0)
+            model,
+            result.coefficients,
+            result.mass,
+            heldout.f,
+            heldout.fs,
+            (float(z[0]) + SENSITIVITY_DELTA * scale, v0),
         )
     except NlidError as exc:
         row["freerun_note"] = f"free run diverged: {exc}"

@@ -28,8 +28,8 @@ import sys
 import tempfile
 import threading
 import time
-import tracemalloc
 import traceback
+import tracemalloc
 from multiprocessing.connection import wait
 from pathlib import Path
 from typing import Any

@@ -142,7 +142,9 @@ def build_sections(config: Any, frame: pd.DataFrame, records: list[dict[str, Any
             what = ds.description or f"{ds.kind} {ds.source}"
             if ds.kind == "preset":
                 what += f", noise {ds.noise}, channels {','.join(ds.channels)}, {ds.repetitions} repetitions"
-            section = Section(ds.name, model.name, what, terms.get(key, []), list(config.identifiers), sub, refs.get(key))
+            section = Section(
+                ds.name, model.name, what, terms.get(key, []), list(config.identifiers), sub, refs.get(key)
+            )
             if not sub.empty:
                 _fill(section)
             sections.append(section)
