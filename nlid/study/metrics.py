@@ -24,7 +24,9 @@ Column names (errors are percentages, signed unless noted):
     Underlying-linear natural frequency and damping ratio at that
     equilibrium (Eq. 8, 22) and their errors.
 ``freerun_nrmse_pct``, ``freerun_rmse``, ``freerun_note``
-    Free-run simulation of the identified model driven by the held-out force:
+    Free-run simulation of the identified model driven by the held-out force
+    (held over each sample when the record says so, ``force_hold = "zoh"``,
+    else interpolated linearly between samples):
     ``100 RMS(z_sim - z) / std(z)`` and the RMS error in the record's unit;
     the note says why it was skipped. It is skipped when the identified model
     is too sensitive to its initial state for a free run to mean anything:
@@ -172,16 +174,11 @@ def free_run(heldout: Record | None, model: Model, result: IdentificationResult,
     v0 = (
         float(heldout.v[0]) if heldout.v is not None else float(derivatives.differentiate(z, heldout.fs, order=1)[0][0])
     )
+    hold = "zoh" if heldout.force_hold == "zoh" else "linear"
     try:
-        z1, _, _ = simulate(model, result.coefficients, result.mass, heldout.f, heldout.fs, (float(z[0]), v0))
-        z2, _, _ = simulate(
-            model,
-            result.coefficients,
-            result.mass,
-            heldout.f,
-            heldout.fs,
-            (float(z[0]) + SENSITIVITY_DELTA * scale, v0),
-        )
+        z1, _, _ = simulate(model, result.coefficients, result.mass, heldout.f, heldout.fs, (float(z[0]), v0), hold)
+        start = (float(z[0]) + SENSITIVITY_DELTA * scale, v0)
+        z2, _, _ = simulate(model, result.coefficients, result.mass, heldout.f, heldout.fs, start, hold)
     except NlidError as exc:
         row["freerun_note"] = f"free run diverged: {exc}"
         return row

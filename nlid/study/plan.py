@@ -3,10 +3,12 @@
 A run is one dataset x model x identifier x repetition. Its id,
 ``dataset/model/identifier/rK``, does not depend on the order runs are listed
 or executed in, and neither does its seed: the record of repetition ``K`` of a
-dataset is simulated with :func:`derive_seed` ``(study seed, "dataset/rK")``,
-so every identifier sees the same record, and the held-out record uses
-``"dataset/rK/holdout"``. Results are therefore identical whichever executor
-ran the study and in whatever order.
+simulated dataset is simulated with :func:`derive_seed` ``(study seed,
+record_key)``, where :func:`record_key` names the preset, its overrides and
+``K``, so every identifier and term set sees the same record (and datasets
+that differ only in their noise level share the motion); the held-out record
+uses ``record_key + "/holdout"``. Results are therefore identical whichever
+executor ran the study and in whatever order.
 
 Each run carries a ``spec``: plain JSON-able values saying everything a worker
 process needs (the dataset entry, the terms, the identifier and its options,
@@ -24,13 +26,23 @@ from typing import Any
 from ..interface import to_jsonable
 from .config import StudyConfig
 
-__all__ = ["Run", "plan_study", "derive_seed"]
+__all__ = ["Run", "plan_study", "derive_seed", "record_key"]
 
 
 def derive_seed(study_seed: int, key: str) -> int:
     """A 32-bit seed from the study seed and a stable key (SHA-256, order-independent)."""
     digest = hashlib.sha256(f"{int(study_seed)}:{key}".encode()).digest()
     return int.from_bytes(digest[:4], "little")
+
+
+def record_key(preset: str, overrides: dict[str, Any], repetition: int) -> str:
+    """The key of a simulated record: preset, overrides and repetition (not the noise, not the dataset name).
+
+    Datasets simulating the same preset with the same overrides therefore
+    share their records (force and noise streams, the noise scaled to each
+    level): a noise sweep compares the levels on the same motion.
+    """
+    return f"{preset}:{json.dumps(to_jsonable(overrides), sort_keys=True)}/r{repetition}"
 
 
 @dataclass(frozen=True)
@@ -70,8 +82,9 @@ def plan_study(config: StudyConfig) -> list[Run]:
                 without = over.get("without", model.without)
                 px_roots = over.get("px_roots", model.px_roots)
                 for rep in range(ds.repetitions):
-                    seed = derive_seed(config.seed, f"{ds.name}/r{rep}") if ds.simulated else None
-                    holdout_seed = derive_seed(config.seed, f"{ds.name}/r{rep}/holdout") if ds.simulated else None
+                    key = record_key(ds.source, ds.overrides, rep)
+                    seed = derive_seed(config.seed, key) if ds.simulated else None
+                    holdout_seed = derive_seed(config.seed, f"{key}/holdout") if ds.simulated else None
                     run_id = f"{ds.name}/{model.name}/{method}/r{rep}"
                     spec = to_jsonable(
                         {

@@ -122,8 +122,9 @@ def run_study(
     for name, why in config.skipped_identifiers.items():
         log.write(f"nlid study: plugin {name!r} is not used: {why}\n")
     log.write(
-        f"nlid study {config.name}: {len(runs)} runs ({len(config.datasets)} datasets x models x "
-        f"{len(config.identifiers)} identifiers x repetitions), {skipped} already done, {len(todo)} to run "
+        f"nlid study {config.name}: {len(runs)} runs ({len(config.datasets)} dataset(s), "
+        f"{sum(len(d.models) for d in config.datasets)} term set(s), {len(config.identifiers)} identifier(s): "
+        f"{', '.join(config.identifiers)}), {skipped} already done, {len(todo)} to run "
         f"with the {executor.name} executor; results in {store.folder}\n"
     )
     bar = Progress(len(todo), label=f"{config.name}: ", stream=log, enabled=progress)

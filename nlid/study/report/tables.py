@@ -59,14 +59,14 @@ _KNOWN = {
 }
 
 
-def fmt(x: float | None) -> str:
-    """Three significant digits; an en dash for a missing value."""
+def fmt(x: float | None, digits: int = 3) -> str:
+    """``digits`` significant digits; an en dash for a missing value."""
     if x is None or (isinstance(x, float) and math.isnan(x)):
         return "–"
-    return f"{x:.3g}"
+    return f"{x:.{digits}g}"
 
 
-def cell(values: pd.Series, absolute: bool = False) -> str:
+def cell(values: pd.Series, absolute: bool = False, digits: int = 3) -> str:
     """``median [min, max]`` of the finite values (true/false values: the fraction true)."""
     present = values.dropna()
     if len(present) and all(isinstance(v, (bool, np.bool_)) for v in present):
@@ -78,8 +78,8 @@ def cell(values: pd.Series, absolute: bool = False) -> str:
     if x.size == 0:
         return "–"
     if x.size == 1:
-        return fmt(float(x[0]))
-    return f"{fmt(float(np.median(x)))} [{fmt(float(x.min()))}, {fmt(float(x.max()))}]"
+        return fmt(float(x[0]), digits)
+    return f"{fmt(float(np.median(x)), digits)} [{fmt(float(x.min()), digits)}, {fmt(float(x.max()), digits)}]"
 
 
 @dataclass
@@ -141,7 +141,9 @@ def build_sections(config: Any, frame: pd.DataFrame, records: list[dict[str, Any
                 sub = frame[(frame["dataset"] == ds.name) & (frame["model"] == model.name)].dropna(axis=1, how="all")
             what = ds.description or f"{ds.kind} {ds.source}"
             if ds.kind == "preset":
-                what += f", noise {ds.noise}, channels {','.join(ds.channels)}, {ds.repetitions} repetitions"
+                levels = ds.noise if isinstance(ds.noise, dict) else {c: ds.noise for c in ds.channels}
+                noise = ", ".join(f"{c} {100 * x:g} %" for c, x in levels.items()) or "none"
+                what += f" (noise: {noise}; recorded: {', '.join(ds.channels)}; {ds.repetitions} repetitions)"
             section = Section(
                 ds.name, model.name, what, terms.get(key, []), list(config.identifiers), sub, refs.get(key)
             )
@@ -151,7 +153,7 @@ def build_sections(config: Any, frame: pd.DataFrame, records: list[dict[str, Any
     return sections
 
 
-def _method_rows(section: Section, columns: list[tuple[str, bool]]) -> list[list[str]]:
+def _method_rows(section: Section, columns: list[tuple[str, bool]], digits: int = 3) -> list[list[str]]:
     rows = []
     for method in section.methods:
         sub = section.frame[section.frame["method"] == method]
@@ -160,7 +162,7 @@ def _method_rows(section: Section, columns: list[tuple[str, bool]]) -> list[list
         ok = sub[sub["status"] == "ok"]
         cells = [method, _runs_cell(sub)]
         for col, absolute in columns:
-            cells.append(cell(ok[col], absolute) if col in ok.columns else "–")
+            cells.append(cell(ok[col], absolute, digits) if col in ok.columns else "–")
         rows.append(cells)
     return rows
 
@@ -193,7 +195,7 @@ def _fill(section: Section) -> None:
         cols.append(("mass", False))
         header.append("mass")
     section.tables.append(
-        Table("Identified coefficients (SI, coefficients of R = f - m z'')", header, _method_rows(section, cols))
+        Table("Identified coefficients (SI, coefficients of R = f - m z'')", header, _method_rows(section, cols, 4))
     )
 
     eq_labels = _labels(frame, "eq_error_pct:")
