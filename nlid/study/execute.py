@@ -14,7 +14,7 @@ calling thread as soon as it finishes, where it is persisted at once.
     ``LocalCluster`` of ``jobs`` single-threaded worker processes started for
     the study. Its workers are started non-daemonic so they may fork run
     processes; workers of an outside cluster that are daemonic (Dask's
-    default) start each run as ``python -m nlid.study.worker`` instead.
+    default) start each run as ``python -m nlid.study.child`` instead.
 
 Results do not depend on the executor: every run's data and seed come from
 its spec alone (:mod:`nlid.study.plan`).

@@ -11,7 +11,7 @@ adds ``nlid.posterior.study_metrics(record, model, result, reference,
 crashing identifier can be stopped: the child is forked from a
 ``multiprocessing`` fork server that has nlid imported (cheap to start), or,
 inside a daemonic process such as a default Dask worker (which may not have
-``multiprocessing`` children), started as ``python -m nlid.study.worker``. A
+``multiprocessing`` children), started as ``python -m nlid.study.child``. A
 child still running at the time limit is killed and the run is recorded as
 timed out; a child that dies is recorded as failed with its exit code. The
 child gets the parent's ``sys.path`` and environment, so plugins visible to the
@@ -43,7 +43,7 @@ from ..registry import load_registry
 from . import metrics
 from .data import build_data
 
-__all__ = ["execute_run", "run_isolated", "kill_children", "failure_payload"]
+__all__ = ["execute_run", "run_isolated", "kill_children", "failure_payload", "subprocess_main"]
 
 _LIVE: set[Any] = set()
 _LIVE_LOCK = threading.Lock()
@@ -229,7 +229,7 @@ def _run_subprocess(spec: dict[str, Any], timeout: float) -> dict[str, Any]:
         env = dict(os.environ)
         env["PYTHONPATH"] = os.pathsep.join(p for p in sys.path if p)
         proc = subprocess.Popen(
-            [sys.executable, "-m", "nlid.study.worker", str(folder)], env=env, stdout=subprocess.DEVNULL
+            [sys.executable, "-m", "nlid.study.child", str(folder)], env=env, stdout=subprocess.DEVNULL
         )
         with _LIVE_LOCK:
             _LIVE.add(proc)
@@ -253,7 +253,8 @@ def _run_subprocess(spec: dict[str, Any], timeout: float) -> dict[str, Any]:
         return payload
 
 
-def _subprocess_main(folder: str) -> int:
+def subprocess_main(folder: str) -> int:
+    """Run the spec in ``folder/spec.json``; write ``payload.json`` and ``arrays.npz`` there."""
     path = Path(folder)
     spec = json.loads((path / "spec.json").read_text())
     payload = execute_run(spec)
@@ -264,7 +265,3 @@ def _subprocess_main(folder: str) -> int:
     tmp.write_text(json.dumps(to_jsonable(payload)))
     os.replace(tmp, path / "payload.json")
     return 0
-
-
-if __name__ == "__main__":  # the python -m child of run_isolated
-    sys.exit(_subprocess_main(sys.argv[1]))
