@@ -45,7 +45,7 @@ def main() -> None:
         f"(min {min(times):.1f}, max {max(times):.1f}, {len(times)} runs; {len(frame)} identifications each)"
     )
     for method, sub in frame.groupby("method"):
-        status = dict(sub["status"].value_counts())
+        status = {k: int(v) for k, v in sub["status"].value_counts().items()}
         print(f"  {method:12s} identification median {sub['seconds'].median():.2f} s per run, status {status}")
 
 

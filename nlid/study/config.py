@@ -472,9 +472,11 @@ def _dataset(source: str, key: str, entry: dict[str, Any], base: Path, reps: int
         for k, p in (("part", part), ("holdout", holdout_part)):
             if isinstance(p, str) and p not in ("none", "independent"):
                 try:
-                    nlid_datasets.load(value, part=p)
+                    loaded = nlid_datasets.load(value, part=p)
                 except NlidError as exc:
                     raise ConfigError(source, f"{key}.{k}", str(exc)) from None
+                if k == "part":
+                    truth_known = bool(loaded.mass or (loaded.meta.get("reference") or {}).get("mass"))
         source_value = value
     else:
         expanded = os.path.expandvars(os.path.expanduser(value))
@@ -607,7 +609,7 @@ def _dataset(source: str, key: str, entry: dict[str, Any], base: Path, reps: int
                 raise ConfigError(source, f"{key}.reference.modal", "expected a list of {fn_hz, zeta} tables")
             for j, m in enumerate(modal):
                 _check_keys(source, f"{key}.reference.modal[{j}].", m, ("fn_hz", "zeta"))
-    if mass == "known" and not truth_known and not (reference and "mass" in reference) and kind != "dataset":
+    if mass == "known" and not truth_known and not (reference and "mass" in reference):
         raise ConfigError(source, f"{key}.mass", 'the mass is not known for this data: give it in kg or "estimate"')
 
     holdout = entry.get("holdout", "independent" if kind == "preset" else "none")

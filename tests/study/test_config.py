@@ -131,6 +131,9 @@ def test_measured_studies_run(data_dir, tmp_path):
     """emps against the benchmark's reference; silverbox held out on the arrow head with a free run."""
     from nlid.study import LocalExecutor, run_study
 
+    with pytest.raises(ConfigError, match="the mass is not known for this data"):
+        parse_study('[[datasets]]\ndataset = "silverbox"\npart = "multisine"\nmass = "known"\n')
+
     emps = run_study(load_study("emps"), tmp_path / "emps", executor=LocalExecutor(1), progress=False)
     row = ResultStore(tmp_path / "emps").results(emps.runs).set_index("method").loc["rfs"]
     assert row["status"] == "ok"
