@@ -110,26 +110,27 @@ def _restoring(z, v, theta, parts, special, pxc):
 
 
 @numba.njit(cache=True)
-def _rk4(force, dt, mass, theta, parts, special, pxc, z0, v0, out_z, out_v, out_a):
+def _rk4(force, force_mid, force_end, dt, mass, theta, parts, special, pxc, z0, v0, out_z, out_v, out_a):
     z = z0
     v = v0
     inv_m = 1.0 / mass
     h2 = 0.5 * dt
     for k in range(force.size):
         fk = force[k]
+        fm = force_mid[k]
         a1 = (fk - _restoring(z, v, theta, parts, special, pxc)) * inv_m
         out_z[k] = z
         out_v[k] = v
         out_a[k] = a1
         z2 = z + h2 * v
         v2 = v + h2 * a1
-        a2 = (fk - _restoring(z2, v2, theta, parts, special, pxc)) * inv_m
+        a2 = (fm - _restoring(z2, v2, theta, parts, special, pxc)) * inv_m
         z3 = z + h2 * v2
         v3 = v + h2 * a2
-        a3 = (fk - _restoring(z3, v3, theta, parts, special, pxc)) * inv_m
+        a3 = (fm - _restoring(z3, v3, theta, parts, special, pxc)) * inv_m
         z4 = z + dt * v3
         v4 = v + dt * a3
-        a4 = (fk - _restoring(z4, v4, theta, parts, special, pxc)) * inv_m
+        a4 = (force_end[k] - _restoring(z4, v4, theta, parts, special, pxc)) * inv_m
         z = z + dt / 6.0 * (v + 2.0 * v2 + 2.0 * v3 + v4)
         v = v + dt / 6.0 * (a1 + 2.0 * a2 + 2.0 * a3 + a4)
         if not (np.isfinite(z) and np.isfinite(v)):
@@ -144,6 +145,7 @@ def simulate(
     force: np.ndarray,
     fs: float,
     x0: Sequence[float] = (0.0, 0.0),
+    hold: str = "zoh",
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Integrate ``m z'' + R(z, z') = f`` with the force held over each sample.
 
@@ -161,6 +163,11 @@ def simulate(
         Sampling frequency in Hz (one RK4 step per sample).
     x0
         Initial displacement (m) and velocity (m/s).
+    hold
+        How the force behaves between samples: ``"zoh"`` (held constant, the
+        paper's simulation and a DAC output) or ``"linear"`` (interpolated
+        linearly between samples, for a sampled continuous force such as a
+        measured one; the last interval is held).
 
     Returns
     -------
@@ -176,10 +183,32 @@ def simulate(
         raise InputError(f"mass must be positive, got {mass}")
     theta = model.vector(coefficients)
     force = np.ascontiguousarray(force, dtype=float)
+    if hold == "zoh":
+        force_mid = force_end = force
+    elif hold == "linear":
+        force_end = np.append(force[1:], force[-1:])
+        force_mid = 0.5 * (force + force_end)
+    else:
+        raise InputError(f"hold must be 'zoh' or 'linear', got {hold!r}")
     parts, special, pxc = encode_model(model)
     n = force.size
     z, v, a = np.empty(n), np.empty(n), np.empty(n)
-    bad = _rk4(force, 1.0 / fs, float(mass), theta, parts, special, pxc, float(x0[0]), float(x0[1]), z, v, a)
+    bad = _rk4(
+        force,
+        force_mid,
+        force_end,
+        1.0 / fs,
+        float(mass),
+        theta,
+        parts,
+        special,
+        pxc,
+        float(x0[0]),
+        float(x0[1]),
+        z,
+        v,
+        a,
+    )
     if bad >= 0:
         raise SimulationError(
             f"simulation diverged at sample {bad} (t = {bad / fs:.4g} s); the model may be unstable "

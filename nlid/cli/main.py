@@ -15,13 +15,13 @@ from collections.abc import Sequence
 
 from .. import __version__
 from ..errors import IdentificationError, NlidError
-from . import cmd_identify, cmd_methods, cmd_simulate, cmd_terms
+from . import cmd_identify, cmd_methods, cmd_simulate, cmd_study, cmd_terms
 from .common import Parser
 
 __all__ = ["main", "build_parser", "COMMANDS"]
 
 #: Subcommand modules, in the order ``nlid --help`` lists them.
-COMMANDS = (cmd_identify, cmd_simulate, cmd_methods, cmd_terms)
+COMMANDS = (cmd_identify, cmd_simulate, cmd_methods, cmd_terms, cmd_study)
 
 DESCRIPTION = """\
 Identify the nonlinear stiffness and friction of a vibrating structure from
@@ -31,6 +31,7 @@ Models are lists of terms of the restoring force R(z, v) = f - m z''
 (see 'nlid terms'); identification methods are plugins (see 'nlid methods').
 
 examples:
+  nlid study run paper-numerical
   nlid simulate --preset paper-numerical --seed 0 --channels v,a --out x.csv
   nlid identify x.csv --method rfs --terms "z^3,z^2,v*|v|" --mass 0.2
   nlid identify dataset:emps --method rfs --terms "sign(v)" --without z

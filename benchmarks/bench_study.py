@@ -1,0 +1,53 @@
+"""Wall time of the built-in paper-numerical study (the README's first Quickstart command).
+
+Runs ``nlid study run paper-numerical --rerun`` into a temporary folder several
+times (every installed identifier, 5 records) and prints the median wall time
+of the whole command (start-up, simulation, identification, metrics, report)
+and the median identification time per run and method. Target: <= 5 min on
+the 2-core machine.
+
+    python benchmarks/bench_study.py [--repeat 3] [--jobs N]
+"""
+
+from __future__ import annotations
+
+import argparse
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import pandas as pd
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--repeat", type=int, default=3, help="times to run the study (default 3)")
+    parser.add_argument("--jobs", type=int, help="runs at the same time (default: every core)")
+    parser.add_argument("--study", default="paper-numerical", help="built-in study or .toml (default paper-numerical)")
+    args = parser.parse_args()
+    times = []
+    frame = None
+    with tempfile.TemporaryDirectory() as tmp:
+        out = Path(tmp) / "study"
+        cmd = [sys.executable, "-m", "nlid.cli.main", "study", "run", args.study, "--out", str(out), "--rerun"]
+        if args.jobs:
+            cmd += ["--jobs", str(args.jobs)]
+        for _ in range(args.repeat):
+            start = time.perf_counter()
+            subprocess.run(cmd, check=True, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+            times.append(time.perf_counter() - start)
+        frame = pd.read_csv(out / "results.csv")
+    print(
+        f"nlid study run {args.study}: median {statistics.median(times):.1f} s "
+        f"(min {min(times):.1f}, max {max(times):.1f}, {len(times)} runs; {len(frame)} identifications each)"
+    )
+    for method, sub in frame.groupby("method"):
+        status = {k: int(v) for k, v in sub["status"].value_counts().items()}
+        print(f"  {method:12s} identification median {sub['seconds'].median():.2f} s per run, status {status}")
+
+
+if __name__ == "__main__":
+    main()

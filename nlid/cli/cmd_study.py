@@ -1,0 +1,115 @@
+"""``nlid study``: run benchmark studies and list the built-in ones."""
+
+from __future__ import annotations
+
+import argparse
+import signal
+import sys
+from pathlib import Path
+
+from ..errors import InputError
+
+DESCRIPTION = """\
+Run a benchmark study: every identifier of the study on the same data
+(datasets x models x identifiers x repetitions), in parallel, with each
+finished run saved at once. Running the same study again skips finished runs
+(--rerun to redo them), so an interrupted study resumes where it stopped.
+Outputs in the study folder: results.csv (one row per run), summary.md
+(method x metric tables, printed at the end), figures/ (PNG and SVG) and a
+self-contained report.html.
+"""
+
+EPILOG = """\
+examples:
+  nlid study list
+  nlid study run paper-numerical
+  nlid study run my-study.toml --out results/my-study --jobs 4
+  nlid study run noise-sweep --executor dask                  # a Dask LocalCluster
+  nlid study run noise-sweep --executor dask --scheduler tcp://host:8786
+"""
+
+
+def add_parser(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser(
+        "study",
+        help="run benchmark studies that score every identifier on the same data",
+        description=DESCRIPTION,
+        epilog=EPILOG,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    actions = p.add_subparsers(dest="study_command", metavar="ACTION", parser_class=type(p))
+    run = actions.add_parser(
+        "run",
+        help="run a study (built-in name or .toml file) and print its summary",
+        description=DESCRIPTION,
+        epilog=EPILOG,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    run.add_argument("study", metavar="NAME|PATH", help="a built-in study (see 'nlid study list') or a .toml file")
+    run.add_argument("--out", metavar="DIR", help="output folder (default: nlid-studies/NAME in the current folder)")
+    run.add_argument(
+        "--executor",
+        choices=("local", "dask"),
+        default="local",
+        help="local: processes on this machine (default); dask: a Dask cluster (needs nlid[dask])",
+    )
+    run.add_argument(
+        "--scheduler", metavar="ADDR", help="Dask scheduler address; without it --executor dask starts a LocalCluster"
+    )
+    run.add_argument("--jobs", type=int, metavar="N", help="runs at the same time (default: every core)")
+    run.add_argument("--rerun", action="store_true", help="run everything again, even runs already saved")
+    run.add_argument("--no-progress", action="store_true", help="no progress line (it only shows on a terminal)")
+    run.set_defaults(func=run_command)
+    lst = actions.add_parser("list", help="list the built-in studies", description="List the built-in studies.")
+    lst.set_defaults(func=list_command)
+    p.set_defaults(func=lambda args: _usage(p))
+
+
+def _usage(parser: argparse.ArgumentParser) -> int:
+    parser.print_help()
+    return 0
+
+
+def _terminate(signum: int, frame: object) -> None:
+    raise KeyboardInterrupt
+
+
+def run_command(args: argparse.Namespace) -> int:
+    from ..study import load_study, make_executor, run_study
+
+    config = load_study(args.study)
+    executor = make_executor(args.executor, jobs=args.jobs, scheduler=args.scheduler)
+    out = Path(args.out) if args.out else Path("nlid-studies") / config.name
+    if out.exists() and not out.is_dir():
+        raise InputError(f"--out {out} exists and is not a folder")
+    previous = signal.signal(signal.SIGTERM, _terminate)  # stop children and keep what is saved
+    try:
+        outcome = run_study(
+            config, out, executor=executor, rerun=args.rerun, progress=False if args.no_progress else None
+        )
+    finally:
+        signal.signal(signal.SIGTERM, previous)
+    print(outcome.summary)
+    print(
+        f"nlid study: {outcome.executed} runs executed, {outcome.skipped} reused; report: {outcome.report}",
+        file=sys.stderr,
+    )
+    return 0
+
+
+def list_command(args: argparse.Namespace) -> int:
+    from ..study import builtin_studies
+    from ..study.config import tomllib
+
+    studies = builtin_studies()
+    if not studies:
+        print("no built-in studies found", file=sys.stderr)
+        return 0
+    width = max(len(n) for n in studies)
+    for name, path in studies.items():
+        try:
+            description = tomllib.loads(path.read_text()).get("study", {}).get("description", "")
+        except (OSError, tomllib.TOMLDecodeError):
+            description = "(unreadable)"
+        print(f"{name:<{width}}  {description}")
+    return 0

@@ -1,0 +1,196 @@
+"""The metrics of one run: one flat row of numbers, flags and notes.
+
+Column names (errors are percentages, signed unless noted):
+
+``eps_percent``
+    Eq. 26 on the estimation data, computed by the core from the data and the
+    returned coefficients (:func:`nlid.identify` never trusts the plugin's).
+``eps_holdout_percent``
+    Eq. 26 of the identified model on the held-out data
+    (:func:`nlid.physics.residual_percent`).
+``coef:<term>``, ``coef_error_pct:<term>``
+    Identified coefficient and ``100 (theta - theta_ref) / |theta_ref|`` for
+    every term with a non-zero reference.
+``mass``, ``mass_error_pct``
+    Mass used or estimated; its error when estimated and a reference exists.
+``eq_expected``, ``eq_found``, ``eq_missing``
+    Reference stable equilibria, identified ones, and reference equilibria no
+    identified one could be matched to (a method that misses a well shows it).
+``eq:sK``, ``eq_error_pct:sK``, ``eq_error_max_pct``
+    Identified equilibrium matched to the K-th reference stable equilibrium
+    (ascending), its error relative to ``|z*_ref|`` (absolute, Table 7
+    style), and the largest of them (``NaN`` if one is missing).
+``fn_hz:sK``, ``fn_error_pct:sK``, ``zeta:sK``, ``zeta_error_pct:sK``
+    Underlying-linear natural frequency and damping ratio at that
+    equilibrium (Eq. 8, 22) and their errors.
+``freerun_nrmse_pct``, ``freerun_rmse``, ``freerun_note``
+    Free-run simulation of the identified model driven by the held-out force
+    (held over each sample when the record says so, ``force_hold = "zoh"``,
+    else interpolated linearly between samples):
+    ``100 RMS(z_sim - z) / std(z)`` and the RMS error in the record's unit;
+    the note says why it was skipped. It is skipped when the identified model
+    is too sensitive to its initial state for a free run to mean anything:
+    two runs started :data:`SENSITIVITY_DELTA` ``std(z)`` apart differ by more
+    than :data:`SENSITIVITY_LIMIT` (RMS over the second half, relative to
+    ``std(z)``).
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import numpy as np
+
+from .. import derivatives, physics
+from ..errors import NlidError
+from ..interface import IdentificationResult
+from ..record import Record
+from ..simulate import simulate
+from ..terms import Model
+
+__all__ = [
+    "coefficient_metrics",
+    "equilibrium_metrics",
+    "free_run",
+    "holdout_eps",
+    "SENSITIVITY_DELTA",
+    "SENSITIVITY_LIMIT",
+]
+
+#: Initial-state offset of the sensitivity test, as a fraction of std(z).
+SENSITIVITY_DELTA = 1e-6
+#: Largest RMS difference (relative to std(z)) of the two sensitivity runs over the second half.
+SENSITIVITY_LIMIT = 1e-3
+
+NAN = float("nan")
+
+
+def _pct(value: float, ref: float) -> float:
+    return 100.0 * (value - ref) / abs(ref) if ref else NAN
+
+
+def coefficient_metrics(result: IdentificationResult, reference: dict[str, Any]) -> dict[str, float]:
+    """``coef:<term>``, ``coef_error_pct:<term>``, ``mass`` and ``mass_error_pct``."""
+    row: dict[str, float] = {}
+    ref = reference.get("coefficients") or {}
+    for name, value in result.coefficients.items():
+        row[f"coef:{name}"] = float(value)
+        if ref.get(name):
+            row[f"coef_error_pct:{name}"] = _pct(value, ref[name])
+    row["mass"] = NAN if result.mass is None else float(result.mass)
+    if result.mass_estimated and result.mass is not None and reference.get("mass"):
+        row["mass_error_pct"] = _pct(result.mass, reference["mass"])
+    return row
+
+
+def match_equilibria(expected: list[float], found: list[float]) -> dict[int, int]:
+    """Pair reference and identified equilibria, nearest first, each used once.
+
+    Returns
+    -------
+    dict
+        ``{index in expected: index in found}``; unmatched expected ones are absent.
+    """
+    pairs = sorted((abs(e - f), i, j) for i, e in enumerate(expected) for j, f in enumerate(found))
+    used_i: set[int] = set()
+    used_j: set[int] = set()
+    out = {}
+    for _, i, j in pairs:
+        if i in used_i or j in used_j:
+            continue
+        out[i] = j
+        used_i.add(i)
+        used_j.add(j)
+    return out
+
+
+def equilibrium_metrics(result: IdentificationResult, reference: dict[str, Any]) -> dict[str, float]:
+    """Equilibrium counts and errors, and the modal parameters at each matched equilibrium."""
+    found = sorted((result.equilibria or {}).get("stable", []))
+    row: dict[str, float] = {"eq_found": float(len(found))}
+    expected = reference.get("equilibria")
+    modal_by_eq = {round(m["equilibrium"], 12): m for m in (result.modal or [])}
+    if not expected:
+        for k, m in enumerate(result.modal or [], start=1):
+            row[f"fn_hz:s{k}"] = m["fn_hz"]
+            row[f"zeta:s{k}"] = m["zeta"]
+        return row
+    ref_modal = reference.get("modal") or []
+    match = match_equilibria(list(expected), found)
+    row["eq_expected"] = float(len(expected))
+    row["eq_missing"] = float(len(expected) - len(match))
+    errors = []
+    for i, z_ref in enumerate(expected):
+        label = f"s{i + 1}"
+        if i not in match:
+            row[f"eq:{label}"] = NAN
+            row[f"eq_error_pct:{label}"] = NAN
+            errors.append(NAN)
+            continue
+        z = found[match[i]]
+        err = 100.0 * abs(z - z_ref) / abs(z_ref) if z_ref else NAN
+        row[f"eq:{label}"] = z
+        row[f"eq_error_pct:{label}"] = err
+        errors.append(err)
+        m = modal_by_eq.get(round(z, 12))
+        if m is not None:
+            row[f"fn_hz:{label}"] = m["fn_hz"]
+            row[f"zeta:{label}"] = m["zeta"]
+            if i < len(ref_modal):
+                row[f"fn_error_pct:{label}"] = _pct(m["fn_hz"], ref_modal[i]["fn_hz"])
+                row[f"zeta_error_pct:{label}"] = _pct(m["zeta"], ref_modal[i]["zeta"])
+    row["eq_error_max_pct"] = max(errors) if errors and not any(math.isnan(e) for e in errors) else NAN
+    return row
+
+
+def identified_model(model: Model, result: IdentificationResult) -> Model:
+    """The model with the ``px(z)`` roots the identification settled on."""
+    return model.with_px_roots(result.px_roots) if result.px_roots else model
+
+
+def holdout_eps(heldout: Record, model: Model, result: IdentificationResult) -> float:
+    """Eq. 26 of the identified model on held-out data (``NaN`` without a mass)."""
+    if result.mass is None:
+        return NAN
+    return physics.residual_percent(heldout, identified_model(model, result), result.coefficients, result.mass)
+
+
+def free_run(heldout: Record | None, model: Model, result: IdentificationResult, enabled: bool = True) -> dict:
+    """Free-run simulation error of displacement on held-out data, or why it was skipped."""
+    row: dict[str, Any] = {"freerun_nrmse_pct": NAN, "freerun_rmse": NAN, "freerun_note": ""}
+    if not enabled:
+        row["freerun_note"] = "skipped: disabled in the study"
+        return row
+    if heldout is None:
+        row["freerun_note"] = "skipped: no held-out data"
+        return row
+    if result.mass is None:
+        row["freerun_note"] = "skipped: the mass is unknown"
+        return row
+    model = identified_model(model, result)
+    z = heldout.z
+    scale = float(np.std(z))
+    v0 = (
+        float(heldout.v[0]) if heldout.v is not None else float(derivatives.differentiate(z, heldout.fs, order=1)[0][0])
+    )
+    hold = "zoh" if heldout.force_hold == "zoh" else "linear"
+    try:
+        z1, _, _ = simulate(model, result.coefficients, result.mass, heldout.f, heldout.fs, (float(z[0]), v0), hold)
+        start = (float(z[0]) + SENSITIVITY_DELTA * scale, v0)
+        z2, _, _ = simulate(model, result.coefficients, result.mass, heldout.f, heldout.fs, start, hold)
+    except NlidError as exc:
+        row["freerun_note"] = f"free run diverged: {exc}"
+        return row
+    half = z.size // 2
+    spread = float(np.sqrt(np.mean((z1[half:] - z2[half:]) ** 2))) / scale
+    if spread > SENSITIVITY_LIMIT:
+        row["freerun_note"] = (
+            f"skipped: chaotic - two free runs started {SENSITIVITY_DELTA:g} std(z) apart differ by "
+            f"{100 * spread:.3g} % of std(z) over the second half"
+        )
+        return row
+    rmse = float(np.sqrt(np.mean((z1 - z) ** 2)))
+    row["freerun_rmse"] = rmse
+    row["freerun_nrmse_pct"] = 100.0 * rmse / scale
+    return row

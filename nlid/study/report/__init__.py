@@ -1,0 +1,118 @@
+"""A study's outputs: results.csv, summary.md / summary.csv, figures and a self-contained report.html."""
+
+from __future__ import annotations
+
+import base64
+import datetime
+import html
+from pathlib import Path
+from typing import Any
+
+from ... import __version__
+from ..store import ResultStore
+from .figures import Figure, section_figures
+from .tables import Section, build_sections, summary_long, summary_markdown
+
+__all__ = ["write_report", "report_html"]
+
+
+def write_report(config: Any, runs: list, store: ResultStore) -> tuple[str, Path]:
+    """Write every output of a study from its stored runs.
+
+    Returns
+    -------
+    summary : str
+        The Markdown summary (also in ``summary.md``).
+    report : pathlib.Path
+        ``report.html``.
+    """
+    folder = store.folder
+    store.write_results(runs)
+    records = store.records(runs)
+    frame = store.results(runs)
+    sections = build_sections(config, frame, records)
+    summary = summary_markdown(config, sections)
+    (folder / "summary.md").write_text(summary + "\n")
+    summary_long(frame).to_csv(folder / "summary.csv", index=False)
+    fig_dir = folder / "figures"
+    figures = {(s.dataset, s.model): section_figures(s, records, store, fig_dir) for s in sections}
+    path = folder / "report.html"
+    path.write_text(report_html(config, sections, figures, len(runs), len(records)))
+    return summary, path
+
+
+_CSS = """
+body { font-family: system-ui, sans-serif; margin: 2em auto; max-width: 1200px; color: #222; }
+table { border-collapse: collapse; margin: 0.5em 0 1.2em; font-size: 0.9em; }
+th, td { border: 1px solid #ccc; padding: 0.25em 0.6em; text-align: right; }
+th:first-child, td:first-child { text-align: left; }
+tr.reference td { background: #f3f3f3; font-style: italic; }
+figure { margin: 1em 0 2em; }
+figure img { max-width: 100%; border: 1px solid #eee; }
+figcaption { font-size: 0.9em; color: #555; }
+.failures { color: #a00; }
+"""
+
+# Marks the page once every embedded image has decoded (used by the headless-browser test).
+_SCRIPT = """
+window.addEventListener("load", function () {
+  var imgs = Array.prototype.slice.call(document.images);
+  var ok = imgs.filter(function (i) { return i.complete && i.naturalWidth > 0; }).length;
+  document.body.setAttribute("data-images", ok + "/" + imgs.length);
+});
+"""
+
+
+def _table_html(table: Any) -> str:
+    out = [f"<h4>{html.escape(table.title)}</h4>", "<table>", "<tr>"]
+    out += [f"<th>{html.escape(h)}</th>" for h in table.header]
+    out.append("</tr>")
+    for row in table.rows:
+        cls = ' class="reference"' if row and row[0] == "reference" else ""
+        out.append(f"<tr{cls}>" + "".join(f"<td>{html.escape(c)}</td>" for c in row) + "</tr>")
+    out.append("</table>")
+    if table.notes:
+        out.append("<ul>" + "".join(f"<li>{html.escape(n)}</li>" for n in table.notes) + "</ul>")
+    return "\n".join(out)
+
+
+def _figure_html(fig: Figure) -> str:
+    data = base64.b64encode(fig.png.read_bytes()).decode("ascii")
+    return (
+        f'<figure><img alt="{html.escape(fig.title)}" src="data:image/png;base64,{data}">'
+        f"<figcaption><b>{html.escape(fig.title)}.</b> {html.escape(fig.caption)} "
+        f"(<code>figures/{html.escape(fig.stem.name)}.svg</code>)</figcaption></figure>"
+    )
+
+
+def report_html(
+    config: Any, sections: list[Section], figures: dict[tuple[str, str], list[Figure]], planned: int, finished: int
+) -> str:
+    """The report as one HTML page with the figures embedded (opens offline)."""
+    now = datetime.datetime.now(datetime.timezone.utc).strftime("%Y-%m-%d %H:%M UTC")
+    parts = [
+        "<!DOCTYPE html>",
+        '<html lang="en"><head><meta charset="utf-8">',
+        f"<title>nlid study {html.escape(config.name)}</title>",
+        f"<style>{_CSS}</style><script>{_SCRIPT}</script></head><body>",
+        f"<h1>Study {html.escape(config.name)}</h1>",
+        f"<p>{html.escape(config.description)}</p>" if config.description else "",
+        f"<p>{finished} of {planned} runs finished; identifiers: {html.escape(', '.join(config.identifiers))}; "
+        f"study seed {config.seed}; nlid {__version__}; written {now}.</p>",
+        "<p>Cells are median [min, max] over repetitions; error columns are |relative error| in %, with the "
+        "reference value in the first row. Epsilon is Eq. 26, computed by nlid from the data.</p>",
+    ]
+    for section in sections:
+        parts.append(f"<h2>{html.escape(section.dataset)} / {html.escape(section.model)}</h2>")
+        terms = f"; terms: {', '.join(section.terms)}" if section.terms else ""
+        parts.append(f"<p>{html.escape(section.description + terms)}</p>")
+        if section.frame.empty:
+            parts.append("<p>No finished runs yet.</p>")
+            continue
+        parts += [_table_html(t) for t in section.tables]
+        if section.failures:
+            items = "".join(f"<li>{html.escape(f)}</li>" for f in section.failures)
+            parts.append(f'<div class="failures"><h4>Failed runs</h4><ul>{items}</ul></div>')
+        parts += [_figure_html(f) for f in figures.get((section.dataset, section.model), [])]
+    parts.append("</body></html>")
+    return "\n".join(p for p in parts if p)

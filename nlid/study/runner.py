@@ -1,0 +1,146 @@
+"""Running a study end to end: plan, skip what is done, execute, persist, report."""
+
+from __future__ import annotations
+
+import sys
+import time
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, TextIO
+
+from .config import StudyConfig
+from .execute import LocalExecutor
+from .plan import Run, plan_study
+from .store import ResultStore
+
+__all__ = ["Progress", "StudyOutcome", "run_study"]
+
+
+class Progress:
+    """A one-line progress display (runs done / total, elapsed, ETA) on a terminal.
+
+    Parameters
+    ----------
+    total
+        Runs to execute in this session.
+    label
+        Shown before the counts.
+    stream
+        Default ``sys.stderr``.
+    enabled
+        Default: only when ``stream`` is a terminal (quiet in CI and pipes).
+    """
+
+    def __init__(self, total: int, label: str = "", stream: TextIO | None = None, enabled: bool | None = None):
+        self.total, self.label = total, label
+        self.stream = stream if stream is not None else sys.stderr
+        self.enabled = bool(self.stream.isatty()) if enabled is None else enabled
+        self.done = 0
+        self.failed = 0
+        self.start = time.monotonic()
+
+    def line(self) -> str:
+        """The current progress text."""
+        elapsed = time.monotonic() - self.start
+        pct = 100.0 * self.done / self.total if self.total else 100.0
+        eta = elapsed / self.done * (self.total - self.done) if self.done else float("nan")
+        text = f"{self.label}{self.done}/{self.total} runs ({pct:.0f} %), {_clock(elapsed)} elapsed"
+        text += f", ETA {_clock(eta)}" if self.done < self.total else ""
+        return text + (f", {self.failed} failed" if self.failed else "")
+
+    def update(self, failed: bool = False) -> None:
+        """Count one finished run and redraw."""
+        self.done += 1
+        self.failed += int(failed)
+        if self.enabled:
+            self.stream.write("\r\x1b[2K" + self.line())
+            self.stream.flush()
+
+    def close(self) -> None:
+        """End the progress line."""
+        if self.enabled:
+            self.stream.write("\n")
+            self.stream.flush()
+
+
+def _clock(seconds: float) -> str:
+    if seconds != seconds:  # NaN
+        return "?"
+    seconds = int(round(seconds))
+    return f"{seconds // 3600}:{seconds % 3600 // 60:02d}:{seconds % 60:02d}"
+
+
+@dataclass
+class StudyOutcome:
+    """What :func:`run_study` did and where the outputs are."""
+
+    folder: Path
+    runs: list[Run]
+    executed: int
+    skipped: int
+    summary: str
+    report: Path | None
+
+
+def run_study(
+    config: StudyConfig,
+    folder: str | Path,
+    *,
+    executor: Any = None,
+    rerun: bool = False,
+    report: bool = True,
+    progress: bool | None = None,
+    log: TextIO | None = None,
+) -> StudyOutcome:
+    """Run every run of a study not yet done, persisting each as it finishes, then report.
+
+    Parameters
+    ----------
+    config
+        From :func:`nlid.study.load_study`.
+    folder
+        Output folder (created; results of earlier sessions are kept and reused).
+    executor
+        :class:`~nlid.study.execute.LocalExecutor` (default) or
+        :class:`~nlid.study.execute.DaskExecutor`.
+    rerun
+        Run everything again, even runs already stored.
+    report
+        Write ``results.csv``, ``summary.md``, figures and ``report.html``.
+    progress
+        Show the progress line (default: when stderr is a terminal).
+    log
+        Where one-line status messages go (default ``sys.stderr``; ``None`` is the default).
+    """
+    log = log if log is not None else sys.stderr
+    store = ResultStore(folder)
+    (store.folder / "study.toml").write_text(config.text)
+    runs = plan_study(config)
+    todo = runs if rerun else [r for r in runs if not store.is_done(r)]
+    skipped = len(runs) - len(todo)
+    executor = executor or LocalExecutor()
+    for name, why in config.skipped_identifiers.items():
+        log.write(f"nlid study: plugin {name!r} is not used: {why}\n")
+    log.write(
+        f"nlid study {config.name}: {len(runs)} runs ({len(config.datasets)} dataset(s), "
+        f"{sum(len(d.models) for d in config.datasets)} term set(s), {len(config.identifiers)} identifier(s): "
+        f"{', '.join(config.identifiers)}), {skipped} already done, {len(todo)} to run "
+        f"with the {executor.name} executor; results in {store.folder}\n"
+    )
+    bar = Progress(len(todo), label=f"{config.name}: ", stream=log, enabled=progress)
+
+    def on_done(run: Run, payload: dict[str, Any]) -> None:
+        store.save(run, payload)
+        bar.update(failed=payload["row"]["status"] != "ok")
+
+    try:
+        executor.run(todo, on_done)
+    finally:
+        bar.close()
+    summary_text = ""
+    report_path = None
+    if report:
+        from .report import write_report
+
+        summary_text, report_path = write_report(config, runs, store)
+    return StudyOutcome(store.folder, runs, len(todo), skipped, summary_text, report_path)

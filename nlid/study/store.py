@@ -1,0 +1,141 @@
+"""Persisted study results: one JSON file per finished run, written atomically.
+
+Layout of a study's output folder::
+
+    study.toml            the configuration as run
+    runs/<run>.json       one finished run: spec digest, row, result, reference
+    arrays/<run>.npz      the result's arrays (singular values, FRF, ...), if any
+    results.csv           every row (rebuilt from runs/ by :meth:`ResultStore.results`)
+
+A run's JSON is written to a temporary file in the same folder, flushed to
+disk and renamed over the final name (atomic on POSIX), after its arrays: a
+killed study loses at most the runs in flight, never leaves half a file, and
+a run counts as done only when its JSON exists with the digest of the current
+spec (so a changed configuration re-runs what it changed).
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+import re
+from collections.abc import Iterable
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pandas as pd
+
+from ..errors import InputError
+from ..interface import to_jsonable
+from .plan import Run
+
+__all__ = ["ResultStore", "safe_name"]
+
+_UNSAFE = re.compile(r"[^A-Za-z0-9_.+-]+")
+
+
+def safe_name(run_id: str) -> str:
+    """A file name for a run id (readable, with a short hash against collisions)."""
+    readable = _UNSAFE.sub("_", run_id.replace("/", "__"))
+    return f"{readable}-{hashlib.sha256(run_id.encode()).hexdigest()[:8]}"
+
+
+def _atomic_write(path: Path, data: bytes) -> None:
+    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
+    with open(tmp, "wb") as fh:
+        fh.write(data)
+        fh.flush()
+        os.fsync(fh.fileno())
+    os.replace(tmp, path)
+
+
+class ResultStore:
+    """The output folder of a study.
+
+    Parameters
+    ----------
+    folder
+        Created if missing.
+    """
+
+    def __init__(self, folder: str | os.PathLike[str]) -> None:
+        self.folder = Path(folder)
+        self.runs_dir = self.folder / "runs"
+        self.arrays_dir = self.folder / "arrays"
+        try:
+            self.runs_dir.mkdir(parents=True, exist_ok=True)
+            self.arrays_dir.mkdir(exist_ok=True)
+        except OSError as exc:
+            raise InputError(f"cannot create the output folder {self.folder}: {exc.strerror}") from None
+
+    def path(self, run_id: str) -> Path:
+        """The JSON file of a run."""
+        return self.runs_dir / f"{safe_name(run_id)}.json"
+
+    def load(self, run_id: str) -> dict[str, Any] | None:
+        """The stored record of a run, or ``None``."""
+        path = self.path(run_id)
+        if not path.is_file():
+            return None
+        try:
+            return json.loads(path.read_text())
+        except (OSError, ValueError):
+            return None
+
+    def is_done(self, run: Run) -> bool:
+        """True if the run is stored with the digest of its current spec."""
+        stored = self.load(run.run_id)
+        return stored is not None and stored.get("digest") == run.digest
+
+    def save(self, run: Run, payload: dict[str, Any]) -> None:
+        """Persist a finished run (arrays first, then the JSON that marks it done)."""
+        arrays = payload.get("arrays") or {}
+        name = safe_name(run.run_id)
+        if arrays:
+            npz = self.arrays_dir / f"{name}.npz"
+            tmp = npz.with_name(f".{npz.stem}.{os.getpid()}.tmp.npz")
+            np.savez(tmp, **{k: np.asarray(v) for k, v in arrays.items()})
+            os.replace(tmp, npz)
+        record = {
+            "run_id": run.run_id,
+            "digest": run.digest,
+            "row": payload["row"],
+            "result": payload.get("result"),
+            "reference": payload.get("reference"),
+            "arrays": sorted(arrays),
+            "traceback": payload.get("traceback"),
+        }
+        text = json.dumps(to_jsonable(record), allow_nan=False, indent=1)
+        _atomic_write(self.path(run.run_id), text.encode())
+
+    def records(self, runs: Iterable[Run]) -> list[dict[str, Any]]:
+        """Stored records of the given runs (in their order), skipping missing or stale ones."""
+        out = []
+        for run in runs:
+            stored = self.load(run.run_id)
+            if stored is not None and stored.get("digest") == run.digest:
+                out.append(stored)
+        return out
+
+    def arrays(self, run_id: str) -> dict[str, np.ndarray]:
+        """The stored arrays of a run (empty if none)."""
+        path = self.arrays_dir / f"{safe_name(run_id)}.npz"
+        if not path.is_file():
+            return {}
+        with np.load(path, allow_pickle=False) as npz:
+            return {k: npz[k] for k in npz.files}
+
+    def results(self, runs: Iterable[Run]) -> pd.DataFrame:
+        """Every stored row of the given runs as a table (plan order)."""
+        rows = [r["row"] for r in self.records(runs)]
+        frame = pd.DataFrame(rows)
+        return frame
+
+    def write_results(self, runs: Iterable[Run]) -> Path:
+        """Write ``results.csv`` and return its path."""
+        frame = self.results(runs)
+        path = self.folder / "results.csv"
+        _atomic_write(path, frame.to_csv(index=False).encode())
+        return path

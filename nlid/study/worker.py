@@ -1,0 +1,267 @@
+"""Executing one run: in this process (:func:`execute_run`) or isolated in a child (:func:`run_isolated`).
+
+:func:`execute_run` rebuilds the records from the run's spec, identifies
+(timing it and tracing its peak memory), computes the metrics
+(:mod:`nlid.study.metrics`) and, when the study has a ``[posterior]`` table,
+adds ``nlid.posterior.study_metrics(record, model, result, reference,
+**options)`` to the row. It never raises: a failure is a payload with
+``status = "failed"`` and the error message.
+
+:func:`run_isolated` runs :func:`execute_run` in a child process so a hung or
+crashing identifier can be stopped: the child is forked from a
+``multiprocessing`` fork server that has nlid imported (cheap to start), or,
+inside a daemonic process such as a default Dask worker (which may not have
+``multiprocessing`` children), started as ``python -m nlid.study.child``. A
+child still running at the time limit is killed and the run is recorded as
+timed out; a child that dies is recorded as failed with its exit code. The
+child gets the parent's ``sys.path`` and environment, so plugins visible to the
+parent are visible to it.
+"""
+
+from __future__ import annotations
+
+import json
+import multiprocessing
+import os
+import subprocess
+import sys
+import tempfile
+import threading
+import time
+import traceback
+import tracemalloc
+from multiprocessing.connection import wait
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from ..errors import NlidError
+from ..interface import to_jsonable
+from ..pipeline import as_model, identify
+from ..registry import load_registry
+from . import metrics
+from .data import build_data
+
+__all__ = ["execute_run", "run_isolated", "kill_children", "failure_payload", "subprocess_main"]
+
+_LIVE: set[Any] = set()
+_LIVE_LOCK = threading.Lock()
+
+
+def _base_row(spec: dict[str, Any]) -> dict[str, Any]:
+    return {
+        "run_id": spec["run_id"],
+        "dataset": spec["dataset"]["name"],
+        "model": spec["model"],
+        "method": spec["method"],
+        "repetition": spec["repetition"],
+        "seed": spec["seed"],
+        "status": "ok",
+        "error": "",
+    }
+
+
+def failure_payload(spec: dict[str, Any], status: str, error: str) -> dict[str, Any]:
+    """The payload of a run that produced no result."""
+    row = _base_row(spec)
+    row.update(status=status, error=error)
+    return {"run_id": spec["run_id"], "row": row, "result": None, "reference": None, "arrays": {}}
+
+
+def execute_run(spec: dict[str, Any]) -> dict[str, Any]:
+    """Run one identification and its metrics in this process (never raises).
+
+    Returns
+    -------
+    dict
+        ``{"run_id", "row", "result", "reference", "arrays"}``: the flat
+        metrics row, the :class:`~nlid.interface.IdentificationResult` as a
+        dictionary, the reference values and the result's arrays.
+    """
+    try:
+        return _execute(spec)
+    except NlidError as exc:
+        return failure_payload(spec, "failed", str(exc))
+    except Exception as exc:  # noqa: BLE001 - a run's failure is recorded, the study goes on
+        payload = failure_payload(spec, "failed", f"{type(exc).__name__}: {exc}")
+        payload["traceback"] = traceback.format_exc()
+        return payload
+
+
+def _execute(spec: dict[str, Any]) -> dict[str, Any]:
+    data = build_data(spec)
+    model = as_model(spec["terms"], without=spec["without"], px_roots=spec["px_roots"])
+    registry = load_registry()
+    tracemalloc.start()
+    start = time.perf_counter()
+    try:
+        result = identify(
+            data.record, model, spec["method"], mass=data.mass, options=spec["options"], registry=registry
+        )
+        seconds = time.perf_counter() - start
+        _, peak = tracemalloc.get_traced_memory()
+    finally:
+        tracemalloc.stop()
+    row = _base_row(spec)
+    row.update(
+        seconds=seconds,
+        peak_memory_mb=peak / 1e6,
+        method_seconds=result.seconds,
+        samples=data.record.n,
+        z_min=float(data.record.z.min()),
+        z_max=float(data.record.z.max()),
+        eps_percent=result.eps_percent,
+        force_residual_percent=result.force_residual_percent,
+        eps_holdout_percent=float("nan"),
+        warnings=" | ".join(result.warnings),
+    )
+    if data.heldout is not None:
+        try:
+            row["eps_holdout_percent"] = metrics.holdout_eps(data.heldout, model, result)
+        except NlidError as exc:
+            row["warnings"] = (row["warnings"] + " | " if row["warnings"] else "") + f"held-out epsilon: {exc}"
+    row.update(metrics.coefficient_metrics(result, data.reference))
+    row.update(metrics.equilibrium_metrics(result, data.reference))
+    row.update(metrics.free_run(data.heldout, model, result, spec["dataset"]["freerun"]))
+    if spec.get("posterior") is not None:
+        from .. import posterior  # type: ignore[attr-defined]  # issue 6; checked when the config is loaded
+
+        extra = posterior.study_metrics(
+            data.record, metrics.identified_model(model, result), result, data.reference, **spec["posterior"]
+        )
+        for key, value in dict(extra).items():
+            row[key if key not in row else f"posterior:{key}"] = value
+    return {
+        "run_id": spec["run_id"],
+        "row": to_jsonable(row),
+        "result": result.to_dict(),
+        "reference": to_jsonable(data.reference),
+        "arrays": {k: np.asarray(v) for k, v in result.arrays.items()},
+    }
+
+
+# --------------------------------------------------------------------------- isolation
+def _child_main(spec: dict[str, Any], conn: Any, path: list[str], env: dict[str, str]) -> None:
+    sys.path[:] = path
+    os.environ.clear()
+    os.environ.update(env)
+    payload = execute_run(spec)
+    try:
+        conn.send(payload)
+    except OSError:  # the parent is gone: nothing to report to
+        pass
+    finally:
+        conn.close()
+
+
+def _context() -> Any:
+    ctx = multiprocessing.get_context("forkserver")
+    ctx.set_forkserver_preload(["nlid.study.worker"])
+    return ctx
+
+
+def kill_children() -> None:
+    """Kill every run child process this process started (on interrupt)."""
+    with _LIVE_LOCK:
+        live = list(_LIVE)
+    for proc in live:
+        try:
+            proc.kill()
+        except (OSError, ValueError):
+            pass
+
+
+def run_isolated(spec: dict[str, Any], timeout: float | None = None, *, use_subprocess: bool | None = None) -> dict:
+    """Run :func:`execute_run` in a child process, killed at the time limit.
+
+    Parameters
+    ----------
+    spec
+        The run's spec (:class:`nlid.study.plan.Run`).
+    timeout
+        Seconds; default ``spec["timeout"]``.
+    use_subprocess
+        Force (``True``) or forbid (``False``) the ``python -m`` child; default:
+        only inside a daemonic process.
+    """
+    timeout = float(spec["timeout"] if timeout is None else timeout)
+    if use_subprocess is None:
+        use_subprocess = bool(multiprocessing.current_process().daemon)
+    if use_subprocess:
+        return _run_subprocess(spec, timeout)
+    ctx = _context()
+    receiver, sender = ctx.Pipe(duplex=False)
+    proc = ctx.Process(target=_child_main, args=(spec, sender, list(sys.path), dict(os.environ)), daemon=False)
+    with _LIVE_LOCK:
+        proc.start()
+        _LIVE.add(proc)
+    sender.close()
+    try:
+        ready = wait([receiver, proc.sentinel], timeout)
+        if receiver in ready:
+            try:
+                payload = receiver.recv()
+            except EOFError:
+                proc.join(5)
+                payload = failure_payload(spec, "failed", f"worker process died (exit code {proc.exitcode})")
+        elif ready:
+            proc.join(5)
+            payload = failure_payload(spec, "failed", f"worker process died (exit code {proc.exitcode})")
+        else:
+            proc.kill()
+            payload = failure_payload(spec, "timeout", f"stopped after the time limit of {timeout:g} s")
+        proc.join(5)
+        if proc.is_alive():
+            proc.kill()
+            proc.join()
+    finally:
+        receiver.close()
+        with _LIVE_LOCK:
+            _LIVE.discard(proc)
+    return payload
+
+
+def _run_subprocess(spec: dict[str, Any], timeout: float) -> dict[str, Any]:
+    with tempfile.TemporaryDirectory(prefix="nlid-run-") as tmp:
+        folder = Path(tmp)
+        (folder / "spec.json").write_text(json.dumps(spec))
+        env = dict(os.environ)
+        env["PYTHONPATH"] = os.pathsep.join(p for p in sys.path if p)
+        proc = subprocess.Popen(
+            [sys.executable, "-m", "nlid.study.child", str(folder)], env=env, stdout=subprocess.DEVNULL
+        )
+        with _LIVE_LOCK:
+            _LIVE.add(proc)
+        try:
+            proc.wait(timeout)
+        except subprocess.TimeoutExpired:
+            proc.kill()
+            proc.wait()
+            return failure_payload(spec, "timeout", f"stopped after the time limit of {timeout:g} s")
+        finally:
+            with _LIVE_LOCK:
+                _LIVE.discard(proc)
+        out = folder / "payload.json"
+        if proc.returncode != 0 or not out.is_file():
+            return failure_payload(spec, "failed", f"worker process died (exit code {proc.returncode})")
+        payload = json.loads(out.read_text())
+        arrays = folder / "arrays.npz"
+        if arrays.is_file():
+            with np.load(arrays, allow_pickle=False) as npz:
+                payload["arrays"] = {k: npz[k] for k in npz.files}
+        return payload
+
+
+def subprocess_main(folder: str) -> int:
+    """Run the spec in ``folder/spec.json``; write ``payload.json`` and ``arrays.npz`` there."""
+    path = Path(folder)
+    spec = json.loads((path / "spec.json").read_text())
+    payload = execute_run(spec)
+    arrays = payload.pop("arrays", {})
+    if arrays:
+        np.savez(path / "arrays.npz", **arrays)
+    tmp = path / "payload.json.tmp"
+    tmp.write_text(json.dumps(to_jsonable(payload)))
+    os.replace(tmp, path / "payload.json")
+    return 0
