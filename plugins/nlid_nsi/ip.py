@@ -69,6 +69,7 @@ from .common import (
     blas_threads,
     check_length,
     denoise_operator,
+    force_hold,
     eigen_list,
     fit_arrays,
     fit_summary,
@@ -83,6 +84,10 @@ from .reconstruction import reconstruct_motion
 from .subspace import po_moesp
 
 __all__ = ["NSIInputPerturbation", "search_k_tilde"]
+
+#: Values of k~1 accepted by the cheap search but rejected by the full model
+#: before the search gives up (on paper-numerical one such value, 500 N/m, is seen).
+MAX_RECHECKS = 10
 
 
 def search_k_tilde(
@@ -167,7 +172,8 @@ class NSIInputPerturbation(Identifier):
         check_length(record.n, block_rows, len(basis) + 3)
         vel = velocity_estimate(record, opt["velocity"], opt["velocity_cutoff"])
         z, v = np.asarray(record.z), vel.v
-        f_held = force_interval_mean(record.f, record.force_hold)
+        hold = force_hold(record, opt["force_hold"])
+        f_held = force_interval_mean(record.f, hold)
         band = tuple(opt["band_hz"]) if opt["band_hz"] else opt["band"]
         order, max_order, zeta_max = opt["order"], opt["max_order"], opt["zeta_max"]
         s = 2 * block_rows
@@ -184,6 +190,7 @@ class NSIInputPerturbation(Identifier):
         k_use = float(opt["k_tilde"] if explicit else opt["k_start"])
         ch2 = g2 = None
         denoise_fc = noise_std = None
+        rechecks = 0
         while True:
             if not explicit:
                 k_use = search_k_tilde(
@@ -203,7 +210,7 @@ class NSIInputPerturbation(Identifier):
                 ch, gram = ch1, g1
                 if opt["reconstruct"]:
                     if ch2 is None:
-                        lowpass, denoise_fc = denoise_operator(record.fs, opt["denoise_cutoff"])
+                        lowpass, denoise_fc = denoise_operator(z, record.fs, opt["denoise_cutoff"])
                         rec = reconstruct_motion(
                             z, v, f_held, dt, (result.uls.m, result.uls.c, result.uls.k), lowpass, vel.differentiate
                         )
@@ -230,11 +237,18 @@ class NSIInputPerturbation(Identifier):
                 break
             except UnstableULSError as exc:
                 lc = exc.eigenvalues
+                rechecks += 1
                 trials.append(
                     {"k_tilde": k_use, "block_rows": block_rows, "accepted": False, "eigenvalues": eigen_list(lc)}
                 )
                 if explicit:
                     raise UnstableULSError(self._explicit_failure(k_use, lc, g1, ch1, dt), lc) from None
+                if rechecks >= MAX_RECHECKS:
+                    raise UnstableULSError(
+                        f"nsi-ip: {rechecks} values of k~1 accepted by the search failed with the full model "
+                        f"(last: k~1 = {k_use:g} N/m, {exc}); check the model order and the data",
+                        lc,
+                    ) from None
                 k_use += opt["k_step"]
 
         uls = result.uls
@@ -288,9 +302,9 @@ class NSIInputPerturbation(Identifier):
             "velocity_cutoff_hz": vel.cutoff,
             "denoise_cutoff_hz": denoise_fc,
             "noise_std_estimate_m": noise_std,
-            "force_hold": record.force_hold,
+            "force_hold": hold,
             "force_model": "held over each sample (exact ZOH)"
-            if record.force_hold == "zoh"
+            if hold == "zoh"
             else "interval mean of the cubic through 4 samples",
             "errors_in_variables_correction": bool(
                 opt["reconstruct"] and opt["noise_correction"] and ch.noise is not None

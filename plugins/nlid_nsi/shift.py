@@ -58,6 +58,7 @@ from .common import (
     blas_threads,
     check_length,
     denoise_operator,
+    force_hold,
     fit_arrays,
     fit_summary,
     velocity_estimate,
@@ -143,7 +144,8 @@ class NSIZeroShift(Identifier):
         block_rows = opt["block_rows"]
         vel = velocity_estimate(record, opt["velocity"], opt["velocity_cutoff"])
         z, v = np.asarray(record.z), vel.v
-        f_held = force_interval_mean(record.f, record.force_hold)
+        hold = force_hold(record, opt["force_hold"])
+        f_held = force_interval_mean(record.f, hold)
         band = tuple(opt["band_hz"]) if opt["band_hz"] else opt["band"]
         order, max_order, zeta_max = opt["order"], opt["max_order"], opt["zeta_max"]
         s = 2 * block_rows
@@ -172,7 +174,7 @@ class NSIZeroShift(Identifier):
                 fit1 = fit_extended(ch1, eye, block_hankel_gram(ch1.base, s), dt, band, order, max_order, zeta_max)
             except UnstableULSError as exc:
                 raise UnstableULSError(f"nsi-shift, zero reference {refs[0]:.6g} m: {exc}", exc.eigenvalues) from None
-            lowpass, denoise_fc = denoise_operator(record.fs, opt["denoise_cutoff"])
+            lowpass, denoise_fc = denoise_operator(z, record.fs, opt["denoise_cutoff"])
             rec = reconstruct_motion(z, v, f_held, dt, (fit1.uls.m, fit1.uls.c, fit1.uls.k), lowpass, vel.differentiate)
 
         wells: list[dict[str, Any]] = []
@@ -267,7 +269,7 @@ class NSIZeroShift(Identifier):
             "velocity_cutoff_hz": vel.cutoff,
             "denoise_cutoff_hz": denoise_fc,
             "noise_std_estimate_m": None if rec is None else float(np.sqrt(rec.noise_var)),
-            "force_hold": record.force_hold,
+            "force_hold": hold,
             "mass_source": "given" if mass is not None else f"estimated ({opt['combine']} of the wells' ULS fits)",
             "arrays_note": "no suffix: first well; '@wellN': well N (spectra of the shifted basis x = z - z*)",
             "seconds": time.perf_counter() - t0,
