@@ -69,10 +69,10 @@ from .common import (
     blas_threads,
     check_length,
     denoise_operator,
-    force_hold,
     eigen_list,
     fit_arrays,
     fit_summary,
+    force_hold,
     velocity_estimate,
 )
 from .continuous import continuous_eigenvalues, uls_ok

@@ -58,9 +58,9 @@ from .common import (
     blas_threads,
     check_length,
     denoise_operator,
-    force_hold,
     fit_arrays,
     fit_summary,
+    force_hold,
     velocity_estimate,
 )
 from .fit import NSIFit, UnstableULSError, fit_extended
