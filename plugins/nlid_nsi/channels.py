@@ -16,6 +16,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+from scipy import special
 
 from .basis import Basis
 from .intersample import interval_mean, trapezoid_mean
@@ -68,6 +69,7 @@ def prepare_channels(
     noise_model: bool = True,
     max_lag: int = 128,
     intersample: str = "gauss",
+    sign_calibration: bool = True,
 ) -> Channels:
     """Build the base channels (see the module docstring).
 
@@ -95,6 +97,10 @@ def prepare_channels(
         Largest lag of the noise correction.
     intersample
         ``"gauss"`` (the method), ``"trapezoid"`` or ``"zoh"`` (for studies).
+    sign_calibration
+        Replace ``sign(v)`` by its expectation given the noisy velocity,
+        ``erf(v / (sqrt(2) sigma_v))``, in terms that jump in v (regression
+        calibration; needs ``rec`` with a velocity derived from z).
     """
     zz = (rec.z if rec is not None else z) - shift
     vv = rec.v if rec is not None else v
@@ -122,8 +128,14 @@ def prepare_channels(
         col += 1
         if build_noise:
             jacobians.append((np.ones(n), np.zeros(n)))
+    sigma_v = 0.0
+    if sign_calibration and rec is not None and rec.kernel_v is not None and rec.noise_var > 0:
+        sigma_v = float(np.sqrt(rec.noise_var * (rec.kernel_v @ rec.kernel_v)))
     for b in basis:
-        base[:, col] = -mean(b.func)
+        func = b.func
+        if b.jumps_in_v and sigma_v > 0:
+            func = _calibrated(b.func, sigma_v)
+        base[:, col] = -mean(func)
         col += 1
         if build_noise:
             dz, dv = b.jacobian(zz, vv)
@@ -142,6 +154,21 @@ def prepare_channels(
         noise = build_noise_model(rec.noise_var, rec.kernel_z, rec.kernel_v, jacobians, scales, max_lag)
     names = ["f"] + (["z"] if with_z else []) + [b.name for b in basis] + ["y"]
     return Channels(base, means, scales, names, with_z, noise)
+
+
+def _calibrated(func, sigma_v: float):
+    """``g(z, v) sign(v) erf(v / (sqrt 2 sigma_v))``: ``E[g(z, v_true) | v]`` for a sign factor in v.
+
+    With ``v = v_true + n``, ``n ~ N(0, sigma_v^2)`` and ``sigma_v`` small
+    against the spread of ``v``, ``E[sign(v_true) | v] = erf(v / (sqrt 2 sigma_v))``:
+    the input error is then uncorrelated with the input (regression calibration).
+    """
+    scale = 1.0 / (np.sqrt(2.0) * sigma_v)
+
+    def calibrated(z: np.ndarray, v: np.ndarray) -> np.ndarray:
+        return func(z, v) * np.sign(v) * special.erf(v * scale)
+
+    return calibrated
 
 
 def perturbation_map(ch: Channels, k_tilde: float) -> np.ndarray:

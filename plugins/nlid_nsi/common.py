@@ -92,6 +92,12 @@ COMMON_OPTIONS: tuple[Option, ...] = (
         "interval mean of the basis functions: gauss (Hermite interpolant), trapezoid, zoh (sample values)",
         choices=("gauss", "trapezoid", "zoh"),
     ),
+    Option(
+        "sign_calibration",
+        "bool",
+        True,
+        "use E[sign(v_true) | v] = erf(v / sqrt(2) sigma_v) for sign(v) factors when v comes from noisy z",
+    ),
     Option("noise_max_lag", "int", 128, "largest lag (samples) of the noise correction", minimum=0),
     Option(
         "zeta_max",

@@ -226,6 +226,7 @@ class NSIInputPerturbation(Identifier):
                             opt["noise_correction"],
                             opt["noise_max_lag"],
                             opt["intersample"],
+                            opt["sign_calibration"],
                         )
                         g2 = block_hankel_gram(ch2.base, s)
                         if ch2.noise is not None:

@@ -199,6 +199,7 @@ class NSIZeroShift(Identifier):
                         opt["noise_correction"],
                         opt["noise_max_lag"],
                         opt["intersample"],
+                        opt["sign_calibration"],
                     )
                     gram = block_hankel_gram(ch.base, s)
                     if ch.noise is not None:
