@@ -141,12 +141,8 @@ def nfoursid_side_by_side(n: int = 16_384, block_rows: int = 100, k_tilde: float
     c_theirs = {s.name: s.estimate for s in spectra}
     c_theirs.update(z=uls.k - k_tilde, v=uls.c)
     print(f"  {n} samples, {block_rows} block rows, k~1 = {k_tilde:g} N/m, order 2, raw extended inputs:")
-    print(
-        f"    nlid_nsi subspace step (Gram + PO-MOESP + output-error B): {t_ours:.3f} s; errors {fmt(errors(c_ours))}"
-    )
-    print(
-        f"    nfoursid (N4SID, Hankel matrices):                         {t_theirs:.3f} s; errors {fmt(errors(c_theirs))}"
-    )
+    print(f"    nlid_nsi subspace step (Gram, PO-MOESP, output-error B): {t_ours:.3f} s; errors {fmt(errors(c_ours))}")
+    print(f"    nfoursid (N4SID, Hankel matrices): {t_theirs:.3f} s; errors {fmt(errors(c_theirs))}")
     print(f"    time ratio nfoursid / nlid_nsi: {t_theirs / t_ours:.0f}")
     full = NSIInputPerturbation().identify(rec, model)
     print(f"    nsi-ip, full method, same record: errors {fmt(errors(full.coefficients))}")
