@@ -16,10 +16,12 @@ from .fit import NSIFit, format_eigenvalues
 
 __all__ = ["COMMON_OPTIONS", "Velocity", "velocity_estimate", "denoise_operator", "blas_threads", "fit_arrays"]
 
-#: Default number of block rows (past and future horizons each). Measured on
-#: paper-numerical at 2 % noise (prototype, median of seeds 0-4): 75-150 rows
-#: give c_v within 0.8-1.2 %, 20-50 rows 3-5 % (damping needs >= 75); 100 is
-#: the margin over 75 at about 0.6 s per nsi-ip call; the cost grows as (2 i c)^3.
+#: Default number of block rows (past and future horizons each). Measured with
+#: nsi-ip on paper-numerical at 2 % noise (median of seeds 0-4, c_v / zeta- /
+#: zeta+ errors): 50 rows 10.6 / 10.5 / 10.5 %, 75 rows 1.0 / 1.2 / 1.2 %, 100
+#: rows 0.80 / 0.65 / 0.72 %, 150 rows 0.71 / 0.78 / 0.79 % (the stiffness
+#: coefficients are within 0.2 % from 50 rows on). 100 is the margin over 75;
+#: the cost grows as (2 i c)^3.
 DEFAULT_BLOCK_ROWS = 100
 #: Default cut-off of the velocity differentiator and of the de-noising
 #: low-pass: this multiple of :func:`nlid.derivatives.suggest_cutoff` of z (the

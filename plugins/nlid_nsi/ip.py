@@ -130,7 +130,15 @@ def search_k_tilde(
 
 
 class NSIInputPerturbation(Identifier):
-    """NSI with the virtual input perturbation ``fbar = f + k~1 z`` (Sec. 2.2, 3.2)."""
+    """NSI with the virtual input perturbation ``fbar = f + k~1 z`` (Sec. 2.2, 3.2).
+
+    Implements Eq. 12-13 (perturbed input), 14-17 (underlying-linear system
+    plus extended inputs, state-space form), 18 (eigenvalue test of each k~1),
+    19-20 (extended FRF, coefficients as band-averaged ``Re(H_E,j / Hbar)``),
+    8 and 22 (natural frequency and damping ratio per stable equilibrium);
+    details and measured design decisions in the module docstring and
+    ``docs/nsi.md``. The mass is estimated unless given.
+    """
 
     name = "nsi-ip"
     summary = "nonlinear subspace identification with a virtual input perturbation f + k~1 z (Sec. 2.2)"

@@ -107,7 +107,16 @@ def taylor_shift(c_asc: np.ndarray, shift: float) -> np.ndarray:
 
 
 class NSIZeroShift(Identifier):
-    """NSI around each stable equilibrium with a shifted zero reference (Sec. 3.1)."""
+    """NSI around each stable equilibrium with a shifted zero reference (Sec. 3.1).
+
+    Implements the zero-reference shift ``x = z - z*`` of Sec. 3.1 with
+    Eq. 15-17 (underlying-linear system plus extended inputs in x), 18 (the
+    ULS of each well must be a stable pair; its eigenvalues give f_n and zeta
+    per well) and 19-20 (coefficients as band-averaged ``Re(H_E,j / Hbar)``),
+    then the Taylor shift back to z and the combination of the wells; details
+    in the module docstring and ``docs/nsi.md``. The mass is estimated unless
+    given.
+    """
 
     name = "nsi-shift"
     summary = "nonlinear subspace identification with the zero reference shifted to each stable well (Sec. 3.1)"

@@ -154,6 +154,8 @@ def test_models_without_defaults_and_known_mass(noisy_records):
     assert "1" not in res.coefficients and "1" in res.diagnostics["unmodelled"]
     res = identify(rec, TERMS, "nsi-ip", without="v")
     assert "v" not in res.coefficients and any("'v'" in w for w in res.warnings)
+    res = identify(rec, TERMS, "nsi-ip", without="z")
+    assert res.diagnostics["unmodelled"]["z"] == pytest.approx(-500, rel=0.01) and any("'z'" in w for w in res.warnings)
     res = identify(rec, TERMS, "nsi-ip", mass=0.2)
     assert res.mass == 0.2 and not res.mass_estimated and res.diagnostics["mass_source"] == "given"
     assert res.coefficients["z^3"] == pytest.approx(1e6, rel=5e-3)
@@ -166,6 +168,16 @@ def test_non_polynomial_term_is_an_extended_input(noisy_records, numerical):
     assert res.coefficients["z^3"] == pytest.approx(1e6, rel=0.05)
     res = identify(noisy_records[2], "z^3, z^2, z*|z|, v*|v|", "nsi-shift")
     assert np.isfinite(res.coefficients["z*|z|"])
+
+
+def test_shift_with_given_references_and_missing_velocity_channel(noisy_records):
+    from nlid.errors import DataError
+
+    res = identify(noisy_records[3], TERMS, "nsi-shift", options={"equilibria": "-0.027,0.017", "iterate": 1})
+    refs = [w["reference"] for w in res.diagnostics["wells"]]
+    assert refs == [-0.027, 0.017] and res.diagnostics["references_source"] == "given"
+    with pytest.raises(DataError, match="velocity=measured"):
+        identify(noisy_records[3], TERMS, "nsi-ip", options={"velocity": "measured"})
 
 
 def test_too_short_record_is_refused(noisy_records):
