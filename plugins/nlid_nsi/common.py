@@ -152,9 +152,19 @@ def default_cutoff(z: np.ndarray, fs: float) -> float:
     return min(CUTOFF_FACTOR * derivatives.suggest_cutoff(z, fs), derivatives.CUTOFF_MAX_FRACTION * fs)
 
 
-def force_hold(record: Record, how: str | None) -> str:
-    """The force's intersample behaviour: the option, or the record's ``force_hold``."""
-    return record.force_hold if how is None else how
+#: Warning when the force's intersample behaviour is assumed, not known.
+HOLD_ASSUMED = (
+    "the record does not say how the force acted between samples: assumed a sampled continuous signal; "
+    "if it was held over each sample (DAC output, simulation), pass --set force_hold=zoh (on paper-numerical "
+    "the wrong assumption changes c_v and the damping ratios by 13 %)"
+)
+
+
+def force_hold(record: Record, how: str | None) -> tuple[str, bool]:
+    """The force's intersample behaviour (the option, or the record's ``force_hold``) and whether it was assumed."""
+    if how is not None:
+        return how, False
+    return record.force_hold, "force_hold" not in record.meta
 
 
 def velocity_estimate(record: Record, how: str | None, cutoff: float | None) -> Velocity:

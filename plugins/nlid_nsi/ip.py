@@ -66,6 +66,7 @@ from .basis import split_model
 from .channels import Channels, perturbation_map, prepare_channels, static_constant
 from .common import (
     COMMON_OPTIONS,
+    HOLD_ASSUMED,
     blas_threads,
     check_length,
     denoise_operator,
@@ -180,7 +181,7 @@ class NSIInputPerturbation(Identifier):
         check_length(record.n, block_rows, len(basis) + 3)
         vel = velocity_estimate(record, opt["velocity"], opt["velocity_cutoff"])
         z, v = np.asarray(record.z), vel.v
-        hold = force_hold(record, opt["force_hold"])
+        hold, hold_assumed = force_hold(record, opt["force_hold"])
         f_held = force_interval_mean(record.f, hold)
         band = tuple(opt["band_hz"]) if opt["band_hz"] else opt["band"]
         order, max_order, zeta_max = opt["order"], opt["max_order"], opt["zeta_max"]
@@ -267,7 +268,7 @@ class NSIInputPerturbation(Identifier):
         coefs["v"] = uls.c
         theta_1 = static_constant(ch, uls.m, theta_z, uls.c, coefs, basis, v, dt)
         coefs["1"] = theta_1
-        warnings = []
+        warnings = [HOLD_ASSUMED] if hold_assumed else []
         unmodelled = {}
         for name, present, value in (
             ("1", split.constant, theta_1),

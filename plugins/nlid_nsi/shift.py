@@ -55,6 +55,7 @@ from .basis import Basis, shifted_basis, split_model
 from .channels import prepare_channels, static_constant
 from .common import (
     COMMON_OPTIONS,
+    HOLD_ASSUMED,
     blas_threads,
     check_length,
     denoise_operator,
@@ -153,7 +154,7 @@ class NSIZeroShift(Identifier):
         block_rows = opt["block_rows"]
         vel = velocity_estimate(record, opt["velocity"], opt["velocity_cutoff"])
         z, v = np.asarray(record.z), vel.v
-        hold = force_hold(record, opt["force_hold"])
+        hold, hold_assumed = force_hold(record, opt["force_hold"])
         f_held = force_interval_mean(record.f, hold)
         band = tuple(opt["band_hz"]) if opt["band_hz"] else opt["band"]
         order, max_order, zeta_max = opt["order"], opt["max_order"], opt["zeta_max"]
@@ -188,7 +189,7 @@ class NSIZeroShift(Identifier):
 
         wells: list[dict[str, Any]] = []
         fits: list[NSIFit] = []
-        warnings: list[str] = []
+        warnings: list[str] = [HOLD_ASSUMED] if hold_assumed else []
         identifications = 0
         for ref in refs:
             zstar = ref

@@ -138,7 +138,7 @@ def test_cli_k_tilde_400_exits_non_zero_with_one_line(tmp_path, capsys):
     capsys.readouterr()
     status = main(["identify", str(path), "--method", "nsi-ip", "--terms", TERMS, "--set", "k_tilde=400"])
     err = capsys.readouterr().err
-    assert status == 1
+    assert status == 1, err
     assert len(err.strip().splitlines()) == 1 and "k~1 = 400 N/m" in err and "larger k~1" in err
 
 
