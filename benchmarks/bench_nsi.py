@@ -1,0 +1,181 @@
+"""nsi-ip speed and memory, and a side-by-side with the N4SID package ``nfoursid``.
+
+Targets (issue 3), on the 2-core machine:
+
+* nsi-ip on one paper-numerical record (122 880 samples, 2 % noise on z, 4
+  extended inputs f + k~1 z, z^3, z^2, v*|v|, default block rows, including
+  the k~1 search): <= 2 s wall, peak memory <= 1 GB;
+* memory linear in the record length: a 10^6-sample record runs;
+* nfoursid (optional: ``pip install ".[bench]"``) on the same extended-input
+  problem at 16 384 samples: time ratio and the coefficient errors of both.
+
+Each memory figure is measured in a fresh subprocess with tracemalloc (every
+NumPy allocation of the call) and the process's peak RSS.
+
+    python benchmarks/bench_nsi.py               # everything
+    python benchmarks/bench_nsi.py --quick       # skip the 10^6-sample run and nfoursid
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).parent))
+
+from _common import median_time  # noqa: E402
+
+from nlid.presets import get_preset  # noqa: E402
+from nlid.terms import Model  # noqa: E402
+from nlid_nsi import NSIInputPerturbation  # noqa: E402
+
+TERMS = "z^3, z^2, v*|v|"
+TRUTH = {"z^3": 1e6, "z^2": 5e3, "z": -500.0, "v*|v|": 5.0, "v": 1.0}
+
+
+def record(n: int, seed: int = 0):
+    preset = get_preset("paper-numerical")
+    return preset.with_overrides(duration=n / preset.fs).simulate(seed, noise={"z": 0.02}, channels=("z",))
+
+
+def errors(coefs: dict[str, float]) -> dict[str, float]:
+    return {k: 100 * (coefs[k] / TRUTH[k] - 1) for k in TRUTH}
+
+
+def fmt(err: dict[str, float]) -> str:
+    return ", ".join(f"{k} {x:+.3f} %" for k, x in err.items())
+
+
+_MEMORY = r"""
+import json, resource, sys, time, tracemalloc
+sys.path.insert(0, {bench!r})
+from bench_nsi import record, errors, TERMS
+from nlid.terms import Model
+from nlid_nsi import NSIInputPerturbation
+rec = record({n})
+model = Model.from_spec(TERMS)
+ident = NSIInputPerturbation()
+before = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
+tracemalloc.start()
+t0 = time.perf_counter()
+res = ident.identify(rec, model)
+wall = time.perf_counter() - t0
+peak = tracemalloc.get_traced_memory()[1] / 1e6
+tracemalloc.stop()
+rss = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
+print(json.dumps(dict(wall=wall, peak=peak, rss=rss, before=before, k=res.diagnostics["k_tilde"],
+                      err=errors(res.coefficients))))
+"""
+
+
+def memory(n: int) -> None:
+    code = _MEMORY.format(bench=str(Path(__file__).parent), n=n)
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
+    d = json.loads(out.strip().splitlines()[-1])
+    print(
+        f"  N = {n:>9,}: wall {d['wall']:.2f} s (tracemalloc on), tracemalloc peak {d['peak']:.0f} MB, "
+        f"process peak RSS {d['rss']:.0f} MB (before the call {d['before']:.0f} MB); k~1 = {d['k']:g}; "
+        f"errors {fmt(d['err'])}"
+    )
+
+
+def nfoursid_side_by_side(n: int = 16_384, block_rows: int = 100, k_tilde: float = 600.0) -> None:
+    """The same extended-input problem solved by nfoursid and by nlid_nsi's subspace step."""
+    try:
+        import pandas as pd
+        from nfoursid.nfoursid import NFourSID
+    except ImportError:
+        print("  nfoursid is not installed (pip install '.[bench]'): side-by-side skipped")
+        return
+    from nlid_nsi.basis import split_model
+    from nlid_nsi.channels import perturbation_map, prepare_channels
+    from nlid_nsi.common import velocity_estimate
+    from nlid_nsi.continuous import coefficient_spectra, d2c_zoh, extended_frf, fit_uls
+    from nlid_nsi.fit import fit_extended
+    from nlid_nsi.gram import block_hankel_gram
+
+    rec = record(n)
+    model = Model.from_spec(TERMS)
+    basis = split_model(model).basis
+    vel = velocity_estimate(rec, None, None)
+    # the raw extended-input problem (pass 1 of nsi-ip: trapezoid interval means, no reconstruction)
+    ch = prepare_channels(rec.z, vel.v, rec.f, rec.dt, basis, 0.0, None, True, False)
+    t = perturbation_map(ch, k_tilde)
+    w = ch.base @ t.T
+    names = [b.name for b in basis]
+
+    def ours():
+        return fit_extended(ch, t, block_hankel_gram(ch.base, 2 * block_rows), rec.dt, "halfpower", 2, 10, 0.5)
+
+    t_ours, _ = median_time(ours, repeat=3, warmup=1)
+    fit = ours()
+    c_ours = dict(fit.coefficients, z=fit.uls.k - k_tilde, v=fit.uls.c)
+
+    frame = pd.DataFrame(w, columns=["u0", *names, "y"])
+
+    def theirs():
+        sid = NFourSID(frame, output_columns=["y"], input_columns=["u0", *names], num_block_rows=block_rows)
+        sid.subspace_identification()
+        return sid.system_identification(rank=2)[0]
+
+    t0 = time.perf_counter()
+    ss = theirs()
+    t_theirs = time.perf_counter() - t0
+    # undo the channel scaling exactly as nlid_nsi does, then the same continuous-time steps (Eq. 18-20)
+    su = np.concatenate([[ch.scales[0]], ch.scales[2:-1]])
+    b = np.asarray(ss.b) / su[None, :]
+    cm = np.asarray(ss.c) * ch.scales[-1]
+    d = np.asarray(ss.d) * ch.scales[-1] / su[None, :]
+    ac, bc, lc = d2c_zoh(np.asarray(ss.a), b, rec.dt)
+    lo, hi = fit.band
+    wb = np.linspace(lo, hi, 256)
+    he = extended_frf(ac, bc, cm, wb) + d
+    uls = fit_uls(wb, he[:, 0], lc)
+    spectra = coefficient_spectra(he, np.ones(wb.size, dtype=bool), names)
+    c_theirs = {s.name: s.estimate for s in spectra}
+    c_theirs.update(z=uls.k - k_tilde, v=uls.c)
+    print(f"  {n} samples, {block_rows} block rows, k~1 = {k_tilde:g} N/m, order 2, raw extended inputs:")
+    print(f"    nlid_nsi subspace step (Gram, PO-MOESP, output-error B): {t_ours:.3f} s; errors {fmt(errors(c_ours))}")
+    print(f"    nfoursid (N4SID, Hankel matrices): {t_theirs:.3f} s; errors {fmt(errors(c_theirs))}")
+    print(f"    time ratio nfoursid / nlid_nsi: {t_theirs / t_ours:.0f}")
+    full = NSIInputPerturbation().identify(rec, model)
+    print(f"    nsi-ip, full method, same record: errors {fmt(errors(full.coefficients))}")
+
+
+def main() -> None:
+    quick = "--quick" in sys.argv
+    rec = record(122_880)
+    model = Model.from_spec(TERMS)
+    print(f"load average before: {os.getloadavg()[0]:.2f} on {os.cpu_count()} cores")
+    for label, opts in (
+        ("nsi-ip incl. k~1 search (defaults)", {}),
+        ("nsi-ip, k~1 = 600 given", {"k_tilde": 600}),
+        ("nsi-ip incl. search, BLAS threads not limited", {"blas_threads": None}),
+    ):
+        ident = NSIInputPerturbation(**opts)
+        med, times = median_time(lambda ident=ident: ident.identify(rec, model), repeat=5)
+        print(f"{label}: median {med:.3f} s over 5 runs (min {min(times):.3f}, max {max(times):.3f})")
+    from nlid_nsi import NSIZeroShift
+
+    ident = NSIZeroShift()
+    med, times = median_time(lambda: ident.identify(rec, model), repeat=3)
+    print(f"nsi-shift (2 wells, fixed-point references): median {med:.3f} s over 3 runs (min {min(times):.3f})")
+    print("peak memory, nsi-ip incl. search (fresh subprocess each):")
+    memory(122_880)
+    if not quick:
+        memory(1_000_000)
+        print("side by side with nfoursid (both with one BLAS thread):")
+        from nlid_nsi.common import blas_threads
+
+        with blas_threads(1):
+            nfoursid_side_by_side()
+
+
+if __name__ == "__main__":
+    main()

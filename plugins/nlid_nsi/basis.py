@@ -1,0 +1,117 @@
+"""The model's terms as the extended inputs of NSI.
+
+NSI splits the restoring force ``R(z, v) = theta_1 + theta_z z + theta_v v +
+sum_j theta_j g_j(z, v)`` into the underlying-linear part (Eq. 15: the
+constant, ``z`` and ``v``) and the basis functions ``g_j`` that act as internal
+feedback forces (the extended inputs ``-g_j`` of Eq. 16). Every other term of
+the model, polynomial or not, becomes a :class:`Basis` evaluated through
+nlid's term language (``Term.evaluate``), so it can be computed at states
+between the samples (interval means) and differentiated (noise model).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+
+from nlid.terms import Model, Term
+
+__all__ = ["Basis", "split_model", "shifted_basis"]
+
+Func = Callable[[np.ndarray, np.ndarray], np.ndarray]
+
+
+@dataclass(frozen=True)
+class Basis:
+    """One basis function ``g(z, v)`` fed to NSI as the extended input ``-g``.
+
+    Attributes
+    ----------
+    name
+        Canonical term name (or ``x^k`` for the shifted powers of nsi-shift).
+    func
+        Vectorised ``g(z, v)``.
+    power
+        ``k`` for the polynomial stiffness term ``z^k``, else ``None``.
+    jumps_in_z, jumps_in_v
+        The function is discontinuous in that variable (``sign(...)`` factors):
+        its first-order noise propagation is left out there.
+    """
+
+    name: str
+    func: Func
+    power: int | None = None
+    jumps_in_z: bool = False
+    jumps_in_v: bool = False
+
+    def jacobian(self, z: np.ndarray, v: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """``(dg/dz, dg/dv)`` by central differences (zero where the function jumps)."""
+        hz = 1e-6 * (float(np.std(z)) + 1e-300)
+        hv = 1e-6 * (float(np.std(v)) + 1e-300)
+        dz = np.zeros_like(z) if self.jumps_in_z else (self.func(z + hz, v) - self.func(z - hz, v)) / (2 * hz)
+        dv = np.zeros_like(z) if self.jumps_in_v else (self.func(z, v + hv) - self.func(z, v - hv)) / (2 * hv)
+        return dz, dv
+
+
+def _term_func(term: Term, model: Model) -> Func:
+    def func(z: np.ndarray, v: np.ndarray) -> np.ndarray:
+        px = model.px(z) if term.uses_px else None
+        return np.asarray(term.evaluate(z, v, px, {}), dtype=float)
+
+    return func
+
+
+def _basis(term: Term, model: Model) -> Basis:
+    jumps_z = term.z == (0, 1) or term.px == (0, 1)
+    jumps_v = term.v == (0, 1)
+    return Basis(term.name, _term_func(term, model), term.polynomial_power, jumps_z, jumps_v)
+
+
+@dataclass(frozen=True)
+class SplitModel:
+    """A model split into the underlying-linear terms and the extended inputs.
+
+    Attributes
+    ----------
+    constant, linear, viscous
+        Whether the model has ``1``, ``z`` and ``v``.
+    basis
+        The other terms, in model order.
+    """
+
+    constant: bool
+    linear: bool
+    viscous: bool
+    basis: tuple[Basis, ...]
+
+
+def split_model(model: Model) -> SplitModel:
+    """Split a model (see :class:`SplitModel`)."""
+    names = set(model.names)
+    others = tuple(_basis(t, model) for t in model.terms if t.name not in ("1", "z", "v"))
+    return SplitModel("1" in names, "z" in names, "v" in names, others)
+
+
+def shifted_basis(basis: tuple[Basis, ...], shift: float) -> tuple[tuple[Basis, ...], int]:
+    """The basis in ``x = z - shift`` for the zero-reference shift (Sec. 3.1).
+
+    Polynomial stiffness terms are re-expanded: every power ``x^k``,
+    ``k = 2..kmax``, is an extended input (``z^3`` alone also needs ``x^2``);
+    the linear and constant parts go to the ULS and the static balance.
+    Other terms are re-centred, ``g(x + shift, v)``, and keep their names.
+
+    Returns
+    -------
+    basis : tuple of Basis
+    kmax : int
+        Highest polynomial power (1 if there is none).
+    """
+    powers = [b.power for b in basis if b.power is not None]
+    kmax = max(powers) if powers else 1
+    out = [Basis(f"x^{k}", lambda x, v, k=k: x**k, k) for k in range(kmax, 1, -1)]
+    for b in basis:
+        if b.power is None:
+            out.append(Basis(b.name, lambda x, v, g=b.func, s=shift: g(x + s, v), None, b.jumps_in_z, b.jumps_in_v))
+    return tuple(out), kmax

@@ -1,0 +1,207 @@
+"""The base channels of one NSI identification and their noise model.
+
+The base channels are ``[f, <z>, -<g_1>, ..., -<g_p>, y]`` where ``<.>`` is the
+mean over each sample interval (:mod:`nlid_nsi.intersample`), ``f`` the
+force's interval mean, ``<z>`` present only for nsi-ip (the virtual
+perturbation ``fbar = f + k~1 <z>`` of Eq. 13 is then a linear map of the base
+channels) and ``y`` the measured displacement (possibly shifted, Sec. 3.1).
+Every channel is centred (the constant of the static balance, e.g. ``m g``,
+disappears with the means and comes back from the static balance, see
+:func:`static_constant`) and scaled to unit variance (the channels differ by
+10^7 between f and z^3; NOTES.md "Scale"); the scaling is undone on B and C.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy import special
+
+from .basis import Basis
+from .intersample import interval_mean, trapezoid_mean
+from .noise import NoiseModel, build_noise_model
+from .reconstruction import Reconstruction
+
+__all__ = ["Channels", "prepare_channels", "perturbation_map", "static_constant"]
+
+
+@dataclass
+class Channels:
+    """Centred, scaled base channels.
+
+    Attributes
+    ----------
+    base
+        ``(N, c)`` array ``[f, (<z>), -<g_1>.., y]``.
+    means, scales
+        Means removed and scales divided out.
+    names
+        Channel names.
+    has_z
+        Whether ``<z>`` is a channel (nsi-ip).
+    noise
+        Noise model (errors-in-variables correction) or ``None``.
+    """
+
+    base: np.ndarray
+    means: np.ndarray
+    scales: np.ndarray
+    names: list[str]
+    has_z: bool
+    noise: NoiseModel | None
+
+    @property
+    def n_basis(self) -> int:
+        """Number of basis-function channels."""
+        return self.base.shape[1] - (3 if self.has_z else 2)
+
+
+def prepare_channels(
+    z: np.ndarray,
+    v: np.ndarray,
+    f_held: np.ndarray,
+    dt: float,
+    basis: tuple[Basis, ...],
+    shift: float = 0.0,
+    rec: Reconstruction | None = None,
+    with_z: bool = True,
+    noise_model: bool = True,
+    max_lag: int = 128,
+    intersample: str = "gauss",
+    sign_calibration: bool = True,
+) -> Channels:
+    """Build the base channels (see the module docstring).
+
+    Parameters
+    ----------
+    z, v
+        Measured displacement and the velocity estimate.
+    f_held
+        The force's interval mean.
+    dt
+        Sampling interval.
+    basis
+        The extended inputs (functions of ``x = z - shift`` and ``v``).
+    shift
+        Zero reference (nsi-shift); 0 for nsi-ip.
+    rec
+        Reconstructed ``z``, ``v`` (second pass); ``None``: raw samples, for
+        which the trapezoid interval mean is used (noisy samples are no basis
+        for a Hermite interpolant).
+    with_z
+        Include the ``<z>`` channel (nsi-ip).
+    noise_model
+        Build the errors-in-variables noise model (needs ``rec``).
+    max_lag
+        Largest lag of the noise correction.
+    intersample
+        ``"gauss"`` (the method), ``"trapezoid"`` or ``"zoh"`` (for studies).
+    sign_calibration
+        Replace ``sign(v)`` by its expectation given the noisy velocity,
+        ``erf(v / (sqrt(2) sigma_v))``, in terms that jump in v (regression
+        calibration; needs ``rec`` with a velocity derived from z).
+    """
+    zz = (rec.z if rec is not None else z) - shift
+    vv = rec.v if rec is not None else v
+    if rec is None and intersample == "gauss":
+        intersample = "trapezoid"
+
+    def mean(func):
+        if intersample == "gauss":
+            return interval_mean(func, zz, vv, dt)
+        values = np.asarray(func(zz, vv), dtype=float)
+        if intersample == "trapezoid":
+            return trapezoid_mean(values)
+        if intersample == "zoh":
+            return values
+        raise ValueError(f"unknown intersample treatment {intersample!r}")
+
+    n = len(zz)
+    base = np.empty((n, len(basis) + (3 if with_z else 2)))
+    base[:, 0] = f_held
+    col = 1
+    jacobians: list[tuple[np.ndarray, np.ndarray]] = []
+    build_noise = noise_model and rec is not None and rec.noise_var > 0
+    if with_z:
+        base[:, col] = mean(lambda a, b: a)
+        col += 1
+        if build_noise:
+            jacobians.append((np.ones(n), np.zeros(n)))
+    sigma_v = 0.0
+    if sign_calibration and rec is not None and rec.kernel_v is not None and rec.noise_var > 0:
+        sigma_v = float(np.sqrt(rec.noise_var * (rec.kernel_v @ rec.kernel_v)))
+    for b in basis:
+        func = b.func
+        if b.jumps_in_v and sigma_v > 0:
+            func = _calibrated(b.func, sigma_v)
+        base[:, col] = -mean(func)
+        col += 1
+        if build_noise:
+            dz, dv = b.jacobian(zz, vv)
+            jacobians.append((-dz, -dv))
+    base[:, col] = np.asarray(z, dtype=float) - shift
+    means = base.mean(axis=0)
+    base -= means
+    scales = base.std(axis=0)
+    if np.any(scales == 0):
+        names = ["f"] + (["z"] if with_z else []) + [b.name for b in basis] + ["y"]
+        flat = [names[i] for i in np.flatnonzero(scales == 0)]
+        raise ValueError(f"channel(s) {', '.join(flat)} are constant on this record")
+    base /= scales
+    noise = None
+    if build_noise:
+        noise = build_noise_model(rec.noise_var, rec.kernel_z, rec.kernel_v, jacobians, scales, max_lag)
+    names = ["f"] + (["z"] if with_z else []) + [b.name for b in basis] + ["y"]
+    return Channels(base, means, scales, names, with_z, noise)
+
+
+def _calibrated(func, sigma_v: float):
+    """``g(z, v) sign(v) erf(v / (sqrt 2 sigma_v))``: ``E[g(z, v_true) | v]`` for a sign factor in v.
+
+    With ``v = v_true + n``, ``n ~ N(0, sigma_v^2)`` and ``sigma_v`` small
+    against the spread of ``v``, ``E[sign(v_true) | v] = erf(v / (sqrt 2 sigma_v))``:
+    the input error is then uncorrelated with the input (regression calibration).
+    """
+    scale = 1.0 / (np.sqrt(2.0) * sigma_v)
+
+    def calibrated(z: np.ndarray, v: np.ndarray) -> np.ndarray:
+        return func(z, v) * np.sign(v) * special.erf(v * scale)
+
+    return calibrated
+
+
+def perturbation_map(ch: Channels, k_tilde: float) -> np.ndarray:
+    """The map ``T`` with ``T [f, <z>, -<g>.., y] = [f + k~1 <z>, -<g>.., y]`` in scaled units (Eq. 13)."""
+    c = ch.base.shape[1]
+    if not ch.has_z:
+        return np.eye(c)
+    t = np.zeros((c - 1, c))
+    t[0, 0] = 1.0
+    t[0, 1] = k_tilde * ch.scales[1] / ch.scales[0]
+    for a in range(2, c):
+        t[a - 1, a] = 1.0
+    return t
+
+
+def static_constant(
+    ch: Channels,
+    mass: float,
+    linear: float,
+    viscous: float,
+    coefficients: dict[str, float],
+    basis: tuple[Basis, ...],
+    v: np.ndarray,
+    dt: float,
+) -> float:
+    """``theta_1`` from the static balance ``mean(f - m a - theta_z z - c_v v - sum theta_j g_j)``.
+
+    The channel means are interval means (so ``mean(z)`` is the mean of the
+    possibly shifted output); ``mean(a) = (v_end - v_0) / T``.
+    """
+    off = 2 if ch.has_z else 1
+    mean_g = -ch.means[off : off + len(basis)]
+    mean_y = ch.means[-1]
+    mean_a = (v[-1] - v[0]) / (dt * (len(v) - 1))
+    out = ch.means[0] - mass * mean_a - linear * mean_y - viscous * float(np.mean(v))
+    return float(out - sum(coefficients[b.name] * g for b, g in zip(basis, mean_g, strict=True)))

@@ -1,0 +1,272 @@
+"""What nsi-ip and nsi-shift share: options, velocity, cut-offs, BLAS threads, result pieces."""
+
+from __future__ import annotations
+
+import contextlib
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from nlid import Option, Record, derivatives
+from nlid.errors import DataError, InputError
+
+from .fit import NSIFit, format_eigenvalues
+
+__all__ = ["COMMON_OPTIONS", "Velocity", "velocity_estimate", "denoise_operator", "blas_threads", "fit_arrays"]
+
+#: Default number of block rows (past and future horizons each). Measured with
+#: nsi-ip on paper-numerical at 2 % noise (median of seeds 0-4, c_v / zeta- /
+#: zeta+ errors): 50 rows 10.6 / 10.5 / 10.5 %, 75 rows 1.0 / 1.2 / 1.2 %, 100
+#: rows 0.80 / 0.65 / 0.72 %, 150 rows 0.71 / 0.78 / 0.79 % (the stiffness
+#: coefficients are within 0.2 % from 50 rows on). 100 is the margin over 75;
+#: the cost grows as (2 i c)^3.
+DEFAULT_BLOCK_ROWS = 100
+#: Default cut-off of the velocity differentiator and of the de-noising
+#: low-pass: this multiple of :func:`nlid.derivatives.suggest_cutoff` of z (the
+#: frequency where the displacement spectrum meets 100 x its noise floor),
+#: capped at 0.4 fs. Measured with nsi-ip on paper-numerical at 2 % noise
+#: (median of seeds 0-4, c_v / zeta-+ errors): 1.5 x (64 Hz) 0.80 / 0.65 / 0.72 %,
+#: 2 x 0.77 / 0.79 / 0.93 %, 2.5 x 1.6 / 1.6 / 1.8 %, fs/20 (102 Hz, the
+#: prototype's rule) 1.4 / 1.4 / 1.6 %, 1 x (43 Hz) 1.8 / 1.6 / 1.6 %; without
+#: noise the rule gives ~490 Hz and every coefficient within 0.01 %.
+CUTOFF_FACTOR = 1.5
+
+COMMON_OPTIONS: tuple[Option, ...] = (
+    Option(
+        "block_rows",
+        "int",
+        DEFAULT_BLOCK_ROWS,
+        "block rows i of the past and future horizons (the data Gram has 2i block rows)",
+        minimum=2,
+    ),
+    Option("order", "int", None, "model order (auto: largest singular-value gap)", minimum=1, nullable=True),
+    Option("max_order", "int", 10, "largest order the automatic choice considers", minimum=1),
+    Option(
+        "band",
+        "str",
+        "halfpower",
+        "band of the coefficient average and ULS fit: half-power band of the ULS resonance, or [wn/2, 2wn]",
+        choices=("halfpower", "octave"),
+    ),
+    Option("band_hz", "floats", None, "fixed band 'lo,hi' in Hz instead of 'band'", nullable=True, minimum=0.0),
+    Option(
+        "velocity",
+        "str",
+        None,
+        "velocity for the basis functions: auto (measured v if present, else from z), "
+        "differentiate (from z), integrate (from a measured a), measured",
+        choices=("differentiate", "integrate", "measured"),
+        nullable=True,
+    ),
+    Option(
+        "velocity_cutoff",
+        "float",
+        None,
+        "low-pass cut-off (Hz) of the differentiator for v from z (auto: 1.5 x the noise-floor cut-off of z)",
+        minimum=0.0,
+        nullable=True,
+    ),
+    Option(
+        "denoise_cutoff",
+        "float",
+        None,
+        "cut-off (Hz) of the low-pass that de-noises z in the basis functions (auto: as velocity_cutoff)",
+        minimum=0.0,
+        nullable=True,
+    ),
+    Option(
+        "force_hold",
+        "str",
+        None,
+        "how the force acts between samples: zoh (held, e.g. a DAC or the presets), sampled (a continuous "
+        "signal's samples), auto (the record's meta 'force_hold', 'sampled' if absent)",
+        choices=("zoh", "sampled"),
+        nullable=True,
+    ),
+    Option("reconstruct", "bool", True, "complete v and de-noise z from the clean force (second pass)"),
+    Option("noise_correction", "bool", True, "errors-in-variables correction of the data Gram and the B step"),
+    Option(
+        "intersample",
+        "str",
+        "gauss",
+        "interval mean of the basis functions: gauss (Hermite interpolant), trapezoid, zoh (sample values)",
+        choices=("gauss", "trapezoid", "zoh"),
+    ),
+    Option(
+        "sign_calibration",
+        "bool",
+        True,
+        "use E[sign(v_true) | v] = erf(v / sqrt(2) sigma_v) for sign(v) factors when v comes from noisy z",
+    ),
+    Option("noise_max_lag", "int", 128, "largest lag (samples) of the noise correction", minimum=0),
+    Option(
+        "zeta_max",
+        "float",
+        0.5,
+        "a ULS is accepted only with damping ratios below this (rejects near-zero stiffness)",
+        minimum=0.0,
+        maximum=1.0,
+    ),
+    Option(
+        "blas_threads",
+        "int",
+        1,
+        "BLAS threads during the identification (auto: leave as is); 1 is fastest on a busy machine",
+        minimum=1,
+        nullable=True,
+    ),
+)
+
+
+@dataclass(frozen=True)
+class Velocity:
+    """The velocity used in the basis functions and how it was obtained.
+
+    Attributes
+    ----------
+    v
+        The velocity (m/s).
+    differentiate
+        The differentiator applied to ``z`` (a linear operator), or ``None``
+        if ``v`` did not come from ``z``.
+    provenance
+        One line for the diagnostics.
+    cutoff
+        Cut-off of the differentiator (Hz) or ``None``.
+    """
+
+    v: np.ndarray
+    differentiate: Callable[[np.ndarray], np.ndarray] | None
+    provenance: str
+    cutoff: float | None
+
+
+def default_cutoff(z: np.ndarray, fs: float) -> float:
+    """Default cut-off of the velocity differentiator and the de-noising low-pass (Hz).
+
+    ``CUTOFF_FACTOR`` times :func:`nlid.derivatives.suggest_cutoff` of ``z``,
+    capped at ``nlid.derivatives.CUTOFF_MAX_FRACTION`` of fs.
+    """
+    return min(CUTOFF_FACTOR * derivatives.suggest_cutoff(z, fs), derivatives.CUTOFF_MAX_FRACTION * fs)
+
+
+#: Warning when the force's intersample behaviour is assumed, not known.
+HOLD_ASSUMED = (
+    "the record does not say how the force acted between samples: assumed a sampled continuous signal; "
+    "if it was held over each sample (DAC output, simulation), pass --set force_hold=zoh (on paper-numerical "
+    "the wrong assumption changes c_v and the damping ratios by 13 %)"
+)
+
+
+def force_hold(record: Record, how: str | None) -> tuple[str, bool]:
+    """The force's intersample behaviour (the option, or the record's ``force_hold``) and whether it was assumed."""
+    if how is not None:
+        return how, False
+    return record.force_hold, "force_hold" not in record.meta
+
+
+def velocity_estimate(record: Record, how: str | None, cutoff: float | None) -> Velocity:
+    """The velocity for the basis functions (option ``velocity``).
+
+    Raises
+    ------
+    DataError
+        If the requested channel is missing.
+    """
+    fs = record.fs
+    if how == "integrate":
+        if record.a is None:
+            raise DataError("velocity=integrate needs an acceleration channel 'a'")
+        rec = record.with_velocity_from_acceleration()
+        return Velocity(np.asarray(rec.v), None, rec.source_of("v"), None)
+    if how == "measured" or (how is None and record.is_measured("v")):
+        if record.v is None:
+            raise DataError("velocity=measured needs a velocity channel 'v'")
+        return Velocity(np.asarray(record.v), None, record.source_of("v"), None)
+    fc = default_cutoff(record.z, fs) if cutoff is None else float(cutoff)
+    if not 0 < fc < fs / 2:
+        raise InputError(f"velocity_cutoff must lie between 0 and the Nyquist frequency {fs / 2:g} Hz, got {fc:g}")
+
+    def differentiate(x: np.ndarray) -> np.ndarray:
+        return derivatives.differentiate(x, fs, order=1, cutoff=fc)[0]
+
+    used = derivatives.DerivativeFilter(cutoff=fc)
+    return Velocity(differentiate(record.z), differentiate, f"estimated from z: {used.describe()}", fc)
+
+
+def denoise_operator(
+    z: np.ndarray, fs: float, cutoff: float | None
+) -> tuple[Callable[[np.ndarray], np.ndarray], float]:
+    """The zero-phase low-pass that de-noises ``z`` and its cut-off (Hz)."""
+    fc = default_cutoff(z, fs) if cutoff is None else float(cutoff)
+    if not 0 < fc < fs / 2:
+        raise InputError(f"denoise_cutoff must lie between 0 and the Nyquist frequency {fs / 2:g} Hz, got {fc:g}")
+
+    def lowpass(x: np.ndarray) -> np.ndarray:
+        return derivatives.lowpass(x, fs, fc)
+
+    return lowpass, fc
+
+
+def blas_threads(n: int | None) -> contextlib.AbstractContextManager:
+    """Limit BLAS threads for the duration of a call (``None``: leave them alone).
+
+    The matrices are at most a few thousand square, where one thread is as
+    fast as two on an idle machine and much faster on a busy one (prototype,
+    2-core machine under load: 0.7-0.9 s with one thread, 2.5-14 s with two).
+    """
+    if n is None:
+        return contextlib.nullcontext()
+    from threadpoolctl import threadpool_limits
+
+    return threadpool_limits(limits=int(n), user_api="blas")
+
+
+def check_length(n: int, block_rows: int, channels: int) -> None:
+    """Raise a clear error when the record is too short for the Gram."""
+    s = 2 * block_rows
+    if n - s + 1 < s * channels:
+        raise DataError(
+            f"record too short for NSI: {n} samples, but {2 * block_rows} block rows of {channels} channels "
+            f"need at least {s * channels + s - 1}; lower block_rows"
+        )
+
+
+def eigen_list(lc: np.ndarray | None) -> list[list[float]] | None:
+    """Eigenvalues as ``[[re, im], ...]`` for JSON."""
+    return None if lc is None else [[float(x.real), float(x.imag)] for x in lc]
+
+
+def fit_summary(fit: NSIFit) -> dict[str, Any]:
+    """JSON-friendly summary of one fit."""
+    return {
+        "order": int(fit.order),
+        "singular_values": [float(x) for x in fit.singular_values[:20]],
+        "band_hz": [fit.band[0] / (2 * np.pi), fit.band[1] / (2 * np.pi)],
+        "uls": {
+            "m": fit.uls.m,
+            "c": fit.uls.c,
+            "k": fit.uls.k,
+            "fn_hz": fit.uls.fn,
+            "zeta": fit.uls.zeta,
+            "eigenvalues": eigen_list(fit.uls.eigenvalues),
+            "eigenvalues_text": format_eigenvalues(fit.uls.eigenvalues),
+        },
+        "quality": {s.name: s.quality for s in fit.spectra},
+    }
+
+
+def fit_arrays(fit: NSIFit, suffix: str = "") -> dict[str, np.ndarray]:
+    """The arrays of a fit under the keys of :class:`nlid.IdentificationResult`."""
+    f_hz = fit.w_plot / (2 * np.pi)
+    out = {
+        f"singular_values{suffix}": np.asarray(fit.singular_values),
+        f"frf_frequency_hz{suffix}": f_hz,
+        f"frf{suffix}": np.asarray(fit.frf),
+        f"coef_frequency_hz{suffix}": f_hz,
+    }
+    for s in fit.spectra:
+        out[f"coef_spectrum:{s.name}{suffix}"] = np.asarray(s.value)
+    return out

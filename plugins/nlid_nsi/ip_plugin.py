@@ -1,0 +1,11 @@
+"""Entry point of ``nsi-ip`` (group ``nlid.identifiers``)."""
+
+from nlid import hookimpl
+
+from .ip import NSIInputPerturbation
+
+
+@hookimpl
+def nlid_identifiers() -> list[type]:
+    """The identifier this plugin provides."""
+    return [NSIInputPerturbation]

@@ -1,0 +1,11 @@
+"""Entry point of ``nsi-shift`` (group ``nlid.identifiers``)."""
+
+from nlid import hookimpl
+
+from .shift import NSIZeroShift
+
+
+@hookimpl
+def nlid_identifiers() -> list[type]:
+    """The identifier this plugin provides."""
+    return [NSIZeroShift]
