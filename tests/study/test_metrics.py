@@ -28,6 +28,6 @@ def test_modal_matched_by_position_not_identity():
         "modal": [{"fn_hz": 13.1, "zeta": 0.0304}, {"fn_hz": 8.52, "zeta": 0.0467}],
     }
     row = equilibrium_metrics(result, reference)
-    assert row["fn_error_pct:s1"] == pytest.approx(100 * 0.1 / 13.1)
+    assert row["fn_error_pct:s1"] == pytest.approx(100 * (13.0 - 13.1) / 13.1)  # signed
     assert row["zeta_error_pct:s2"] == pytest.approx(100 * (0.05 - 0.0467) / 0.0467)
     assert row["eq_missing"] == 0 and not math.isnan(row["eq_error_max_pct"])
