@@ -25,9 +25,13 @@ import numpy as np
 from .errors import InputError, NlidError
 from .terms import Model, px_coefficients
 
-__all__ = ["simulate", "encode_model", "random_force", "SimulationError"]
+__all__ = ["simulate", "free_run", "encode_model", "random_force", "SimulationError", "FREE_RUN_OVERSAMPLE"]
 
 _KIND_CODE = {"exp1": 1, "exp2": 2, "tanh": 3}
+#: Sub-steps per sample of :func:`free_run` (measured on Silverbox: the RMS
+#: simulation error of the cubic model is 0.576, 0.486, 0.499, 0.503 mV at 2, 4,
+#: 8, 16 sub-steps; one step per sample gives 3.3 mV).
+FREE_RUN_OVERSAMPLE = 8
 _VAR_CODE = {"z": 0, "v": 1}
 
 
@@ -225,3 +229,69 @@ def random_force(
         x = signal.sosfiltfilt(sos, x)
     x -= x.mean()
     return x * (rms / np.sqrt(np.mean(x**2)))
+
+
+def free_run(
+    model: Model,
+    coefficients: dict[str, float] | np.ndarray,
+    mass: float,
+    force: np.ndarray,
+    fs: float,
+    *,
+    force_hold: str = "sampled",
+    x0: Sequence[float] = (0.0, 0.0),
+    oversample: int = FREE_RUN_OVERSAMPLE,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Free-run simulation of an identified model driven by a measured force.
+
+    The response to a *measured* force (a sampled continuous signal) needs
+    what happens between the samples: :func:`simulate` holds each sample for
+    a whole interval, which delays the force by half a sample (at 70 Hz and
+    610 Hz sampling that is a phase lag of 0.36 rad). Here each sample
+    interval is split into ``oversample`` RK4 sub-steps and the force of each
+    sub-step is its band-limited (polyphase) interpolation at the sub-step's
+    midpoint, which removes the delay and the discretisation error of one
+    step per sample. A force that really was held (``force_hold="zoh"``, as
+    in the presets) is held exactly.
+
+    Parameters
+    ----------
+    model, coefficients, mass
+        The identified model of ``R`` and the mass (kg).
+    force
+        Force samples (N), shape ``(N,)``.
+    fs
+        Sampling frequency of ``force`` in Hz.
+    force_hold
+        ``"sampled"`` or ``"zoh"`` (see :attr:`nlid.record.Record.force_hold`).
+    x0
+        Initial displacement and velocity.
+    oversample
+        Sub-steps per sample (default :data:`FREE_RUN_OVERSAMPLE`).
+
+    Returns
+    -------
+    z, v, a : numpy.ndarray
+        The simulated response at the force's sample times.
+
+    Raises
+    ------
+    SimulationError
+        If the simulated state becomes non-finite.
+    """
+    q = int(oversample)
+    if q < 1:
+        raise InputError(f"oversample must be a positive integer, got {oversample}")
+    if force_hold not in ("sampled", "zoh"):
+        raise InputError(f"force_hold must be 'sampled' or 'zoh', got {force_hold!r}")
+    force = np.asarray(force, dtype=float)
+    if force_hold == "zoh":
+        fine = np.repeat(force, q)
+    elif q == 1:
+        fine = force
+    else:
+        from scipy import signal
+
+        fine = signal.resample_poly(force, 2 * q, 1)[1::2]  # at the midpoint of every sub-step
+    z, v, a = simulate(model, coefficients, mass, fine, fs * q, x0)
+    return z[::q], v[::q], a[::q]
