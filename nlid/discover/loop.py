@@ -158,6 +158,8 @@ class ResidualView:
         Sampling frequency (Hz).
     tau_samples, n_eff
         Integrated autocorrelation time of ``r`` and ``N / tau``.
+    band_hz
+        The equation band (Hz), ``None`` when nothing was filtered.
     """
 
     label: str
@@ -168,6 +170,7 @@ class ResidualView:
     fs: float
     tau_samples: float
     n_eff: float
+    band_hz: float | None = None
 
 
 @dataclass
@@ -342,7 +345,7 @@ def residual_view(record: Record, fit: Fit, cutoff: float | None, label: str) ->
     restoring = data.restoring_force(fit.mass)
     r = restoring - data.G[:, columns] @ theta
     n_eff, tau = effective_sample_size(r)
-    return ResidualView(label, data.z, data.v, r, restoring, record.fs, tau, n_eff)  # type: ignore[arg-type]
+    return ResidualView(label, data.z, data.v, r, restoring, record.fs, tau, n_eff, data.filtered_at)  # type: ignore[arg-type]
 
 
 def _simulate(ctx: _Context, fit: Fit) -> None:
@@ -372,7 +375,7 @@ def _split(record: Record, holdout: float | Record) -> tuple[Record, Record, str
 
 
 #: Fits spent refining a shape parameter between its grid neighbours.
-SHAPE_REFINE_FITS = 6
+SHAPE_REFINE_FITS = 4
 
 
 def _test_candidate(

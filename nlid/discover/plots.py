@@ -145,8 +145,12 @@ def residual_figure(view: ResidualView, units: dict[str, str] | None = None, tit
     nper = int(min(view.r.size, 4096))
     freq, p_r = signal.welch(view.r, fs=view.fs, nperseg=nper)
     _, p_re = signal.welch(view.restoring, fs=view.fs, nperseg=nper)
-    ax.semilogy(freq, p_re, color="0.6", lw=0.8, label="restoring force R_e = f - m a")
-    ax.semilogy(freq, p_r, color="C3", lw=0.9, label="residual r")
+    top = view.fs / 2 if view.band_hz is None else min(view.fs / 2, 1.5 * view.band_hz)
+    shown = freq <= top
+    ax.semilogy(freq[shown], p_re[shown], color="0.6", lw=0.8, label="restoring force R_e = f - m a")
+    ax.semilogy(freq[shown], p_r[shown], color="C3", lw=0.9, label="residual r")
+    if view.band_hz is not None:
+        ax.axvline(view.band_hz, color="k", ls=":", lw=0.8, label=f"equation band {view.band_hz:.3g} Hz")
     ax.set_xlabel("frequency (Hz)")
     ax.set_ylabel(f"PSD ({fu}^2/Hz)")
     ax.legend(loc="best", fontsize=7)
