@@ -63,8 +63,13 @@ def _labels(result: DiscoveryResult) -> list[str]:
     return ["declared: " + ", ".join(result.declared)] + [f"+ {s.effect}: " + ", ".join(s.terms) for s in result.steps]
 
 
+def _num(x: float) -> str:
+    """Three significant digits, trailing zeros kept (17.0, 5.86, 0.889)."""
+    return f"{x:.0f}" if abs(x) >= 100 else f"{x:#.3g}"
+
+
 def _pct(x: float | None) -> str:
-    return "-" if x is None else f"{x:.3g} %"
+    return "-" if x is None else f"{_num(x)} %"
 
 
 def _sim(fit: Fit, units: dict[str, str]) -> str:
@@ -74,7 +79,7 @@ def _sim(fit: Fit, units: dict[str, str]) -> str:
     x = fit.sim_rms_holdout
     if zu in ("m", "V"):
         prefix = {"m": "mm", "V": "mV"}[zu]
-        return f"{1000 * x:.3g} {prefix}"
+        return f"{_num(1000 * x)} {prefix}"
     return f"{x:.3g} {zu}"
 
 

@@ -15,18 +15,8 @@ import numpy as np
 import pytest
 
 from nlid.discover import discover
+from nlid.discover.cases import BOTH_WELLS
 
-BOTH_WELLS = (
-    "coulomb",
-    "viscous",
-    "quadratic-damping",
-    "cubic-damping",
-    "stribeck",
-    "offset",
-    "quadratic-stiffness",
-    "cubic-stiffness",
-    "quintic-stiffness",
-)
 CHANNELS = {"displacement": ("z",), "accelerometer": ("z", "a")}
 CASES = [
     *itertools.product(("double", "single"), BOTH_WELLS, CHANNELS),
