@@ -18,7 +18,7 @@ from __future__ import annotations
 
 import pluggy
 
-__all__ = ["hookspec", "hookimpl", "nlid_identifiers"]
+__all__ = ["hookspec", "hookimpl", "nlid_identifiers", "nlid_candidates"]
 
 PROJECT = "nlid"
 hookspec = pluggy.HookspecMarker(PROJECT)
@@ -33,4 +33,16 @@ def nlid_identifiers() -> list[type]:
     ``summary``, ``options``, ``needs_mass`` and an ``identify(record, model,
     *, mass=None)`` method returning an
     :class:`~nlid.interface.IdentificationResult`.
+    """
+
+
+@hookspec
+def nlid_candidates() -> list:
+    """Return candidate effects for the residual -> missing-effect loop (``nlid discover``).
+
+    Each item is an :class:`nlid.discover.Candidate`: a name (what the report
+    and ``--candidates`` call it), the terms it adds to a model and,
+    optionally, a shape parameter the loop chooses on a grid. A plugin that
+    only provides candidates registers under the same entry-point group
+    (``nlid.identifiers``) and implements just this hook.
     """

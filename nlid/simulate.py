@@ -25,9 +25,13 @@ import numpy as np
 from .errors import InputError, NlidError
 from .terms import Model, px_coefficients
 
-__all__ = ["simulate", "encode_model", "random_force", "SimulationError"]
+__all__ = ["simulate", "free_run", "encode_model", "random_force", "SimulationError", "FREE_RUN_OVERSAMPLE"]
 
 _KIND_CODE = {"exp1": 1, "exp2": 2, "tanh": 3}
+#: Sub-steps per sample of :func:`free_run` (measured on Silverbox: the RMS
+#: simulation error of the cubic model is 0.576, 0.486, 0.499, 0.503 mV at 2, 4,
+#: 8, 16 sub-steps; one step per sample gives 3.3 mV).
+FREE_RUN_OVERSAMPLE = 8
 _VAR_CODE = {"z": 0, "v": 1}
 
 
@@ -110,27 +114,26 @@ def _restoring(z, v, theta, parts, special, pxc):
 
 
 @numba.njit(cache=True)
-def _rk4(force, force_mid, force_end, dt, mass, theta, parts, special, pxc, z0, v0, out_z, out_v, out_a):
+def _rk4(force, dt, mass, theta, parts, special, pxc, z0, v0, out_z, out_v, out_a):
     z = z0
     v = v0
     inv_m = 1.0 / mass
     h2 = 0.5 * dt
     for k in range(force.size):
         fk = force[k]
-        fm = force_mid[k]
         a1 = (fk - _restoring(z, v, theta, parts, special, pxc)) * inv_m
         out_z[k] = z
         out_v[k] = v
         out_a[k] = a1
         z2 = z + h2 * v
         v2 = v + h2 * a1
-        a2 = (fm - _restoring(z2, v2, theta, parts, special, pxc)) * inv_m
+        a2 = (fk - _restoring(z2, v2, theta, parts, special, pxc)) * inv_m
         z3 = z + h2 * v2
         v3 = v + h2 * a2
-        a3 = (fm - _restoring(z3, v3, theta, parts, special, pxc)) * inv_m
+        a3 = (fk - _restoring(z3, v3, theta, parts, special, pxc)) * inv_m
         z4 = z + dt * v3
         v4 = v + dt * a3
-        a4 = (force_end[k] - _restoring(z4, v4, theta, parts, special, pxc)) * inv_m
+        a4 = (fk - _restoring(z4, v4, theta, parts, special, pxc)) * inv_m
         z = z + dt / 6.0 * (v + 2.0 * v2 + 2.0 * v3 + v4)
         v = v + dt / 6.0 * (a1 + 2.0 * a2 + 2.0 * a3 + a4)
         if not (np.isfinite(z) and np.isfinite(v)):
@@ -145,7 +148,6 @@ def simulate(
     force: np.ndarray,
     fs: float,
     x0: Sequence[float] = (0.0, 0.0),
-    hold: str = "zoh",
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Integrate ``m z'' + R(z, z') = f`` with the force held over each sample.
 
@@ -163,12 +165,6 @@ def simulate(
         Sampling frequency in Hz (one RK4 step per sample).
     x0
         Initial displacement (m) and velocity (m/s).
-    hold
-        How the force behaves between samples: ``"zoh"`` (held constant, the
-        paper's simulation and a DAC output) or ``"linear"`` (interpolated
-        linearly between samples, for a sampled continuous force such as a
-        measured one; the last interval is held).
-
     Returns
     -------
     z, v, a : numpy.ndarray
@@ -183,32 +179,10 @@ def simulate(
         raise InputError(f"mass must be positive, got {mass}")
     theta = model.vector(coefficients)
     force = np.ascontiguousarray(force, dtype=float)
-    if hold == "zoh":
-        force_mid = force_end = force
-    elif hold == "linear":
-        force_end = np.append(force[1:], force[-1:])
-        force_mid = 0.5 * (force + force_end)
-    else:
-        raise InputError(f"hold must be 'zoh' or 'linear', got {hold!r}")
     parts, special, pxc = encode_model(model)
     n = force.size
     z, v, a = np.empty(n), np.empty(n), np.empty(n)
-    bad = _rk4(
-        force,
-        force_mid,
-        force_end,
-        1.0 / fs,
-        float(mass),
-        theta,
-        parts,
-        special,
-        pxc,
-        float(x0[0]),
-        float(x0[1]),
-        z,
-        v,
-        a,
-    )
+    bad = _rk4(force, 1.0 / fs, float(mass), theta, parts, special, pxc, float(x0[0]), float(x0[1]), z, v, a)
     if bad >= 0:
         raise SimulationError(
             f"simulation diverged at sample {bad} (t = {bad / fs:.4g} s); the model may be unstable "
@@ -254,3 +228,69 @@ def random_force(
         x = signal.sosfiltfilt(sos, x)
     x -= x.mean()
     return x * (rms / np.sqrt(np.mean(x**2)))
+
+
+def free_run(
+    model: Model,
+    coefficients: dict[str, float] | np.ndarray,
+    mass: float,
+    force: np.ndarray,
+    fs: float,
+    *,
+    force_hold: str = "sampled",
+    x0: Sequence[float] = (0.0, 0.0),
+    oversample: int = FREE_RUN_OVERSAMPLE,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Free-run simulation of an identified model driven by a measured force.
+
+    The response to a *measured* force (a sampled continuous signal) needs
+    what happens between the samples: :func:`simulate` holds each sample for
+    a whole interval, which delays the force by half a sample (at 70 Hz and
+    610 Hz sampling that is a phase lag of 0.36 rad). Here each sample
+    interval is split into ``oversample`` RK4 sub-steps and the force of each
+    sub-step is its band-limited (polyphase) interpolation at the sub-step's
+    midpoint, which removes the delay and the discretisation error of one
+    step per sample. A force that really was held (``force_hold="zoh"``, as
+    in the presets) is held exactly.
+
+    Parameters
+    ----------
+    model, coefficients, mass
+        The identified model of ``R`` and the mass (kg).
+    force
+        Force samples (N), shape ``(N,)``.
+    fs
+        Sampling frequency of ``force`` in Hz.
+    force_hold
+        ``"sampled"`` or ``"zoh"`` (see :attr:`nlid.record.Record.force_hold`).
+    x0
+        Initial displacement and velocity.
+    oversample
+        Sub-steps per sample (default :data:`FREE_RUN_OVERSAMPLE`).
+
+    Returns
+    -------
+    z, v, a : numpy.ndarray
+        The simulated response at the force's sample times.
+
+    Raises
+    ------
+    SimulationError
+        If the simulated state becomes non-finite.
+    """
+    q = int(oversample)
+    if q < 1:
+        raise InputError(f"oversample must be a positive integer, got {oversample}")
+    if force_hold not in ("sampled", "zoh"):
+        raise InputError(f"force_hold must be 'sampled' or 'zoh', got {force_hold!r}")
+    force = np.asarray(force, dtype=float)
+    if force_hold == "zoh":
+        fine = np.repeat(force, q)
+    elif q == 1:
+        fine = force
+    else:
+        from scipy import signal
+
+        fine = signal.resample_poly(force, 2 * q, 1)[1::2]  # at the midpoint of every sub-step
+    z, v, a = simulate(model, coefficients, mass, fine, fs * q, x0)
+    return z[::q], v[::q], a[::q]

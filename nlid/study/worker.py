@@ -123,7 +123,7 @@ def _execute(spec: dict[str, Any]) -> dict[str, Any]:
             row["warnings"] = (row["warnings"] + " | " if row["warnings"] else "") + f"held-out epsilon: {exc}"
     row.update(metrics.coefficient_metrics(result, data.reference))
     row.update(metrics.equilibrium_metrics(result, data.reference))
-    row.update(metrics.free_run(data.heldout, model, result, spec["dataset"]["freerun"]))
+    row.update(metrics.free_run_metrics(data.heldout, model, result, spec["dataset"]["freerun"]))
     if spec.get("posterior") is not None:
         from .. import posterior  # type: ignore[attr-defined]  # issue 6; checked when the config is loaded
 

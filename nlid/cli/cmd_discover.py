@@ -1,0 +1,141 @@
+"""``nlid discover``: find the effect a declared model lacks, add it, report the error before and after."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+
+from ..errors import InputError
+from .common import add_data_arguments, load_data, parse_settings, print_json
+
+EPILOG = """\
+candidate effects (--candidates): coulomb, viscous, quadratic-damping, cubic-damping,
+  position-dependent-friction, stribeck, offset, quadratic-stiffness, cubic-stiffness,
+  quintic-stiffness; add your own with --candidate NAME=TERMS, or install a plugin.
+
+acceptance: candidates are ranked by the fraction of the held-out residual variance
+  they explain; the best is accepted if it explains at least --min-explained of it and
+  the BIC computed with the effective sample size of the residual drops by at least
+  10 (--max-delta-bic). See docs/discover.md.
+
+examples:
+  nlid discover dataset:emps --declared "v, 1"
+  nlid discover dataset:silverbox:multisine --declared "1, z, v" --holdout dataset:silverbox:arrow
+  nlid discover x.csv --declared "1, z, z^3, v" --mass 0.2 --out report/ --json
+"""
+
+
+def add_parser(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser(
+        "discover",
+        help="find the effect a model lacks from its residual, add it, report the error before and after",
+        description="Identify the declared model, look at its residual (against z, v, the (z, v) plane and "
+        "frequency), test candidate effects against it on held-out data, add the one that passes the "
+        "acceptance rule, re-identify and repeat until nothing else is significant. Prints epsilon (Eq. 26) "
+        "and the force residual before and after each step, on estimation and held-out data.",
+        epilog=EPILOG,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    add_data_arguments(p)
+    p.add_argument(
+        "--declared",
+        required=True,
+        metavar="TERMS",
+        help="the complete declared model, taken literally (no default terms added), e.g. 'v, 1' or '1, z, v'",
+    )
+    p.add_argument(
+        "--method", metavar="NAME", help="identifier (default: the preferred installed one; see nlid methods)"
+    )
+    p.add_argument("--mass", type=float, metavar="KG", help="known mass in kg (default: estimated by the method)")
+    p.add_argument(
+        "--holdout",
+        default="0.25",
+        metavar="FILE|FRACTION",
+        help="held-out data: a fraction of DATA (its last part; default 0.25) or a second record "
+        "(file or dataset:NAME, read like DATA)",
+    )
+    p.add_argument(
+        "--candidates",
+        metavar="NAMES",
+        help="comma-separated candidate effects to test (default: all of the library and of installed plugins)",
+    )
+    p.add_argument(
+        "--candidate",
+        action="append",
+        metavar="NAME=TERMS",
+        help="a candidate of your own, e.g. 'drag=v*|v|' or 'ramp=sign(v)*exp(-|v|/0.01), sign(v)' (repeatable)",
+    )
+    p.add_argument("--max-steps", type=int, default=5, metavar="N", help="most effects to add (default 5)")
+    p.add_argument(
+        "--min-explained",
+        type=float,
+        default=0.10,
+        metavar="F",
+        help="fraction of the held-out residual variance a candidate must explain (default 0.10)",
+    )
+    p.add_argument(
+        "--max-delta-bic",
+        type=float,
+        default=-10.0,
+        metavar="D",
+        help="largest accepted change of the effective-sample-size BIC (default -10)",
+    )
+    p.add_argument(
+        "--cutoff", type=float, metavar="HZ", help="equation band for estimated channels (default: from the data)"
+    )
+    p.add_argument("--set", action="append", metavar="KEY=VALUE", help="identifier option (repeatable)")
+    p.add_argument("--json", action="store_true", help="print one JSON object instead of the table")
+    p.add_argument("--out", metavar="DIR", help="write a report (Markdown, HTML, figures, CSV, JSON) to DIR")
+    p.add_argument("--quiet", action="store_true", help="no progress lines on stderr")
+    p.set_defaults(func=run)
+
+
+def _holdout(args: argparse.Namespace):
+    text = str(args.holdout).strip()
+    try:
+        fraction = float(text)
+    except ValueError:
+        return load_data(argparse.Namespace(data=text, columns=args.columns, fs=args.fs))
+    if not 0.0 < fraction < 1.0:
+        raise InputError(f"--holdout: a fraction must lie between 0 and 1, got {text}")
+    return fraction
+
+
+def run(args: argparse.Namespace) -> int:
+    from ..discover import AcceptanceRule, discover, summary_table, write_report
+
+    if args.max_steps < 0:
+        raise InputError(f"--max-steps must be >= 0, got {args.max_steps}")
+    record = load_data(args)
+    rule = AcceptanceRule(min_explained=args.min_explained, max_delta_bic=args.max_delta_bic)
+
+    def progress(message: str) -> None:
+        if not args.quiet:
+            print(f"nlid discover: {message}", file=sys.stderr)
+
+    result = discover(
+        record,
+        args.declared,
+        args.method,
+        mass=args.mass,
+        holdout=_holdout(args),
+        candidates=args.candidates,
+        extra_candidates=args.candidate or (),
+        rule=rule,
+        max_steps=args.max_steps,
+        cutoff=args.cutoff,
+        options=parse_settings(args.set),
+        progress=progress,
+        views=bool(args.out),
+    )
+    if args.out:
+        try:
+            paths = write_report(result, args.out)
+        except OSError as exc:
+            raise InputError(f"cannot write the report to {args.out}: {exc.strerror or exc}") from None
+        progress(f"report written to {paths[1]} (and {paths[0].name})")
+    if args.json:
+        print_json(result.to_dict())
+    else:
+        print(summary_table(result))
+    return 0

@@ -1,0 +1,407 @@
+"""The report of a discovery run: a terminal table, and Markdown + HTML with figures.
+
+:func:`summary_table` is what ``nlid discover`` prints: one row per model
+(the declared one, then one per accepted effect) with epsilon (Eq. 26) and
+the force residual on the estimation and held-out records and the free-run
+simulation error on the held-out record, then why the loop stopped and the
+final coefficients.
+
+:func:`write_report` writes to a folder
+
+* ``report.md`` and ``report.html`` (the same content): data and method, the
+  acceptance rule, the before/after table, for each step the candidates'
+  evidence and the residual figures before and after, the final check, and
+  the final model's coefficients (with standard errors, and posterior
+  summaries when the identifier put them in ``diagnostics["posterior"]`` as
+  ``{term: {"mean", "sd", "q05", "q95"}}``);
+* ``result.json`` (the ``--json`` object), ``models.csv`` (one row per
+  model) and ``coefficients.csv`` (the final model);
+* ``figures/residual_<k>.png`` (model k's residual against z, v, the (z, v)
+  plane and frequency) and ``figures/progress.png``.
+"""
+
+from __future__ import annotations
+
+import html
+import json
+from pathlib import Path
+from typing import Any
+
+import pandas as pd
+
+from ..plotting import save_figure
+from ..terms import parse_term
+from .evidence import Evidence
+from .loop import DiscoveryResult, Fit
+
+__all__ = ["summary_table", "write_report", "coefficient_unit"]
+
+
+def coefficient_unit(term: str, units: dict[str, str] | None = None) -> str:
+    """Unit of a term's coefficient, with the record's units (SI by default)."""
+    t = parse_term(term)
+    units = units or {}
+    fu, zu = units.get("f", "N"), units.get("z", "m")
+    if (fu, zu) == ("N", "m"):
+        return t.coefficient_unit
+    meters = t.z[0] + t.v[0]
+    seconds = t.v[0]
+    out = fu
+    if seconds:
+        out += "*s" if seconds == 1 else f"*s^{seconds}"
+    if meters:
+        out += f"/{zu}" if meters == 1 else f"/{zu}^{meters}"
+    return out
+
+
+def _mass_unit(units: dict[str, str]) -> str:
+    fu, zu = units.get("f", "N"), units.get("z", "m")
+    return "kg" if (fu, zu) == ("N", "m") else f"{fu}*s^2/{zu}"
+
+
+def _labels(result: DiscoveryResult) -> list[str]:
+    return ["declared: " + ", ".join(result.declared)] + [f"+ {s.effect}: " + ", ".join(s.terms) for s in result.steps]
+
+
+def _num(x: float) -> str:
+    """Three significant digits, trailing zeros kept (17.0, 5.86, 0.889)."""
+    return f"{x:.0f}" if abs(x) >= 100 else f"{x:#.3g}"
+
+
+def _pct(x: float | None) -> str:
+    return "-" if x is None else f"{_num(x)} %"
+
+
+def _sim(fit: Fit, units: dict[str, str]) -> str:
+    if fit.sim_rms_holdout is None:
+        return "-"
+    zu = units.get("z", "m")
+    x = fit.sim_rms_holdout
+    if zu in ("m", "V"):
+        prefix = {"m": "mm", "V": "mV"}[zu]
+        return f"{_num(1000 * x)} {prefix}"
+    return f"{x:.3g} {zu}"
+
+
+def _model_rows(result: DiscoveryResult) -> list[list[str]]:
+    units = result.info.get("units", {})
+    rows = []
+    for label, fit in zip(_labels(result), result.states, strict=True):
+        s = fit.scores
+        rows.append(
+            [
+                label,
+                _pct(s.eps),
+                _pct(s.eps_holdout),
+                _pct(s.force_residual),
+                _pct(s.force_residual_holdout),
+                _sim(fit, units),
+            ]
+        )
+    return rows
+
+
+_MODEL_HEADERS = [
+    "model",
+    "eps (Eq. 26)",
+    "eps held-out",
+    "force residual",
+    "force residual held-out",
+    "free-run RMS error held-out",
+]
+
+
+def _format_table(headers: list[str], rows: list[list[str]]) -> str:
+    widths = [max(len(str(r[i])) for r in [headers, *rows]) for i in range(len(headers))]
+    lines = [
+        "  ".join(
+            str(h).ljust(w) if i == 0 else str(h).rjust(w) for i, (h, w) in enumerate(zip(headers, widths, strict=True))
+        )
+    ]
+    for row in rows:
+        lines.append(
+            "  ".join(
+                str(c).ljust(w) if i == 0 else str(c).rjust(w) for i, (c, w) in enumerate(zip(row, widths, strict=True))
+            )
+        )
+    return "\n".join(lines)
+
+
+def _coefficient_rows(fit: Fit, units: dict[str, str]) -> tuple[list[str], list[list[str]]]:
+    se = fit.result.standard_errors or {}
+    post = fit.result.diagnostics.get("posterior") if isinstance(fit.result.diagnostics, dict) else None
+    headers = ["term", "coefficient", "std. error", "unit"]
+    if isinstance(post, dict) and post:
+        headers += ["posterior mean", "posterior sd", "5 %", "95 %"]
+    rows = []
+    for name, value in fit.coefficients.items():
+        row = [name, f"{value:.6g}", "-" if se.get(name) is None else f"{se[name]:.3g}", coefficient_unit(name, units)]
+        if len(headers) > 4:
+            p = post.get(name) if isinstance(post, dict) else None  # type: ignore[union-attr]
+            row += ["-"] * 4 if not p else [f"{p.get(k, float('nan')):.6g}" for k in ("mean", "sd", "q05", "q95")]
+        rows.append(row)
+    return headers, rows
+
+
+def summary_table(result: DiscoveryResult) -> str:
+    """The before/after table ``nlid discover`` prints."""
+    units = result.info.get("units", {})
+    final = result.final
+    how = "estimated" if final.result.mass_estimated else "given"
+    lines = [
+        f"method: {result.method}   mass: {final.mass:.6g} {_mass_unit(units)} ({how})   "
+        f"held-out: {result.info.get('holdout', '')}",
+        "",
+        _format_table(_MODEL_HEADERS, _model_rows(result)),
+        "",
+    ]
+    for number, step in enumerate(result.steps, 1):
+        ev = step.evidence
+        lines.append(
+            f"step {number}: {step.effect} explains {100 * ev.explained_holdout:.3g} % of the held-out residual "  # type: ignore[operator]
+            f"variance, dBIC = {ev.delta_bic:.4g} (N_eff = {ev.n_eff:.4g})"
+        )
+    lines.append(f"stopped: {result.stop_reason}")
+    for ev in result.final_ranking[:3]:
+        if ev.explained_holdout is not None:
+            lines.append(f"  {ev.effect:<28} {_explained(ev)}")
+    lines.append("")
+    headers, rows = _coefficient_rows(final, units)
+    lines.append(_format_table(headers, rows))
+    return "\n".join(lines)
+
+
+def _explained(ev: Evidence) -> str:
+    return f"explains {100 * ev.explained_holdout:.3g} % of held-out residual variance, dBIC = {ev.delta_bic:.4g}"  # type: ignore[operator]
+
+
+def _ranking_rows(ranking: list[Evidence]) -> list[list[str]]:
+    rows = []
+    for ev in ranking:
+        rows.append(
+            [
+                ev.effect,
+                ", ".join(ev.terms) or "-",
+                "-" if ev.explained_holdout is None else f"{100 * ev.explained_holdout:.3g} %",
+                "-" if ev.delta_bic is None else f"{ev.delta_bic:.4g}",
+                "-" if ev.scores is None else _pct(ev.scores.eps),
+                "-" if ev.scores is None else _pct(ev.scores.eps_holdout),
+                ev.status,
+                ev.reason,
+            ]
+        )
+    return rows
+
+
+_RANK_HEADERS = [
+    "candidate",
+    "terms",
+    "held-out variance explained",
+    "dBIC (N_eff)",
+    "eps after",
+    "eps after, held-out",
+    "status",
+    "reason",
+]
+
+
+# --------------------------------------------------------------------------- document
+class _Doc:
+    """A tiny document model rendered to Markdown and to HTML."""
+
+    def __init__(self) -> None:
+        self.blocks: list[tuple[str, Any]] = []
+
+    def h(self, level: int, text: str) -> None:
+        self.blocks.append(("h", (level, text)))
+
+    def p(self, text: str) -> None:
+        self.blocks.append(("p", text))
+
+    def items(self, items: list[str]) -> None:
+        self.blocks.append(("ul", items))
+
+    def table(self, headers: list[str], rows: list[list[str]]) -> None:
+        self.blocks.append(("table", (headers, rows)))
+
+    def images(self, images: list[tuple[str, str]]) -> None:
+        self.blocks.append(("img", images))
+
+    def markdown(self) -> str:
+        out: list[str] = []
+        for kind, data in self.blocks:
+            if kind == "h":
+                out.append("#" * data[0] + " " + data[1])
+            elif kind == "p":
+                out.append(data)
+            elif kind == "ul":
+                out.append("\n".join(f"- {x}" for x in data))
+            elif kind == "table":
+                headers, rows = data
+                esc = [[str(c).replace("|", "\\|") for c in r] for r in [headers, *rows]]
+                out.append("| " + " | ".join(esc[0]) + " |")
+                out[-1] += "\n|" + "|".join(" --- " for _ in headers) + "|"
+                for r in esc[1:]:
+                    out[-1] += "\n| " + " | ".join(r) + " |"
+            elif kind == "img":
+                out.append("\n\n".join(f"![{cap}]({src})\n\n*{cap}*" for src, cap in data))
+        return "\n\n".join(out) + "\n"
+
+    def html(self, title: str) -> str:
+        e = html.escape
+        body: list[str] = []
+        for kind, data in self.blocks:
+            if kind == "h":
+                body.append(f"<h{data[0]}>{e(data[1])}</h{data[0]}>")
+            elif kind == "p":
+                body.append(f"<p>{e(data)}</p>")
+            elif kind == "ul":
+                body.append("<ul>" + "".join(f"<li>{e(x)}</li>" for x in data) + "</ul>")
+            elif kind == "table":
+                headers, rows = data
+                head = "".join(f"<th>{e(str(h))}</th>" for h in headers)
+                rows_html = "".join("<tr>" + "".join(f"<td>{e(str(c))}</td>" for c in r) + "</tr>" for r in rows)
+                body.append(f"<table><thead><tr>{head}</tr></thead><tbody>{rows_html}</tbody></table>")
+            elif kind == "img":
+                figs = "".join(
+                    f'<figure><img src="{e(src)}" alt="{e(cap)}"><figcaption>{e(cap)}</figcaption></figure>'
+                    for src, cap in data
+                )
+                body.append(f'<div class="figures">{figs}</div>')
+        style = (
+            "body{font-family:sans-serif;max-width:1400px;margin:2em auto;padding:0 1em;line-height:1.4}"
+            "table{border-collapse:collapse;margin:1em 0;font-size:0.9em}"
+            "td,th{border:1px solid #ccc;padding:3px 8px;text-align:left}th{background:#f2f2f2}"
+            ".figures{display:flex;flex-wrap:wrap;gap:1em}figure{margin:0;flex:1 1 600px}"
+            "figure img{width:100%}figcaption{font-size:0.85em;color:#555}"
+        )
+        return (
+            f'<!DOCTYPE html>\n<html lang="en"><head><meta charset="utf-8"><title>{e(title)}</title>'
+            f"<style>{style}</style></head><body>\n" + "\n".join(body) + "\n</body></html>\n"
+        )
+
+
+def write_report(result: DiscoveryResult, out_dir: str | Path) -> list[Path]:
+    """Write the report (see the module docstring) and return the files written."""
+    from .plots import progress_figure, residual_figure
+
+    out = Path(out_dir)
+    figures = out / "figures"
+    figures.mkdir(parents=True, exist_ok=True)
+    units = result.info.get("units", {})
+    written: list[Path] = []
+
+    fig_paths: list[str | None] = []
+    for k, view in enumerate(result.views):
+        fig = residual_figure(view, units)
+        written += save_figure(fig, figures / f"residual_{k}", formats=("png",))
+        fig_paths.append(f"figures/residual_{k}.png")
+    if len(fig_paths) < len(result.states):
+        fig_paths += [None] * (len(result.states) - len(fig_paths))
+    written += save_figure(progress_figure(result), figures / "progress", formats=("png",))
+
+    labels = _labels(result)
+    doc = _Doc()
+    title = "Residual -> missing effect: " + (Path(result.info.get("source", "")).name or "record")
+    doc.h(1, title)
+    doc.items(
+        [
+            f"data: {result.info.get('source', '')} - estimation {result.info.get('samples_estimation')} samples, "
+            f"held-out {result.info.get('holdout', '')}",
+            f"equation band: {result.info.get('band_hz', float('nan')):.4g} Hz "
+            f"(sampling {result.info.get('fs_hz', float('nan')):.6g} Hz)",
+            f"method: {result.method} ({'; '.join(result.method_notes)})",
+            "declared model (taken literally): " + ", ".join(result.declared),
+            "acceptance rule: " + result.rule.describe(),
+            f"run time: {result.info.get('seconds', float('nan')):.3g} s",
+        ]
+    )
+    doc.h(2, "Error before and after")
+    doc.p(
+        "epsilon is Eq. 26 (RMS residual relative to the restoring force f - m a); the force residual is the "
+        "same residual relative to the force f (the figure inverse-dynamics benchmarks quote); the free-run "
+        "error is the RMS difference between the measured displacement of the held-out record and the "
+        "model's simulated response to its measured force."
+    )
+    doc.table(_MODEL_HEADERS, _model_rows(result))
+    doc.images([("figures/progress.png", "residuals after each step")])
+
+    for number, step in enumerate(result.steps, 1):
+        doc.h(2, f"Step {number}: {step.effect} ({', '.join(step.terms)})")
+        ev = step.evidence
+        doc.p(
+            f"Accepted: {ev.reason}. Effective sample size of the current residual N_eff = {ev.n_eff:.4g} "
+            f"(integrated autocorrelation time {ev.tau_samples:.3g} samples)."
+            + (f" Stribeck scale c = {ev.shape:.3g}." if ev.shape is not None else "")
+        )
+        doc.table(_RANK_HEADERS, _ranking_rows(step.ranking))
+        imgs = []
+        for k, caption in ((number - 1, "before: " + labels[number - 1]), (number, "after: " + labels[number])):
+            if fig_paths[k]:
+                imgs.append((fig_paths[k], caption))  # type: ignore[arg-type]
+        if imgs:
+            doc.images(imgs)
+        if step.notes:
+            doc.items(step.notes)
+
+    doc.h(2, "Final check: is anything else significant?")
+    doc.p(f"Stopped: {result.stop_reason}.")
+    if result.final_ranking:
+        doc.table(_RANK_HEADERS, _ranking_rows(result.final_ranking))
+    if not result.steps and fig_paths and fig_paths[0]:
+        doc.images([(fig_paths[0], "residual of the declared model")])
+
+    doc.h(2, "Final model")
+    final = result.final
+    how = "estimated" if final.result.mass_estimated else "given"
+    doc.p(
+        f"Terms: {', '.join(final.model.names)}; mass {final.mass:.6g} {_mass_unit(units)} ({how})."
+        + (
+            f" px(z) roots: {final.model.px_roots[0]:.6g}, {final.model.px_roots[1]:.6g} {units.get('z', 'm')}."
+            if final.model.px_roots
+            else ""
+        )
+    )
+    headers, rows = _coefficient_rows(final, units)
+    doc.table(headers, rows)
+    if not (isinstance(final.result.diagnostics, dict) and final.result.diagnostics.get("posterior")):
+        doc.p(
+            "Standard errors are the identifier's (for rfs: least squares, assuming independent equation "
+            "errors, hence optimistic on filtered data); no posterior was available."
+        )
+    notes = [f.sim_note for f in result.states if f.sim_note] + list(final.result.warnings)
+    if notes:
+        doc.h(3, "Notes")
+        doc.items(list(dict.fromkeys(notes)))
+
+    md = out / "report.md"
+    md.write_text(doc.markdown(), encoding="utf-8")
+    page = out / "report.html"
+    page.write_text(doc.html(title), encoding="utf-8")
+    data = out / "result.json"
+    data.write_text(json.dumps(result.to_dict(), indent=1, allow_nan=False), encoding="utf-8")
+    models = out / "models.csv"
+    pd.DataFrame(
+        [
+            {
+                "model": label,
+                "terms": ", ".join(fit.model.names),
+                "eps_percent": fit.scores.eps,
+                "eps_holdout_percent": fit.scores.eps_holdout,
+                "force_residual_percent": fit.scores.force_residual,
+                "force_residual_holdout_percent": fit.scores.force_residual_holdout,
+                "sim_rms_holdout": fit.sim_rms_holdout,
+                "mass": fit.mass,
+            }
+            for label, fit in zip(labels, result.states, strict=True)
+        ]
+    ).to_csv(models, index=False)
+    coeffs = out / "coefficients.csv"
+    se = final.result.standard_errors or {}
+    pd.DataFrame(
+        [
+            {"term": n, "coefficient": v, "std_error": se.get(n), "unit": coefficient_unit(n, units)}
+            for n, v in final.coefficients.items()
+        ]
+    ).to_csv(coeffs, index=False)
+    return [md, page, data, models, coeffs, *written]

@@ -1,0 +1,73 @@
+"""The report: Markdown, HTML, figures, CSV and JSON files, and the terminal table."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from nlid.discover import discover, summary_table, write_report
+from nlid.discover.plots import binned_mean, binned_mean_2d
+
+
+@pytest.fixture(scope="module")
+def run(make_case):
+    record, declared = make_case("single", "coulomb", ("z",), 21)
+    return discover(record, declared, "rfs", candidates="coulomb,quadratic-damping,cubic-stiffness")
+
+
+def test_write_report(run, tmp_path):
+    paths = write_report(run, tmp_path)
+    names = {p.name for p in paths}
+    assert {"report.md", "report.html", "result.json", "models.csv", "coefficients.csv"} <= names
+    assert {"residual_0.png", "residual_1.png", "progress.png"} <= names
+    md = (tmp_path / "report.md").read_text()
+    assert "## Step 1: coulomb (sign(v))" in md and "figures/residual_0.png" in md and "figures/residual_1.png" in md
+    assert "Final check" in md and "acceptance rule" in md
+    page = (tmp_path / "report.html").read_text()
+    assert page.startswith("<!DOCTYPE html>") and '<img src="figures/residual_1.png"' in page and "<table>" in page
+    data = json.loads((tmp_path / "result.json").read_text())
+    assert data["steps"][0]["effect"] == "coulomb"
+    models = pd.read_csv(tmp_path / "models.csv")
+    assert len(models) == 2 and models["eps_percent"].iloc[1] < models["eps_percent"].iloc[0]
+    coeffs = pd.read_csv(tmp_path / "coefficients.csv")
+    assert "sign(v)" in set(coeffs["term"]) and set(coeffs["unit"]) >= {"N", "N*s/m"}
+
+
+def test_summary_table(run):
+    text = summary_table(run)
+    assert "declared:" in text and "+ coulomb: sign(v)" in text and "stopped:" in text and "sign(v)" in text
+
+
+def test_json_contract(run):
+    out = run.to_dict()
+    required = {
+        "method",
+        "declared",
+        "eps_initial",
+        "eps_final",
+        "eps_initial_holdout",
+        "eps_final_holdout",
+        "steps",
+        "final_terms",
+        "coefficients",
+    }
+    assert required <= set(out)
+    step_keys = {"effect", "terms", "eps_before", "eps_after", "eps_before_holdout", "eps_after_holdout", "evidence"}
+    assert step_keys <= set(out["steps"][0])
+    assert json.loads(json.dumps(out, allow_nan=False)) == out
+
+
+def test_binned_means_and_their_bands():
+    rng = np.random.default_rng(1)
+    x = rng.uniform(-1, 1, 200_000)
+    r = np.sign(x) + rng.standard_normal(x.size)
+    centers, mean, half, counts = binned_mean(x, r, tau=1.0, bins=20)
+    assert np.allclose(mean, np.sign(centers), atol=5 * np.nanmax(half))
+    assert counts.sum() == pytest.approx(0.99 * x.size, rel=0.01)
+    _, _, half4, _ = binned_mean(x, r, tau=4.0, bins=20)
+    assert np.allclose(half4, 2 * half)  # four times fewer effective samples: twice as wide
+    xe, ye, grid = binned_mean_2d(x, rng.uniform(-1, 1, x.size), r, bins=10)
+    assert grid.shape == (10, 10) and np.nanmax(np.abs(grid - np.sign(0.5 * (xe[1:] + xe[:-1]))[:, None])) < 0.2
