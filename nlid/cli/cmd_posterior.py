@@ -13,7 +13,9 @@ from .common import add_data_arguments, load_data, parse_settings, print_json
 DESCRIPTION = """\
 Identify a model (as 'nlid identify' does), then sample the posterior of the
 chosen coefficients with emcee, starting the walkers from the identified
-values. Coefficients that are not sampled stay fixed at the identified values.
+values. Coefficients that are not sampled are integrated out of the
+likelihood (--others marginal, default) or kept at the identified values
+(--others fixed).
 
 The likelihood is the error of the force balance f - m a = sum theta_i g_i(z, v)
 (Eq. 25), with the noise scale marginalised, the effective number of
@@ -91,9 +93,9 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     )
     p.add_argument(
         "--others",
-        default="fixed",
+        default="marginal",
         choices=("fixed", "marginal"),
-        help="coefficients not sampled: fixed at the identified values (default) or integrated out",
+        help="coefficients not sampled: integrated out (default) or fixed at the identified values",
     )
     p.add_argument("--cutoff", type=float, metavar="HZ", help="equation band in Hz (default: from the noise floor)")
     p.add_argument(

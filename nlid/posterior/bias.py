@@ -231,7 +231,7 @@ def indirect_inference(
     covariance: np.ndarray,
     *,
     pairs: int = 4,
-    iterations: int = 2,
+    iterations: int = 3,
     noise: Mapping[str, float] | None = None,
     rng: np.random.Generator | None = None,
 ) -> tuple[np.ndarray, np.ndarray, dict[str, Any]]:
@@ -255,10 +255,12 @@ def indirect_inference(
     covariance
         ``V``, the sampling covariance of ``theta_hat``.
     pairs
-        Antithetic pairs per iteration (at least 2, for the spread).
+        Antithetic pairs of the last step (at least 2, for the spread); the
+        earlier steps, which only move the point of evaluation, use half as
+        many (at least 2).
     iterations
-        Fixed-point steps (each costs ``pairs`` simulations and ``2 pairs``
-        force balances).
+        Fixed-point steps (a step with ``k`` pairs costs ``k`` simulations
+        and ``2 k`` force balances).
     noise, rng
         As for :func:`simulate_bias`.
 
@@ -278,7 +280,11 @@ def indirect_inference(
     steps = []
     corr = None
     for it in range(iterations):
-        corr = simulate_bias(record, model, theta, mass, data, pairs=pairs, noise=noise, rng=rng, phase=it / iterations)
+        # the earlier steps only move the point where the binding function is evaluated: half the pairs do
+        n_pairs = pairs if it == iterations - 1 else max(2, pairs // 2)
+        corr = simulate_bias(
+            record, model, theta, mass, data, pairs=n_pairs, noise=noise, rng=rng, phase=it / iterations
+        )
         each = corr.pair_estimates(theta_hat)
         deviations.append(each - each.mean(axis=0))
         theta = corr.correct(theta_hat)

@@ -347,7 +347,7 @@ def build_likelihood(
     cutoff: float | None = None,
     bias_correction: bool = True,
     pairs: int = 4,
-    iterations: int = 2,
+    iterations: int = 3,
     noise: Mapping[str, float] | None = None,
     rng: np.random.Generator | None = None,
     data: RegressionData | None = None,

@@ -53,7 +53,7 @@ class DampingBand:
 
 @dataclass
 class Posterior:
-    """Posterior over the sampled coefficients (the others fixed at the identifier's estimate).
+    """Posterior over the sampled coefficients (the others integrated out, or fixed at the identifier's estimate).
 
     Attributes
     ----------
@@ -95,7 +95,7 @@ class Posterior:
     mass: float
     method: str
     seconds: float
-    others: str = "fixed"
+    others: str = "marginal"
     gaussian: tuple[np.ndarray, np.ndarray] | None = field(default=None, repr=False)
     data: RegressionData | None = field(default=None, repr=False)
 
@@ -106,8 +106,13 @@ class Posterior:
         return self.chains.samples
 
     @property
-    def fixed(self) -> dict[str, float]:
-        """The coefficients that were not sampled and their (identifier's) values."""
+    def not_sampled(self) -> dict[str, float]:
+        """The coefficients that were not sampled, with the identifier's estimates.
+
+        With ``others="fixed"`` the likelihood held them at these values; with
+        ``"marginal"`` it integrated them out (the values serve only where a
+        full coefficient vector is needed, e.g. :meth:`full_samples`).
+        """
         return {n: x for n, x in self.start.items() if n not in self.names}
 
     @property
@@ -119,7 +124,7 @@ class Posterior:
         return self.likelihood.conditional(idx, self.model.vector(self.start))
 
     def full_samples(self, draws: int | None = None, rng: np.random.Generator | None = None) -> np.ndarray:
-        """Samples as full coefficient vectors in model order (fixed ones repeated).
+        """Samples as full coefficient vectors in model order (unsampled ones at the identifier's estimate).
 
         Parameters
         ----------
@@ -184,7 +189,8 @@ class Posterior:
                 "mass": self.mass,
                 "start": {n: self.start[n] for n in self.names},
                 "others": self.others,
-                "fixed": self.fixed if self.others == "fixed" else {},
+                "fixed": self.not_sampled if self.others == "fixed" else {},
+                "not_sampled": list(self.not_sampled),
                 "priors": self.priors,
                 "units": {n: parse_term(n).coefficient_unit for n in self.names},
                 "sampler": {
@@ -237,12 +243,12 @@ class Posterior:
                 f"{name:<{width}}  {s['mean']:11.5g}  {s['sd']:9.3g}  {s['q05']:11.5g}  {s['q50']:11.5g}  "
                 f"{s['q95']:11.5g}  {self.tau[name]:6.1f}  {ess[name]:7.0f}  {parse_term(name).coefficient_unit}"
             )
-        if self.fixed and self.others == "marginal":
+        if self.not_sampled and self.others == "marginal":
             lines.append("")
-            lines.append(f"integrated out (not sampled): {', '.join(self.fixed)}")
-        elif self.fixed:
+            lines.append(f"integrated out (not sampled): {', '.join(self.not_sampled)}")
+        elif self.not_sampled:
             lines.append("")
-            fixed = ", ".join(f"{n} = {x:.6g}" for n, x in self.fixed.items())
+            fixed = ", ".join(f"{n} = {x:.6g}" for n, x in self.not_sampled.items())
             lines.append(f"fixed at the identifier's estimate: {fixed}")
         info = self.likelihood.info
         lines.append("")
@@ -323,7 +329,7 @@ class Posterior:
 
         Files: ``posterior_table.csv``, ``posterior.json``,
         ``posterior_samples.npz`` (``samples``, ``names``, ``chain``,
-        ``log_prob``, ``tau``, ``fixed_names``, ``fixed_values`` and the damping
+        ``log_prob``, ``tau``, ``not_sampled_names``, ``not_sampled_estimates`` and the damping
         bands), ``posterior_corner.png``, ``posterior_trace.png``,
         ``posterior_damping.png``.
         """
@@ -345,8 +351,8 @@ class Posterior:
             "chain": self.chains.chain,
             "log_prob": self.chains.log_prob,
             "tau": self.chains.tau,
-            "fixed_names": np.array(list(self.fixed), dtype=str),
-            "fixed_values": np.array(list(self.fixed.values()), dtype=float),
+            "not_sampled_names": np.array(list(self.not_sampled), dtype=str),
+            "not_sampled_estimates": np.array(list(self.not_sampled.values()), dtype=float),
         }
         for i, b in enumerate(bands):
             for key in ("v_grid", "q05", "q50", "q95"):

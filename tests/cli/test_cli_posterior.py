@@ -33,14 +33,14 @@ def test_json_contract(csv_noisy, capsys):
     assert list(doc["params"]) == ["v*|v|"]
     s = doc["params"]["v*|v|"]
     assert set(s) == {"mean", "sd", "q05", "q50", "q95"}
-    assert s["q05"] < s["q50"] < s["q95"] and s["sd"] > 0 and doc["fixed"]["v"] > 0
+    assert s["q05"] < s["q50"] < s["q95"] and s["sd"] > 0 and doc["others"] == "marginal"
 
 
 def test_table_and_files(csv_noisy, tmp_path, capsys):
     out_dir = tmp_path / "post"
     status, out, err = run(capsys, "posterior", str(csv_noisy), *TERMS, "--out", str(out_dir), "--no-figures")
     assert status == 0, err
-    assert "v*|v|" in out and "N*s^2/m^2" in out and "tau" in out and "fixed at the identifier's estimate" in out
+    assert "v*|v|" in out and "N*s^2/m^2" in out and "tau" in out and "integrated out (not sampled)" in out
     assert (out_dir / "posterior_samples.npz").is_file() and (out_dir / "posterior_table.csv").is_file()
     assert "wrote" in err
 
