@@ -1,7 +1,8 @@
 """Bayesian posteriors on the friction (and other) coefficients, sampled with emcee.
 
 Start from any identification (:func:`nlid.identify`); sample the chosen
-coefficients with the others fixed at the identifier's estimate::
+coefficients with the others integrated out (or fixed at the identifier's
+estimate, ``others="fixed"``)::
 
     from nlid import identify
     from nlid.posterior import sample_posterior

@@ -51,9 +51,9 @@ Adjustments (:func:`build_likelihood`)
 Assumptions (stated in docs/posterior.md): the model's terms are the true
 ones (no missing physics); the residual is stationary and its correlation
 dies out within a block; the measurement noise on the displacement is white
-(see :mod:`nlid.posterior.bias`); the mass (given or estimated) is exact;
-coefficients that are not sampled are known exactly at the identifier's
-estimate.
+(see :mod:`nlid.posterior.bias`); the mass (given or estimated) is exact.
+Coefficients that are not sampled are integrated out (:meth:`Likelihood.reduced`)
+or held at given values (:meth:`Likelihood.conditional`).
 """
 
 from __future__ import annotations
