@@ -368,5 +368,9 @@ class Posterior:
             paths += save_figure(plots.corner_figure(self), out / "posterior_corner", formats=("png",))
             paths += save_figure(plots.trace_figure(self), out / "posterior_trace", formats=("png",))
             if bands:
-                paths += save_figure(plots.damping_figure(bands), out / "posterior_damping", formats=("png",))
+                paths += save_figure(
+                    plots.damping_figure(bands, self.data.filtered_at if self.data is not None else None),
+                    out / "posterior_damping",
+                    formats=("png",),
+                )
         return paths
