@@ -52,11 +52,12 @@ def study_metrics(
     Returns
     -------
     dict
-        ``"<term>:width90"`` (width of the credible interval; the number is
-        the level in percent) and, when the truth is known,
-        ``"<term>:covers"`` for each sampled term; ``"posterior:tau"`` (the
-        largest integrated autocorrelation time, steps) and
-        ``"posterior:seconds"``.
+        For each sampled term: ``"ci_lo:<term>"`` and ``"ci_hi:<term>"`` (the
+        equal-tailed credible interval), ``"ci_width:<term>"`` and, when the
+        truth is known, ``"ci_covers:<term>"``; ``"posterior:level"``,
+        ``"posterior:tau"`` (the largest integrated autocorrelation time,
+        steps) and ``"posterior:seconds"``. The study summary turns the
+        ``ci_*`` families into one table.
     """
     options = dict(options)
     level = float(options.pop("level", 0.9))
@@ -66,12 +67,11 @@ def study_metrics(
     coeffs = _truth_coefficients(truth)
     if coeffs is not None:
         coeffs = {model.terms[model.index(k)].name: v for k, v in coeffs.items() if k in model}
-    tag = f"{100 * level:g}"
-    out: dict[str, float | bool] = {}
+    out: dict[str, float | bool] = {"posterior:level": level}
     for name, (lo, hi) in posterior.interval(level).items():
-        out[f"{name}:width{tag}"] = hi - lo
+        out[f"ci_lo:{name}"], out[f"ci_hi:{name}"], out[f"ci_width:{name}"] = lo, hi, hi - lo
         if coeffs is not None and name in coeffs:
-            out[f"{name}:covers"] = bool(lo <= coeffs[name] <= hi)
+            out[f"ci_covers:{name}"] = bool(lo <= coeffs[name] <= hi)
     out["posterior:tau"] = max(posterior.tau.values())
     out["posterior:seconds"] = posterior.seconds
     return out

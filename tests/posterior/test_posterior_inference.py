@@ -161,14 +161,15 @@ def test_bad_params_and_missing_mass(record, result):
 def test_study_metrics(record, result, preset):
     metrics = study_metrics(record, preset.model(), result, preset.truth(), seed=0, bias_pairs=2)
     assert set(metrics) == {
-        "v:width90",
-        "v:covers",
-        "v*|v|:width90",
-        "v*|v|:covers",
+        *(f"ci_{kind}:{t}" for kind in ("lo", "hi", "width", "covers") for t in ("v", "v*|v|")),
+        "posterior:level",
         "posterior:tau",
         "posterior:seconds",
     }
-    assert metrics["v*|v|:width90"] > 0 and isinstance(metrics["v:covers"], bool)
+    for t in ("v", "v*|v|"):
+        lo, hi = metrics[f"ci_lo:{t}"], metrics[f"ci_hi:{t}"]
+        assert lo < hi and metrics[f"ci_width:{t}"] == pytest.approx(hi - lo)
+        assert metrics[f"ci_covers:{t}"] == (lo <= preset.truth()["coefficients"][t] <= hi)
     unknown = study_metrics(record, preset.model(), result, None, seed=0, bias_pairs=2, level=0.5)
-    assert "v:width50" in unknown and "v:covers" not in unknown
-    assert unknown["v:width50"] < metrics["v:width90"]
+    assert unknown["posterior:level"] == 0.5 and "ci_covers:v" not in unknown
+    assert unknown["ci_width:v"] < metrics["ci_width:v"]

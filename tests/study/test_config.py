@@ -104,7 +104,14 @@ def test_posterior_hook_adds_its_metrics_to_the_row(small_study, registry, monke
     def study_metrics(record, model, result, truth, **options):
         calls.append(options)
         assert truth["coefficients"]["z^3"] == 1e6 and "z^3" in model.names
-        return {"z^3:width90": 0.01 * result.coefficients["z^3"], "z^3:covers": True}
+        c = result.coefficients["z^3"]
+        return {
+            "ci_lo:z^3": 0.995 * c,
+            "ci_hi:z^3": 1.005 * c,
+            "ci_width:z^3": 0.01 * c,
+            "ci_covers:z^3": True,
+            "posterior:level": 0.9,
+        }
 
     module = types.ModuleType("nlid.posterior")
     module.study_metrics = study_metrics
@@ -118,12 +125,13 @@ def test_posterior_hook_adds_its_metrics_to_the_row(small_study, registry, monke
     for run in runs:
         payload = execute_run(run.spec)
         assert payload["row"]["status"] == "ok", payload["row"]["error"]
-        assert payload["row"]["z^3:covers"] is True
-        assert payload["row"]["z^3:width90"] == pytest.approx(1e4, rel=0.01)
+        assert payload["row"]["ci_covers:z^3"] is True
+        assert payload["row"]["ci_width:z^3"] == pytest.approx(1e4, rel=0.01)
         store.save(run, payload)
     assert calls == [{"draws": 50}, {"draws": 50}]
     summary, _ = write_report(config, runs, store)
-    assert "### Other metrics" in summary and "| 1 (2 of 2) |" in summary
+    assert "### Posterior (emcee): 90 % credible interval" in summary
+    assert "covers 2/2" in summary and "### Other metrics" not in summary
 
 
 @pytest.mark.slow

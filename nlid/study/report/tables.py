@@ -21,6 +21,11 @@ __all__ = ["Section", "Table", "build_sections", "summary_markdown", "summary_lo
 _KNOWN_PREFIXES = (
     "rms:",
     "quality:",
+    "ci_lo:",
+    "ci_hi:",
+    "ci_width:",
+    "ci_covers:",
+    "posterior:",
     "coef:",
     "coef_error_pct:",
     "eq:",
@@ -250,6 +255,9 @@ def _fill(section: Section) -> None:
                 [r for r in _method_rows(section, [(f"quality:{t}", False) for t in quality]) if _has_values(r)],
             )
         )
+    posterior = _posterior_table(section)
+    if posterior is not None:
+        section.tables.append(posterior)
     rms = [t for t in section.terms if f"rms:{t}" in frame.columns]
     if rms:
         section.tables.append(
@@ -297,6 +305,42 @@ def _fill(section: Section) -> None:
 
     for _, row in frame[frame["status"] != "ok"].iterrows():
         section.failures.append(f"{row['method']} r{row['repetition']}: {row['status']}: {row['error']}")
+
+
+def _posterior_table(section: Section) -> Table | None:
+    """Credible intervals of the posterior hook (``ci_*`` columns), coverage of the truth, tau and time."""
+    frame = section.frame
+    terms = [t for t in section.terms if f"ci_lo:{t}" in frame.columns]
+    if not terms:
+        return None
+    levels = pd.to_numeric(frame.get("posterior:level", pd.Series(dtype=float)), errors="coerce").dropna()
+    level = f"{100 * levels.iloc[0]:g} %" if len(levels) else "credible"
+    rows = []
+    for method in section.methods:
+        sub = frame[frame["method"] == method]
+        ok = sub[sub["status"] == "ok"]
+        if ok.empty or ok[f"ci_lo:{terms[0]}"].dropna().empty:
+            continue
+        cells = [method, _runs_cell(sub)]
+        for t in terms:
+            lo = pd.to_numeric(ok[f"ci_lo:{t}"], errors="coerce").dropna()
+            hi = pd.to_numeric(ok[f"ci_hi:{t}"], errors="coerce").dropna()
+            text = f"[{fmt(float(lo.median()), 4)}, {fmt(float(hi.median()), 4)}]"
+            if f"ci_covers:{t}" in ok.columns:
+                covers = ok[f"ci_covers:{t}"].dropna().astype(bool)
+                if len(covers):
+                    text += f" covers {int(covers.sum())}/{len(covers)}"
+            cells.append(text)
+        for col in ("posterior:tau", "posterior:seconds"):
+            cells.append(cell(ok[col]) if col in ok.columns else "–")
+        rows.append(cells)
+    if not rows:
+        return None
+    title = (
+        f"Posterior (emcee): {level} credible interval of each coefficient (median of each bound over the runs) "
+        "and how many runs' intervals cover the reference"
+    )
+    return Table(title, ["method", "runs", *terms, "tau (steps)", "time (s)"], rows)
 
 
 def _has_values(row: list[str]) -> bool:
