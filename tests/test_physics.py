@@ -91,6 +91,7 @@ def test_regression_data_untrimmed_keeps_every_sample(short_record, numerical):
     np.testing.assert_array_equal(without.a, full.a)
     np.testing.assert_array_equal(without.v, full.v)
 
+
 def test_damping_slice_of_a_filtered_balance_keeps_the_stiffness_out():
     # with z and a noisy the balance is filtered (~26 Hz): K must be removed in the same band
     preset = get_preset("paper-experimental")
