@@ -9,7 +9,8 @@ Cases (paper-numerical, terms z^3, z^2, v*|v| plus 1, z, v):
   :func:`nlid.physics.regression_data` changed: this separates the two
   biases of the damping coefficients (docs/rfs.md).
 
-Each case is run with the mass known and estimated; methods ``rfs``, ``sindy``
+Each case is run with the mass known and estimated; methods ``nsi-ip`` (for
+comparison), ``rfs``, ``sindy``
 and ``sindy`` with the automatic library. Every identification is appended to
 a CSV as soon as it is done (one row per coefficient, mass, natural frequency
 and damping ratio), and a rerun skips what the CSV already holds, so an
@@ -32,7 +33,12 @@ from nlid import identify, physics
 from nlid.presets import get_preset
 
 TERMS = "z^3, z^2, v*|v|"
-METHODS = {"rfs": ("rfs", {}), "sindy": ("sindy", {}), "sindy-automatic": ("sindy", {"library": "automatic"})}
+METHODS = {
+    "nsi-ip": ("nsi-ip", {}),
+    "rfs": ("rfs", {}),
+    "sindy": ("sindy", {}),
+    "sindy-automatic": ("sindy", {"library": "automatic"}),
+}
 FIELDS = ["case", "mass", "method", "band_factor", "seed", "quantity", "estimate", "truth", "error_percent"]
 BAND_FACTORS = (2.0, 4.0, 6.0, 8.0)
 

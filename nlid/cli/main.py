@@ -51,6 +51,8 @@ examples:
   nlid simulate --preset paper-numerical --seed 0 --channels v,a --out x.csv
   nlid identify x.csv --method rfs --terms "z^3,z^2,v*|v|" --mass 0.2
   nlid identify dataset:emps --method rfs --terms "sign(v)" --without z
+  nlid discover dataset:emps --declared "v, 1"
+  nlid posterior x.csv --terms "z^3,z^2,v*|v|" --mass 0.2 --params damping
 """
 
 
