@@ -69,11 +69,11 @@ from .common import (
     HOLD_ASSUMED,
     blas_threads,
     check_length,
-    denoise_operator,
     eigen_list,
     fit_arrays,
     fit_summary,
     force_hold,
+    reconstruction,
     velocity_estimate,
 )
 from .continuous import continuous_eigenvalues, uls_ok
@@ -81,10 +81,9 @@ from .fit import NSIFit, UnstableULSError, fit_extended, format_eigenvalues
 from .gram import block_hankel_gram, sub_gram, transform_gram
 from .intersample import force_interval_mean
 from .noise import subtract_noise
-from .reconstruction import reconstruct_motion
 from .subspace import po_moesp
 
-__all__ = ["NSIInputPerturbation", "search_k_tilde"]
+__all__ = ["NSIInputPerturbation", "search_k_tilde", "ensemble_values", "combine_fits"]
 
 #: Values of k~1 accepted by the cheap search but rejected by the full model
 #: before the search gives up (on paper-numerical one such value, 500 N/m, is seen).
@@ -130,6 +129,32 @@ def search_k_tilde(
     )
 
 
+def ensemble_values(k0: float, count: int, spread: float) -> list[float]:
+    """``count`` values of k~1 evenly spread over ``[k0, spread * k0]`` (``[k0]`` for one)."""
+    if count <= 1 or spread <= 1.0:
+        return [float(k0)]
+    return [float(k0 * (1.0 + (spread - 1.0) * j / (count - 1))) for j in range(count)]
+
+
+def combine_fits(fits: list[tuple[float, NSIFit]]) -> tuple[dict[str, float], float, float, float]:
+    """Average the fits of several k~1: nonlinear coefficients, ``theta_z = kbar - k~1``, ``c_v`` and ``m``.
+
+    Every k~1 gives a consistent estimate of the same coefficients (Eq. 13-20
+    do not depend on it), but their errors from the noise differ: averaging
+    them cuts the spread (see :class:`NSIInputPerturbation`).
+
+    Returns
+    -------
+    coefficients, theta_z, c_v, m
+    """
+    names = list(fits[0][1].coefficients)
+    coefs = {n: float(np.mean([f.coefficients[n] for _, f in fits])) for n in names}
+    theta_z = float(np.mean([f.uls.k - k for k, f in fits]))
+    c_v = float(np.mean([f.uls.c for _, f in fits]))
+    m = float(np.mean([f.uls.m for _, f in fits]))
+    return coefs, theta_z, c_v, m
+
+
 class NSIInputPerturbation(Identifier):
     """NSI with the virtual input perturbation ``fbar = f + k~1 z`` (Sec. 2.2, 3.2).
 
@@ -155,6 +180,28 @@ class NSIInputPerturbation(Identifier):
         Option("k_start", "float", 0.0, "first k~1 of the automatic search (N/m)"),
         Option("k_step", "float", 100.0, "step of the automatic search (N/m)", minimum=1e-12),
         Option("k_max", "float", 1e5, "give up the search above this k~1 (N/m)"),
+        Option(
+            "k_tilde_ensemble",
+            "int",
+            5,
+            "number of k~1 values whose identifications are averaged (1: the accepted k~1 alone)",
+            minimum=1,
+        ),
+        Option(
+            "k_tilde_spread",
+            "float",
+            2.5,
+            "the averaged k~1 values are evenly spread from the accepted k~1 to this multiple of it",
+            minimum=1.0,
+        ),
+        Option("_ensemble_rows", "floats", None, "experiment", nullable=True),
+        Option(
+            "mass_in_uls_fit",
+            "bool",
+            False,
+            "a given mass also fixes m in the ULS fit 1/Hbar = kbar - m w^2 + i c w (else it is used in the "
+            "static balance and Eq. 8/22 only)",
+        ),
         Option(
             "search_block_rows",
             "int",
@@ -187,8 +234,10 @@ class NSIInputPerturbation(Identifier):
         order, max_order, zeta_max = opt["order"], opt["max_order"], opt["zeta_max"]
         s = 2 * block_rows
 
+        uls_mass = mass if opt["mass_in_uls_fit"] else None
+
         def fit(ch: Channels, gram: np.ndarray, k: float) -> NSIFit:
-            return fit_extended(ch, perturbation_map(ch, k), gram, dt, band, order, max_order, zeta_max, k, mass)
+            return fit_extended(ch, perturbation_map(ch, k), gram, dt, band, order, max_order, zeta_max, k, uls_mass)
 
         ch1 = prepare_channels(z, v, f_held, dt, basis, 0.0, None, True, False, opt["noise_max_lag"])
         g1 = block_hankel_gram(ch1.base, s)
@@ -198,7 +247,7 @@ class NSIInputPerturbation(Identifier):
         explicit = opt["k_tilde"] is not None
         k_use = float(opt["k_tilde"] if explicit else opt["k_start"])
         ch2 = g2 = None
-        denoise_fc = noise_std = None
+        denoise_fc = noise_std = accel_std = rec = None
         rechecks = 0
         while True:
             if not explicit:
@@ -219,9 +268,8 @@ class NSIInputPerturbation(Identifier):
                 ch, gram = ch1, g1
                 if opt["reconstruct"]:
                     if ch2 is None:
-                        lowpass, denoise_fc = denoise_operator(z, record.fs, opt["denoise_cutoff"])
-                        rec = reconstruct_motion(
-                            z, v, f_held, dt, (result.uls.m, result.uls.c, result.uls.k), lowpass, vel.differentiate
+                        rec, denoise_fc = reconstruction(
+                            record, vel, f_held, (mass or result.uls.m, result.uls.c, result.uls.k), opt
                         )
                         ch2 = prepare_channels(
                             z,
@@ -241,6 +289,8 @@ class NSIInputPerturbation(Identifier):
                         if ch2.noise is not None:
                             g2 = subtract_noise(g2, ch2.noise, output=ch2.base.shape[1] - 1)
                         noise_std = float(np.sqrt(rec.noise_var))
+                        src_a = rec.source("a")
+                        accel_std = None if src_a is None else float(np.sqrt(src_a.var))
                         timings["second_gram"] = time.perf_counter() - t0
                     ch, gram = ch2, g2
                     result = fit(ch, gram, k_use)
@@ -261,19 +311,35 @@ class NSIInputPerturbation(Identifier):
                     ) from None
                 k_use += opt["k_step"]
 
+        fits = [(k_use, result)]
+        for k in ensemble_values(k_use, opt["k_tilde_ensemble"], opt["k_tilde_spread"])[1:]:
+            try:
+                fits.append((k, fit(ch, gram, k)))
+            except UnstableULSError as exc:
+                trials.append(
+                    {"k_tilde": k, "block_rows": block_rows, "accepted": False, "eigenvalues": eigen_list(exc.eigenvalues)}
+                )
+        for rows in opt["_ensemble_rows"] or []:
+            sg = sub_gram(gram, int(rows))
+            for k in ensemble_values(k_use, opt["k_tilde_ensemble"], opt["k_tilde_spread"]):
+                try:
+                    fits.append((k, fit(ch, sg, k)))
+                except UnstableULSError:
+                    pass
+        timings["ensemble"] = time.perf_counter() - t0
         uls = result.uls
-        coefs: dict[str, float] = dict(result.coefficients)
-        theta_z = uls.k - k_use
+        coefs, theta_z, c_v, m_fit = combine_fits(fits)
+        mass_out = float(mass) if mass is not None else m_fit
         coefs["z"] = theta_z
-        coefs["v"] = uls.c
-        theta_1 = static_constant(ch, uls.m, theta_z, uls.c, coefs, basis, v, dt)
+        coefs["v"] = c_v
+        theta_1 = static_constant(ch, mass_out, theta_z, c_v, coefs, basis, v, dt)
         coefs["1"] = theta_1
         warnings = [HOLD_ASSUMED] if hold_assumed else []
         unmodelled = {}
         for name, present, value in (
             ("1", split.constant, theta_1),
             ("z", split.linear, theta_z),
-            ("v", split.viscous, uls.c),
+            ("v", split.viscous, c_v),
         ):
             if not present:
                 unmodelled[name] = value
@@ -284,7 +350,6 @@ class NSIInputPerturbation(Identifier):
                         "(diagnostics 'unmodelled')"
                     )
         coefficients = {name: float(coefs[name]) for name in model.names}
-        mass_out = uls.m
         z_range = (float(z.min()), float(z.max()))
         full_model = model.with_terms(add=[n for n in ("1", "z", "v") if n not in model])
         full = {n: coefs[n] for n in full_model.names}
@@ -306,12 +371,18 @@ class NSIInputPerturbation(Identifier):
             "k_tilde": k_use,
             "k_tilde_search": "explicit" if explicit else "automatic",
             "k_tilde_trials": trials,
+            "k_tilde_ensemble": [
+                {"k_tilde": k, "coefficients": {**f.coefficients, "z": f.uls.k - k, "v": f.uls.c}, "mass": f.uls.m}
+                for k, f in fits
+            ],
             **fit_summary(result),
             "block_rows": block_rows,
             "velocity": vel.provenance,
             "velocity_cutoff_hz": vel.cutoff,
             "denoise_cutoff_hz": denoise_fc,
             "noise_std_estimate_m": noise_std,
+            "acceleration_noise_std_estimate": accel_std,
+            "crossover_hz": None if rec is None else rec.crossover,
             "force_hold": hold,
             "force_model": "held over each sample (exact ZOH)"
             if hold == "zoh"
