@@ -64,6 +64,7 @@ __all__ = [
     "differentiate",
     "integrate",
     "lowpass",
+    "noise_sd",
     "suggest_cutoff",
     "zoh_equivalent",
     "FILTER_ORDER",
@@ -147,6 +148,35 @@ def suggest_cutoff(x: np.ndarray, fs: float) -> float:
     below = np.flatnonzero(psd[peak:] < CUTOFF_SNR * floor)
     f_snr = freqs[peak + below[0]] if below.size else cap
     return float(min(max(f_snr, f_energy, freqs[1]), cap))
+
+
+def noise_sd(x: np.ndarray, fs: float) -> float:
+    """Standard deviation of the white measurement noise on ``x``, from its noise floor.
+
+    The floor is the median Welch power spectral density (segments of 4096
+    samples) between ``NOISE_BAND`` = 0.35 and 0.45 fs, the band
+    :func:`suggest_cutoff` also treats as noise only; white noise of standard
+    deviation ``s`` has the one-sided density ``2 s^2 / fs``. Signal content
+    in that band makes this an overestimate.
+
+    Parameters
+    ----------
+    x
+        The signal (usually displacement).
+    fs
+        Sampling frequency in Hz.
+
+    Returns
+    -------
+    float
+        The estimated noise standard deviation, in the unit of ``x``.
+    """
+    x = np.asarray(x, dtype=float)
+    freqs, psd = signal.welch(x - x.mean(), fs=fs, nperseg=int(min(x.size, 4096)))
+    band = (freqs >= NOISE_BAND[0] * fs) & (freqs <= NOISE_BAND[1] * fs)
+    if not band.any():
+        raise InputError(f"too few samples ({x.size}) to estimate a noise floor")
+    return float(np.sqrt(np.median(psd[band]) * fs / 2.0))
 
 
 def _check_band(freq: float, fs: float, what: str) -> None:

@@ -13,6 +13,15 @@ the map are taken from columns of the same name when present.
 The sampling frequency comes from the time column (checked for uniformity, see
 :class:`nlid.record.Record`), else from ``fs=`` given by the caller, else from
 a scalar ``fs`` variable in the file.
+
+Metadata sidecar
+----------------
+:func:`write_csv` and :func:`write_npz` also write ``<file>.meta.json`` with
+the record's metadata that other tools cannot carry in a CSV column: how the
+force was held between samples (``force_hold``), the mass and g, the source,
+and for simulated records the truth, seed and noise. :func:`read_record` reads
+it back when it is present (plain JSON; only the keys in :data:`META_KEYS` are
+taken).
 """
 
 from __future__ import annotations
@@ -28,11 +37,23 @@ import numpy as np
 from .errors import DataError, InputError
 from .record import CHANNELS, Record
 
-__all__ = ["ColumnExpr", "parse_columns", "read_record", "read_table", "write_csv", "write_npz", "SUFFIXES"]
+__all__ = [
+    "ColumnExpr",
+    "parse_columns",
+    "read_record",
+    "read_table",
+    "write_csv",
+    "write_npz",
+    "SUFFIXES",
+    "META_KEYS",
+    "sidecar_path",
+]
 
 #: File types understood by :func:`read_record`.
 SUFFIXES = (".csv", ".txt", ".npz", ".mat")
 _MAP_CHANNELS = ("t", *CHANNELS)
+#: Metadata keys written to and read from the ``.meta.json`` sidecar.
+META_KEYS = ("source", "force_hold", "mass", "g", "excitation", "preset", "seed", "noise", "truth")
 _OPERAND = re.compile(r"\s*([A-Za-z_][A-Za-z_0-9]*|[0-9]*\.?[0-9]+(?:[eE][+-]?[0-9]+)?)\s*")
 
 
@@ -203,6 +224,37 @@ def read_table(path: str | Path) -> dict[str, np.ndarray]:
     raise DataError(f"cannot read {path}: unknown file type {suffix!r} (use {', '.join(SUFFIXES)})")
 
 
+def sidecar_path(path: str | Path) -> Path:
+    """``<file>.meta.json`` beside a data file."""
+    path = Path(path)
+    return path.with_name(path.name + ".meta.json")
+
+
+def _read_sidecar(path: Path) -> dict[str, Any]:
+    side = sidecar_path(path)
+    if not side.is_file():
+        return {}
+    import json
+
+    try:
+        data = json.loads(side.read_text())
+    except (OSError, ValueError) as exc:
+        raise DataError(f"cannot read the metadata file {side}: {exc}") from None
+    if not isinstance(data, dict):
+        raise DataError(f"{side}: expected a JSON object")
+    return {k: data[k] for k in META_KEYS if k in data}
+
+
+def _write_sidecar(record: Record, path: Path) -> None:
+    import json
+
+    from .interface import to_jsonable
+
+    meta = {k: record.meta[k] for k in META_KEYS if k in record.meta}
+    meta["force_hold"] = record.force_hold
+    sidecar_path(path).write_text(json.dumps(to_jsonable(meta), indent=1, allow_nan=False) + "\n")
+
+
 def read_record(
     path: str | Path,
     columns: str | Mapping[str, str] | None = None,
@@ -244,7 +296,7 @@ def read_record(
                 f"(e.g. {required}=NAME); the file has: {', '.join(sorted(table))}"
             )
     arrays = {c: e.evaluate(table, str(path)).ravel() for c, e in exprs.items()}
-    meta = {"source": str(path), **dict(meta or {})}
+    meta = {"source": str(path), **_read_sidecar(path), **dict(meta or {})}
     kwargs: dict[str, Any] = {c: arrays[c] for c in CHANNELS if c in arrays}
     if "t" in arrays:
         if fs is not None:
@@ -264,7 +316,7 @@ def read_record(
 
 
 def write_csv(record: Record, path: str | Path, channels: tuple[str, ...] | None = None) -> Path:
-    """Write ``t`` and the channels to CSV (12 significant digits).
+    """Write ``t`` and the channels to CSV (12 significant digits), and the metadata sidecar.
 
     Parameters
     ----------
@@ -280,12 +332,14 @@ def write_csv(record: Record, path: str | Path, channels: tuple[str, ...] | None
     frame = pd.DataFrame({"t": record.t, **{c: getattr(record, c) for c in channels}})
     path = Path(path)
     frame.to_csv(path, index=False, float_format="%.12g")
+    _write_sidecar(record, path)
     return path
 
 
 def write_npz(record: Record, path: str | Path) -> Path:
-    """Write the channels, ``t`` and ``fs`` to an NPZ file (no pickled objects)."""
+    """Write the channels, ``t`` and ``fs`` to an NPZ file (no pickled objects), and the metadata sidecar."""
     path = Path(path)
     arrays = {c: getattr(record, c) for c in record.channels}
     np.savez(path, t=record.t, fs=np.array(record.fs), **arrays)
+    _write_sidecar(record, path)
     return path

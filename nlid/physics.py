@@ -502,7 +502,10 @@ class DampingSlice:
         Velocities of the samples in the slice (m/s).
     measured
         Their measured damping force ``R_e - K(z)`` (N): the restoring force
-        minus the identified elastic part at each sample's own position.
+        minus the identified elastic part at each sample's own position,
+        formed in the force balance's band (the stiffness columns of ``G``)
+        so that a filtered balance does not leak the out-of-band part of
+        ``K(z)`` into the damping force.
     v_grid, model
         The identified ``D(z0, v)`` on a velocity grid spanning the slice.
     """
@@ -543,13 +546,17 @@ def damping_slice(
     if data.v is None:
         raise InputError("a damping slice needs velocity: the model has no velocity-dependent term")
     theta = dict_or_vector(model, coefficients)
+    if data.G.shape[1] != len(model):
+        raise InputError(f"the force balance has {data.G.shape[1]} regressors but the model has {len(model)} terms")
     if half_width is None:
         half_width = 0.05 * float(np.ptp(data.z))
     near = np.abs(data.z - z0) <= half_width
     if near.sum() < 3:
         raise InputError(f"fewer than 3 samples within {half_width:.3g} m of z0 = {z0:.4g} m")
-    z, v = data.z[near], data.v[near]
-    measured = data.restoring_force(mass)[near] - elastic(model, theta, z)
+    v = data.v[near]
+    stiff = [i for i, t in enumerate(model.terms) if t.family == "stiffness"]
+    # K in the balance's band: the stiffness regressors of G (equal to K(z) when nothing is filtered)
+    measured = data.restoring_force(mass)[near] - data.G[near][:, stiff] @ theta[stiff]
     v_grid = np.linspace(v.min(), v.max(), grid)
     curve = damping(model, theta, np.full(grid, float(z0)), v_grid)
     return DampingSlice(float(z0), float(half_width), v, measured, v_grid, curve)

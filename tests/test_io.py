@@ -103,3 +103,16 @@ def test_npz_with_pickled_objects_is_refused(tmp_path):
     np.savez(path, f=np.arange(50.0), z=np.array([{"a": 1}] * 50, dtype=object))
     with pytest.raises(DataError, match="pickled"):
         read_record(path, fs=10.0)
+
+
+def test_metadata_sidecar_round_trip(tmp_path, numerical):
+    rec = numerical.with_overrides(duration=2.0).simulate(3, noise=0.01, channels=("z",))
+    path = write_csv(rec, tmp_path / "sim.csv")
+    assert (tmp_path / "sim.csv.meta.json").is_file()
+    back = read_record(path)
+    assert back.force_hold == "zoh" and back.mass == 0.2
+    assert back.meta["truth"]["coefficients"]["v*|v|"] == 5.0 and back.meta["seed"] == 3
+    assert read_record(path, meta={"force_hold": "sampled"}).force_hold == "sampled"
+    (tmp_path / "sim.csv.meta.json").write_text("{not json")
+    with pytest.raises(DataError, match="cannot read the metadata file"):
+        read_record(path)

@@ -51,6 +51,13 @@ def add_data_arguments(parser: argparse.ArgumentParser) -> None:
         "e.g. 'f=vir*gtau,z=qm' (channels t, f, z, v, a; default: columns named like the channels)",
     )
     parser.add_argument("--fs", type=float, metavar="HZ", help="sampling frequency when the file has no time column")
+    parser.add_argument(
+        "--force-hold",
+        choices=("sampled", "zoh"),
+        help="how the force behaves between samples: 'sampled' (a sampled continuous signal, the default for "
+        "measured data) or 'zoh' (held over each sample: a DAC output, or nlid's simulator); default: what the "
+        "file's .meta.json says, else 'sampled'",
+    )
 
 
 def load_data(args: argparse.Namespace) -> Record:
@@ -64,10 +71,13 @@ def load_data(args: argparse.Namespace) -> Record:
         parts = spec.split(":")
         name = parts[1] if len(parts) > 1 else ""
         part = parts[2] if len(parts) > 2 else "all"
-        return datasets.load(name, part=part)
-    from ..io import read_record
+        record = datasets.load(name, part=part)
+    else:
+        from ..io import read_record
 
-    return read_record(spec, args.columns, fs=args.fs)
+        record = read_record(spec, args.columns, fs=args.fs)
+    hold = getattr(args, "force_hold", None)
+    return record.with_meta(force_hold=hold) if hold else record
 
 
 def print_json(obj: Any) -> None:

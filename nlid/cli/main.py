@@ -15,13 +15,29 @@ from collections.abc import Sequence
 
 from .. import __version__
 from ..errors import IdentificationError, NlidError
-from . import cmd_discover, cmd_identify, cmd_methods, cmd_simulate, cmd_study, cmd_terms
+from . import (
+    cmd_discover,
+    cmd_identify,
+    cmd_methods,
+    cmd_posterior,
+    cmd_simulate,
+    cmd_study,
+    cmd_terms,
+)
 from .common import Parser
 
 __all__ = ["main", "build_parser", "COMMANDS"]
 
 #: Subcommand modules, in the order ``nlid --help`` lists them.
-COMMANDS = (cmd_study, cmd_identify, cmd_discover, cmd_simulate, cmd_methods, cmd_terms)
+COMMANDS = (
+    cmd_study,
+    cmd_identify,
+    cmd_discover,
+    cmd_posterior,
+    cmd_simulate,
+    cmd_methods,
+    cmd_terms,
+)
 
 DESCRIPTION = """\
 Identify the nonlinear stiffness and friction of a vibrating structure from

@@ -25,6 +25,7 @@ A study is datasets x models x identifiers x repetitions. The file::
     holdout = "independent"        # held-out data: "independent" (presets: another record),
                                    # a fraction at the end (0.25), a part name ("arrow"), or "none"
     freerun = true                 # free-run NRMSE on the held-out data (sensitivity-tested)
+    slices = [-0.02, 0.0, 0.02]    # positions (m) of damping-force slices (paper Fig. 21 b-d)
 
     [datasets.models]              # alternative term sets identified on the same data
     stiffness-only = { terms = "z^3, z^2", without = "v" }
@@ -103,6 +104,7 @@ _DATASET_KEYS = (
     "mass",
     "holdout",
     "freerun",
+    "slices",
     "repetitions",
     "timeout",
     "models",
@@ -170,6 +172,7 @@ class DatasetConfig:
     mass: str | float = "known"
     holdout: str | float = "none"
     freerun: bool = True
+    slices: tuple[float, ...] = ()
     repetitions: int = 1
     timeout: float = DEFAULT_TIMEOUT
     methods: dict[str, dict[str, Any]] = field(default_factory=dict)
@@ -628,6 +631,10 @@ def _dataset(source: str, key: str, entry: dict[str, Any], base: Path, reps: int
     freerun = entry.get("freerun", True)
     if not isinstance(freerun, bool):
         raise ConfigError(source, f"{key}.freerun", f"expected true or false, got {freerun!r}")
+    slices = entry.get("slices", [])
+    if not isinstance(slices, list):
+        raise ConfigError(source, f"{key}.slices", f"expected a list of positions in m, got {slices!r}")
+    slices = tuple(float(_number(source, f"{key}.slices", z)) for z in slices)
     d_reps = int(_number(source, f"{key}.repetitions", entry.get("repetitions", reps), minimum=1, integer=True))
     if kind != "preset":
         d_reps = 1  # measured data: the same record every time
@@ -646,6 +653,7 @@ def _dataset(source: str, key: str, entry: dict[str, Any], base: Path, reps: int
         mass=mass,
         holdout=holdout,
         freerun=freerun,
+        slices=slices,
         repetitions=d_reps,
         timeout=float(_number(source, f"{key}.timeout", entry.get("timeout", timeout), minimum=1e-3)),
         methods=methods,

@@ -23,6 +23,10 @@ Column names (errors are percentages, signed unless noted):
 ``fn_hz:sK``, ``fn_error_pct:sK``, ``zeta:sK``, ``zeta_error_pct:sK``
     Underlying-linear natural frequency and damping ratio at that
     equilibrium (Eq. 8, 22) and their errors.
+``rms:<term>``, ``quality:<term>``
+    RMS contribution of each term to the identified restoring force (paper
+    Fig. 22) and the method's quality indicator when it reports one (NSI's
+    E[Re/Im], paper Table 5); see :func:`surface_metrics`.
 ``freerun_nrmse_pct``, ``freerun_rmse``, ``freerun_note``
     Free-run simulation of the identified model driven by the held-out force
     (:func:`nlid.simulate.free_run`: held over each sample when the record
@@ -54,6 +58,7 @@ __all__ = [
     "coefficient_metrics",
     "equilibrium_metrics",
     "free_run_metrics",
+    "surface_metrics",
     "holdout_eps",
     "SENSITIVITY_DELTA",
     "SENSITIVITY_LIMIT",
@@ -199,3 +204,54 @@ def free_run_metrics(heldout: Record | None, model: Model, result: Identificatio
     row["freerun_rmse"] = rmse
     row["freerun_nrmse_pct"] = 100.0 * rmse / scale
     return row
+
+
+#: Largest number of measured points kept per damping slice (for the figure).
+SLICE_POINTS = 3000
+
+
+def surface_metrics(
+    record: Record,
+    model: Model,
+    result: IdentificationResult,
+    slices: tuple[float, ...] = (),
+) -> tuple[dict[str, float], dict[str, np.ndarray]]:
+    """What the identified restoring surface is made of, and how it meets the data.
+
+    Returns
+    -------
+    row : dict
+        ``rms:<term>``: RMS of each term's contribution ``theta_i g_i`` over
+        the record (paper Fig. 22); ``quality:<term>``: the method's own
+        quality indicator when it reports one in ``diagnostics["quality"]``
+        (NSI: E[Re/Im], paper Table 5).
+    arrays : dict
+        For each position ``z0`` in ``slices`` (paper Fig. 21 b-d, needs the
+        mass and a velocity-dependent model): ``slice<k>:z0``, the measured
+        damping force near ``z0`` against velocity (``slice<k>:v``,
+        ``slice<k>:measured``, at most :data:`SLICE_POINTS` of them) and the
+        identified ``D(z0, v)`` (``slice<k>:v_grid``, ``slice<k>:model``).
+    """
+    model = identified_model(model, result)
+    row: dict[str, float] = {}
+    for term, value in (result.diagnostics.get("quality") or {}).items():
+        if value is not None:
+            row[f"quality:{term}"] = float(value)
+    data = physics.regression_data(record, model)
+    for term, value in physics.rms_contributions(model, result.coefficients, data.z, data.v).items():
+        row[f"rms:{term}"] = value
+    arrays: dict[str, np.ndarray] = {}
+    if result.mass is None or data.v is None:
+        return row, arrays
+    for k, z0 in enumerate(slices):
+        try:
+            sl = physics.damping_slice(data, model, result.coefficients, result.mass, z0)
+        except NlidError:
+            continue
+        keep = np.linspace(0, sl.v.size - 1, min(SLICE_POINTS, sl.v.size)).astype(int)
+        arrays[f"slice{k}:z0"] = np.array(sl.z0)
+        arrays[f"slice{k}:v"] = sl.v[keep]
+        arrays[f"slice{k}:measured"] = sl.measured[keep]
+        arrays[f"slice{k}:v_grid"] = sl.v_grid
+        arrays[f"slice{k}:model"] = sl.model
+    return row, arrays

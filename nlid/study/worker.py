@@ -124,6 +124,9 @@ def _execute(spec: dict[str, Any]) -> dict[str, Any]:
     row.update(metrics.coefficient_metrics(result, data.reference))
     row.update(metrics.equilibrium_metrics(result, data.reference))
     row.update(metrics.free_run_metrics(data.heldout, model, result, spec["dataset"]["freerun"]))
+    slices = tuple(spec["dataset"].get("slices", ()))
+    surface, extra_arrays = metrics.surface_metrics(data.record, model, result, slices)
+    row.update(surface)
     if spec.get("posterior") is not None:
         from .. import posterior  # type: ignore[attr-defined]  # issue 6; checked when the config is loaded
 
@@ -137,7 +140,7 @@ def _execute(spec: dict[str, Any]) -> dict[str, Any]:
         "row": to_jsonable(row),
         "result": result.to_dict(),
         "reference": to_jsonable(data.reference),
-        "arrays": {k: np.asarray(v) for k, v in result.arrays.items()},
+        "arrays": {**{k: np.asarray(v) for k, v in result.arrays.items()}, **extra_arrays},
     }
 
 

@@ -172,7 +172,7 @@ def default_cutoff(z: np.ndarray, fs: float) -> float:
 #: Warning when the force's intersample behaviour is assumed, not known.
 HOLD_ASSUMED = (
     "the record does not say how the force acted between samples: assumed a sampled continuous signal; "
-    "if it was held over each sample (DAC output, simulation), pass --set force_hold=zoh (on paper-numerical "
+    "if it was held over each sample (DAC output, simulation), pass --force-hold zoh (on paper-numerical "
     "the wrong assumption changes c_v and the damping ratios by 13 %)"
 )
 

@@ -134,3 +134,15 @@ def test_installed_console_script(tmp_path):
     assert "--terms" in sub_help and "--mass" in sub_help
     bad = subprocess.run([*exe, "identify", str(tmp_path / "none.csv")], capture_output=True, text=True)
     assert bad.returncode == 2 and bad.stderr.count("\n") == 1 and "Traceback" not in bad.stderr
+
+
+def test_force_hold_from_the_sidecar_and_the_option(tmp_path, capsys):
+    from nlid.cli.common import load_data
+    from nlid.cli.main import build_parser
+
+    out = tmp_path / "h.csv"
+    assert main(["simulate", "--preset", "paper-numerical", "--duration", "2", "--out", str(out)]) == 0
+    args = build_parser().parse_args(["identify", str(out)])
+    assert load_data(args).force_hold == "zoh"
+    args = build_parser().parse_args(["identify", str(out), "--force-hold", "sampled"])
+    assert load_data(args).force_hold == "sampled"

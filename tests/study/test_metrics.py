@@ -1,8 +1,9 @@
 import math
 
+import numpy as np
 import pytest
 
-from nlid import IdentificationResult
+from nlid import IdentificationResult, Model
 from nlid.study.metrics import equilibrium_metrics, match_equilibria
 
 
@@ -31,3 +32,20 @@ def test_modal_matched_by_position_not_identity():
     assert row["fn_error_pct:s1"] == pytest.approx(100 * (13.0 - 13.1) / 13.1)  # signed
     assert row["zeta_error_pct:s2"] == pytest.approx(100 * (0.05 - 0.0467) / 0.0467)
     assert row["eq_missing"] == 0 and not math.isnan(row["eq_error_max_pct"])
+
+
+def test_surface_metrics_rms_quality_and_slices(short_record):
+    from nlid import identify
+    from nlid.study.metrics import surface_metrics
+
+    result = identify(short_record, "z^3, z^2, v*|v|", "rfs", mass=0.2)
+    result.diagnostics["quality"] = {"z^3": 123.0}
+    model = Model.from_spec("z^3, z^2, v*|v|")
+    row, arrays = surface_metrics(short_record, model, result, slices=(-0.02, 0.0, 5.0))
+    z, v = short_record.z, short_record.v
+    assert row["rms:z^3"] == pytest.approx(1e6 * np.sqrt(np.mean(z**3 * z**3)), rel=1e-6)
+    assert row["rms:v*|v|"] == pytest.approx(5 * np.sqrt(np.mean((v * np.abs(v)) ** 2)), rel=1e-6)
+    assert row["quality:z^3"] == 123.0
+    # two slices inside the motion, none at z0 = 5 m (no samples there)
+    assert {k.split(":")[0] for k in arrays} == {"slice0", "slice1"}
+    assert float(arrays["slice0:z0"]) == -0.02 and arrays["slice0:v"].size == arrays["slice0:measured"].size

@@ -99,6 +99,7 @@ def test_outputs_and_figures_are_written(finished):
     for stem in (
         "kz_short_main",
         "bars_short_main",
+        "rms_short_main",
         "sv_short_main_echo",
         "frf_short_main_echo",
         "coef_short_main_echo",
@@ -109,7 +110,7 @@ def test_outputs_and_figures_are_written(finished):
     row = long[(long["method"] == "rfs") & (long["metric"] == "eps_percent")].iloc[0]
     assert row["n"] == 3 and row["min"] <= row["median"] <= row["max"]
     html = (folder / "report.html").read_text()
-    assert html.count("data:image/png;base64,") == 5
+    assert html.count("data:image/png;base64,") == 6
     assert 'src="http' not in html and 'href="http' not in html  # self-contained
 
 
@@ -139,7 +140,7 @@ def test_report_renders_in_a_headless_browser(finished, tmp_path):
     ]
     dom = subprocess.run([*args, "--dump-dom", report.as_uri()], capture_output=True, text=True, timeout=120)
     assert dom.returncode == 0, dom.stderr[-2000:]
-    assert 'data-images="5/5"' in dom.stdout, "every embedded figure must decode in the browser"
+    assert 'data-images="6/6"' in dom.stdout, "every embedded figure must decode in the browser"
     assert "<td>rfs</td>" in dom.stdout and "Study small" in dom.stdout
     shot = tmp_path / "report.png"
     subprocess.run(

@@ -75,6 +75,9 @@ def section_figures(section: Section, records: list[dict[str, Any]], store: Any,
     bars = _bars_figure(section, folder)
     if bars:
         figures.append(bars)
+    rms = _rms_figure(section, folder)
+    if rms:
+        figures.append(rms)
     for method in section.methods:
         for rec in recs:
             if rec["row"]["method"] == method and rec.get("arrays"):
@@ -189,9 +192,66 @@ def _bars_figure(section: Section, folder: Path) -> Figure | None:
     )
 
 
+def _rms_figure(section: Section, folder: Path) -> Figure | None:
+    """Grouped bars of each term's RMS contribution to R per method (paper Fig. 22)."""
+    frame = section.frame
+    terms = [t for t in section.terms if f"rms:{t}" in frame.columns]
+    methods = [m for m in section.methods if (frame["method"] == m).any()]
+    if not terms or not methods:
+        return None
+    fig, ax = new_figure(width=max(6.0, 1.1 * len(terms) + 2.0), height=3.8)
+    x = np.arange(len(terms))
+    width = 0.8 / len(methods)
+    for i, method in enumerate(methods):
+        med = [_stats(frame, f"rms:{t}", [method])[0][0] for t in terms]
+        ax.bar(x + (i - (len(methods) - 1) / 2) * width, med, width, label=method)
+    ax.set_yscale("log")
+    ax.set_xticks(x, terms, rotation=30, ha="right", fontsize=8)
+    ax.set_ylabel("RMS contribution (N)")
+    ax.set_title(f"{section.dataset} / {section.model}: terms of the identified restoring force")
+    ax.legend(fontsize=8)
+    stem = _stem(folder, "rms", section.dataset, section.model)
+    save_figure(fig, stem)
+    return Figure(
+        "RMS contribution of each term",
+        stem,
+        "RMS of theta_i g_i(z, v) over the record, median over repetitions (paper Fig. 22); log scale.",
+    )
+
+
+def _slices_figure(section: Section, method: str, tag: str, arrays: dict, folder: Path) -> Figure | None:
+    """Measured damping force near each slice position against the identified D(z0, v) (Fig. 21 b-d)."""
+    count = 0
+    while f"slice{count}:z0" in arrays:
+        count += 1
+    if not count:
+        return None
+    fig, axes = new_figure(1, count, width=3.2 * count + 0.6, height=3.4, squeeze=False)
+    for k in range(count):
+        ax = axes[0, k]
+        z0 = float(np.asarray(arrays[f"slice{k}:z0"]))
+        ax.plot(arrays[f"slice{k}:v"], arrays[f"slice{k}:measured"], ".", color="0.6", ms=2, label="measured")
+        ax.plot(arrays[f"slice{k}:v_grid"], arrays[f"slice{k}:model"], color="C0", lw=1.5, label="identified")
+        ax.set_title(f"z near {z0:+.3g} m", fontsize=9)
+        ax.set_xlabel("v (m/s)")
+    axes[0, 0].set_ylabel("damping force D (N)")
+    axes[0, 0].legend(fontsize=8)
+    stem = _stem(folder, "slices", section.dataset, section.model, method)
+    save_figure(fig, stem)
+    return Figure(
+        f"Damping force slices, {method}",
+        stem,
+        f"Measured R_e - K(z) of the samples near each position (grey) against the identified D(z0, v) ({tag}); "
+        "paper Fig. 21 b-d.",
+    )
+
+
 def _array_figures(section: Section, method: str, rec: dict[str, Any], arrays: dict, folder: Path) -> list[Figure]:
     out = []
     tag = f"{method}, {rec['run_id']}"
+    slices = _slices_figure(section, method, tag, arrays, folder)
+    if slices:
+        out.append(slices)
     if "singular_values" in arrays:
         sv = np.asarray(arrays["singular_values"], dtype=float).ravel()
         fig, ax = new_figure(width=6.0, height=3.6)

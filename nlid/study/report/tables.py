@@ -19,6 +19,8 @@ import pandas as pd
 __all__ = ["Section", "Table", "build_sections", "summary_markdown", "summary_long", "fmt"]
 
 _KNOWN_PREFIXES = (
+    "rms:",
+    "quality:",
     "coef:",
     "coef_error_pct:",
     "eq:",
@@ -239,6 +241,25 @@ def _fill(section: Section) -> None:
         else:
             section.tables.append(Table("Modal parameters (Eq. 8, 22)", header, rows))
 
+    quality = [t for t in section.terms if f"quality:{t}" in frame.columns]
+    if quality:
+        section.tables.append(
+            Table(
+                "Quality indicator E[Re/Im] of each coefficient (NSI, paper Table 5; methods that report one)",
+                ["method", "runs", *quality],
+                [r for r in _method_rows(section, [(f"quality:{t}", False) for t in quality]) if _has_values(r)],
+            )
+        )
+    rms = [t for t in section.terms if f"rms:{t}" in frame.columns]
+    if rms:
+        section.tables.append(
+            Table(
+                "RMS contribution of each term to the identified restoring force, N (paper Fig. 22)",
+                ["method", "runs", *rms],
+                _method_rows(section, [(f"rms:{t}", False) for t in rms]),
+            )
+        )
+
     cols = [("eps_percent", False)]
     header = ["method", "runs", "eps (Eq. 26) %"]
     if "eps_holdout_percent" in frame.columns:
@@ -276,6 +297,11 @@ def _fill(section: Section) -> None:
 
     for _, row in frame[frame["status"] != "ok"].iterrows():
         section.failures.append(f"{row['method']} r{row['repetition']}: {row['status']}: {row['error']}")
+
+
+def _has_values(row: list[str]) -> bool:
+    """False for a table row whose value cells are all empty."""
+    return any(c not in ("", "–") for c in row[2:])
 
 
 def _found_cell(ok: pd.DataFrame) -> str:

@@ -1,0 +1,54 @@
+"""Bayesian posteriors on the friction (and other) coefficients, sampled with emcee.
+
+Start from any identification (:func:`nlid.identify`); sample the chosen
+coefficients with the others integrated out (or fixed at the identifier's
+estimate, ``others="fixed"``)::
+
+    from nlid import identify
+    from nlid.posterior import sample_posterior
+
+    result = identify(record, "z^3, z^2, v*|v|", "rfs", mass=0.2)
+    post = sample_posterior(record, result, params="damping", seed=0)
+    post.summary()          # {term: {"mean", "sd", "q05", "q50", "q95"}}
+    post.save("out/")       # table, JSON, samples (NPZ), corner/trace/damping figures
+
+Modules: :mod:`~nlid.posterior.likelihood` (the adjusted equation-error
+likelihood from sufficient statistics), :mod:`~nlid.posterior.bias`
+(errors-in-variables correction by simulation), :mod:`~nlid.posterior.priors`,
+:mod:`~nlid.posterior.sampler` (emcee until converged),
+:mod:`~nlid.posterior.result`, :mod:`~nlid.posterior.plots`,
+:mod:`~nlid.posterior.study` (the study runner's hook). The assumptions are
+written out in ``docs/posterior.md``.
+"""
+
+from .bias import BiasCorrection, simulate_bias
+from .inference import PosteriorSampler, sample_posterior, select_params
+from .likelihood import DegenerateParametersError, Likelihood, SufficientStatistics, build_likelihood
+from .priors import Flat, Normal, PriorError, Uniform, default_priors, parse_prior
+from .result import DampingBand, Posterior
+from .sampler import Chains, ConvergenceError, run_until_converged
+from .study import study_metrics
+
+__all__ = [
+    "PosteriorSampler",
+    "sample_posterior",
+    "select_params",
+    "Posterior",
+    "DampingBand",
+    "Likelihood",
+    "SufficientStatistics",
+    "build_likelihood",
+    "BiasCorrection",
+    "simulate_bias",
+    "Normal",
+    "Uniform",
+    "Flat",
+    "parse_prior",
+    "default_priors",
+    "Chains",
+    "run_until_converged",
+    "ConvergenceError",
+    "DegenerateParametersError",
+    "PriorError",
+    "study_metrics",
+]

@@ -1,0 +1,297 @@
+"""Errors-in-variables and filtering bias of the equation-error estimate, by simulation.
+
+The regressors ``g_i(z, v)`` are evaluated on the measured displacement (and
+a velocity differentiated from it), so measurement noise enters them: least
+squares on ``y = f - m a = G theta + e`` is then biased (errors in
+variables). A Coulomb term ``sign(v) |px(z)|`` evaluated on a noisy velocity
+is smeared near ``v = 0``; ``v |v|`` picks up a spurious ``sign(v)`` part.
+Estimating the velocity through the low-pass adds a smaller bias even without
+noise. On the ``paper-experimental`` preset with 2 % noise on ``z`` and ``a``
+the friction coefficients come out 10-75 % off, 5-8 standard deviations.
+
+The correction is indirect inference (Gourieroux, Monfort & Renault 1993)
+with a binding function that is linear at each step: the identified model is
+simulated with the recorded force, noise of the level measured on the record
+is added to the channels the regressors are built from, and the same force
+balance (:func:`nlid.physics.regression_data`, same band) is formed. On a
+simulated record the exact regressors ``G_ex`` (from the simulated ``z`` and
+``v``, through the same low-pass) are known, and ``y = G_ex theta`` holds
+exactly when the acceleration is measured. Least squares on the noisy
+regressors therefore returns ``E[theta_hat] = J theta + d`` with
+
+* ``J = E[(G^T G)^-1 G^T G_ex]`` (the attenuation, or binding, matrix) and
+* ``d = E[(G^T G)^-1 G^T (y - G_ex theta)]`` (noise that enters ``y`` too,
+  e.g. when ``a`` is differentiated from the noisy ``z``),
+
+and the corrected estimate solves ``theta_hat = J theta + d``. Each of
+``pairs`` antithetic noise pairs (``+n`` and ``-n``, which cancel the part
+linear in the noise) drives its own trajectory: the recorded force shifted
+circularly by a fraction of its length, so that ``J`` is averaged over
+trajectories and not tied to one (on ``paper-experimental`` two trajectories
+driven by the same force gave corrections one standard deviation apart).
+:func:`indirect_inference` repeats the step at the corrected point (a fixed
+point of the binding function) and propagates the covariance.
+
+Assumptions: the measurement noise on ``z`` (and on ``v`` when it is
+measured) is white and its level is the one :func:`nlid.derivatives.noise_sd`
+reads from the record's noise floor (override it with ``noise``); the force
+is stationary (its circular shifts are equally likely excitations); the
+simulation starts from the record's first displacement at rest and holds the
+force over each sample. Noise on the acceleration needs no correction (it
+enters ``y`` linearly and independently of ``G``) and is not simulated.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from .. import derivatives
+from ..errors import IdentificationError, InputError
+from ..physics import RegressionData, regression_data
+from ..record import Record
+from ..simulate import SimulationError, simulate
+from ..terms import Model
+
+__all__ = ["BiasCorrection", "simulate_bias", "indirect_inference", "regressor_noise"]
+
+
+@dataclass(frozen=True)
+class BiasCorrection:
+    """The linear binding function ``E[theta_hat] = J theta + d``.
+
+    Attributes
+    ----------
+    binding
+        ``J``, shape ``(p, p)``: the mean over the pairs.
+    offset
+        ``d``, shape ``(p,)``.
+    pair_bindings, pair_offsets
+        ``J`` and ``d`` of each antithetic pair alone, shapes
+        ``(pairs, p, p)`` and ``(pairs, p)``: their spread is the Monte Carlo
+        error.
+    noise
+        Noise standard deviation simulated on each channel.
+    """
+
+    binding: np.ndarray
+    offset: np.ndarray
+    pair_bindings: np.ndarray
+    pair_offsets: np.ndarray
+    noise: dict[str, float]
+
+    @property
+    def pairs(self) -> int:
+        """Number of antithetic noise pairs simulated."""
+        return int(self.pair_offsets.shape[0])
+
+    def correct(self, theta_hat: np.ndarray) -> np.ndarray:
+        """The bias-corrected estimate ``J^-1 (theta_hat - d)``."""
+        return np.linalg.solve(self.binding, np.asarray(theta_hat, dtype=float) - self.offset)
+
+    def pair_estimates(self, theta_hat: np.ndarray) -> np.ndarray:
+        """The corrected estimate from each antithetic pair alone, shape ``(pairs, p)``."""
+        theta_hat = np.asarray(theta_hat, dtype=float)
+        return np.array(
+            [np.linalg.solve(J, theta_hat - d) for J, d in zip(self.pair_bindings, self.pair_offsets, strict=True)]
+        )
+
+
+def regressor_noise(record: Record, model: Model, noise: Mapping[str, float] | None = None) -> dict[str, float]:
+    """Noise level on each channel the regressors are built from.
+
+    ``z`` always (it gives the position terms and, when not measured, the
+    velocity and acceleration) and ``v`` when it is measured and the model
+    uses it. Levels in ``noise`` win; the others come from
+    :func:`nlid.derivatives.noise_sd`.
+    """
+    given = dict(noise or {})
+    unknown = set(given) - {"z", "v"}
+    if unknown:
+        raise InputError(f"noise levels can be given for z and v only, not {sorted(unknown)[0]!r}")
+    channels = ["z"] + (["v"] if model.uses_velocity and record.is_measured("v") else [])
+    out = {}
+    for c in channels:
+        level = float(given[c]) if c in given else derivatives.noise_sd(getattr(record, c), record.fs)
+        if not (np.isfinite(level) and level >= 0):
+            raise InputError(f"noise level on {c} must be a non-negative number, got {level}")
+        out[c] = level
+    return out
+
+
+def _fit(G: np.ndarray, B: np.ndarray, scale: np.ndarray) -> np.ndarray:
+    """``(G^T G)^-1 G^T B`` with the columns of G scaled for conditioning."""
+    Gs = G / scale
+    out = np.linalg.solve(Gs.T @ Gs, Gs.T @ B)
+    return out / (scale if out.ndim == 1 else scale[:, None])
+
+
+def simulate_bias(
+    record: Record,
+    model: Model,
+    theta: np.ndarray,
+    mass: float,
+    data: RegressionData,
+    *,
+    pairs: int = 4,
+    noise: Mapping[str, float] | None = None,
+    rng: np.random.Generator | None = None,
+    phase: float = 0.0,
+) -> BiasCorrection:
+    """Estimate the binding function at ``theta`` by simulating the identified model.
+
+    Parameters
+    ----------
+    record
+        The measured record (its force, sampling, channels and noise floor).
+    model, theta, mass
+        The model and the coefficients to simulate (usually the least-squares
+        estimate); the mass in kg.
+    data
+        The record's force balance (gives the band and the kept samples).
+    pairs
+        Number of antithetic noise pairs (each costs two force balances).
+    noise
+        Noise standard deviations for ``z`` (and ``v``), default from the
+        noise floor.
+    rng
+        Random generator of the noise.
+    phase
+        Fraction of ``1 / pairs`` of the record by which every circular
+        shift of the force is moved on (gives other trajectories).
+
+    Raises
+    ------
+    IdentificationError
+        If the identified model cannot be simulated (it diverges).
+    """
+    if pairs < 1:
+        raise InputError(f"bias correction needs at least one noise pair, got {pairs}")
+    rng = rng if rng is not None else np.random.default_rng(0)
+    theta = np.asarray(theta, dtype=float)
+    levels = regressor_noise(record, model, noise)
+    v0 = float(record.v[0]) if record.is_measured("v") else 0.0
+    fc = data.filtered_at
+    meta = {"force_hold": record.force_hold}
+    scale = None
+    J_pairs, d_pairs = [], []
+    for pair in range(pairs):
+        # each pair drives its own trajectory: the recorded force shifted circularly by pair/pairs of its length
+        force = np.roll(record.f, -int((pair + phase) * record.n / pairs))
+        try:
+            zs, vs, as_ = simulate(model, theta, mass, force, record.fs, (float(record.z[0]), v0))
+        except SimulationError as exc:
+            raise IdentificationError(
+                f"bias correction: the identified model diverges when simulated with the recorded force ({exc}); "
+                "switch the correction off (--no-bias-correction, bias_correction=False)"
+            ) from None
+        exact = model.evaluate(zs, vs if model.uses_velocity else None)
+        if fc is not None:
+            exact = derivatives.lowpass(exact, record.fs, fc)
+        states = {"z": zs, "v": vs}
+        channels = {"a": as_} if record.is_measured("a") else {}
+        draws = {c: s * rng.standard_normal(record.n) for c, s in levels.items()}
+        Js, ds = [], []
+        for sign in (1.0, -1.0):
+            noisy = dict(channels)
+            for c, n in draws.items():
+                noisy[c] = states[c] + sign * n
+            sim = Record(f=force, fs=record.fs, meta=meta, **noisy)
+            d = regression_data(sim, model, cutoff=fc)
+            G_ex = exact[d.kept]
+            if scale is None:
+                scale = np.sqrt(np.mean(d.G**2, axis=0))
+                scale[scale == 0] = 1.0
+            both = _fit(d.G, np.column_stack([G_ex, d.restoring_force(mass) - G_ex @ theta]), scale)
+            Js.append(both[:, :-1])
+            ds.append(both[:, -1])
+        J_pairs.append(0.5 * (Js[0] + Js[1]))
+        d_pairs.append(0.5 * (ds[0] + ds[1]))
+    J = np.mean(J_pairs, axis=0)
+    d = np.mean(d_pairs, axis=0)
+    if not np.all(np.isfinite(J)) or np.linalg.cond(J) > 1e12:
+        raise IdentificationError(
+            "bias correction: the simulated attenuation matrix is singular (a term carries no information "
+            "once noise is added); switch the correction off or remove the term"
+        )
+    return BiasCorrection(
+        binding=J, offset=d, pair_bindings=np.array(J_pairs), pair_offsets=np.array(d_pairs), noise=levels
+    )
+
+
+def indirect_inference(
+    record: Record,
+    model: Model,
+    theta_hat: np.ndarray,
+    mass: float,
+    data: RegressionData,
+    covariance: np.ndarray,
+    *,
+    pairs: int = 4,
+    iterations: int = 3,
+    noise: Mapping[str, float] | None = None,
+    rng: np.random.Generator | None = None,
+) -> tuple[np.ndarray, np.ndarray, dict[str, Any]]:
+    """Bias-corrected estimate and its covariance.
+
+    Iterates ``theta_{k+1} = J(theta_k)^-1 (theta_hat - d(theta_k))`` from
+    ``theta_0 = theta_hat``, each step simulating the model at the current
+    point (a fixed point of the binding function, as indirect inference asks;
+    the second step mattered on ``paper-experimental``, where the attenuation
+    depends on the friction itself). The covariance is
+    ``J^-1 V J^-T + (1 + 1/pairs) S`` with ``S`` the spread of a single
+    pair's corrected estimate (pooled over the iterations): the record's own
+    bias is one draw from that spread (its trajectory and noise), and the
+    mean of ``pairs`` draws carries ``S / pairs`` of Monte Carlo error.
+
+    Parameters
+    ----------
+    record, model, theta_hat, mass, data
+        As for :func:`simulate_bias`; ``theta_hat`` is the least-squares
+        estimate of the record.
+    covariance
+        ``V``, the sampling covariance of ``theta_hat``.
+    pairs
+        Antithetic pairs of the last step (at least 2, for the spread); the
+        earlier steps, which only move the point of evaluation, use half as
+        many (at least 2).
+    iterations
+        Fixed-point steps (a step with ``k`` pairs costs ``k`` simulations
+        and ``2 k`` force balances).
+    noise, rng
+        As for :func:`simulate_bias`.
+
+    Returns
+    -------
+    centre, covariance, info
+        The corrected estimate, its covariance, and diagnostics (noise
+        levels, the steps' estimates).
+    """
+    if pairs < 2:
+        raise InputError(f"the bias correction needs at least 2 noise pairs to measure its own spread, got {pairs}")
+    if iterations < 1:
+        raise InputError(f"the bias correction needs at least one iteration, got {iterations}")
+    theta_hat = np.asarray(theta_hat, dtype=float)
+    theta = theta_hat
+    deviations = []
+    steps = []
+    corr = None
+    for it in range(iterations):
+        # the earlier steps only move the point where the binding function is evaluated: half the pairs do
+        n_pairs = pairs if it == iterations - 1 else max(2, pairs // 2)
+        corr = simulate_bias(
+            record, model, theta, mass, data, pairs=n_pairs, noise=noise, rng=rng, phase=it / iterations
+        )
+        each = corr.pair_estimates(theta_hat)
+        deviations.append(each - each.mean(axis=0))
+        theta = corr.correct(theta_hat)
+        steps.append(theta)
+    dev = np.concatenate(deviations)
+    spread = dev.T @ dev / (dev.shape[0] - iterations)
+    jinv = np.linalg.inv(corr.binding)
+    cov = jinv @ np.asarray(covariance, dtype=float) @ jinv.T + (1.0 + 1.0 / pairs) * spread
+    info = {"noise_sd": corr.noise, "pairs": pairs, "iterations": iterations, "steps": [s.tolist() for s in steps]}
+    return theta, 0.5 * (cov + cov.T), info

@@ -1,0 +1,278 @@
+"""From an identification to a posterior: choose the coefficients, build the likelihood, sample."""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Iterable, Mapping
+from typing import Any
+
+import numpy as np
+
+from ..errors import InputError
+from ..interface import IdentificationResult
+from ..physics import regression_data
+from ..record import Record
+from ..terms import Model, parse_term
+from .likelihood import build_likelihood, check_identifiable
+from .priors import Prior, PriorError, default_priors, joint_logpdf, parse_prior_assignments
+from .result import Posterior
+from .sampler import MOVES, run_until_converged
+
+__all__ = ["PosteriorSampler", "sample_posterior", "select_params", "model_of"]
+
+#: Treatments of the coefficients that are not sampled.
+OTHERS = ("fixed", "marginal")
+#: Spread of the initial walker ball, in Gaussian-limit posterior standard deviations.
+START_SPREAD = 0.1
+
+
+def _precision(covariance: np.ndarray) -> np.ndarray:
+    """Inverse of a covariance, computed on its correlation matrix (scale-safe)."""
+    sd = np.sqrt(np.diag(covariance))
+    return np.linalg.pinv(covariance / np.outer(sd, sd), hermitian=True) / np.outer(sd, sd)
+
+
+def _schur(gram: np.ndarray, keep: list[int]) -> np.ndarray:
+    """Information on the kept coefficients with the others unknown (Schur complement)."""
+    rest = [i for i in range(gram.shape[0]) if i not in keep]
+    out = gram[np.ix_(keep, keep)]
+    if rest:
+        sd = np.sqrt(np.diag(gram))
+        g_oo = gram[np.ix_(rest, rest)] / np.outer(sd[rest], sd[rest])
+        g_ok = gram[np.ix_(rest, keep)] / sd[rest][:, None]
+        out = out - g_ok.T @ np.linalg.pinv(g_oo, hermitian=True) @ g_ok
+    return 0.5 * (out + out.T)
+
+
+def _check_start(name: str, prior: Prior, value: float) -> None:
+    if not np.isfinite(prior.logpdf(np.array([value]))[0]):
+        raise PriorError(
+            f"the prior of {name} ({prior.describe()}) excludes the identifier's estimate {value:.6g} "
+            f"{parse_term(name).coefficient_unit}: widen the prior (--prior '{name}=...') or check its units"
+        )
+
+
+def model_of(result: IdentificationResult, model: Model | None = None) -> Model:
+    """The model of a result (rebuilt from its terms and ``px`` roots unless given)."""
+    if model is None:
+        if not result.terms:
+            raise InputError("the identification result lists no terms: pass the model")
+        return Model.from_spec(result.terms, defaults=False, px_roots=result.px_roots)
+    if result.terms and tuple(result.terms) != tuple(model.names):
+        raise InputError(f"the result's terms {result.terms} are not the model's {list(model.names)}")
+    if model.uses_px and model.px_roots is None and result.px_roots:
+        model = model.with_px_roots(result.px_roots)
+    return model
+
+
+def select_params(model: Model, params: str | Iterable[str]) -> list[int]:
+    """Indices of the coefficients to sample.
+
+    Parameters
+    ----------
+    params
+        ``"damping"`` (every velocity-dependent term, the friction of Eq. 14
+        and 24 with the viscous ``v``), ``"all"``, or terms (a comma-separated
+        string or a list, any spelling).
+    """
+    if isinstance(params, str) and params.strip().lower() in ("damping", "friction"):
+        idx = [i for i, t in enumerate(model.terms) if t.family == "damping"]
+        if not idx:
+            raise InputError(f"the model ({model}) has no damping (velocity-dependent) terms to sample")
+        return idx
+    if isinstance(params, str) and params.strip().lower() == "all":
+        return list(range(len(model)))
+    wanted = Model.from_spec(params, defaults=False)
+    missing = [t.name for t in wanted.terms if t.name not in model.names]
+    if missing:
+        raise InputError(f"--params names {', '.join(missing)}, which the model ({model}) does not contain")
+    return sorted(model.index(t) for t in wanted.terms)
+
+
+class PosteriorSampler:
+    """Posterior over chosen coefficients with emcee, started from an identification.
+
+    The constructor only stores settings; :meth:`run` does the work.
+
+    Parameters
+    ----------
+    params
+        ``"damping"`` (default), ``"all"`` or a list of terms; the other
+        coefficients stay fixed at the identifier's estimate.
+    priors
+        Priors overriding the defaults, ``{term: "normal(m, s)" | Prior}`` or
+        ``["term=spec", ...]`` (see :mod:`nlid.posterior.priors`).
+    walkers
+        Number of walkers (default ``max(32, 8 d)``).
+    max_steps
+        Give up after this many steps without convergence.
+    seed
+        Seed of the bias simulation, the initial ball and the sampler.
+    move
+        ``"de"`` (differential evolution, default) or ``"stretch"``.
+    bias_correction
+        Correct the errors-in-variables bias by simulation (see
+        :mod:`nlid.posterior.bias`).
+    bias_pairs
+        Antithetic noise pairs per step of that correction (at least 2).
+    bias_iterations
+        Fixed-point steps of that correction.
+    noise
+        Known noise standard deviation on ``z`` (and ``v``), e.g. ``{"z": 4e-4}``.
+    cutoff
+        Equation band in Hz (default: the shared filter's suggestion).
+    others
+        What happens to the coefficients that are not sampled:
+        ``"marginal"`` (default) integrates them out of the likelihood
+        analytically (exact for the linear-in-coefficients model), which
+        carries their uncertainty into the sampled ones; ``"fixed"`` keeps
+        them at the identifier's estimate (narrower intervals that covered
+        the truth less often: see docs/posterior.md).
+    """
+
+    def __init__(
+        self,
+        params: str | Iterable[str] = "damping",
+        *,
+        priors: Mapping[str, str | Prior] | Iterable[str] | None = None,
+        walkers: int | None = None,
+        max_steps: int = 20000,
+        seed: int = 0,
+        move: str = "de",
+        bias_correction: bool = True,
+        bias_pairs: int = 4,
+        bias_iterations: int = 3,
+        noise: Mapping[str, float] | None = None,
+        cutoff: float | None = None,
+        others: str = "marginal",
+    ) -> None:
+        if others not in OTHERS:
+            raise InputError(f"others must be one of {', '.join(OTHERS)}, got {others!r}")
+        if move not in MOVES:
+            raise InputError(f"unknown move {move!r}; choose one of {', '.join(MOVES)}")
+        self.params = params
+        self.priors = priors
+        self.walkers = walkers
+        self.max_steps = int(max_steps)
+        self.seed = int(seed)
+        self.move = move
+        self.bias_correction = bool(bias_correction)
+        self.bias_pairs = int(bias_pairs)
+        self.bias_iterations = int(bias_iterations)
+        self.noise = None if noise is None else dict(noise)
+        self.cutoff = cutoff
+        self.others = others
+
+    def run(self, record: Record, result: IdentificationResult, model: Model | None = None) -> Posterior:
+        """Sample the posterior of the chosen coefficients.
+
+        Parameters
+        ----------
+        record
+            The data the identification used.
+        result
+            The identification (:func:`nlid.identify`): starting point, mass,
+            and the values of the coefficients that are not sampled.
+        model
+            The model (default: rebuilt from the result).
+
+        Raises
+        ------
+        InputError
+            Bad parameters or priors, a prior that excludes the estimate,
+            degenerate (collinear) parameters, unknown mass.
+        ConvergenceError
+            The chains did not converge within ``max_steps``.
+        """
+        start_time = time.perf_counter()
+        model = model_of(result, model)
+        if result.mass is None:
+            raise InputError("the posterior needs the mass: give it (--mass, in kg) or use a method that estimates it")
+        idx = select_params(model, self.params)
+        names = tuple(model.names[i] for i in idx)
+        theta0 = model.vector(result.coefficients)
+        user_priors = parse_prior_assignments(self.priors)
+        not_sampled = [n for n in user_priors if n not in names]
+        if not_sampled:
+            raise PriorError(
+                f"a prior is given for {', '.join(not_sampled)}, which is not sampled; "
+                "sample it with --params or drop the prior"
+            )
+        for name, prior in user_priors.items():
+            _check_start(name, prior, theta0[model.index(name)])
+        seq_bias, seq_mcmc = np.random.SeedSequence(self.seed).spawn(2)
+        data = regression_data(record, model, cutoff=self.cutoff)
+        # collinear sampled terms are refused before the (slower) bias correction
+        gram = data.G.T @ data.G
+        check_identifiable(_schur(gram, idx) if self.others == "marginal" else gram[np.ix_(idx, idx)], names)
+        lik = build_likelihood(
+            record,
+            model,
+            float(result.mass),
+            bias_correction=self.bias_correction,
+            pairs=self.bias_pairs,
+            iterations=self.bias_iterations,
+            noise=self.noise,
+            rng=np.random.default_rng(seq_bias),
+            data=data,
+        )
+        priors = default_priors(lik.stats, model.names)
+        priors.update(user_priors)
+        prior_logpdf = joint_logpdf([priors[n] for n in names])
+        if self.others == "marginal":
+            target = lik.reduced(idx)
+            mean, cov = target.center, target.covariance
+            check_identifiable(_precision(cov), names)
+
+            def log_prob(x: np.ndarray) -> np.ndarray:
+                lp = prior_logpdf(x)
+                good = np.isfinite(lp)
+                lp[good] += target(x[good])
+                return lp
+
+        else:
+            # the conditional precision of the sampled block decides identifiability
+            check_identifiable(_precision(lik.covariance)[np.ix_(idx, idx)], names)
+            mean, cov = lik.conditional(idx, theta0)
+            full = theta0.copy()
+
+            def log_prob(x: np.ndarray) -> np.ndarray:
+                lp = prior_logpdf(x)
+                good = np.isfinite(lp)
+                theta = np.tile(full, (int(good.sum()), 1))
+                theta[:, idx] = x[good]
+                lp[good] += lik(theta)
+                return lp
+
+        walkers = self.walkers if self.walkers is not None else max(32, 8 * len(idx))
+        chains = run_until_converged(
+            log_prob,
+            theta0[idx],
+            START_SPREAD * np.sqrt(np.diag(cov)),
+            walkers=walkers,
+            max_steps=self.max_steps,
+            seed=seq_mcmc,
+            move=self.move,
+            names=names,
+        )
+        return Posterior(
+            model=model,
+            names=names,
+            chains=chains,
+            start=model.as_dict(theta0),
+            priors={n: priors[n].describe() for n in names},
+            likelihood=lik,
+            mass=float(result.mass),
+            method=result.method,
+            seconds=time.perf_counter() - start_time,
+            others=self.others,
+            gaussian=(mean, cov),
+            data=data,
+        )
+
+
+def sample_posterior(
+    record: Record, result: IdentificationResult, model: Model | None = None, **settings: Any
+) -> Posterior:
+    """``PosteriorSampler(**settings).run(record, result, model)``."""
+    return PosteriorSampler(**settings).run(record, result, model)

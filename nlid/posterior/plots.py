@@ -1,0 +1,118 @@
+"""Figures of a posterior: corner plot, trace plot, damping-force bands (paper Fig. 21 b-d).
+
+Drawn with matplotlib's object-oriented API through :mod:`nlid.plotting`
+(no pyplot); the corner plot is written here rather than taken from a
+dependency.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from ..plotting import new_figure
+
+if TYPE_CHECKING:  # pragma: no cover
+    from .result import DampingBand, Posterior
+
+__all__ = ["corner_figure", "trace_figure", "damping_figure"]
+
+
+def corner_figure(posterior: Posterior, bins: int = 40, truth: dict[str, float] | None = None):
+    """Histograms of each coefficient (diagonal) and 2-D densities of each pair (below).
+
+    Dashed lines: the 5 and 95 % quantiles; the orange mark is the
+    identifier's estimate and, when given, black lines the truth.
+    """
+    samples = posterior.samples
+    names = posterior.names
+    d = len(names)
+    size = max(3.0, 2.2 * d)
+    fig, axes = new_figure(d, d, width=size, height=size, squeeze=False)
+    lo, hi = np.quantile(samples, [0.001, 0.999], axis=0)
+    span = hi - lo
+    lo, hi = lo - 0.05 * span, hi + 0.05 * span
+    for i in range(d):
+        for j in range(d):
+            ax = axes[i, j]
+            if j > i:
+                ax.set_visible(False)
+                continue
+            if i == j:
+                ax.hist(
+                    samples[:, i], bins=bins, range=(lo[i], hi[i]), color="tab:blue", histtype="stepfilled", alpha=0.6
+                )
+                for q in np.quantile(samples[:, i], [0.05, 0.95]):
+                    ax.axvline(q, color="tab:blue", ls="--", lw=1)
+                ax.axvline(posterior.start[names[i]], color="tab:orange", lw=1.5)
+                if truth and names[i] in truth:
+                    ax.axvline(truth[names[i]], color="k", lw=1.2)
+                ax.set_yticks([])
+                ax.set_xlim(lo[i], hi[i])
+            else:
+                extent = [[lo[j], hi[j]], [lo[i], hi[i]]]
+                h, xe, ye = np.histogram2d(samples[:, j], samples[:, i], bins=bins, range=extent)
+                ax.pcolormesh(xe, ye, h.T, cmap="Blues", shading="flat")
+                ax.plot(posterior.start[names[j]], posterior.start[names[i]], "o", color="tab:orange", ms=4)
+                if truth and names[i] in truth and names[j] in truth:
+                    ax.axvline(truth[names[j]], color="k", lw=0.8)
+                    ax.axhline(truth[names[i]], color="k", lw=0.8)
+                ax.set_xlim(lo[j], hi[j])
+                ax.set_ylim(lo[i], hi[i])
+            if i == d - 1:
+                ax.set_xlabel(names[j])
+                ax.tick_params(axis="x", labelrotation=45)
+            else:
+                ax.set_xticklabels([])
+            if j == 0 and i > 0:
+                ax.set_ylabel(names[i])
+            elif j > 0:
+                ax.set_yticklabels([])
+    fig.suptitle("posterior (orange: identifier's estimate; dashed: 5 / 95 %)")
+    return fig
+
+
+def trace_figure(posterior: Posterior, max_walkers: int = 32):
+    """Every walker's path for each coefficient; the grey span is the discarded burn-in."""
+    chain = posterior.chains.chain
+    names = posterior.names
+    d = len(names)
+    fig, axes = new_figure(d, 1, width=7.0, height=1.6 * d + 0.8, squeeze=False, sharex=True)
+    steps = np.arange(chain.shape[0])
+    shown = min(max_walkers, chain.shape[1])
+    for i, name in enumerate(names):
+        ax = axes[i, 0]
+        ax.plot(steps, chain[:, :shown, i], color="k", alpha=0.15, lw=0.5)
+        ax.axvspan(0, posterior.chains.burn, color="0.85", zorder=0)
+        ax.set_ylabel(name)
+    axes[-1, 0].set_xlabel("step")
+    fig.suptitle(
+        f"traces ({shown} of {chain.shape[1]} walkers); tau = "
+        + ", ".join(f"{t:.0f}" for t in posterior.chains.tau)
+        + f" steps; acceptance {posterior.chains.acceptance:.2f}"
+    )
+    return fig
+
+
+def damping_figure(bands: Sequence[DampingBand], band_hz: float | None = None):
+    """The measured damping force on each slice with the posterior's 5-95 % band (paper Fig. 21 b-d).
+
+    With a filtered force balance (``band_hz``) the data are the in-band
+    damping force: at high speed, where ``D`` has content above the band, they
+    fall short of the curve ``D(z0, v)`` even for the true model.
+    """
+    n = len(bands)
+    fig, axes = new_figure(1, n, width=4.0 * n, height=3.6, squeeze=False)
+    for ax, band in zip(axes[0], bands, strict=True):
+        ax.plot(band.v, band.measured, ".", color="0.6", ms=2, label="data: R_e - K(z)")
+        ax.fill_between(band.v_grid, band.q05, band.q95, color="tab:blue", alpha=0.35, label="posterior 5-95 %")
+        ax.plot(band.v_grid, band.q50, color="tab:blue", lw=1.5, label="posterior median")
+        ax.set_title(f"z = {band.z0:.4g} m (+/- {band.half_width:.2g})")
+        ax.set_xlabel("v (m/s)")
+    axes[0, 0].set_ylabel("damping force D (N)")
+    if band_hz is not None:
+        fig.suptitle(f"data: restoring force minus stiffness, both below {band_hz:.3g} Hz (in-band D)")
+    axes[0, 0].legend(loc="best", fontsize="small")
+    return fig

@@ -1,0 +1,376 @@
+"""The posterior a run produced: samples, summary table, damping bands, files."""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from .. import physics
+from ..errors import InputError
+from ..interface import to_jsonable
+from ..physics import RegressionData
+from ..terms import Model, parse_term
+from .likelihood import Likelihood
+from .sampler import Chains
+
+__all__ = ["Posterior", "DampingBand", "QUANTILES"]
+
+#: Quantiles reported for each coefficient.
+QUANTILES = (0.05, 0.5, 0.95)
+
+
+@dataclass(frozen=True)
+class DampingBand:
+    """Posterior predictive band of ``D(z0, v)`` on one slice (paper Fig. 21 b-d).
+
+    Attributes
+    ----------
+    z0, half_width
+        The slice ``|z - z0| <= half_width`` (m).
+    v_grid
+        Velocities of the band (m/s).
+    q05, q50, q95
+        Quantiles of ``D(z0, v)`` over the posterior draws (N).
+    v, measured
+        The data in the slice: velocities and measured damping force
+        ``R_e - K(z)`` (N), from :func:`nlid.physics.damping_slice`.
+    """
+
+    z0: float
+    half_width: float
+    v_grid: np.ndarray
+    q05: np.ndarray
+    q50: np.ndarray
+    q95: np.ndarray
+    v: np.ndarray
+    measured: np.ndarray
+
+
+@dataclass
+class Posterior:
+    """Posterior over the sampled coefficients (the others integrated out, or fixed at the identifier's estimate).
+
+    Attributes
+    ----------
+    model
+        The model (``px`` roots set).
+    names
+        Sampled terms, in model order.
+    chains
+        The converged emcee run.
+    start
+        The identifier's estimate of every coefficient (walkers start there;
+        the unsampled ones stay there).
+    priors
+        Prior of each sampled term, as text.
+    likelihood
+        The adjusted likelihood (centre, covariance, diagnostics).
+    mass
+        Mass used (kg).
+    method
+        The identifier that gave the start.
+    seconds
+        Wall time of the whole posterior (likelihood, correction, sampling).
+    others
+        ``"fixed"`` (unsampled coefficients at the identifier's estimate) or
+        ``"marginal"`` (integrated out).
+    gaussian
+        Mean and covariance of the sampled coefficients in the likelihood's
+        Gaussian limit (flat priors), for comparison with the samples.
+    data
+        The force balance (for damping slices); not serialised.
+    """
+
+    model: Model
+    names: tuple[str, ...]
+    chains: Chains
+    start: dict[str, float]
+    priors: dict[str, str]
+    likelihood: Likelihood
+    mass: float
+    method: str
+    seconds: float
+    others: str = "marginal"
+    gaussian: tuple[np.ndarray, np.ndarray] | None = field(default=None, repr=False)
+    data: RegressionData | None = field(default=None, repr=False)
+
+    # ------------------------------------------------------------------ numbers
+    @property
+    def samples(self) -> np.ndarray:
+        """Samples of the sampled coefficients, shape ``(n, d)``."""
+        return self.chains.samples
+
+    @property
+    def not_sampled(self) -> dict[str, float]:
+        """The coefficients that were not sampled, with the identifier's estimates.
+
+        With ``others="fixed"`` the likelihood held them at these values; with
+        ``"marginal"`` it integrated them out (the values serve only where a
+        full coefficient vector is needed, e.g. :meth:`full_samples`).
+        """
+        return {n: x for n, x in self.start.items() if n not in self.names}
+
+    @property
+    def gaussian_limit(self) -> tuple[np.ndarray, np.ndarray]:
+        """Mean and covariance of the sampled coefficients in the likelihood's Gaussian limit."""
+        if self.gaussian is not None:
+            return self.gaussian
+        idx = [self.model.index(n) for n in self.names]
+        return self.likelihood.conditional(idx, self.model.vector(self.start))
+
+    def full_samples(self, draws: int | None = None, rng: np.random.Generator | None = None) -> np.ndarray:
+        """Samples as full coefficient vectors in model order (unsampled ones at the identifier's estimate).
+
+        Parameters
+        ----------
+        draws
+            Random subset of this many samples (default: all).
+        rng
+            Generator of the subset.
+        """
+        samples = self.samples
+        if draws is not None and draws < samples.shape[0]:
+            rng = rng if rng is not None else np.random.default_rng(0)
+            samples = samples[rng.choice(samples.shape[0], size=draws, replace=False)]
+        full = np.tile(self.model.vector(self.start), (samples.shape[0], 1))
+        full[:, [self.model.index(n) for n in self.names]] = samples
+        return full
+
+    def summary(self) -> dict[str, dict[str, float]]:
+        """``{term: {"mean", "sd", "q05", "q50", "q95"}}``."""
+        s = self.samples
+        q = np.quantile(s, QUANTILES, axis=0)
+        return {
+            name: {
+                "mean": float(s[:, i].mean()),
+                "sd": float(s[:, i].std(ddof=1)),
+                "q05": float(q[0, i]),
+                "q50": float(q[1, i]),
+                "q95": float(q[2, i]),
+            }
+            for i, name in enumerate(self.names)
+        }
+
+    def interval(self, level: float = 0.9) -> dict[str, tuple[float, float]]:
+        """Equal-tailed credible interval of each sampled coefficient."""
+        if not 0 < level < 1:
+            raise InputError(f"credible level must lie between 0 and 1, got {level}")
+        lo, hi = np.quantile(self.samples, [(1 - level) / 2, (1 + level) / 2], axis=0)
+        return {n: (float(lo[i]), float(hi[i])) for i, n in enumerate(self.names)}
+
+    @property
+    def tau(self) -> dict[str, float]:
+        """Integrated autocorrelation time of each sampled coefficient (steps)."""
+        return {n: float(t) for n, t in zip(self.names, self.chains.tau, strict=True)}
+
+    @property
+    def n_effective(self) -> dict[str, float]:
+        """Effective sample size of each sampled coefficient."""
+        return {n: float(x) for n, x in zip(self.names, self.chains.n_effective, strict=True)}
+
+    def to_dict(self) -> dict[str, Any]:
+        """The JSON document of ``nlid posterior --json``."""
+        lik = self.likelihood
+        idx = [self.model.index(n) for n in self.names]
+        mean, cov = self.gaussian_limit
+        return to_jsonable(
+            {
+                "params": self.summary(),
+                "tau": self.tau,
+                "acceptance": self.chains.acceptance,
+                "n_effective": self.n_effective,
+                "seconds": self.seconds,
+                "method": self.method,
+                "mass": self.mass,
+                "start": {n: self.start[n] for n in self.names},
+                "others": self.others,
+                "fixed": self.not_sampled if self.others == "fixed" else {},
+                "not_sampled": list(self.not_sampled),
+                "priors": self.priors,
+                "units": {n: parse_term(n).coefficient_unit for n in self.names},
+                "sampler": {
+                    "walkers": self.chains.walkers,
+                    "steps": self.chains.steps,
+                    "burn": self.chains.burn,
+                    "thin": self.chains.thin,
+                    "samples": int(self.samples.shape[0]),
+                },
+                "likelihood": {
+                    "gaussian_mean": dict(zip(self.names, mean.tolist(), strict=True)),
+                    "gaussian_sd": dict(zip(self.names, np.sqrt(np.diag(cov)).tolist(), strict=True)),
+                    "least_squares": {n: float(lik.estimate[i]) for n, i in zip(self.names, idx, strict=True)},
+                    **lik.info,
+                },
+            }
+        )
+
+    def table(self):
+        """A :class:`pandas.DataFrame`: one row per sampled coefficient."""
+        import pandas as pd
+
+        rows = []
+        ess = self.n_effective
+        for name, s in self.summary().items():
+            rows.append(
+                {
+                    "term": name,
+                    "unit": parse_term(name).coefficient_unit,
+                    "start": self.start[name],
+                    **s,
+                    "tau": self.tau[name],
+                    "n_effective": ess[name],
+                }
+            )
+        return pd.DataFrame(rows)
+
+    def format_table(self) -> str:
+        """A human-readable summary."""
+        width = max(len(n) for n in self.names)
+        lines = [
+            f"posterior of {len(self.names)} coefficient(s); start: {self.method}, mass {self.mass:.6g} kg",
+            "",
+            f"{'term':<{width}}  {'mean':>11}  {'sd':>9}  {'5 %':>11}  {'50 %':>11}  {'95 %':>11}  "
+            f"{'tau':>6}  {'ESS':>7}  unit",
+        ]
+        ess = self.n_effective
+        for name, s in self.summary().items():
+            lines.append(
+                f"{name:<{width}}  {s['mean']:11.5g}  {s['sd']:9.3g}  {s['q05']:11.5g}  {s['q50']:11.5g}  "
+                f"{s['q95']:11.5g}  {self.tau[name]:6.1f}  {ess[name]:7.0f}  {parse_term(name).coefficient_unit}"
+            )
+        if self.not_sampled and self.others == "marginal":
+            lines.append("")
+            lines.append(f"integrated out (not sampled): {', '.join(self.not_sampled)}")
+        elif self.not_sampled:
+            lines.append("")
+            fixed = ", ".join(f"{n} = {x:.6g}" for n, x in self.not_sampled.items())
+            lines.append(f"fixed at the identifier's estimate: {fixed}")
+        info = self.likelihood.info
+        lines.append("")
+        lines.append(
+            f"sampler: {self.chains.walkers} walkers x {self.chains.steps} steps (burn-in {self.chains.burn}, "
+            f"thin {self.chains.thin}), acceptance {self.chains.acceptance:.2f}, "
+            f"chain length {self.chains.steps / max(self.chains.tau):.0f} tau"
+        )
+        band = info.get("band_hz")
+        where = f" in the band below {band:.4g} Hz" if band else ""
+        bias = "no bias correction"
+        if info.get("bias_correction"):
+            bias = "errors-in-variables bias corrected by simulation"
+        lines.append(
+            f"likelihood: equation error over {info['samples']} samples{where}, effective {info['dof']:.0f} "
+            f"(residual correlated over {info['tau_residual_samples']:.1f} samples), {bias}"
+        )
+        lines.append(f"time: {self.seconds:.3g} s")
+        return "\n".join(lines)
+
+    # ------------------------------------------------------------------ damping bands
+    def damping_bands(
+        self,
+        positions: Sequence[float] | None = None,
+        *,
+        half_width: float | None = None,
+        grid: int = 120,
+        draws: int = 400,
+        seed: int = 0,
+    ) -> list[DampingBand]:
+        """Posterior predictive bands of ``D(z0, v)`` on slices (paper Fig. 21 b-d).
+
+        Parameters
+        ----------
+        positions
+            Slice positions ``z0`` in m; default :meth:`default_slices`.
+        half_width
+            Half width of each slice (default 5 % of the displacement range).
+        grid
+            Velocity points of the band.
+        draws
+            Posterior draws the band is computed from.
+        seed
+            Seed of the draws.
+        """
+        if self.data is None or self.data.v is None:
+            raise InputError("damping bands need the force balance with velocity (a model with velocity terms)")
+        positions = self.default_slices() if positions is None else list(positions)
+        theta = self.full_samples(draws, np.random.default_rng(seed))
+        centre = theta.mean(axis=0)
+        out = []
+        for z0 in positions:
+            sl = physics.damping_slice(self.data, self.model, centre, self.mass, float(z0), half_width, grid)
+            # D is linear in the coefficients: one regressor matrix serves every draw
+            G = self.model.evaluate(np.full(grid, float(z0)), sl.v_grid)
+            damp = [i for i, t in enumerate(self.model.terms) if t.family == "damping"]
+            curves = theta[:, damp] @ G[:, damp].T
+            q = np.quantile(curves, QUANTILES, axis=0)
+            out.append(DampingBand(sl.z0, sl.half_width, sl.v_grid, q[0], q[1], q[2], sl.v, sl.measured))
+        return out
+
+    def default_slices(self) -> list[float]:
+        """Slice positions: the equilibria of the mean model (wells and barrier), else the z quartiles."""
+        z = self.data.z if self.data is not None else None
+        try:
+            zr = None if z is None else (float(z.min()), float(z.max()))
+            eq = physics.equilibria(self.model, self.full_samples().mean(axis=0), zr)
+            points = [p for p in eq.all if zr is None or zr[0] <= p <= zr[1]]
+        except InputError:
+            points = []
+        if not points and z is not None:
+            points = [float(x) for x in np.quantile(z, [0.25, 0.5, 0.75])]
+        return points
+
+    # ------------------------------------------------------------------ files
+    def save(self, out_dir: str | Path, *, figures: bool = True, slices: Sequence[float] | None = None) -> list[Path]:
+        """Write the table (CSV), the document (JSON), the samples (NPZ) and the figures (PNG).
+
+        Files: ``posterior_table.csv``, ``posterior.json``,
+        ``posterior_samples.npz`` (``samples``, ``names``, ``chain``,
+        ``log_prob``, ``tau``, ``not_sampled_names``, ``not_sampled_estimates`` and the damping
+        bands), ``posterior_corner.png``, ``posterior_trace.png``,
+        ``posterior_damping.png``.
+        """
+        out = Path(out_dir)
+        out.mkdir(parents=True, exist_ok=True)
+        paths = []
+        path = out / "posterior_table.csv"
+        self.table().to_csv(path, index=False)
+        paths.append(path)
+        path = out / "posterior.json"
+        path.write_text(json.dumps(self.to_dict(), indent=2, allow_nan=False) + "\n")
+        paths.append(path)
+        bands = []
+        if self.data is not None and self.data.v is not None:
+            bands = self.damping_bands(slices)
+        arrays: dict[str, np.ndarray] = {
+            "samples": self.samples,
+            "names": np.array(self.names),
+            "chain": self.chains.chain,
+            "log_prob": self.chains.log_prob,
+            "tau": self.chains.tau,
+            "not_sampled_names": np.array(list(self.not_sampled), dtype=str),
+            "not_sampled_estimates": np.array(list(self.not_sampled.values()), dtype=float),
+        }
+        for i, b in enumerate(bands):
+            for key in ("v_grid", "q05", "q50", "q95"):
+                arrays[f"damping{i}_{key}"] = getattr(b, key)
+            arrays[f"damping{i}_z0"] = np.array(b.z0)
+        path = out / "posterior_samples.npz"
+        np.savez(path, **arrays)
+        paths.append(path)
+        if figures:
+            from ..plotting import save_figure
+            from . import plots
+
+            paths += save_figure(plots.corner_figure(self), out / "posterior_corner", formats=("png",))
+            paths += save_figure(plots.trace_figure(self), out / "posterior_trace", formats=("png",))
+            if bands:
+                paths += save_figure(
+                    plots.damping_figure(bands, self.data.filtered_at if self.data is not None else None),
+                    out / "posterior_damping",
+                    formats=("png",),
+                )
+        return paths

@@ -1,0 +1,77 @@
+"""The study runner's hook: interval widths and coverage of a posterior.
+
+A study config asks for posteriors with a ``[posterior]`` table; its keys are
+the options of :class:`~nlid.posterior.PosteriorSampler` (``params``,
+``walkers``, ``max_steps``, ``seed``, ``move``, ``bias_correction``,
+``bias_pairs``, ``priors``, ``cutoff``) plus ``level`` (credible level of the
+interval, default 0.9).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from typing import Any
+
+from ..errors import InputError
+from ..interface import IdentificationResult
+from ..record import Record
+from ..terms import Model
+from .inference import PosteriorSampler
+
+__all__ = ["study_metrics"]
+
+
+def _truth_coefficients(truth: Mapping[str, Any] | None) -> dict[str, float] | None:
+    if truth is None:
+        return None
+    coeffs = truth.get("coefficients", truth) if isinstance(truth, Mapping) else None
+    if not isinstance(coeffs, Mapping):
+        raise InputError("truth must map term names to values (or hold them under 'coefficients')")
+    return {str(k): float(v) for k, v in coeffs.items()}
+
+
+def study_metrics(
+    record: Record,
+    model: Model,
+    result: IdentificationResult,
+    truth: Mapping[str, Any] | None,
+    **options: Any,
+) -> dict[str, float | bool]:
+    """Posterior metrics of one study run.
+
+    Parameters
+    ----------
+    record, model, result
+        The data, the model and the identification of the run.
+    truth
+        True coefficients (``{term: value}``, or a preset's ``truth()`` with
+        a ``"coefficients"`` entry), or ``None`` when unknown.
+    **options
+        ``level`` and the :class:`~nlid.posterior.PosteriorSampler` settings.
+
+    Returns
+    -------
+    dict
+        ``"<term>:width90"`` (width of the credible interval; the number is
+        the level in percent) and, when the truth is known,
+        ``"<term>:covers"`` for each sampled term; ``"posterior:tau"`` (the
+        largest integrated autocorrelation time, steps) and
+        ``"posterior:seconds"``.
+    """
+    options = dict(options)
+    level = float(options.pop("level", 0.9))
+    if not 0 < level < 1:
+        raise InputError(f"posterior level must lie between 0 and 1, got {level}")
+    posterior = PosteriorSampler(**options).run(record, result, model)
+    coeffs = _truth_coefficients(truth)
+    if coeffs is not None:
+        coeffs = {model.terms[model.index(k)].name: v for k, v in coeffs.items() if k in model}
+    tag = f"{100 * level:g}"
+    out: dict[str, float | bool] = {}
+    for name, (lo, hi) in posterior.interval(level).items():
+        out[f"{name}:width{tag}"] = hi - lo
+        if coeffs is not None and name in coeffs:
+            out[f"{name}:covers"] = bool(lo <= coeffs[name] <= hi)
+    out["posterior:tau"] = max(posterior.tau.values())
+    out["posterior:seconds"] = posterior.seconds
+    return out

@@ -1,0 +1,174 @@
+"""The posterior end to end on a short noisy record, its outputs and its refusals."""
+
+import json
+
+import numpy as np
+import pytest
+
+from nlid import IdentificationResult, identify
+from nlid.errors import InputError
+from nlid.posterior import (
+    ConvergenceError,
+    DegenerateParametersError,
+    PosteriorSampler,
+    PriorError,
+    sample_posterior,
+    study_metrics,
+)
+from nlid.presets import get_preset
+from nlid.terms import Model
+
+
+@pytest.fixture(scope="module")
+def preset():
+    return get_preset("paper-numerical").with_overrides(duration=20.0)
+
+
+@pytest.fixture(scope="module")
+def record(preset):
+    """20 s of paper-numerical with 2 % noise on z and a (v estimated)."""
+    return preset.simulate(11, noise=0.02, channels=("z", "a"))
+
+
+@pytest.fixture(scope="module")
+def result(preset, record):
+    return identify(record, preset.model(), "rfs", mass=preset.mass)
+
+
+@pytest.fixture(scope="module")
+def posterior(record, result):
+    return sample_posterior(record, result, params="damping", seed=3)
+
+
+def test_posterior_samples_the_damping_terms_from_the_estimate(posterior, result):
+    assert posterior.names == ("v", "v*|v|")
+    assert posterior.others == "marginal"
+    assert set(posterior.not_sampled) == {"1", "z", "z^2", "z^3"}
+    assert all(posterior.not_sampled[n] == result.coefficients[n] for n in posterior.not_sampled)
+    chains = posterior.chains
+    assert chains.steps >= 50 * chains.tau.max() and chains.burn >= chains.tau.max()
+    assert 0.1 < chains.acceptance < 0.9
+    # the chain starts at the identifier's estimate
+    np.testing.assert_allclose(
+        np.median(chains.chain[0], axis=0), [result.coefficients[n] for n in posterior.names], rtol=0.05
+    )
+
+
+def test_summary_is_ordered_and_matches_the_gaussian_limit(posterior):
+    mean, cov = posterior.gaussian_limit
+    for i, (name, s) in enumerate(posterior.summary().items()):
+        assert s["q05"] < s["q50"] < s["q95"] and s["sd"] > 0
+        sd = np.sqrt(cov[i, i])
+        assert s["mean"] == pytest.approx(mean[i], abs=0.15 * sd)
+        assert s["sd"] == pytest.approx(sd, rel=0.15)
+        assert posterior.n_effective[name] > 500
+
+
+def test_json_document(posterior):
+    doc = json.loads(json.dumps(posterior.to_dict(), allow_nan=False))
+    assert set(doc) >= {"params", "tau", "acceptance", "n_effective", "seconds"}
+    assert set(doc["params"]["v*|v|"]) == {"mean", "sd", "q05", "q50", "q95"}
+    assert doc["units"]["v*|v|"] == "N*s^2/m^2" and doc["seconds"] > 0
+
+
+def test_same_seed_same_posterior(record, result, posterior):
+    again = sample_posterior(record, result, params="damping", seed=3)
+    np.testing.assert_array_equal(again.samples, posterior.samples)
+
+
+def test_save_writes_table_json_npz_and_figures(posterior, tmp_path):
+    paths = posterior.save(tmp_path, slices=[-0.02, 0.0, 0.015])
+    names = {p.name for p in paths}
+    assert names == {
+        "posterior_table.csv",
+        "posterior.json",
+        "posterior_samples.npz",
+        "posterior_corner.png",
+        "posterior_trace.png",
+        "posterior_damping.png",
+    }
+    with np.load(tmp_path / "posterior_samples.npz", allow_pickle=False) as npz:
+        assert npz["samples"].shape[1] == 2 and list(npz["names"]) == ["v", "v*|v|"]
+        assert npz["damping0_q05"].shape == npz["damping0_v_grid"].shape
+        assert np.all(npz["damping1_q05"] <= npz["damping1_q95"])
+
+
+def test_damping_bands_contain_the_true_law(posterior):
+    for band in posterior.damping_bands([-0.02, 0.015]):
+        true = band.v_grid + 5.0 * band.v_grid * np.abs(band.v_grid)
+        assert np.all(band.q05 <= band.q95)
+        # the band is narrow compared with the force itself, and the truth lies within a few band widths
+        width = np.max(band.q95 - band.q05)
+        assert width < 0.05 * np.max(np.abs(true))
+        assert np.max(np.abs(band.q50 - true)) < 5 * width
+
+
+def test_marginal_carries_the_uncertainty_of_the_other_coefficients(record, result, posterior):
+    # default: the stiffness is integrated out; the sd is that of the marginal covariance block
+    idx = [posterior.model.index(n) for n in posterior.names]
+    cov = posterior.likelihood.covariance[np.ix_(idx, idx)]
+    fixed = sample_posterior(record, result, params="damping", seed=3, others="fixed")
+    assert fixed.to_dict()["fixed"] == fixed.not_sampled and posterior.to_dict()["fixed"] == {}
+    for i, name in enumerate(posterior.names):
+        s = posterior.summary()[name]
+        assert s["sd"] == pytest.approx(np.sqrt(cov[i, i]), rel=0.15)
+        # holding the stiffness fixed can only narrow the posterior (up to sampling noise)
+        assert fixed.summary()[name]["sd"] <= 1.1 * s["sd"]
+
+
+def test_all_params_samples_the_stiffness_too(record, result):
+    post = sample_posterior(record, result, params="all", seed=1, bias_pairs=2)
+    assert len(post.names) == 6 and not post.not_sampled
+
+
+def test_non_convergence_is_refused_with_what_to_raise(record, result):
+    with pytest.raises(ConvergenceError, match=r"did not converge in 200 steps.*raise --steps"):
+        sample_posterior(record, result, params="damping", max_steps=200, bias_correction=False)
+
+
+def test_prior_excluding_the_estimate(record, result):
+    with pytest.raises(
+        PriorError, match=r"prior of v\*\|v\| \(uniform\(0, 1\)\) excludes the identifier's estimate 4\.9"
+    ):
+        sample_posterior(record, result, priors={"v*|v|": "uniform(0, 1)"}, bias_correction=False)
+
+
+def test_prior_on_a_fixed_term(record, result):
+    with pytest.raises(PriorError, match="z\\^3, which is not sampled"):
+        sample_posterior(record, result, priors=["z^3=normal(1e6, 1e5)"], bias_correction=False)
+
+
+def test_degenerate_parameters(preset, record):
+    # tanh(v/1000) is v/1000 to 1e-7 on this record: collinear with v
+    model = Model.from_spec("z^3, z^2, v*|v|, tanh(v/1000)")
+    res = identify(record, model, "rfs", mass=preset.mass)
+    with pytest.raises(
+        DegenerateParametersError, match=r"v, tanh\(v/1000\) are \(nearly\) collinear|tanh\(v/1000\), v are"
+    ):
+        sample_posterior(record, res, model, params="v, tanh(v/1000)", bias_correction=False)
+
+
+def test_bad_params_and_missing_mass(record, result):
+    with pytest.raises(InputError, match="does not contain"):
+        sample_posterior(record, result, params="sign(v)")
+    no_mass = IdentificationResult(method="x", coefficients=result.coefficients, terms=result.terms)
+    with pytest.raises(InputError, match="needs the mass"):
+        sample_posterior(record, no_mass)
+    with pytest.raises(InputError, match="unknown move"):
+        PosteriorSampler(move="gibbs")
+
+
+def test_study_metrics(record, result, preset):
+    metrics = study_metrics(record, preset.model(), result, preset.truth(), seed=0, bias_pairs=2)
+    assert set(metrics) == {
+        "v:width90",
+        "v:covers",
+        "v*|v|:width90",
+        "v*|v|:covers",
+        "posterior:tau",
+        "posterior:seconds",
+    }
+    assert metrics["v*|v|:width90"] > 0 and isinstance(metrics["v:covers"], bool)
+    unknown = study_metrics(record, preset.model(), result, None, seed=0, bias_pairs=2, level=0.5)
+    assert "v:width50" in unknown and "v:covers" not in unknown
+    assert unknown["v:width50"] < metrics["v:width90"]

@@ -1,0 +1,53 @@
+"""emcee until converged: a known Gaussian, and the refusal to report unconverged chains."""
+
+import numpy as np
+import pytest
+
+from nlid.errors import InputError
+from nlid.posterior.sampler import ConvergenceError, run_until_converged
+
+
+def _gaussian(mean, cov):
+    prec = np.linalg.inv(cov)
+
+    def log_prob(x):
+        d = x - mean
+        return -0.5 * np.einsum("wi,ij,wj->w", d, prec, d)
+
+    return log_prob
+
+
+MEAN = np.array([1.0, -2.0, 0.5])
+COV = np.array([[1.0, 0.6, 0.0], [0.6, 1.0, -0.2], [0.0, -0.2, 0.25]])
+
+
+@pytest.mark.parametrize("move", ["de", "stretch"])
+def test_recovers_a_known_gaussian(move):
+    chains = run_until_converged(
+        _gaussian(MEAN, COV), MEAN + 3.0, np.full(3, 0.01), walkers=32, max_steps=50_000, seed=1, move=move
+    )
+    assert chains.steps >= 50 * chains.tau.max()
+    s = chains.samples
+    se = np.sqrt(np.diag(COV) / chains.n_effective)
+    assert np.all(np.abs(s.mean(axis=0) - MEAN) < 5 * se)
+    np.testing.assert_allclose(np.cov(s, rowvar=False), COV, atol=0.1)
+    assert 0.1 < chains.acceptance < 0.8
+
+
+def test_same_seed_same_chains():
+    kw = dict(walkers=16, max_steps=20_000, seed=7)
+    a = run_until_converged(_gaussian(MEAN, COV), MEAN, np.full(3, 0.1), **kw)
+    b = run_until_converged(_gaussian(MEAN, COV), MEAN, np.full(3, 0.1), **kw)
+    np.testing.assert_array_equal(a.chain, b.chain)
+
+
+def test_too_few_steps_is_refused_with_what_to_raise():
+    with pytest.raises(ConvergenceError, match=r"did not converge in 300 steps.*raise --steps \(e\.g\. --steps \d+\)"):
+        run_until_converged(
+            _gaussian(MEAN, COV), MEAN, np.full(3, 0.1), walkers=16, max_steps=300, seed=0, names=("a", "b", "c")
+        )
+
+
+def test_too_few_walkers():
+    with pytest.raises(InputError, match="at least 2 x 3 = 6 walkers"):
+        run_until_converged(_gaussian(MEAN, COV), MEAN, np.full(3, 0.1), walkers=4, max_steps=100)
