@@ -15,7 +15,15 @@ from nlid.errors import DataError, InputError
 from .fit import NSIFit, format_eigenvalues
 from .reconstruction import Reconstruction, fuse_motion, reconstruct_motion
 
-__all__ = ["COMMON_OPTIONS", "Velocity", "velocity_estimate", "denoise_operator", "blas_threads", "fit_arrays"]
+__all__ = [
+    "COMMON_OPTIONS",
+    "Velocity",
+    "velocity_estimate",
+    "denoise_operator",
+    "blas_threads",
+    "fit_arrays",
+    "reconstruction",
+]
 
 #: Default number of block rows (past and future horizons each). Measured with
 #: nsi-ip on paper-numerical at 2 % noise (median of seeds 0-4, c_v / zeta- /

@@ -46,10 +46,32 @@ Two passes
     :mod:`nlid_nsi.reconstruction`. Pass 2 uses the de-noised ``z``, the
     completed ``v``, the Gauss-Hermite interval means and the
     errors-in-variables correction (:mod:`nlid_nsi.noise`), and gives the
-    reported model.
+    reported model. With a measured acceleration and ``v`` derived from ``z``
+    (``acceleration = fuse``, the default), pass 2's ``z`` and ``v`` come
+    from ``z`` below a crossover and ``a`` above it
+    (:func:`nlid_nsi.reconstruction.fuse_motion`), with both noises in the
+    errors-in-variables model; ``acceleration = ignore`` leaves ``a`` out.
 
-A known mass fixes ``m`` in the ULS fit (``1 / Hbar = kbar - m w^2 + i c w``
-then fits kbar and c only), in the static balance and in Eq. 8/22.
+k~1 ensemble (``k_tilde_ensemble``, ``k_tilde_spread``)
+    Pass 2 is fitted at ``k_tilde_ensemble`` values of k~1 evenly spread from
+    the accepted one to ``k_tilde_spread`` times it (one data Gram, one
+    congruence each, :func:`ensemble_values`); the coefficients,
+    ``theta_z = kbar - k~1``, ``c_v`` and ``m`` are their means
+    (:func:`combine_fits`). A value whose ULS fails Eq. 18 is left out and
+    listed. The order, singular values, band, ULS, ``E[Re/Im]`` and the
+    spectra reported are those of the accepted k~1 (``diagnostics
+    ["reported_fit"]``); each member's coefficients and ``E[Re/Im]`` are in
+    ``diagnostics["k_tilde_ensemble"]``.
+
+Mass
+    Estimated by the ULS fit ``1 / Hbar = kbar - m w^2 + i c_v w`` (the mean
+    over the ensemble) unless given. A given mass is used in the surrogate of
+    pass 2, the static balance and Eq. 8/22; it is not forced into the ULS
+    fit (``mass_in_uls_fit = false``, the default): kbar and ``c_v`` come from
+    the fit with its own ``m``, whose small error (from noise) compensates
+    theirs over the band; fixing ``m`` there moves that error into ``kbar``
+    and so into ``theta_z`` and the natural frequencies (measured in
+    ``docs/nsi.md``).
 """
 
 from __future__ import annotations
@@ -130,8 +152,24 @@ def search_k_tilde(
 
 
 def ensemble_values(k0: float, count: int, spread: float) -> list[float]:
-    """``count`` values of k~1 evenly spread over ``[k0, spread * k0]`` (``[k0]`` for one)."""
-    if count <= 1 or spread <= 1.0:
+    """The k~1 values of the ensemble: ``count`` values evenly spread over ``[k0, spread * k0]``.
+
+    Parameters
+    ----------
+    k0
+        The accepted (or given) k~1 in N/m; it is always the first value.
+    count
+        Number of values (option ``k_tilde_ensemble``).
+    spread
+        Ratio of the largest value to ``k0`` (option ``k_tilde_spread``).
+
+    Returns
+    -------
+    list of float
+        ``[k0]`` alone when ``count`` is 1, ``spread`` is 1 or ``k0 <= 0``
+        (a ULS stable without perturbation: there is nothing to spread).
+    """
+    if count <= 1 or spread <= 1.0 or k0 <= 0.0:
         return [float(k0)]
     return [float(k0 * (1.0 + (spread - 1.0) * j / (count - 1))) for j in range(count)]
 
@@ -139,13 +177,28 @@ def ensemble_values(k0: float, count: int, spread: float) -> list[float]:
 def combine_fits(fits: list[tuple[float, NSIFit]]) -> tuple[dict[str, float], float, float, float]:
     """Average the fits of several k~1: nonlinear coefficients, ``theta_z = kbar - k~1``, ``c_v`` and ``m``.
 
-    Every k~1 gives a consistent estimate of the same coefficients (Eq. 13-20
-    do not depend on it), but their errors from the noise differ: averaging
-    them cuts the spread (see :class:`NSIInputPerturbation`).
+    Every k~1 gives a consistent estimate of the same coefficients: Eq. 13-15
+    only move ``k~1 z`` between the input ``fbar`` and the ULS stiffness
+    ``kbar = k~1 + theta_z``, and Eq. 19-20 give the same ``theta_j`` for
+    any stable ULS. Their errors from the noise differ (the perturbed input
+    ``fbar = f + k~1 z`` weights the noisy ``z`` differently), so the mean
+    has a smaller spread than any one of them (measured in ``docs/nsi.md``).
+
+    Parameters
+    ----------
+    fits
+        ``(k~1, fit)`` pairs, each fitted on the same data Gram.
 
     Returns
     -------
-    coefficients, theta_z, c_v, m
+    coefficients
+        Mean of the nonlinear coefficients (Eq. 20), by basis name.
+    theta_z
+        Mean of ``kbar - k~1`` (the ``z`` coefficient of R).
+    c_v
+        Mean viscous coefficient of the ULS fits.
+    m
+        Mean mass of the ULS fits.
     """
     names = list(fits[0][1].coefficients)
     coefs = {n: float(np.mean([f.coefficients[n] for _, f in fits])) for n in names}
@@ -194,13 +247,12 @@ class NSIInputPerturbation(Identifier):
             "the averaged k~1 values are evenly spread from the accepted k~1 to this multiple of it",
             minimum=1.0,
         ),
-        Option("_ensemble_rows", "floats", None, "experiment", nullable=True),
         Option(
             "mass_in_uls_fit",
             "bool",
             False,
             "a given mass also fixes m in the ULS fit 1/Hbar = kbar - m w^2 + i c w (else it is used in the "
-            "static balance and Eq. 8/22 only)",
+            "surrogate, the static balance and Eq. 8/22 only)",
         ),
         Option(
             "search_block_rows",
@@ -268,8 +320,9 @@ class NSIInputPerturbation(Identifier):
                 ch, gram = ch1, g1
                 if opt["reconstruct"]:
                     if ch2 is None:
+                        m_surrogate = float(mass) if mass is not None else result.uls.m
                         rec, denoise_fc = reconstruction(
-                            record, vel, f_held, (mass or result.uls.m, result.uls.c, result.uls.k), opt
+                            record, vel, f_held, (m_surrogate, result.uls.c, result.uls.k), opt
                         )
                         ch2 = prepare_channels(
                             z,
@@ -312,22 +365,13 @@ class NSIInputPerturbation(Identifier):
                 k_use += opt["k_step"]
 
         fits = [(k_use, result)]
+        rejected: list[dict[str, Any]] = []
         for k in ensemble_values(k_use, opt["k_tilde_ensemble"], opt["k_tilde_spread"])[1:]:
             try:
                 fits.append((k, fit(ch, gram, k)))
             except UnstableULSError as exc:
-                trials.append(
-                    {"k_tilde": k, "block_rows": block_rows, "accepted": False, "eigenvalues": eigen_list(exc.eigenvalues)}
-                )
-        for rows in opt["_ensemble_rows"] or []:
-            sg = sub_gram(gram, int(rows))
-            for k in ensemble_values(k_use, opt["k_tilde_ensemble"], opt["k_tilde_spread"]):
-                try:
-                    fits.append((k, fit(ch, sg, k)))
-                except UnstableULSError:
-                    pass
+                rejected.append({"k_tilde": k, "accepted": False, "eigenvalues": eigen_list(exc.eigenvalues)})
         timings["ensemble"] = time.perf_counter() - t0
-        uls = result.uls
         coefs, theta_z, c_v, m_fit = combine_fits(fits)
         mass_out = float(mass) if mass is not None else m_fit
         coefs["z"] = theta_z
@@ -363,7 +407,7 @@ class NSIInputPerturbation(Identifier):
             modal_out = []
             for mo in modal:
                 d = mo.to_dict()
-                d["zeta_from_uls"] = uls.zeta * uls.wn / (2 * np.pi * d["fn_hz"])
+                d["zeta_from_uls"] = c_v / (2 * mass_out * 2 * np.pi * d["fn_hz"])
                 d["source"] = "Eq. 8 (identified K'(z*), estimated m), Eq. 22 (c(z*) / 2 m w_n)"
                 modal_out.append(d)
         timings["total"] = time.perf_counter() - t0
@@ -372,9 +416,18 @@ class NSIInputPerturbation(Identifier):
             "k_tilde_search": "explicit" if explicit else "automatic",
             "k_tilde_trials": trials,
             "k_tilde_ensemble": [
-                {"k_tilde": k, "coefficients": {**f.coefficients, "z": f.uls.k - k, "v": f.uls.c}, "mass": f.uls.m}
+                {
+                    "k_tilde": k,
+                    "accepted": True,
+                    "coefficients": {**f.coefficients, "z": f.uls.k - k, "v": f.uls.c},
+                    "mass": f.uls.m,
+                    "quality": {sp.name: sp.quality for sp in f.spectra},
+                }
                 for k, f in fits
-            ],
+            ]
+            + rejected,
+            "reported_fit": f"k~1 = {k_use:g} N/m (order, singular values, band, ULS, quality and the arrays); "
+            f"the coefficients and the mass are the mean over the {len(fits)} k~1 of 'k_tilde_ensemble'",
             **fit_summary(result),
             "block_rows": block_rows,
             "velocity": vel.provenance,

@@ -24,6 +24,17 @@ Displacement
 The noise variance of ``z`` is estimated from the high band ``z - z_hat``
 (divided by the noise gain of ``1 - L``). The completion assumes a measured,
 broadband force; with a band-limited force the completion is ~0 and harmless.
+
+With a measured acceleration (:func:`fuse_motion`)
+    The same surrogate, but the residuals ``z - z_s`` and ``a - a_s`` are
+    fused by the complementary filter of :func:`nlid.derivatives.complementary`
+    (``z`` below a crossover, ``a`` above it) instead of low-passing ``z``
+    alone: the high band then comes from the measured acceleration rather
+    than from the linear surrogate. The crossover is where the two noise
+    densities meet (:func:`crossover_frequency`), the noise levels are
+    measured from the residuals (:func:`noise_levels`), and both noises are
+    returned as :class:`nlid_nsi.noise.NoiseSource` for the
+    errors-in-variables correction.
 """
 
 from __future__ import annotations
@@ -38,7 +49,14 @@ from nlid import derivatives
 
 from .noise import NoiseSource, impulse_response
 
-__all__ = ["Reconstruction", "oscillator_response", "reconstruct_motion", "fuse_motion", "noise_levels", "crossover_frequency"]
+__all__ = [
+    "Reconstruction",
+    "oscillator_response",
+    "reconstruct_motion",
+    "fuse_motion",
+    "noise_levels",
+    "crossover_frequency",
+]
 
 Operator = Callable[[np.ndarray], np.ndarray]
 #: Largest number of fixed-point steps of the automatic crossover.
@@ -177,6 +195,21 @@ def noise_levels(rz: np.ndarray, ra: np.ndarray, fs: float, fc: float) -> tuple[
     above ``fc`` and ``a - a_hat = L ra - L D^2 rz`` carries ``e_a`` below it;
     each also carries a little of the other noise. The two variances solve
     the 2 x 2 system of their white-noise power gains (clipped at 0).
+
+    Parameters
+    ----------
+    rz, ra
+        Displacement (m) and acceleration (m/s^2) residuals, same length.
+    fs
+        Sampling frequency (Hz).
+    fc
+        Crossover (Hz) at which the residuals are split.
+
+    Returns
+    -------
+    var_z, var_a
+        Noise variances of ``z`` (m^2) and ``a`` (m^2/s^4); the filters'
+        unsettled ends are left out of the averages.
     """
     ez = rz - derivatives.complementary(rz, ra, fs, fc)
     ea = derivatives.lowpass(ra, fs, fc) - derivatives.differentiate(rz, fs, order=2, cutoff=fc)[0]
@@ -195,6 +228,8 @@ def crossover_frequency(var_z: float, var_a: float, fs: float) -> float:
     """Where the displacement noise, differentiated twice, meets the acceleration noise (Hz).
 
     Both noises white over ``[0, fs / 2]``: ``(2 pi f)^4 var_z = var_a``.
+    Without displacement noise (``var_z <= 0``): ``0.4 fs``, the largest
+    crossover (the displacement is trusted everywhere it can be).
     """
     if var_z <= 0:
         return derivatives.CUTOFF_MAX_FRACTION * fs
@@ -240,6 +275,12 @@ def fuse_motion(
     kernel_periods
         Length of the impulse responses kept for the noise model, in
         crossover periods at each side.
+
+    Returns
+    -------
+    Reconstruction
+        ``z_hat``, ``v_hat``, the sources ``z`` (output noise too) and ``a``
+        with their variances and impulse responses, and the crossover used.
     """
     fs = 1.0 / dt
     z = np.asarray(z, dtype=float)
@@ -279,7 +320,19 @@ def fuse_motion(
         return derivatives.complementary(None, x, fs, fc, derivative=d)
 
     sources = (
-        NoiseSource("z", var_z, impulse_response(lambda x: z_path(x, 0), half), impulse_response(lambda x: z_path(x, 1), half), True),
-        NoiseSource("a", var_a, impulse_response(lambda x: a_path(x, 0), half), impulse_response(lambda x: a_path(x, 1), half), False),
+        NoiseSource(
+            "z",
+            var_z,
+            impulse_response(lambda x: z_path(x, 0), half),
+            impulse_response(lambda x: z_path(x, 1), half),
+            True,
+        ),
+        NoiseSource(
+            "a",
+            var_a,
+            impulse_response(lambda x: a_path(x, 0), half),
+            impulse_response(lambda x: a_path(x, 1), half),
+            False,
+        ),
     )
     return Reconstruction(zh, vh, sources, fc)
