@@ -100,7 +100,7 @@ from .common import (
 )
 from .continuous import continuous_eigenvalues, uls_ok
 from .fit import NSIFit, UnstableULSError, fit_extended, format_eigenvalues
-from .gram import block_hankel_gram, sub_gram, transform_gram
+from .gram import block_hankel_gram, clip_indefinite, sub_gram, transform_gram
 from .intersample import force_interval_mean
 from .noise import subtract_noise
 from .subspace import po_moesp
@@ -300,6 +300,7 @@ class NSIInputPerturbation(Identifier):
         k_use = float(opt["k_tilde"] if explicit else opt["k_start"])
         ch2 = g2 = None
         denoise_fc = noise_std = accel_std = rec = None
+        gram_clipped = False
         rechecks = 0
         while True:
             if not explicit:
@@ -341,6 +342,7 @@ class NSIInputPerturbation(Identifier):
                         g2 = block_hankel_gram(ch2.base, s)
                         if ch2.noise is not None:
                             g2 = subtract_noise(g2, ch2.noise, output=ch2.base.shape[1] - 1)
+                            g2, gram_clipped = clip_indefinite(g2)
                         noise_std = float(np.sqrt(rec.noise_var))
                         src_a = rec.source("a")
                         accel_std = None if src_a is None else float(np.sqrt(src_a.var))
@@ -440,6 +442,7 @@ class NSIInputPerturbation(Identifier):
             "force_model": "held over each sample (exact ZOH)"
             if hold == "zoh"
             else "interval mean of the cubic through 4 samples",
+            "gram_clipped": gram_clipped,
             "errors_in_variables_correction": bool(
                 opt["reconstruct"] and opt["noise_correction"] and ch.noise is not None
             ),

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from nlid_nsi.continuous import band_limits, d2c_zoh, extended_frf
-from nlid_nsi.gram import block_hankel_gram, sub_gram, transform_gram
+from nlid_nsi.gram import block_hankel_gram, clip_indefinite, sub_gram, transform_gram
 from nlid_nsi.intersample import force_interval_mean, interval_mean, trapezoid_mean
 from nlid_nsi.ip import ensemble_values
 from nlid_nsi.noise import NoiseSource, build_noise_model
@@ -196,3 +196,22 @@ def test_k_tilde_ensemble_values():
     assert ensemble_values(800.0, 5, 2.5) == [800.0, 1100.0, 1400.0, 1700.0, 2000.0]
     assert ensemble_values(800.0, 1, 2.5) == [800.0]
     assert ensemble_values(800.0, 5, 1.0) == [800.0]
+
+
+def test_clip_indefinite_projects_only_an_indefinite_gram():
+    rng = np.random.default_rng(4)
+    w = rng.standard_normal((400, 3))
+    gram = block_hankel_gram(w, 4)
+    same, clipped = clip_indefinite(gram)
+    assert same is gram and not clipped
+    flat = gram.reshape(12, 12)
+    ev, vec = np.linalg.eigh(flat)
+    ev[0] = -0.05 * ev.mean()  # a noise correction that went a little too far
+    bad = ((vec * ev) @ vec.T).reshape(gram.shape)
+    fixed, clipped = clip_indefinite(bad, floor=1e-8)
+    assert clipped
+    ev_fixed = np.linalg.eigvalsh(fixed.reshape(12, 12))
+    assert ev_fixed.min() > 0
+    np.testing.assert_allclose(ev_fixed[1:], ev[1:], rtol=1e-9)  # the other directions are untouched
+    t = rng.standard_normal((2, 3))
+    np.linalg.cholesky(transform_gram(fixed, t).reshape(8, 8))  # every congruence is positive definite
