@@ -140,7 +140,7 @@ def clip_indefinite(gram: np.ndarray, floor: float = 1e-8) -> tuple[np.ndarray, 
         return gram, False
     except linalg.LinAlgError:
         pass
-    scale = float(np.trace(gg)) / len(gg)
-    ev, vec = linalg.eigh(gg)
-    ev = np.maximum(ev, floor * scale)
-    return ((vec * ev) @ vec.T).reshape(shape), True
+    low = floor * float(np.trace(gg)) / len(gg)
+    # only the eigenpairs below the floor (half the cost of the full decomposition)
+    ev, vec = linalg.eigh(gg, subset_by_value=(-np.inf, low), driver="evr", check_finite=False)
+    return (gg + (vec * (low - ev)) @ vec.T).reshape(shape), True
