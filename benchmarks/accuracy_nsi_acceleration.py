@@ -81,9 +81,11 @@ def main() -> None:
     print("| --- | --- | --- | --- |")
     for key in rows[0]["fuse"]["errors"]:
         x = {acc: np.array([r[acc]["errors"][key] for r in rows]) for acc in SETTINGS}
-        cells = [f"{x[a].mean():+.2f} / {x[a].std(ddof=1):.2f} / {np.abs(x[a]).max():.2f}" for a in SETTINGS]
+        sd = {a: x[a].std(ddof=1) if len(rows) > 1 else np.nan for a in SETTINGS}
+        cells = [f"{x[a].mean():+.2f} / {sd[a]:.2f} / {np.abs(x[a]).max():.2f}" for a in SETTINGS]
         closer = int(np.sum(np.abs(x["fuse"]) < np.abs(x["ignore"])))
-        print(f"| {key} | {cells[0]} | {cells[1]} | {closer}/{len(rows)} |")
+        name = key.replace("|", "\\|")
+        print(f"| {name} | {cells[0]} | {cells[1]} | {closer}/{len(rows)} |")
     med = {acc: float(np.median([r[acc]["seconds"] for r in rows])) for acc in SETTINGS}
     print(f"median seconds per record: ignore {med['ignore']:.1f}, fuse {med['fuse']:.1f}")
 

@@ -51,6 +51,9 @@ Two passes
     from ``z`` below a crossover and ``a`` above it
     (:func:`nlid_nsi.reconstruction.fuse_motion`), with both noises in the
     errors-in-variables model; ``acceleration = ignore`` leaves ``a`` out.
+    An indefinite noise-corrected Gram is projected onto the positive
+    semi-definite matrices once (:func:`nlid_nsi.gram.clip_indefinite`),
+    before any k~1 is fitted on it.
 
 k~1 ensemble (``k_tilde_ensemble``, ``k_tilde_spread``)
     Pass 2 is fitted at ``k_tilde_ensemble`` values of k~1 evenly spread from

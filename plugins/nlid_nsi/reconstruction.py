@@ -319,20 +319,9 @@ def fuse_motion(
     def a_path(x: np.ndarray, d: int) -> np.ndarray:
         return derivatives.complementary(None, x, fs, fc, derivative=d)
 
-    sources = (
-        NoiseSource(
-            "z",
-            var_z,
-            impulse_response(lambda x: z_path(x, 0), half),
-            impulse_response(lambda x: z_path(x, 1), half),
-            True,
-        ),
-        NoiseSource(
-            "a",
-            var_a,
-            impulse_response(lambda x: a_path(x, 0), half),
-            impulse_response(lambda x: a_path(x, 1), half),
-            False,
-        ),
-    )
+    def source(name: str, var: float, path: Callable[[np.ndarray, int], np.ndarray], output: bool) -> NoiseSource:
+        kz = impulse_response(lambda x: path(x, 0), half)
+        return NoiseSource(name, var, kz, impulse_response(lambda x: path(x, 1), half), output)
+
+    sources = (source("z", var_z, z_path, True), source("a", var_a, a_path, False))
     return Reconstruction(zh, vh, sources, fc)

@@ -196,6 +196,7 @@ def test_k_tilde_ensemble_values():
     assert ensemble_values(800.0, 5, 2.5) == [800.0, 1100.0, 1400.0, 1700.0, 2000.0]
     assert ensemble_values(800.0, 1, 2.5) == [800.0]
     assert ensemble_values(800.0, 5, 1.0) == [800.0]
+    assert ensemble_values(0.0, 5, 2.5) == [0.0]  # nothing to spread: one fit, not five identical ones
 
 
 def test_clip_indefinite_projects_only_an_indefinite_gram():
