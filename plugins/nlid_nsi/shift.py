@@ -41,7 +41,10 @@ A known mass fixes ``m`` in each well's ULS fit.
 With a measured acceleration and ``v`` derived from ``z`` (``acceleration =
 fuse``, the default), the basis functions' ``z`` and ``v`` fuse ``z`` below
 a crossover and ``a`` above it, as in nsi-ip
-(:func:`nlid_nsi.reconstruction.fuse_motion`).
+(:func:`nlid_nsi.reconstruction.fuse_motion`); an indefinite noise-corrected
+Gram is projected onto the positive semi-definite matrices
+(:func:`nlid_nsi.gram.clip_indefinite`; without it the fusion made the
+damping worse here, docs/nsi.md).
 """
 
 from __future__ import annotations
@@ -70,7 +73,7 @@ from .common import (
     velocity_estimate,
 )
 from .fit import NSIFit, UnstableULSError, fit_extended
-from .gram import block_hankel_gram
+from .gram import block_hankel_gram, clip_indefinite
 from .intersample import force_interval_mean
 from .noise import subtract_noise
 from .reconstruction import Reconstruction
@@ -218,6 +221,7 @@ class NSIZeroShift(Identifier):
                     gram = block_hankel_gram(ch.base, s)
                     if ch.noise is not None:
                         gram = subtract_noise(gram, ch.noise, output=ch.base.shape[1] - 1)
+                        gram, _ = clip_indefinite(gram)
                     fit = fit_extended(
                         ch, np.eye(ch.base.shape[1]), gram, dt, band, order, max_order, zeta_max, None, mass
                     )
