@@ -31,6 +31,15 @@ Cut-off
     spectrum meets 100 times its noise floor (see there). Pass ``cutoff``
     explicitly when the band of interest is known.
 
+Complementary filter (:func:`complementary`)
+    Displacement or velocity from a displacement trusted below a crossover
+    frequency and an acceleration trusted above it: ``L(f)`` on the
+    (differentiated) displacement plus ``1 - L(f)`` on the acceleration
+    integrated twice (once), with ``L`` the low-pass above at the crossover.
+    The two responses add up to one at every frequency, so nothing of the
+    motion is lost or counted twice, and the integration needs no high-pass
+    of its own (``1 - L`` vanishes like ``f^(2 n)`` at zero frequency).
+
 Integration (:func:`integrate`)
     Cumulative trapezoidal integration followed by a zero-phase Butterworth
     high-pass (order 2, forwards-backwards) that removes the unknown constant
@@ -51,6 +60,7 @@ from .errors import InputError
 
 __all__ = [
     "DerivativeFilter",
+    "complementary",
     "differentiate",
     "integrate",
     "lowpass",
@@ -206,8 +216,13 @@ def _apply(
     order: int = FILTER_ORDER,
     derivative: int = 0,
     hold: bool = False,
+    complement: bool = False,
 ) -> np.ndarray:
-    """Apply the shared zero-phase response along axis 0 (see module docstring)."""
+    """Apply the shared zero-phase response along axis 0 (see module docstring).
+
+    ``complement`` applies ``1 - L(f)`` instead of the low-pass ``L(f)``;
+    ``derivative`` may then be negative (integration, zero at ``f = 0``).
+    """
     x = np.asarray(x, dtype=float)
     n = x.shape[0]
     if cutoff is not None:
@@ -219,13 +234,19 @@ def _apply(
     freqs = sp_fft.rfftfreq(size, d=1.0 / fs)
     response = np.ones(freqs.size, dtype=complex)
     if cutoff is not None:
-        response *= 1.0 / (1.0 + (freqs / cutoff) ** (2 * order))
-    if derivative:
+        low = 1.0 / (1.0 + (freqs / cutoff) ** (2 * order))
+        response *= 1.0 - low if complement else low
+    if derivative > 0:
         response *= (2j * np.pi * freqs) ** derivative
+    elif derivative < 0:
+        response[0] = 0.0
+        response[1:] *= (2j * np.pi * freqs[1:]) ** derivative
     if hold:
         response *= np.sinc(freqs / fs) * np.exp(-1j * np.pi * freqs / fs)
     shape = (-1,) + (1,) * (x.ndim - 1)
     out = sp_fft.irfft(spectrum * response.reshape(shape), size, axis=0)[pad : pad + n]
+    if complement:  # 1 - L removes the line (and its integrals) entirely
+        return out
     # the removed line passes the low-pass unchanged; a hold delays it by half a sample
     k = np.arange(n).reshape(shape) - (0.5 if hold else 0.0)
     if derivative == 0:
@@ -293,6 +314,60 @@ def differentiate(
         cutoff = suggest_cutoff(x, fs)
     used = DerivativeFilter(cutoff=float(cutoff), order=filter_order)
     return _apply(x, fs, used.cutoff, order=filter_order, derivative=order), used
+
+
+def complementary(
+    z: np.ndarray | None,
+    a: np.ndarray,
+    fs: float,
+    crossover: float,
+    *,
+    derivative: int = 0,
+    order: int = FILTER_ORDER,
+) -> np.ndarray:
+    """Displacement or velocity from a displacement (low band) and an acceleration (high band).
+
+    In the frequency domain, with ``L`` the shared zero-phase low-pass at the
+    crossover and ``w = 2 pi f``::
+
+        derivative 0:  Z_hat = L Z + (1 - L) A / (i w)^2
+        derivative 1:  V_hat = L (i w) Z + (1 - L) A / (i w)
+
+    ``L + (1 - L) = 1``: noise-free, consistent channels are reproduced at
+    every frequency. Use it when the displacement is noisy at high
+    frequencies (its noise is amplified by ``w`` in a derivative) and the
+    acceleration at low frequencies (offsets and drift are amplified by
+    ``1 / w^2`` in its integrals); the best crossover is where the two noise
+    densities, in the same units, are equal.
+
+    Parameters
+    ----------
+    z
+        Displacement samples, shape ``(N,)``; ``None`` gives the acceleration
+        path alone.
+    a
+        Acceleration samples, shape ``(N,)``, at the same instants.
+    fs
+        Sampling frequency in Hz.
+    crossover
+        Crossover frequency in Hz, ``0 < crossover < fs / 2``.
+    derivative
+        0 for the displacement, 1 for the velocity.
+    order
+        Butterworth order of ``L``.
+
+    Returns
+    -------
+    numpy.ndarray
+        The estimate, shape ``(N,)``.
+    """
+    if derivative not in (0, 1):
+        raise InputError(f"complementary gives the displacement (0) or the velocity (1), not derivative {derivative}")
+    _check_band(float(crossover), fs, "crossover")
+    out = _apply(a, fs, float(crossover), order=order, derivative=derivative - 2, complement=True)
+    if z is not None:
+        out = out + _apply(z, fs, float(crossover), order=order, derivative=derivative)
+    return out
 
 
 def zoh_equivalent(x: np.ndarray, fs: float, cutoff: float | None = None, order: int = FILTER_ORDER) -> np.ndarray:

@@ -1,8 +1,9 @@
 import numpy as np
 import pytest
+from scipy import signal
 
 from nlid import InputError
-from nlid.derivatives import differentiate, integrate, lowpass, suggest_cutoff, zoh_equivalent
+from nlid.derivatives import complementary, differentiate, integrate, lowpass, suggest_cutoff, zoh_equivalent
 
 
 def test_spectral_derivative_is_exact_in_band():
@@ -67,3 +68,37 @@ def test_bad_arguments():
         lowpass(np.zeros(100), 100.0, 60.0)
     with pytest.raises(InputError, match="order"):
         differentiate(np.zeros(100), 100.0, order=3)
+
+
+@pytest.mark.parametrize("crossover", [2.0, 10.0, 40.0])
+def test_complementary_reproduces_consistent_channels(crossover):
+    fs = 512.0
+    t = np.arange(20_000) / fs
+    freqs, amps = np.array([1.5, 7.0, 23.0, 61.0]), np.array([1.0, 0.3, 0.05, 0.01])
+    w = 2 * np.pi * freqs
+    z = (amps * np.sin(np.outer(t, w) + 0.3)).sum(1)
+    v = (amps * w * np.cos(np.outer(t, w) + 0.3)).sum(1)
+    a = -(amps * w**2 * np.sin(np.outer(t, w) + 0.3)).sum(1)
+    inner = slice(2000, -2000)
+    zh = complementary(z, a, fs, crossover)
+    vh = complementary(z, a, fs, crossover, derivative=1)
+    np.testing.assert_allclose(zh[inner], z[inner], atol=1e-3 * np.abs(z).max())
+    np.testing.assert_allclose(vh[inner], v[inner], atol=1e-3 * np.abs(v).max())
+    # an offset and a slow drift of the acceleration do not reach the estimate
+    drift = complementary(None, 0.5 + 0.01 * t, fs, crossover)
+    assert np.abs(drift[inner]).max() < 1e-6
+
+
+def test_complementary_puts_each_channel_in_its_band():
+    fs, n = 512.0, 2**15
+    rng = np.random.default_rng(0)
+    ez, ea = rng.standard_normal(n), rng.standard_normal(n)
+    fz, pz = signal.welch(complementary(ez, np.zeros(n), fs, 10.0), fs=fs, nperseg=4096)
+    _, pa = signal.welch(complementary(None, ea, fs, 10.0), fs=fs, nperseg=4096)
+    low, high = (fz > 1) & (fz < 4), (fz > 40) & (fz < 100)
+    # z noise passes below the crossover and is cut above it; a noise the opposite, divided by w^2
+    assert np.median(pz[low]) > 1e3 * np.median(pz[high])
+    expected = 2 / fs / (2 * np.pi * fz[high]) ** 4
+    assert np.median(pa[high] / expected) == pytest.approx(1.0, rel=0.1)
+    with pytest.raises(InputError, match="derivative"):
+        complementary(ez, ea, fs, 10.0, derivative=2)

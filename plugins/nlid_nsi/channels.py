@@ -122,15 +122,15 @@ def prepare_channels(
     base[:, 0] = f_held
     col = 1
     jacobians: list[tuple[np.ndarray, np.ndarray]] = []
-    build_noise = noise_model and rec is not None and rec.noise_var > 0
+    build_noise = noise_model and rec is not None and rec.has_noise
     if with_z:
         base[:, col] = mean(lambda a, b: a)
         col += 1
         if build_noise:
             jacobians.append((np.ones(n), np.zeros(n)))
     sigma_v = 0.0
-    if sign_calibration and rec is not None and rec.kernel_v is not None and rec.noise_var > 0:
-        sigma_v = float(np.sqrt(rec.noise_var * (rec.kernel_v @ rec.kernel_v)))
+    if sign_calibration and rec is not None:
+        sigma_v = float(np.sqrt(rec.velocity_noise_var))
     for b in basis:
         func = b.func
         if b.jumps_in_v and sigma_v > 0:
@@ -151,7 +151,7 @@ def prepare_channels(
     base /= scales
     noise = None
     if build_noise:
-        noise = build_noise_model(rec.noise_var, rec.kernel_z, rec.kernel_v, jacobians, scales, max_lag)
+        noise = build_noise_model(list(rec.sources), jacobians, scales, max_lag)
     names = ["f"] + (["z"] if with_z else []) + [b.name for b in basis] + ["y"]
     return Channels(base, means, scales, names, with_z, noise)
 

@@ -13,8 +13,17 @@ from nlid import Option, Record, derivatives
 from nlid.errors import DataError, InputError
 
 from .fit import NSIFit, format_eigenvalues
+from .reconstruction import Reconstruction, fuse_motion, reconstruct_motion
 
-__all__ = ["COMMON_OPTIONS", "Velocity", "velocity_estimate", "denoise_operator", "blas_threads", "fit_arrays"]
+__all__ = [
+    "COMMON_OPTIONS",
+    "Velocity",
+    "velocity_estimate",
+    "denoise_operator",
+    "blas_threads",
+    "fit_arrays",
+    "reconstruction",
+]
 
 #: Default number of block rows (past and future horizons each). Measured with
 #: nsi-ip on paper-numerical at 2 % noise (median of seeds 0-4, c_v / zeta- /
@@ -86,6 +95,22 @@ COMMON_OPTIONS: tuple[Option, ...] = (
         nullable=True,
     ),
     Option("reconstruct", "bool", True, "complete v and de-noise z from the clean force (second pass)"),
+    Option(
+        "acceleration",
+        "str",
+        "fuse",
+        "a measured acceleration: fuse (z below a crossover, a above it, for the basis functions' z and v "
+        "when v comes from z) or ignore",
+        choices=("fuse", "ignore"),
+    ),
+    Option(
+        "crossover",
+        "float",
+        None,
+        "crossover (Hz) of the z/a fusion (auto: where the two noise densities meet)",
+        minimum=0.0,
+        nullable=True,
+    ),
     Option("noise_correction", "bool", True, "errors-in-variables correction of the data Gram and the B step"),
     Option(
         "intersample",
@@ -270,3 +295,26 @@ def fit_arrays(fit: NSIFit, suffix: str = "") -> dict[str, np.ndarray]:
     for s in fit.spectra:
         out[f"coef_spectrum:{s.name}{suffix}"] = np.asarray(s.value)
     return out
+
+
+def reconstruction(
+    record: Record, vel: Velocity, f_held: np.ndarray, uls: tuple[float, float, float], opt: dict[str, Any]
+) -> tuple[Reconstruction, float | None]:
+    """The second pass's displacement and velocity, and the de-noising cut-off (``None`` when fused).
+
+    With a measured acceleration, a velocity derived from ``z`` and
+    ``acceleration = fuse``: :func:`nlid_nsi.reconstruction.fuse_motion`;
+    otherwise the force-driven completion and de-noising of
+    :func:`nlid_nsi.reconstruction.reconstruct_motion`.
+    """
+    z = np.asarray(record.z, dtype=float)
+    if record.a is not None and vel.differentiate is not None and opt["acceleration"] == "fuse":
+        crossover = opt["crossover"]
+        if crossover is not None and not 0 < crossover < record.fs / 2:
+            raise InputError(
+                f"crossover must lie between 0 and the Nyquist frequency {record.fs / 2:g} Hz, got {crossover:g}"
+            )
+        rec = fuse_motion(z, record.a, record.f, f_held, record.dt, uls, crossover)
+        return rec, None
+    lowpass, fc = denoise_operator(z, record.fs, opt["denoise_cutoff"])
+    return reconstruct_motion(z, vel.v, f_held, record.dt, uls, lowpass, vel.differentiate), fc

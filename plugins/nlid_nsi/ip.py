@@ -46,10 +46,35 @@ Two passes
     :mod:`nlid_nsi.reconstruction`. Pass 2 uses the de-noised ``z``, the
     completed ``v``, the Gauss-Hermite interval means and the
     errors-in-variables correction (:mod:`nlid_nsi.noise`), and gives the
-    reported model.
+    reported model. With a measured acceleration and ``v`` derived from ``z``
+    (``acceleration = fuse``, the default), pass 2's ``z`` and ``v`` come
+    from ``z`` below a crossover and ``a`` above it
+    (:func:`nlid_nsi.reconstruction.fuse_motion`), with both noises in the
+    errors-in-variables model; ``acceleration = ignore`` leaves ``a`` out.
+    An indefinite noise-corrected Gram is projected onto the positive
+    semi-definite matrices once (:func:`nlid_nsi.gram.clip_indefinite`),
+    before any k~1 is fitted on it.
 
-A known mass fixes ``m`` in the ULS fit (``1 / Hbar = kbar - m w^2 + i c w``
-then fits kbar and c only), in the static balance and in Eq. 8/22.
+k~1 ensemble (``k_tilde_ensemble``, ``k_tilde_spread``)
+    Pass 2 is fitted at ``k_tilde_ensemble`` values of k~1 evenly spread from
+    the accepted one to ``k_tilde_spread`` times it (one data Gram, one
+    congruence each, :func:`ensemble_values`); the coefficients,
+    ``theta_z = kbar - k~1``, ``c_v`` and ``m`` are their means
+    (:func:`combine_fits`). A value whose ULS fails Eq. 18 is left out and
+    listed. The order, singular values, band, ULS, ``E[Re/Im]`` and the
+    spectra reported are those of the accepted k~1 (``diagnostics
+    ["reported_fit"]``); each member's coefficients and ``E[Re/Im]`` are in
+    ``diagnostics["k_tilde_ensemble"]``.
+
+Mass
+    Estimated by the ULS fit ``1 / Hbar = kbar - m w^2 + i c_v w`` (the mean
+    over the ensemble) unless given. A given mass is used in the surrogate of
+    pass 2, the static balance and Eq. 8/22; it is not forced into the ULS
+    fit (``mass_in_uls_fit = false``, the default): kbar and ``c_v`` come from
+    the fit with its own ``m``, whose small error (from noise) compensates
+    theirs over the band; fixing ``m`` there moves that error into ``kbar``
+    and so into ``theta_z`` and the natural frequencies (measured in
+    ``docs/nsi.md``).
 """
 
 from __future__ import annotations
@@ -69,22 +94,21 @@ from .common import (
     HOLD_ASSUMED,
     blas_threads,
     check_length,
-    denoise_operator,
     eigen_list,
     fit_arrays,
     fit_summary,
     force_hold,
+    reconstruction,
     velocity_estimate,
 )
 from .continuous import continuous_eigenvalues, uls_ok
 from .fit import NSIFit, UnstableULSError, fit_extended, format_eigenvalues
-from .gram import block_hankel_gram, sub_gram, transform_gram
+from .gram import block_hankel_gram, clip_indefinite, sub_gram, transform_gram
 from .intersample import force_interval_mean
 from .noise import subtract_noise
-from .reconstruction import reconstruct_motion
 from .subspace import po_moesp
 
-__all__ = ["NSIInputPerturbation", "search_k_tilde"]
+__all__ = ["NSIInputPerturbation", "search_k_tilde", "ensemble_values", "combine_fits"]
 
 #: Values of k~1 accepted by the cheap search but rejected by the full model
 #: before the search gives up (on paper-numerical one such value, 500 N/m, is seen).
@@ -130,6 +154,63 @@ def search_k_tilde(
     )
 
 
+def ensemble_values(k0: float, count: int, spread: float) -> list[float]:
+    """The k~1 values of the ensemble: ``count`` values evenly spread over ``[k0, spread * k0]``.
+
+    Parameters
+    ----------
+    k0
+        The accepted (or given) k~1 in N/m; it is always the first value.
+    count
+        Number of values (option ``k_tilde_ensemble``).
+    spread
+        Ratio of the largest value to ``k0`` (option ``k_tilde_spread``).
+
+    Returns
+    -------
+    list of float
+        ``[k0]`` alone when ``count`` is 1, ``spread`` is 1 or ``k0 <= 0``
+        (a ULS stable without perturbation: there is nothing to spread).
+    """
+    if count <= 1 or spread <= 1.0 or k0 <= 0.0:
+        return [float(k0)]
+    return [float(k0 * (1.0 + (spread - 1.0) * j / (count - 1))) for j in range(count)]
+
+
+def combine_fits(fits: list[tuple[float, NSIFit]]) -> tuple[dict[str, float], float, float, float]:
+    """Average the fits of several k~1: nonlinear coefficients, ``theta_z = kbar - k~1``, ``c_v`` and ``m``.
+
+    Every k~1 gives a consistent estimate of the same coefficients: Eq. 13-15
+    only move ``k~1 z`` between the input ``fbar`` and the ULS stiffness
+    ``kbar = k~1 + theta_z``, and Eq. 19-20 give the same ``theta_j`` for
+    any stable ULS. Their errors from the noise differ (the perturbed input
+    ``fbar = f + k~1 z`` weights the noisy ``z`` differently), so the mean
+    has a smaller spread than any one of them (measured in ``docs/nsi.md``).
+
+    Parameters
+    ----------
+    fits
+        ``(k~1, fit)`` pairs, each fitted on the same data Gram.
+
+    Returns
+    -------
+    coefficients
+        Mean of the nonlinear coefficients (Eq. 20), by basis name.
+    theta_z
+        Mean of ``kbar - k~1`` (the ``z`` coefficient of R).
+    c_v
+        Mean viscous coefficient of the ULS fits.
+    m
+        Mean mass of the ULS fits.
+    """
+    names = list(fits[0][1].coefficients)
+    coefs = {n: float(np.mean([f.coefficients[n] for _, f in fits])) for n in names}
+    theta_z = float(np.mean([f.uls.k - k for k, f in fits]))
+    c_v = float(np.mean([f.uls.c for _, f in fits]))
+    m = float(np.mean([f.uls.m for _, f in fits]))
+    return coefs, theta_z, c_v, m
+
+
 class NSIInputPerturbation(Identifier):
     """NSI with the virtual input perturbation ``fbar = f + k~1 z`` (Sec. 2.2, 3.2).
 
@@ -155,6 +236,27 @@ class NSIInputPerturbation(Identifier):
         Option("k_start", "float", 0.0, "first k~1 of the automatic search (N/m)"),
         Option("k_step", "float", 100.0, "step of the automatic search (N/m)", minimum=1e-12),
         Option("k_max", "float", 1e5, "give up the search above this k~1 (N/m)"),
+        Option(
+            "k_tilde_ensemble",
+            "int",
+            5,
+            "number of k~1 values whose identifications are averaged (1: the accepted k~1 alone)",
+            minimum=1,
+        ),
+        Option(
+            "k_tilde_spread",
+            "float",
+            2.5,
+            "the averaged k~1 values are evenly spread from the accepted k~1 to this multiple of it",
+            minimum=1.0,
+        ),
+        Option(
+            "mass_in_uls_fit",
+            "bool",
+            False,
+            "a given mass also fixes m in the ULS fit 1/Hbar = kbar - m w^2 + i c w (else it is used in the "
+            "surrogate, the static balance and Eq. 8/22 only)",
+        ),
         Option(
             "search_block_rows",
             "int",
@@ -187,8 +289,10 @@ class NSIInputPerturbation(Identifier):
         order, max_order, zeta_max = opt["order"], opt["max_order"], opt["zeta_max"]
         s = 2 * block_rows
 
+        uls_mass = mass if opt["mass_in_uls_fit"] else None
+
         def fit(ch: Channels, gram: np.ndarray, k: float) -> NSIFit:
-            return fit_extended(ch, perturbation_map(ch, k), gram, dt, band, order, max_order, zeta_max, k, mass)
+            return fit_extended(ch, perturbation_map(ch, k), gram, dt, band, order, max_order, zeta_max, k, uls_mass)
 
         ch1 = prepare_channels(z, v, f_held, dt, basis, 0.0, None, True, False, opt["noise_max_lag"])
         g1 = block_hankel_gram(ch1.base, s)
@@ -198,7 +302,8 @@ class NSIInputPerturbation(Identifier):
         explicit = opt["k_tilde"] is not None
         k_use = float(opt["k_tilde"] if explicit else opt["k_start"])
         ch2 = g2 = None
-        denoise_fc = noise_std = None
+        denoise_fc = noise_std = accel_std = rec = None
+        gram_clipped = False
         rechecks = 0
         while True:
             if not explicit:
@@ -219,9 +324,9 @@ class NSIInputPerturbation(Identifier):
                 ch, gram = ch1, g1
                 if opt["reconstruct"]:
                     if ch2 is None:
-                        lowpass, denoise_fc = denoise_operator(z, record.fs, opt["denoise_cutoff"])
-                        rec = reconstruct_motion(
-                            z, v, f_held, dt, (result.uls.m, result.uls.c, result.uls.k), lowpass, vel.differentiate
+                        m_surrogate = float(mass) if mass is not None else result.uls.m
+                        rec, denoise_fc = reconstruction(
+                            record, vel, f_held, (m_surrogate, result.uls.c, result.uls.k), opt
                         )
                         ch2 = prepare_channels(
                             z,
@@ -240,7 +345,10 @@ class NSIInputPerturbation(Identifier):
                         g2 = block_hankel_gram(ch2.base, s)
                         if ch2.noise is not None:
                             g2 = subtract_noise(g2, ch2.noise, output=ch2.base.shape[1] - 1)
+                            g2, gram_clipped = clip_indefinite(g2)
                         noise_std = float(np.sqrt(rec.noise_var))
+                        src_a = rec.source("a")
+                        accel_std = None if src_a is None else float(np.sqrt(src_a.var))
                         timings["second_gram"] = time.perf_counter() - t0
                     ch, gram = ch2, g2
                     result = fit(ch, gram, k_use)
@@ -261,19 +369,26 @@ class NSIInputPerturbation(Identifier):
                     ) from None
                 k_use += opt["k_step"]
 
-        uls = result.uls
-        coefs: dict[str, float] = dict(result.coefficients)
-        theta_z = uls.k - k_use
+        fits = [(k_use, result)]
+        rejected: list[dict[str, Any]] = []
+        for k in ensemble_values(k_use, opt["k_tilde_ensemble"], opt["k_tilde_spread"])[1:]:
+            try:
+                fits.append((k, fit(ch, gram, k)))
+            except UnstableULSError as exc:
+                rejected.append({"k_tilde": k, "accepted": False, "eigenvalues": eigen_list(exc.eigenvalues)})
+        timings["ensemble"] = time.perf_counter() - t0
+        coefs, theta_z, c_v, m_fit = combine_fits(fits)
+        mass_out = float(mass) if mass is not None else m_fit
         coefs["z"] = theta_z
-        coefs["v"] = uls.c
-        theta_1 = static_constant(ch, uls.m, theta_z, uls.c, coefs, basis, v, dt)
+        coefs["v"] = c_v
+        theta_1 = static_constant(ch, mass_out, theta_z, c_v, coefs, basis, v, dt)
         coefs["1"] = theta_1
         warnings = [HOLD_ASSUMED] if hold_assumed else []
         unmodelled = {}
         for name, present, value in (
             ("1", split.constant, theta_1),
             ("z", split.linear, theta_z),
-            ("v", split.viscous, uls.c),
+            ("v", split.viscous, c_v),
         ):
             if not present:
                 unmodelled[name] = value
@@ -284,7 +399,6 @@ class NSIInputPerturbation(Identifier):
                         "(diagnostics 'unmodelled')"
                     )
         coefficients = {name: float(coefs[name]) for name in model.names}
-        mass_out = uls.m
         z_range = (float(z.min()), float(z.max()))
         full_model = model.with_terms(add=[n for n in ("1", "z", "v") if n not in model])
         full = {n: coefs[n] for n in full_model.names}
@@ -298,7 +412,7 @@ class NSIInputPerturbation(Identifier):
             modal_out = []
             for mo in modal:
                 d = mo.to_dict()
-                d["zeta_from_uls"] = uls.zeta * uls.wn / (2 * np.pi * d["fn_hz"])
+                d["zeta_from_uls"] = c_v / (2 * mass_out * 2 * np.pi * d["fn_hz"])
                 d["source"] = "Eq. 8 (identified K'(z*), estimated m), Eq. 22 (c(z*) / 2 m w_n)"
                 modal_out.append(d)
         timings["total"] = time.perf_counter() - t0
@@ -306,16 +420,32 @@ class NSIInputPerturbation(Identifier):
             "k_tilde": k_use,
             "k_tilde_search": "explicit" if explicit else "automatic",
             "k_tilde_trials": trials,
+            "k_tilde_ensemble": [
+                {
+                    "k_tilde": k,
+                    "accepted": True,
+                    "coefficients": {**f.coefficients, "z": f.uls.k - k, "v": f.uls.c},
+                    "mass": f.uls.m,
+                    "quality": {sp.name: sp.quality for sp in f.spectra},
+                }
+                for k, f in fits
+            ]
+            + rejected,
+            "reported_fit": f"k~1 = {k_use:g} N/m (order, singular values, band, ULS, quality and the arrays); "
+            f"the coefficients and the mass are the mean over the {len(fits)} k~1 of 'k_tilde_ensemble'",
             **fit_summary(result),
             "block_rows": block_rows,
             "velocity": vel.provenance,
             "velocity_cutoff_hz": vel.cutoff,
             "denoise_cutoff_hz": denoise_fc,
             "noise_std_estimate_m": noise_std,
+            "acceleration_noise_std_estimate": accel_std,
+            "crossover_hz": None if rec is None else rec.crossover,
             "force_hold": hold,
             "force_model": "held over each sample (exact ZOH)"
             if hold == "zoh"
             else "interval mean of the cubic through 4 samples",
+            "gram_clipped": gram_clipped,
             "errors_in_variables_correction": bool(
                 opt["reconstruct"] and opt["noise_correction"] and ch.noise is not None
             ),

@@ -36,24 +36,26 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["NoiseModel", "impulse_response", "build_noise_model", "subtract_noise"]
+__all__ = ["NoiseModel", "NoiseSource", "impulse_response", "build_noise_model", "subtract_noise"]
 
 
 @dataclass(frozen=True)
 class NoiseModel:
     """First-order model of the measurement noise carried by each base channel.
 
-    Channel ``a`` carries ``sum_i J[t, a, i] (k_i * e)(t)``, ``e`` white with
-    variance ``var``, sources ``i`` = (de-noised z, reconstructed v, output).
+    Channel ``a`` carries ``sum_i J[t, a, i] n_i(t)`` where the paths ``i`` =
+    (de-noised z, reconstructed v, output) carry filtered white noise.
 
     Attributes
     ----------
     var
-        Noise variance of the displacement (m^2, in the scaled units of the channels).
+        Overall factor of the covariance (1 when ``xcorr`` already holds the
+        variances, as :func:`build_noise_model` makes it).
     moments
         ``moments[a, b, i, j] = mean_t J_ai J_bj``.
     xcorr
-        ``xcorr[i, j, L + l] = sum_r k_i(r) k_j(r + l)`` for ``|l| <= L``.
+        ``xcorr[i, j, L + l] = E[n_i(t) n_j(t + l)] / var`` for ``|l| <= L``
+        (for one source with kernels ``k_i``: ``sum_r k_i(r) k_j(r + l)``).
     """
 
     var: float
@@ -98,24 +100,47 @@ def _xcorr(kernels: list[np.ndarray], max_lag: int) -> np.ndarray:
     return out
 
 
+@dataclass(frozen=True)
+class NoiseSource:
+    """One white measurement noise and the linear operators that carry it into the basis.
+
+    Attributes
+    ----------
+    name
+        The channel it corrupts (``"z"`` or ``"a"``), for diagnostics.
+    var
+        Its variance (in the channel's units squared).
+    kernel_z, kernel_v
+        Centred impulse responses (odd length) from the noise to the
+        displacement and the velocity used in the basis functions
+        (``kernel_v`` is ``None`` when the velocity does not carry it).
+    output
+        The output channel (the measured displacement) carries it as it is.
+    """
+
+    name: str
+    var: float
+    kernel_z: np.ndarray
+    kernel_v: np.ndarray | None
+    output: bool
+
+
 def build_noise_model(
-    var: float,
-    kernel_z: np.ndarray,
-    kernel_v: np.ndarray | None,
+    sources: list[NoiseSource],
     jacobians: list[tuple[np.ndarray, np.ndarray]],
     scales: np.ndarray,
     max_lag: int = 128,
 ) -> NoiseModel:
     """Noise model of the base channels ``[f, u_1, ..., u_q, y]`` (divided by ``scales``).
 
+    Independent noises add: the lag covariance of the three paths
+    (displacement, velocity, output) is the sum over the sources of
+    ``var * xcorr(kernels)``. The model's ``var`` is then 1.
+
     Parameters
     ----------
-    var
-        Noise variance of the measured displacement.
-    kernel_z, kernel_v
-        Centred impulse responses (odd length) from the noise to the
-        displacement and velocity used in the basis functions; ``kernel_v``
-        is ``None`` when the velocity carries no displacement noise (measured).
+    sources
+        The white noises (measured displacement, measured acceleration...).
     jacobians
         ``(dg/dz, dg/dv)`` at the samples for each input channel ``u_a``.
     scales
@@ -123,24 +148,27 @@ def build_noise_model(
     max_lag
         Largest lag of the correction.
     """
-    half = (len(kernel_z) - 1) // 2
-    avg = np.zeros(2 * half + 1)
-    avg[half], avg[half - 1] = 0.5, 0.5  # the interval mean: nu(k) ~ (n(k) + n(k+1)) / 2
-    kz = np.convolve(kernel_z, avg, mode="same")
-    kv = np.convolve(kernel_v, avg, mode="same") if kernel_v is not None else np.zeros_like(kz)
-    ky = np.zeros_like(kz)
-    ky[half] = 1.0
-    xc = _xcorr([kz, kv, ky], max_lag)
+    xc = np.zeros((3, 3, 2 * max_lag + 1))
+    for src in sources:
+        half = (len(src.kernel_z) - 1) // 2
+        avg = np.zeros(2 * half + 1)
+        avg[half], avg[half - 1] = 0.5, 0.5  # the interval mean: nu(k) ~ (n(k) + n(k+1)) / 2
+        kz = np.convolve(src.kernel_z, avg, mode="same")
+        kv = np.convolve(src.kernel_v, avg, mode="same") if src.kernel_v is not None else np.zeros_like(kz)
+        ky = np.zeros_like(kz)
+        if src.output:
+            ky[half] = 1.0
+        xc += src.var * _xcorr([kz, kv, ky], max_lag)
     nch = len(jacobians) + 2
     n = len(jacobians[0][0]) if jacobians else 1
     jac = np.zeros((n, nch, 3))
     for a, (dz, dv) in enumerate(jacobians, start=1):
         jac[:, a, 0] = dz
-        jac[:, a, 1] = dv if kernel_v is not None else 0.0
+        jac[:, a, 1] = dv
     jac[:, -1, 2] = 1.0
     jac /= scales[None, :, None]
     mom = np.einsum("tai,tbj->abij", jac, jac, optimize=True) / n
-    return NoiseModel(float(var), mom, xc)
+    return NoiseModel(1.0, mom, xc)
 
 
 def subtract_noise(gram: np.ndarray, model: NoiseModel, output: int) -> np.ndarray:

@@ -37,6 +37,14 @@ Combined estimate (``combine``)
     0.147 % against 0.195 / 0.435 %). Both sets are in the diagnostics.
 
 A known mass fixes ``m`` in each well's ULS fit.
+
+With a measured acceleration and ``v`` derived from ``z`` (``acceleration =
+fuse``, the default), the basis functions' ``z`` and ``v`` fuse ``z`` below
+a crossover and ``a`` above it, as in nsi-ip
+(:func:`nlid_nsi.reconstruction.fuse_motion`); an indefinite noise-corrected
+Gram is projected onto the positive semi-definite matrices
+(:func:`nlid_nsi.gram.clip_indefinite`; without it the fusion made the
+damping worse here, docs/nsi.md).
 """
 
 from __future__ import annotations
@@ -58,17 +66,17 @@ from .common import (
     HOLD_ASSUMED,
     blas_threads,
     check_length,
-    denoise_operator,
     fit_arrays,
     fit_summary,
     force_hold,
+    reconstruction,
     velocity_estimate,
 )
 from .fit import NSIFit, UnstableULSError, fit_extended
-from .gram import block_hankel_gram
+from .gram import block_hankel_gram, clip_indefinite
 from .intersample import force_interval_mean
 from .noise import subtract_noise
-from .reconstruction import Reconstruction, reconstruct_motion
+from .reconstruction import Reconstruction
 
 __all__ = ["NSIZeroShift", "histogram_modes", "taylor_shift"]
 
@@ -184,8 +192,7 @@ class NSIZeroShift(Identifier):
                 fit1 = fit_extended(ch1, eye, block_hankel_gram(ch1.base, s), dt, band, order, max_order, zeta_max)
             except UnstableULSError as exc:
                 raise UnstableULSError(f"nsi-shift, zero reference {refs[0]:.6g} m: {exc}", exc.eigenvalues) from None
-            lowpass, denoise_fc = denoise_operator(z, record.fs, opt["denoise_cutoff"])
-            rec = reconstruct_motion(z, v, f_held, dt, (fit1.uls.m, fit1.uls.c, fit1.uls.k), lowpass, vel.differentiate)
+            rec, denoise_fc = reconstruction(record, vel, f_held, (fit1.uls.m, fit1.uls.c, fit1.uls.k), opt)
 
         wells: list[dict[str, Any]] = []
         fits: list[NSIFit] = []
@@ -214,6 +221,7 @@ class NSIZeroShift(Identifier):
                     gram = block_hankel_gram(ch.base, s)
                     if ch.noise is not None:
                         gram = subtract_noise(gram, ch.noise, output=ch.base.shape[1] - 1)
+                        gram, _ = clip_indefinite(gram)
                     fit = fit_extended(
                         ch, np.eye(ch.base.shape[1]), gram, dt, band, order, max_order, zeta_max, None, mass
                     )
@@ -280,6 +288,10 @@ class NSIZeroShift(Identifier):
             "velocity_cutoff_hz": vel.cutoff,
             "denoise_cutoff_hz": denoise_fc,
             "noise_std_estimate_m": None if rec is None else float(np.sqrt(rec.noise_var)),
+            "acceleration_noise_std_estimate": None
+            if rec is None or rec.source("a") is None
+            else float(np.sqrt(rec.source("a").var)),
+            "crossover_hz": None if rec is None else rec.crossover,
             "force_hold": hold,
             "mass_source": "given" if mass is not None else f"estimated ({opt['combine']} of the wells' ULS fits)",
             "arrays_note": "no suffix: first well; '@wellN': well N (spectra of the shifted basis x = z - z*)",

@@ -6,9 +6,11 @@ import numpy as np
 import pytest
 
 from nlid_nsi.continuous import band_limits, d2c_zoh, extended_frf
-from nlid_nsi.gram import block_hankel_gram, sub_gram, transform_gram
+from nlid_nsi.gram import block_hankel_gram, clip_indefinite, sub_gram, transform_gram
 from nlid_nsi.intersample import force_interval_mean, interval_mean, trapezoid_mean
-from nlid_nsi.reconstruction import oscillator_response
+from nlid_nsi.ip import ensemble_values
+from nlid_nsi.noise import NoiseSource, build_noise_model
+from nlid_nsi.reconstruction import crossover_frequency, fuse_motion, oscillator_response
 from nlid_nsi.shift import histogram_modes, taylor_shift
 from nlid_nsi.subspace import estimate_b, po_moesp, select_order
 
@@ -132,3 +134,85 @@ def test_histogram_modes_find_both_wells():
     modes = histogram_modes(z, degree=6)
     assert len(modes) == 2
     assert modes[0] == pytest.approx(-0.027, abs=2e-3) and modes[1] == pytest.approx(0.017, abs=2e-3)
+
+
+def _consistent_motion(n=2**16, fs=512.0, seed=0):
+    """A smooth random displacement and its exact velocity and acceleration (spectral)."""
+    rng = np.random.default_rng(seed)
+    freqs = np.fft.rfftfreq(n, 1 / fs)
+    spec = (rng.standard_normal(freqs.size) + 1j * rng.standard_normal(freqs.size)) / (1 + (freqs / 8.0) ** 4)
+    spec[0] = 0.0
+    w = 2j * np.pi * freqs
+    z, v, a = (np.fft.irfft(spec * w**k, n) for k in range(3))
+    scale = 0.02 / z.std()
+    return z * scale, v * scale, a * scale, fs
+
+
+def test_noise_levels_and_automatic_crossover_recover_the_noises():
+    z, v, a, fs = _consistent_motion()
+    rng = np.random.default_rng(1)
+    sz, sa = 0.02 * z.std(), 0.02 * a.std()
+    zn, an = z + sz * rng.standard_normal(z.size), a + sa * rng.standard_normal(z.size)
+    zero = np.zeros_like(z)
+    rec = fuse_motion(zn, an, zero, zero, 1 / fs, (1.0, 1.0, 1.0))
+    assert rec.crossover == pytest.approx(crossover_frequency(sz**2, sa**2, fs), rel=0.05)
+    assert rec.crossover == pytest.approx((sa / sz) ** 0.5 / (2 * np.pi), rel=0.05)
+    assert np.sqrt(rec.source("z").var) == pytest.approx(sz, rel=0.05)
+    assert np.sqrt(rec.source("a").var) == pytest.approx(sa, rel=0.05)
+    inner = slice(4000, -4000)
+    # the fused estimate is closer to the truth than either channel alone would be
+    assert np.std((rec.z - z)[inner]) < 0.5 * sz
+    # its noise is what the kernels say
+    var_v = rec.velocity_noise_var
+    assert np.std((rec.v - v)[inner]) == pytest.approx(np.sqrt(var_v), rel=0.1)
+
+
+def test_fusion_reproduces_consistent_noise_free_channels():
+    z, v, a, fs = _consistent_motion(seed=2)
+    zero = np.zeros_like(z)
+    rec = fuse_motion(z, a, zero, zero, 1 / fs, (1.0, 1.0, 1.0), crossover=6.0)
+    inner = slice(4000, -4000)
+    assert np.abs(rec.z - z)[inner].max() < 1e-6 * np.abs(z).max()
+    assert np.abs(rec.v - v)[inner].max() < 1e-6 * np.abs(v).max()
+    assert rec.crossover == 6.0
+
+
+def test_independent_noise_sources_add_in_the_noise_model():
+    rng = np.random.default_rng(3)
+    n, half = 500, 20
+    jac = [(rng.standard_normal(n), rng.standard_normal(n)) for _ in range(2)]
+    scales = np.array([1.0, 2.0, 3.0, 0.5])
+    kz, kv = rng.standard_normal(2 * half + 1), rng.standard_normal(2 * half + 1)
+    s1 = NoiseSource("z", 0.3, kz, kv, True)
+    s2 = NoiseSource("a", 2.0, kv, kz, False)
+    both = build_noise_model([s1, s2], jac, scales, 10).lag_covariance()
+    one = build_noise_model([s1], jac, scales, 10).lag_covariance()
+    two = build_noise_model([s2], jac, scales, 10).lag_covariance()
+    assert np.allclose(both, one + two)
+    assert np.allclose(two[:, -1, :], 0.0)  # the acceleration's noise does not reach the output
+
+
+def test_k_tilde_ensemble_values():
+    assert ensemble_values(800.0, 5, 2.5) == [800.0, 1100.0, 1400.0, 1700.0, 2000.0]
+    assert ensemble_values(800.0, 1, 2.5) == [800.0]
+    assert ensemble_values(800.0, 5, 1.0) == [800.0]
+    assert ensemble_values(0.0, 5, 2.5) == [0.0]  # nothing to spread: one fit, not five identical ones
+
+
+def test_clip_indefinite_projects_only_an_indefinite_gram():
+    rng = np.random.default_rng(4)
+    w = rng.standard_normal((400, 3))
+    gram = block_hankel_gram(w, 4)
+    same, clipped = clip_indefinite(gram)
+    assert same is gram and not clipped
+    flat = gram.reshape(12, 12)
+    ev, vec = np.linalg.eigh(flat)
+    ev[0] = -0.05 * ev.mean()  # a noise correction that went a little too far
+    bad = ((vec * ev) @ vec.T).reshape(gram.shape)
+    fixed, clipped = clip_indefinite(bad, floor=1e-8)
+    assert clipped
+    ev_fixed = np.linalg.eigvalsh(fixed.reshape(12, 12))
+    assert ev_fixed.min() > 0
+    np.testing.assert_allclose(ev_fixed[1:], ev[1:], rtol=1e-9)  # the other directions are untouched
+    t = rng.standard_normal((2, 3))
+    np.linalg.cholesky(transform_gram(fixed, t).reshape(8, 8))  # every congruence is positive definite
