@@ -52,7 +52,7 @@ def main() -> None:
         f"### {args.method} on paper-experimental, {100 * args.noise:g} % noise on z and a, mass {args.mass} "
         f"{options or ''}"
     )
-    print("| seed | " + " | ".join(cols) + " | px iterations | s |")
+    print("| seed | " + " | ".join(c.replace("|", "\\|") for c in cols) + " | px iterations | s |")
     print("|---" * (len(cols) + 3) + "|")
     rows = []
     for seed in seeds:
@@ -77,6 +77,7 @@ def main() -> None:
     print("| max abs | " + " | ".join(f"{worst[c]:.2f}" for c in cols) + " | | |")
     print("| median abs | " + " | ".join(f"{median[c]:.2f}" for c in cols) + " | | |")
     failed = [f"{c} {worst[c]:.2f} % > {t:g} %" for c, t in TARGETS.items() if not worst[c] <= t]
+    print()
     print("targets met on every record" if not failed else "targets missed: " + "; ".join(failed))
 
 
