@@ -134,11 +134,8 @@ def suggest_cutoff(x: np.ndarray, fs: float) -> float:
     float
         The cut-off in Hz.
     """
-    x = np.asarray(x, dtype=float)
-    nperseg = int(min(x.size, 4096))
-    freqs, psd = signal.welch(x - x.mean(), fs=fs, nperseg=nperseg)
+    freqs, psd, band = _welch_noise_band(x, fs)
     cap = CUTOFF_MAX_FRACTION * fs
-    band = (freqs >= NOISE_BAND[0] * fs) & (freqs <= NOISE_BAND[1] * fs)
     floor = float(np.median(psd[band])) if band.any() else 0.0
     cumulative = np.cumsum(np.clip(psd - floor, 0.0, None))
     if cumulative[-1] <= 0:
@@ -171,12 +168,18 @@ def noise_sd(x: np.ndarray, fs: float) -> float:
     float
         The estimated noise standard deviation, in the unit of ``x``.
     """
+    freqs, psd, band = _welch_noise_band(x, fs)
+    if not band.any():
+        raise InputError(f"too few samples ({np.size(x)}) to estimate a noise floor")
+    return float(np.sqrt(np.median(psd[band]) * fs / 2.0))
+
+
+def _welch_noise_band(x: np.ndarray, fs: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Welch PSD of ``x`` (segments of up to 4096 samples) and the mask of the noise-only band ``NOISE_BAND``."""
     x = np.asarray(x, dtype=float)
     freqs, psd = signal.welch(x - x.mean(), fs=fs, nperseg=int(min(x.size, 4096)))
     band = (freqs >= NOISE_BAND[0] * fs) & (freqs <= NOISE_BAND[1] * fs)
-    if not band.any():
-        raise InputError(f"too few samples ({x.size}) to estimate a noise floor")
-    return float(np.sqrt(np.median(psd[band]) * fs / 2.0))
+    return freqs, psd, band
 
 
 def _check_band(freq: float, fs: float, what: str) -> None:

@@ -11,12 +11,6 @@ import pytest
 from nlid.cli.main import main
 
 
-def run(capsys, *argv):
-    status = main(list(argv))
-    out = capsys.readouterr()
-    return status, out.out, out.err
-
-
 @pytest.fixture(scope="module")
 def csv_exact(tmp_path_factory):
     path = tmp_path_factory.mktemp("cli") / "x.csv"
@@ -31,18 +25,18 @@ def test_simulate_writes_the_preset(csv_exact):
     assert list(frame.columns) == ["t", "f", "z", "v", "a"] and len(frame) == 122_880
 
 
-def test_simulate_default_columns(tmp_path, capsys):
+def test_simulate_default_columns(tmp_path, cli):
     out = tmp_path / "y.csv"
-    status, _, err = run(
-        capsys, "simulate", "--preset", "paper-numerical", "--duration", "2", "--noise", "0.02", "--out", str(out)
+    status, _, err = cli(
+        "simulate", "--preset", "paper-numerical", "--duration", "2", "--noise", "0.02", "--out", str(out)
     )
     assert status == 0 and "wrote 4096 samples" in err
     assert list(pd.read_csv(out).columns) == ["t", "f", "z"]
 
 
-def test_identify_json_contract(csv_exact, capsys):
-    status, out, _ = run(
-        capsys, "identify", str(csv_exact), "--method", "rfs", "--terms", "z^3,z^2,v*|v|", "--mass", "0.2", "--json"
+def test_identify_json_contract(csv_exact, cli):
+    status, out, _ = cli(
+        "identify", str(csv_exact), "--method", "rfs", "--terms", "z^3,z^2,v*|v|", "--mass", "0.2", "--json"
     )
     assert status == 0
     data = json.loads(out)
@@ -55,19 +49,19 @@ def test_identify_json_contract(csv_exact, capsys):
     assert set(modal) >= {"equilibrium", "fn_hz", "zeta"} and 0 < modal["zeta"] < 1
 
 
-def test_identify_table(csv_exact, capsys):
-    status, out, _ = run(capsys, "identify", str(csv_exact), "--terms", "z^3,z^2,v*|v|", "--mass", "0.2")
+def test_identify_table(csv_exact, cli):
+    status, out, _ = cli("identify", str(csv_exact), "--terms", "z^3,z^2,v*|v|", "--mass", "0.2")
     assert status == 0 and "v*|v|" in out and "N*s^2/m^2" in out and "epsilon (Eq. 26)" in out
 
 
-def test_methods_and_terms(capsys):
-    status, out, _ = run(capsys, "methods")
+def test_methods_and_terms(cli):
+    status, out, _ = cli("methods")
     assert status == 0 and "rfs" in out and "--set cutoff" in out
-    status, out, _ = run(capsys, "methods", "--json")
+    status, out, _ = cli("methods", "--json")
     assert "rfs" in json.loads(out)["methods"]
-    status, out, _ = run(capsys, "terms")
+    status, out, _ = cli("terms")
     assert status == 0 and "sign(v)*|px(z)|" in out
-    status, out, _ = run(capsys, "terms", "sign(v)*|v|^2")
+    status, out, _ = cli("terms", "sign(v)*|v|^2")
     assert out.startswith("v*|v|")
 
 

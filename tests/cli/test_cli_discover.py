@@ -11,12 +11,6 @@ from nlid.cli.main import main
 DECLARED = "1, z, z^2, z^3, v"  # paper-numerical without its quadratic damping
 
 
-def run(capsys, *argv):
-    status = main(list(argv))
-    out = capsys.readouterr()
-    return status, out.out, out.err
-
-
 @pytest.fixture(scope="module")
 def csv_noisy(tmp_path_factory):
     path = tmp_path_factory.mktemp("discover") / "x.csv"
@@ -25,10 +19,8 @@ def csv_noisy(tmp_path_factory):
     return path
 
 
-def test_discover_json_and_report(csv_noisy, capsys, tmp_path):
-    status, out, err = run(
-        capsys, "discover", str(csv_noisy), "--declared", DECLARED, "--json", "--out", str(tmp_path / "rep")
-    )
+def test_discover_json_and_report(csv_noisy, cli, tmp_path):
+    status, out, err = cli("discover", str(csv_noisy), "--declared", DECLARED, "--json", "--out", str(tmp_path / "rep"))
     assert status == 0, err
     data = json.loads(out)
     for key in ("method", "declared", "eps_initial", "eps_final", "eps_initial_holdout", "eps_final_holdout"):
@@ -41,9 +33,8 @@ def test_discover_json_and_report(csv_noisy, capsys, tmp_path):
     assert (tmp_path / "rep" / "report.html").is_file() and (tmp_path / "rep" / "figures" / "residual_1.png").is_file()
 
 
-def test_discover_table(csv_noisy, capsys):
-    status, out, err = run(
-        capsys,
+def test_discover_table(csv_noisy, cli):
+    status, out, err = cli(
         "discover",
         str(csv_noisy),
         "--declared",
@@ -71,14 +62,14 @@ def test_discover_table(csv_noisy, capsys):
         (["--set", "cutof=3"], "unknown option 'cutof'"),
     ],
 )
-def test_bad_input_is_one_line_with_status_2(csv_noisy, capsys, extra, message):
-    status, out, err = run(capsys, "discover", str(csv_noisy), "--declared", DECLARED, "--quiet", *extra)
+def test_bad_input_is_one_line_with_status_2(csv_noisy, cli, extra, message):
+    status, out, err = cli("discover", str(csv_noisy), "--declared", DECLARED, "--quiet", *extra)
     assert status == 2 and out == ""
     assert message in err and len(err.strip().splitlines()) == 1 and "Traceback" not in err
 
 
-def test_bad_declared_term_and_missing_declared(csv_noisy, capsys):
-    status, _, err = run(capsys, "discover", str(csv_noisy), "--declared", "z^3, w")
+def test_bad_declared_term_and_missing_declared(csv_noisy, cli, capsys):
+    status, _, err = cli("discover", str(csv_noisy), "--declared", "z^3, w")
     assert status == 2 and "unknown" in err and len(err.strip().splitlines()) == 1
     with pytest.raises(SystemExit) as exit_info:
         main(["discover", str(csv_noisy)])

@@ -7,12 +7,6 @@ import pytest
 from nlid.cli.main import main
 
 
-def run(capsys, *argv):
-    status = main(list(argv))
-    out = capsys.readouterr()
-    return status, out.out, out.err
-
-
 @pytest.fixture(scope="module")
 def csv_noisy(tmp_path_factory):
     """20 s of paper-numerical, 2 % noise, channels f, z, a."""
@@ -25,8 +19,8 @@ def csv_noisy(tmp_path_factory):
 TERMS = ("--terms", "z^3,z^2,v*|v|", "--mass", "0.2")
 
 
-def test_json_contract(csv_noisy, capsys):
-    status, out, err = run(capsys, "posterior", str(csv_noisy), *TERMS, "--params", "v*|v|", "--json", "--seed", "1")
+def test_json_contract(csv_noisy, cli):
+    status, out, err = cli("posterior", str(csv_noisy), *TERMS, "--params", "v*|v|", "--json", "--seed", "1")
     assert status == 0, err
     doc = json.loads(out)
     assert set(doc) >= {"params", "tau", "acceptance", "n_effective", "seconds"}
@@ -36,9 +30,9 @@ def test_json_contract(csv_noisy, capsys):
     assert s["q05"] < s["q50"] < s["q95"] and s["sd"] > 0 and doc["others"] == "marginal"
 
 
-def test_table_and_files(csv_noisy, tmp_path, capsys):
+def test_table_and_files(csv_noisy, tmp_path, cli):
     out_dir = tmp_path / "post"
-    status, out, err = run(capsys, "posterior", str(csv_noisy), *TERMS, "--out", str(out_dir), "--no-figures")
+    status, out, err = cli("posterior", str(csv_noisy), *TERMS, "--out", str(out_dir), "--no-figures")
     assert status == 0, err
     assert "v*|v|" in out and "N*s^2/m^2" in out and "tau" in out and "integrated out (not sampled)" in out
     assert (out_dir / "posterior_samples.npz").is_file() and (out_dir / "posterior_table.csv").is_file()
@@ -55,13 +49,13 @@ def test_table_and_files(csv_noisy, tmp_path, capsys):
         (("--walkers", "1"), "--walkers"),
     ],
 )
-def test_bad_input_is_one_line_with_status_2(csv_noisy, capsys, extra, message):
-    status, out, err = run(capsys, "posterior", str(csv_noisy), *TERMS, "--no-bias-correction", *extra)
+def test_bad_input_is_one_line_with_status_2(csv_noisy, cli, extra, message):
+    status, out, err = cli("posterior", str(csv_noisy), *TERMS, "--no-bias-correction", *extra)
     assert status == 2 and out == ""
     assert err.count("\n") == 1 and err.startswith("nlid posterior: error:") and message in err
 
 
-def test_unconverged_chains_are_not_reported(csv_noisy, capsys):
-    status, out, err = run(capsys, "posterior", str(csv_noisy), *TERMS, "--steps", "100", "--no-bias-correction")
+def test_unconverged_chains_are_not_reported(csv_noisy, cli):
+    status, out, err = cli("posterior", str(csv_noisy), *TERMS, "--steps", "100", "--no-bias-correction")
     assert status == 1 and out == ""
     assert "did not converge in 100 steps" in err and "raise --steps" in err and err.count("\n") == 1
