@@ -131,3 +131,31 @@ def test_a_given_mass_does_not_degrade_stiffness_or_modal_estimates():
     for got, want in zip(found, true_modal, strict=True):
         assert got["fn_hz"] == pytest.approx(want.fn_hz, rel=0.01)
         assert got["equilibrium"] == pytest.approx(want.equilibrium, rel=0.01)
+
+
+@pytest.mark.slow
+def test_nsi_ip_meets_issue_8_targets_on_the_built_in_study_records():
+    """z^3, z^2, z, fn and equilibria within 1 %, c0 within 10 %, on the records the study runs.
+
+    The records (seeds) come from the study's plan, not from this test; mass given as in the
+    study's config, px(z) roots iterated. Measured: z^2 at most 0.54 %, c0 at most 1.1 %.
+    (On other seeds z^2 exceeds 1 % on about 7 records in 24: docs/results.md.)
+    """
+    from nlid.study import load_study, plan_study
+
+    preset = get_preset("paper-experimental")
+    truth = preset.truth()["coefficients"]
+    model = preset.model()
+    true_modal = physics.modal(model, truth, preset.mass, physics.equilibria(model, truth).stable)
+    runs = [r for r in plan_study(load_study("paper-experimental")) if r.run_id.startswith("experimental/main/nsi-ip/")]
+    assert len(runs) == 3
+    for run in runs:
+        rec = preset.simulate(run.spec["seed"], noise={"z": 0.02, "a": 0.02}, channels=("z", "a"))
+        res = identify(rec, FULL, "nsi-ip", mass=preset.mass)
+        for name, tol in (("z^3", 0.01), ("z^2", 0.01), ("z", 0.01), ("sign(v)*|px(z)|", 0.10)):
+            assert res.coefficients[name] == pytest.approx(truth[name], rel=tol), (run.run_id, name)
+        found = sorted(res.modal, key=lambda m: m["equilibrium"])
+        assert len(found) == 2, run.run_id
+        for got, want in zip(found, true_modal, strict=True):
+            assert got["fn_hz"] == pytest.approx(want.fn_hz, rel=0.01), run.run_id
+            assert got["equilibrium"] == pytest.approx(want.equilibrium, rel=0.01), run.run_id
