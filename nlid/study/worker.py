@@ -130,9 +130,14 @@ def _execute(spec: dict[str, Any]) -> dict[str, Any]:
     if spec.get("posterior") is not None:
         from .. import posterior  # type: ignore[attr-defined]  # issue 6; checked when the config is loaded
 
-        extra = posterior.study_metrics(
-            data.record, metrics.identified_model(model, result), result, data.reference, **spec["posterior"]
-        )
+        # a posterior that cannot be reported (e.g. unconverged chains) is a warning: the run keeps its metrics
+        try:
+            extra = posterior.study_metrics(
+                data.record, metrics.identified_model(model, result), result, data.reference, **spec["posterior"]
+            )
+        except NlidError as exc:
+            extra = {}
+            row["warnings"] = (row["warnings"] + " | " if row["warnings"] else "") + f"posterior: {exc}"
         for key, value in dict(extra).items():
             row[key if key not in row else f"posterior:{key}"] = value
     return {

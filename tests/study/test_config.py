@@ -8,6 +8,7 @@ import types
 import pytest
 
 import nlid
+from nlid.errors import NlidError
 from nlid.study import ConfigError, ResultStore, builtin_studies, load_study, parse_study, plan_study
 from nlid.study.plan import derive_seed, record_key
 from nlid.study.report import write_report
@@ -154,3 +155,17 @@ def test_measured_studies_run(data_dir, tmp_path):
     assert row["status"] == "ok" and row["samples"] == 131072 - 40000
     assert 0 < row["eps_holdout_percent"] < 5
     assert row["freerun_rmse"] < 0.01, "the cubic model should track the arrow head within 10 mV RMS"
+
+
+def test_a_posterior_that_fails_is_a_warning_and_the_run_keeps_its_metrics(small_study, registry, monkeypatch):
+    def study_metrics(record, model, result, truth, **options):
+        raise NlidError("chains did not converge: raise --steps")
+
+    module = types.ModuleType("nlid.posterior")
+    module.study_metrics = study_metrics
+    monkeypatch.setitem(sys.modules, "nlid.posterior", module)
+    monkeypatch.setattr(nlid, "posterior", module, raising=False)
+    config = parse_study(small_study('["rfs"]', repetitions=1, duration=4.0, extra="[posterior]\n"), registry=registry)
+    row = execute_run(plan_study(config)[0].spec)["row"]
+    assert row["status"] == "ok" and abs(row["coef_error_pct:z^3"]) < 1
+    assert "posterior: chains did not converge: raise --steps" in row["warnings"]
