@@ -195,7 +195,7 @@ def _bars_figure(section: Section, folder: Path) -> Figure | None:
 def _rms_figure(section: Section, folder: Path) -> Figure | None:
     """Grouped bars of each term's RMS contribution to R per method (paper Fig. 22)."""
     frame = section.frame
-    terms = [t for t in section.terms if f"rms:{t}" in frame.columns]
+    terms = section.terms_with("rms:")
     methods = [m for m in section.methods if (frame["method"] == m).any()]
     if not terms or not methods:
         return None

@@ -113,6 +113,10 @@ class Section:
     tables: list[Table] = field(default_factory=list)
     failures: list[str] = field(default_factory=list)
 
+    def terms_with(self, prefix: str) -> list[str]:
+        """The section's terms, in model order, that have a ``<prefix><term>`` column."""
+        return [t for t in self.terms if f"{prefix}{t}" in self.frame.columns]
+
 
 def _labels(frame: pd.DataFrame, prefix: str) -> list[str]:
     return [c[len(prefix) :] for c in frame.columns if c.startswith(prefix)]
@@ -195,7 +199,7 @@ def _fill(section: Section) -> None:
                 [reference_row, *_method_rows(section, cols)],
             )
         )
-    value_terms = [t for t in section.terms if f"coef:{t}" in frame.columns]
+    value_terms = section.terms_with("coef:")
     cols = [(f"coef:{t}", False) for t in value_terms]
     header = ["method", "runs", *value_terms]
     if frame.get("mass") is not None and pd.to_numeric(frame["mass"], errors="coerce").notna().any():
@@ -246,27 +250,18 @@ def _fill(section: Section) -> None:
         else:
             section.tables.append(Table("Modal parameters (Eq. 8, 22)", header, rows))
 
-    quality = [t for t in section.terms if f"quality:{t}" in frame.columns]
-    if quality:
-        section.tables.append(
-            Table(
-                "Quality indicator E[Re/Im] of each coefficient (NSI, paper Table 5; methods that report one)",
-                ["method", "runs", *quality],
-                [r for r in _method_rows(section, [(f"quality:{t}", False) for t in quality]) if _has_values(r)],
-            )
-        )
+    _append_term_table(
+        section,
+        "quality:",
+        "Quality indicator E[Re/Im] of each coefficient (NSI, paper Table 5; methods that report one)",
+        drop_empty=True,
+    )
     posterior = _posterior_table(section)
     if posterior is not None:
         section.tables.append(posterior)
-    rms = [t for t in section.terms if f"rms:{t}" in frame.columns]
-    if rms:
-        section.tables.append(
-            Table(
-                "RMS contribution of each term to the identified restoring force, N (paper Fig. 22)",
-                ["method", "runs", *rms],
-                _method_rows(section, [(f"rms:{t}", False) for t in rms]),
-            )
-        )
+    _append_term_table(
+        section, "rms:", "RMS contribution of each term to the identified restoring force, N (paper Fig. 22)"
+    )
 
     cols = [("eps_percent", False)]
     header = ["method", "runs", "eps (Eq. 26) %"]
@@ -307,10 +302,24 @@ def _fill(section: Section) -> None:
         section.failures.append(f"{row['method']} r{row['repetition']}: {row['status']}: {row['error']}")
 
 
+def _append_term_table(section: Section, prefix: str, title: str, drop_empty: bool = False) -> None:
+    """Method x term table of the ``<prefix><term>`` columns, when there are any.
+
+    ``drop_empty`` leaves out the methods without a value (e.g. those that report no quality indicator).
+    """
+    terms = section.terms_with(prefix)
+    if not terms:
+        return
+    rows = _method_rows(section, [(f"{prefix}{t}", False) for t in terms])
+    if drop_empty:
+        rows = [r for r in rows if _has_values(r)]
+    section.tables.append(Table(title, ["method", "runs", *terms], rows))
+
+
 def _posterior_table(section: Section) -> Table | None:
     """Credible intervals of the posterior hook (``ci_*`` columns), coverage of the truth, tau and time."""
     frame = section.frame
-    terms = [t for t in section.terms if f"ci_lo:{t}" in frame.columns]
+    terms = section.terms_with("ci_lo:")
     if not terms:
         return None
     levels = pd.to_numeric(frame.get("posterior:level", pd.Series(dtype=float)), errors="coerce").dropna()
