@@ -23,6 +23,7 @@ __all__ = [
     "blas_threads",
     "fit_arrays",
     "reconstruction",
+    "reconstruction_diagnostics",
 ]
 
 #: Default number of block rows (past and future horizons each). Measured with
@@ -309,12 +310,22 @@ def reconstruction(
     """
     z = np.asarray(record.z, dtype=float)
     if record.a is not None and vel.differentiate is not None and opt["acceleration"] == "fuse":
-        crossover = opt["crossover"]
-        if crossover is not None and not 0 < crossover < record.fs / 2:
-            raise InputError(
-                f"crossover must lie between 0 and the Nyquist frequency {record.fs / 2:g} Hz, got {crossover:g}"
-            )
-        rec = fuse_motion(z, record.a, record.f, f_held, record.dt, uls, crossover)
+        # a crossover outside (0, fs/2) is refused by nlid.derivatives.complementary, naming the option
+        rec = fuse_motion(z, record.a, record.f, f_held, record.dt, uls, opt["crossover"])
         return rec, None
     lowpass, fc = denoise_operator(z, record.fs, opt["denoise_cutoff"])
     return reconstruct_motion(z, vel.v, f_held, record.dt, uls, lowpass, vel.differentiate), fc
+
+
+def reconstruction_diagnostics(rec: Reconstruction | None) -> dict[str, float | None]:
+    """The second pass's noise estimates and fusion crossover (``None`` each without a second pass).
+
+    Keys ``noise_std_estimate_m``, ``acceleration_noise_std_estimate`` (m/s^2,
+    ``None`` unless fused) and ``crossover_hz`` (``None`` unless fused).
+    """
+    src_a = None if rec is None else rec.source("a")
+    return {
+        "noise_std_estimate_m": None if rec is None else float(np.sqrt(rec.noise_var)),
+        "acceleration_noise_std_estimate": None if src_a is None else float(np.sqrt(src_a.var)),
+        "crossover_hz": None if rec is None else rec.crossover,
+    }

@@ -99,6 +99,7 @@ from .common import (
     fit_summary,
     force_hold,
     reconstruction,
+    reconstruction_diagnostics,
     velocity_estimate,
 )
 from .continuous import continuous_eigenvalues, uls_ok
@@ -302,7 +303,7 @@ class NSIInputPerturbation(Identifier):
         explicit = opt["k_tilde"] is not None
         k_use = float(opt["k_tilde"] if explicit else opt["k_start"])
         ch2 = g2 = None
-        denoise_fc = noise_std = accel_std = rec = None
+        denoise_fc = rec = None
         gram_clipped = False
         rechecks = 0
         while True:
@@ -346,9 +347,6 @@ class NSIInputPerturbation(Identifier):
                         if ch2.noise is not None:
                             g2 = subtract_noise(g2, ch2.noise, output=ch2.base.shape[1] - 1)
                             g2, gram_clipped = clip_indefinite(g2)
-                        noise_std = float(np.sqrt(rec.noise_var))
-                        src_a = rec.source("a")
-                        accel_std = None if src_a is None else float(np.sqrt(src_a.var))
                         timings["second_gram"] = time.perf_counter() - t0
                     ch, gram = ch2, g2
                     result = fit(ch, gram, k_use)
@@ -438,9 +436,7 @@ class NSIInputPerturbation(Identifier):
             "velocity": vel.provenance,
             "velocity_cutoff_hz": vel.cutoff,
             "denoise_cutoff_hz": denoise_fc,
-            "noise_std_estimate_m": noise_std,
-            "acceleration_noise_std_estimate": accel_std,
-            "crossover_hz": None if rec is None else rec.crossover,
+            **reconstruction_diagnostics(rec),
             "force_hold": hold,
             "force_model": "held over each sample (exact ZOH)"
             if hold == "zoh"

@@ -70,6 +70,7 @@ from .common import (
     fit_summary,
     force_hold,
     reconstruction,
+    reconstruction_diagnostics,
     velocity_estimate,
 )
 from .fit import NSIFit, UnstableULSError, fit_extended
@@ -287,11 +288,7 @@ class NSIZeroShift(Identifier):
             "velocity": vel.provenance,
             "velocity_cutoff_hz": vel.cutoff,
             "denoise_cutoff_hz": denoise_fc,
-            "noise_std_estimate_m": None if rec is None else float(np.sqrt(rec.noise_var)),
-            "acceleration_noise_std_estimate": None
-            if rec is None or rec.source("a") is None
-            else float(np.sqrt(rec.source("a").var)),
-            "crossover_hz": None if rec is None else rec.crossover,
+            **reconstruction_diagnostics(rec),
             "force_hold": hold,
             "mass_source": "given" if mass is not None else f"estimated ({opt['combine']} of the wells' ULS fits)",
             "arrays_note": "no suffix: first well; '@wellN': well N (spectra of the shifted basis x = z - z*)",
