@@ -26,6 +26,7 @@ taken).
 
 from __future__ import annotations
 
+import json
 import re
 from collections.abc import Mapping
 from dataclasses import dataclass
@@ -35,6 +36,7 @@ from typing import Any
 import numpy as np
 
 from .errors import DataError, InputError
+from .interface import to_jsonable
 from .record import CHANNELS, Record
 
 __all__ = [
@@ -234,8 +236,6 @@ def _read_sidecar(path: Path) -> dict[str, Any]:
     side = sidecar_path(path)
     if not side.is_file():
         return {}
-    import json
-
     try:
         data = json.loads(side.read_text())
     except (OSError, ValueError) as exc:
@@ -246,9 +246,6 @@ def _read_sidecar(path: Path) -> dict[str, Any]:
 
 
 def _write_sidecar(record: Record, path: Path) -> None:
-    import json
-
-    from .interface import to_jsonable
 
     meta = {k: record.meta[k] for k in META_KEYS if k in record.meta}
     meta["force_hold"] = record.force_hold
