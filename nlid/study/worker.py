@@ -69,6 +69,11 @@ def failure_payload(spec: dict[str, Any], status: str, error: str) -> dict[str, 
     return {"run_id": spec["run_id"], "row": row, "result": None, "reference": None, "arrays": {}}
 
 
+def _add_warning(row: dict[str, Any], text: str) -> None:
+    """Append a warning to the row's ``warnings`` column (``" | "``-separated)."""
+    row["warnings"] = f"{row['warnings']} | {text}" if row["warnings"] else text
+
+
 def execute_run(spec: dict[str, Any]) -> dict[str, Any]:
     """Run one identification and its metrics in this process (never raises).
 
@@ -120,7 +125,7 @@ def _execute(spec: dict[str, Any]) -> dict[str, Any]:
         try:
             row["eps_holdout_percent"] = metrics.holdout_eps(data.heldout, model, result)
         except NlidError as exc:
-            row["warnings"] = (row["warnings"] + " | " if row["warnings"] else "") + f"held-out epsilon: {exc}"
+            _add_warning(row, f"held-out epsilon: {exc}")
     row.update(metrics.coefficient_metrics(result, data.reference))
     row.update(metrics.equilibrium_metrics(result, data.reference))
     row.update(metrics.free_run_metrics(data.heldout, model, result, spec["dataset"]["freerun"]))
@@ -137,7 +142,7 @@ def _execute(spec: dict[str, Any]) -> dict[str, Any]:
             )
         except NlidError as exc:
             extra = {}
-            row["warnings"] = (row["warnings"] + " | " if row["warnings"] else "") + f"posterior: {exc}"
+            _add_warning(row, f"posterior: {exc}")
         for key, value in dict(extra).items():
             row[key if key not in row else f"posterior:{key}"] = value
     return {
