@@ -4,11 +4,10 @@ from __future__ import annotations
 
 import argparse
 
-from ..errors import InputError
 from ..interface import IdentificationResult
 from ..pipeline import identify
 from ..terms import parse_term
-from .common import add_data_arguments, load_data, parse_settings, print_json
+from .common import add_data_arguments, add_model_arguments, load_data, parse_px_roots, parse_settings, print_json
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
@@ -22,30 +21,9 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         epilog="example: nlid identify x.csv --method rfs --terms 'z^3,z^2,v*|v|' --mass 0.2",
     )
     add_data_arguments(p)
-    p.add_argument("--method", default="rfs", metavar="NAME", help="identifier to use (default rfs; see nlid methods)")
-    p.add_argument(
-        "--terms", default="", metavar="TERMS", help="comma-separated terms besides 1, z, v, e.g. 'z^3,z^2,v*|v|'"
-    )
-    p.add_argument("--without", default="", metavar="TERMS", help="default terms to leave out, e.g. '1' or 'z'")
-    p.add_argument("--mass", type=float, metavar="KG", help="known mass in kg (default: estimated by the method)")
-    p.add_argument(
-        "--px-roots",
-        metavar="ZMINUS,ZPLUS",
-        help="roots of px(z) in m (default: taken from the identified stiffness, iterated)",
-    )
-    p.add_argument("--set", action="append", metavar="KEY=VALUE", help="identifier option (repeatable)")
+    add_model_arguments(p, "identifier to use (default rfs; see nlid methods)")
     p.add_argument("--json", action="store_true", help="print one JSON object instead of a table")
     p.set_defaults(func=run)
-
-
-def _px_roots(text: str | None) -> tuple[float, float] | None:
-    if not text:
-        return None
-    try:
-        a, b = (float(x) for x in text.split(","))
-    except ValueError:
-        raise InputError(f"--px-roots expects two numbers 'zminus,zplus', got {text!r}") from None
-    return a, b
 
 
 def run(args: argparse.Namespace) -> int:
@@ -57,7 +35,7 @@ def run(args: argparse.Namespace) -> int:
         mass=args.mass,
         options=parse_settings(args.set),
         without=args.without,
-        px_roots=_px_roots(args.px_roots),
+        px_roots=parse_px_roots(args.px_roots),
     )
     if args.json:
         print_json(result.to_dict())

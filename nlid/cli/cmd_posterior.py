@@ -7,8 +7,7 @@ import sys
 
 from ..errors import InputError
 from ..pipeline import identify
-from .cmd_identify import _px_roots
-from .common import add_data_arguments, load_data, parse_settings, print_json
+from .common import add_data_arguments, add_model_arguments, load_data, parse_px_roots, parse_settings, print_json
 
 DESCRIPTION = """\
 Identify a model (as 'nlid identify' does), then sample the posterior of the
@@ -48,16 +47,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     add_data_arguments(p)
-    p.add_argument(
-        "--terms", default="", metavar="TERMS", help="comma-separated terms besides 1, z, v, e.g. 'z^3,z^2,v*|v|'"
-    )
-    p.add_argument("--without", default="", metavar="TERMS", help="default terms to leave out, e.g. '1' or 'z'")
-    p.add_argument("--mass", type=float, metavar="KG", help="known mass in kg (default: estimated by the method)")
-    p.add_argument(
-        "--px-roots", metavar="ZMINUS,ZPLUS", help="roots of px(z) in m (default: from the identified stiffness)"
-    )
-    p.add_argument("--method", default="rfs", metavar="NAME", help="identifier giving the starting point (default rfs)")
-    p.add_argument("--set", action="append", metavar="KEY=VALUE", help="identifier option (repeatable)")
+    add_model_arguments(p, "identifier giving the starting point (default rfs)")
     p.add_argument(
         "--params",
         default="damping",
@@ -149,7 +139,7 @@ def run(args: argparse.Namespace) -> int:
         others=args.others,
     )
     record = load_data(args)
-    model = as_model(args.terms, without=args.without, px_roots=_px_roots(args.px_roots))
+    model = as_model(args.terms, without=args.without, px_roots=parse_px_roots(args.px_roots))
     result = identify(record, model, args.method, mass=args.mass, options=parse_settings(args.set))
     posterior = sampler.run(record, result)
     if args.out:

@@ -41,6 +41,33 @@ def parse_settings(items: Sequence[str] | None) -> dict[str, str]:
     return out
 
 
+def add_model_arguments(parser: argparse.ArgumentParser, method_help: str) -> None:
+    """The model and identifier options: --method, --terms, --without, --mass, --px-roots, --set."""
+    parser.add_argument("--method", default="rfs", metavar="NAME", help=method_help)
+    parser.add_argument(
+        "--terms", default="", metavar="TERMS", help="comma-separated terms besides 1, z, v, e.g. 'z^3,z^2,v*|v|'"
+    )
+    parser.add_argument("--without", default="", metavar="TERMS", help="default terms to leave out, e.g. '1' or 'z'")
+    parser.add_argument("--mass", type=float, metavar="KG", help="known mass in kg (default: estimated by the method)")
+    parser.add_argument(
+        "--px-roots",
+        metavar="ZMINUS,ZPLUS",
+        help="roots of px(z) in m (default: taken from the identified stiffness, iterated)",
+    )
+    parser.add_argument("--set", action="append", metavar="KEY=VALUE", help="identifier option (repeatable)")
+
+
+def parse_px_roots(text: str | None) -> tuple[float, float] | None:
+    """``--px-roots 'zminus,zplus'`` as two floats (``None`` when not given)."""
+    if not text:
+        return None
+    try:
+        a, b = (float(x) for x in text.split(","))
+    except ValueError:
+        raise InputError(f"--px-roots expects two numbers 'zminus,zplus', got {text!r}") from None
+    return a, b
+
+
 def add_data_arguments(parser: argparse.ArgumentParser) -> None:
     """The DATA positional and the options that say how to read it."""
     parser.add_argument("data", metavar="DATA", help=DATA_HELP)
