@@ -289,10 +289,15 @@ def fuse_motion(
     a_s = (np.asarray(f, dtype=float) - c * vs - k * zs) / m
     rz, ra = z - zs, np.asarray(a, dtype=float) - a_s
     lo_fc, hi_fc = 20.0 / (len(z) * dt), derivatives.CUTOFF_MAX_FRACTION * fs
+
+    def band_levels() -> tuple[float, float]:
+        """z's noise from its high band, a's from its low band."""
+        return noise_levels(rz, ra, fs, hi_fc)[0], noise_levels(rz, ra, fs, 4.0 * lo_fc)[1]
+
+    band = None
     if crossover is None:
-        var_z = noise_levels(rz, ra, fs, hi_fc)[0]  # z's noise from its high band,
-        var_a = noise_levels(rz, ra, fs, 4.0 * lo_fc)[1]  # a's from its low band
-        fc = min(max(crossover_frequency(var_z, var_a, fs), lo_fc), hi_fc)
+        band = band_levels()
+        fc = min(max(crossover_frequency(*band, fs), lo_fc), hi_fc)
         for _ in range(CROSSOVER_STEPS):  # both again where they meet, while they stay measurable
             vz, va = noise_levels(rz, ra, fs, fc)
             if not (vz > 0 and va > 0):
@@ -305,10 +310,10 @@ def fuse_motion(
     else:
         fc = float(crossover)
     var_z, var_a = noise_levels(rz, ra, fs, fc)
-    if not var_z > 0:  # not measurable at this crossover: measure each in its own band
-        var_z = noise_levels(rz, ra, fs, hi_fc)[0]
-    if not var_a > 0:
-        var_a = noise_levels(rz, ra, fs, 4.0 * lo_fc)[1]
+    if not (var_z > 0 and var_a > 0):  # not measurable at this crossover: measure each in its own band
+        band = band or band_levels()
+        var_z = var_z if var_z > 0 else band[0]
+        var_a = var_a if var_a > 0 else band[1]
     zh = zs + derivatives.complementary(rz, ra, fs, fc)
     vh = vs + derivatives.complementary(rz, ra, fs, fc, derivative=1)
     half = int(np.ceil(kernel_periods * fs / fc))
