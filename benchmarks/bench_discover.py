@@ -1,4 +1,4 @@
-"""Speed and memory of the residual -> missing-effect loop (``nlid.discover``), with rfs.
+"""Speed and memory of the residual -> missing-effect loop (``nlid.discovery``), with rfs.
 
 Cases: the full paper-numerical record (122 880 samples, 2 % noise on z,
 declared model without its quadratic damping: one step, then the final check)
@@ -20,7 +20,7 @@ sys.path.insert(0, str(Path(__file__).parent))
 
 from _common import median_time, peak_memory  # noqa: E402
 
-from nlid.discover import discover  # noqa: E402
+from nlid.discovery import discover  # noqa: E402
 from nlid.errors import DataError  # noqa: E402
 from nlid.presets import get_preset  # noqa: E402
 

@@ -1,6 +1,6 @@
 """How often the loop names the missing effect: every validation case over several seeds.
 
-For each case of :mod:`nlid.discover.cases` (each library effect on the double
+For each case of :mod:`nlid.discovery.cases` (each library effect on the double
 and the single well, plus complete models), each channel set (displacement
 only; displacement and acceleration) and each seed, 1 % noise: run the loop
 with rfs and count the runs whose steps are exactly ``[effect]`` (``[]`` for
@@ -18,8 +18,8 @@ import time
 
 import pandas as pd
 
-from nlid.discover import discover
-from nlid.discover.cases import BOTH_WELLS, build_case
+from nlid.discovery import discover
+from nlid.discovery.cases import BOTH_WELLS, build_case
 
 CHANNELS = {"z": ("z",), "z+a": ("z", "a")}
 

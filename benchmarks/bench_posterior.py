@@ -26,8 +26,8 @@ import numpy as np  # noqa: E402
 from _common import median_time  # noqa: E402
 
 from nlid import identify, physics  # noqa: E402
-from nlid.posterior import sample_posterior  # noqa: E402
-from nlid.posterior.likelihood import build_likelihood  # noqa: E402
+from nlid.bayes import sample_posterior  # noqa: E402
+from nlid.bayes.likelihood import build_likelihood  # noqa: E402
 from nlid.presets import get_preset  # noqa: E402
 
 LOOPS = 2000

@@ -15,7 +15,7 @@ sys.path.insert(0, str(Path(__file__).parent))
 from _common import median_time  # noqa: E402
 
 from nlid.presets import get_preset  # noqa: E402
-from nlid.simulate import simulate  # noqa: E402
+from nlid.simulation import simulate  # noqa: E402
 
 
 def main() -> None:

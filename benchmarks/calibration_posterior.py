@@ -29,8 +29,8 @@ from concurrent.futures import ProcessPoolExecutor
 import numpy as np
 
 from nlid import identify, physics
-from nlid.posterior import sample_posterior
-from nlid.posterior.likelihood import build_likelihood
+from nlid.bayes import sample_posterior
+from nlid.bayes.likelihood import build_likelihood
 from nlid.presets import get_preset
 
 Z90 = 1.6448536269514722

@@ -40,7 +40,7 @@ def nlid_identifiers() -> list[type]:
 def nlid_candidates() -> list:
     """Return candidate effects for the residual -> missing-effect loop (``nlid discover``).
 
-    Each item is an :class:`nlid.discover.Candidate`: a name (what the report
+    Each item is an :class:`nlid.discovery.Candidate`: a name (what the report
     and ``--candidates`` call it), the terms it adds to a model and,
     optionally, a shape parameter the loop chooses on a grid. A plugin that
     only provides candidates registers under the same entry-point group

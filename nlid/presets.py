@@ -40,7 +40,7 @@ import numpy as np
 from .errors import InputError
 from .physics import stiffness_roots
 from .record import Record
-from .simulate import random_force, simulate
+from .simulation import random_force, simulate
 from .terms import Model
 
 __all__ = ["Preset", "PRESETS", "get_preset", "RESPONSE_CHANNELS"]

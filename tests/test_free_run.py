@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from nlid.errors import InputError
-from nlid.simulate import free_run, simulate
+from nlid.simulation import free_run, simulate
 from nlid.terms import Model
 
 

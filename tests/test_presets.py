@@ -5,7 +5,7 @@ import pytest
 
 from nlid import InputError, physics
 from nlid.presets import PRESETS, get_preset
-from nlid.simulate import SimulationError, simulate
+from nlid.simulation import SimulationError, simulate
 from nlid.terms import Model
 
 

@@ -102,7 +102,7 @@ def _holdout(args: argparse.Namespace):
 
 
 def run(args: argparse.Namespace) -> int:
-    from ..discover import AcceptanceRule, discover, summary_table, write_report
+    from ..discovery import AcceptanceRule, discover, summary_table, write_report
 
     if args.max_steps < 0:
         raise InputError(f"--max-steps must be >= 0, got {args.max_steps}")

@@ -110,8 +110,8 @@ def _floats(text: str | None, what: str) -> list[float] | None:
 
 def run(args: argparse.Namespace) -> int:
     from ..pipeline import as_model
-    from ..posterior import PosteriorSampler
-    from ..posterior.priors import parse_prior_assignments
+    from ..bayes import PosteriorSampler
+    from ..bayes.priors import parse_prior_assignments
     from ..terms import Model
 
     if args.walkers is not None and args.walkers < 2:

@@ -39,7 +39,7 @@ A study is datasets x models x identifiers x repetitions. The file::
     equilibria = [-0.030, 0.024]   # stable equilibria (m)
     modal = [{ fn_hz = 11.75, zeta = 0.109 }, { fn_hz = 8.77, zeta = 0.146 }]
 
-    [posterior]                    # optional: nlid.posterior.study_metrics(..., **options)
+    [posterior]                    # optional: nlid.bayes.study_metrics(..., **options)
     draws = 2000
 
 Everything is checked by :func:`load_study`: unknown keys, presets, datasets,
@@ -406,13 +406,13 @@ def parse_study(
     if "posterior" in raw:
         posterior = _table(source, "posterior", raw["posterior"])
         try:
-            module = importlib.import_module("nlid.posterior")
+            module = importlib.import_module("nlid.bayes")
         except ImportError as exc:
             raise ConfigError(
-                source, "posterior", f"needs the module nlid.posterior, which is not available ({exc})"
+                source, "posterior", f"needs the module nlid.bayes, which is not available ({exc})"
             ) from None
         if not callable(getattr(module, "study_metrics", None)):
-            raise ConfigError(source, "posterior", "nlid.posterior has no study_metrics() function")
+            raise ConfigError(source, "posterior", "nlid.bayes has no study_metrics() function")
 
     return StudyConfig(
         name=name,

@@ -29,7 +29,7 @@ Column names (errors are percentages, signed unless noted):
     E[Re/Im], paper Table 5); see :func:`surface_metrics`.
 ``freerun_nrmse_pct``, ``freerun_rmse``, ``freerun_note``
     Free-run simulation of the identified model driven by the held-out force
-    (:func:`nlid.simulate.free_run`: held over each sample when the record
+    (:func:`nlid.simulation.free_run`: held over each sample when the record
     says so, ``force_hold = "zoh"``, else band-limited interpolation between
     samples with 8 RK4 sub-steps per sample):
     ``100 RMS(z_sim - z) / std(z)`` and the RMS error in the record's unit;
@@ -51,7 +51,7 @@ from .. import derivatives, physics
 from ..errors import NlidError
 from ..interface import IdentificationResult
 from ..record import Record
-from ..simulate import free_run
+from ..simulation import free_run
 from ..terms import Model
 
 __all__ = [

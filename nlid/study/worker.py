@@ -3,7 +3,7 @@
 :func:`execute_run` rebuilds the records from the run's spec, identifies
 (timing it and tracing its peak memory), computes the metrics
 (:mod:`nlid.study.metrics`) and, when the study has a ``[posterior]`` table,
-adds ``nlid.posterior.study_metrics(record, model, result, reference,
+adds ``nlid.bayes.study_metrics(record, model, result, reference,
 **options)`` to the row. It never raises: a failure is a payload with
 ``status = "failed"`` and the error message.
 
@@ -133,11 +133,11 @@ def _execute(spec: dict[str, Any]) -> dict[str, Any]:
     surface, extra_arrays = metrics.surface_metrics(data.record, model, result, slices)
     row.update(surface)
     if spec.get("posterior") is not None:
-        from .. import posterior  # type: ignore[attr-defined]  # issue 6; checked when the config is loaded
+        from .. import bayes  # type: ignore[attr-defined]  # issue 6; checked when the config is loaded
 
         # a posterior that cannot be reported (e.g. unconverged chains) is a warning: the run keeps its metrics
         try:
-            extra = posterior.study_metrics(
+            extra = bayes.study_metrics(
                 data.record, metrics.identified_model(model, result), result, data.reference, **spec["posterior"]
             )
         except NlidError as exc:

@@ -35,13 +35,13 @@ BAD = [
     ("[[datasets]]\npreset = 'paper-numerical'\n[[datasets]]\npreset = 'paper-numerical'\n", "used twice"),
     ("[study]\n", "needs at least one [[datasets]]"),
     ("[[datasets]\n", "not valid TOML"),
-    ("[[datasets]]\npreset = 'paper-numerical'\n[posterior]\ndraws = 10\n", "needs the module nlid.posterior"),
+    ("[[datasets]]\npreset = 'paper-numerical'\n[posterior]\ndraws = 10\n", "needs the module nlid.bayes"),
 ]
 
 
 @pytest.mark.parametrize("text, message", BAD, ids=[m[:40] for _, m in BAD])
 def test_bad_configs_name_file_key_and_suggestion(text, message, monkeypatch):
-    monkeypatch.setitem(sys.modules, "nlid.posterior", None)  # not written yet (issue 6)
+    monkeypatch.setitem(sys.modules, "nlid.bayes", None)  # not written yet (issue 6)
     with pytest.raises(ConfigError) as info:
         parse_study(text, source="my.toml")
     text = str(info.value)
@@ -114,10 +114,10 @@ def test_posterior_hook_adds_its_metrics_to_the_row(small_study, registry, monke
             "posterior:level": 0.9,
         }
 
-    module = types.ModuleType("nlid.posterior")
+    module = types.ModuleType("nlid.bayes")
     module.study_metrics = study_metrics
-    monkeypatch.setitem(sys.modules, "nlid.posterior", module)
-    monkeypatch.setattr(nlid, "posterior", module, raising=False)
+    monkeypatch.setitem(sys.modules, "nlid.bayes", module)
+    monkeypatch.setattr(nlid, "bayes", module, raising=False)
     config = parse_study(
         small_study('["rfs"]', repetitions=2, duration=4.0, extra="[posterior]\ndraws = 50\n"), registry=registry
     )
@@ -161,10 +161,10 @@ def test_a_posterior_that_fails_is_a_warning_and_the_run_keeps_its_metrics(small
     def study_metrics(record, model, result, truth, **options):
         raise NlidError("chains did not converge: raise --steps")
 
-    module = types.ModuleType("nlid.posterior")
+    module = types.ModuleType("nlid.bayes")
     module.study_metrics = study_metrics
-    monkeypatch.setitem(sys.modules, "nlid.posterior", module)
-    monkeypatch.setattr(nlid, "posterior", module, raising=False)
+    monkeypatch.setitem(sys.modules, "nlid.bayes", module)
+    monkeypatch.setattr(nlid, "bayes", module, raising=False)
     config = parse_study(small_study('["rfs"]', repetitions=1, duration=4.0, extra="[posterior]\n"), registry=registry)
     row = execute_run(plan_study(config)[0].spec)["row"]
     assert row["status"] == "ok" and abs(row["coef_error_pct:z^3"]) < 1

@@ -301,7 +301,7 @@ def plugin_candidates(pm=None) -> tuple[list[Candidate], dict[str, str]]:
             items = list(impl.function())
             bad = [x for x in items if not isinstance(x, Candidate)]
             if bad:
-                raise TypeError(f"expected nlid.discover.Candidate objects, got {type(bad[0]).__name__}")
+                raise TypeError(f"expected nlid.discovery.Candidate objects, got {type(bad[0]).__name__}")
         except Exception as exc:  # noqa: BLE001 - reported per plugin
             failures[impl.plugin_name] = f"nlid_candidates() raised {type(exc).__name__}: {exc}"
             continue

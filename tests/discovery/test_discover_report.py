@@ -8,8 +8,8 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from nlid.discover import discover, summary_table, write_report
-from nlid.discover.plots import binned_mean, binned_mean_2d
+from nlid.discovery import discover, summary_table, write_report
+from nlid.discovery.plots import binned_mean, binned_mean_2d
 
 
 @pytest.fixture(scope="module")

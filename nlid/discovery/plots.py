@@ -1,6 +1,6 @@
 """Where a person looks for a missing effect: the residual against z, v, the (z, v) plane and frequency.
 
-The residual ``r = R_e - R_hat`` of a model (:class:`~nlid.discover.loop.ResidualView`)
+The residual ``r = R_e - R_hat`` of a model (:class:`~nlid.discovery.loop.ResidualView`)
 is summarised by binned means, whose confidence bands use the *effective*
 number of samples in each bin: the residual of a force balance formed in a
 filtered band is correlated over ``tau_int`` samples, so a bin of ``n``

@@ -5,19 +5,19 @@ coefficients with the others integrated out (or fixed at the identifier's
 estimate, ``others="fixed"``)::
 
     from nlid import identify
-    from nlid.posterior import sample_posterior
+    from nlid.bayes import sample_posterior
 
     result = identify(record, "z^3, z^2, v*|v|", "rfs", mass=0.2)
     post = sample_posterior(record, result, params="damping", seed=0)
     post.summary()          # {term: {"mean", "sd", "q05", "q50", "q95"}}
     post.save("out/")       # table, JSON, samples (NPZ), corner/trace/damping figures
 
-Modules: :mod:`~nlid.posterior.likelihood` (the adjusted equation-error
-likelihood from sufficient statistics), :mod:`~nlid.posterior.bias`
-(errors-in-variables correction by simulation), :mod:`~nlid.posterior.priors`,
-:mod:`~nlid.posterior.sampler` (emcee until converged),
-:mod:`~nlid.posterior.result`, :mod:`~nlid.posterior.plots`,
-:mod:`~nlid.posterior.study` (the study runner's hook). The assumptions are
+Modules: :mod:`~nlid.bayes.likelihood` (the adjusted equation-error
+likelihood from sufficient statistics), :mod:`~nlid.bayes.bias`
+(errors-in-variables correction by simulation), :mod:`~nlid.bayes.priors`,
+:mod:`~nlid.bayes.sampler` (emcee until converged),
+:mod:`~nlid.bayes.result`, :mod:`~nlid.bayes.plots`,
+:mod:`~nlid.bayes.study` (the study runner's hook). The assumptions are
 written out in ``docs/posterior.md``.
 """
 

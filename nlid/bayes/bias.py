@@ -53,7 +53,7 @@ from .. import derivatives
 from ..errors import IdentificationError, InputError
 from ..physics import RegressionData, regression_data
 from ..record import Record
-from ..simulate import SimulationError, simulate
+from ..simulation import SimulationError, simulate
 from ..terms import Model
 
 __all__ = ["BiasCorrection", "simulate_bias", "indirect_inference", "regressor_noise"]

@@ -1,10 +1,10 @@
 """Close the loop: find the residual, trace it to a missing effect, add it, report the error.
 
 :func:`discover` identifies a declared model, tests candidate effects
-(:mod:`nlid.discover.library`) against its residual, accepts one only when it
-passes a stated rule (:mod:`nlid.discover.evidence`), re-identifies and
+(:mod:`nlid.discovery.library`) against its residual, accepts one only when it
+passes a stated rule (:mod:`nlid.discovery.evidence`), re-identifies and
 repeats. :func:`write_report` writes the Markdown/HTML report with the
-residual figures (:mod:`nlid.discover.plots`). The command line is
+residual figures (:mod:`nlid.discovery.plots`). The command line is
 ``nlid discover``; the documentation is ``docs/discover.md``.
 """
 

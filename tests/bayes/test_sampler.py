@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from nlid.errors import InputError
-from nlid.posterior.sampler import ConvergenceError, run_until_converged
+from nlid.bayes.sampler import ConvergenceError, run_until_converged
 
 
 def _gaussian(mean, cov):

@@ -1,7 +1,7 @@
 """The study runner's hook: interval widths and coverage of a posterior.
 
 A study config asks for posteriors with a ``[posterior]`` table; its keys are
-the options of :class:`~nlid.posterior.PosteriorSampler` (``params``,
+the options of :class:`~nlid.bayes.PosteriorSampler` (``params``,
 ``walkers``, ``max_steps``, ``seed``, ``move``, ``bias_correction``,
 ``bias_pairs``, ``priors``, ``cutoff``) plus ``level`` (credible level of the
 interval, default 0.9).
@@ -47,7 +47,7 @@ def study_metrics(
         True coefficients (``{term: value}``, or a preset's ``truth()`` with
         a ``"coefficients"`` entry), or ``None`` when unknown.
     **options
-        ``level`` and the :class:`~nlid.posterior.PosteriorSampler` settings.
+        ``level`` and the :class:`~nlid.bayes.PosteriorSampler` settings.
 
     Returns
     -------

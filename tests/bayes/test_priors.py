@@ -3,8 +3,8 @@
 import numpy as np
 import pytest
 
-from nlid.posterior.likelihood import SufficientStatistics
-from nlid.posterior.priors import (
+from nlid.bayes.likelihood import SufficientStatistics
+from nlid.bayes.priors import (
     Flat,
     Normal,
     PriorError,

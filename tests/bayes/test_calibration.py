@@ -24,7 +24,7 @@ SEEDS = range(1000, 1050)
 def _replicate(name: str, seed: int) -> dict[str, bool]:
     """Whether each damping coefficient's 90 % interval contains the truth, for one seed."""
     from nlid import identify
-    from nlid.posterior import sample_posterior
+    from nlid.bayes import sample_posterior
     from nlid.presets import get_preset
 
     preset = get_preset(name)

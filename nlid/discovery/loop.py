@@ -7,10 +7,10 @@
    surface (``R_e = f - m a``, Eq. 25) and epsilon (Eq. 26) on the estimation
    and on the held-out record, with the same equation band
    (:func:`nlid.physics.regression_data`); keep the residual against ``z``,
-   ``v`` and time for the report (:mod:`nlid.discover.plots`).
+   ``v`` and time for the report (:mod:`nlid.discovery.plots`).
 3. Add each candidate of the library to the current model, identify it with
    the same identifier, and score it on the held-out record
-   (:mod:`nlid.discover.evidence`); a candidate with a shape parameter is
+   (:mod:`nlid.discovery.evidence`); a candidate with a shape parameter is
    fitted for every value of its grid and keeps the value with the smallest
    *estimation* residual, so the held-out record stays an honest test.
    ``px(z)`` terms take their roots from the current stiffness estimate
@@ -23,7 +23,7 @@
 5. Repeat until no candidate is accepted or ``max_steps`` effects were added.
 
 The free-run simulation error on the held-out record
-(:func:`nlid.simulate.free_run` driven by the measured force) is reported for
+(:func:`nlid.simulation.free_run` driven by the measured force) is reported for
 the declared model and after each step.
 """
 
@@ -43,7 +43,7 @@ from ..interface import IdentificationResult, to_jsonable
 from ..pipeline import identify
 from ..record import Record
 from ..registry import Registry, default_registry
-from ..simulate import SimulationError, free_run
+from ..simulation import SimulationError, free_run
 from ..terms import Model
 from .evidence import AcceptanceRule, Evidence, Scores, effective_sample_size, judge, rank
 from .library import Candidate, resolve_candidates
@@ -384,7 +384,7 @@ def _test_candidate(
     """Fit a candidate on top of the current model.
 
     Returns the evidence (terms, shape, coefficients; figures are filled by
-    :func:`~nlid.discover.evidence.judge`), the fit (``None`` when the
+    :func:`~nlid.discovery.evidence.judge`), the fit (``None`` when the
     candidate is not applicable or every fit failed) and, if the fitted
     coefficients are not the named effect, why (see ``Candidate.positive``).
     A shape parameter is chosen on the grid by the estimation residual, among

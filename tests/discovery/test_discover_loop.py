@@ -14,8 +14,8 @@ import itertools
 import numpy as np
 import pytest
 
-from nlid.discover import discover
-from nlid.discover.cases import BOTH_WELLS
+from nlid.discovery import discover
+from nlid.discovery.cases import BOTH_WELLS
 
 CHANNELS = {"displacement": ("z",), "accelerometer": ("z", "a")}
 CASES = [

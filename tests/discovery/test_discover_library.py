@@ -6,8 +6,8 @@ import pluggy
 import pytest
 
 from nlid import hookimpl, hookspecs
-from nlid.discover import LIBRARY, Candidate, Shape, library_names, resolve_candidates
-from nlid.discover.library import plugin_candidates
+from nlid.discovery import LIBRARY, Candidate, Shape, library_names, resolve_candidates
+from nlid.discovery.library import plugin_candidates
 from nlid.errors import InputError
 from nlid.terms import Model
 

@@ -7,7 +7,7 @@ import pytest
 
 from nlid import IdentificationResult, identify
 from nlid.errors import InputError
-from nlid.posterior import (
+from nlid.bayes import (
     ConvergenceError,
     DegenerateParametersError,
     PosteriorSampler,

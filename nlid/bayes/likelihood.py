@@ -29,7 +29,7 @@ Adjustments (:func:`build_likelihood`)
        autocorrelation time ``tau_e`` divides ``N``).
     2. *Location.* The least-squares estimate ``theta_hat`` is replaced by the
        bias-corrected ``theta_c`` that solves ``theta_hat = J theta_c + d``
-       (:mod:`nlid.posterior.bias`: indirect inference by simulation).
+       (:mod:`nlid.bayes.bias`: indirect inference by simulation).
     3. *Curvature.* The sampling covariance of ``theta_hat`` is the sandwich
        ``V = H^-1 Omega H^-1`` with ``H = G^T G`` and ``Omega`` the long-run
        covariance of the scores ``g_k e_k`` (overlapping batch means over
@@ -51,7 +51,7 @@ Adjustments (:func:`build_likelihood`)
 Assumptions (stated in docs/posterior.md): the model's terms are the true
 ones (no missing physics); the residual is stationary and its correlation
 dies out within a block; the measurement noise on the displacement is white
-(see :mod:`nlid.posterior.bias`); the mass (given or estimated) is exact.
+(see :mod:`nlid.bayes.bias`); the mass (given or estimated) is exact.
 Coefficients that are not sampled are integrated out (:meth:`Likelihood.reduced`)
 or held at given values (:meth:`Likelihood.conditional`).
 """
@@ -364,7 +364,7 @@ def build_likelihood(
         Equation band in Hz (default: :func:`nlid.derivatives.suggest_cutoff`).
     bias_correction
         Correct the errors-in-variables bias by simulation
-        (:func:`nlid.posterior.bias.simulate_bias`).
+        (:func:`nlid.bayes.bias.simulate_bias`).
     pairs
         Antithetic noise pairs per step of the correction.
     iterations

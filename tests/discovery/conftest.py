@@ -1,10 +1,10 @@
-"""Simulated records with one undeclared effect (see nlid.discover.cases)."""
+"""Simulated records with one undeclared effect (see nlid.discovery.cases)."""
 
 from __future__ import annotations
 
 import pytest
 
-from nlid.discover.cases import build_case
+from nlid.discovery.cases import build_case
 
 
 @pytest.fixture(scope="session")

@@ -5,7 +5,7 @@ from __future__ import annotations
 import pytest
 
 from nlid.datasets import load
-from nlid.discover import discover
+from nlid.discovery import discover
 
 
 @pytest.fixture(scope="module")

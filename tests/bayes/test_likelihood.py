@@ -4,8 +4,8 @@ import numpy as np
 import pytest
 
 from nlid import physics
-from nlid.posterior.bias import simulate_bias
-from nlid.posterior.likelihood import (
+from nlid.bayes.bias import simulate_bias
+from nlid.bayes.likelihood import (
     DegenerateParametersError,
     SufficientStatistics,
     build_likelihood,

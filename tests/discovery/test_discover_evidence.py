@@ -8,8 +8,8 @@ import numpy as np
 import pytest
 from scipy import signal
 
-from nlid.discover import AcceptanceRule, Evidence, Scores
-from nlid.discover.evidence import delta_bic, effective_sample_size, integrated_time, judge, rank
+from nlid.discovery import AcceptanceRule, Evidence, Scores
+from nlid.discovery.evidence import delta_bic, effective_sample_size, integrated_time, judge, rank
 from nlid.errors import InputError
 
 

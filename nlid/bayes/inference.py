@@ -101,7 +101,7 @@ class PosteriorSampler:
         coefficients stay fixed at the identifier's estimate.
     priors
         Priors overriding the defaults, ``{term: "normal(m, s)" | Prior}`` or
-        ``["term=spec", ...]`` (see :mod:`nlid.posterior.priors`).
+        ``["term=spec", ...]`` (see :mod:`nlid.bayes.priors`).
     walkers
         Number of walkers (default ``max(32, 8 d)``).
     max_steps
@@ -112,7 +112,7 @@ class PosteriorSampler:
         ``"de"`` (differential evolution, default) or ``"stretch"``.
     bias_correction
         Correct the errors-in-variables bias by simulation (see
-        :mod:`nlid.posterior.bias`).
+        :mod:`nlid.bayes.bias`).
     bias_pairs
         Antithetic noise pairs per step of that correction (at least 2).
     bias_iterations
