@@ -35,13 +35,13 @@ def errors(result, preset, modal_true):
     truth = preset.truth()["coefficients"]
     e = {k: 100 * (result.coefficients[k] / truth[k] - 1) for k in COEFS}
     e["m"] = 100 * (result.mass / preset.mass - 1)
-    found = {("-" if m["equilibrium"] < 0 else "+"): m for m in result.modal}
-    eq = result.equilibria["stable"] if result.equilibria else []
+    found = {("-" if m.equilibrium < 0 else "+"): m for m in result.modal}
+    eq = result.equilibria.stable if result.equilibria else []
     for side in "-+":
         t = modal_true[side]
         m = found.get(side)
-        e[f"fn{side}"] = np.nan if m is None else 100 * (m["fn_hz"] / t.fn_hz - 1)
-        e[f"ze{side}"] = np.nan if m is None else 100 * (m["zeta"] / t.zeta - 1)
+        e[f"fn{side}"] = np.nan if m is None else 100 * (m.fn_hz / t.fn_hz - 1)
+        e[f"ze{side}"] = np.nan if m is None else 100 * (m.zeta / t.zeta - 1)
         zs = [z for z in eq if (z < 0) == (side == "-")]
         e[f"eq{side}"] = np.nan if not zs else 100 * (zs[0] / t.equilibrium - 1)
     return e

@@ -44,10 +44,10 @@ def one_record(preset, seed: int, options: dict[str, str]) -> dict:
         seconds = time.perf_counter() - t0
         d_id = physics.damping(model.with_px_roots(res.px_roots), res.coefficients, clean.z, clean.v)
         err = {k: 100 * (res.coefficients[k] / truth[k] - 1) for k in res.coefficients}
-        found = {("-" if m["equilibrium"] < 0 else "+"): m for m in res.modal}
+        found = {("-" if m.equilibrium < 0 else "+"): m for m in res.modal}
         for side, t in true_modal.items():
-            err[f"zeta{side}"] = 100 * (found[side]["zeta"] / t.zeta - 1) if side in found else np.nan
-            err[f"fn{side}"] = 100 * (found[side]["fn_hz"] / t.fn_hz - 1) if side in found else np.nan
+            err[f"zeta{side}"] = 100 * (found[side].zeta / t.zeta - 1) if side in found else np.nan
+            err[f"fn{side}"] = 100 * (found[side].fn_hz / t.fn_hz - 1) if side in found else np.nan
         err["D"] = 100 * float(np.sqrt(np.mean((d_id - d_true) ** 2) / np.mean(d_true**2)))
         row[acc] = {"errors": err, "seconds": seconds}
     return row

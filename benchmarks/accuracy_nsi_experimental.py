@@ -63,10 +63,10 @@ def main() -> None:
         e = {k: 100 * (res.coefficients[k] / truth[k] - 1) for k in names}
         if not known:
             e["m"] = 100 * (res.mass / preset.mass - 1)
-        found = {("-" if m["equilibrium"] < 0 else "+"): m for m in res.modal}
-        st = res.equilibria["stable"]
+        found = {("-" if m.equilibrium < 0 else "+"): m for m in res.modal}
+        st = res.equilibria.stable
         for side, t in zip("-+", modal, strict=True):
-            e[f"fn{side}"] = 100 * (found[side]["fn_hz"] / t.fn_hz - 1) if side in found else np.nan
+            e[f"fn{side}"] = 100 * (found[side].fn_hz / t.fn_hz - 1) if side in found else np.nan
             zs = [z for z in st if (z < 0) == (side == "-")]
             e[f"eq{side}"] = 100 * (zs[0] / t.equilibrium - 1) if zs else np.nan
         rows.append(e)

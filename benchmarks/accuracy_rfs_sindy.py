@@ -6,7 +6,7 @@ Cases (paper-numerical, terms z^3, z^2, v*|v| plus 1, z, v):
 * ``noisy``: 2 % noise on z and a (velocity estimated), seeds 0-4;
 * ``band``: rfs on the noisy records, and on the same records without noise
   filtered in the same band, with the regressor band factor of
-  :func:`nlid.physics.regression_data` changed: this separates the two
+  :func:`nlid.balance.regression_data` changed: this separates the two
   biases of the damping coefficients (docs/rfs.md).
 
 Each case is run with the mass known and estimated; methods ``nsi-ip`` (for
@@ -29,7 +29,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from nlid import identify, physics
+from nlid import balance, identify, physics
 from nlid.presets import get_preset
 
 TERMS = "z^3, z^2, v*|v|"
@@ -61,9 +61,9 @@ def rows_of(result, truth: dict[str, float]) -> dict[str, float]:
     out = dict(result.coefficients)
     out["mass"] = result.mass
     for mode in result.modal or []:
-        side = "z-" if mode["equilibrium"] < 0 else "z+"
-        out[f"fn {side} (Hz)"] = mode["fn_hz"]
-        out[f"zeta {side}"] = mode["zeta"]
+        side = "z-" if mode.equilibrium < 0 else "z+"
+        out[f"fn {side} (Hz)"] = mode.fn_hz
+        out[f"zeta {side}"] = mode.zeta
     return {k: v for k, v in out.items() if k in truth and v is not None}
 
 
@@ -93,10 +93,10 @@ def run(out: Path, seeds: int) -> pd.DataFrame:
                 record = record or preset.simulate(seed, **sim)
                 res = identify(record, TERMS, method, mass=0.2 if mass == "known" else None, options=options)
                 write(writer, handle, case, mass, label, 4.0, seed, rows_of(res, truth), truth)
-        default = physics.REGRESSOR_BAND_FACTOR
+        default = balance.REGRESSOR_BAND_FACTOR
         try:
             for factor in BAND_FACTORS:
-                physics.REGRESSOR_BAND_FACTOR = factor
+                balance.REGRESSOR_BAND_FACTOR = factor
                 for seed in range(seeds):
                     if ("band-noisy", "known", "rfs", factor, seed) in done:
                         continue
@@ -108,7 +108,7 @@ def run(out: Path, seeds: int) -> pd.DataFrame:
                     clean = identify(preset.simulate(seed, channels=("z", "a")), TERMS, "rfs", mass=0.2, options=band)
                     write(writer, handle, "band-noise-free", "known", "rfs", factor, seed, rows_of(clean, truth), truth)
         finally:
-            physics.REGRESSOR_BAND_FACTOR = default
+            balance.REGRESSOR_BAND_FACTOR = default
     return pd.read_csv(out)
 
 

@@ -25,7 +25,7 @@ sys.path.insert(0, str(Path(__file__).parent))
 import numpy as np  # noqa: E402
 from _common import median_time  # noqa: E402
 
-from nlid import identify, physics  # noqa: E402
+from nlid import balance, identify  # noqa: E402
 from nlid.bayes import sample_posterior  # noqa: E402
 from nlid.bayes.likelihood import build_likelihood  # noqa: E402
 from nlid.presets import get_preset  # noqa: E402
@@ -39,17 +39,17 @@ def friction_posterior(repeat: int) -> None:
     model = preset.model()
     record = preset.simulate(0, noise=0.02, channels=("z", "a"))
     result = identify(record, model, "rfs", mass=preset.mass)
-    sample_posterior(record, result, model, params=FRICTION, seed=0)  # warm-up (numba, imports)
+    sample_posterior(record, result, params=FRICTION, seed=0)  # warm-up (numba, imports)
     seconds, parts = [], []
     for seed in range(repeat):
         t0 = time.perf_counter()
-        data = physics.regression_data(record, model)
+        data = balance.regression_data(record, model)
         t1 = time.perf_counter()
         build_likelihood(record, model, preset.mass, data=data, bias_correction=False)
         t2 = time.perf_counter()
         build_likelihood(record, model, preset.mass, data=data, rng=np.random.default_rng(seed))
         t3 = time.perf_counter()
-        post = sample_posterior(record, result, model, params=FRICTION, seed=seed)
+        post = sample_posterior(record, result, params=FRICTION, seed=seed)
         seconds.append(post.seconds)
         parts.append((t1 - t0, t2 - t1, t3 - t2))
     med = float(np.median(seconds))

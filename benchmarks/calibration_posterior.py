@@ -28,7 +28,7 @@ from concurrent.futures import ProcessPoolExecutor
 
 import numpy as np
 
-from nlid import identify, physics
+from nlid import balance, identify
 from nlid.bayes import sample_posterior
 from nlid.bayes.likelihood import build_likelihood
 from nlid.presets import get_preset
@@ -50,11 +50,11 @@ def replicate(name: str, seed: int) -> tuple[dict[str, np.ndarray], np.ndarray]:
     theta = model.vector(result.coefficients)
     se = model.vector(result.standard_errors)
     z = {"iid": (theta[dam] - truth[dam]) / se[dam]}
-    data = physics.regression_data(record, model)
+    data = balance.regression_data(record, model)
     plain = build_likelihood(record, model, preset.mass, data=data, bias_correction=False)
     mean, cov = plain.conditional(dam, theta)
     z["sandwich"] = (mean - truth[dam]) / np.sqrt(np.diag(cov))
-    post = sample_posterior(record, result, model, params="damping", seed=seed)
+    post = sample_posterior(record, result, params="damping", seed=seed)
     mean, cov = post.likelihood.conditional(dam, theta)
     z["fixed"] = (mean - truth[dam]) / np.sqrt(np.diag(cov))
     s = post.summary()

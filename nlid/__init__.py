@@ -2,15 +2,18 @@
 
 The core (this package) knows nothing about any one identification method: it
 holds the data model (:class:`Record`), the term language
-(:mod:`nlid.terms`), derivative estimation, the physics of the identified
-oscillator (:mod:`nlid.physics`), the simulator and its presets, and the
-plugin interface. Identifiers are plugins discovered through the entry-point
-group ``nlid.identifiers``.
+(:mod:`nlid.terms`), derivative estimation, the physics of an oscillator
+model (:mod:`nlid.physics`), the force balance identifiers build on
+(:mod:`nlid.balance`), the one scoring path (:mod:`nlid.scoring`), the
+simulator and its presets, and the plugin interface (:mod:`nlid.plugin`).
+Identifiers are plugins discovered through the entry-point group
+``nlid.identifiers``.
 """
 
 from .errors import DataError, IdentificationError, InputError, NlidError, OptionError, PluginError, TermError
 from .hookspecs import hookimpl
-from .interface import IdentificationResult, Identifier, Option
+from .identified import IdentifiedModel
+from .interface import Estimate, Identifier, Option
 from .pipeline import identify
 from .record import Record
 from .terms import Model, parse_term
@@ -22,8 +25,9 @@ __all__ = [
     "Model",
     "parse_term",
     "identify",
+    "IdentifiedModel",
     "Identifier",
-    "IdentificationResult",
+    "Estimate",
     "Option",
     "hookimpl",
     "NlidError",

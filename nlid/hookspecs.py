@@ -32,7 +32,7 @@ def nlid_identifiers() -> list[type]:
     Each class follows :class:`nlid.interface.Identifier`: it has ``name``,
     ``summary``, ``options``, ``needs_mass`` and an ``identify(record, model,
     *, mass=None)`` method returning an
-    :class:`~nlid.interface.IdentificationResult`.
+    :class:`~nlid.interface.Estimate`.
     """
 
 

@@ -7,18 +7,20 @@ An identifier is a class with
   and study configs validate before anything runs;
 * ``needs_mass``: ``True`` if it cannot estimate the mass itself;
 * a constructor that only stores validated settings (``self.settings``), and
-* ``identify(record, model, *, mass=None) -> IdentificationResult``.
+* ``identify(record, model, *, mass=None) -> Estimate``.
 
 Subclassing :class:`Identifier` gives the constructor and the option handling;
-the core only relies on the attributes above (see
-:func:`nlid.testing.check_identifier`).
+the core only relies on the attributes above (the named checks of
+:mod:`nlid.testing`).
 
-The identifier returns the coefficients it estimated (every coefficient is the
-coefficient of its term in ``R(z, v) = f - m z''``), the mass if it estimated
-it, and its diagnostics. The core (:func:`nlid.identify`) then fills in what it
-computes the same way for every method: equilibria, modal parameters (unless
-the method measured them itself), the residual ``eps_percent`` (always
-recomputed from the data, never trusted from the plugin) and the wall time.
+The identifier returns an :class:`Estimate`: the coefficients it estimated
+(every coefficient is the coefficient of its term in ``R(z, v) = f - m z''``),
+the mass if it estimated it, standard errors and its diagnostics. The core
+(:func:`nlid.identify`) then builds the immutable
+:class:`~nlid.identified.IdentifiedModel` with what it computes the same way
+for every method: equilibria, modal parameters (unless the method measured
+them itself), the residuals (always recomputed from the data, never trusted
+from the plugin) and the wall time.
 """
 
 from __future__ import annotations
@@ -35,7 +37,7 @@ from .errors import OptionError
 from .record import Record
 from .terms import Model
 
-__all__ = ["Option", "Identifier", "IdentificationResult", "resolve_options", "to_jsonable"]
+__all__ = ["Option", "Identifier", "Estimate", "resolve_options", "to_jsonable"]
 
 _TYPES = ("int", "float", "bool", "str", "floats")
 _TRUE = {"1", "true", "yes", "on"}
@@ -200,7 +202,7 @@ class Identifier:
     def __init__(self, **options: Any) -> None:
         self.settings: dict[str, Any] = resolve_options(self.options, options, where=f"{self.name}: ")
 
-    def identify(self, record: Record, model: Model, *, mass: float | None = None) -> IdentificationResult:
+    def identify(self, record: Record, model: Model, *, mass: float | None = None) -> Estimate:
         """Estimate the coefficients of ``model`` from ``record``.
 
         Parameters
@@ -240,81 +242,55 @@ def to_jsonable(value: Any) -> Any:
     return value
 
 
-@dataclass
-class IdentificationResult:
-    """What an identification produced, as plain data.
+@dataclass(frozen=True)
+class Estimate:
+    """What an identifier returns: its own estimates, nothing the core computes.
+
+    The core (:func:`nlid.identify`) checks it and builds the
+    :class:`~nlid.identified.IdentifiedModel` from it: equilibria, modal
+    parameters (unless the method measured them), the residuals (always from
+    the data), the wall time and the options are the core's job, done the
+    same way for every method. Nothing mutates an estimate after the plugin
+    returned it.
 
     Attributes
     ----------
-    method
-        Identifier name.
     coefficients
-        ``{canonical term: coefficient in R}`` in model order.
+        ``{canonical term: coefficient}`` for every term of the model, in
+        model order; each is the coefficient of its term in
+        ``R(z, v) = f - m z''`` (SI units).
     mass
-        Mass used or estimated (kg), ``None`` if unknown.
-    mass_estimated
-        ``True`` if the method estimated the mass.
-    equilibria
-        ``{"stable": [...], "unstable": [...]}`` (m), from the identified K(z).
-    modal
-        ``[{"equilibrium", "fn_hz", "zeta", ...}]`` per stable equilibrium
-        (zeta as a fraction).
-    eps_percent
-        Percentage RMS residual of the restoring surface (Eq. 26), computed
-        by the core from the data.
-    force_residual_percent
-        ``100 RMS(f - m a - R) / RMS(f)``: the same residual relative to the
-        force (the "relative force residual" of inverse-dynamics benchmarks).
+        The mass in kg when the method estimated it; ``None`` when the mass
+        was given (``identify(..., mass=m)``).
     standard_errors
-        Standard error of each coefficient when the method provides one.
+        Standard error of each coefficient, when the method provides them.
+    mass_standard_error
+        Standard error of an estimated mass.
+    modal
+        Modal parameters the method measured itself (e.g. from the
+        eigenvalues of an identified linear system), as
+        :class:`~nlid.physics.Modal` or dictionaries with ``equilibrium``,
+        ``fn_hz``, ``zeta`` (and optionally ``stiffness``, ``damping``,
+        ``source`` and further figures); ``None`` lets the core compute them
+        from the identified ``K`` and ``D`` (Eq. 8, 22).
     diagnostics
         Method-specific, JSON-serialisable details.
     warnings
         Things the user should know (collinear terms, extrapolation...).
-    seconds
-        Wall time of the identification.
-    terms
-        The model's canonical term names.
-    px_roots
-        ``[z-, z+]`` used for ``px(z)``, if any.
     arrays
-        Large numeric outputs for plots, kept out of :meth:`to_dict` and saved
-        with :meth:`save_arrays`. Keys that reports understand:
-        ``singular_values`` (subspace methods), ``frf_frequency_hz`` and
-        ``frf`` (complex underlying-linear receptance, m/N),
-        ``coef_frequency_hz`` and ``coef_spectrum:<term>`` (complex
-        frequency-dependent coefficient estimates, NSI Eq. 20).
+        Large numeric outputs for plots, kept out of JSON and saved as
+        ``.npz``. Keys that reports understand: ``singular_values``
+        (subspace methods), ``frf_frequency_hz`` and ``frf`` (complex
+        underlying-linear receptance, m/N), ``coef_frequency_hz`` and
+        ``coef_spectrum:<term>`` (complex frequency-dependent coefficient
+        estimates, NSI Eq. 20).
     """
 
-    method: str
-    coefficients: dict[str, float]
+    coefficients: Mapping[str, float]
     mass: float | None = None
-    mass_estimated: bool = False
-    equilibria: dict[str, list[float]] | None = None
-    modal: list[dict[str, float]] | None = None
-    eps_percent: float | None = None
-    force_residual_percent: float | None = None
-    standard_errors: dict[str, float] | None = None
-    diagnostics: dict[str, Any] = field(default_factory=dict)
-    warnings: list[str] = field(default_factory=list)
-    seconds: float | None = None
-    terms: list[str] = field(default_factory=list)
-    px_roots: list[float] | None = None
-    arrays: dict[str, np.ndarray] = field(default_factory=dict, repr=False)
-
-    _JSON_EXCLUDE: ClassVar[tuple[str, ...]] = ("arrays",)
-
-    def to_dict(self) -> dict[str, Any]:
-        """JSON-serialisable dictionary (without :attr:`arrays`)."""
-        return {f.name: to_jsonable(getattr(self, f.name)) for f in fields(self) if f.name not in self._JSON_EXCLUDE}
-
-    @classmethod
-    def from_dict(cls, data: Mapping[str, Any]) -> IdentificationResult:
-        """Inverse of :meth:`to_dict` (unknown keys are ignored)."""
-        names = {f.name for f in fields(cls)} - set(cls._JSON_EXCLUDE)
-        kwargs = {k: v for k, v in data.items() if k in names}
-        return cls(**kwargs)
-
-    def save_arrays(self, path: str) -> None:
-        """Write :attr:`arrays` to an ``.npz`` file (no pickle)."""
-        np.savez(path, **{k: np.asarray(v) for k, v in self.arrays.items()})
+    standard_errors: Mapping[str, float] | None = None
+    mass_standard_error: float | None = None
+    modal: Sequence[Any] | None = None
+    diagnostics: Mapping[str, Any] = field(default_factory=dict)
+    warnings: Sequence[str] = ()
+    arrays: Mapping[str, np.ndarray] = field(default_factory=dict, repr=False)

@@ -1,4 +1,4 @@
-"""Physics of the identified oscillator: K(z), D(z, v), equilibria, modes, residual.
+"""Physics of an oscillator model: K(z), D(z, v), U(z), equilibria, modes.
 
 All functions take a :class:`~nlid.terms.Model` and its coefficients
 (``{canonical term: value}`` or a vector in model order). Coefficients are the
@@ -14,41 +14,36 @@ coefficients of the terms of the restoring force
   from the terms that are linear in v at rest (``v``, ``z^2*v``,
   ``v*|px(z)|``, ``tanh(v/c)``...); Coulomb-like terms have no linearisation
   and are left out. When ``v`` is the only such term this is Eq. 22.
-* The percentage RMS residual ``epsilon`` of Eq. 26.
+
+How a model meets data (the force balance, epsilon of Eq. 26, free runs) is
+in :mod:`nlid.balance` and :mod:`nlid.scoring`.
 """
 
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
-from dataclasses import asdict, dataclass, field
+from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
-from scipy import optimize
 
-from . import derivatives
-from .errors import DataError, InputError
-from .record import Record
+from .errors import InputError
 from .terms import Model
 
 __all__ = [
     "Coefficients",
     "Equilibria",
     "Modal",
-    "RegressionData",
     "elastic",
     "damping",
     "restoring",
     "potential",
     "equilibria",
     "stiffness_roots",
+    "linear_damping",
     "modal",
-    "regression_data",
-    "epsilon",
-    "residual_percent",
-    "force_residual_percent",
+    "dict_or_vector",
     "rms_contributions",
-    "damping_slice",
-    "DampingSlice",
 ]
 
 Coefficients = Mapping[str, float] | np.ndarray | Sequence[float]
@@ -124,6 +119,14 @@ class Equilibria:
         """``{"stable": [...], "unstable": [...]}``."""
         return {"stable": list(self.stable), "unstable": list(self.unstable)}
 
+    @classmethod
+    def from_dict(cls, data: Mapping[str, Sequence[float]]) -> Equilibria:
+        """Inverse of :meth:`to_dict`."""
+        return cls(
+            stable=tuple(sorted(float(x) for x in data.get("stable", ()))),
+            unstable=tuple(sorted(float(x) for x in data.get("unstable", ()))),
+        )
+
 
 def _real_roots(poly: np.ndarray) -> np.ndarray:
     poly = np.trim_zeros(np.asarray(poly, dtype=float), "f")
@@ -136,11 +139,13 @@ def _real_roots(poly: np.ndarray) -> np.ndarray:
 
 
 def _numeric_roots(fun, lo: float, hi: float, n: int = 4001) -> np.ndarray:
+    from scipy.optimize import brentq
+
     grid = np.linspace(lo, hi, n)
     values = fun(grid)
     roots = []
     for i in np.flatnonzero(np.signbit(values[:-1]) != np.signbit(values[1:])):
-        roots.append(optimize.brentq(lambda x: float(fun(np.array([x]))[0]), grid[i], grid[i + 1], xtol=1e-14))
+        roots.append(brentq(lambda x: float(fun(np.array([x]))[0]), grid[i], grid[i + 1], xtol=1e-14))
     return np.array(roots)
 
 
@@ -242,17 +247,61 @@ class Modal:
         ``K'(z*)`` (N/m).
     damping
         Linearised viscous coefficient ``dD/dv(z*, 0)`` (N s/m).
+    source
+        How they were obtained (empty: Eq. 8 and 22 on the identified
+        ``K`` and ``D``; a method that measures them itself says how).
+    details
+        Further figures a method reports (e.g. NSI's ``zeta_from_uls``).
     """
 
     equilibrium: float
     fn_hz: float
     zeta: float
-    stiffness: float
-    damping: float
+    stiffness: float = float("nan")
+    damping: float = float("nan")
+    source: str = ""
+    details: Mapping[str, Any] = field(default_factory=dict)
 
-    def to_dict(self) -> dict[str, float]:
-        """Plain dictionary."""
-        return asdict(self)
+    def to_dict(self) -> dict[str, Any]:
+        """Plain dictionary; ``details`` are flattened into it."""
+        out: dict[str, Any] = {
+            "equilibrium": self.equilibrium,
+            "fn_hz": self.fn_hz,
+            "zeta": self.zeta,
+            "stiffness": self.stiffness,
+            "damping": self.damping,
+        }
+        if self.source:
+            out["source"] = self.source
+        out.update({k: v for k, v in self.details.items() if k not in out})
+        return out
+
+    @classmethod
+    def from_dict(cls, data: Mapping[str, Any]) -> Modal:
+        """Inverse of :meth:`to_dict`: known keys become fields, the others ``details``.
+
+        Raises
+        ------
+        InputError
+            If ``equilibrium``, ``fn_hz`` or ``zeta`` is missing or not a number.
+        """
+        if isinstance(data, Modal):
+            return data
+        try:
+            core = {k: float(data[k]) for k in ("equilibrium", "fn_hz", "zeta")}
+        except (KeyError, TypeError, ValueError):
+            raise InputError(
+                f"modal parameters need numbers 'equilibrium', 'fn_hz' and 'zeta', got {dict(data)!r}"
+            ) from None
+        extra = {k: data[k] for k in ("stiffness", "damping") if data.get(k) is not None}
+        details = {k: v for k, v in data.items() if k not in (*core, "stiffness", "damping", "source")}
+        return cls(
+            **core,
+            stiffness=float(extra.get("stiffness", float("nan"))),
+            damping=float(extra.get("damping", float("nan"))),
+            source=str(data.get("source") or ""),
+            details=details,
+        )
 
 
 def linear_damping(model: Model, coefficients: Coefficients, z: float) -> float:
@@ -303,263 +352,6 @@ def modal(
         wn = np.sqrt(k / mass)
         out.append(Modal(float(z0), float(wn / (2 * np.pi)), float(c / (2 * mass * wn)), k, c))
     return out
-
-
-# --------------------------------------------------------------------------- the restoring surface
-#: The regressors are evaluated on z and v kept to this multiple of the
-#: equation band (capped at 0.4 fs) before being cut to the band: measured on
-#: paper-numerical with 2 % noise, a factor 4 instead of 1 cuts the RFS error
-#: of mu from 3.1 % to 0.6 % and of c_v from 41 % to 2.5 %.
-REGRESSOR_BAND_FACTOR = 4.0
-#: Samples within this many cut-off periods of either end are dropped from a
-#: filtered force balance: there the filters have not settled (on
-#: paper-numerical the first samples' residual reaches 90 N).
-EDGE_PERIODS = 3.0
-
-
-@dataclass(frozen=True)
-class RegressionData:
-    """Force, acceleration and regressors on a common footing.
-
-    When a channel the model needs (the acceleration, or the velocity of
-    velocity-dependent terms) is estimated from the displacement, the force
-    balance ``f - m a = G theta`` is formed in the band of the differentiating
-    filter (cut-off ``fc``):
-
-    * ``a`` is the displacement differentiated twice through the low-pass at
-      ``fc`` (or the measured ``a`` low-passed at ``fc``);
-    * each regressor ``g_i(z, v)`` is evaluated on ``z`` and ``v`` kept to the
-      wider band ``REGRESSOR_BAND_FACTOR * fc`` (the terms are nonlinear, so
-      their in-band part depends on the motion above ``fc``), then low-passed
-      at ``fc``;
-    * the force is low-passed at ``fc``; a zero-order-held force
-      (``record.force_hold == "zoh"``) compared with an acceleration derived
-      from the motion is first given the hold's response
-      (:func:`nlid.derivatives.zoh_equivalent`), since the motion feels it
-      half a sample late.
-
-    Every filter is the same zero-phase response (:mod:`nlid.derivatives`), so
-    no phase or gain mismatch enters. The ``EDGE_PERIODS * fs / fc`` samples
-    at each end, where the filters have not settled, are dropped from every
-    array. With every needed channel measured nothing is filtered or dropped:
-    the samples are consistent as they are.
-
-    Attributes
-    ----------
-    f, a
-        Force and acceleration, shape ``(N,)``.
-    G
-        Regressor matrix, shape ``(N, p)``.
-    z, v
-        The displacement and velocity the regressors were evaluated on.
-    filtered_at
-        The equation band ``fc`` in Hz, or ``None``.
-    provenance
-        Where each channel came from.
-    kept
-        The slice of the record's samples that hold a settled force balance;
-        the arrays are these samples (or every sample, with ``trim=False``).
-    """
-
-    f: np.ndarray
-    a: np.ndarray
-    G: np.ndarray
-    z: np.ndarray
-    v: np.ndarray | None
-    filtered_at: float | None
-    provenance: dict[str, str]
-    kept: slice = field(default_factory=lambda: slice(None))
-
-    def restoring_force(self, mass: float) -> np.ndarray:
-        """``R_e = f - m a`` (Eq. 25)."""
-        return self.f - mass * self.a
-
-
-def regression_data(
-    record: Record, model: Model, *, cutoff: float | None = None, trim: bool = True, regressors: bool = True
-) -> RegressionData:
-    """Evaluate the model's regressors and the force balance on a record.
-
-    Parameters
-    ----------
-    record
-        The data; missing ``v`` and ``a`` are estimated from ``z``.
-    model
-        The terms.
-    cutoff
-        Equation band ``fc`` in Hz (default
-        :func:`nlid.derivatives.suggest_cutoff` of ``z``); only used when a
-        needed channel is estimated.
-    trim
-        Drop the unsettled ends (default). With ``trim=False`` the arrays keep
-        every sample of the record and :attr:`RegressionData.kept` says which
-        of them hold a settled force balance (for callers that filter
-        further, or that mark the ends as missing themselves).
-    regressors
-        Evaluate the model's columns (default). With ``False``, ``G`` has no
-        columns and the model only says which channels are needed: for
-        callers that evaluate the regressors themselves.
-    """
-    needs_v = model.uses_velocity
-    estimated = not record.is_measured("a") or (needs_v and not record.is_measured("v"))
-    prov = {c: record.source_of(c) for c in record.channels}
-    if not estimated:
-        v = record.v if needs_v else None
-        G = model.evaluate(record.z, v) if regressors else np.empty((record.n, 0))
-        return RegressionData(record.f, record.a, G, record.z, v, None, prov)
-    fs = record.fs
-    fc = float(cutoff) if cutoff is not None else derivatives.suggest_cutoff(record.z, fs)
-    wide = min(REGRESSOR_BAND_FACTOR * fc, derivatives.CUTOFF_MAX_FRACTION * fs)
-    z = derivatives.lowpass(record.z, fs, wide)
-    v = None
-    if needs_v:
-        if record.is_measured("v"):
-            v = derivatives.lowpass(record.v, fs, wide)
-        else:
-            v, used = derivatives.differentiate(record.z, fs, order=1, cutoff=wide)
-            prov["v"] = f"estimated from z: {used.describe()}"
-    G = derivatives.lowpass(model.evaluate(z, v), fs, fc) if regressors else np.empty((record.n, 0))
-    if record.is_measured("a"):
-        a = derivatives.lowpass(record.a, fs, fc)
-        f = derivatives.lowpass(record.f, fs, fc)
-    else:
-        a, used = derivatives.differentiate(record.z, fs, order=2, cutoff=fc)
-        prov["a"] = f"estimated from z: {used.describe()}"
-        # the acceleration of the motion feels a held force half a sample late
-        f = (
-            derivatives.zoh_equivalent(record.f, fs, fc)
-            if record.force_hold == "zoh"
-            else derivatives.lowpass(record.f, fs, fc)
-        )
-    edge = int(np.ceil(EDGE_PERIODS * fs / fc))
-    if record.n - 2 * edge < max(64, 4 * len(model)):
-        raise DataError(
-            f"record too short for a filtered force balance: {record.n} samples, {edge} dropped at each end "
-            f"at the cut-off {fc:.3g} Hz"
-        )
-    keep = slice(edge, record.n - edge)
-    if not trim:
-        return RegressionData(f, a, G, z, v, fc, prov, keep)
-    return RegressionData(f[keep], a[keep], G[keep], z[keep], None if v is None else v[keep], fc, prov, keep)
-
-
-def epsilon(measured: np.ndarray, identified: np.ndarray) -> float:
-    """Percentage RMS residual ``100 RMS(R - R_e) / RMS(R_e)`` (Eq. 26)."""
-    measured = np.asarray(measured, dtype=float)
-    rms = np.sqrt(np.mean(measured**2))
-    if rms == 0:
-        raise DataError("the measured restoring force is identically zero")
-    return float(100.0 * np.sqrt(np.mean((np.asarray(identified) - measured) ** 2)) / rms)
-
-
-def residual_percent(
-    record: Record,
-    model: Model,
-    coefficients: Coefficients,
-    mass: float,
-    *,
-    cutoff: float | None = None,
-    data: RegressionData | None = None,
-) -> float:
-    """Epsilon (Eq. 26) of a model on a record, computed from the data.
-
-    Parameters
-    ----------
-    record, model, coefficients, mass
-        The data and the identified model.
-    cutoff
-        Differentiating-filter cut-off for estimated channels.
-    data
-        Pre-computed :func:`regression_data` (saves the filtering).
-    """
-    data = data if data is not None else regression_data(record, model, cutoff=cutoff)
-    theta = dict_or_vector(model, coefficients)
-    return epsilon(data.restoring_force(mass), data.G @ theta)
-
-
-def force_residual_percent(data: RegressionData, coefficients: np.ndarray, mass: float) -> float:
-    """Residual relative to the force: ``100 RMS(f - m a - G theta) / RMS(f)``.
-
-    This is the "relative force residual" of inverse-dynamics benchmarks such
-    as EMPS (IDIM-LS), where the mass is estimated with the other
-    coefficients and the force is the regressed variable. It has the same
-    numerator as epsilon (Eq. 26) but divides by the force, not by the
-    restoring force.
-    """
-    resid = data.f - mass * data.a - data.G @ np.asarray(coefficients, dtype=float)
-    return float(100.0 * np.sqrt(np.mean(resid**2)) / np.sqrt(np.mean(data.f**2)))
-
-
-@dataclass(frozen=True)
-class DampingSlice:
-    """The damping force near one position (paper Fig. 21 b-d).
-
-    Attributes
-    ----------
-    z0, half_width
-        The slice ``|z - z0| <= half_width`` (m).
-    v
-        Velocities of the samples in the slice (m/s).
-    measured
-        Their measured damping force ``R_e - K(z)`` (N): the restoring force
-        minus the identified elastic part at each sample's own position,
-        formed in the force balance's band (the stiffness columns of ``G``)
-        so that a filtered balance does not leak the out-of-band part of
-        ``K(z)`` into the damping force.
-    v_grid, model
-        The identified ``D(z0, v)`` on a velocity grid spanning the slice.
-    """
-
-    z0: float
-    half_width: float
-    v: np.ndarray
-    measured: np.ndarray
-    v_grid: np.ndarray
-    model: np.ndarray
-
-
-def damping_slice(
-    data: RegressionData,
-    model: Model,
-    coefficients: Coefficients,
-    mass: float,
-    z0: float,
-    half_width: float | None = None,
-    grid: int = 200,
-) -> DampingSlice:
-    """Slice the restoring surface at ``z0`` to compare ``D`` with the data (Fig. 21 b-d).
-
-    Parameters
-    ----------
-    data
-        From :func:`regression_data` (needs velocity: the model must have
-        velocity terms).
-    model, coefficients, mass
-        The identified model.
-    z0
-        Position of the slice (m).
-    half_width
-        Half width of the slice; default 5 % of the displacement range.
-    grid
-        Number of velocity points of the model curve.
-    """
-    if data.v is None:
-        raise InputError("a damping slice needs velocity: the model has no velocity-dependent term")
-    theta = dict_or_vector(model, coefficients)
-    if data.G.shape[1] != len(model):
-        raise InputError(f"the force balance has {data.G.shape[1]} regressors but the model has {len(model)} terms")
-    if half_width is None:
-        half_width = 0.05 * float(np.ptp(data.z))
-    near = np.abs(data.z - z0) <= half_width
-    if near.sum() < 3:
-        raise InputError(f"fewer than 3 samples within {half_width:.3g} m of z0 = {z0:.4g} m")
-    v = data.v[near]
-    stiff = [i for i, t in enumerate(model.terms) if t.family == "stiffness"]
-    # K in the balance's band: the stiffness regressors of G (equal to K(z) when nothing is filtered)
-    measured = data.restoring_force(mass)[near] - data.G[near][:, stiff] @ theta[stiff]
-    v_grid = np.linspace(v.min(), v.max(), grid)
-    curve = damping(model, theta, np.full(grid, float(z0)), v_grid)
-    return DampingSlice(float(z0), float(half_width), v, measured, v_grid, curve)
 
 
 def rms_contributions(

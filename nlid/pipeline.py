@@ -28,12 +28,13 @@ import numpy as np
 
 from . import physics
 from .errors import IdentificationError, InputError, NlidError, PluginError
-from .interface import IdentificationResult
+from .identified import IdentifiedModel
+from .interface import Estimate
 from .record import Record
 from .registry import Registry, default_registry
 from .terms import Model, Term
 
-__all__ = ["identify", "as_model", "complete_result"]
+__all__ = ["identify", "as_model", "check_estimate"]
 
 
 def as_model(
@@ -49,31 +50,50 @@ def as_model(
     return Model.from_spec(terms, without=without, px_roots=px_roots)
 
 
-def _run(identifier: Any, record: Record, model: Model, mass: float | None) -> IdentificationResult:
-    name = getattr(identifier, "name", type(identifier).__name__)
+def _name(identifier: Any) -> str:
+    return str(getattr(identifier, "name", type(identifier).__name__))
+
+
+def _run(identifier: Any, record: Record, model: Model, mass: float | None) -> tuple[Estimate, float]:
+    """Call the plugin, time it, and check what it returned (never modified afterwards)."""
+    name = _name(identifier)
     start = time.perf_counter()
     try:
-        result = identifier.identify(record, model, mass=mass)
+        estimate = identifier.identify(record, model, mass=mass)
     except NlidError:
         raise
     except Exception as exc:  # noqa: BLE001 - a plugin bug is reported by name
         raise PluginError(f"identifier {name!r} raised {type(exc).__name__}: {exc}") from exc
     elapsed = time.perf_counter() - start
-    if not isinstance(result, IdentificationResult):
-        raise PluginError(f"identifier {name!r} returned {type(result).__name__}, not IdentificationResult")
-    missing = [n for n in model.names if n not in result.coefficients]
-    extra = [n for n in result.coefficients if n not in model.names]
+    check_estimate(estimate, model, name, mass)
+    return estimate, elapsed
+
+
+def check_estimate(estimate: Any, model: Model, name: str, mass: float | None) -> None:
+    """Check an identifier's return value against the contract.
+
+    Raises
+    ------
+    PluginError
+        Not an :class:`~nlid.interface.Estimate`, or its coefficients are not
+        exactly the model's terms.
+    IdentificationError
+        Non-finite coefficients, or a non-positive estimated mass.
+    """
+    if not isinstance(estimate, Estimate):
+        raise PluginError(f"identifier {name!r} returned {type(estimate).__name__}, not nlid.Estimate")
+    keys = list(estimate.coefficients)
+    missing = [n for n in model.names if n not in estimate.coefficients]
+    extra = [n for n in keys if n not in model.names]
     if missing or extra:
         raise PluginError(
-            f"identifier {name!r} returned coefficients for {sorted(result.coefficients)} "
-            f"but the model is {list(model.names)}"
+            f"identifier {name!r} returned coefficients for {sorted(keys)} but the model is {list(model.names)}"
         )
-    bad = [n for n, x in result.coefficients.items() if not np.isfinite(x)]
+    bad = [n for n in model.names if not np.isfinite(float(estimate.coefficients[n]))]
     if bad:
         raise IdentificationError(f"identifier {name!r} produced non-finite coefficients for {', '.join(bad)}")
-    result.coefficients = {n: float(result.coefficients[n]) for n in model.names}
-    result.seconds = elapsed
-    return result
+    if mass is None and estimate.mass is not None and not (np.isfinite(estimate.mass) and estimate.mass > 0):
+        raise IdentificationError(f"identifier {name!r} estimated a mass that is not positive ({estimate.mass})")
 
 
 def _px_fixed_point(
@@ -83,101 +103,49 @@ def _px_fixed_point(
     mass: float | None,
     tol: float,
     max_iter: int,
-) -> tuple[IdentificationResult, Model]:
+) -> tuple[Estimate, Model, float, dict[str, Any]]:
     z_range = (float(record.z.min()), float(record.z.max()))
     base = model.with_terms(remove=[t for t in model.terms if t.uses_px])
-    total = 0.0
-    first = _run(identifier, record, base, mass)
-    total += first.seconds or 0.0
+    first, total = _run(identifier, record, base, mass)
     try:
-        roots = physics.stiffness_roots(base, first.coefficients, z_range)
+        roots = physics.stiffness_roots(base, dict(first.coefficients), z_range)
     except InputError as exc:
         raise IdentificationError(f"px(z) iteration could not start: {exc}") from None
     history: list[dict[str, float]] = [{"z_minus": roots[0], "z_plus": roots[1], "change": float("nan")}]
     changes: list[float] = []
     for iteration in range(1, max_iter + 1):
         current = model.with_px_roots(roots)
-        result = _run(identifier, record, current, mass)
-        total += result.seconds or 0.0
+        estimate, seconds = _run(identifier, record, current, mass)
+        total += seconds
         try:
-            new = physics.stiffness_roots(current, result.coefficients, z_range)
+            new = physics.stiffness_roots(current, dict(estimate.coefficients), z_range)
         except InputError as exc:
             raise IdentificationError(f"px(z) iteration {iteration}: {exc}") from None
         change = max(abs(new[0] - roots[0]), abs(new[1] - roots[1])) / max(abs(roots[0]), abs(roots[1]))
         changes.append(change)
         history.append({"z_minus": new[0], "z_plus": new[1], "change": change})
         if change < tol:
-            result.diagnostics["px_iteration"] = {
-                "converged": True,
-                "iterations": iteration,
-                "tolerance": tol,
-                "history": history,
-            }
-            result.seconds = total
-            return result, model.with_px_roots(new)
+            info = {"converged": True, "iterations": iteration, "tolerance": tol, "history": history}
+            return estimate, model.with_px_roots(new), total, {"px_iteration": info}
         if len(history) >= 3:
             two_back = history[-3]
             back = max(abs(new[0] - two_back["z_minus"]), abs(new[1] - two_back["z_plus"]))
             if back / max(abs(new[0]), abs(new[1])) < tol and change > 10 * tol:
                 raise IdentificationError(
                     f"px(z) iteration is oscillating between roots {tuple(round(x, 6) for x in roots)} and "
-                    f"{tuple(round(x, 6) for x in new)}; give the roots explicitly (px_roots)"
+                    f"{tuple(round(x, 6) for x in new)}; give the roots explicitly (px_roots=)"
                 )
         if len(changes) >= 4 and changes[-1] >= changes[-4]:
             raise IdentificationError(
                 "px(z) iteration is not contracting (diverging): the roots changed by "
                 f"{', '.join(f'{c:.2e}' for c in changes[-4:])} in the last iterations; "
-                "give the roots explicitly (px_roots) or check the stiffness terms"
+                "give the roots explicitly (px_roots=) or check the stiffness terms"
             )
         roots = new
     raise IdentificationError(
         f"px(z) iteration did not converge in {max_iter} iterations (last relative change {changes[-1]:.2e}, "
-        f"tolerance {tol:g}); raise px_max_iter or give the roots explicitly"
+        f"tolerance {tol:g}); raise px_max_iter= or give the roots explicitly (px_roots=)"
     )
-
-
-def complete_result(
-    result: IdentificationResult,
-    record: Record,
-    model: Model,
-    mass: float | None,
-    *,
-    cutoff: float | None = None,
-) -> IdentificationResult:
-    """Fill the fields the core computes for every method (in place).
-
-    Equilibria and modal parameters come from :mod:`nlid.physics` (modal only
-    if the identifier did not provide its own), epsilon (Eq. 26) is always
-    recomputed from the data.
-    """
-    result.terms = list(model.names)
-    result.px_roots = None if model.px_roots is None else list(model.px_roots)
-    if mass is not None:
-        result.mass, result.mass_estimated = float(mass), False
-    elif result.mass is not None:
-        result.mass_estimated = True
-    z_range = (float(record.z.min()), float(record.z.max()))
-    try:
-        eq = physics.equilibria(model, result.coefficients, z_range)
-        result.equilibria = eq.to_dict()
-    except NlidError as exc:
-        result.equilibria = None
-        result.warnings.append(f"equilibria not computed: {exc}")
-    if result.modal is None:
-        modal = physics.modal(model, result.coefficients, result.mass, z_range=z_range) if result.equilibria else []
-        result.modal = [m.to_dict() for m in modal]
-    if result.mass is not None:
-        data = physics.regression_data(record, model, cutoff=cutoff)
-        result.eps_percent = physics.residual_percent(record, model, result.coefficients, result.mass, data=data)
-        result.force_residual_percent = physics.force_residual_percent(
-            data, model.vector(result.coefficients), result.mass
-        )
-        result.diagnostics.setdefault("eps_band_hz", data.filtered_at)
-    else:
-        result.eps_percent = None
-        result.force_residual_percent = None
-        result.warnings.append("epsilon not computed: the mass is unknown")
-    return result
 
 
 def identify(
@@ -193,7 +161,7 @@ def identify(
     px_max_iter: int = 30,
     cutoff: float | None = None,
     registry: Registry | None = None,
-) -> IdentificationResult:
+) -> IdentifiedModel:
     """Identify the coefficients of a model from a record.
 
     Parameters
@@ -223,8 +191,9 @@ def identify(
 
     Returns
     -------
-    IdentificationResult
-        Completed by :func:`complete_result`.
+    IdentifiedModel
+        The model with its coefficients, mass, equilibria, modal parameters
+        and scores on ``record``.
 
     Raises
     ------
@@ -247,9 +216,20 @@ def identify(
         if not (np.isfinite(mass) and mass > 0):
             raise InputError(f"mass must be a positive number of kg, got {mass}")
     elif getattr(identifier, "needs_mass", False):
-        raise InputError(f"method {identifier.name!r} cannot estimate the mass: give it (--mass, in kg)")
+        raise InputError(f"method {_name(identifier)!r} cannot estimate the mass: give mass= (in kg)")
+    extra: dict[str, Any] = {}
     if model.uses_px and model.px_roots is None:
-        result, model = _px_fixed_point(identifier, record, model, mass, px_tol, px_max_iter)
+        estimate, model, seconds, extra = _px_fixed_point(identifier, record, model, mass, px_tol, px_max_iter)
     else:
-        result = _run(identifier, record, model, mass)
-    return complete_result(result, record, model, mass, cutoff=cutoff)
+        estimate, seconds = _run(identifier, record, model, mass)
+    return IdentifiedModel.from_estimate(
+        estimate,
+        model=model,
+        record=record,
+        method=_name(identifier),
+        mass=mass,
+        options=dict(getattr(identifier, "settings", None) or {}),
+        seconds=seconds,
+        cutoff=cutoff,
+        diagnostics=extra,
+    )

@@ -14,7 +14,7 @@ Standard errors (:func:`least_squares`)
     * ``covariance_iid = s^2 (X^T X)^-1`` with ``s^2`` the residual variance.
       It holds when the equation errors are independent, identically
       distributed and uncorrelated with exact regressors. A force balance
-      formed in a filter band (:func:`nlid.physics.regression_data`) has a
+      formed in a filter band (:func:`nlid.balance.regression_data`) has a
       coloured residual (correlated over about ``fs / fc`` samples), so this
       estimate is then too small by roughly ``sqrt(fs / (2 fc))``.
     * ``covariance`` (the one identifiers report): the sandwich

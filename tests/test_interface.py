@@ -1,9 +1,10 @@
+import dataclasses
 import json
 
 import pytest
 
-from nlid import IdentificationResult, Option, OptionError
-from nlid.interface import resolve_options
+from nlid import Estimate, Option, OptionError
+from nlid.interface import resolve_options, to_jsonable
 
 
 def test_option_parsing():
@@ -39,8 +40,8 @@ def test_resolve_fills_defaults_and_rejects_unknown():
         resolve_options(declared, {"alpah": 1})
 
 
-def test_result_json_round_trip():
-    res = IdentificationResult(method="m", coefficients={"z": -1.0}, diagnostics={"x": float("nan"), "y": (1, 2)})
-    data = json.loads(json.dumps(res.to_dict(), allow_nan=False))
-    assert data["diagnostics"] == {"x": None, "y": [1, 2]}
-    assert IdentificationResult.from_dict(data).coefficients == {"z": -1.0}
+def test_estimate_is_frozen_plain_data():
+    est = Estimate(coefficients={"z": -1.0}, diagnostics={"x": float("nan"), "y": (1, 2)})
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        est.mass = 1.0  # type: ignore[misc]
+    assert json.loads(json.dumps(to_jsonable(dict(est.diagnostics)), allow_nan=False)) == {"x": None, "y": [1, 2]}

@@ -127,10 +127,10 @@ def test_a_given_mass_does_not_degrade_stiffness_or_modal_estimates():
     for name in ("z", "z^3"):
         assert known.coefficients[name] == pytest.approx(truth[name], rel=0.01)
     true_modal = physics.modal(preset.model(), truth, preset.mass, physics.equilibria(preset.model(), truth).stable)
-    found = sorted(known.modal, key=lambda m: m["equilibrium"])
+    found = sorted(known.modal, key=lambda m: m.equilibrium)
     for got, want in zip(found, true_modal, strict=True):
-        assert got["fn_hz"] == pytest.approx(want.fn_hz, rel=0.01)
-        assert got["equilibrium"] == pytest.approx(want.equilibrium, rel=0.01)
+        assert got.fn_hz == pytest.approx(want.fn_hz, rel=0.01)
+        assert got.equilibrium == pytest.approx(want.equilibrium, rel=0.01)
 
 
 @pytest.mark.slow
@@ -154,8 +154,8 @@ def test_nsi_ip_meets_issue_8_targets_on_the_built_in_study_records():
         res = identify(rec, FULL, "nsi-ip", mass=preset.mass)
         for name, tol in (("z^3", 0.01), ("z^2", 0.01), ("z", 0.01), ("sign(v)*|px(z)|", 0.10)):
             assert res.coefficients[name] == pytest.approx(truth[name], rel=tol), (run.run_id, name)
-        found = sorted(res.modal, key=lambda m: m["equilibrium"])
+        found = sorted(res.modal, key=lambda m: m.equilibrium)
         assert len(found) == 2, run.run_id
         for got, want in zip(found, true_modal, strict=True):
-            assert got["fn_hz"] == pytest.approx(want.fn_hz, rel=0.01), run.run_id
-            assert got["equilibrium"] == pytest.approx(want.equilibrium, rel=0.01), run.run_id
+            assert got.fn_hz == pytest.approx(want.fn_hz, rel=0.01), run.run_id
+            assert got.equilibrium == pytest.approx(want.equilibrium, rel=0.01), run.run_id

@@ -1,7 +1,7 @@
 import numpy as np
 import pytest
 
-from nlid import IdentificationError, IdentificationResult, Identifier, identify
+from nlid import Estimate, IdentificationError, Identifier, PluginError, identify
 from nlid.presets import get_preset
 
 
@@ -37,7 +37,7 @@ class _Scripted(Identifier):
         k3 = 1e6
         coeffs = dict.fromkeys(model.names, 0.0)
         coeffs.update({"z^3": k3, "z^2": -k3 * (zm + zp), "z": k3 * zm * zp})
-        return IdentificationResult(method=self.name, coefficients=coeffs)
+        return Estimate(coefficients=coeffs)
 
 
 def test_px_iteration_stops_when_diverging(experimental):
@@ -57,11 +57,29 @@ def test_px_iteration_stops_when_oscillating(experimental):
 def test_core_recomputes_epsilon_and_fills_physics(short_record):
     class Liar(_Scripted):
         def identify(self, record, model, *, mass=None):
-            res = IdentificationResult(method=self.name, coefficients=record.meta["truth"]["coefficients"].copy())
-            res.eps_percent = 123.0  # a plugin's epsilon is never trusted
-            return res
+            coeffs = {n: record.meta["truth"]["coefficients"][n] for n in model.names}
+            return Estimate(coefficients=coeffs, diagnostics={"eps_percent": 123.0})  # never trusted
 
     res = identify(short_record, "z^3, z^2, v*|v|", Liar([]), mass=0.2)
-    assert res.eps_percent < 1e-6
-    assert len(res.equilibria["stable"]) == 2 and len(res.modal) == 2
+    assert res.eps_percent < 1e-6 and res.scores.eps_percent == res.eps_percent
+    assert res.diagnostics["eps_percent"] == 123.0  # kept as the plugin's diagnostic, not used
+    assert len(res.equilibria.stable) == 2 and len(res.modal) == 2
+    assert res.method == "scripted" and res.options == {}
     assert np.isfinite(res.seconds)
+
+
+def test_core_refuses_a_wrong_estimate(short_record):
+    class Wrong(_Scripted):
+        def __init__(self, answer):
+            super().__init__([])
+            self.answer = answer
+
+        def identify(self, record, model, *, mass=None):
+            return self.answer(model)
+
+    with pytest.raises(PluginError, match="not nlid.Estimate"):
+        identify(short_record, "z^3", Wrong(lambda m: dict.fromkeys(m.names, 1.0)), mass=0.2)
+    with pytest.raises(PluginError, match="but the model is"):
+        identify(short_record, "z^3", Wrong(lambda m: Estimate({"z^3": 1.0})), mass=0.2)
+    with pytest.raises(IdentificationError, match="non-finite"):
+        identify(short_record, "z^3", Wrong(lambda m: Estimate(dict.fromkeys(m.names, float("nan")))), mass=0.2)

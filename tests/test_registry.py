@@ -15,7 +15,7 @@ from nlid.registry import load_registry
 
 GOOD = """
 import numpy as np
-from nlid import hookimpl, Identifier, IdentificationResult, Option
+from nlid.plugin import Estimate, Identifier, Option, hookimpl
 
 
 class Echo(Identifier):
@@ -27,7 +27,7 @@ class Echo(Identifier):
     def identify(self, record, model, *, mass=None):
         truth = record.meta["truth"]["coefficients"]
         coeffs = {{n: self.settings["scale"] * truth[n] for n in model.names}}
-        return IdentificationResult(method=self.name, coefficients=coeffs)
+        return Estimate(coefficients=coeffs)
 
 
 @hookimpl

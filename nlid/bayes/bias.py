@@ -13,7 +13,7 @@ The correction is indirect inference (Gourieroux, Monfort & Renault 1993)
 with a binding function that is linear at each step: the identified model is
 simulated with the recorded force, noise of the level measured on the record
 is added to the channels the regressors are built from, and the same force
-balance (:func:`nlid.physics.regression_data`, same band) is formed. On a
+balance (:func:`nlid.balance.regression_data`, same band) is formed. On a
 simulated record the exact regressors ``G_ex`` (from the simulated ``z`` and
 ``v``, through the same low-pass) are known, and ``y = G_ex theta`` holds
 exactly when the acceleration is measured. Least squares on the noisy
@@ -51,7 +51,7 @@ import numpy as np
 
 from .. import derivatives
 from ..errors import IdentificationError, InputError
-from ..physics import RegressionData, regression_data
+from ..balance import RegressionData, regression_data
 from ..record import Record
 from ..simulation import SimulationError, simulate
 from ..terms import Model

@@ -9,8 +9,8 @@ from typing import Any
 import numpy as np
 
 from ..errors import InputError
-from ..interface import IdentificationResult
-from ..physics import regression_data
+from ..balance import regression_data
+from ..identified import IdentifiedModel
 from ..record import Record
 from ..terms import Model, parse_term
 from .likelihood import build_likelihood, check_identifiable
@@ -18,7 +18,7 @@ from .priors import Prior, PriorError, default_priors, joint_logpdf, parse_prior
 from .result import Posterior
 from .sampler import MOVES, run_until_converged
 
-__all__ = ["PosteriorSampler", "sample_posterior", "select_params", "model_of"]
+__all__ = ["PosteriorSampler", "sample_posterior", "select_params"]
 
 #: Treatments of the coefficients that are not sampled.
 OTHERS = ("fixed", "marginal")
@@ -50,19 +50,6 @@ def _check_start(name: str, prior: Prior, value: float) -> None:
             f"the prior of {name} ({prior.describe()}) excludes the identifier's estimate {value:.6g} "
             f"{parse_term(name).coefficient_unit}: widen the prior (--prior '{name}=...') or check its units"
         )
-
-
-def model_of(result: IdentificationResult, model: Model | None = None) -> Model:
-    """The model of a result (rebuilt from its terms and ``px`` roots unless given)."""
-    if model is None:
-        if not result.terms:
-            raise InputError("the identification result lists no terms: pass the model")
-        return Model.from_spec(result.terms, defaults=False, px_roots=result.px_roots)
-    if result.terms and tuple(result.terms) != tuple(model.names):
-        raise InputError(f"the result's terms {result.terms} are not the model's {list(model.names)}")
-    if model.uses_px and model.px_roots is None and result.px_roots:
-        model = model.with_px_roots(result.px_roots)
-    return model
 
 
 def select_params(model: Model, params: str | Iterable[str]) -> list[int]:
@@ -163,18 +150,17 @@ class PosteriorSampler:
         self.cutoff = cutoff
         self.others = others
 
-    def run(self, record: Record, result: IdentificationResult, model: Model | None = None) -> Posterior:
+    def run(self, record: Record, fit: IdentifiedModel) -> Posterior:
         """Sample the posterior of the chosen coefficients.
 
         Parameters
         ----------
         record
             The data the identification used.
-        result
-            The identification (:func:`nlid.identify`): starting point, mass,
-            and the values of the coefficients that are not sampled.
-        model
-            The model (default: rebuilt from the result).
+        fit
+            The identified model (:func:`nlid.identify`): the model, the
+            starting point, the mass, and the values of the coefficients
+            that are not sampled.
 
         Raises
         ------
@@ -185,12 +171,14 @@ class PosteriorSampler:
             The chains did not converge within ``max_steps``.
         """
         start_time = time.perf_counter()
-        model = model_of(result, model)
-        if result.mass is None:
-            raise InputError("the posterior needs the mass: give it (--mass, in kg) or use a method that estimates it")
+        if not isinstance(fit, IdentifiedModel):
+            raise InputError(f"fit must be the IdentifiedModel nlid.identify returns, got {type(fit).__name__}")
+        model = fit.model
+        if fit.mass is None:
+            raise InputError("the posterior needs the mass: give mass= (in kg) or use a method that estimates it")
         idx = select_params(model, self.params)
         names = tuple(model.names[i] for i in idx)
-        theta0 = model.vector(result.coefficients)
+        theta0 = fit.theta.copy()
         user_priors = parse_prior_assignments(self.priors)
         not_sampled = [n for n in user_priors if n not in names]
         if not_sampled:
@@ -208,7 +196,7 @@ class PosteriorSampler:
         lik = build_likelihood(
             record,
             model,
-            float(result.mass),
+            float(fit.mass),
             bias_correction=self.bias_correction,
             pairs=self.bias_pairs,
             iterations=self.bias_iterations,
@@ -262,8 +250,8 @@ class PosteriorSampler:
             start=model.as_dict(theta0),
             priors={n: priors[n].describe() for n in names},
             likelihood=lik,
-            mass=float(result.mass),
-            method=result.method,
+            mass=float(fit.mass),
+            method=fit.method,
             seconds=time.perf_counter() - start_time,
             others=self.others,
             gaussian=(mean, cov),
@@ -271,8 +259,6 @@ class PosteriorSampler:
         )
 
 
-def sample_posterior(
-    record: Record, result: IdentificationResult, model: Model | None = None, **settings: Any
-) -> Posterior:
-    """``PosteriorSampler(**settings).run(record, result, model)``."""
-    return PosteriorSampler(**settings).run(record, result, model)
+def sample_posterior(record: Record, fit: IdentifiedModel, **settings: Any) -> Posterior:
+    """``PosteriorSampler(**settings).run(record, fit)``."""
+    return PosteriorSampler(**settings).run(record, fit)

@@ -1,7 +1,7 @@
 """The likelihood of the coefficients: the restoring-force equation error, made honest.
 
 The data enter through the force balance of Eq. 25 as
-:func:`nlid.physics.regression_data` forms it (filtered in the equation band
+:func:`nlid.balance.regression_data` forms it (filtered in the equation band
 ``fc`` when a channel is estimated, edges trimmed)::
 
     y_k = f_k - m a_k = sum_i theta_i g_i(z_k, v_k) + e_k,   k = 1..N.
@@ -66,7 +66,7 @@ import emcee
 import numpy as np
 
 from ..errors import DataError, InputError
-from ..physics import RegressionData, regression_data
+from ..balance import RegressionData, regression_data
 from ..record import Record
 from ..terms import Model
 from .bias import indirect_inference

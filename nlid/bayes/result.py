@@ -13,7 +13,8 @@ import numpy as np
 from .. import physics
 from ..errors import InputError
 from ..interface import to_jsonable
-from ..physics import RegressionData
+from ..balance import RegressionData
+from ..scoring import damping_slice
 from ..terms import Model, parse_term
 from .likelihood import Likelihood
 from .sampler import Chains
@@ -38,7 +39,7 @@ class DampingBand:
         Quantiles of ``D(z0, v)`` over the posterior draws (N).
     v, measured
         The data in the slice: velocities and measured damping force
-        ``R_e - K(z)`` (N), from :func:`nlid.physics.damping_slice`.
+        ``R_e - K(z)`` (N), from :func:`nlid.scoring.damping_slice`.
     """
 
     z0: float
@@ -301,7 +302,7 @@ class Posterior:
         centre = theta.mean(axis=0)
         out = []
         for z0 in positions:
-            sl = physics.damping_slice(self.data, self.model, centre, self.mass, float(z0), half_width, grid)
+            sl = damping_slice(self.data, self.model, centre, self.mass, float(z0), half_width, grid)
             # D is linear in the coefficients: one regressor matrix serves every draw
             G = self.model.evaluate(np.full(grid, float(z0)), sl.v_grid)
             damp = [i for i, t in enumerate(self.model.terms) if t.family == "damping"]

@@ -13,9 +13,8 @@ from collections.abc import Mapping
 from typing import Any
 
 from ..errors import InputError
-from ..interface import IdentificationResult
+from ..identified import IdentifiedModel
 from ..record import Record
-from ..terms import Model
 from .inference import PosteriorSampler
 
 __all__ = ["study_metrics"]
@@ -32,8 +31,7 @@ def _truth_coefficients(truth: Mapping[str, Any] | None) -> dict[str, float] | N
 
 def study_metrics(
     record: Record,
-    model: Model,
-    result: IdentificationResult,
+    fit: IdentifiedModel,
     truth: Mapping[str, Any] | None,
     **options: Any,
 ) -> dict[str, float | bool]:
@@ -41,8 +39,8 @@ def study_metrics(
 
     Parameters
     ----------
-    record, model, result
-        The data, the model and the identification of the run.
+    record, fit
+        The data and the identified model of the run.
     truth
         True coefficients (``{term: value}``, or a preset's ``truth()`` with
         a ``"coefficients"`` entry), or ``None`` when unknown.
@@ -63,7 +61,8 @@ def study_metrics(
     level = float(options.pop("level", 0.9))
     if not 0 < level < 1:
         raise InputError(f"posterior level must lie between 0 and 1, got {level}")
-    posterior = PosteriorSampler(**options).run(record, result, model)
+    posterior = PosteriorSampler(**options).run(record, fit)
+    model = fit.model
     coeffs = _truth_coefficients(truth)
     if coeffs is not None:
         coeffs = {model.terms[model.index(k)].name: v for k, v in coeffs.items() if k in model}

@@ -4,9 +4,7 @@ from __future__ import annotations
 
 import argparse
 
-from ..interface import IdentificationResult
 from ..pipeline import identify
-from ..terms import parse_term
 from .common import add_data_arguments, add_model_arguments, load_data, parse_px_roots, parse_settings, print_json
 
 
@@ -40,39 +38,5 @@ def run(args: argparse.Namespace) -> int:
     if args.json:
         print_json(result.to_dict())
     else:
-        print(format_result(result))
+        print(result.summary())
     return 0
-
-
-def format_result(result: IdentificationResult) -> str:
-    """A human-readable table of a result."""
-    lines = [f"method: {result.method}"]
-    if result.mass is not None:
-        how = "estimated" if result.mass_estimated else "given"
-        lines.append(f"mass: {result.mass:.6g} kg ({how})")
-    lines.append("")
-    se = result.standard_errors or {}
-    width = max(len(t) for t in result.coefficients)
-    lines.append(f"{'term':<{width}}  {'coefficient':>14}  {'std. error':>11}  unit")
-    for name, value in result.coefficients.items():
-        err = f"{se[name]:11.3g}" if se.get(name) is not None else " " * 11
-        lines.append(f"{name:<{width}}  {value:14.6g}  {err}  {parse_term(name).coefficient_unit}")
-    if result.px_roots:
-        lines.append(f"px(z) roots: z- = {result.px_roots[0]:.6g} m, z+ = {result.px_roots[1]:.6g} m")
-    if result.equilibria:
-        st = ", ".join(f"{z:.6g}" for z in result.equilibria["stable"]) or "none"
-        un = ", ".join(f"{z:.6g}" for z in result.equilibria["unstable"]) or "none"
-        lines.append("")
-        lines.append(f"equilibria (m): stable {st}; unstable {un}")
-    for m in result.modal or []:
-        lines.append(f"  at z* = {m['equilibrium']:.6g} m: fn = {m['fn_hz']:.4g} Hz, zeta = {100 * m['zeta']:.3g} %")
-    lines.append("")
-    if result.eps_percent is not None:
-        lines.append(
-            f"epsilon (Eq. 26): {result.eps_percent:.3g} %   force residual: {result.force_residual_percent:.3g} %"
-        )
-    if result.seconds is not None:
-        lines.append(f"time: {result.seconds:.3g} s")
-    for w in result.warnings:
-        lines.append(f"warning: {w}")
-    return "\n".join(lines)

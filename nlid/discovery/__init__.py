@@ -10,7 +10,7 @@ residual figures (:mod:`nlid.discovery.plots`). The command line is
 
 from .evidence import AcceptanceRule, Evidence, Scores
 from .library import LIBRARY, Candidate, Shape, library_names, resolve_candidates
-from .loop import DiscoveryResult, Fit, ResidualView, Step, choose_method, discover
+from .loop import DiscoveryResult, Stage, ResidualView, Step, choose_method, discover
 from .report import summary_table, write_report
 
 __all__ = [
@@ -19,7 +19,7 @@ __all__ = [
     "summary_table",
     "choose_method",
     "DiscoveryResult",
-    "Fit",
+    "Stage",
     "Step",
     "ResidualView",
     "AcceptanceRule",

@@ -6,7 +6,7 @@
 2. Compute the residual ``r = R_e - R_hat(z, v)`` of the restoring-force
    surface (``R_e = f - m a``, Eq. 25) and epsilon (Eq. 26) on the estimation
    and on the held-out record, with the same equation band
-   (:func:`nlid.physics.regression_data`); keep the residual against ``z``,
+   (:func:`nlid.balance.regression_data`); keep the residual against ``z``,
    ``v`` and time for the report (:mod:`nlid.discovery.plots`).
 3. Add each candidate of the library to the current model, identify it with
    the same identifier, and score it on the held-out record
@@ -22,13 +22,15 @@
    ``px``), and recompute the residuals.
 5. Repeat until no candidate is accepted or ``max_steps`` effects were added.
 
-The free-run simulation error on the held-out record
-(:func:`nlid.simulation.free_run` driven by the measured force) is reported for
-the declared model and after each step.
+The free-run simulation error on the held-out record is reported for the
+declared model and after each step: it is :func:`nlid.scoring.free_run_error`
+(with its chaos check), the same number ``nlid study`` reports for the same
+model and record.
 """
 
 from __future__ import annotations
 
+import dataclasses
 import time
 from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass, field
@@ -39,11 +41,12 @@ from scipy import optimize
 
 from .. import derivatives, physics
 from ..errors import DataError, IdentificationError, InputError, NlidError
-from ..interface import IdentificationResult, to_jsonable
+from ..identified import IdentifiedModel
+from ..interface import to_jsonable
 from ..pipeline import identify
 from ..record import Record
 from ..registry import Registry, default_registry
-from ..simulation import SimulationError, free_run
+from ..scoring import Scores as ScoreSet
 from ..terms import Model
 from .evidence import AcceptanceRule, Evidence, Scores, effective_sample_size, judge, rank
 from .library import Candidate, resolve_candidates
@@ -52,7 +55,7 @@ __all__ = [
     "PREFERRED_METHODS",
     "DEFAULT_HOLDOUT",
     "DEFAULT_MAX_STEPS",
-    "Fit",
+    "Stage",
     "ResidualView",
     "Step",
     "DiscoveryResult",
@@ -106,38 +109,59 @@ def choose_method(mass: float | None, registry: Registry | None = None) -> tuple
 
 
 @dataclass
-class Fit:
-    """A model identified on the estimation record and scored on both records.
+class Stage:
+    """One model of the loop: identified on the estimation record, scored on both records.
 
     Attributes
     ----------
-    model
-        The model (with the ``px(z)`` roots used, if any).
-    result
-        The identifier's completed result.
-    scores
-        Epsilon and force residual on the estimation and held-out records.
-    sim_rms_holdout
-        RMS free-run simulation error on the held-out record (units of z),
-        filled for the models the loop keeps; ``None`` if not computed or the
-        simulation diverged (then ``sim_note`` says why).
+    identified
+        The :class:`~nlid.identified.IdentifiedModel` (its ``scores`` are
+        those on the estimation record).
+    holdout
+        Its scores on the held-out record (:meth:`nlid.IdentifiedModel.score`,
+        with the free-run error for the models the loop keeps).
     """
 
-    model: Model
-    result: IdentificationResult
-    scores: Scores
-    sim_rms_holdout: float | None = None
-    sim_note: str = ""
+    identified: IdentifiedModel
+    holdout: ScoreSet
+
+    @property
+    def model(self) -> Model:
+        """The model (with the ``px(z)`` roots used, if any)."""
+        return self.identified.model
 
     @property
     def mass(self) -> float:
         """Mass used or estimated (kg)."""
-        return float(self.result.mass)  # type: ignore[arg-type]
+        return float(self.identified.mass)  # type: ignore[arg-type]
 
     @property
     def coefficients(self) -> dict[str, float]:
         """Identified coefficients by canonical term."""
-        return dict(self.result.coefficients)
+        return dict(self.identified.coefficients)
+
+    @property
+    def scores(self) -> Scores:
+        """Epsilon and force residual on the estimation and held-out records (percent)."""
+        est = self.identified.scores
+        assert est is not None  # the loop always has a mass
+        return Scores(
+            eps=est.eps_percent,
+            force_residual=est.force_residual_percent,
+            eps_holdout=self.holdout.eps_percent,
+            force_residual_holdout=self.holdout.force_residual_percent,
+        )
+
+    @property
+    def sim_rms_holdout(self) -> float | None:
+        """RMS free-run error on the held-out record (unit of z); ``None`` when not computed (see :attr:`sim_note`)."""
+        return self.holdout.freerun_rmse if np.isfinite(self.holdout.freerun_rmse) else None
+
+    @property
+    def sim_note(self) -> str:
+        """Why the free-run error is missing (empty when it was computed or not asked for)."""
+        note = self.holdout.freerun_note
+        return "" if note == "not computed" else note
 
 
 @dataclass
@@ -179,8 +203,8 @@ class Step:
 
     effect: str
     terms: list[str]
-    before: Fit
-    after: Fit
+    before: Stage
+    after: Stage
     evidence: Evidence
     ranking: list[Evidence]
     notes: list[str] = field(default_factory=list)
@@ -242,7 +266,7 @@ class DiscoveryResult:
     method: str
     method_notes: list[str]
     declared: list[str]
-    states: list[Fit]
+    states: list[Stage]
     steps: list[Step]
     final_ranking: list[Evidence]
     stop_reason: str
@@ -251,19 +275,24 @@ class DiscoveryResult:
     info: dict[str, Any] = field(default_factory=dict)
 
     @property
-    def initial(self) -> Fit:
-        """The declared model's fit."""
+    def initial(self) -> Stage:
+        """The declared model's stage."""
         return self.states[0]
 
     @property
-    def final(self) -> Fit:
-        """The final model's fit."""
+    def final(self) -> Stage:
+        """The final model's stage."""
         return self.states[-1]
+
+    @property
+    def final_model(self) -> IdentifiedModel:
+        """The final identified model."""
+        return self.states[-1].identified
 
     def to_dict(self) -> dict[str, Any]:
         """The JSON object of ``nlid discover --json``."""
         first, last = self.initial, self.final
-        se = last.result.standard_errors or {}
+        se = last.identified.standard_errors or {}
         return to_jsonable(
             {
                 "method": self.method,
@@ -284,8 +313,9 @@ class DiscoveryResult:
                 "coefficients": last.coefficients,
                 "standard_errors": {k: se.get(k) for k in last.model.names} if se else None,
                 "mass": last.mass,
-                "mass_estimated": bool(last.result.mass_estimated),
+                "mass_estimated": bool(last.identified.mass_estimated),
                 "px_roots": None if last.model.px_roots is None else list(last.model.px_roots),
+                "final_model": last.identified.to_dict(),
                 "final_check": {
                     "stop_reason": self.stop_reason,
                     "ranking": [e.to_dict() for e in self.final_ranking],
@@ -311,54 +341,29 @@ def _rms(x: np.ndarray) -> float:
     return float(np.sqrt(np.mean(np.square(x))))
 
 
-def _fit(ctx: _Context, model: Model) -> Fit:
-    """Identify ``model`` on the estimation record and score it on both records."""
-    result = identify(ctx.estimation, model, ctx.identifier, mass=ctx.mass, cutoff=ctx.cutoff)
-    used = model if result.px_roots is None else model.with_px_roots(result.px_roots)
-    if result.mass is None or result.eps_percent is None:
-        raise IdentificationError(f"identifier {result.method!r} returned no mass: epsilon cannot be computed")
-    mass = float(result.mass)
-    theta = used.vector(result.coefficients)
-    held = physics.regression_data(ctx.holdout, used, cutoff=ctx.cutoff)
-    scores = Scores(
-        eps=float(result.eps_percent),
-        force_residual=float(result.force_residual_percent),  # type: ignore[arg-type]
-        eps_holdout=physics.epsilon(held.restoring_force(mass), held.G @ theta),
-        force_residual_holdout=physics.force_residual_percent(held, theta, mass),
-    )
-    return Fit(used, result, scores)
+def _fit(ctx: _Context, model: Model) -> Stage:
+    """Identify ``model`` on the estimation record and score it on the held-out record (no free run)."""
+    identified = identify(ctx.estimation, model, ctx.identifier, mass=ctx.mass, cutoff=ctx.cutoff)
+    if identified.mass is None or identified.scores is None:
+        raise IdentificationError(f"identifier {identified.method!r} returned no mass: epsilon cannot be computed")
+    return Stage(identified, identified.score(ctx.holdout, cutoff=ctx.cutoff, free_run=False))
 
 
-def residual_view(record: Record, fit: Fit, cutoff: float | None, label: str) -> ResidualView:
-    """The residual ``r = f - m a - G theta`` of a fit, with ``z`` and ``v``, in the equation band.
+def residual_view(record: Record, stage: Stage, cutoff: float | None, label: str) -> ResidualView:
+    """The residual ``r = f - m a - G theta`` of a model, with ``z`` and ``v``, in the equation band.
 
-    The velocity comes from the same :func:`nlid.physics.regression_data` call
-    (a ``v`` column is added to the regressors when the model has none, so
-    that residuals of every model can be drawn against the velocity on the
-    same samples).
+    The residual is :meth:`nlid.IdentifiedModel.residual` (velocity estimated
+    when the model has none, so that residuals of every model can be drawn
+    against the velocity on the same samples).
     """
-    model = fit.model
-    augmented = model if "v" in model else model.with_terms(add=["v"])
-    data = physics.regression_data(record, augmented, cutoff=cutoff)
-    columns = [augmented.index(n) for n in model.names]
-    theta = model.vector(fit.coefficients)
-    restoring = data.restoring_force(fit.mass)
-    r = restoring - data.G[:, columns] @ theta
-    n_eff, tau = effective_sample_size(r)
-    return ResidualView(label, data.z, data.v, r, restoring, record.fs, tau, n_eff, data.filtered_at)  # type: ignore[arg-type]
+    res = stage.identified.residual(record, cutoff=cutoff)
+    n_eff, tau = effective_sample_size(res.r)
+    return ResidualView(label, res.z, res.v, res.r, res.restoring, record.fs, tau, n_eff, res.band_hz)
 
 
-def _simulate(ctx: _Context, fit: Fit) -> None:
-    """Fill ``fit.sim_rms_holdout`` with the free-run error on the held-out record."""
-    held = ctx.holdout
-    v0 = derivatives.differentiate(held.z, held.fs, order=1, cutoff=ctx.cutoff if ctx.cutoff < held.fs / 2 else None)
-    x0 = (float(held.z[0]), float(v0[0][0]))
-    try:
-        z, _, _ = free_run(fit.model, fit.coefficients, fit.mass, held.f, held.fs, force_hold=held.force_hold, x0=x0)
-    except SimulationError as exc:
-        fit.sim_rms_holdout, fit.sim_note = None, str(exc)
-        return
-    fit.sim_rms_holdout = _rms(z - held.z)
+def _with_free_run(ctx: _Context, stage: Stage) -> Stage:
+    """The stage with its held-out scores recomputed with the free-run error (:func:`nlid.scoring.score`)."""
+    return Stage(stage.identified, stage.identified.score(ctx.holdout, cutoff=ctx.cutoff, free_run=True))
 
 
 def _split(record: Record, holdout: float | Record) -> tuple[Record, Record, str]:
@@ -379,8 +384,8 @@ SHAPE_REFINE_FITS = 4
 
 
 def _test_candidate(
-    ctx: _Context, current: Fit, cand: Candidate, rms: dict[str, float], z_range: tuple[float, float]
-) -> tuple[Evidence, Fit | None, str]:
+    ctx: _Context, current: Stage, cand: Candidate, rms: dict[str, float], z_range: tuple[float, float]
+) -> tuple[Evidence, Stage | None, str]:
     """Fit a candidate on top of the current model.
 
     Returns the evidence (terms, shape, coefficients; figures are filled by
@@ -403,10 +408,10 @@ def _test_candidate(
     if not variants:
         evidence.status, evidence.reason = "not applicable", "its terms are already in the model"
         return evidence, None, ""
-    tried: dict[float | None, tuple[Fit, Any, str]] = {}
+    tried: dict[float | None, tuple[Stage, Any, str]] = {}
     errors: list[str] = []
 
-    def attempt(variant) -> tuple[Fit, Any, str] | None:
+    def attempt(variant) -> tuple[Stage, Any, str] | None:
         if variant.shape in tried:
             return tried[variant.shape]
         model = current.model.with_terms(add=variant.terms)
@@ -420,7 +425,7 @@ def _test_candidate(
         tried[variant.shape] = (fit, variant, variant.inadmissible(fit.coefficients))
         return tried[variant.shape]
 
-    def best() -> tuple[Fit, Any, str] | None:
+    def best() -> tuple[Stage, Any, str] | None:
         done = list(tried.values())
         if not done:
             return None
@@ -572,7 +577,7 @@ def discover(
             f"testing {len(pool)} candidates"
         )
         tested: list[Evidence] = []
-        fits: dict[str, Fit] = {}
+        fits: dict[str, Stage] = {}
         for cand in pool:
             if cand.name in added:
                 tested.append(Evidence(cand.name, status="not applicable", reason="already added by this run"))
@@ -611,8 +616,10 @@ def discover(
         all_views.append(view)
     if simulate:
         say("free-run simulation on the held-out record")
-        for fit in states:
-            _simulate(ctx, fit)
+        states = [_with_free_run(ctx, stage) for stage in states]
+        steps = [
+            dataclasses.replace(step, before=states[k], after=states[k + 1]) for k, step in enumerate(steps)
+        ]
     info = {
         "samples_estimation": estimation.n,
         "samples_holdout": held.n,

@@ -32,7 +32,7 @@ import pandas as pd
 from ..plotting import save_figure
 from ..terms import parse_term
 from .evidence import Evidence
-from .loop import DiscoveryResult, Fit
+from .loop import DiscoveryResult, Stage
 
 __all__ = ["summary_table", "write_report", "coefficient_unit"]
 
@@ -72,7 +72,7 @@ def _pct(x: float | None) -> str:
     return "-" if x is None else f"{_num(x)} %"
 
 
-def _sim(fit: Fit, units: dict[str, str]) -> str:
+def _sim(fit: Stage, units: dict[str, str]) -> str:
     if fit.sim_rms_holdout is None:
         return "-"
     zu = units.get("z", "m")
@@ -127,9 +127,9 @@ def _format_table(headers: list[str], rows: list[list[str]]) -> str:
     return "\n".join(lines)
 
 
-def _coefficient_rows(fit: Fit, units: dict[str, str]) -> tuple[list[str], list[list[str]]]:
-    se = fit.result.standard_errors or {}
-    post = fit.result.diagnostics.get("posterior") if isinstance(fit.result.diagnostics, dict) else None
+def _coefficient_rows(fit: Stage, units: dict[str, str]) -> tuple[list[str], list[list[str]]]:
+    se = fit.identified.standard_errors or {}
+    post = fit.identified.diagnostics.get("posterior") if isinstance(fit.identified.diagnostics, dict) else None
     headers = ["term", "coefficient", "std. error", "unit"]
     if isinstance(post, dict) and post:
         headers += ["posterior mean", "posterior sd", "5 %", "95 %"]
@@ -147,7 +147,7 @@ def summary_table(result: DiscoveryResult) -> str:
     """The before/after table ``nlid discover`` prints."""
     units = result.info.get("units", {})
     final = result.final
-    how = "estimated" if final.result.mass_estimated else "given"
+    how = "estimated" if final.identified.mass_estimated else "given"
     lines = [
         f"method: {result.method}   mass: {final.mass:.6g} {_mass_unit(units)} ({how})   "
         f"held-out: {result.info.get('holdout', '')}",
@@ -353,7 +353,7 @@ def write_report(result: DiscoveryResult, out_dir: str | Path) -> list[Path]:
 
     doc.h(2, "Final model")
     final = result.final
-    how = "estimated" if final.result.mass_estimated else "given"
+    how = "estimated" if final.identified.mass_estimated else "given"
     doc.p(
         f"Terms: {', '.join(final.model.names)}; mass {final.mass:.6g} {_mass_unit(units)} ({how})."
         + (
@@ -364,12 +364,12 @@ def write_report(result: DiscoveryResult, out_dir: str | Path) -> list[Path]:
     )
     headers, rows = _coefficient_rows(final, units)
     doc.table(headers, rows)
-    if not (isinstance(final.result.diagnostics, dict) and final.result.diagnostics.get("posterior")):
+    if not (isinstance(final.identified.diagnostics, dict) and final.identified.diagnostics.get("posterior")):
         doc.p(
             "Standard errors are the identifier's (for rfs: least squares, assuming independent equation "
             "errors, hence optimistic on filtered data); no posterior was available."
         )
-    notes = [f.sim_note for f in result.states if f.sim_note] + list(final.result.warnings)
+    notes = [f.sim_note for f in result.states if f.sim_note] + list(final.identified.warnings)
     if notes:
         doc.h(3, "Notes")
         doc.items(list(dict.fromkeys(notes)))
@@ -397,7 +397,7 @@ def write_report(result: DiscoveryResult, out_dir: str | Path) -> list[Path]:
         ]
     ).to_csv(models, index=False)
     coeffs = out / "coefficients.csv"
-    se = final.result.standard_errors or {}
+    se = final.identified.standard_errors or {}
     pd.DataFrame(
         [
             {"term": n, "coefficient": v, "std_error": se.get(n), "unit": coefficient_unit(n, units)}

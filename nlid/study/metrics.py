@@ -7,7 +7,8 @@ Column names (errors are percentages, signed unless noted):
     returned coefficients (:func:`nlid.identify` never trusts the plugin's).
 ``eps_holdout_percent``
     Eq. 26 of the identified model on the held-out data
-    (:func:`nlid.physics.residual_percent`).
+    (:meth:`nlid.IdentifiedModel.score`, the one scoring path of
+    :mod:`nlid.scoring`).
 ``coef:<term>``, ``coef_error_pct:<term>``
     Identified coefficient and ``100 (theta - theta_ref) / |theta_ref|`` for
     every term with a non-zero reference.
@@ -28,16 +29,11 @@ Column names (errors are percentages, signed unless noted):
     Fig. 22) and the method's quality indicator when it reports one (NSI's
     E[Re/Im], paper Table 5); see :func:`surface_metrics`.
 ``freerun_nrmse_pct``, ``freerun_rmse``, ``freerun_note``
-    Free-run simulation of the identified model driven by the held-out force
-    (:func:`nlid.simulation.free_run`: held over each sample when the record
-    says so, ``force_hold = "zoh"``, else band-limited interpolation between
-    samples with 8 RK4 sub-steps per sample):
+    Free-run simulation error of the identified model driven by the held-out
+    force, with the chaos check (:func:`nlid.scoring.free_run_error`: the
+    same number ``nlid discover`` reports for the same model and record):
     ``100 RMS(z_sim - z) / std(z)`` and the RMS error in the record's unit;
-    the note says why it was skipped. It is skipped when the identified model
-    is too sensitive to its initial state for a free run to mean anything:
-    two runs started :data:`SENSITIVITY_DELTA` ``std(z)`` apart differ by more
-    than :data:`SENSITIVITY_LIMIT` (RMS over the second half, relative to
-    ``std(z)``).
+    the note says why it was skipped.
 """
 
 from __future__ import annotations
@@ -47,27 +43,19 @@ from typing import Any
 
 import numpy as np
 
-from .. import derivatives, physics
+from .. import physics
+from ..balance import regression_data
 from ..errors import NlidError
-from ..interface import IdentificationResult
+from ..identified import IdentifiedModel
 from ..record import Record
-from ..simulation import free_run
-from ..terms import Model
+from ..scoring import damping_slice
 
 __all__ = [
     "coefficient_metrics",
     "equilibrium_metrics",
-    "free_run_metrics",
+    "holdout_metrics",
     "surface_metrics",
-    "holdout_eps",
-    "SENSITIVITY_DELTA",
-    "SENSITIVITY_LIMIT",
 ]
-
-#: Initial-state offset of the sensitivity test, as a fraction of std(z).
-SENSITIVITY_DELTA = 1e-6
-#: Largest RMS difference (relative to std(z)) of the two sensitivity runs over the second half.
-SENSITIVITY_LIMIT = 1e-3
 
 NAN = float("nan")
 
@@ -76,7 +64,7 @@ def _pct(value: float, ref: float) -> float:
     return 100.0 * (value - ref) / abs(ref) if ref else NAN
 
 
-def coefficient_metrics(result: IdentificationResult, reference: dict[str, Any]) -> dict[str, float]:
+def coefficient_metrics(result: IdentifiedModel, reference: dict[str, Any]) -> dict[str, float]:
     """``coef:<term>``, ``coef_error_pct:<term>``, ``mass`` and ``mass_error_pct``."""
     row: dict[str, float] = {}
     ref = reference.get("coefficients") or {}
@@ -111,23 +99,23 @@ def match_equilibria(expected: list[float], found: list[float]) -> dict[int, int
     return out
 
 
-def equilibrium_metrics(result: IdentificationResult, reference: dict[str, Any]) -> dict[str, float]:
+def equilibrium_metrics(result: IdentifiedModel, reference: dict[str, Any]) -> dict[str, float]:
     """Equilibrium counts and errors, and the modal parameters at each matched equilibrium."""
-    found = sorted((result.equilibria or {}).get("stable", []))
+    found = sorted(result.equilibria.stable) if result.equilibria is not None else []
     row: dict[str, float] = {"eq_found": float(len(found))}
     expected = reference.get("equilibria")
     if not expected:
-        for k, m in enumerate(result.modal or [], start=1):
-            row[f"fn_hz:s{k}"] = m["fn_hz"]
-            row[f"zeta:s{k}"] = m["zeta"]
+        for k, m in enumerate(result.modal, start=1):
+            row[f"fn_hz:s{k}"] = m.fn_hz
+            row[f"zeta:s{k}"] = m.zeta
         return row
     ref_modal = reference.get("modal") or []
     match = match_equilibria(list(expected), found)
     # modal parameters are matched on their own: a method may linearise at its
     # own reference point (nsi-shift: each well's shifted zero) rather than at
     # the equilibrium of the combined model
-    modal = list(result.modal or [])
-    modal_match = match_equilibria(list(expected), [m["equilibrium"] for m in modal])
+    modal = list(result.modal)
+    modal_match = match_equilibria(list(expected), [m.equilibrium for m in modal])
     row["eq_expected"] = float(len(expected))
     row["eq_missing"] = float(len(expected) - len(match))
     errors = []
@@ -145,64 +133,33 @@ def equilibrium_metrics(result: IdentificationResult, reference: dict[str, Any])
         errors.append(err)
         m = modal[modal_match[i]] if i in modal_match else None
         if m is not None:
-            row[f"fn_hz:{label}"] = m["fn_hz"]
-            row[f"zeta:{label}"] = m["zeta"]
+            row[f"fn_hz:{label}"] = m.fn_hz
+            row[f"zeta:{label}"] = m.zeta
             if i < len(ref_modal):
-                row[f"fn_error_pct:{label}"] = _pct(m["fn_hz"], ref_modal[i]["fn_hz"])
-                row[f"zeta_error_pct:{label}"] = _pct(m["zeta"], ref_modal[i]["zeta"])
+                row[f"fn_error_pct:{label}"] = _pct(m.fn_hz, ref_modal[i]["fn_hz"])
+                row[f"zeta_error_pct:{label}"] = _pct(m.zeta, ref_modal[i]["zeta"])
     row["eq_error_max_pct"] = max(errors) if errors and not any(math.isnan(e) for e in errors) else NAN
     return row
 
 
-def identified_model(model: Model, result: IdentificationResult) -> Model:
-    """The model with the ``px(z)`` roots the identification settled on."""
-    return model.with_px_roots(result.px_roots) if result.px_roots else model
-
-
-def holdout_eps(heldout: Record, model: Model, result: IdentificationResult) -> float:
-    """Eq. 26 of the identified model on held-out data (``NaN`` without a mass)."""
-    if result.mass is None:
-        return NAN
-    return physics.residual_percent(heldout, identified_model(model, result), result.coefficients, result.mass)
-
-
-def free_run_metrics(heldout: Record | None, model: Model, result: IdentificationResult, enabled: bool = True) -> dict:
-    """Free-run simulation error of displacement on held-out data, or why it was skipped."""
-    row: dict[str, Any] = {"freerun_nrmse_pct": NAN, "freerun_rmse": NAN, "freerun_note": ""}
-    if not enabled:
-        row["freerun_note"] = "skipped: disabled in the study"
-        return row
+def holdout_metrics(heldout: Record | None, fit: IdentifiedModel, free_run: bool = True) -> dict[str, Any]:
+    """``eps_holdout_percent`` and the free-run columns, from :meth:`nlid.IdentifiedModel.score`."""
+    row: dict[str, Any] = {
+        "eps_holdout_percent": NAN,
+        "freerun_nrmse_pct": NAN,
+        "freerun_rmse": NAN,
+        "freerun_note": "skipped: disabled in the study" if not free_run else "skipped: no held-out data",
+    }
     if heldout is None:
-        row["freerun_note"] = "skipped: no held-out data"
         return row
-    if result.mass is None:
-        row["freerun_note"] = "skipped: the mass is unknown"
-        return row
-    model = identified_model(model, result)
-    z = heldout.z
-    scale = float(np.std(z))
-    v0 = (
-        float(heldout.v[0]) if heldout.v is not None else float(derivatives.differentiate(z, heldout.fs, order=1)[0][0])
-    )
-    try:
-        args = (model, result.coefficients, result.mass, heldout.f, heldout.fs)
-        z1, _, _ = free_run(*args, force_hold=heldout.force_hold, x0=(float(z[0]), v0))
-        start = (float(z[0]) + SENSITIVITY_DELTA * scale, v0)
-        z2, _, _ = free_run(*args, force_hold=heldout.force_hold, x0=start)
-    except NlidError as exc:
-        row["freerun_note"] = f"free run diverged: {exc}"
-        return row
-    half = z.size // 2
-    spread = float(np.sqrt(np.mean((z1[half:] - z2[half:]) ** 2))) / scale
-    if spread > SENSITIVITY_LIMIT:
-        row["freerun_note"] = (
-            f"skipped: chaotic - two free runs started {SENSITIVITY_DELTA:g} std(z) apart differ by "
-            f"{100 * spread:.3g} % of std(z) over the second half"
+    scores = fit.score(heldout, free_run=free_run)
+    row["eps_holdout_percent"] = scores.eps_percent
+    if free_run:
+        row.update(
+            freerun_nrmse_pct=scores.freerun_nrmse_percent,
+            freerun_rmse=scores.freerun_rmse,
+            freerun_note=scores.freerun_note,
         )
-        return row
-    rmse = float(np.sqrt(np.mean((z1 - z) ** 2)))
-    row["freerun_rmse"] = rmse
-    row["freerun_nrmse_pct"] = 100.0 * rmse / scale
     return row
 
 
@@ -212,8 +169,7 @@ SLICE_POINTS = 3000
 
 def surface_metrics(
     record: Record,
-    model: Model,
-    result: IdentificationResult,
+    result: IdentifiedModel,
     slices: tuple[float, ...] = (),
 ) -> tuple[dict[str, float], dict[str, np.ndarray]]:
     """What the identified restoring surface is made of, and how it meets the data.
@@ -232,20 +188,20 @@ def surface_metrics(
         ``slice<k>:measured``, at most :data:`SLICE_POINTS` of them) and the
         identified ``D(z0, v)`` (``slice<k>:v_grid``, ``slice<k>:model``).
     """
-    model = identified_model(model, result)
+    model = result.model
     row: dict[str, float] = {}
     for term, value in (result.diagnostics.get("quality") or {}).items():
         if value is not None:
             row[f"quality:{term}"] = float(value)
-    data = physics.regression_data(record, model)
-    for term, value in physics.rms_contributions(model, result.coefficients, data.z, data.v).items():
+    data = regression_data(record, model)
+    for term, value in physics.rms_contributions(model, result.theta, data.z, data.v).items():
         row[f"rms:{term}"] = value
     arrays: dict[str, np.ndarray] = {}
     if result.mass is None or data.v is None:
         return row, arrays
     for k, z0 in enumerate(slices):
         try:
-            sl = physics.damping_slice(data, model, result.coefficients, result.mass, z0)
+            sl = damping_slice(data, model, result.theta, result.mass, z0)
         except NlidError:
             continue
         keep = np.linspace(0, sl.v.size - 1, min(SLICE_POINTS, sl.v.size)).astype(int)

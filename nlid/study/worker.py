@@ -81,7 +81,7 @@ def execute_run(spec: dict[str, Any]) -> dict[str, Any]:
     -------
     dict
         ``{"run_id", "row", "result", "reference", "arrays"}``: the flat
-        metrics row, the :class:`~nlid.interface.IdentificationResult` as a
+        metrics row, the :class:`~nlid.identified.IdentifiedModel` as a
         dictionary, the reference values and the result's arrays.
     """
     try:
@@ -118,28 +118,24 @@ def _execute(spec: dict[str, Any]) -> dict[str, Any]:
         z_max=float(data.record.z.max()),
         eps_percent=result.eps_percent,
         force_residual_percent=result.force_residual_percent,
-        eps_holdout_percent=float("nan"),
         warnings=" | ".join(result.warnings),
     )
-    if data.heldout is not None:
-        try:
-            row["eps_holdout_percent"] = metrics.holdout_eps(data.heldout, model, result)
-        except NlidError as exc:
-            _add_warning(row, f"held-out epsilon: {exc}")
+    try:
+        row.update(metrics.holdout_metrics(data.heldout, result, spec["dataset"]["freerun"]))
+    except NlidError as exc:
+        row.update(metrics.holdout_metrics(None, result, False))
+        _add_warning(row, f"held-out scores: {exc}")
     row.update(metrics.coefficient_metrics(result, data.reference))
     row.update(metrics.equilibrium_metrics(result, data.reference))
-    row.update(metrics.free_run_metrics(data.heldout, model, result, spec["dataset"]["freerun"]))
     slices = tuple(spec["dataset"].get("slices", ()))
-    surface, extra_arrays = metrics.surface_metrics(data.record, model, result, slices)
+    surface, extra_arrays = metrics.surface_metrics(data.record, result, slices)
     row.update(surface)
     if spec.get("posterior") is not None:
         from .. import bayes  # type: ignore[attr-defined]  # issue 6; checked when the config is loaded
 
         # a posterior that cannot be reported (e.g. unconverged chains) is a warning: the run keeps its metrics
         try:
-            extra = bayes.study_metrics(
-                data.record, metrics.identified_model(model, result), result, data.reference, **spec["posterior"]
-            )
+            extra = bayes.study_metrics(data.record, result, data.reference, **spec["posterior"])
         except NlidError as exc:
             extra = {}
             _add_warning(row, f"posterior: {exc}")

@@ -16,7 +16,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from nlid.terms import Model, Term
+from nlid.plugin import Model, Term
 
 __all__ = ["Basis", "split_model", "shifted_basis"]
 

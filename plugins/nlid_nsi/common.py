@@ -9,8 +9,7 @@ from typing import Any
 
 import numpy as np
 
-from nlid import Option, Record, derivatives
-from nlid.errors import DataError, InputError
+from nlid.plugin import DataError, InputError, Option, Record, derivatives
 
 from .fit import NSIFit, format_eigenvalues
 from .reconstruction import Reconstruction, fuse_motion, reconstruct_motion
@@ -285,7 +284,7 @@ def fit_summary(fit: NSIFit) -> dict[str, Any]:
 
 
 def fit_arrays(fit: NSIFit, suffix: str = "") -> dict[str, np.ndarray]:
-    """The arrays of a fit under the keys of :class:`nlid.IdentificationResult`."""
+    """The arrays of a fit under the keys of :class:`nlid.plugin.Estimate`."""
     f_hz = fit.w_plot / (2 * np.pi)
     out = {
         f"singular_values{suffix}": np.asarray(fit.singular_values),

@@ -16,7 +16,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from nlid.errors import IdentificationError
+from nlid.plugin import IdentificationError
 
 from .channels import Channels
 from .continuous import (

@@ -84,8 +84,7 @@ from typing import Any
 
 import numpy as np
 
-from nlid import IdentificationResult, Identifier, Option, Record, physics
-from nlid.terms import Model
+from nlid.plugin import Estimate, Identifier, Model, Option, Record, equilibria, modal
 
 from .basis import split_model
 from .channels import Channels, perturbation_map, prepare_channels, static_constant
@@ -268,12 +267,12 @@ class NSIInputPerturbation(Identifier):
         *COMMON_OPTIONS,
     )
 
-    def identify(self, record: Record, model: Model, *, mass: float | None = None) -> IdentificationResult:
+    def identify(self, record: Record, model: Model, *, mass: float | None = None) -> Estimate:
         """Identify every coefficient of ``model`` (and the mass unless given)."""
         with blas_threads(self.settings["blas_threads"]):
             return self._identify(record, model, mass)
 
-    def _identify(self, record: Record, model: Model, mass: float | None) -> IdentificationResult:
+    def _identify(self, record: Record, model: Model, mass: float | None) -> Estimate:
         opt = self.settings
         t0 = time.perf_counter()
         timings: dict[str, float] = {}
@@ -401,14 +400,14 @@ class NSIInputPerturbation(Identifier):
         full_model = model.with_terms(add=[n for n in ("1", "z", "v") if n not in model])
         full = {n: coefs[n] for n in full_model.names}
         try:
-            eq = physics.equilibria(full_model, full, z_range)
-            modal = physics.modal(full_model, full, mass_out, eq.stable, z_range)
+            eq = equilibria(full_model, full, z_range)
+            modes = modal(full_model, full, mass_out, eq.stable, z_range)
         except Exception:  # noqa: BLE001 - modal left to the core if the stiffness is odd
-            modal = None
+            modes = None
         modal_out = None
-        if modal is not None:
+        if modes is not None:
             modal_out = []
-            for mo in modal:
+            for mo in modes:
                 d = mo.to_dict()
                 d["zeta_from_uls"] = c_v / (2 * mass_out * 2 * np.pi * d["fn_hz"])
                 d["source"] = "Eq. 8 (identified K'(z*), estimated m), Eq. 22 (c(z*) / 2 m w_n)"
@@ -450,8 +449,7 @@ class NSIInputPerturbation(Identifier):
         }
         if unmodelled:
             diagnostics["unmodelled"] = unmodelled
-        return IdentificationResult(
-            method=self.name,
+        return Estimate(
             coefficients=coefficients,
             mass=None if mass is not None else mass_out,
             modal=modal_out,

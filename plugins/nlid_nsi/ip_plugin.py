@@ -1,6 +1,6 @@
 """Entry point of ``nsi-ip`` (group ``nlid.identifiers``)."""
 
-from nlid import hookimpl
+from nlid.plugin import hookimpl
 
 from .ip import NSIInputPerturbation
 

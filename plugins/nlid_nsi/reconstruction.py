@@ -45,7 +45,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy import linalg, signal
 
-from nlid import derivatives
+from nlid.plugin import derivatives
 
 from .noise import NoiseSource, impulse_response
 

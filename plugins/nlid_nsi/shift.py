@@ -55,9 +55,7 @@ from typing import Any
 
 import numpy as np
 
-from nlid import IdentificationResult, Identifier, Option, Record, physics
-from nlid.errors import IdentificationError
-from nlid.terms import Model
+from nlid.plugin import Estimate, IdentificationError, Identifier, Model, Option, Record, equilibria
 
 from .basis import Basis, shifted_basis, split_model
 from .channels import prepare_channels, static_constant
@@ -99,6 +97,8 @@ def histogram_modes(z: np.ndarray, degree: int = 4, bins: int = 100, min_count: 
     h, e = np.histogram(z, bins)
     c = 0.5 * (e[1:] + e[:-1])
     ok = h > min_count
+    if ok.sum() <= degree:  # too few populated bins to fit (a very short record): no mode found
+        return np.zeros(0)
     sc = float(np.std(z))
     p = np.polyfit(c[ok] / sc, np.log(h[ok]), degree, w=np.sqrt(h[ok]))
     d = np.polyder(p)
@@ -150,12 +150,12 @@ class NSIZeroShift(Identifier):
         *COMMON_OPTIONS,
     )
 
-    def identify(self, record: Record, model: Model, *, mass: float | None = None) -> IdentificationResult:
+    def identify(self, record: Record, model: Model, *, mass: float | None = None) -> Estimate:
         """Identify every coefficient of ``model`` (and the mass unless given)."""
         with blas_threads(self.settings["blas_threads"]):
             return self._identify(record, model, mass)
 
-    def _identify(self, record: Record, model: Model, mass: float | None) -> IdentificationResult:
+    def _identify(self, record: Record, model: Model, mass: float | None) -> Estimate:
         opt = self.settings
         t0 = time.perf_counter()
         dt = record.dt
@@ -228,7 +228,7 @@ class NSIZeroShift(Identifier):
                     )
                     identifications += 1
                     cz, cx = self._map_back(fit, ch, xbasis, split.basis, zstar, kmax, v, dt)
-                    eq = physics.equilibria(full_model, {n: cz.get(n, 0.0) for n in full_model.names}, z_range)
+                    eq = equilibria(full_model, {n: cz.get(n, 0.0) for n in full_model.names}, z_range)
                     stable = np.array(eq.stable)
                     if stable.size == 0:
                         break
@@ -296,8 +296,7 @@ class NSIZeroShift(Identifier):
         }
         if unmodelled:
             diagnostics["unmodelled"] = unmodelled
-        return IdentificationResult(
-            method=self.name,
+        return Estimate(
             coefficients=coefficients,
             mass=None if mass is not None else mass_est,
             modal=modal,

@@ -1,6 +1,6 @@
 """Entry point of ``nsi-shift`` (group ``nlid.identifiers``)."""
 
-from nlid import hookimpl
+from nlid.plugin import hookimpl
 
 from .shift import NSIZeroShift
 

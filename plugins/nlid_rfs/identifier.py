@@ -31,11 +31,18 @@ from __future__ import annotations
 
 import numpy as np
 
-from nlid import IdentificationResult, Identifier, Option, Record
-from nlid.errors import IdentificationError
-from nlid.physics import regression_data
-from nlid.regression import collinearity_warnings, least_squares, nonsmooth_warnings
-from nlid.terms import Model
+from nlid.plugin import (
+    Estimate,
+    IdentificationError,
+    Identifier,
+    Model,
+    Option,
+    Record,
+    collinearity_warnings,
+    least_squares,
+    nonsmooth_warnings,
+    regression_data,
+)
 
 
 class RestoringForceSurface(Identifier):
@@ -56,7 +63,7 @@ class RestoringForceSurface(Identifier):
     )
     needs_mass = False
 
-    def identify(self, record: Record, model: Model, *, mass: float | None = None) -> IdentificationResult:
+    def identify(self, record: Record, model: Model, *, mass: float | None = None) -> Estimate:
         """Estimate the coefficients (and the mass if not given) by least squares."""
         data = regression_data(record, model, cutoff=self.settings["cutoff"])
         q = self.settings["decimate"]
@@ -84,11 +91,11 @@ class RestoringForceSurface(Identifier):
                 raise IdentificationError(f"rfs: the estimated mass is not positive ({est_mass:.4g} kg)")
             theta, se, se_iid = theta[1:], se[1:], se_iid[1:]
         sign_fraction, nonsmooth = nonsmooth_warnings(model, data.v, record.fs, data.filtered_at)
-        return IdentificationResult(
-            method=self.name,
+        return Estimate(
             coefficients=model.as_dict(theta),
             mass=est_mass,
             standard_errors=model.as_dict(se),
+            mass_standard_error=mass_se,
             warnings=collinearity_warnings(X, names) + nonsmooth,
             diagnostics={
                 "condition_number": fit.condition_number,

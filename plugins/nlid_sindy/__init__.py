@@ -4,7 +4,7 @@ Registered under the entry-point group ``nlid.identifiers`` in nlid's
 ``pyproject.toml``, exactly as a third-party package would register its own.
 """
 
-from nlid import hookimpl
+from nlid.plugin import hookimpl
 
 from .identifier import SparseIdentification
 from .library import TermLibrary, auto_candidates

@@ -54,11 +54,22 @@ from dataclasses import dataclass
 import numpy as np
 import pysindy as ps
 
-from nlid import IdentificationResult, Identifier, Option, Record, derivatives
-from nlid.errors import IdentificationError, NlidError
-from nlid.physics import EDGE_PERIODS, regression_data
-from nlid.regression import collinearity_warnings, column_scale, least_squares, nonsmooth_warnings
-from nlid.terms import Model
+from nlid.plugin import (
+    EDGE_PERIODS,
+    Estimate,
+    IdentificationError,
+    Identifier,
+    Model,
+    NlidError,
+    Option,
+    Record,
+    collinearity_warnings,
+    column_scale,
+    derivatives,
+    least_squares,
+    nonsmooth_warnings,
+    regression_data,
+)
 
 from .library import TermLibrary, auto_candidates
 from .threshold import choose_threshold, stlsq
@@ -258,7 +269,7 @@ class SparseIdentification(Identifier):
     )
     needs_mass = False
 
-    def identify(self, record: Record, model: Model, *, mass: float | None = None) -> IdentificationResult:
+    def identify(self, record: Record, model: Model, *, mass: float | None = None) -> Estimate:
         """Fit the sparse model and map its ``v'`` equation to the coefficients of ``R``."""
         s = self.settings
         library_model = model
@@ -341,11 +352,11 @@ class SparseIdentification(Identifier):
             "given" if choice is None else f"{choice.folds}-fold contiguous cross-validation, one-standard-error rule"
         )
         feature_names = [*library_model.names, *(["f"] if mass is None else [])]
-        return IdentificationResult(
-            method=self.name,
+        return Estimate(
             coefficients=coefficients,
             mass=None if mass is not None else float(m),
-            standard_errors={n: se.get(n) for n in model.names},
+            standard_errors={n: se[n] for n in model.names if se.get(n) is not None},
+            mass_standard_error=mass_se,
             warnings=notes,
             diagnostics={
                 "threshold": float(threshold),

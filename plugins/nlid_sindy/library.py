@@ -31,9 +31,7 @@ from pysindy.feature_library.base import BaseFeatureLibrary, x_sequence_or_item
 from pysindy.utils import AxesArray, comprehend_axes
 from sklearn.utils.validation import check_is_fitted
 
-from nlid import derivatives
-from nlid.physics import EDGE_PERIODS
-from nlid.terms import Model
+from nlid.plugin import EDGE_PERIODS, Model, derivatives
 
 __all__ = ["TermLibrary", "auto_candidates", "AUTO_DAMPING"]
 

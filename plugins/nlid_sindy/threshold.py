@@ -42,8 +42,7 @@ from dataclasses import dataclass, field
 import numpy as np
 import pysindy as ps
 
-from nlid.errors import InputError
-from nlid.regression import triangular_factor
+from nlid.plugin import InputError, triangular_factor
 
 __all__ = ["MSE_FLOOR", "RIDGE", "stlsq", "choose_threshold", "ThresholdChoice", "augmented_factor"]
 

@@ -32,7 +32,7 @@ def _replicate(name: str, seed: int) -> dict[str, bool]:
     truth = preset.truth()["coefficients"]
     record = preset.simulate(seed, noise=0.02, channels=("z", "a"))
     result = identify(record, model, "rfs", mass=preset.mass)
-    post = sample_posterior(record, result, model, params="damping", seed=seed)
+    post = sample_posterior(record, result, params="damping", seed=seed)
     return {term: bool(lo <= truth[term] <= hi) for term, (lo, hi) in post.interval(0.9).items()}
 
 

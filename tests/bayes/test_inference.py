@@ -1,11 +1,12 @@
 """The posterior end to end on a short noisy record, its outputs and its refusals."""
 
+import dataclasses
 import json
 
 import numpy as np
 import pytest
 
-from nlid import IdentificationResult, identify
+from nlid import identify
 from nlid.errors import InputError
 from nlid.bayes import (
     ConvergenceError,
@@ -145,13 +146,13 @@ def test_degenerate_parameters(preset, record):
     with pytest.raises(
         DegenerateParametersError, match=r"v, tanh\(v/1000\) are \(nearly\) collinear|tanh\(v/1000\), v are"
     ):
-        sample_posterior(record, res, model, params="v, tanh(v/1000)", bias_correction=False)
+        sample_posterior(record, res, params="v, tanh(v/1000)", bias_correction=False)
 
 
 def test_bad_params_and_missing_mass(record, result):
     with pytest.raises(InputError, match="does not contain"):
         sample_posterior(record, result, params="sign(v)")
-    no_mass = IdentificationResult(method="x", coefficients=result.coefficients, terms=result.terms)
+    no_mass = dataclasses.replace(result, mass=None, scores=None)
     with pytest.raises(InputError, match="needs the mass"):
         sample_posterior(record, no_mass)
     with pytest.raises(InputError, match="unknown move"):
@@ -159,7 +160,7 @@ def test_bad_params_and_missing_mass(record, result):
 
 
 def test_study_metrics(record, result, preset):
-    metrics = study_metrics(record, preset.model(), result, preset.truth(), seed=0, bias_pairs=2)
+    metrics = study_metrics(record, result, preset.truth(), seed=0, bias_pairs=2)
     assert set(metrics) == {
         *(f"ci_{kind}:{t}" for kind in ("lo", "hi", "width", "covers") for t in ("v", "v*|v|")),
         "posterior:level",
@@ -170,6 +171,6 @@ def test_study_metrics(record, result, preset):
         lo, hi = metrics[f"ci_lo:{t}"], metrics[f"ci_hi:{t}"]
         assert lo < hi and metrics[f"ci_width:{t}"] == pytest.approx(hi - lo)
         assert metrics[f"ci_covers:{t}"] == (lo <= preset.truth()["coefficients"][t] <= hi)
-    unknown = study_metrics(record, preset.model(), result, None, seed=0, bias_pairs=2, level=0.5)
+    unknown = study_metrics(record, result, None, seed=0, bias_pairs=2, level=0.5)
     assert unknown["posterior:level"] == 0.5 and "ci_covers:v" not in unknown
     assert unknown["ci_width:v"] < metrics["ci_width:v"]

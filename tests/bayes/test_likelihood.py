@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from nlid import physics
+from nlid import balance
 from nlid.bayes.bias import simulate_bias
 from nlid.bayes.likelihood import (
     DegenerateParametersError,
@@ -103,7 +103,7 @@ def test_bias_correction_recovers_the_coulomb_coefficient(likelihood, experiment
 
 def test_bias_correction_is_the_identity_without_noise_or_filtering(exact_record, numerical):
     model = numerical.model()
-    data = physics.regression_data(exact_record, model)
+    data = balance.regression_data(exact_record, model)
     assert data.filtered_at is None
     theta = model.vector(numerical.truth()["coefficients"])
     corr = simulate_bias(exact_record, model, theta, numerical.mass, data, pairs=1, noise={"z": 0.0, "v": 0.0})

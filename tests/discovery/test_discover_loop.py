@@ -89,7 +89,7 @@ def test_known_mass_is_used_and_held_out_record_may_be_separate(make_case):
     estimation, held = record.split(0.3)
     result = discover(estimation, declared, "rfs", mass=0.2, holdout=held, candidates="offset,coulomb", views=False)
     assert [s.effect for s in result.steps] == ["offset"]
-    assert result.final.mass == 0.2 and not result.final.result.mass_estimated
+    assert result.final.mass == 0.2 and not result.final.identified.mass_estimated
     assert result.info["samples_holdout"] == held.n and result.info["samples_estimation"] == estimation.n
 
 

@@ -20,7 +20,7 @@ import time
 
 import numpy as np
 
-from nlid import IdentificationResult, Identifier, Option, hookimpl
+from nlid.plugin import Estimate, Identifier, Option, hookimpl
 
 
 class Echo(Identifier):
@@ -48,7 +48,7 @@ class Echo(Identifier):
             "coef_frequency_hz": f,
             **{f"coef_spectrum:{n}": np.full(64, coeffs[n]) + 0.01j * f for n in model.names if n != "1"},
         }
-        return IdentificationResult(method=self.name, coefficients=coeffs, arrays=arrays)
+        return Estimate(coefficients=coeffs, arrays=arrays)
 
 
 class Crash(Identifier):

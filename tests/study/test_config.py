@@ -102,9 +102,9 @@ options = { scale = 2 }
 def test_posterior_hook_adds_its_metrics_to_the_row(small_study, registry, monkeypatch, tmp_path):
     calls = []
 
-    def study_metrics(record, model, result, truth, **options):
+    def study_metrics(record, result, truth, **options):
         calls.append(options)
-        assert truth["coefficients"]["z^3"] == 1e6 and "z^3" in model.names
+        assert truth["coefficients"]["z^3"] == 1e6 and "z^3" in result.model.names
         c = result.coefficients["z^3"]
         return {
             "ci_lo:z^3": 0.995 * c,
@@ -158,7 +158,7 @@ def test_measured_studies_run(data_dir, tmp_path):
 
 
 def test_a_posterior_that_fails_is_a_warning_and_the_run_keeps_its_metrics(small_study, registry, monkeypatch):
-    def study_metrics(record, model, result, truth, **options):
+    def study_metrics(record, result, truth, **options):
         raise NlidError("chains did not converge: raise --steps")
 
     module = types.ModuleType("nlid.bayes")

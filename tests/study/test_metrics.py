@@ -1,9 +1,11 @@
+import dataclasses
 import math
 
 import numpy as np
 import pytest
 
-from nlid import IdentificationResult, Model
+from nlid import IdentifiedModel, Model
+from nlid.physics import Equilibria
 from nlid.study.metrics import equilibrium_metrics, match_equilibria
 
 
@@ -15,10 +17,12 @@ def test_match_equilibria_nearest_first_each_once():
 def test_modal_matched_by_position_not_identity():
     # nsi-shift reports each well's modes at its own reference point, a hair away
     # from the combined model's equilibrium: they must still be scored.
-    result = IdentificationResult(
+    result = IdentifiedModel(
+        model=Model.from_spec("z^3", without="v"),
+        coefficients={"1": 1.962, "z": -500.0, "z^3": 1e6},
+        mass=0.2,
         method="m",
-        coefficients={},
-        equilibria={"stable": [-0.0266, 0.0173], "unstable": [0.0043]},
+        equilibria=Equilibria(stable=(-0.0266, 0.0173), unstable=(0.0043,)),
         modal=[
             {"equilibrium": -0.02657, "fn_hz": 13.0, "zeta": 0.03},
             {"equilibrium": 0.01731, "fn_hz": 8.6, "zeta": 0.05},
@@ -39,9 +43,8 @@ def test_surface_metrics_rms_quality_and_slices(short_record):
     from nlid.study.metrics import surface_metrics
 
     result = identify(short_record, "z^3, z^2, v*|v|", "rfs", mass=0.2)
-    result.diagnostics["quality"] = {"z^3": 123.0}
-    model = Model.from_spec("z^3, z^2, v*|v|")
-    row, arrays = surface_metrics(short_record, model, result, slices=(-0.02, 0.0, 5.0))
+    result = dataclasses.replace(result, diagnostics={**result.diagnostics, "quality": {"z^3": 123.0}})
+    row, arrays = surface_metrics(short_record, result, slices=(-0.02, 0.0, 5.0))
     z, v = short_record.z, short_record.v
     assert row["rms:z^3"] == pytest.approx(1e6 * np.sqrt(np.mean(z**3 * z**3)), rel=1e-6)
     assert row["rms:v*|v|"] == pytest.approx(5 * np.sqrt(np.mean((v * np.abs(v)) ** 2)), rel=1e-6)

@@ -74,12 +74,12 @@ def test_summary_numbers_match_individual_identify_results(finished):
         where = f" at {z_ref:.3g} m"
         eq_err, fn_err, zeta_err = [], [], []
         for r in results:
-            stable = r.equilibria["stable"]
+            stable = r.equilibria.stable
             z = stable[int(np.argmin(np.abs(np.asarray(stable) - z_ref)))]
-            m = next(m for m in r.modal if m["equilibrium"] == z)
+            m = next(m for m in r.modal if m.equilibrium == z)
             eq_err.append(100 * (z - z_ref) / z_ref)
-            fn_err.append(100 * (m["fn_hz"] - m_ref.fn_hz) / m_ref.fn_hz)
-            zeta_err.append(100 * (m["zeta"] - m_ref.zeta) / m_ref.zeta)
+            fn_err.append(100 * (m.fn_hz - m_ref.fn_hz) / m_ref.fn_hz)
+            zeta_err.append(100 * (m.zeta - m_ref.zeta) / m_ref.zeta)
         assert modal["rfs"][f"z*{where}"] == _median_cell(eq_err), k
         assert modal["rfs"][f"fn{where}"] == _median_cell(fn_err), k
         assert modal["rfs"][f"zeta{where}"] == _median_cell(zeta_err), k

@@ -7,7 +7,7 @@
   and the largest equilibrium error per method: bar = median, whisker =
   min-max over repetitions.
 * From a result's ``arrays`` when the method provides them
-  (:class:`nlid.interface.IdentificationResult`): ``sv_*`` singular values
+  (:class:`nlid.identified.IdentifiedModel`): ``sv_*`` singular values
   (paper Fig. 9/12), ``frf_*`` the underlying-linear receptance (Fig. 10/15),
   ``coef_*`` the frequency-dependent coefficient estimates, real and imaginary
   parts (Fig. 11/13).

@@ -1,0 +1,536 @@
+"""The identified model: one immutable object every layer of nlid shares.
+
+:func:`nlid.identify` returns an :class:`IdentifiedModel`. It binds the
+:class:`~nlid.terms.Model` (with its ``px(z)`` roots) to the identified
+coefficients and mass, and carries what the core computed from them the same
+way for every method: the equilibria (Sec. 2.1), the modal parameters at each
+stable equilibrium (Eq. 8, 22), and the scores on the estimation record
+(:mod:`nlid.scoring`: epsilon of Eq. 26 and the force residual). Studies,
+discovery, posteriors and the command line consume this object; nobody
+rebuilds a model from a dictionary of coefficients.
+
+Example::
+
+    import nlid
+
+    record = nlid.simulate("paper-numerical", seed=0, noise=0.02, channels="z")
+    fit = nlid.identify(record, "z^3, z^2, v*|v|", method="rfs", mass=0.2)
+    fit                       # short repr; a table in Jupyter
+    print(fit.summary())      # the table `nlid identify` prints
+    fit.score(other_record)   # epsilon, force residual, free-run error
+    fit.to_dict()             # JSON (what `nlid identify --json` prints)
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import html
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from . import physics, scoring
+from ._frozen import FrozenDict, freeze
+from .errors import InputError, NlidError
+from .interface import Estimate, to_jsonable
+from .physics import Equilibria, Modal
+from .record import Record
+from .scoring import Residual, Scores
+from .terms import Model, parse_term
+
+if TYPE_CHECKING:  # pragma: no cover
+    import pandas as pd
+
+__all__ = ["IdentifiedModel", "SCHEMA"]
+
+#: Identifies the JSON layout of :meth:`IdentifiedModel.to_dict`.
+SCHEMA = "nlid.IdentifiedModel/1"
+
+
+def _fmt(x: float | None, spec: str = ".6g") -> str:
+    return "" if x is None or not np.isfinite(x) else format(x, spec)
+
+
+@dataclass(frozen=True, eq=False)
+class IdentifiedModel:
+    """A model with its identified coefficients, mass and everything derived from them.
+
+    Build it with :func:`nlid.identify` (or :meth:`from_dict`); the
+    constructor is public for methods that produce a model another way, and
+    validates what it is given.
+
+    Attributes
+    ----------
+    model
+        The terms, with the ``px(z)`` roots the identification settled on.
+    coefficients
+        ``{canonical term: value}`` in model order, each the coefficient of
+        its term in ``R(z, v) = f - m z''`` (SI units, read-only).
+    mass
+        Mass in kg (given or estimated), ``None`` if unknown.
+    method
+        The identifier's name.
+    mass_estimated
+        ``True`` when the method estimated the mass.
+    standard_errors
+        Standard error of each coefficient, when the method gives them.
+    mass_standard_error
+        Standard error of an estimated mass.
+    equilibria
+        Stable and unstable equilibria of the identified ``K(z)`` (m).
+    modal
+        Modal parameters at each stable equilibrium (:class:`~nlid.physics.Modal`).
+    scores
+        Scores on the estimation record (:class:`~nlid.scoring.Scores`,
+        without the free run), ``None`` when the mass is unknown.
+    options
+        The identifier's settings (its options with defaults filled).
+    diagnostics
+        Method-specific details (read-only).
+    warnings
+        Things the user should know.
+    seconds
+        Wall time of the identification.
+    z_range
+        ``(min, max)`` of the estimation record's displacement (m).
+    arrays
+        Large numeric outputs of the method (not in :meth:`to_dict`).
+    """
+
+    model: Model
+    coefficients: Mapping[str, float]
+    mass: float | None
+    method: str
+    mass_estimated: bool = False
+    standard_errors: Mapping[str, float] | None = None
+    mass_standard_error: float | None = None
+    equilibria: Equilibria | None = None
+    modal: tuple[Modal, ...] = ()
+    scores: Scores | None = None
+    options: Mapping[str, Any] = field(default_factory=FrozenDict)
+    diagnostics: Mapping[str, Any] = field(default_factory=FrozenDict)
+    warnings: tuple[str, ...] = ()
+    seconds: float | None = None
+    z_range: tuple[float, float] | None = None
+    arrays: Mapping[str, np.ndarray] = field(default_factory=FrozenDict, repr=False)
+
+    def __post_init__(self) -> None:
+        if not isinstance(self.model, Model):
+            raise InputError(f"model must be an nlid Model, got {type(self.model).__name__}")
+        names = self.model.names
+        given = {self.model.terms[self.model.index(k)].name: v for k, v in dict(self.coefficients).items()}
+        missing = [n for n in names if n not in given]
+        if missing or len(given) != len(names):
+            raise InputError(f"coefficients are given for {sorted(given)} but the model is {list(names)}")
+        set_ = object.__setattr__
+        set_(self, "coefficients", FrozenDict({n: float(given[n]) for n in names}))
+        if self.standard_errors is not None:
+            se = {self.model.terms[self.model.index(k)].name: v for k, v in dict(self.standard_errors).items()}
+            set_(self, "standard_errors", FrozenDict({n: float(se[n]) for n in names if se.get(n) is not None}))
+        if self.mass is not None:
+            mass = float(self.mass)
+            if not (np.isfinite(mass) and mass > 0):
+                raise InputError(f"mass must be a positive number of kg, got {self.mass}")
+            set_(self, "mass", mass)
+        set_(self, "modal", tuple(Modal.from_dict(m) for m in self.modal))
+        set_(self, "options", freeze(dict(self.options)))
+        set_(self, "diagnostics", freeze(dict(self.diagnostics)))
+        set_(self, "warnings", tuple(str(w) for w in self.warnings))
+        set_(self, "arrays", FrozenDict(self.arrays))
+        if self.z_range is not None:
+            set_(self, "z_range", (float(min(self.z_range)), float(max(self.z_range))))
+
+    # ------------------------------------------------------------------ built by the core
+    @classmethod
+    def from_estimate(
+        cls,
+        estimate: Estimate,
+        *,
+        model: Model,
+        record: Record,
+        method: str,
+        mass: float | None = None,
+        options: Mapping[str, Any] | None = None,
+        seconds: float | None = None,
+        cutoff: float | None = None,
+        diagnostics: Mapping[str, Any] | None = None,
+    ) -> IdentifiedModel:
+        """Complete an identifier's :class:`~nlid.interface.Estimate` (what :func:`nlid.identify` does).
+
+        Equilibria and modal parameters come from :mod:`nlid.physics` (modal
+        only if the method did not measure its own), the scores on the
+        estimation record from :mod:`nlid.scoring` (always from the data).
+
+        Parameters
+        ----------
+        estimate
+            What the identifier returned.
+        model
+            The model it was identified with (``px(z)`` roots set).
+        record
+            The estimation record.
+        method
+            The identifier's name.
+        mass
+            The given mass (kg), ``None`` if the method estimated it.
+        options
+            The identifier's settings.
+        seconds
+            Wall time.
+        cutoff
+            Equation band (Hz) for the scores.
+        diagnostics
+            Diagnostics the core adds (e.g. the ``px(z)`` iteration).
+        """
+        warnings = list(estimate.warnings)
+        if mass is not None:
+            used, estimated = float(mass), False
+        elif estimate.mass is not None:
+            used, estimated = float(estimate.mass), True
+        else:
+            used, estimated = None, False
+        z_range = (float(record.z.min()), float(record.z.max()))
+        theta = model.vector(dict(estimate.coefficients))
+        try:
+            eq: Equilibria | None = physics.equilibria(model, theta, z_range)
+        except NlidError as exc:
+            eq = None
+            warnings.append(f"equilibria not computed: {exc}")
+        if estimate.modal is not None:
+            modal: tuple[Modal, ...] = tuple(Modal.from_dict(m) for m in estimate.modal)
+        elif eq is not None and used is not None:
+            modal = tuple(physics.modal(model, theta, used, eq.stable, z_range))
+        else:
+            modal = ()
+        draft = cls(
+            model=model,
+            coefficients=estimate.coefficients,
+            mass=used,
+            method=method,
+            mass_estimated=estimated,
+            standard_errors=estimate.standard_errors,
+            mass_standard_error=estimate.mass_standard_error if estimated else None,
+            equilibria=eq,
+            modal=modal,
+            options=options or {},
+            seconds=seconds,
+            z_range=z_range,
+            arrays=estimate.arrays,
+        )
+        diag = {**dict(estimate.diagnostics), **dict(diagnostics or {})}
+        scores = None
+        if used is not None:
+            scores = scoring.score(draft, record, cutoff=cutoff, free_run=False)
+            diag.setdefault("eps_band_hz", scores.band_hz)
+        else:
+            warnings.append("epsilon not computed: the mass is unknown")
+        return dataclasses.replace(draft, scores=scores, diagnostics=diag, warnings=tuple(warnings))
+
+    # ------------------------------------------------------------------ plain views
+    @property
+    def terms(self) -> tuple[str, ...]:
+        """Canonical names of the terms, in model order."""
+        return self.model.names
+
+    @property
+    def px_roots(self) -> tuple[float, float] | None:
+        """``(z-, z+)`` of ``px(z)`` (Eq. 9-11), if the model uses it."""
+        return self.model.px_roots
+
+    @property
+    def theta(self) -> np.ndarray:
+        """The coefficients as a (read-only) vector in model order."""
+        out = np.array([self.coefficients[n] for n in self.model.names])
+        out.flags.writeable = False
+        return out
+
+    @property
+    def eps_percent(self) -> float | None:
+        """Epsilon (Eq. 26) on the estimation record."""
+        return None if self.scores is None else self.scores.eps_percent
+
+    @property
+    def force_residual_percent(self) -> float | None:
+        """The force residual on the estimation record."""
+        return None if self.scores is None else self.scores.force_residual_percent
+
+    def coefficient(self, term: str) -> float:
+        """The coefficient of ``term`` (any spelling)."""
+        return self.coefficients[self.model.terms[self.model.index(term)].name]
+
+    # ------------------------------------------------------------------ the physics of the model
+    def restoring_force(self, z: np.ndarray, v: np.ndarray) -> np.ndarray:
+        """``R(z, v) = K(z) + D(z, v)`` (N), Eq. 25."""
+        return physics.restoring(self.model, self.theta, z, v)
+
+    def elastic(self, z: np.ndarray) -> np.ndarray:
+        """The elastic force ``K(z)`` (N), Eq. 6 (the constant term included)."""
+        return physics.elastic(self.model, self.theta, z)
+
+    def damping(self, z: np.ndarray, v: np.ndarray) -> np.ndarray:
+        """The damping force ``D(z, v)`` (N), Eq. 14 / 24."""
+        return physics.damping(self.model, self.theta, z, v)
+
+    def potential(self, z: np.ndarray) -> np.ndarray:
+        """The potential ``U(z) = int_0^z K`` (J), Eq. 7."""
+        return physics.potential(self.model, self.theta, z)
+
+    # ------------------------------------------------------------------ meeting data
+    def residual(self, record: Record, *, cutoff: float | None = None) -> Residual:
+        """The residual ``f - m a - R(z, v)`` on a record (:func:`nlid.scoring.residual`)."""
+        return scoring.residual(self, record, cutoff=cutoff)
+
+    def score(self, record: Record, *, cutoff: float | None = None, free_run: bool = True) -> Scores:
+        """Epsilon (Eq. 26), force residual and free-run error on a record (:func:`nlid.scoring.score`).
+
+        The same function scores models in ``nlid study``, ``nlid discover``
+        and the posterior, so one model on one record gets one number.
+        """
+        return scoring.score(self, record, cutoff=cutoff, free_run=free_run)
+
+    def simulate(
+        self,
+        force: np.ndarray,
+        fs: float,
+        *,
+        x0: Sequence[float] = (0.0, 0.0),
+        force_hold: str = "sampled",
+        oversample: int | None = None,
+    ) -> Record:
+        """Free run of the model driven by a force: ``m z'' + R(z, z') = f`` (:func:`nlid.simulation.free_run`).
+
+        Parameters
+        ----------
+        force
+            Force samples (N).
+        fs
+            Their sampling frequency (Hz).
+        x0
+            Initial displacement (m) and velocity (m/s).
+        force_hold
+            ``"sampled"`` (a sampled continuous force, interpolated between
+            samples) or ``"zoh"`` (held over each sample).
+        oversample
+            RK4 sub-steps per sample (default
+            :data:`nlid.simulation.FREE_RUN_OVERSAMPLE`).
+
+        Returns
+        -------
+        Record
+            ``f``, ``z``, ``v``, ``a`` with the model as ``meta["truth"]``.
+        """
+        from .simulation import FREE_RUN_OVERSAMPLE, free_run
+
+        if self.mass is None:
+            raise InputError("simulating needs the mass: the model has none (give mass= when identifying)")
+        force = np.asarray(force, dtype=float)
+        q = FREE_RUN_OVERSAMPLE if oversample is None else oversample
+        z, v, a = free_run(self.model, self.theta, self.mass, force, fs, force_hold=force_hold, x0=x0, oversample=q)
+        meta = {
+            "mass": self.mass,
+            "source": f"simulated: {self.method} model ({', '.join(self.terms)})",
+            "force_hold": force_hold,
+            "truth": {
+                "coefficients": dict(self.coefficients),
+                "mass": self.mass,
+                "px_roots": None if self.px_roots is None else list(self.px_roots),
+            },
+        }
+        return Record(f=force, z=z, v=v, a=a, fs=float(fs), meta=meta)
+
+    # ------------------------------------------------------------------ plain data
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-serialisable dictionary (without :attr:`arrays`); :meth:`from_dict` reverses it."""
+        return to_jsonable(
+            {
+                "schema": SCHEMA,
+                "method": self.method,
+                "terms": list(self.terms),
+                "coefficients": dict(self.coefficients),
+                "standard_errors": None
+                if self.standard_errors is None
+                else {n: self.standard_errors.get(n) for n in self.terms},
+                "units": {n: parse_term(n).coefficient_unit for n in self.terms},
+                "mass": self.mass,
+                "mass_estimated": self.mass_estimated,
+                "mass_standard_error": self.mass_standard_error,
+                "px_roots": None if self.px_roots is None else list(self.px_roots),
+                "equilibria": None if self.equilibria is None else self.equilibria.to_dict(),
+                "modal": [m.to_dict() for m in self.modal],
+                "eps_percent": self.eps_percent,
+                "force_residual_percent": self.force_residual_percent,
+                "scores": None if self.scores is None else self.scores.to_dict(),
+                "options": dict(self.options),
+                "diagnostics": dict(self.diagnostics),
+                "warnings": list(self.warnings),
+                "seconds": self.seconds,
+                "z_range": None if self.z_range is None else list(self.z_range),
+            }
+        )
+
+    @classmethod
+    def from_dict(cls, data: Mapping[str, Any]) -> IdentifiedModel:
+        """Rebuild a model from :meth:`to_dict` (JSON null becomes NaN in the scores).
+
+        Raises
+        ------
+        InputError
+            If the dictionary lacks the terms or coefficients, or they do not match.
+        """
+        if not isinstance(data, Mapping):
+            raise InputError(f"expected a dictionary from IdentifiedModel.to_dict(), got {type(data).__name__}")
+        schema = data.get("schema", SCHEMA)
+        if schema != SCHEMA:
+            raise InputError(f"unknown identified-model layout {schema!r}; this nlid reads {SCHEMA!r}")
+        try:
+            terms = list(data["terms"])
+            coefficients = dict(data["coefficients"])
+        except (KeyError, TypeError):
+            raise InputError("an identified model needs 'terms' and 'coefficients'") from None
+        model = Model.from_spec(terms, defaults=False, px_roots=data.get("px_roots"))
+        raw_scores = data.get("scores")
+        scores = None
+        if raw_scores:
+            known = {f.name for f in dataclasses.fields(Scores)}
+            values = {k: (float("nan") if v is None and k != "band_hz" else v) for k, v in raw_scores.items()}
+            scores = Scores(**{k: v for k, v in values.items() if k in known})
+        elif data.get("eps_percent") is not None:
+            scores = Scores(float(data["eps_percent"]), float(data.get("force_residual_percent") or float("nan")))
+        eq = data.get("equilibria")
+        return cls(
+            model=model,
+            coefficients=coefficients,
+            mass=data.get("mass"),
+            method=str(data.get("method", "")),
+            mass_estimated=bool(data.get("mass_estimated", False)),
+            standard_errors=data.get("standard_errors"),
+            mass_standard_error=data.get("mass_standard_error"),
+            equilibria=None if eq is None else Equilibria.from_dict(eq),
+            modal=tuple(data.get("modal") or ()),
+            scores=scores,
+            options=data.get("options") or {},
+            diagnostics=data.get("diagnostics") or {},
+            warnings=tuple(data.get("warnings") or ()),
+            seconds=data.get("seconds"),
+            z_range=data.get("z_range"),
+        )
+
+    def to_frame(self) -> pd.DataFrame:
+        """One row per term: ``coefficient``, ``std_error``, ``unit``, ``family`` (index: the term)."""
+        import pandas as pd
+
+        se = self.standard_errors or {}
+        rows = [
+            {
+                "term": n,
+                "coefficient": self.coefficients[n],
+                "std_error": se.get(n, float("nan")),
+                "unit": t.coefficient_unit,
+                "family": t.family,
+            }
+            for n, t in zip(self.terms, self.model.terms, strict=True)
+        ]
+        return pd.DataFrame(rows).set_index("term")
+
+    # ------------------------------------------------------------------ text and HTML
+    def summary(self) -> str:
+        """The table ``nlid identify`` prints: coefficients, equilibria, modes, residuals."""
+        lines = [f"method: {self.method}"]
+        if self.mass is not None:
+            how = "estimated" if self.mass_estimated else "given"
+            se = f" +/- {self.mass_standard_error:.3g}" if self.mass_standard_error else ""
+            lines.append(f"mass: {self.mass:.6g}{se} kg ({how})")
+        lines.append("")
+        se = self.standard_errors or {}
+        width = max(4, *(len(t) for t in self.terms))
+        lines.append(f"{'term':<{width}}  {'coefficient':>14}  {'std. error':>11}  unit")
+        for name, term in zip(self.terms, self.model.terms, strict=True):
+            err = f"{se[name]:11.3g}" if se.get(name) is not None else " " * 11
+            lines.append(f"{name:<{width}}  {self.coefficients[name]:14.6g}  {err}  {term.coefficient_unit}")
+        if self.px_roots:
+            lines.append(f"px(z) roots: z- = {self.px_roots[0]:.6g} m, z+ = {self.px_roots[1]:.6g} m")
+        if self.equilibria is not None:
+            st = ", ".join(f"{z:.6g}" for z in self.equilibria.stable) or "none"
+            un = ", ".join(f"{z:.6g}" for z in self.equilibria.unstable) or "none"
+            lines.append("")
+            lines.append(f"equilibria (m): stable {st}; unstable {un}")
+        for m in self.modal:
+            lines.append(f"  at z* = {m.equilibrium:.6g} m: fn = {m.fn_hz:.4g} Hz, zeta = {100 * m.zeta:.3g} %")
+        lines.append("")
+        if self.scores is not None:
+            lines.append(
+                f"epsilon (Eq. 26): {self.scores.eps_percent:.3g} %   "
+                f"force residual: {self.scores.force_residual_percent:.3g} %"
+            )
+        if self.seconds is not None:
+            lines.append(f"time: {self.seconds:.3g} s")
+        for w in self.warnings:
+            lines.append(f"warning: {w}")
+        return "\n".join(lines)
+
+    def __repr__(self) -> str:
+        mass = "mass unknown" if self.mass is None else f"mass={self.mass:.4g} kg"
+        if self.mass is not None:
+            mass += " (estimated)" if self.mass_estimated else " (given)"
+        eps = "" if self.eps_percent is None else f", eps={self.eps_percent:.3g} %"
+        return f"<IdentifiedModel {self.method!r}: {', '.join(self.terms)}; {mass}{eps}>"
+
+    def _repr_html_(self) -> str:
+        esc = html.escape
+        se = self.standard_errors or {}
+        head = f"<b>{esc(self.method)}</b>"
+        if self.mass is not None:
+            head += f", mass {self.mass:.6g} kg ({'estimated' if self.mass_estimated else 'given'})"
+        if self.scores is not None:
+            head += (
+                f", &epsilon; (Eq. 26) {self.scores.eps_percent:.3g} %, "
+                f"force residual {self.scores.force_residual_percent:.3g} %"
+            )
+        rows = "".join(
+            f"<tr><td><code>{esc(n)}</code></td><td style='text-align:right'>{self.coefficients[n]:.6g}</td>"
+            f"<td style='text-align:right'>{_fmt(se.get(n), '.3g')}</td><td>{esc(t.coefficient_unit)}</td></tr>"
+            for n, t in zip(self.terms, self.model.terms, strict=True)
+        )
+        table = (
+            "<table><thead><tr><th>term</th><th>coefficient</th><th>std. error</th><th>unit</th></tr></thead>"
+            f"<tbody>{rows}</tbody></table>"
+        )
+        extra = []
+        if self.equilibria is not None:
+            st = ", ".join(f"{z:.5g}" for z in self.equilibria.stable) or "none"
+            un = ", ".join(f"{z:.5g}" for z in self.equilibria.unstable) or "none"
+            extra.append(f"equilibria (m): stable {st}; unstable {un}")
+        extra += [f"at z* = {m.equilibrium:.5g} m: f<sub>n</sub> = {m.fn_hz:.4g} Hz, &zeta; = {100 * m.zeta:.3g} %"
+                  for m in self.modal]
+        extra += [f"<span style='color:#a60'>warning: {esc(w)}</span>" for w in self.warnings]
+        body = "".join(f"<li>{x}</li>" for x in extra)
+        return f"<div class='nlid-identified'><p>{head}</p>{table}<ul>{body}</ul></div>"
+
+    # ------------------------------------------------------------------ figures
+    def plot_stiffness(self, ax: Any = None, *, potential: bool = False) -> Any:
+        """``K(z)`` (or ``U(z)``) over the data range with the equilibria marked; returns the axes."""
+        from .modelplots import plot_stiffness
+
+        return plot_stiffness(self, ax=ax, potential=potential)
+
+    def plot_surface(self, record: Record, ax: Any = None, *, cutoff: float | None = None) -> Any:
+        """The elastic slice of the restoring surface: ``f - m a - D(z, v)`` of the data and ``K(z)``."""
+        from .modelplots import plot_surface
+
+        return plot_surface(self, record, ax=ax, cutoff=cutoff)
+
+    def plot_damping_slice(self, record: Record, z0: float, ax: Any = None, *, cutoff: float | None = None) -> Any:
+        """The damping force near ``z0`` against ``v``, data and model (paper Fig. 21 b-d)."""
+        from .modelplots import plot_damping_slice
+
+        return plot_damping_slice(self, record, z0, ax=ax, cutoff=cutoff)
+
+    def plot_residual(
+        self, record: Record, against: str = "z", ax: Any = None, *, cutoff: float | None = None
+    ) -> Any:
+        """The residual ``f - m a - R`` against ``"z"`` or ``"v"`` (binned mean drawn over the points)."""
+        from .modelplots import plot_residual
+
+        return plot_residual(self, record, against=against, ax=ax, cutoff=cutoff)

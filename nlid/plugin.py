@@ -1,0 +1,94 @@
+"""The public toolkit of identifier plugins: everything a plugin needs, from one module.
+
+A plugin (nlid's own ``rfs``, ``sindy``, ``nsi-ip``, ``nsi-shift``, or a
+third party's) imports from here and nowhere else in nlid, so the core can
+reorganise its modules without breaking plugins::
+
+    from nlid.plugin import Estimate, Identifier, Option, hookimpl, regression_data
+
+The toolkit has four axes, which identifiers compose rather than re-implement:
+
+* **the contract**: :class:`Identifier` (settings only in the constructor,
+  work in ``identify(record, model, *, mass=None)``), declared
+  :class:`Option`\\ s, the :class:`Estimate` an identifier returns, and the
+  :data:`hookimpl` marker of the ``nlid_identifiers`` hook;
+* **data and terms**: :class:`Record`, :class:`Model`, :class:`Term`,
+  :func:`parse_term`;
+* **the force balance and derivatives**: :func:`regression_data` (the
+  filtered design matrix of Eq. 25, shared by every method),
+  :mod:`derivatives` (the zero-phase differentiating filter), the least-squares
+  helpers of :mod:`nlid.regression`;
+* **physics and simulation**: equilibria and modal parameters
+  (:func:`equilibria`, :func:`modal`, :func:`stiffness_roots`), the simulator
+  (:func:`simulate`, :func:`free_run`) and the scores (:func:`score`).
+
+Errors to raise: :class:`InputError` / :class:`DataError` for what the user
+gave (wrong model for the method, unusable record), :class:`IdentificationError`
+when the method ran but its answer cannot be trusted.
+"""
+
+from __future__ import annotations
+
+from . import derivatives
+from .balance import EDGE_PERIODS, REGRESSOR_BAND_FACTOR, RegressionData, regression_data
+from .errors import DataError, IdentificationError, InputError, NlidError, OptionError, TermError
+from .hookspecs import hookimpl
+from .interface import Estimate, Identifier, Option, to_jsonable
+from .physics import Equilibria, Modal, equilibria, modal, stiffness_roots
+from .record import Record
+from .regression import (
+    collinearity_warnings,
+    column_scale,
+    least_squares,
+    nonsmooth_warnings,
+    triangular_factor,
+)
+from .terms import Model, Term, parse_term
+
+__all__ = [
+    "Identifier",
+    "Option",
+    "Estimate",
+    "hookimpl",
+    "Record",
+    "Model",
+    "Term",
+    "parse_term",
+    "regression_data",
+    "RegressionData",
+    "EDGE_PERIODS",
+    "REGRESSOR_BAND_FACTOR",
+    "derivatives",
+    "least_squares",
+    "collinearity_warnings",
+    "nonsmooth_warnings",
+    "column_scale",
+    "triangular_factor",
+    "equilibria",
+    "modal",
+    "stiffness_roots",
+    "Equilibria",
+    "Modal",
+    "simulate",
+    "free_run",
+    "score",
+    "to_jsonable",
+    "NlidError",
+    "InputError",
+    "DataError",
+    "OptionError",
+    "TermError",
+    "IdentificationError",
+]
+
+
+def __getattr__(name: str):  # the simulator (numba) and the scores are loaded only when a plugin uses them
+    if name in ("simulate", "free_run"):
+        from . import simulation
+
+        return getattr(simulation, name)
+    if name == "score":
+        from .scoring import score
+
+        return score
+    raise AttributeError(f"module 'nlid.plugin' has no attribute {name!r}")
