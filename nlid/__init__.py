@@ -1,31 +1,69 @@
 """nlid: identify the nonlinear stiffness and friction of vibrating structures.
 
+The Python API is a handful of verbs (:mod:`nlid.api`)::
+
+    import nlid
+
+    record = nlid.simulate("paper-numerical", seed=0, noise=0.02, channels="z,a")
+    fit = nlid.identify(record, "z^3, z^2, v*|v|", method="rfs", mass=0.2)
+    table = nlid.compare(record, "z^3, z^2, v*|v|", ["rfs", "nsi-ip"], mass=0.2)
+    post = nlid.posterior(record, fit, seed=0)
+    found = nlid.discover(nlid.load("dataset:emps"), "v, 1")
+    outcome = nlid.run_study("paper-numerical")
+
 The core (this package) knows nothing about any one identification method: it
 holds the data model (:class:`Record`), the term language
 (:mod:`nlid.terms`), derivative estimation, the physics of an oscillator
 model (:mod:`nlid.physics`), the force balance identifiers build on
 (:mod:`nlid.balance`), the one scoring path (:mod:`nlid.scoring`), the
-simulator and its presets, and the plugin interface (:mod:`nlid.plugin`).
-Identifiers are plugins discovered through the entry-point group
-``nlid.identifiers``.
+identified model (:class:`IdentifiedModel`), the simulator and its presets,
+and the plugin interface (:mod:`nlid.plugin`). Identifiers are plugins
+discovered through the entry-point group ``nlid.identifiers``.
+
+Names are loaded on first use, so ``import nlid`` (and ``nlid --help``) stay
+fast: numpy, scipy, pandas and numba are imported only by what needs them.
 """
 
+from __future__ import annotations
+
+import importlib
+from typing import Any
+
 from .errors import DataError, IdentificationError, InputError, NlidError, OptionError, PluginError, TermError
-from .hookspecs import hookimpl
-from .identified import IdentifiedModel
-from .interface import Estimate, Identifier, Option
-from .pipeline import identify
-from .record import Record
-from .terms import Model, parse_term
 
 __version__ = "0.1.0"
 
+#: Public name -> module that defines it (imported on first access).
+_LAZY: dict[str, str] = {
+    "load": "nlid.api",
+    "simulate": "nlid.api",
+    "compare": "nlid.api",
+    "posterior": "nlid.api",
+    "discover": "nlid.api",
+    "run_study": "nlid.api",
+    "identify": "nlid.pipeline",
+    "IdentifiedModel": "nlid.identified",
+    "Record": "nlid.record",
+    "Model": "nlid.terms",
+    "parse_term": "nlid.terms",
+    "Identifier": "nlid.interface",
+    "Estimate": "nlid.interface",
+    "Option": "nlid.interface",
+    "hookimpl": "nlid.hookspecs",
+}
+
 __all__ = [
+    "load",
+    "simulate",
+    "identify",
+    "compare",
+    "posterior",
+    "discover",
+    "run_study",
+    "IdentifiedModel",
     "Record",
     "Model",
     "parse_term",
-    "identify",
-    "IdentifiedModel",
     "Identifier",
     "Estimate",
     "Option",
@@ -39,3 +77,16 @@ __all__ = [
     "IdentificationError",
     "__version__",
 ]
+
+
+def __getattr__(name: str) -> Any:
+    module = _LAZY.get(name)
+    if module is None:
+        raise AttributeError(f"module 'nlid' has no attribute {name!r}")
+    value = getattr(importlib.import_module(module), name)
+    globals()[name] = value  # later lookups skip this function
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(__all__))

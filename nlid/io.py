@@ -289,7 +289,7 @@ def read_record(
     for required in ("f", "z"):
         if required not in exprs:
             raise DataError(
-                f"{path}: no column for channel {required!r}; map one with --columns "
+                f"{path}: no column for channel {required!r}; map one with columns= "
                 f"(e.g. {required}=NAME); the file has: {', '.join(sorted(table))}"
             )
     arrays = {c: e.evaluate(table, str(path)).ravel() for c, e in exprs.items()}
@@ -305,7 +305,7 @@ def read_record(
     if fs is None and "fs" in table and np.asarray(table["fs"]).size == 1:
         fs = float(np.asarray(table["fs"]).ravel()[0])
     if fs is None:
-        raise DataError(f"{path}: no time column 't' and no sampling frequency; give --fs or map t=COLUMN")
+        raise DataError(f"{path}: no time column 't' and no sampling frequency; give fs= or map a time column (columns= with t=NAME)")
     try:
         return Record(fs=fs, meta=meta, units=units or {}, **kwargs)
     except DataError as exc:

@@ -30,6 +30,7 @@ from . import physics
 from .errors import IdentificationError, InputError, NlidError, PluginError
 from .identified import IdentifiedModel
 from .interface import Estimate
+from .physics import Modal
 from .record import Record
 from .registry import Registry, default_registry
 from .terms import Model, Term
@@ -94,6 +95,14 @@ def check_estimate(estimate: Any, model: Model, name: str, mass: float | None) -
         raise IdentificationError(f"identifier {name!r} produced non-finite coefficients for {', '.join(bad)}")
     if mass is None and estimate.mass is not None and not (np.isfinite(estimate.mass) and estimate.mass > 0):
         raise IdentificationError(f"identifier {name!r} estimated a mass that is not positive ({estimate.mass})")
+    unknown = [k for k in (estimate.standard_errors or {}) if k not in model.names]
+    if unknown:
+        raise PluginError(f"identifier {name!r} returned standard errors for terms not in the model: {unknown}")
+    for entry in estimate.modal or ():
+        try:
+            Modal.from_dict(entry)
+        except InputError as exc:
+            raise PluginError(f"identifier {name!r} returned malformed modal parameters: {exc}") from None
 
 
 def _px_fixed_point(

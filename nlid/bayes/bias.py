@@ -186,7 +186,7 @@ def simulate_bias(
         except SimulationError as exc:
             raise IdentificationError(
                 f"bias correction: the identified model diverges when simulated with the recorded force ({exc}); "
-                "switch the correction off (--no-bias-correction, bias_correction=False)"
+                "switch the correction off (bias_correction=False)"
             ) from None
         exact = model.evaluate(zs, vs if model.uses_velocity else None)
         if fc is not None:

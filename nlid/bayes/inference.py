@@ -48,7 +48,7 @@ def _check_start(name: str, prior: Prior, value: float) -> None:
     if not np.isfinite(prior.logpdf(np.array([value]))[0]):
         raise PriorError(
             f"the prior of {name} ({prior.describe()}) excludes the identifier's estimate {value:.6g} "
-            f"{parse_term(name).coefficient_unit}: widen the prior (--prior '{name}=...') or check its units"
+            f"{parse_term(name).coefficient_unit}: widen the prior of {name} (priors=) or check its units"
         )
 
 
@@ -72,7 +72,7 @@ def select_params(model: Model, params: str | Iterable[str]) -> list[int]:
     wanted = Model.from_spec(params, defaults=False)
     missing = [t.name for t in wanted.terms if t.name not in model.names]
     if missing:
-        raise InputError(f"--params names {', '.join(missing)}, which the model ({model}) does not contain")
+        raise InputError(f"params= names {', '.join(missing)}, which the model ({model}) does not contain")
     return sorted(model.index(t) for t in wanted.terms)
 
 
@@ -184,7 +184,7 @@ class PosteriorSampler:
         if not_sampled:
             raise PriorError(
                 f"a prior is given for {', '.join(not_sampled)}, which is not sampled; "
-                "sample it with --params or drop the prior"
+                "sample it too (params=) or drop the prior"
             )
         for name, prior in user_priors.items():
             _check_start(name, prior, theta0[model.index(name)])

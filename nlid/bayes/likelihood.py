@@ -214,7 +214,7 @@ def check_identifiable(information: np.ndarray, names: Sequence[str], max_condit
     raise DegenerateParametersError(
         f"the sampled coefficients are degenerate: {', '.join(involved)} are (nearly) collinear on this record "
         f"(|correlation| of {a} and {b} = {rho:.10f}, condition number {eigval[-1] / max(eigval[0], 1e-300):.2g} "
-        f"> {max_condition:.0e}); the data cannot tell them apart: sample fewer of them (--params) or remove one "
+        f"> {max_condition:.0e}); the data cannot tell them apart: sample fewer of them (params=) or remove one "
         "from the model"
     )
 
@@ -377,7 +377,7 @@ def build_likelihood(
         A pre-computed force balance of the record.
     """
     if not (mass is not None and np.isfinite(mass) and mass > 0):
-        raise InputError("the posterior needs the mass: give it (--mass, in kg) or use a method that estimates it")
+        raise InputError("the posterior needs the mass: give mass= (in kg) or use a method that estimates it")
     data = data if data is not None else regression_data(record, model, cutoff=cutoff)
     y = data.restoring_force(mass)
     stats = SufficientStatistics.from_arrays(data.G, y)

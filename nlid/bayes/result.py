@@ -229,6 +229,15 @@ class Posterior:
             )
         return pd.DataFrame(rows)
 
+    def __repr__(self) -> str:
+        parts = ", ".join(f"{n} {s['mean']:.4g} +/- {s['sd']:.2g}" for n, s in self.summary().items())
+        return f"<Posterior {self.method!r} ({self.others} others): {parts}>"
+
+    def _repr_html_(self) -> str:
+        import html
+
+        return f"<pre>{html.escape(self.format_table())}</pre>"
+
     def format_table(self) -> str:
         """A human-readable summary."""
         width = max(len(n) for n in self.names)

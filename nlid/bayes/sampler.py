@@ -200,5 +200,5 @@ def run_until_converged(
         f"the chains did not converge in {max_steps} steps: the autocorrelation time of {slowest} is about "
         f"{worst:.0f} steps and a converged run needs at least {tau_multiple:g} of them "
         f"(~{int(tau_multiple * worst)} steps, and a stable estimate); "
-        f"raise --steps (e.g. --steps {max(need, 2 * max_steps)})"
+        f"raise max_steps= (e.g. max_steps={max(need, 2 * max_steps)})"
     )

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import re
 import sys
 from collections.abc import Sequence
 from typing import Any
@@ -12,7 +13,32 @@ from ..errors import InputError
 from ..interface import to_jsonable
 from ..record import Record
 
-__all__ = ["Parser", "parse_settings", "load_data", "print_json", "add_data_arguments", "DATA_HELP"]
+__all__ = ["Parser", "parse_settings", "load_data", "print_json", "add_data_arguments", "DATA_HELP", "to_cli", "FLAGS"]
+
+#: Python parameter names in library messages -> the command-line flag that sets them.
+FLAGS: dict[str, str] = {
+    "mass": "--mass",
+    "params": "--params",
+    "priors": "--prior",
+    "max_steps": "--steps",
+    "bias_correction=False": "--no-bias-correction",
+    "noise": "--noise-level",
+    "columns": "--columns",
+    "fs": "--fs",
+    "force_hold": "--force-hold",
+    "px_roots": "--px-roots",
+    "px_max_iter": "--set px_max_iter",
+    "cutoff": "--cutoff",
+    "holdout": "--holdout",
+    "jobs": "--jobs",
+    "scheduler": "--scheduler",
+    "executor": "--executor",
+    "options": "--set",
+}
+_PARAM = re.compile(r"(?<![\w.-])(" + "|".join(sorted(map(re.escape, FLAGS), key=len, reverse=True)) + r")=(?=[\s),;:]|$)")
+_PARAM_VALUE = re.compile(
+    r"(?<![\w.-])(" + "|".join(sorted(map(re.escape, FLAGS), key=len, reverse=True)) + r")=(?:'([^']*)'|([\w.+-]+))"
+)
 
 DATA_HELP = (
     "data file (.csv, .npz, .mat) or a bundled benchmark as dataset:NAME "
@@ -25,6 +51,14 @@ class Parser(argparse.ArgumentParser):
 
     def error(self, message: str) -> None:  # type: ignore[override]
         self.exit(2, f"{self.prog}: error: {message} (see {self.prog} --help)\n")
+
+
+def to_cli(message: str) -> str:
+    """A library message with its Python parameters (``mass=``) replaced by the flags that set them (``--mass``)."""
+    message = message.replace("bias_correction=False", FLAGS["bias_correction=False"])
+    message = _PARAM_VALUE.sub(lambda m: f"{FLAGS[m.group(1)]} {m.group(2) if m.group(2) is not None else m.group(3)}", message)
+    message = _PARAM.sub(lambda m: FLAGS[m.group(1)], message)
+    return message
 
 
 def parse_settings(items: Sequence[str] | None) -> dict[str, str]:
@@ -88,23 +122,12 @@ def add_data_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def load_data(args: argparse.Namespace) -> Record:
-    """Read the record named by ``args.data``."""
-    spec: str = args.data
-    if spec.startswith("dataset:"):
-        from .. import datasets
+    """Read the record named by ``args.data`` (:func:`nlid.api.load`)."""
+    from ..api import load
 
-        if args.columns or args.fs:
-            raise InputError("--columns and --fs do not apply to bundled datasets")
-        parts = spec.split(":")
-        name = parts[1] if len(parts) > 1 else ""
-        part = parts[2] if len(parts) > 2 else "all"
-        record = datasets.load(name, part=part)
-    else:
-        from ..io import read_record
-
-        record = read_record(spec, args.columns, fs=args.fs)
-    hold = getattr(args, "force_hold", None)
-    return record.with_meta(force_hold=hold) if hold else record
+    if str(args.data).startswith("dataset:") and (args.columns or args.fs):
+        raise InputError("--columns and --fs do not apply to bundled datasets")
+    return load(args.data, columns=args.columns, fs=args.fs, force_hold=getattr(args, "force_hold", None))
 
 
 def print_json(obj: Any) -> None:

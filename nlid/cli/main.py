@@ -24,7 +24,7 @@ from . import (
     cmd_study,
     cmd_terms,
 )
-from .common import Parser
+from .common import Parser, to_cli
 
 __all__ = ["main", "build_parser", "COMMANDS"]
 
@@ -80,7 +80,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         if args.debug:
             raise
         status = 1 if isinstance(exc, IdentificationError) else 2
-        print(f"nlid {args.command}: error: {exc}", file=sys.stderr)
+        print(f"nlid {args.command}: error: {to_cli(str(exc))}", file=sys.stderr)
         return status
     except KeyboardInterrupt:
         print("nlid: interrupted", file=sys.stderr)

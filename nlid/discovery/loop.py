@@ -95,7 +95,7 @@ def choose_method(mass: float | None, registry: Registry | None = None) -> tuple
     notes: list[str] = []
     for name in order:
         if mass is None and getattr(reg.identifiers[name], "needs_mass", False):
-            notes.append(f"skipped {name!r}: it cannot estimate the mass (give --mass)")
+            notes.append(f"skipped {name!r}: it cannot estimate the mass (give mass=)")
             continue
         notes.append(
             f"method {name!r} chosen (preference order {', '.join(PREFERRED_METHODS)}; installed: "
@@ -103,7 +103,7 @@ def choose_method(mass: float | None, registry: Registry | None = None) -> tuple
         )
         return name, notes
     raise InputError(
-        "no installed identifier can run without the mass: give it (--mass, in kg) "
+        "no installed identifier can run without the mass: give mass= (in kg) "
         f"(installed: {', '.join(reg.names()) or 'none'})"
     )
 
@@ -288,6 +288,31 @@ class DiscoveryResult:
     def final_model(self) -> IdentifiedModel:
         """The final identified model."""
         return self.states[-1].identified
+
+    def summary(self) -> str:
+        """The table ``nlid discover`` prints: each model's errors, each step, the stop reason."""
+        from .report import summary_table
+
+        return summary_table(self)
+
+    def write_report(self, out_dir: str) -> list:
+        """Write the Markdown/HTML report with figures (:func:`nlid.discovery.write_report`)."""
+        from .report import write_report
+
+        return write_report(self, out_dir)
+
+    def __repr__(self) -> str:
+        added = ", ".join(s.effect for s in self.steps) or "nothing"
+        b, a = self.initial.scores, self.final.scores
+        return (
+            f"<DiscoveryResult {self.method!r}: added {added}; held-out eps {b.eps_holdout:.3g} % -> "
+            f"{a.eps_holdout:.3g} %; {self.stop_reason}>"
+        )
+
+    def _repr_html_(self) -> str:
+        import html
+
+        return f"<pre>{html.escape(self.summary())}</pre>"
 
     def to_dict(self) -> dict[str, Any]:
         """The JSON object of ``nlid discover --json``."""
@@ -553,7 +578,7 @@ def discover(
     if mass is not None and not (np.isfinite(mass) and mass > 0):
         raise InputError(f"mass must be a positive number of kg, got {mass}")
     if mass is None and getattr(identifier, "needs_mass", False):
-        raise InputError(f"method {method!r} cannot estimate the mass: give it (--mass, in kg)")
+        raise InputError(f"method {method!r} cannot estimate the mass: give mass= (in kg)")
     estimation, held, held_text = _split(record, holdout)
     if cutoff is None:
         cutoff = derivatives.suggest_cutoff(estimation.z, estimation.fs)

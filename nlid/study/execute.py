@@ -136,10 +136,10 @@ class DaskExecutor:
 def make_executor(name: str, *, jobs: int | None = None, scheduler: str | None = None) -> Any:
     """An executor by name (``"local"`` or ``"dask"``)."""
     if jobs is not None and jobs < 1:
-        raise InputError(f"--jobs must be at least 1, got {jobs}")
+        raise InputError(f"jobs= must be at least 1, got {jobs}")
     if name == "local":
         if scheduler:
-            raise InputError("--scheduler needs --executor dask")
+            raise InputError("scheduler= needs executor='dask'")
         return LocalExecutor(jobs)
     if name == "dask":
         return DaskExecutor(scheduler, jobs)
