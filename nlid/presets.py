@@ -30,6 +30,7 @@ seed does not depend on which channels are written or how noisy they are.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, replace
 from difflib import get_close_matches
@@ -47,6 +48,10 @@ __all__ = ["Preset", "PRESETS", "get_preset", "RESPONSE_CHANNELS"]
 
 #: Channels that can carry measurement noise.
 RESPONSE_CHANNELS = ("z", "v", "a")
+#: Most samples a preset may simulate (checked before anything is allocated).
+MAX_SAMPLES = 20_000_000
+#: Highest sampling frequency of a preset (Hz).
+MAX_FS = 1e7
 
 
 @dataclass(frozen=True)
@@ -90,6 +95,33 @@ class Preset:
     excitation: str = "force"
     x0: tuple[float, float] = (0.0, 0.0)
     reference: str = ""
+
+    def __post_init__(self) -> None:
+        for name in ("mass", "g", "fs", "duration", "force_rms"):
+            value = getattr(self, name)
+            if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+                raise InputError(f"preset {self.name!r}: {name} must be a finite number, got {value!r}")
+        for name in ("mass", "fs", "duration"):
+            if not getattr(self, name) > 0:
+                raise InputError(f"preset {self.name!r}: {name} must be positive, got {getattr(self, name)!r}")
+        if self.force_rms < 0 or self.g < 0:
+            raise InputError(f"preset {self.name!r}: force_rms and g must not be negative")
+        if self.fs > MAX_FS:
+            raise InputError(f"preset {self.name!r}: fs = {self.fs:g} Hz is above the limit of {MAX_FS:g} Hz")
+        n = self.duration * self.fs
+        if n > MAX_SAMPLES:
+            raise InputError(
+                f"preset {self.name!r}: duration x fs = {n:.3g} samples, more than the limit of {MAX_SAMPLES:.3g} "
+                f"({8 * 4 * MAX_SAMPLES / 1e9:.1f} GB of channels); shorten the duration or lower fs"
+            )
+        if n < 64:
+            raise InputError(f"preset {self.name!r}: duration x fs = {n:.3g} samples; at least 64 are needed")
+        for i, x in enumerate(self.x0):
+            if not math.isfinite(float(x)):
+                raise InputError(f"preset {self.name!r}: x0[{i}] must be finite, got {x!r}")
+        bad = [k for k, v in self.coefficients.items() if not math.isfinite(float(v))]
+        if bad:
+            raise InputError(f"preset {self.name!r}: the coefficient of {bad[0]} must be finite")
 
     @property
     def n(self) -> int:

@@ -150,7 +150,7 @@ def test_nsi_ip_meets_issue_8_targets_on_the_built_in_study_records():
     runs = [r for r in plan_study(load_study("paper-experimental")) if r.run_id.startswith("experimental/main/nsi-ip/")]
     assert len(runs) == 3
     for run in runs:
-        rec = preset.simulate(run.spec["seed"], noise={"z": 0.02, "a": 0.02}, channels=("z", "a"))
+        rec = preset.simulate(run.spec.seed, noise={"z": 0.02, "a": 0.02}, channels=("z", "a"))
         res = identify(rec, FULL, "nsi-ip", mass=preset.mass)
         for name, tol in (("z^3", 0.01), ("z^2", 0.01), ("z", 0.01), ("sign(v)*|px(z)|", 0.10)):
             assert res.coefficients[name] == pytest.approx(truth[name], rel=tol), (run.run_id, name)

@@ -42,28 +42,50 @@ A study is datasets x models x identifiers x repetitions. The file::
     [posterior]                    # optional: nlid.bayes.study_metrics(..., **options)
     draws = 2000
 
-Everything is checked by :func:`load_study`: unknown keys, presets, datasets,
-files, terms, identifiers and options are reported as one
-:class:`ConfigError` naming the file, the key and, where one exists, a
-suggestion.
+Everything is checked before any run starts: :func:`parse_study` validates
+the text (unknown keys in every table, the ``[posterior]`` table's keys and
+values, numbers that are not finite, negative or absurd, terms, presets and
+their overrides, identifiers and their options, and the number of runs, at
+most :data:`MAX_RUNS`) into typed values (:mod:`nlid.study.values`);
+:func:`resolve_study` is the one step that touches the disk (files exist and
+read, benchmark parts load, a "known" mass is known). :func:`load_study`
+does both. Each problem is one :class:`ConfigError` naming the file, the key
+and, where one exists, a suggestion.
 """
 
 from __future__ import annotations
 
-import importlib
+import inspect
+import math
 import os
 import re
 import sys
 from collections.abc import Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from difflib import get_close_matches
 from pathlib import Path
 from typing import Any
 
+from .._frozen import FrozenDict
 from ..errors import InputError, NlidError
 from ..interface import resolve_options
 from ..pipeline import as_model
 from ..registry import Registry, default_registry
+from .values import (
+    MAX_TIMEOUT,
+    BenchmarkSource,
+    ConfigError,
+    DataSource,
+    FileSource,
+    Holdout,
+    KnownMass,
+    Mass,
+    NoHoldout,
+    PresetSource,
+    Where,
+    parse_holdout,
+    parse_mass,
+)
 
 if sys.version_info >= (3, 11):
     import tomllib
@@ -77,12 +99,16 @@ __all__ = [
     "StudyConfig",
     "load_study",
     "parse_study",
+    "resolve_study",
     "builtin_studies",
     "resolve_study_path",
+    "MAX_RUNS",
 ]
 
 DEFAULT_TIMEOUT = 600.0
 MAIN_MODEL = "main"
+#: Most runs a study may plan (datasets x term sets x identifiers x repetitions).
+MAX_RUNS = 20_000
 
 _STUDY_KEYS = ("name", "description", "seed", "repetitions", "timeout", "identifiers")
 _TOP_KEYS = ("study", "options", "datasets", "posterior")
@@ -117,25 +143,6 @@ _REFERENCE_KEYS = ("mass", "coefficients", "equilibria", "modal")
 _NAME = re.compile(r"^[A-Za-z0-9][A-Za-z0-9_.+-]*$")
 
 
-class ConfigError(InputError):
-    """A study configuration is invalid.
-
-    Parameters
-    ----------
-    source
-        The file (or ``"<string>"``).
-    key
-        Dotted key, e.g. ``datasets[2].terms``.
-    message
-        What is wrong (with a suggestion where one exists).
-    """
-
-    def __init__(self, source: str, key: str, message: str):
-        self.source, self.key, self.reason = source, key, message
-        where = f"{source}: {key}: " if key else f"{source}: "
-        super().__init__(where + message)
-
-
 @dataclass(frozen=True)
 class ModelConfig:
     """One term set of a dataset (``terms`` besides the defaults, ``without``, ``px_roots``)."""
@@ -145,57 +152,127 @@ class ModelConfig:
     without: str = ""
     px_roots: tuple[float, float] | None = None
 
+    def to_dict(self) -> dict[str, Any]:
+        """Plain dictionary."""
+        return {"name": self.name, "terms": self.terms, "without": self.without, "px_roots": self.px_roots}
+
 
 @dataclass(frozen=True)
 class DatasetConfig:
-    """A validated dataset entry (plain values only: it travels to worker processes).
+    """A validated dataset entry, with typed values (frozen: it travels to worker processes).
 
     Attributes
     ----------
-    kind
-        ``"preset"``, ``"dataset"`` or ``"file"``.
+    name, description
+        As in the file.
     source
-        Preset name, ``nlid.datasets`` name, or the resolved file path.
+        Where the data come from: :class:`~nlid.study.values.PresetSource`,
+        :class:`~nlid.study.values.BenchmarkSource` or
+        :class:`~nlid.study.values.FileSource`.
+    models
+        The term sets (the dataset's own, ``"main"``, first).
+    mass
+        :class:`~nlid.study.values.KnownMass`, ``EstimatedMass`` or ``GivenMass``.
+    holdout
+        ``NoHoldout``, ``IndependentHoldout``, ``FractionHoldout`` or ``PartHoldout``.
+    freerun, slices, repetitions, timeout, methods, reference
+        As in the file (``methods``: per-identifier overrides).
     """
 
     name: str
-    kind: str
-    source: str
+    source: DataSource
     description: str = ""
-    part: str = "all"
-    columns: str | None = None
-    fs: float | None = None
-    overrides: dict[str, Any] = field(default_factory=dict)
-    noise: dict[str, float] | float = 0.0
-    channels: tuple[str, ...] = ("z",)
     models: tuple[ModelConfig, ...] = ()
-    mass: str | float = "known"
-    holdout: str | float = "none"
+    mass: Mass = field(default_factory=KnownMass)
+    holdout: Holdout = field(default_factory=NoHoldout)
     freerun: bool = True
     slices: tuple[float, ...] = ()
     repetitions: int = 1
     timeout: float = DEFAULT_TIMEOUT
-    methods: dict[str, dict[str, Any]] = field(default_factory=dict)
-    reference: dict[str, Any] | None = None
+    methods: Mapping[str, Mapping[str, Any]] = field(default_factory=FrozenDict)
+    reference: Mapping[str, Any] | None = None
+
+    @property
+    def kind(self) -> str:
+        """``"preset"``, ``"dataset"`` or ``"file"``."""
+        return self.source.kind
 
     @property
     def simulated(self) -> bool:
         """True for preset datasets (one record per repetition)."""
-        return self.kind == "preset"
+        return isinstance(self.source, PresetSource)
 
     def to_dict(self) -> dict[str, Any]:
-        """Plain dictionary (for worker processes and the study record)."""
-        out = dict(self.__dict__)
-        out["channels"] = list(self.channels)
-        out["models"] = [
-            {"name": m.name, "terms": m.terms, "without": m.without, "px_roots": m.px_roots} for m in self.models
-        ]
-        return out
+        """The plain layout run specs carry in JSON (and their digests are computed from)."""
+        src = self.source
+        return {
+            "name": self.name,
+            "kind": src.kind,
+            "source": src.path if isinstance(src, FileSource) else src.name,
+            "description": self.description,
+            "part": src.part if isinstance(src, BenchmarkSource) else "all",
+            "columns": src.columns if isinstance(src, FileSource) else None,
+            "fs": src.fs if isinstance(src, FileSource) else None,
+            "overrides": dict(src.overrides) if isinstance(src, PresetSource) else {},
+            "noise": (dict(src.noise) if isinstance(src.noise, Mapping) else src.noise)
+            if isinstance(src, PresetSource)
+            else 0.0,
+            "channels": list(src.channels) if isinstance(src, PresetSource) else ["z"],
+            "models": [m.to_dict() for m in self.models],
+            "mass": self.mass.to_toml(),
+            "holdout": self.holdout.to_toml(),
+            "freerun": self.freerun,
+            "slices": list(self.slices),
+            "repetitions": self.repetitions,
+            "timeout": self.timeout,
+            "methods": {k: dict(v) for k, v in self.methods.items()},
+            "reference": None if self.reference is None else dict(self.reference),
+        }
+
+    @classmethod
+    def from_dict(cls, data: Mapping[str, Any], where: Where | None = None) -> DatasetConfig:
+        """Inverse of :meth:`to_dict` (a run spec read back from JSON)."""
+        where = where or Where("<run spec>", "dataset")
+        kind = data["kind"]
+        if kind == "preset":
+            src: DataSource = PresetSource(
+                data["source"], data.get("overrides") or {}, data.get("noise", 0.0), tuple(data.get("channels") or ("z",))
+            )
+        elif kind == "dataset":
+            src = BenchmarkSource(data["source"], data.get("part", "all"))
+        elif kind == "file":
+            src = FileSource(data["source"], data.get("columns"), data.get("fs"))
+        else:
+            raise where.error(f"unknown dataset kind {kind!r}")
+        models = tuple(
+            ModelConfig(m["name"], m["terms"], m.get("without", ""), None if m.get("px_roots") is None else tuple(m["px_roots"]))
+            for m in data.get("models") or ()
+        )
+        return cls(
+            name=data["name"],
+            source=src,
+            description=data.get("description", ""),
+            models=models,
+            mass=parse_mass(data.get("mass", "known"), where / "mass"),
+            holdout=parse_holdout(data.get("holdout", "none"), kind, where / "holdout"),
+            freerun=bool(data.get("freerun", True)),
+            slices=tuple(float(x) for x in data.get("slices") or ()),
+            repetitions=int(data.get("repetitions", 1)),
+            timeout=float(data.get("timeout", DEFAULT_TIMEOUT)),
+            methods=FrozenDict({k: FrozenDict(v) for k, v in (data.get("methods") or {}).items()}),
+            reference=data.get("reference"),
+        )
 
 
 @dataclass(frozen=True)
 class StudyConfig:
-    """A validated study."""
+    """A validated study.
+
+    Attributes
+    ----------
+    resolved
+        True once :func:`resolve_study` has checked it against the disk.
+    """
 
     name: str
     description: str
@@ -207,6 +284,12 @@ class StudyConfig:
     source: str
     text: str
     skipped_identifiers: dict[str, str] = field(default_factory=dict)
+    resolved: bool = False
+
+    @property
+    def run_count(self) -> int:
+        """How many runs the study plans."""
+        return sum(len(d.models) * len(self.identifiers) * d.repetitions for d in self.datasets)
 
 
 # --------------------------------------------------------------------------- helpers
@@ -219,53 +302,50 @@ def _unknown(source: str, key: str, name: str, known: tuple[str, ...] | list[str
     )
 
 
-def _check_keys(source: str, prefix: str, table: Mapping[str, Any], known: tuple[str, ...]) -> None:
+def _check_keys(where: Where, table: Mapping[str, Any], known: tuple[str, ...]) -> None:
     for key in table:
         if key not in known:
-            raise _unknown(source, f"{prefix}{key}" if prefix else key, key, known)
+            raise _unknown(where.source, (where / key).key, key, known)
 
 
-def _table(source: str, key: str, value: Any) -> dict[str, Any]:
+def _table(where: Where, value: Any) -> dict[str, Any]:
     if not isinstance(value, Mapping):
-        raise ConfigError(source, key, f"expected a table, got {type(value).__name__} {value!r}")
+        raise where.error(f"expected a table, got {type(value).__name__} {value!r}")
     return dict(value)
 
 
-def _number(source: str, key: str, value: Any, *, minimum: float | None = None, integer: bool = False) -> Any:
-    ok = isinstance(value, int) if integer else isinstance(value, (int, float))
-    if isinstance(value, bool) or not ok:
-        raise ConfigError(source, key, f"expected {'an integer' if integer else 'a number'}, got {value!r}")
-    if minimum is not None and value < minimum:
-        raise ConfigError(source, key, f"must be >= {minimum:g}, got {value!r}")
-    return value
-
-
-def _string(source: str, key: str, value: Any) -> str:
-    if not isinstance(value, str):
-        raise ConfigError(source, key, f"expected a string, got {value!r}")
-    return value
-
-
-def _name(source: str, key: str, value: Any) -> str:
-    value = _string(source, key, value)
+def _name(where: Where, value: Any) -> str:
+    value = where.string(value)
     if not _NAME.match(value):
-        raise ConfigError(source, key, f"{value!r} is not a usable name (letters, digits, _ . + -; no spaces or /)")
+        raise where.error(f"{value!r} is not a usable name (letters, digits, _ . + -; no spaces or /)")
     return value
 
 
-def _roots(source: str, key: str, value: Any) -> tuple[float, float] | None:
+def _roots(where: Where, value: Any) -> tuple[float, float] | None:
     if value is None:
         return None
     if not isinstance(value, list) or len(value) != 2:
-        raise ConfigError(source, key, f"expected two numbers [z-, z+], got {value!r}")
-    return (float(_number(source, key, value[0])), float(_number(source, key, value[1])))
+        raise where.error(f"expected two numbers [z-, z+], got {value!r}")
+    return (float(where.number(value[0])), float(where.number(value[1])))
 
 
-def _check_model(source: str, key: str, model: ModelConfig) -> None:
+def _check_model(where: Where, model: ModelConfig) -> None:
     try:
         as_model(model.terms, without=model.without, px_roots=model.px_roots)
     except NlidError as exc:
-        raise ConfigError(source, key, str(exc)) from None
+        raise where.error(str(exc)) from None
+
+
+def _check_finite(where: Where, value: Any) -> None:
+    """Every number inside ``value`` (tables and arrays too) is finite."""
+    if isinstance(value, Mapping):
+        for k, v in value.items():
+            _check_finite(where / str(k), v)
+    elif isinstance(value, list):
+        for i, v in enumerate(value):
+            _check_finite(where / f"[{i}]", v)
+    elif isinstance(value, float) and not math.isfinite(value):
+        raise where.error(f"expected a finite number, got {value!r}")
 
 
 def builtin_dirs() -> list[Path]:
@@ -295,6 +375,8 @@ def resolve_study_path(name_or_path: str | os.PathLike[str]) -> Path:
     text = str(name_or_path)
     path = Path(text).expanduser()
     if path.suffix == ".toml" or os.sep in text or path.is_file():
+        if path.is_dir():
+            raise InputError(f"study file {text} is a folder, not a .toml file")
         if not path.is_file():
             raise InputError(f"study file {text} not found")
         return path
@@ -311,7 +393,7 @@ def resolve_study_path(name_or_path: str | os.PathLike[str]) -> Path:
 
 # --------------------------------------------------------------------------- loading
 def load_study(name_or_path: str | os.PathLike[str], *, registry: Registry | None = None) -> StudyConfig:
-    """Read and validate a study (built-in name or TOML path).
+    """Read, validate and resolve a study (built-in name or TOML path).
 
     Parameters
     ----------
@@ -327,10 +409,15 @@ def load_study(name_or_path: str | os.PathLike[str], *, registry: Registry | Non
     """
     path = resolve_study_path(name_or_path)
     try:
-        text = path.read_text(encoding="utf-8")
+        raw = path.read_bytes()
     except OSError as exc:
         raise InputError(f"cannot read study file {path}: {exc.strerror}") from None
-    return parse_study(text, source=str(path), base_dir=path.parent, default_name=path.stem, registry=registry)
+    try:
+        text = raw.decode("utf-8")
+    except UnicodeDecodeError as exc:
+        raise ConfigError(str(path), "", f"not UTF-8 text (byte {exc.start}): a TOML file must be UTF-8") from None
+    config = parse_study(text, source=str(path), base_dir=path.parent, default_name=path.stem, registry=registry)
+    return resolve_study(config)
 
 
 def parse_study(
@@ -341,18 +428,24 @@ def parse_study(
     default_name: str = "study",
     registry: Registry | None = None,
 ) -> StudyConfig:
-    """Validate a study given as TOML text (see the module docstring for the keys)."""
+    """Validate a study given as TOML text into typed values (no file or benchmark is read).
+
+    See the module docstring for the keys; :func:`resolve_study` checks the
+    files and benchmarks the study names.
+    """
     try:
         raw = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
         raise ConfigError(source, "", f"not valid TOML: {exc}") from None
-    _check_keys(source, "", raw, _TOP_KEYS)
-    study = _table(source, "study", raw.get("study", {}))
-    _check_keys(source, "study.", study, _STUDY_KEYS)
-    name = _name(source, "study.name", study.get("name", default_name))
-    seed = int(_number(source, "study.seed", study.get("seed", 0), minimum=0, integer=True))
-    reps = int(_number(source, "study.repetitions", study.get("repetitions", 1), minimum=1, integer=True))
-    timeout = float(_number(source, "study.timeout", study.get("timeout", DEFAULT_TIMEOUT), minimum=1e-3))
+    top = Where(source, "")
+    _check_keys(top, raw, _TOP_KEYS)
+    at = Where(source, "study")
+    study = _table(at, raw.get("study", {}))
+    _check_keys(at, study, _STUDY_KEYS)
+    name = _name(at / "name", study.get("name", default_name))
+    seed = int((at / "seed").number(study.get("seed", 0), minimum=0, integer=True))
+    reps = int((at / "repetitions").number(study.get("repetitions", 1), minimum=1, maximum=MAX_RUNS, integer=True))
+    timeout = float((at / "timeout").number(study.get("timeout", DEFAULT_TIMEOUT), positive=True, maximum=MAX_TIMEOUT))
     registry = registry or default_registry()
 
     wanted = study.get("identifiers", "all")
@@ -361,26 +454,27 @@ def parse_study(
         identifiers = tuple(registry.names())
         skipped = dict(registry.failures)
         if not identifiers:
-            raise ConfigError(source, "study.identifiers", "no identifier is installed (see nlid methods)")
+            raise (at / "identifiers").error("no identifier is installed (see nlid methods)")
     elif isinstance(wanted, list) and wanted and all(isinstance(x, str) for x in wanted):
         for i, ident in enumerate(wanted):
             try:
                 registry.get(ident)
             except NlidError as exc:
-                raise ConfigError(source, f"study.identifiers[{i}]", str(exc)) from None
+                raise (at / f"identifiers[{i}]").error(str(exc)) from None
         if len(set(wanted)) != len(wanted):
-            raise ConfigError(source, "study.identifiers", "an identifier is listed twice")
+            raise (at / "identifiers").error("an identifier is listed twice")
         identifiers = tuple(wanted)
     else:
-        raise ConfigError(source, "study.identifiers", f'expected "all" or a list of names, got {wanted!r}')
+        raise (at / "identifiers").error(f'expected "all" or a list of names, got {wanted!r}')
 
-    options_raw = _table(source, "options", raw.get("options", {}))
+    at_options = Where(source, "options")
+    options_raw = _table(at_options, raw.get("options", {}))
     options: dict[str, dict[str, Any]] = {}
     for ident, opts in options_raw.items():
         if ident not in identifiers:
             raise _unknown(source, f"options.{ident}", ident, list(identifiers), "identifier")
-        opts = _table(source, f"options.{ident}", opts)
-        _validate_options(source, f"options.{ident}", registry, ident, opts)
+        opts = _table(at_options / ident, opts)
+        _validate_options(at_options / ident, registry, ident, opts)
         options[ident] = opts
 
     if "datasets" not in raw:
@@ -389,34 +483,23 @@ def parse_study(
         raise ConfigError(source, "datasets", "expected one or more [[datasets]] tables")
     datasets = []
     for i, entry in enumerate(raw["datasets"]):
-        datasets.append(
-            _dataset(source, f"datasets[{i}]", _table(source, f"datasets[{i}]", entry), Path(base_dir), reps, timeout)
-        )
+        where = Where(source, f"datasets[{i}]")
+        datasets.append(_dataset(where, _table(where, entry), Path(base_dir), reps, timeout))
         for ident, over in datasets[-1].methods.items():
             if ident not in identifiers:
                 raise _unknown(source, f"datasets[{i}].methods.{ident}", ident, list(identifiers), "identifier")
             merged = {**options.get(ident, {}), **over.get("options", {})}
-            _validate_options(source, f"datasets[{i}].methods.{ident}.options", registry, ident, merged)
+            _validate_options(where / f"methods.{ident}.options", registry, ident, merged)
     names = [d.name for d in datasets]
     dup = sorted({n for n in names if names.count(n) > 1})
     if dup:
         raise ConfigError(source, "datasets", f"dataset name {dup[0]!r} is used twice; give each a unique name")
 
-    posterior = None
-    if "posterior" in raw:
-        posterior = _table(source, "posterior", raw["posterior"])
-        try:
-            module = importlib.import_module("nlid.bayes")
-        except ImportError as exc:
-            raise ConfigError(
-                source, "posterior", f"needs the module nlid.bayes, which is not available ({exc})"
-            ) from None
-        if not callable(getattr(module, "study_metrics", None)):
-            raise ConfigError(source, "posterior", "nlid.bayes has no study_metrics() function")
+    posterior = _posterior(Where(source, "posterior"), raw["posterior"]) if "posterior" in raw else None
 
-    return StudyConfig(
+    config = StudyConfig(
         name=name,
-        description=_string(source, "study.description", study.get("description", "")),
+        description=(at / "description").string(study.get("description", "")),
         seed=seed,
         identifiers=identifiers,
         options=options,
@@ -426,87 +509,66 @@ def parse_study(
         text=text,
         skipped_identifiers=skipped,
     )
+    if config.run_count > MAX_RUNS:
+        raise (at / "repetitions").error(
+            f"the study plans {config.run_count} runs (datasets x term sets x identifiers x repetitions); "
+            f"at most {MAX_RUNS} are allowed: split it into several studies"
+        )
+    return config
 
 
-def _validate_options(source: str, key: str, registry: Registry, ident: str, opts: Mapping[str, Any]) -> None:
+def _posterior(where: Where, value: Any) -> dict[str, Any]:
+    """The ``[posterior]`` table: the settings of :class:`nlid.bayes.PosteriorSampler` plus ``level``."""
+    table = _table(where, value)
+    try:
+        from ..bayes import PosteriorSampler
+    except ImportError as exc:  # pragma: no cover - nlid.bayes is part of nlid
+        raise where.error(f"needs the module nlid.bayes, which is not available ({exc})") from None
+    known = tuple(n for n in inspect.signature(PosteriorSampler).parameters if n != "self") + ("level",)
+    _check_keys(where, table, known)
+    _check_finite(where, table)
+    settings = dict(table)
+    level = settings.pop("level", 0.9)
+    (where / "level").number(level)
+    if not 0 < level < 1:
+        raise (where / "level").error(f"the credible level must lie between 0 and 1, got {level}")
+    for key in ("walkers", "max_steps", "seed", "bias_pairs", "bias_iterations"):
+        if key in settings:
+            (where / key).number(settings[key], integer=True, minimum=0 if key == "seed" else 1)
+    if "cutoff" in settings and settings["cutoff"] is not None:
+        (where / "cutoff").number(settings["cutoff"], positive=True)
+    try:
+        PosteriorSampler(**settings)
+    except (NlidError, TypeError, ValueError) as exc:
+        raise where.error(str(exc)) from None
+    return table
+
+
+def _validate_options(where: Where, registry: Registry, ident: str, opts: Mapping[str, Any]) -> None:
     cls = registry.get(ident)
     try:
         resolve_options(tuple(getattr(cls, "options", ())), opts)
         cls(**dict(opts))
     except NlidError as exc:
-        raise ConfigError(source, key, str(exc)) from None
+        raise where.error(str(exc)) from None
 
 
-def _dataset(source: str, key: str, entry: dict[str, Any], base: Path, reps: int, timeout: float) -> DatasetConfig:
-    _check_keys(source, f"{key}.", entry, _DATASET_KEYS)
-    kinds = [k for k in ("preset", "dataset", "file") if k in entry]
-    if len(kinds) != 1:
-        raise ConfigError(source, key, "give exactly one of preset, dataset or file")
-    kind = kinds[0]
-    value = _string(source, f"{key}.{kind}", entry[kind])
-    default_terms = ""
-    overrides: dict[str, Any] = {}
-    part = "all"
-    truth_known = False
-    if kind == "preset":
-        from ..presets import get_preset
+def _preset_source(where: Where, value: str, entry: dict[str, Any]) -> tuple[PresetSource, str]:
+    from ..presets import get_preset
 
-        try:
-            preset = get_preset(value)
-            overrides = _table(source, f"{key}.overrides", entry.get("overrides", {}))
-            if "band" in overrides and isinstance(overrides["band"], list):
-                overrides["band"] = tuple(overrides["band"])
-            preset = preset.with_overrides(**overrides) if overrides else preset
-            preset.model()
-        except NlidError as exc:
-            raise ConfigError(source, f"{key}.{'overrides' if overrides else 'preset'}", str(exc)) from None
-        except (TypeError, ValueError) as exc:
-            raise ConfigError(source, f"{key}.overrides", f"invalid preset override: {exc}") from None
-        default_terms = preset.terms
-        truth_known = True
-        source_value = value
-    elif kind == "dataset":
-        from .. import datasets as nlid_datasets
-
-        if value not in nlid_datasets.DATASETS:
-            raise _unknown(source, f"{key}.dataset", value, list(nlid_datasets.DATASETS), "dataset")
-        part = _string(source, f"{key}.part", entry.get("part", "all"))
-        holdout_part = entry.get("holdout")
-        for k, p in (("part", part), ("holdout", holdout_part)):
-            if isinstance(p, str) and p not in ("none", "independent"):
-                try:
-                    loaded = nlid_datasets.load(value, part=p)
-                except NlidError as exc:
-                    raise ConfigError(source, f"{key}.{k}", str(exc)) from None
-                if k == "part":
-                    truth_known = bool(loaded.mass or (loaded.meta.get("reference") or {}).get("mass"))
-        source_value = value
-    else:
-        expanded = os.path.expandvars(os.path.expanduser(value))
-        if "$" in expanded:
-            raise ConfigError(source, f"{key}.file", f"{value!r}: an environment variable in it is not set")
-        path = Path(expanded)
-        path = path if path.is_absolute() else (base / path)
-        if not path.is_file():
-            raise ConfigError(source, f"{key}.file", f"file {path} not found")
-        source_value = str(path.resolve())
-        try:
-            from ..io import read_record
-
-            read_record(source_value, entry.get("columns"), fs=entry.get("fs"))
-        except NlidError as exc:
-            raise ConfigError(source, f"{key}.file", str(exc)) from None
-    for k in ("overrides", "noise", "channels") if kind != "preset" else ():
-        if k in entry:
-            raise ConfigError(source, f"{key}.{k}", f"only applies to preset datasets, not {kind}")
-    for k in ("columns", "fs") if kind != "file" else ():
-        if k in entry:
-            raise ConfigError(source, f"{key}.{k}", "only applies to file datasets")
-    if "part" in entry and kind != "dataset":
-        raise ConfigError(source, f"{key}.part", "only applies to nlid.datasets entries (dataset = ...)")
-
-    name = _name(source, f"{key}.name", entry.get("name", value if kind != "file" else Path(value).stem))
-
+    overrides = _table(where / "overrides", entry.get("overrides", {}))
+    _check_finite(where / "overrides", overrides)
+    try:
+        preset = get_preset(value)
+        over = dict(overrides)
+        if isinstance(over.get("band"), list):
+            over["band"] = tuple(over["band"])
+        preset = preset.with_overrides(**over) if over else preset
+        preset.model()
+    except NlidError as exc:
+        raise (where / ("overrides" if overrides else "preset")).error(str(exc)) from None
+    except (TypeError, ValueError) as exc:
+        raise (where / "overrides").error(f"invalid preset override: {exc}") from None
     noise: dict[str, float] | float = 0.0
     if "noise" in entry:
         raw_noise = entry["noise"]
@@ -514,148 +576,211 @@ def _dataset(source: str, key: str, entry: dict[str, Any], base: Path, reps: int
             noise = {}
             for ch, x in raw_noise.items():
                 if ch not in ("z", "v", "a"):
-                    raise _unknown(source, f"{key}.noise.{ch}", ch, ["z", "v", "a"], "channel")
-                noise[ch] = float(_number(source, f"{key}.noise.{ch}", x, minimum=0.0))
+                    raise _unknown(where.source, (where / f"noise.{ch}").key, ch, ["z", "v", "a"], "channel")
+                noise[ch] = float((where / f"noise.{ch}").number(x, minimum=0.0))
         else:
-            noise = float(_number(source, f"{key}.noise", raw_noise, minimum=0.0))
+            noise = float((where / "noise").number(raw_noise, minimum=0.0))
         levels = noise.values() if isinstance(noise, dict) else [noise]
         if any(x >= 10 for x in levels):
-            raise ConfigError(source, f"{key}.noise", "noise is a fraction of the signal's std (0.02 = 2 %)")
+            raise (where / "noise").error("noise is a fraction of the signal's std (0.02 = 2 %)")
     channels_raw = entry.get("channels", list(noise) if isinstance(noise, dict) else ["z"])
     if not isinstance(channels_raw, list) or not all(c in ("z", "v", "a") for c in channels_raw):
-        raise ConfigError(source, f"{key}.channels", f"expected a list of z, v, a; got {channels_raw!r}")
+        raise (where / "channels").error(f"expected a list of z, v, a; got {channels_raw!r}")
     channels = tuple(dict.fromkeys(["z", *channels_raw]))
     if isinstance(noise, dict):
         missing = [c for c in noise if c not in channels]
         if missing:
-            raise ConfigError(source, f"{key}.noise", f"noise on channel {missing[0]!r}, which is not recorded")
+            raise (where / "noise").error(f"noise on channel {missing[0]!r}, which is not recorded")
+    return PresetSource(value, overrides, noise, channels), preset.terms
 
-    terms = _string(source, f"{key}.terms", entry.get("terms", default_terms))
+
+def _dataset(where: Where, entry: dict[str, Any], base: Path, reps: int, timeout: float) -> DatasetConfig:
+    _check_keys(where, entry, _DATASET_KEYS)
+    kinds = [k for k in ("preset", "dataset", "file") if k in entry]
+    if len(kinds) != 1:
+        raise where.error("give exactly one of preset, dataset or file")
+    kind = kinds[0]
+    value = (where / kind).string(entry[kind])
+    default_terms = ""
+    for k in ("overrides", "noise", "channels") if kind != "preset" else ():
+        if k in entry:
+            raise (where / k).error(f"only applies to preset datasets, not {kind}")
+    for k in ("columns", "fs") if kind != "file" else ():
+        if k in entry:
+            raise (where / k).error("only applies to file datasets")
+    if "part" in entry and kind != "dataset":
+        raise (where / "part").error("only applies to nlid.datasets entries (dataset = ...)")
+    source: DataSource
+    if kind == "preset":
+        source, default_terms = _preset_source(where, value, entry)
+    elif kind == "dataset":
+        from .. import datasets as nlid_datasets
+
+        if value not in nlid_datasets.DATASETS:
+            raise _unknown(where.source, (where / "dataset").key, value, list(nlid_datasets.DATASETS), "dataset")
+        source = BenchmarkSource(value, (where / "part").string(entry.get("part", "all")))
+    else:
+        expanded = os.path.expandvars(os.path.expanduser(value))
+        if "$" in expanded:
+            raise (where / "file").error(f"{value!r}: an environment variable in it is not set")
+        path = Path(expanded)
+        path = path if path.is_absolute() else (base / path)
+        fs = None
+        if "fs" in entry:
+            fs = float((where / "fs").number(entry["fs"], positive=True, maximum=1e9))
+        columns = None if "columns" not in entry else (where / "columns").string(entry["columns"])
+        source = FileSource(os.path.normpath(os.path.abspath(path)), columns, fs)
+
+    name = _name(where / "name", entry.get("name", value if kind != "file" else Path(value).stem))
+
+    terms = (where / "terms").string(entry.get("terms", default_terms))
     main = ModelConfig(
         MAIN_MODEL,
         terms,
-        _string(source, f"{key}.without", entry.get("without", "")),
-        _roots(source, f"{key}.px_roots", entry.get("px_roots")),
+        (where / "without").string(entry.get("without", "")),
+        _roots(where / "px_roots", entry.get("px_roots")),
     )
-    _check_model(source, f"{key}.terms", main)
+    _check_model(where / "terms", main)
     models = [main]
-    for mname, spec in _table(source, f"{key}.models", entry.get("models", {})).items():
-        mkey = f"{key}.models.{mname}"
-        _name(source, mkey, mname)
+    at_models = where / "models"
+    for mname, spec in _table(at_models, entry.get("models", {})).items():
+        mw = at_models / mname
+        _name(mw, mname)
         if mname == MAIN_MODEL:
-            raise ConfigError(source, mkey, f"{MAIN_MODEL!r} is the dataset's own terms; choose another name")
+            raise mw.error(f"{MAIN_MODEL!r} is the dataset's own terms; choose another name")
         if isinstance(spec, str):
             spec = {"terms": spec}
-        spec = _table(source, mkey, spec)
-        _check_keys(source, f"{mkey}.", spec, _MODEL_KEYS)
+        spec = _table(mw, spec)
+        _check_keys(mw, spec, _MODEL_KEYS)
         model = ModelConfig(
             mname,
-            _string(source, f"{mkey}.terms", spec.get("terms", "")),
-            _string(source, f"{mkey}.without", spec.get("without", "")),
-            _roots(source, f"{mkey}.px_roots", spec.get("px_roots")),
+            (mw / "terms").string(spec.get("terms", "")),
+            (mw / "without").string(spec.get("without", "")),
+            _roots(mw / "px_roots", spec.get("px_roots")),
         )
-        _check_model(source, f"{mkey}.terms", model)
+        _check_model(mw / "terms", model)
         models.append(model)
 
-    methods: dict[str, dict[str, Any]] = {}
-    for ident, spec in _table(source, f"{key}.methods", entry.get("methods", {})).items():
-        mkey = f"{key}.methods.{ident}"
-        spec = _table(source, mkey, spec)
-        _check_keys(source, f"{mkey}.", spec, _METHOD_KEYS)
+    methods: dict[str, FrozenDict] = {}
+    at_methods = where / "methods"
+    for ident, spec in _table(at_methods, entry.get("methods", {})).items():
+        mw = at_methods / ident
+        spec = _table(mw, spec)
+        _check_keys(mw, spec, _METHOD_KEYS)
         if "options" in spec:
-            spec["options"] = _table(source, f"{mkey}.options", spec["options"])
+            spec["options"] = FrozenDict(_table(mw / "options", spec["options"]))
         for m in models:
             _check_model(
-                source,
-                f"{mkey}.terms",
+                mw / "terms",
                 ModelConfig(
                     m.name,
-                    _string(source, f"{mkey}.terms", spec.get("terms", m.terms)),
-                    _string(source, f"{mkey}.without", spec.get("without", m.without)),
-                    _roots(source, f"{mkey}.px_roots", spec.get("px_roots", m.px_roots)),
+                    (mw / "terms").string(spec.get("terms", m.terms)),
+                    (mw / "without").string(spec.get("without", m.without)),
+                    _roots(mw / "px_roots", spec.get("px_roots", m.px_roots)),
                 ),
             )
-        methods[ident] = spec
+        methods[ident] = FrozenDict(spec)
 
-    mass = entry.get("mass", "known" if kind == "preset" else "estimate")
-    if isinstance(mass, str):
-        if mass not in ("known", "estimate"):
-            raise ConfigError(source, f"{key}.mass", f'expected "known", "estimate" or a number in kg, got {mass!r}')
-    else:
-        mass = float(_number(source, f"{key}.mass", mass, minimum=0.0))
-        if mass <= 0:
-            raise ConfigError(source, f"{key}.mass", "the mass must be positive (kg)")
-
-    reference = None
-    if "reference" in entry:
-        reference = _table(source, f"{key}.reference", entry["reference"])
-        _check_keys(source, f"{key}.reference.", reference, _REFERENCE_KEYS)
-        if "coefficients" in reference:
-            coeffs = _table(source, f"{key}.reference.coefficients", reference["coefficients"])
-            for term, x in coeffs.items():
-                _number(source, f"{key}.reference.coefficients.{term}", x)
-                try:
-                    as_model(term, without="1,z,v")
-                except NlidError as exc:
-                    raise ConfigError(source, f"{key}.reference.coefficients", str(exc)) from None
-            reference["coefficients"] = {as_model(t, without="1,z,v").names[0]: float(x) for t, x in coeffs.items()}
-        if "mass" in reference:
-            reference["mass"] = float(_number(source, f"{key}.reference.mass", reference["mass"], minimum=0.0))
-        if "equilibria" in reference:
-            eq = reference["equilibria"]
-            if not isinstance(eq, list) or not all(isinstance(x, (int, float)) for x in eq):
-                raise ConfigError(source, f"{key}.reference.equilibria", "expected a list of positions (m)")
-            reference["equilibria"] = sorted(float(x) for x in eq)
-        if "modal" in reference:
-            modal = reference["modal"]
-            if not isinstance(modal, list) or not all(isinstance(m, Mapping) for m in modal):
-                raise ConfigError(source, f"{key}.reference.modal", "expected a list of {fn_hz, zeta} tables")
-            for j, m in enumerate(modal):
-                _check_keys(source, f"{key}.reference.modal[{j}].", m, ("fn_hz", "zeta"))
-    if mass == "known" and not truth_known and not (reference and "mass" in reference):
-        raise ConfigError(source, f"{key}.mass", 'the mass is not known for this data: give it in kg or "estimate"')
-
-    holdout = entry.get("holdout", "independent" if kind == "preset" else "none")
-    if isinstance(holdout, str):
-        if holdout == "independent" and kind != "preset":
-            raise ConfigError(source, f"{key}.holdout", '"independent" needs a preset (a second simulated record)')
-        if holdout not in ("independent", "none") and kind != "dataset":
-            raise ConfigError(
-                source, f"{key}.holdout", f'expected "independent", "none" or a fraction such as 0.25; got {holdout!r}'
-            )
-    else:
-        holdout = float(_number(source, f"{key}.holdout", holdout))
-        if not 0 < holdout < 1:
-            raise ConfigError(source, f"{key}.holdout", f"a held-out fraction must be between 0 and 1, got {holdout}")
+    mass = parse_mass(entry.get("mass", "known" if kind == "preset" else "estimate"), where / "mass")
+    reference = _reference(where / "reference", entry["reference"]) if "reference" in entry else None
+    if isinstance(mass, KnownMass) and isinstance(source, FileSource) and not (reference and "mass" in reference):
+        raise (where / "mass").error('the mass is not known for this data: give it in kg or "estimate"')
+    holdout = parse_holdout(entry.get("holdout", "independent" if kind == "preset" else "none"), kind, where / "holdout")
 
     freerun = entry.get("freerun", True)
     if not isinstance(freerun, bool):
-        raise ConfigError(source, f"{key}.freerun", f"expected true or false, got {freerun!r}")
+        raise (where / "freerun").error(f"expected true or false, got {freerun!r}")
     slices = entry.get("slices", [])
     if not isinstance(slices, list):
-        raise ConfigError(source, f"{key}.slices", f"expected a list of positions in m, got {slices!r}")
-    slices = tuple(float(_number(source, f"{key}.slices", z)) for z in slices)
-    d_reps = int(_number(source, f"{key}.repetitions", entry.get("repetitions", reps), minimum=1, integer=True))
+        raise (where / "slices").error(f"expected a list of positions in m, got {slices!r}")
+    slices = tuple(float((where / f"slices[{i}]").number(z)) for i, z in enumerate(slices))
+    d_reps = int(
+        (where / "repetitions").number(entry.get("repetitions", reps), minimum=1, maximum=MAX_RUNS, integer=True)
+    )
     if kind != "preset":
         d_reps = 1  # measured data: the same record every time
     return DatasetConfig(
         name=name,
-        kind=kind,
-        source=source_value,
-        description=_string(source, f"{key}.description", entry.get("description", "")),
-        part=part,
-        columns=None if "columns" not in entry else _string(source, f"{key}.columns", entry["columns"]),
-        fs=None if "fs" not in entry else float(_number(source, f"{key}.fs", entry["fs"], minimum=0.0)),
-        overrides=overrides,
-        noise=noise,
-        channels=channels,
+        source=source,
+        description=(where / "description").string(entry.get("description", "")),
         models=tuple(models),
         mass=mass,
         holdout=holdout,
         freerun=freerun,
         slices=slices,
         repetitions=d_reps,
-        timeout=float(_number(source, f"{key}.timeout", entry.get("timeout", timeout), minimum=1e-3)),
-        methods=methods,
+        timeout=float((where / "timeout").number(entry.get("timeout", timeout), positive=True, maximum=MAX_TIMEOUT)),
+        methods=FrozenDict(methods),
         reference=reference,
     )
+
+
+def _reference(where: Where, value: Any) -> dict[str, Any]:
+    reference = _table(where, value)
+    _check_keys(where, reference, _REFERENCE_KEYS)
+    if "coefficients" in reference:
+        coeffs = _table(where / "coefficients", reference["coefficients"])
+        for term, x in coeffs.items():
+            (where / f"coefficients.{term}").number(x)
+            try:
+                as_model(term, without="1,z,v")
+            except NlidError as exc:
+                raise (where / "coefficients").error(str(exc)) from None
+        reference["coefficients"] = {as_model(t, without="1,z,v").names[0]: float(x) for t, x in coeffs.items()}
+    if "mass" in reference:
+        reference["mass"] = float((where / "mass").number(reference["mass"], positive=True))
+    if "equilibria" in reference:
+        eq = reference["equilibria"]
+        if not isinstance(eq, list):
+            raise (where / "equilibria").error("expected a list of positions (m)")
+        reference["equilibria"] = sorted(float((where / f"equilibria[{i}]").number(x)) for i, x in enumerate(eq))
+    if "modal" in reference:
+        modal = reference["modal"]
+        if not isinstance(modal, list) or not all(isinstance(m, Mapping) for m in modal):
+            raise (where / "modal").error("expected a list of {fn_hz, zeta} tables")
+        for j, m in enumerate(modal):
+            mw = where / f"modal[{j}]"
+            _check_keys(mw, m, ("fn_hz", "zeta"))
+            for k, x in m.items():
+                (mw / k).number(x, positive=True)
+    return reference
+
+
+# --------------------------------------------------------------------------- the disk
+def resolve_study(config: StudyConfig) -> StudyConfig:
+    """Check what a parsed study names on disk: files read, benchmark parts load, "known" masses are known.
+
+    This is the only step of loading a study that touches the disk; it
+    returns the config marked ``resolved``.
+
+    Raises
+    ------
+    ConfigError
+        Naming the file and key of the first dataset that cannot be read.
+    """
+    for i, ds in enumerate(config.datasets):
+        where = Where(config.source, f"datasets[{i}]")
+        src = ds.source
+        if isinstance(src, BenchmarkSource):
+            loaded = None
+            for key, part in (("part", src.part), ("holdout", getattr(ds.holdout, "part", None))):
+                if part is None:
+                    continue
+                try:
+                    record = src.load(part)
+                except NlidError as exc:
+                    raise (where / key).error(str(exc)) from None
+                if key == "part":
+                    loaded = record
+            known = bool(loaded is not None and (loaded.mass or (loaded.meta.get("reference") or {}).get("mass")))
+            if isinstance(ds.mass, KnownMass) and not known and not (ds.reference and "mass" in ds.reference):
+                raise (where / "mass").error('the mass is not known for this data: give it in kg or "estimate"')
+        elif isinstance(src, FileSource):
+            if not Path(src.path).is_file():
+                raise (where / "file").error(f"file {src.path} not found")
+            try:
+                src.load()
+            except NlidError as exc:
+                raise (where / "file").error(str(exc)) from None
+    return replace(config, resolved=True)
+

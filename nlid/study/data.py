@@ -12,12 +12,15 @@ published values).
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any
 
 from .. import physics
 from ..record import Record
 from ..terms import Model
+from .plan import RunSpec
+from .values import FractionHoldout, IndependentHoldout, PartHoldout, PresetSource
 
 __all__ = ["RunData", "build_data"]
 
@@ -39,29 +42,10 @@ class RunData:
     mass: float | None
 
 
-def _preset(ds: dict[str, Any]):
-    from ..presets import get_preset
-
-    preset = get_preset(ds["source"])
-    overrides = dict(ds["overrides"])
-    if "band" in overrides and isinstance(overrides["band"], list):
-        overrides["band"] = tuple(overrides["band"])
-    return preset.with_overrides(**overrides) if overrides else preset
-
-
-def _load(ds: dict[str, Any], part: str) -> Record:
-    if ds["kind"] == "dataset":
-        from .. import datasets
-
-        return datasets.load(ds["source"], part=part)
-    from ..io import read_record
-
-    return read_record(ds["source"], ds["columns"], fs=ds["fs"])
-
-
-def build_data(spec: dict[str, Any]) -> RunData:
+def build_data(spec: RunSpec) -> RunData:
     """Build the records of a run and its reference values."""
-    ds = spec["dataset"]
+    ds = spec.dataset
+    src = ds.source
     reference: dict[str, Any] = {
         "coefficients": None,
         "mass": None,
@@ -70,12 +54,12 @@ def build_data(spec: dict[str, Any]) -> RunData:
         "terms": None,
         "px_roots": None,
     }
-    if ds["kind"] == "preset":
-        preset = _preset(ds)
-        record = preset.simulate(spec["seed"], noise=ds["noise"], channels=tuple(ds["channels"]))
+    if isinstance(src, PresetSource):
+        preset = src.preset()
+        record = preset.simulate(spec.seed, noise=dict_or_level(src.noise), channels=src.channels)
         heldout = None
-        if ds["holdout"] == "independent":
-            heldout = preset.simulate(spec["holdout_seed"], noise=ds["noise"], channels=tuple(ds["channels"]))
+        if isinstance(ds.holdout, IndependentHoldout):
+            heldout = preset.simulate(spec.holdout_seed, noise=dict_or_level(src.noise), channels=src.channels)
         truth = record.meta["truth"]
         model = preset.model()
         z_range = (float(record.z.min()), float(record.z.max()))
@@ -90,29 +74,28 @@ def build_data(spec: dict[str, Any]) -> RunData:
             px_roots=truth.get("px_roots"),
         )
     else:
-        record = _load(ds, ds["part"])
+        record = src.load()
         heldout = None
-        if isinstance(ds["holdout"], float):
-            record, heldout = record.split(ds["holdout"])
-        elif ds["holdout"] not in ("none", "independent"):
-            heldout = _load(ds, ds["holdout"])
+        if isinstance(ds.holdout, FractionHoldout):
+            record, heldout = record.split(ds.holdout.fraction)
+        elif isinstance(ds.holdout, PartHoldout):
+            heldout = src.load(ds.holdout.part)  # type: ignore[call-arg]
         meta_ref = record.meta.get("reference")
         if meta_ref:
             reference.update(
                 coefficients=dict(meta_ref.get("coefficients") or {}) or None,
                 mass=meta_ref.get("mass"),
             )
-    if ds.get("reference"):
-        for key, value in ds["reference"].items():
+    if ds.reference:
+        for key, value in ds.reference.items():
             reference[key] = value
-    mass_spec = ds["mass"]
-    if mass_spec == "known":
-        mass = reference["mass"] if reference["mass"] is not None else record.mass
-    elif mass_spec == "estimate":
-        mass = None
-    else:
-        mass = float(mass_spec)
+    mass = ds.mass.value(reference["mass"], record.mass)
     return RunData(record, heldout, reference, None if mass is None else float(mass))
+
+
+def dict_or_level(noise: Mapping[str, float] | float) -> dict[str, float] | float:
+    """A preset's noise setting as :meth:`nlid.presets.Preset.simulate` takes it."""
+    return dict(noise) if isinstance(noise, Mapping) else float(noise)
 
 
 def reference_model(reference: dict[str, Any]) -> Model | None:

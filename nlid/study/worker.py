@@ -42,6 +42,7 @@ from ..pipeline import as_model, identify
 from ..registry import load_registry
 from . import metrics
 from .data import build_data
+from .plan import RunSpec
 
 __all__ = ["execute_run", "run_isolated", "kill_children", "failure_payload", "subprocess_main"]
 
@@ -49,24 +50,24 @@ _LIVE: set[Any] = set()
 _LIVE_LOCK = threading.Lock()
 
 
-def _base_row(spec: dict[str, Any]) -> dict[str, Any]:
+def _base_row(spec: RunSpec) -> dict[str, Any]:
     return {
-        "run_id": spec["run_id"],
-        "dataset": spec["dataset"]["name"],
-        "model": spec["model"],
-        "method": spec["method"],
-        "repetition": spec["repetition"],
-        "seed": spec["seed"],
+        "run_id": spec.run_id,
+        "dataset": spec.dataset.name,
+        "model": spec.model,
+        "method": spec.method,
+        "repetition": spec.repetition,
+        "seed": spec.seed,
         "status": "ok",
         "error": "",
     }
 
 
-def failure_payload(spec: dict[str, Any], status: str, error: str) -> dict[str, Any]:
+def failure_payload(spec: RunSpec, status: str, error: str) -> dict[str, Any]:
     """The payload of a run that produced no result."""
     row = _base_row(spec)
     row.update(status=status, error=error)
-    return {"run_id": spec["run_id"], "row": row, "result": None, "reference": None, "arrays": {}}
+    return {"run_id": spec.run_id, "row": row, "result": None, "reference": None, "arrays": {}}
 
 
 def _add_warning(row: dict[str, Any], text: str) -> None:
@@ -74,7 +75,7 @@ def _add_warning(row: dict[str, Any], text: str) -> None:
     row["warnings"] = f"{row['warnings']} | {text}" if row["warnings"] else text
 
 
-def execute_run(spec: dict[str, Any]) -> dict[str, Any]:
+def execute_run(spec: RunSpec) -> dict[str, Any]:
     """Run one identification and its metrics in this process (never raises).
 
     Returns
@@ -94,15 +95,15 @@ def execute_run(spec: dict[str, Any]) -> dict[str, Any]:
         return payload
 
 
-def _execute(spec: dict[str, Any]) -> dict[str, Any]:
+def _execute(spec: RunSpec) -> dict[str, Any]:
     data = build_data(spec)
-    model = as_model(spec["terms"], without=spec["without"], px_roots=spec["px_roots"])
+    model = as_model(spec.terms, without=spec.without, px_roots=spec.px_roots)
     registry = load_registry()
     tracemalloc.start()
     start = time.perf_counter()
     try:
         result = identify(
-            data.record, model, spec["method"], mass=data.mass, options=spec["options"], registry=registry
+            data.record, model, spec.method, mass=data.mass, options=dict(spec.options), registry=registry
         )
         seconds = time.perf_counter() - start
         _, peak = tracemalloc.get_traced_memory()
@@ -121,28 +122,28 @@ def _execute(spec: dict[str, Any]) -> dict[str, Any]:
         warnings=" | ".join(result.warnings),
     )
     try:
-        row.update(metrics.holdout_metrics(data.heldout, result, spec["dataset"]["freerun"]))
+        row.update(metrics.holdout_metrics(data.heldout, result, spec.dataset.freerun))
     except NlidError as exc:
         row.update(metrics.holdout_metrics(None, result, False))
         _add_warning(row, f"held-out scores: {exc}")
     row.update(metrics.coefficient_metrics(result, data.reference))
     row.update(metrics.equilibrium_metrics(result, data.reference))
-    slices = tuple(spec["dataset"].get("slices", ()))
+    slices = spec.dataset.slices
     surface, extra_arrays = metrics.surface_metrics(data.record, result, slices)
     row.update(surface)
-    if spec.get("posterior") is not None:
+    if spec.posterior is not None:
         from .. import bayes  # type: ignore[attr-defined]  # issue 6; checked when the config is loaded
 
         # a posterior that cannot be reported (e.g. unconverged chains) is a warning: the run keeps its metrics
         try:
-            extra = bayes.study_metrics(data.record, result, data.reference, **spec["posterior"])
+            extra = bayes.study_metrics(data.record, result, data.reference, **dict(spec.posterior))
         except NlidError as exc:
             extra = {}
             _add_warning(row, f"posterior: {exc}")
         for key, value in dict(extra).items():
             row[key if key not in row else f"posterior:{key}"] = value
     return {
-        "run_id": spec["run_id"],
+        "run_id": spec.run_id,
         "row": to_jsonable(row),
         "result": result.to_dict(),
         "reference": to_jsonable(data.reference),
@@ -151,7 +152,7 @@ def _execute(spec: dict[str, Any]) -> dict[str, Any]:
 
 
 # --------------------------------------------------------------------------- isolation
-def _child_main(spec: dict[str, Any], conn: Any, path: list[str], env: dict[str, str]) -> None:
+def _child_main(spec: RunSpec, conn: Any, path: list[str], env: dict[str, str]) -> None:
     sys.path[:] = path
     os.environ.clear()
     os.environ.update(env)
@@ -181,7 +182,7 @@ def kill_children() -> None:
             pass
 
 
-def run_isolated(spec: dict[str, Any], timeout: float | None = None, *, use_subprocess: bool | None = None) -> dict:
+def run_isolated(spec: RunSpec, timeout: float | None = None, *, use_subprocess: bool | None = None) -> dict:
     """Run :func:`execute_run` in a child process, killed at the time limit.
 
     Parameters
@@ -189,12 +190,12 @@ def run_isolated(spec: dict[str, Any], timeout: float | None = None, *, use_subp
     spec
         The run's spec (:class:`nlid.study.plan.Run`).
     timeout
-        Seconds; default ``spec["timeout"]``.
+        Seconds; default ``spec.timeout``.
     use_subprocess
         Force (``True``) or forbid (``False``) the ``python -m`` child; default:
         only inside a daemonic process.
     """
-    timeout = float(spec["timeout"] if timeout is None else timeout)
+    timeout = float(spec.timeout if timeout is None else timeout)
     if use_subprocess is None:
         use_subprocess = bool(multiprocessing.current_process().daemon)
     if use_subprocess:
@@ -231,10 +232,10 @@ def run_isolated(spec: dict[str, Any], timeout: float | None = None, *, use_subp
     return payload
 
 
-def _run_subprocess(spec: dict[str, Any], timeout: float) -> dict[str, Any]:
+def _run_subprocess(spec: RunSpec, timeout: float) -> dict[str, Any]:
     with tempfile.TemporaryDirectory(prefix="nlid-run-") as tmp:
         folder = Path(tmp)
-        (folder / "spec.json").write_text(json.dumps(spec))
+        (folder / "spec.json").write_text(json.dumps(spec.to_dict()))
         env = dict(os.environ)
         env["PYTHONPATH"] = os.pathsep.join(p for p in sys.path if p)
         proc = subprocess.Popen(
@@ -265,7 +266,7 @@ def _run_subprocess(spec: dict[str, Any], timeout: float) -> dict[str, Any]:
 def subprocess_main(folder: str) -> int:
     """Run the spec in ``folder/spec.json``; write ``payload.json`` and ``arrays.npz`` there."""
     path = Path(folder)
-    spec = json.loads((path / "spec.json").read_text())
+    spec = RunSpec.from_dict(json.loads((path / "spec.json").read_text()))
     payload = execute_run(spec)
     arrays = payload.pop("arrays", {})
     if arrays:

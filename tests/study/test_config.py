@@ -2,15 +2,19 @@
 
 from __future__ import annotations
 
+import dataclasses
+import json
 import sys
-import types
 
 import pytest
 
 import nlid
+import nlid.bayes
 from nlid.errors import NlidError
 from nlid.study import ConfigError, ResultStore, builtin_studies, load_study, parse_study, plan_study
-from nlid.study.plan import derive_seed, record_key
+from nlid.study.config import resolve_study
+from nlid.study.plan import RunSpec, derive_seed, record_key
+from nlid.study.values import EstimatedMass, NoHoldout, PresetSource
 from nlid.study.report import write_report
 from nlid.study.worker import execute_run
 
@@ -27,7 +31,6 @@ BAD = [
     ("[[datasets]]\npreset = 'paper-numerical'\nnoise = { q = 0.1 }\n", "datasets[0].noise.q: unknown channel"),
     ("[[datasets]]\npreset = 'paper-numerical'\nhodlout = 0.2\n", "did you mean 'holdout'"),
     ("[[datasets]]\npreset = 'paper-numerical'\nholdout = 1.5\n", "between 0 and 1"),
-    ("[[datasets]]\nfile = 'nope.csv'\n", "datasets[0].file: file"),
     ("[[datasets]]\ndataset = 'emsp'\n", "unknown dataset 'emsp' (did you mean 'emps'?)"),
     ("[[datasets]]\npreset = 'paper-numerical'\n[datasets.methods.rfs]\noptions = { nope = 1 }\n", "unknown option"),
     ("[[datasets]]\npreset = 'paper-numerical'\n[datasets.models]\nmain = 'z^3'\n", "'main' is the dataset's"),
@@ -36,6 +39,31 @@ BAD = [
     ("[study]\n", "needs at least one [[datasets]]"),
     ("[[datasets]\n", "not valid TOML"),
     ("[[datasets]]\npreset = 'paper-numerical'\n[posterior]\ndraws = 10\n", "needs the module nlid.bayes"),
+]
+
+# values that are not finite, negative or absurd, and tables with unknown keys (issue 18): refused at once
+BAD_VALUES = [
+    ("[study]\ntimeout = nan\n[[datasets]]\npreset = 'paper-numerical'\n", "study.timeout: expected a finite number"),
+    ("[study]\ntimeout = -1\n[[datasets]]\npreset = 'paper-numerical'\n", "study.timeout: must be positive"),
+    ("[study]\ntimeout = 1e12\n[[datasets]]\npreset = 'paper-numerical'\n", "study.timeout: must be <="),
+    ("[study]\nrepetitions = 1000000000\n[[datasets]]\npreset = 'paper-numerical'\n", "study.repetitions: must be <="),
+    ("[study]\nrepetitions = 6000\n[[datasets]]\npreset = 'paper-numerical'\n", "plans 24000 runs"),
+    ("[[datasets]]\npreset = 'paper-numerical'\nmass = inf\n", "datasets[0].mass: expected a finite number"),
+    ("[[datasets]]\npreset = 'paper-numerical'\nmass = -0.2\n", "datasets[0].mass: must be positive"),
+    ("[[datasets]]\npreset = 'paper-numerical'\nmass = 1e300\n", "datasets[0].mass: must be <="),
+    ("[[datasets]]\npreset = 'paper-numerical'\nnoise = -0.02\n", "datasets[0].noise: must be >= 0"),
+    ("[[datasets]]\npreset = 'paper-numerical'\nnoise = { z = nan }\n", "datasets[0].noise.z: expected a finite"),
+    ("[[datasets]]\npreset = 'paper-numerical'\nslices = [0.0, nan]\n", "datasets[0].slices[1]: expected a finite"),
+    ("[[datasets]]\npreset = 'paper-numerical'\noverrides = { duration = 0 }\n", "datasets[0].overrides: preset"),
+    ("[[datasets]]\npreset = 'paper-numerical'\noverrides = { fs = nan }\n", "datasets[0].overrides.fs: expected a finite"),
+    ("[[datasets]]\npreset = 'paper-numerical'\noverrides = { duration = 1e9 }\n", "more than the limit"),
+    ("[[datasets]]\npreset = 'paper-numerical'\ntimeout = 0\n", "datasets[0].timeout: must be positive"),
+    ("[[datasets]]\nfile = 'x.csv'\nfs = -5\n", "datasets[0].fs: must be positive"),
+    ("[[datasets]]\npreset = 'paper-numerical'\n[posterior]\ndraws = 10\n", "posterior.draws: unknown key 'draws'"),
+    ("[[datasets]]\npreset = 'paper-numerical'\n[posterior]\nlevel = 1.5\n", "posterior.level: the credible level"),
+    ("[[datasets]]\npreset = 'paper-numerical'\n[posterior]\nwalkers = 1.5\n", "posterior.walkers: expected an integer"),
+    ("[[datasets]]\npreset = 'paper-numerical'\n[posterior]\nmove = 'gibbs'\n", "posterior: unknown move"),
+    ("[[datasets]]\npreset = 'paper-numerical'\n[datasets.reference]\nmass = nan\n", "reference.mass: expected a finite"),
 ]
 
 
@@ -47,6 +75,39 @@ def test_bad_configs_name_file_key_and_suggestion(text, message, monkeypatch):
     text = str(info.value)
     assert text.startswith("my.toml: ") and message in text, text
     assert "\n" not in text
+
+
+@pytest.mark.parametrize("text, message", BAD_VALUES, ids=[m[:40] for _, m in BAD_VALUES])
+def test_absurd_values_and_unknown_keys_are_refused_before_any_run(text, message):
+    with pytest.raises(ConfigError) as info:
+        parse_study(text, source="my.toml")
+    text = str(info.value)
+    assert text.startswith("my.toml: ") and message in text, text
+    assert "\n" not in text
+
+
+def test_the_disk_is_read_by_the_resolve_step_only(tmp_path):
+    config = parse_study("[[datasets]]\nfile = 'nope.csv'\nmass = 1.0\nfs = 100\n", source="my.toml", base_dir=tmp_path)
+    assert not config.resolved
+    with pytest.raises(ConfigError, match=r"^my.toml: datasets\[0\].file: file .*nope.csv not found"):
+        resolve_study(config)
+    (tmp_path / "nope.csv").write_text("f,z\n" + "".join(f"{i % 7},{i % 5}\n" for i in range(100)))
+    assert resolve_study(config).resolved
+
+
+def test_typed_values_and_the_run_spec_round_trip():
+    config = parse_study(
+        "[[datasets]]\npreset = 'paper-numerical'\nmass = 'estimate'\nholdout = 'none'\n"
+        "overrides = { duration = 5 }\nnoise = { z = 0.02 }\n"
+    )
+    ds = config.datasets[0]
+    assert isinstance(ds.source, PresetSource) and ds.source.overrides == {"duration": 5}
+    assert isinstance(ds.mass, EstimatedMass) and isinstance(ds.holdout, NoHoldout)
+    run = plan_study(config)[0]
+    again = RunSpec.from_dict(json.loads(json.dumps(run.spec.to_dict())))
+    assert again == run.spec and again.digest() == run.digest
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        run.spec.method = "x"  # type: ignore[misc]
 
 
 def test_builtin_studies_validate():
@@ -92,9 +153,9 @@ options = { scale = 2 }
         "short/stiffness-only/rfs/r0",
         "short/stiffness-only/echo/r0",
     }
-    assert runs["short/stiffness-only/rfs/r0"].spec["without"] == "v"
-    assert runs["short/main/echo/r0"].spec["terms"] == "z^3, z^2"
-    assert runs["short/main/echo/r0"].spec["options"] == {"scale": 2}
+    assert runs["short/stiffness-only/rfs/r0"].spec.without == "v"
+    assert runs["short/main/echo/r0"].spec.terms == "z^3, z^2"
+    assert runs["short/main/echo/r0"].spec.options == {"scale": 2}
     payload = execute_run(runs["short/stiffness-only/rfs/r0"].spec)
     assert payload["row"]["status"] == "ok" and "coef:v" not in payload["row"]
 
@@ -114,12 +175,9 @@ def test_posterior_hook_adds_its_metrics_to_the_row(small_study, registry, monke
             "posterior:level": 0.9,
         }
 
-    module = types.ModuleType("nlid.bayes")
-    module.study_metrics = study_metrics
-    monkeypatch.setitem(sys.modules, "nlid.bayes", module)
-    monkeypatch.setattr(nlid, "bayes", module, raising=False)
+    monkeypatch.setattr(nlid.bayes, "study_metrics", study_metrics)
     config = parse_study(
-        small_study('["rfs"]', repetitions=2, duration=4.0, extra="[posterior]\ndraws = 50\n"), registry=registry
+        small_study('["rfs"]', repetitions=2, duration=4.0, extra="[posterior]\nwalkers = 50\n"), registry=registry
     )
     runs = plan_study(config)
     store = ResultStore(tmp_path)
@@ -129,7 +187,7 @@ def test_posterior_hook_adds_its_metrics_to_the_row(small_study, registry, monke
         assert payload["row"]["ci_covers:z^3"] is True
         assert payload["row"]["ci_width:z^3"] == pytest.approx(1e4, rel=0.01)
         store.save(run, payload)
-    assert calls == [{"draws": 50}, {"draws": 50}]
+    assert calls == [{"walkers": 50}, {"walkers": 50}]
     summary, _ = write_report(config, runs, store)
     assert "### Posterior (emcee): 90 % credible interval" in summary
     assert "covers 2/2" in summary and "### Other metrics" not in summary
@@ -141,7 +199,7 @@ def test_measured_studies_run(data_dir, tmp_path):
     from nlid.study import LocalExecutor, run_study
 
     with pytest.raises(ConfigError, match="the mass is not known for this data"):
-        parse_study('[[datasets]]\ndataset = "silverbox"\npart = "multisine"\nmass = "known"\n')
+        resolve_study(parse_study('[[datasets]]\ndataset = "silverbox"\npart = "multisine"\nmass = "known"\n'))
 
     emps = run_study(load_study("emps"), tmp_path / "emps", executor=LocalExecutor(1), progress=False)
     row = ResultStore(tmp_path / "emps").results(emps.runs).set_index("method").loc["rfs"]
@@ -159,13 +217,10 @@ def test_measured_studies_run(data_dir, tmp_path):
 
 def test_a_posterior_that_fails_is_a_warning_and_the_run_keeps_its_metrics(small_study, registry, monkeypatch):
     def study_metrics(record, result, truth, **options):
-        raise NlidError("chains did not converge: raise --steps")
+        raise NlidError("chains did not converge: raise max_steps=")
 
-    module = types.ModuleType("nlid.bayes")
-    module.study_metrics = study_metrics
-    monkeypatch.setitem(sys.modules, "nlid.bayes", module)
-    monkeypatch.setattr(nlid, "bayes", module, raising=False)
+    monkeypatch.setattr(nlid.bayes, "study_metrics", study_metrics)
     config = parse_study(small_study('["rfs"]', repetitions=1, duration=4.0, extra="[posterior]\n"), registry=registry)
     row = execute_run(plan_study(config)[0].spec)["row"]
     assert row["status"] == "ok" and abs(row["coef_error_pct:z^3"]) < 1
-    assert "posterior: chains did not converge: raise --steps" in row["warnings"]
+    assert "posterior: chains did not converge: raise max_steps=" in row["warnings"]

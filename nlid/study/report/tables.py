@@ -10,11 +10,14 @@ from __future__ import annotations
 
 import math
 import re
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
 import pandas as pd
+
+from ..values import PresetSource
 
 __all__ = ["Section", "Table", "build_sections", "summary_markdown", "summary_long", "fmt"]
 
@@ -150,11 +153,12 @@ def build_sections(config: Any, frame: pd.DataFrame, records: list[dict[str, Any
                 sub = frame
             else:
                 sub = frame[(frame["dataset"] == ds.name) & (frame["model"] == model.name)].dropna(axis=1, how="all")
-            what = ds.description or f"{ds.kind} {ds.source}"
-            if ds.kind == "preset":
-                levels = ds.noise if isinstance(ds.noise, dict) else {c: ds.noise for c in ds.channels}
+            src = ds.source
+            what = ds.description or f"{ds.kind} {ds.to_dict()['source']}"
+            if isinstance(src, PresetSource):
+                levels = dict(src.noise) if isinstance(src.noise, Mapping) else {c: src.noise for c in src.channels}
                 noise = ", ".join(f"{c} {100 * x:g} %" for c, x in levels.items()) or "none"
-                what += f" (noise: {noise}; recorded: {', '.join(ds.channels)}; {ds.repetitions} repetitions)"
+                what += f" (noise: {noise}; recorded: {', '.join(src.channels)}; {ds.repetitions} repetitions)"
             section = Section(
                 ds.name, model.name, what, terms.get(key, []), list(config.identifiers), sub, refs.get(key)
             )
