@@ -121,3 +121,18 @@ def test_study_rows_unchanged(tmp_path):
                 assert new == value or (value == "" and (new is None or new != new)), (row["run_id"], key)
             else:
                 _close(None if isinstance(new, float) and math.isnan(new) else new, value, where=f"{row['run_id']}.{key}")
+
+
+@pytest.mark.slow
+def test_builtin_study_rows_unchanged():
+    """The first records of the built-in paper-numerical study (rfs, sindy), row by row."""
+    from nlid.study import load_study, plan_study
+    from nlid.study.worker import execute_run
+
+    old_rows = PINS["builtin_paper_numerical"]
+    runs = [r for r in plan_study(load_study("paper-numerical")) if r.run_id in old_rows]
+    assert len(runs) == len(old_rows)
+    for run in runs:
+        row = execute_run(run.spec)["row"]
+        for key, value in old_rows[run.run_id].items():
+            _close(row[key], value, where=f"{run.run_id}.{key}")

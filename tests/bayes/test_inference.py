@@ -123,7 +123,7 @@ def test_all_params_samples_the_stiffness_too(record, result):
 
 
 def test_non_convergence_is_refused_with_what_to_raise(record, result):
-    with pytest.raises(ConvergenceError, match=r"did not converge in 200 steps.*raise --steps"):
+    with pytest.raises(ConvergenceError, match=r"did not converge in 200 steps.*raise max_steps="):
         sample_posterior(record, result, params="damping", max_steps=200, bias_correction=False)
 
 

@@ -42,7 +42,7 @@ def test_same_seed_same_chains():
 
 
 def test_too_few_steps_is_refused_with_what_to_raise():
-    with pytest.raises(ConvergenceError, match=r"did not converge in 300 steps.*raise --steps \(e\.g\. --steps \d+\)"):
+    with pytest.raises(ConvergenceError, match=r"did not converge in 300 steps.*raise max_steps= \(e\.g\. max_steps=\d+\)"):
         run_until_converged(
             _gaussian(MEAN, COV), MEAN, np.full(3, 0.1), walkers=16, max_steps=300, seed=0, names=("a", "b", "c")
         )
