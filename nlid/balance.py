@@ -13,6 +13,7 @@ least-squares, sparse and Bayesian methods fit, and what the core scores
 
 from __future__ import annotations
 
+import weakref
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -94,6 +95,51 @@ class RegressionData:
         return self.f - mass * self.a
 
 
+#: Most filtered regressor columns kept per record (about 8 bytes x samples each).
+MAX_CACHED_COLUMNS = 256
+_CACHE: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
+
+
+def _record_cache(record: Record) -> dict:
+    """The filtered channels and columns already computed for this record (dropped with the record)."""
+    try:
+        return _CACHE.setdefault(record, {})
+    except TypeError:  # pragma: no cover - a record type without weak references: no caching
+        return {}
+
+
+def _cached(cache: dict, key: tuple, compute):
+    if key not in cache:
+        value = compute()
+        for arr in value if isinstance(value, tuple) else (value,):
+            if isinstance(arr, np.ndarray):
+                arr.setflags(write=False)
+        cache[key] = value
+    return cache[key]
+
+
+def _columns(cache: dict, model: Model, z: np.ndarray, v: np.ndarray | None, fs: float, fc: float, wide: float):
+    """The model's regressors evaluated on the wide-band ``z``, ``v`` and low-passed at ``fc``, column by column.
+
+    Each column depends only on its term (and the ``px`` roots), the record
+    and the two bands, so it is computed once per record: a discovery run
+    fits the same terms dozens of times.
+    """
+    keys = [("col", fc, wide, t.name, model.px_roots if t.uses_px else None) for t in model.terms]
+    missing = [i for i, k in enumerate(keys) if k not in cache]
+    if missing:
+        sub = Model(tuple(model.terms[i] for i in missing), model.px_roots)
+        values = derivatives.lowpass(sub.evaluate(z, v), fs, fc)
+        if sum(1 for k in cache if k[0] == "col") + len(missing) > MAX_CACHED_COLUMNS:
+            for k in [k for k in cache if k[0] == "col"]:
+                del cache[k]
+        for j, term in enumerate(sub.terms):
+            column = np.ascontiguousarray(values[:, j])
+            column.setflags(write=False)
+            cache[keys[model.terms.index(term)]] = column
+    return np.column_stack([cache[k] for k in keys]) if keys else np.empty((z.size, 0))
+
+
 def regression_data(
     record: Record, model: Model, *, cutoff: float | None = None, trim: bool = True, regressors: bool = True
 ) -> RegressionData:
@@ -127,29 +173,34 @@ def regression_data(
         G = model.evaluate(record.z, v) if regressors else np.empty((record.n, 0))
         return RegressionData(record.f, record.a, G, record.z, v, None, prov)
     fs = record.fs
-    fc = float(cutoff) if cutoff is not None else derivatives.suggest_cutoff(record.z, fs)
+    cache = _record_cache(record)
+    if cutoff is None:
+        if "cutoff" not in cache:
+            cache["cutoff"] = derivatives.suggest_cutoff(record.z, fs)
+        fc = float(cache["cutoff"])
+    else:
+        fc = float(cutoff)
     wide = min(REGRESSOR_BAND_FACTOR * fc, derivatives.CUTOFF_MAX_FRACTION * fs)
-    z = derivatives.lowpass(record.z, fs, wide)
+    z = _cached(cache, ("z", wide), lambda: derivatives.lowpass(record.z, fs, wide))
     v = None
     if needs_v:
         if record.is_measured("v"):
-            v = derivatives.lowpass(record.v, fs, wide)
+            v = _cached(cache, ("v", wide), lambda: derivatives.lowpass(record.v, fs, wide))
         else:
-            v, used = derivatives.differentiate(record.z, fs, order=1, cutoff=wide)
+            v, used = _cached(cache, ("v~", wide), lambda: derivatives.differentiate(record.z, fs, order=1, cutoff=wide))
             prov["v"] = f"estimated from z: {used.describe()}"
-    G = derivatives.lowpass(model.evaluate(z, v), fs, fc) if regressors else np.empty((record.n, 0))
+    G = _columns(cache, model, z, v, fs, fc, wide) if regressors else np.empty((record.n, 0))
     if record.is_measured("a"):
-        a = derivatives.lowpass(record.a, fs, fc)
-        f = derivatives.lowpass(record.f, fs, fc)
+        a = _cached(cache, ("a", fc), lambda: derivatives.lowpass(record.a, fs, fc))
+        f = _cached(cache, ("f", fc), lambda: derivatives.lowpass(record.f, fs, fc))
     else:
-        a, used = derivatives.differentiate(record.z, fs, order=2, cutoff=fc)
+        a, used = _cached(cache, ("a~", fc), lambda: derivatives.differentiate(record.z, fs, order=2, cutoff=fc))
         prov["a"] = f"estimated from z: {used.describe()}"
         # the acceleration of the motion feels a held force half a sample late
-        f = (
-            derivatives.zoh_equivalent(record.f, fs, fc)
-            if record.force_hold == "zoh"
-            else derivatives.lowpass(record.f, fs, fc)
-        )
+        if record.force_hold == "zoh":
+            f = _cached(cache, ("f-zoh", fc), lambda: derivatives.zoh_equivalent(record.f, fs, fc))
+        else:
+            f = _cached(cache, ("f", fc), lambda: derivatives.lowpass(record.f, fs, fc))
     edge = int(np.ceil(EDGE_PERIODS * fs / fc))
     if record.n - 2 * edge < max(64, 4 * len(model)):
         raise DataError(

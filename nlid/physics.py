@@ -9,7 +9,8 @@ coefficients of the terms of the restoring force
 * ``D(z, v)``: the damping family, Eq. 14 / 24.
 * ``U(z) = integral_0^z K``: the potential, Eq. 7.
 * Equilibria: roots of ``K``; stable where ``K' > 0`` (Fig. 4).
-* Linear natural frequency at a stable equilibrium: ``sqrt(K'(z*) / m)``, Eq. 8.
+* Linear natural frequency at a stable equilibrium: ``sqrt(K'(z*) / m)``, Eq. 8
+  (with memory terms, ``K'`` includes their small-amplitude stiffness).
 * Damping ratio there: ``c(z*) / (2 m w_n)`` with ``c(z*) = dD/dv(z*, 0)``
   from the terms that are linear in v at rest (``v``, ``z^2*v``,
   ``v*|px(z)|``, ``tanh(v/c)``...); Coulomb-like terms have no linearisation
@@ -60,7 +61,7 @@ def damping(model: Model, coefficients: Coefficients, z: np.ndarray, v: np.ndarr
 
 
 def restoring(model: Model, coefficients: Coefficients, z: np.ndarray, v: np.ndarray) -> np.ndarray:
-    """The restoring force ``R(z, v) = K(z) + D(z, v)`` (Eq. 25)."""
+    """The restoring force ``R(z, v) = K(z) + D(z, v)`` (Eq. 25), plus memory terms integrated along ``z``."""
     return model.evaluate_terms(dict_or_vector(model, coefficients), z, v)
 
 
@@ -344,8 +345,10 @@ def modal(
     if points is None:
         points = equilibria(model, theta, z_range).stable
     out = []
+    # memory terms add their small-amplitude stiffness (dw/dz at w = 0) around any rest position
+    k_memory = sum(float(value) * term.memory_slope for term, value in zip(model.terms, theta, strict=True))
     for z0 in points:
-        k = float(_derivative(lambda z: elastic(model, theta, z), np.array([float(z0)]))[0])
+        k = float(_derivative(lambda z: elastic(model, theta, z), np.array([float(z0)]))[0]) + k_memory
         c = linear_damping(model, theta, z0)
         if k <= 0:
             continue

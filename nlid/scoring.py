@@ -169,6 +169,8 @@ class Residual:
         Sampling frequency (Hz).
     band_hz
         The equation band, ``None`` when nothing was filtered.
+    f, a
+        The force and the acceleration of the balance (N, m/s^2).
     """
 
     z: np.ndarray
@@ -178,6 +180,8 @@ class Residual:
     fitted: np.ndarray
     fs: float
     band_hz: float | None
+    f: np.ndarray
+    a: np.ndarray
 
 
 def _require_mass(fit: IdentifiedModel, what: str) -> float:
@@ -205,7 +209,9 @@ def residual(fit: IdentifiedModel, record: Record, *, cutoff: float | None = Non
     columns = [augmented.index(n) for n in model.names]
     fitted = data.G[:, columns] @ fit.theta
     restoring = data.restoring_force(mass)
-    return Residual(data.z, data.v, restoring - fitted, restoring, fitted, record.fs, data.filtered_at)  # type: ignore[arg-type]
+    return Residual(
+        data.z, data.v, restoring - fitted, restoring, fitted, record.fs, data.filtered_at, data.f, data.a  # type: ignore[arg-type]
+    )
 
 
 def initial_state(record: Record) -> tuple[float, float]:

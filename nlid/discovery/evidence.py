@@ -172,6 +172,8 @@ class Evidence:
         Parameters added (terms, plus the shape).
     coefficients
         The fitted coefficients with the candidate added.
+    mass
+        The mass the ``mass`` candidate estimated (kg).
     """
 
     effect: str
@@ -188,6 +190,7 @@ class Evidence:
     extra_parameters: int = 0
     coefficients: dict[str, float] | None = None
     passes: dict[str, bool] = field(default_factory=dict)
+    mass: float | None = None
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-friendly dictionary (scores flattened with ``_after`` names)."""
@@ -214,6 +217,8 @@ class Evidence:
             )
         if self.coefficients is not None:
             out["coefficients"] = dict(self.coefficients)
+        if self.mass is not None:
+            out["mass"] = self.mass
         return out
 
 

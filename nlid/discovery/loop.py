@@ -41,6 +41,7 @@ from scipy import optimize
 
 from .. import derivatives, physics
 from ..errors import DataError, IdentificationError, InputError, NlidError
+from ..balance import regression_data
 from ..identified import IdentifiedModel
 from ..interface import to_jsonable
 from ..pipeline import identify
@@ -49,7 +50,8 @@ from ..registry import Registry, default_registry
 from ..scoring import Scores as ScoreSet
 from ..terms import Model
 from .evidence import AcceptanceRule, Evidence, Scores, effective_sample_size, judge, rank
-from .library import Candidate, resolve_candidates
+from .library import Candidate, dictionary_terms, resolve_candidates
+from .probes import MIN_STRUCTURE, Remaining, describe_remaining, probe_residual
 
 __all__ = [
     "PREFERRED_METHODS",
@@ -120,10 +122,14 @@ class Stage:
     holdout
         Its scores on the held-out record (:meth:`nlid.IdentifiedModel.score`,
         with the free-run error for the models the loop keeps).
+    remaining
+        What the remaining-structure probes find in its residual
+        (:mod:`nlid.discovery.probes`), for the models the loop keeps.
     """
 
     identified: IdentifiedModel
     holdout: ScoreSet
+    remaining: Remaining | None = None
 
     @property
     def model(self) -> Model:
@@ -289,6 +295,11 @@ class DiscoveryResult:
         """The final identified model."""
         return self.states[-1].identified
 
+    @property
+    def remaining(self) -> Remaining | None:
+        """What the remaining-structure probes find in the final model's residual."""
+        return self.states[-1].remaining
+
     def summary(self) -> str:
         """The table ``nlid discover`` prints: each model's errors, each step, the stop reason."""
         from .report import summary_table
@@ -340,6 +351,8 @@ class DiscoveryResult:
                 "mass": last.mass,
                 "mass_estimated": bool(last.identified.mass_estimated),
                 "px_roots": None if last.model.px_roots is None else list(last.model.px_roots),
+                "remaining": None if last.remaining is None else last.remaining.to_dict(),
+                "remaining_initial": None if first.remaining is None else first.remaining.to_dict(),
                 "final_model": last.identified.to_dict(),
                 "final_check": {
                     "stop_reason": self.stop_reason,
@@ -360,15 +373,20 @@ class _Context:
     mass: float | None
     cutoff: float
     rule: AcceptanceRule
+    structure: float = MIN_STRUCTURE
 
 
 def _rms(x: np.ndarray) -> float:
     return float(np.sqrt(np.mean(np.square(x))))
 
 
-def _fit(ctx: _Context, model: Model) -> Stage:
+_GIVEN = object()
+
+
+def _fit(ctx: _Context, model: Model, mass: Any = _GIVEN) -> Stage:
     """Identify ``model`` on the estimation record and score it on the held-out record (no free run)."""
-    identified = identify(ctx.estimation, model, ctx.identifier, mass=ctx.mass, cutoff=ctx.cutoff)
+    mass = ctx.mass if mass is _GIVEN else mass
+    identified = identify(ctx.estimation, model, ctx.identifier, mass=mass, cutoff=ctx.cutoff)
     if identified.mass is None or identified.scores is None:
         raise IdentificationError(f"identifier {identified.method!r} returned no mass: epsilon cannot be computed")
     return Stage(identified, identified.score(ctx.holdout, cutoff=ctx.cutoff, free_run=False))
@@ -388,7 +406,113 @@ def residual_view(record: Record, stage: Stage, cutoff: float | None, label: str
 
 def _with_free_run(ctx: _Context, stage: Stage) -> Stage:
     """The stage with its held-out scores recomputed with the free-run error (:func:`nlid.scoring.score`)."""
-    return Stage(stage.identified, stage.identified.score(ctx.holdout, cutoff=ctx.cutoff, free_run=True))
+    scores = stage.identified.score(ctx.holdout, cutoff=ctx.cutoff, free_run=True)
+    return dataclasses.replace(stage, holdout=scores)
+
+
+def _with_probes(ctx: _Context, stage: Stage) -> Stage:
+    """The stage with what the remaining-structure probes find in its residual."""
+    est = stage.identified.residual(ctx.estimation, cutoff=ctx.cutoff)
+    ho = stage.identified.residual(ctx.holdout, cutoff=ctx.cutoff)
+    return dataclasses.replace(stage, remaining=probe_residual(est, ho, ctx.structure))
+
+
+def _gate(remaining: Remaining, probes: Sequence[str]) -> str:
+    """Why a candidate that needs structure in ``probes`` is not tested ("" when it is)."""
+    if not probes or any(remaining.probes[p].structured for p in probes):
+        return ""
+    shown = ", ".join(f"{p} {100 * max(remaining.probes[p].explained, 0.0):.2g} %" for p in probes)
+    return f"not tested: the probes find no remaining structure of its kind ({shown} of the held-out residual)"
+
+
+def _test_mass(ctx: _Context, current: Stage) -> tuple[Evidence, Stage | None, str]:
+    """The ``mass`` candidate: the current model with the mass estimated instead of the one given."""
+    evidence = Evidence("mass", extra_parameters=1)
+    try:
+        fit = _fit(ctx, current.model, mass=None)
+    except NlidError as exc:
+        evidence.status, evidence.reason = "failed", str(exc)
+        return evidence, None, ""
+    evidence.coefficients = fit.coefficients
+    evidence.mass = fit.mass
+    return evidence, fit, ""
+
+
+#: Most terms the dictionary candidate may add at once.
+DICTIONARY_MAX_TERMS = 4
+
+
+def _test_dictionary(ctx: _Context, current: Stage, z_range: tuple[float, float]) -> tuple[Evidence, Stage | None, str]:
+    """The ``dictionary`` candidate: terms of the automatic dictionary chosen by sparse regression on the residual.
+
+    Orthogonal matching pursuit (scikit-learn) orders the dictionary's
+    columns (band-limited like the force balance) by how well they explain
+    the current estimation residual; the number of terms (1 to
+    :data:`DICTIONARY_MAX_TERMS`) is the one whose least-squares fit
+    explains the most of the held-out residual (the smallest within one
+    point of it). The chosen terms are then added to the model and the whole
+    model identified and judged like any candidate (with one more parameter
+    for the choice).
+    """
+    from sklearn.linear_model import orthogonal_mp
+
+    evidence = Evidence("dictionary")
+    roots = current.model.px_roots
+    if roots is None:
+        try:
+            roots = physics.stiffness_roots(current.model, current.coefficients, z_range)
+        except InputError:
+            roots = None
+    lib = Model(tuple(dictionary_terms(current.model, px=roots is not None)), roots)
+    est = current.identified.residual(ctx.estimation, cutoff=ctx.cutoff)
+    ho = current.identified.residual(ctx.holdout, cutoff=ctx.cutoff)
+    x_est = regression_data(ctx.estimation, lib, cutoff=ctx.cutoff).G
+    x_ho = regression_data(ctx.holdout, lib, cutoff=ctx.cutoff).G
+    scale = np.std(x_est, axis=0)
+    usable = scale > 0
+    cols = np.flatnonzero(usable)
+    xs = (x_est[:, cols] - x_est[:, cols].mean(axis=0)) / scale[cols]
+    kmax = min(DICTIONARY_MAX_TERMS, cols.size)
+    if kmax == 0:
+        evidence.status, evidence.reason = "not applicable", "the dictionary has no usable term"
+        return evidence, None, ""
+    path = orthogonal_mp(xs, est.r - est.r.mean(), n_nonzero_coefs=kmax, return_path=True)
+    path = path.reshape(cols.size, -1)
+    scores: list[tuple[float, list[int]]] = []
+    total = float(np.sum((ho.r - ho.r.mean()) ** 2))
+    for k in range(path.shape[1]):
+        support = [int(cols[j]) for j in np.flatnonzero(path[:, k])]
+        if not support:
+            continue
+        a = np.column_stack([np.ones(est.r.size), x_est[:, support]])
+        coef, *_ = np.linalg.lstsq(a, est.r, rcond=None)
+        pred = np.column_stack([np.ones(ho.r.size), x_ho[:, support]]) @ coef
+        scores.append((1.0 - float(np.sum((ho.r - pred) ** 2)) / total if total > 0 else 0.0, support))
+    if not scores:
+        evidence.status, evidence.reason = "not applicable", "no dictionary term explains the residual"
+        return evidence, None, ""
+    best = max(x for x, _ in scores)
+    explained, support = next((x, sup) for x, sup in scores if x >= best - 0.01)
+    terms = [lib.terms[j] for j in support]
+    evidence.terms = [t.name for t in terms]
+    if explained < ctx.rule.min_explained:
+        evidence.status = "not applicable"
+        evidence.reason = (
+            f"its best {len(terms)} term(s) ({', '.join(evidence.terms)}) predict only {100 * explained:.2g} % of the "
+            "held-out residual"
+        )
+        return evidence, None, ""
+    model = current.model.with_terms(add=terms)
+    if roots is not None and model.uses_px:
+        model = model.with_px_roots(roots)
+    try:
+        fit = _fit(ctx, model)
+    except NlidError as exc:
+        evidence.status, evidence.reason = "failed", str(exc)
+        return evidence, None, ""
+    evidence.extra_parameters = len(terms) + 1
+    evidence.coefficients = fit.coefficients
+    return evidence, fit, ""
 
 
 def _split(record: Record, holdout: float | Record) -> tuple[Record, Record, str]:
@@ -402,6 +526,19 @@ def _split(record: Record, holdout: float | Record) -> tuple[Record, Record, str
         raise InputError(f"holdout must be a fraction between 0 and 1 or a Record, got {holdout!r}") from None
     estimation, held = record.split(fraction)
     return estimation, held, f"last {100 * fraction:g} % of the record ({held.n} samples)"
+
+
+#: Candidates the loop builds itself (not in the library).
+BUILTIN_CANDIDATES = ("mass", "dictionary")
+
+
+def _builtin_choice(candidates: str | Iterable[str] | None) -> tuple[bool, bool, str | list[str] | None]:
+    """Whether ``mass`` and ``dictionary`` are tested, and the other candidate names."""
+    if candidates is None or (isinstance(candidates, str) and candidates.strip().lower() in ("", "all")):
+        return True, True, candidates
+    names = [n.strip() for n in (candidates.split(",") if isinstance(candidates, str) else candidates) if n.strip()]
+    rest = [n for n in names if n not in BUILTIN_CANDIDATES]
+    return "mass" in names, "dictionary" in names, rest if rest else []
 
 
 #: Fits spent refining a shape parameter between its grid neighbours.
@@ -460,7 +597,7 @@ def _test_candidate(
     for variant in variants:
         attempt(variant)
     chosen = best()
-    if chosen is not None and cand.shape is not None and len(variants) > 1:
+    if chosen is not None and len(cand.shapes) == 1 and len(variants) > 1:
         grid = [v.shape for v in variants]
         i = grid.index(chosen[1].shape)
         lo, hi = np.log(grid[max(i - 1, 0)]), np.log(grid[min(i + 1, len(grid) - 1)])
@@ -503,6 +640,7 @@ def discover(
     rule: AcceptanceRule | None = None,
     max_steps: int = DEFAULT_MAX_STEPS,
     cutoff: float | None = None,
+    structure: float = MIN_STRUCTURE,
     options: dict[str, Any] | None = None,
     registry: Registry | None = None,
     simulate: bool = True,
@@ -527,7 +665,10 @@ def discover(
         Fraction of ``record`` held out (its last part), or a separate
         held-out record.
     candidates
-        Names of library/plugin candidates to test (default: all).
+        Names of candidates to test (default: all): the library's, plugins',
+        and the loop's own ``mass`` (re-estimate a given mass) and
+        ``dictionary`` (sparse regression on an automatic dictionary, tried
+        when no named candidate passes).
     extra_candidates
         User candidates (:class:`Candidate` or ``"NAME=TERMS"``).
     plugins
@@ -540,6 +681,10 @@ def discover(
         Equation band (Hz) for estimated channels; default
         :func:`nlid.derivatives.suggest_cutoff` of the estimation record's
         displacement, used for both records.
+    structure
+        Cross-fitted held-out fraction of the residual variance a probe must
+        predict to count as remaining structure
+        (:data:`nlid.discovery.probes.MIN_STRUCTURE`).
     options
         Identifier options.
     registry
@@ -568,6 +713,7 @@ def discover(
     if int(max_steps) < 0:
         raise InputError(f"max_steps must be >= 0, got {max_steps}")
     model0 = declared if isinstance(declared, Model) else Model.from_spec(declared, defaults=False)
+    use_mass, use_dictionary, candidates = _builtin_choice(candidates)
     pool = resolve_candidates(candidates, extra_candidates, plugins=plugins)
     reg = registry or default_registry()
     if method is None:
@@ -582,7 +728,8 @@ def discover(
     estimation, held, held_text = _split(record, holdout)
     if cutoff is None:
         cutoff = derivatives.suggest_cutoff(estimation.z, estimation.fs)
-    ctx = _Context(estimation, held, identifier, mass, float(cutoff), rule)
+    ctx = _Context(estimation, held, identifier, mass, float(cutoff), rule, float(structure))
+    use_mass = use_mass and not getattr(identifier, "needs_mass", False)
     z_range = (float(estimation.z.min()), float(estimation.z.max()))
 
     say(f"identifying the declared model ({model0}) with {method}")
@@ -596,6 +743,10 @@ def discover(
     stop_reason = "maximum number of steps reached"
     added: set[str] = set()
     for number in range(1, int(max_steps) + 1):
+        current = _with_probes(ctx, current)
+        states[-1] = current
+        remaining = current.remaining
+        assert remaining is not None
         rms = {"z": float(np.std(view.z)), "v": _rms(view.v)}
         say(
             f"step {number}: eps {current.scores.eps:.3g} % (held-out {current.scores.eps_holdout:.3g} %); "
@@ -603,19 +754,37 @@ def discover(
         )
         tested: list[Evidence] = []
         fits: dict[str, Stage] = {}
-        for cand in pool:
-            if cand.name in added:
-                tested.append(Evidence(cand.name, status="not applicable", reason="already added by this run"))
-                continue
-            evidence, fit, bad = _test_candidate(ctx, current, cand, rms, z_range)
+
+        def consider(evidence: Evidence, fit: Stage | None, bad: str) -> None:
             if fit is not None:
                 judge(evidence, current.scores, fit.scores, view.n_eff, view.tau_samples, rule)
-                fits[cand.name] = fit
+                fits[evidence.effect] = fit
                 evidence.passes["physical"] = not bad
                 if bad:
                     evidence.status, evidence.reason = "rejected", bad + "; " + evidence.reason
             tested.append(evidence)
+
+        for cand in pool:
+            if cand.name in added:
+                tested.append(Evidence(cand.name, status="not applicable", reason="already added by this run"))
+                continue
+            gate = _gate(remaining, cand.requires)
+            if gate:
+                tested.append(Evidence(cand.name, status="not applicable", reason=gate))
+                continue
+            consider(*_test_candidate(ctx, current, cand, rms, z_range))
+        if use_mass and ctx.mass is not None:
+            gate = _gate(remaining, ("acceleration",))
+            if gate:
+                tested.append(Evidence("mass", status="not applicable", reason=gate))
+            else:
+                consider(*_test_mass(ctx, current))
         ranking, accepted = rank(tested)
+        if accepted is None and use_dictionary and not _gate(remaining, ("z", "v", "z,v")):
+            # open world: when nothing named passes, let a sparse regression on the dictionary propose terms
+            say(f"step {number}: no named candidate passes; searching the automatic dictionary")
+            consider(*_test_dictionary(ctx, current, z_range))
+            ranking, accepted = rank(tested)
         if accepted is None:
             final_ranking = ranking
             best = ranking[0] if ranking and ranking[0].explained_holdout is not None else None
@@ -626,6 +795,12 @@ def discover(
             break
         after = fits[accepted.effect]
         step_notes: list[str] = []
+        if accepted.effect == "mass":
+            step_notes.append(
+                f"the given mass looks wrong: the data say m = {after.mass:.4g} kg (given: {ctx.mass:.4g} kg); "
+                "the mass is estimated from here on"
+            )
+            ctx.mass = None
         if after.model.uses_px:
             # re-identify with the px(z) fixed point instead of the screening's fixed roots
             try:
@@ -634,17 +809,23 @@ def discover(
                 step_notes.append(f"px(z) fixed point failed ({exc}); kept the roots of the current stiffness")
         say(f"step {number}: accepted {accepted.effect} ({', '.join(accepted.terms)}): {accepted.reason}")
         steps.append(Step(accepted.effect, list(accepted.terms), current, after, accepted, ranking, step_notes))
-        added.add(accepted.effect)
+        if accepted.effect != "dictionary":
+            added.add(accepted.effect)
         current = after
         states.append(current)
         view = residual_view(estimation, current, ctx.cutoff, f"after step {number}: {accepted.effect}")
         all_views.append(view)
+    say("remaining-structure probes")
+    states = [stage if stage.remaining is not None else _with_probes(ctx, stage) for stage in states]
+    remaining = states[-1].remaining
+    assert remaining is not None
+    stop_reason = f"{stop_reason}; {'the final model is ' if not remaining.structured else ''}" + describe_remaining(
+        remaining
+    )
     if simulate:
         say("free-run simulation on the held-out record")
         states = [_with_free_run(ctx, stage) for stage in states]
-        steps = [
-            dataclasses.replace(step, before=states[k], after=states[k + 1]) for k, step in enumerate(steps)
-        ]
+    steps = [dataclasses.replace(step, before=states[k], after=states[k + 1]) for k, step in enumerate(steps)]
     info = {
         "samples_estimation": estimation.n,
         "samples_holdout": held.n,

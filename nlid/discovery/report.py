@@ -60,7 +60,9 @@ def _mass_unit(units: dict[str, str]) -> str:
 
 
 def _labels(result: DiscoveryResult) -> list[str]:
-    return ["declared: " + ", ".join(result.declared)] + [f"+ {s.effect}: " + ", ".join(s.terms) for s in result.steps]
+    return ["declared: " + ", ".join(result.declared)] + [
+        f"+ {s.effect}: " + (", ".join(s.terms) or f"m = {s.after.mass:.4g} kg") for s in result.steps
+    ]
 
 
 def _num(x: float) -> str:
@@ -161,6 +163,8 @@ def summary_table(result: DiscoveryResult) -> str:
             f"step {number}: {step.effect} explains {100 * ev.explained_holdout:.3g} % of the held-out residual "  # type: ignore[operator]
             f"variance, dBIC = {ev.delta_bic:.4g} (N_eff = {ev.n_eff:.4g})"
         )
+    for number, step in enumerate(result.steps, 1):
+        lines += [f"  note (step {number}): {n}" for n in step.notes]
     lines.append(f"stopped: {result.stop_reason}")
     for ev in result.final_ranking[:3]:
         if ev.explained_holdout is not None:

@@ -12,11 +12,16 @@ Grammar (whitespace is ignored; ``**`` may be written for ``^``)::
               | "exp" "(" "-" "|" VARIABLE "|" "/" NUMBER ")"
               | "exp" "(" "-" "(" VARIABLE "/" NUMBER ")" "^" "2" ")"
               | "tanh" "(" VARIABLE "/" NUMBER ")"
+              | "gap" "(" VARIABLE "," NUMBER ")"          clearance d >= 0
+              | "stop" "(" VARIABLE "," ["-"] NUMBER ")"    one-sided, engages beyond d
               | "(" product ")"
+    memory   := "bouc_wen" "(" ["-"] NUMBER "," ["-"] NUMBER ")"
+              | "dahl" "(" NUMBER ")"                        a term of its own
     product  := factor ( "*" factor )*
 
-A model is a comma-separated list of terms. Errors carry the position of the
-offending character (:class:`nlid.errors.TermError`).
+A model is a comma-separated list of terms (commas inside parentheses belong
+to the term). Errors carry the position of the offending character
+(:class:`nlid.errors.TermError`).
 """
 
 from __future__ import annotations
@@ -35,7 +40,8 @@ _TOKEN = re.compile(
     r"|(?P<name>[A-Za-z_][A-Za-z_0-9]*)"
     r"|(?P<op>\*\*|[*^|()/,+-]))"
 )
-_FUNCTIONS = ("sign", "sgn", "abs", "px", "exp", "tanh")
+_FUNCTIONS = ("sign", "sgn", "abs", "px", "exp", "tanh", "gap", "stop", "bouc_wen", "dahl")
+_MEMORY = ("bouc_wen", "dahl")
 
 
 @dataclass(frozen=True)
@@ -69,11 +75,22 @@ def _tokenize(text: str) -> list[_Tok]:
 class _Mono:
     """A product of parts under construction (multiplication and powers)."""
 
-    __slots__ = ("parts", "special")
+    __slots__ = ("parts", "special", "memory")
 
-    def __init__(self, parts: dict[str, tuple[int, int]] | None = None, special: Counter | None = None):
+    def __init__(
+        self,
+        parts: dict[str, tuple[int, int]] | None = None,
+        special: Counter | None = None,
+        memory: tuple[str, tuple[float, ...]] | None = None,
+    ):
         self.parts = dict(parts or {})
         self.special: Counter = Counter(special or {})
+        self.memory = memory
+
+    @property
+    def trivial(self) -> bool:
+        """True for the constant 1."""
+        return not self.parts and not any(self.special.values()) and self.memory is None
 
     def mul(self, other: _Mono) -> _Mono:
         parts = dict(self.parts)
@@ -87,11 +104,13 @@ class _Mono:
         return _Mono(parts, Counter({k: c * n for k, c in self.special.items()}))
 
     def absolute(self) -> _Mono | None:
-        if any(k[0] == "tanh" for k in self.special):
+        if any(k[0] in ("tanh", "gap", "stop") for k in self.special) or self.memory is not None:
             return None
         return _Mono({var: (p, 0) for var, (p, s) in self.parts.items()}, self.special)
 
     def to_term(self) -> Term:
+        if self.memory is not None:
+            return Term(memory=self.memory)
         kwargs = {}
         for var in VARIABLES:
             p, s = self.parts.get(var, (0, 0))
@@ -162,7 +181,14 @@ class _Parser:
             tok = self.peek()
             if tok.text == "*":
                 self.take()
-                mono = mono.mul(self.factor())
+                start = self.peek()
+                other = self.factor()
+                if (mono.memory is not None and not other.trivial) or (other.memory is not None and not mono.trivial):
+                    raise self.fail(
+                        "a memory term (bouc_wen, dahl) stands alone: it cannot be multiplied by other factors",
+                        start if other.memory is not None else tok,
+                    )
+                mono = mono.mul(other) if mono.memory is None else mono
             elif tok.kind == "end" or tok.text in stop:
                 return mono
             elif tok.text in ("+", "-"):
@@ -187,7 +213,9 @@ class _Parser:
             n = int(tok.text)
             if n > MAX_POWER:
                 raise self.fail(f"exponent {n} is larger than the maximum {MAX_POWER}", tok)
-            mono = mono.power(n)
+            if mono.memory is not None and n != 1:
+                raise self.fail("a memory term (bouc_wen, dahl) cannot be raised to a power", tok)
+            mono = mono.power(n) if mono.memory is None else mono
         return mono
 
     def atom(self) -> _Mono:
@@ -256,8 +284,8 @@ class _Parser:
         self.expect("(")
         inner = self.product(stop=(")",))
         self.expect(")", "closing ')'")
-        if inner.special:
-            raise self.fail("sign(...) of exp or tanh is not supported", tok)
+        if inner.special or inner.memory is not None:
+            raise self.fail("sign(...) of exp, tanh, gap, stop or a memory term is not supported", tok)
         # |x|^p > 0, so sign(|x|^p * sign(x)^s) = sign(x)^s
         return _Mono({var: (0, s) for var, (p, s) in inner.parts.items()})
 
@@ -296,6 +324,48 @@ class _Parser:
         scale = self._scale()
         self.expect(")", "closing ')'")
         return _Mono(special=Counter({("tanh", var, scale): 1}))
+
+    def _fn_gap(self, tok: _Tok) -> _Mono:
+        return self._kink("gap", signed=False)
+
+    def _fn_stop(self, tok: _Tok) -> _Mono:
+        return self._kink("stop", signed=True)
+
+    def _kink(self, kind: str, signed: bool) -> _Mono:
+        self.expect("(")
+        var = self.variable()
+        self.expect(",", f"',' then the {'position where it engages' if signed else 'clearance'} (m or m/s)")
+        at = self.peek()
+        value = self._signed_number("a clearance", signed)
+        if not signed and value < 0:
+            raise self.fail("a gap's clearance must not be negative (use stop(z, d) for a one-sided spring)", at)
+        self.expect(")", "closing ')'")
+        return _Mono(special=Counter({(kind, var, value): 1}))
+
+    def _fn_bouc_wen(self, tok: _Tok) -> _Mono:
+        self.expect("(")
+        a = self._signed_number("the Bouc-Wen parameter a (1/m)", True)
+        self.expect(",", "',' then the Bouc-Wen parameter b (1/m)")
+        b = self._signed_number("the Bouc-Wen parameter b (1/m)", True)
+        self.expect(")", "closing ')'")
+        return _Mono(memory=("bouc_wen", (a, b)))
+
+    def _fn_dahl(self, tok: _Tok) -> _Mono:
+        self.expect("(")
+        at = self.peek()
+        rho = self._signed_number("the pre-sliding displacement rho (m)", False)
+        if not rho > 0:
+            raise self.fail("dahl's pre-sliding displacement rho must be positive", at)
+        self.expect(")", "closing ')'")
+        return _Mono(memory=("dahl", (rho,)))
+
+    def _signed_number(self, what: str, signed: bool) -> float:
+        negative = False
+        if signed and self.peek().text == "-":
+            self.take()
+            negative = True
+        value = self.number(what)
+        return float(format(-value if negative else value, ".6g"))
 
     def _scale(self) -> float:
         tok = self.peek()
@@ -336,7 +406,14 @@ def split_terms(spec: str) -> list[tuple[str, int]]:
     """
     out: list[tuple[str, int]] = []
     start = 0
+    depth = 0
     for i, ch in enumerate(spec + ","):
+        if ch == "(":
+            depth += 1
+        elif ch == ")":
+            depth = max(0, depth - 1)
+        elif ch == "," and depth > 0 and i < len(spec):
+            continue  # a comma inside parentheses belongs to the term: gap(z, 0.01)
         if ch == ",":
             piece = spec[start:i]
             if not piece.strip():

@@ -172,6 +172,24 @@ class Model:
         return any(t.depends_on_v for t in self.terms)
 
     @property
+    def uses_memory(self) -> bool:
+        """True if any term is a memory (hysteretic) term, evaluated along the path of ``z``."""
+        return any(t.is_memory for t in self.terms)
+
+    @property
+    def shapes(self) -> tuple[tuple[float, ...], ...]:
+        """The shape parameters of each term (empty tuples for terms without)."""
+        return tuple(t.shapes for t in self.terms)
+
+    def with_term_shapes(self, term: str | Term, values: Sequence[float]) -> Model:
+        """The model with one term's shape parameters changed (the term's name changes with them)."""
+        old = self.terms[self.index(term)]
+        new = old.with_shapes(tuple(values))
+        if new != old and new in self.terms:
+            raise InputError(f"changing {old.name} to {new.name} duplicates a term of the model")
+        return Model(tuple(new if t == old else t for t in self.terms), self.px_roots)
+
+    @property
     def uses_px(self) -> bool:
         """True if any term contains ``px(z)``."""
         return any(t.uses_px for t in self.terms)

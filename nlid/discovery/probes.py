@@ -1,0 +1,309 @@
+"""Remaining-structure probes: is the residual still predictable, and from what?
+
+A model is complete when what it leaves in the force balance is noise. Each
+probe asks how much of the *held-out* residual variance a flexible function
+of one kind of information can predict, fitted on the estimation record
+(and the reverse, cross-fitted: the fraction reported is the mean of
+"fit on estimation, score on held-out" and "fit on held-out, score on
+estimation"), so that noise cannot look like structure: a probe fitted to
+noise predicts nothing out of sample (its fraction is then near or below 0).
+
+==================  =====================================================================
+probe               what it is given (besides a constant)
+==================  =====================================================================
+``z``               Legendre polynomials of the displacement, degree 1-8
+``v``               Legendre polynomials of the velocity, degree 1-7, and ``sign(v)``
+``z,v``             products of Legendre polynomials of z (0-4) and of v (1-4, ``sign(v)``)
+``acceleration``    the acceleration of the balance: a mass error leaves ``dm * a``
+``force-rate``      the force's time derivative: a time skew ``dt`` between the force and
+                    the motion leaves ``dt * f'``
+``memory``          every function above of (z, v) plus the recent history of the motion: play
+                    (backlash) operators of z of four widths (rate-independent
+                    hysteresis: pre-sliding friction, Bouc-Wen) and z, v lagged by 1,
+                    2, 4 and 8 periods of the equation band (an unmodelled mode, a
+                    viscoelastic force); its fraction is what the history adds to the
+                    static functions of (z, v)
+==================  =====================================================================
+
+A probe finds structure when its fraction reaches :data:`MIN_STRUCTURE`
+(5 % of the residual variance). The threshold was set from complete models at
+1, 2 and 5 % noise (``tests/discovery/test_probes.py``; figures in
+docs/discover.md): there the largest fraction over the probes stays below it.
+The *dominant* probe is the one with the largest fraction (``memory`` counted
+by its increment), except that a simpler probe explaining within
+:data:`SIMPLER_WITHIN` of a richer one is named instead (``z`` or ``v`` rather
+than ``z,v``; ``acceleration`` or ``force-rate``, one function each, rather
+than a flexible function of the motion).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+from numpy.polynomial import legendre
+
+from ..scoring import Residual
+
+__all__ = ["MIN_STRUCTURE", "PROBES", "ProbeResult", "Remaining", "probe_residual", "describe_remaining"]
+
+#: Smallest cross-fitted held-out fraction of the residual variance that counts as structure.
+MIN_STRUCTURE = 0.05
+#: Probe names, in report order.
+PROBES = ("z", "v", "z,v", "acceleration", "force-rate", "memory")
+#: Widths of the play operators, as multiples of std(z).
+PLAY_WIDTHS = (0.05, 0.15, 0.4, 1.0)
+#: Lags of z and v, in periods of the equation band.
+LAG_PERIODS = (1, 2, 4, 8)
+
+
+@dataclass(frozen=True)
+class ProbeResult:
+    """What one probe found.
+
+    Attributes
+    ----------
+    name
+        The probe (:data:`PROBES`).
+    explained
+        Cross-fitted fraction of the residual variance it predicts (for
+        ``memory``: the increment over ``z,v``).
+    explained_holdout, explained_estimation
+        The two directions: fitted on the other record, scored on this one.
+    columns
+        Number of functions it was given.
+    structured
+        ``explained >= threshold``.
+    """
+
+    name: str
+    explained: float
+    explained_holdout: float
+    explained_estimation: float
+    columns: int
+    structured: bool
+
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-friendly dictionary."""
+        return {
+            "explained": self.explained,
+            "explained_holdout": self.explained_holdout,
+            "explained_estimation": self.explained_estimation,
+            "columns": self.columns,
+            "structured": self.structured,
+        }
+
+
+@dataclass(frozen=True)
+class Remaining:
+    """The verdict of the probes on one model.
+
+    Attributes
+    ----------
+    structured
+        True when some probe finds structure.
+    explained_holdout
+        The largest cross-fitted fraction over the probes (``memory`` as its
+        total, ``z,v`` plus history).
+    dominant
+        The probe with the largest fraction (``None`` when nothing is found).
+    probes
+        Every probe's result.
+    threshold
+        :data:`MIN_STRUCTURE` used.
+    """
+
+    structured: bool
+    explained_holdout: float
+    dominant: str | None
+    probes: dict[str, ProbeResult] = field(default_factory=dict)
+    threshold: float = MIN_STRUCTURE
+
+    def to_dict(self) -> dict[str, Any]:
+        """The ``remaining`` object of ``nlid discover --json``."""
+        return {
+            "structured": self.structured,
+            "explained_holdout": self.explained_holdout,
+            "dominant": self.dominant,
+            "threshold": self.threshold,
+            "text": describe_remaining(self),
+            "probes": {k: v.to_dict() for k, v in self.probes.items()},
+        }
+
+
+def _legendre(x: np.ndarray, degrees: range) -> np.ndarray:
+    cols = []
+    for d in degrees:
+        c = np.zeros(d + 1)
+        c[d] = 1.0
+        cols.append(legendre.legval(x, c))
+    return np.column_stack(cols) if cols else np.empty((x.size, 0))
+
+
+def _play(z: np.ndarray, width: float) -> np.ndarray:
+    """The play (backlash) operator of width ``width`` minus its input: a hysteretic feature in ``[-w, w]``."""
+    from ..terms._memory_kernels import play_loop
+
+    z = np.ascontiguousarray(z, dtype=float)
+    out = np.empty_like(z)
+    play_loop(z, float(width), out)
+    return out
+
+
+class _Scaler:
+    """Maps z and v onto the range of the record a probe is fitted on (applied to both records)."""
+
+    def __init__(self, est: Residual):
+        self.z_mid = 0.5 * (float(est.z.max()) + float(est.z.min()))
+        self.z_half = max(0.5 * float(np.ptp(est.z)), 1e-300)
+        self.v_half = max(float(np.max(np.abs(est.v))), 1e-300)
+        self.z_std = max(float(np.std(est.z)), 1e-300)
+        self.fs = est.fs
+        self.band = est.band_hz or 0.1 * est.fs
+
+    def xz(self, res: Residual) -> np.ndarray:
+        return np.clip((res.z - self.z_mid) / self.z_half, -1.0, 1.0)
+
+    def xv(self, res: Residual) -> np.ndarray:
+        return np.clip(res.v / self.v_half, -1.0, 1.0)
+
+    def features(self, res: Residual) -> dict[str, np.ndarray]:
+        xz, xv = self.xz(res), self.xv(res)
+        sv = np.sign(res.v)
+        z_basis = _legendre(xz, range(1, 9))
+        v_basis = np.column_stack([_legendre(xv, range(1, 8)), sv])
+        zp = _legendre(xz, range(0, 5))
+        vp = np.column_stack([_legendre(xv, range(1, 5)), sv])
+        zv = np.column_stack([zp[:, i] * vp[:, j] for i in range(zp.shape[1]) for j in range(vp.shape[1])] + [zp[:, 1:]])
+        fdot = np.gradient(res.f) * res.fs
+        history = [_play(res.z, w * self.z_std) / self.z_std for w in PLAY_WIDTHS]
+        n = res.z.size
+        for periods in LAG_PERIODS:
+            lag = int(round(periods * self.fs / self.band))
+            if 0 < lag < n // 4:
+                for x in (xz, xv):
+                    shifted = np.empty_like(x)
+                    shifted[lag:] = x[:-lag]
+                    shifted[:lag] = x[0]
+                    history.append(shifted)
+        static = np.column_stack([z_basis, v_basis, zv])
+        return {
+            "z": z_basis,
+            "v": v_basis,
+            "z,v": zv,
+            "acceleration": res.a[:, None],
+            "force-rate": fdot[:, None],
+            "static": static,
+            "memory": np.column_stack([static, *history]) if history else static,
+        }
+
+
+def _explained(x_fit: np.ndarray, r_fit: np.ndarray, x_test: np.ndarray, r_test: np.ndarray, skip: int) -> float:
+    """Fraction of ``r_test``'s variance predicted by least squares on ``(x_fit, r_fit)`` (constant included)."""
+    a = np.column_stack([np.ones(r_fit.size), x_fit])[skip:]
+    b = np.column_stack([np.ones(r_test.size), x_test])[skip:]
+    scale = np.sqrt(np.mean(a**2, axis=0))
+    scale[scale == 0] = 1.0
+    a = a / scale
+    # normal equations with a tiny ridge: the columns are few (< 100) and only the prediction matters
+    gram = a.T @ a
+    gram[np.diag_indices_from(gram)] += 1e-9 * np.trace(gram) / gram.shape[0]
+    coef = np.linalg.solve(gram, a.T @ r_fit[skip:])
+    pred = (b / scale) @ coef
+    target = r_test[skip:]
+    total = float(np.sum((target - target.mean()) ** 2))
+    if total <= 0:
+        return 0.0
+    return float(1.0 - np.sum((target - pred) ** 2) / total)
+
+
+def probe_residual(estimation: Residual, holdout: Residual, threshold: float = MIN_STRUCTURE) -> Remaining:
+    """Run every probe on a model's residual on the estimation and held-out records (module docstring).
+
+    Parameters
+    ----------
+    estimation, holdout
+        :func:`nlid.scoring.residual` of the same model on both records (same band).
+    threshold
+        Fraction that counts as structure.
+    """
+    # each direction scales (and clips) both records to the range of the record it fits on, so that no
+    # polynomial is asked to extrapolate beyond the data it was fitted to
+    fit_est, fit_ho = _Scaler(estimation), _Scaler(holdout)
+    fe_e, fh_e = fit_est.features(estimation), fit_est.features(holdout)
+    fh_h, fe_h = fit_ho.features(holdout), fit_ho.features(estimation)
+    # the history features need a warm-up: leave out the longest lag at the start of each record
+    skip = int(round(max(LAG_PERIODS) * fit_est.fs / fit_est.band))
+    skip = min(skip, estimation.z.size // 4, holdout.z.size // 4)
+    results: dict[str, ProbeResult] = {}
+    raw: dict[str, tuple[float, float]] = {}
+    for name in (*PROBES, "static"):
+        ho = _explained(fe_e[name], estimation.r, fh_e[name], holdout.r, skip)
+        es = _explained(fh_h[name], holdout.r, fe_h[name], estimation.r, skip)
+        raw[name] = (ho, es)
+    # what the history adds to every static function of (z, v); a static fit that predicts nothing counts as 0
+    base_ho, base_es = (max(x, 0.0) for x in raw["static"])
+    for name in PROBES:
+        ho, es = raw[name]
+        if name == "memory":
+            ho, es = ho - base_ho, es - base_es
+        value = 0.5 * (ho + es)
+        results[name] = ProbeResult(name, value, ho, es, fe_e[name].shape[1], value >= threshold)
+    total = {n: results[n].explained for n in PROBES}
+    total["memory"] = 0.5 * sum(raw["memory"])
+    structured = any(r.structured for r in results.values())
+    return Remaining(structured, max(total.values()), _dominant(results) if structured else None, results, threshold)
+
+
+#: A simpler probe is named dominant when it explains within this much of a richer one.
+SIMPLER_WITHIN = 0.05
+
+
+def _dominant(results: dict[str, ProbeResult]) -> str:
+    """The probe that best names what remains, preferring the simpler of two that explain about as much."""
+    e = {n: r.explained for n, r in results.items()}
+    best = max(PROBES, key=lambda n: e[n])
+    if best == "z,v" and max(e["z"], e["v"]) >= e["z,v"] - SIMPLER_WITHIN:
+        best = "z" if e["z"] >= e["v"] else "v"
+    if best in ("z", "v", "z,v"):
+        single = max(("acceleration", "force-rate"), key=lambda n: e[n])
+        if e[single] >= e[best] - SIMPLER_WITHIN:
+            best = single
+    return best
+
+
+_WHERE = {
+    "z": "a function of the displacement: a stiffness law outside the model (a gap or stop, a higher power)",
+    "v": "a function of the velocity: a friction or damping law outside the model",
+    "z,v": "a function of position and velocity together: position-dependent friction or damping",
+    "acceleration": "the acceleration: the mass is wrong",
+    "force-rate": "the force's rate of change: the force and the motion are skewed in time",
+    "memory": "the motion's history beyond the instantaneous (z, v): an effect with memory "
+    "(hysteresis, pre-sliding friction, an unmodelled mode)",
+}
+_TRY = {
+    "z": "try stiffness candidates (gap, stop, z^5) or your own (--candidate NAME=TERMS)",
+    "v": "try friction candidates (stribeck, dictionary) or your own",
+    "z,v": "try position-dependent friction (sign(v)*|px(z)|) or products in the dictionary",
+    "acceleration": "let the method estimate the mass (omit it) or check the value given",
+    "force-rate": "check the channels' synchronisation (anti-aliasing filters, sample-and-hold) and align them",
+    "memory": "try hysteretic terms (bouc_wen(a, b), dahl(rho)) or a model with more states",
+}
+
+
+def describe_remaining(remaining: Remaining) -> str:
+    """One or two sentences: clean, or how much remains, predictable from what, and what to try."""
+    if not remaining.structured or remaining.dominant is None:
+        best = max(remaining.probes.values(), key=lambda p: p.explained, default=None)
+        tail = "" if best is None else f" (largest: {best.name}, {100 * max(best.explained, 0.0):.2g} %)"
+        return (
+            f"clean: no probe predicts {100 * remaining.threshold:g} % or more of the held-out residual "
+            f"variance{tail}"
+        )
+    d = remaining.dominant
+    share = remaining.probes[d].explained
+    return (
+        f"{100 * share:.2g} % of the held-out residual variance remains predictable from {_WHERE[d]}; "
+        f"{_TRY[d]}"
+    )
