@@ -29,7 +29,7 @@ from .errors import DataError, InputError
 from .io import read_table
 from .record import Record
 
-__all__ = ["DATA_ENV", "data_dir", "load", "DATASETS", "SILVERBOX_FS", "SILVERBOX_ARROW"]
+__all__ = ["DATA_ENV", "data_dir", "load", "DATASETS", "SILVERBOX_FS", "SILVERBOX_ARROW", "BOUC_WEN_REFERENCE", "EMPS_REFERENCE"]
 
 #: Environment variable naming the data folder.
 DATA_ENV = "NLID_DATA_DIR"
@@ -41,6 +41,17 @@ SILVERBOX_ARROW = 40_000
 DATASETS = {
     "emps": "EMPS positioning stage, Coulomb friction (emps/DATA_EMPS.mat)",
     "silverbox": "Silverbox electronic Duffing oscillator (silverbox/SNLS80mV.mat)",
+    "bouc-wen": "Bouc-Wen hysteretic oscillator (boucwen/train_multisine.mat; part 'sinesweep': the validation set)",
+}
+
+#: The Bouc-Wen benchmark's own model (Noel & Schoukens 2016): m y'' + c y' + k y + z = u,
+#: z' = alpha y' - beta (gamma |y'| z + delta y' |z|) with m = 2 kg, c = 10 N s/m, k = 5e4 N/m,
+#: alpha = 5e4 N/m, beta = 1e3 1/m, gamma = 0.8, delta = -1.1, nu = 1: in nlid's terms
+#: alpha * bouc_wen(beta gamma, beta delta) with w = z / alpha (see nlid.terms.memory).
+BOUC_WEN_REFERENCE = {
+    "mass": 2.0,
+    "coefficients": {"z": 5e4, "v": 10.0, "bouc_wen(800, -1100)": 5e4},
+    "published_rms_error_m": {"pnlss_multisine": 1.2e-5, "neural_block_oriented_multisine": 4.5e-5, "linear": 2e-4},
 }
 
 EMPS_REFERENCE = {"mass": 95.1, "coefficients": {"v": 203.5, "sign(v)": 20.4, "1": -3.16}, "eps_percent": 4.0}
@@ -76,11 +87,13 @@ def load(name: str, *, part: str = "all") -> Record:
     Parameters
     ----------
     name
-        ``"emps"`` or ``"silverbox"``.
+        ``"emps"``, ``"silverbox"`` or ``"bouc-wen"``.
     part
         For ``silverbox``: ``"all"``, ``"arrow"`` (first 40 000 samples, the
         customary test set) or ``"multisine"`` (the rest, the customary
-        estimation set). Only ``"all"`` for ``emps``.
+        estimation set). For ``bouc-wen``: ``"train"`` (= ``"all"``, the
+        5-period multisine, 40 960 samples) or ``"sinesweep"`` (the
+        validation set, 153 000 samples). Only ``"all"`` for ``emps``.
 
     Returns
     -------
@@ -103,6 +116,35 @@ def load(name: str, *, part: str = "all") -> Record:
                 "citation": "A. Janot, M. Gautier, M. Brunot, Data set and reference models of EMPS, "
                 "Nonlinear System Identification Benchmarks, 2019",
                 "reference": EMPS_REFERENCE,
+            },
+        )
+    if name in ("bouc-wen", "boucwen"):
+        citation = (
+            "J.P. Noel, M. Schoukens, Hysteretic benchmark with a dynamic nonlinearity, "
+            "Nonlinear System Identification Benchmarks, 2016"
+        )
+        if part in ("all", "train", "multisine"):
+            path = _file("boucwen/train_multisine.mat")
+            table = read_table(path)
+            u, y = table["u"], table["y"]
+            fs = float(np.asarray(table["fs"]).ravel()[0])
+        elif part in ("sinesweep", "validation"):
+            path = _file("boucwen/uval_sinesweep.mat")
+            u = read_table(path)["uval_sinesweep"]
+            y = read_table(_file("boucwen/yval_sinesweep.mat"))["yval_sinesweep"]
+            fs = 750.0
+        else:
+            raise InputError(f"unknown bouc-wen part {part!r}; use train (the multisine) or sinesweep")
+        return Record(
+            f=np.asarray(u, dtype=float).ravel(),
+            z=np.asarray(y, dtype=float).ravel(),
+            fs=fs,
+            meta={
+                "source": str(path),
+                "citation": citation,
+                "force_hold": "sampled",
+                "mass": BOUC_WEN_REFERENCE["mass"],
+                "reference": BOUC_WEN_REFERENCE,
             },
         )
     if name == "silverbox":

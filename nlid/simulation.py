@@ -25,9 +25,11 @@ import numpy as np
 from .errors import InputError, NlidError
 from .terms import Model, px_coefficients
 
-__all__ = ["simulate", "free_run", "encode_model", "random_force", "SimulationError", "FREE_RUN_OVERSAMPLE"]
+__all__ = ["simulate", "free_run", "encode_model", "encode_memory", "random_force", "SimulationError", "FREE_RUN_OVERSAMPLE"]
 
-_KIND_CODE = {"exp1": 1, "exp2": 2, "tanh": 3}
+_KIND_CODE = {"exp1": 1, "exp2": 2, "tanh": 3, "gap": 4, "stop": 5}
+#: Codes of the memory laws in :func:`encode_memory`.
+_MEMORY_CODE = {"bouc_wen": 1, "dahl": 2}
 #: Sub-steps per sample of :func:`free_run` (measured on Silverbox: the RMS
 #: simulation error of the cubic model is 0.576, 0.486, 0.499, 0.503 mV at 2, 4,
 #: 8, 16 sub-steps; one step per sample gives 3.3 mV).
@@ -37,6 +39,21 @@ _VAR_CODE = {"z": 0, "v": 1}
 
 class SimulationError(NlidError, RuntimeError):
     """The integration diverged (the state became non-finite)."""
+
+
+def encode_memory(model: Model) -> np.ndarray:
+    """The memory terms of a model for the compiled kernel: ``(law, p1, p2)`` per term (law 0: not memory).
+
+    ``bouc_wen(a, b)`` is law 1 with ``(a, b)``; ``dahl(rho)`` law 2 with ``(rho, 0)``
+    (:mod:`nlid.terms.memory`).
+    """
+    out = np.zeros((len(model.terms), 3))
+    for i, term in enumerate(model.terms):
+        if term.memory is not None:
+            law, params = term.memory
+            out[i, 0] = _MEMORY_CODE[law]
+            out[i, 1 : 1 + len(params)] = params
+    return out
 
 
 def encode_model(model: Model) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -238,6 +255,16 @@ def _restoring_special(z, v, theta, special, pxc, plan, top):
                 g *= np.exp(-abs(x) * mult / scale)
             elif kind == 2.0:
                 g *= np.exp(-mult * (x / scale) ** 2)
+            elif kind == 4.0:  # gap(x, d) = sign(x) max(|x| - d, 0)
+                y = abs(x) - scale
+                g *= (_sign(x) * y if y > 0 else 0.0) ** mult
+            elif kind == 5.0:  # stop(x, d): max(x - d, 0) for d >= 0, min(x - d, 0) for d < 0
+                y = x - scale
+                if scale >= 0:
+                    y = y if y > 0 else 0.0
+                else:
+                    y = y if y < 0 else 0.0
+                g *= y**mult
             else:
                 g *= np.tanh(x / scale) ** mult
         total += g
@@ -290,6 +317,70 @@ def _rk4(force, dt, mass, theta, parts, special, pxc, z0, v0, out_z, out_v, out_
     return _steps(_restoring_plain, force, dt, mass, theta, special, pxc, plan, top, z0, v0, out_z, out_v, out_a)
 
 
+@numba.njit(cache=True, inline="always")
+def _memory_rates(memory, w, v, out):
+    """``w'`` of every memory state for velocity ``v`` (the rate forms of :mod:`nlid.terms.memory`)."""
+    av = abs(v)
+    sv = _sign(v)
+    for i in range(memory.shape[0]):
+        law = memory[i, 0]
+        if law == 1.0:  # Bouc-Wen, nu = 1
+            out[i] = v - memory[i, 1] * av * w[i] - memory[i, 2] * v * abs(w[i])
+        elif law == 2.0:  # Dahl
+            out[i] = (v / memory[i, 1]) * (1.0 - w[i] * sv)
+        else:
+            out[i] = 0.0
+
+
+@numba.njit(cache=True)
+def _rk4_memory(force, dt, mass, plain, theta, memory, parts, special, pxc, z0, v0, out_z, out_v, out_a):
+    """RK4 of ``(z, v, w_1..w_k)``: the memory terms' states integrated with the motion (their force ``theta_i w_i``)."""
+    plan, top = _plan(parts, special)
+    n = theta.size
+    w = np.zeros(n)
+    k1 = np.zeros(n)
+    k2 = np.zeros(n)
+    k3 = np.zeros(n)
+    k4 = np.zeros(n)
+    tmp = np.zeros(n)
+    z = z0
+    v = v0
+    inv_m = 1.0 / mass
+    h2 = 0.5 * dt
+    for k in range(force.size):
+        fk = force[k]
+        a1 = (fk - _restoring_special(z, v, plain, special, pxc, plan, top) - np.dot(theta, w)) * inv_m
+        _memory_rates(memory, w, v, k1)
+        out_z[k] = z
+        out_v[k] = v
+        out_a[k] = a1
+        z2 = z + h2 * v
+        v2 = v + h2 * a1
+        for i in range(n):
+            tmp[i] = w[i] + h2 * k1[i]
+        a2 = (fk - _restoring_special(z2, v2, plain, special, pxc, plan, top) - np.dot(theta, tmp)) * inv_m
+        _memory_rates(memory, tmp, v2, k2)
+        z3 = z + h2 * v2
+        v3 = v + h2 * a2
+        for i in range(n):
+            tmp[i] = w[i] + h2 * k2[i]
+        a3 = (fk - _restoring_special(z3, v3, plain, special, pxc, plan, top) - np.dot(theta, tmp)) * inv_m
+        _memory_rates(memory, tmp, v3, k3)
+        z4 = z + dt * v3
+        v4 = v + dt * a3
+        for i in range(n):
+            tmp[i] = w[i] + dt * k3[i]
+        a4 = (fk - _restoring_special(z4, v4, plain, special, pxc, plan, top) - np.dot(theta, tmp)) * inv_m
+        _memory_rates(memory, tmp, v4, k4)
+        z = z + dt / 6.0 * (v + 2.0 * v2 + 2.0 * v3 + v4)
+        v = v + dt / 6.0 * (a1 + 2.0 * a2 + 2.0 * a3 + a4)
+        for i in range(n):
+            w[i] = w[i] + dt / 6.0 * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i])
+        if not (np.isfinite(z) and np.isfinite(v)):
+            return k
+    return -1
+
+
 def simulate(
     model: Model,
     coefficients: dict[str, float] | np.ndarray,
@@ -331,7 +422,14 @@ def simulate(
     parts, special, pxc = encode_model(model)
     n = force.size
     z, v, a = np.empty(n), np.empty(n), np.empty(n)
-    bad = _rk4(force, 1.0 / fs, float(mass), theta, parts, special, pxc, float(x0[0]), float(x0[1]), z, v, a)
+    if model.uses_memory:
+        memory = encode_memory(model)
+        plain = np.where(memory[:, 0] > 0, 0.0, theta)  # memory terms act through their states, not their parts
+        bad = _rk4_memory(
+            force, 1.0 / fs, float(mass), plain, theta, memory, parts, special, pxc, float(x0[0]), float(x0[1]), z, v, a
+        )
+    else:
+        bad = _rk4(force, 1.0 / fs, float(mass), theta, parts, special, pxc, float(x0[0]), float(x0[1]), z, v, a)
     if bad >= 0:
         raise SimulationError(
             f"simulation diverged at sample {bad} (t = {bad / fs:.4g} s); the model may be unstable "

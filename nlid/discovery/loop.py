@@ -125,11 +125,15 @@ class Stage:
     remaining
         What the remaining-structure probes find in its residual
         (:mod:`nlid.discovery.probes`), for the models the loop keeps.
+    validation
+        Its scores on a validation record that takes no part in the
+        decisions (``discover(..., validation=...)``), if one was given.
     """
 
     identified: IdentifiedModel
     holdout: ScoreSet
     remaining: Remaining | None = None
+    validation: ScoreSet | None = None
 
     @property
     def model(self) -> Model:
@@ -162,6 +166,13 @@ class Stage:
     def sim_rms_holdout(self) -> float | None:
         """RMS free-run error on the held-out record (unit of z); ``None`` when not computed (see :attr:`sim_note`)."""
         return self.holdout.freerun_rmse if np.isfinite(self.holdout.freerun_rmse) else None
+
+    @property
+    def sim_rms_validation(self) -> float | None:
+        """RMS free-run error on the validation record (unit of z), if one was given and the error computed."""
+        if self.validation is None or not np.isfinite(self.validation.freerun_rmse):
+            return None
+        return self.validation.freerun_rmse
 
     @property
     def sim_note(self) -> str:
@@ -234,6 +245,8 @@ class Step:
             "force_residual_after_holdout": a.force_residual_holdout,
             "sim_rms_before_holdout": self.before.sim_rms_holdout,
             "sim_rms_after_holdout": self.after.sim_rms_holdout,
+            "sim_rms_before_validation": self.before.sim_rms_validation,
+            "sim_rms_after_validation": self.after.sim_rms_validation,
             "coefficients_after": self.after.coefficients,
             "mass_after": self.after.mass,
             "notes": list(self.notes),
@@ -344,6 +357,8 @@ class DiscoveryResult:
                 "force_residual_final_holdout": last.scores.force_residual_holdout,
                 "sim_rms_initial_holdout": first.sim_rms_holdout,
                 "sim_rms_final_holdout": last.sim_rms_holdout,
+                "sim_rms_initial_validation": first.sim_rms_validation,
+                "sim_rms_final_validation": last.sim_rms_validation,
                 "steps": [s.to_dict(self.rule) for s in self.steps],
                 "final_terms": list(last.model.names),
                 "coefficients": last.coefficients,
@@ -415,6 +430,33 @@ def _with_probes(ctx: _Context, stage: Stage) -> Stage:
     est = stage.identified.residual(ctx.estimation, cutoff=ctx.cutoff)
     ho = stage.identified.residual(ctx.holdout, cutoff=ctx.cutoff)
     return dataclasses.replace(stage, remaining=probe_residual(est, ho, ctx.structure))
+
+
+def _prune(ctx: _Context, current: Stage, earlier: list[Step], newest: str) -> tuple[Stage, list[str]]:
+    """Remove effects an earlier step added that the newest one made redundant.
+
+    An earlier effect is removed when, with the newest effect in the model,
+    it explains less than half the acceptance rule's share of the held-out
+    residual variance (e.g. a gap that stood in for a hysteresis found
+    later). Returns the (possibly smaller) model and a note per removal.
+    """
+    notes: list[str] = []
+    for step in earlier:
+        terms = [t for t in step.terms if t in current.model]
+        if not terms or step.effect == "mass":
+            continue
+        try:
+            without = _fit(ctx, current.model.with_terms(remove=terms))
+        except NlidError:
+            continue
+        share = 1.0 - (current.scores.force_residual_holdout / without.scores.force_residual_holdout) ** 2
+        if share < 0.5 * ctx.rule.min_explained:
+            notes.append(
+                f"removed {step.effect} ({', '.join(terms)}): with {newest} it explains only "
+                f"{100 * max(share, 0.0):.2g} % of the held-out residual variance"
+            )
+            current = without
+    return current, notes
 
 
 def _gate(remaining: Remaining, probes: Sequence[str]) -> str:
@@ -545,6 +587,11 @@ def _builtin_choice(candidates: str | Iterable[str] | None) -> tuple[bool, bool,
 SHAPE_REFINE_FITS = 4
 
 
+def _simplex(n: int, size: float) -> np.ndarray:
+    """A right-angled initial simplex of ``n + 1`` points around the origin."""
+    return np.vstack([np.zeros(n), size * np.eye(n)])
+
+
 def _test_candidate(
     ctx: _Context, current: Stage, cand: Candidate, rms: dict[str, float], z_range: tuple[float, float]
 ) -> tuple[Evidence, Stage | None, str]:
@@ -597,6 +644,28 @@ def _test_candidate(
     for variant in variants:
         attempt(variant)
     chosen = best()
+    if chosen is not None and len(cand.shapes) > 1 and len(variants) > 1:
+        # several shape parameters: a few simplex steps from the best grid point, in units of the grid's spacing
+        start = np.asarray(chosen[1].shape, dtype=float)
+        steps_ = np.array([max(np.ptp(sh.grid(rms)) / max(len(sh.multipliers) - 1, 1), 1e-12) for sh in cand.shapes])
+
+        def objective_n(u: np.ndarray) -> float:
+            try:
+                variant = cand.variant(current.model, tuple(start + u * steps_))
+            except InputError:
+                return np.inf
+            got = attempt(variant) if variant is not None else None
+            if got is None:
+                return np.inf
+            return got[0].scores.force_residual * (2.0 if got[2] else 1.0)
+
+        optimize.minimize(
+            objective_n,
+            np.zeros(len(start)),
+            method="Nelder-Mead",
+            options={"maxfev": SHAPE_REFINE_FITS * 3, "initial_simplex": _simplex(len(start), 0.5)},
+        )
+        chosen = best()
     if chosen is not None and len(cand.shapes) == 1 and len(variants) > 1:
         grid = [v.shape for v in variants]
         i = grid.index(chosen[1].shape)
@@ -641,6 +710,7 @@ def discover(
     max_steps: int = DEFAULT_MAX_STEPS,
     cutoff: float | None = None,
     structure: float = MIN_STRUCTURE,
+    validation: Record | None = None,
     options: dict[str, Any] | None = None,
     registry: Registry | None = None,
     simulate: bool = True,
@@ -685,6 +755,11 @@ def discover(
         Cross-fitted held-out fraction of the residual variance a probe must
         predict to count as remaining structure
         (:data:`nlid.discovery.probes.MIN_STRUCTURE`).
+    validation
+        A record on which every model is also scored (epsilon, force
+        residual and free-run error) without taking part in any decision:
+        e.g. a benchmark's validation set, whose excitation may differ from
+        the estimation record's.
     options
         Identifier options.
     registry
@@ -811,6 +886,11 @@ def discover(
         steps.append(Step(accepted.effect, list(accepted.terms), current, after, accepted, ranking, step_notes))
         if accepted.effect != "dictionary":
             added.add(accepted.effect)
+        after, pruned = _prune(ctx, after, steps[:-1], accepted.effect)
+        steps[-1].notes.extend(pruned)
+        steps[-1] = dataclasses.replace(steps[-1], after=after)
+        for note in pruned:
+            say(f"step {number}: {note}")
         current = after
         states.append(current)
         view = residual_view(estimation, current, ctx.cutoff, f"after step {number}: {accepted.effect}")
@@ -825,6 +905,12 @@ def discover(
     if simulate:
         say("free-run simulation on the held-out record")
         states = [_with_free_run(ctx, stage) for stage in states]
+    if validation is not None:
+        say("scores on the validation record")
+        states = [
+            dataclasses.replace(st, validation=st.identified.score(validation, cutoff=ctx.cutoff, free_run=simulate))
+            for st in states
+        ]
     steps = [dataclasses.replace(step, before=states[k], after=states[k + 1]) for k, step in enumerate(steps)]
     info = {
         "samples_estimation": estimation.n,
@@ -836,6 +922,9 @@ def discover(
         "source": str(record.meta.get("source", "")),
         "holdout_source": str(held.meta.get("source", "")),
         "candidates": [c.name for c in pool],
+        "validation": None
+        if validation is None
+        else f"{validation.n} samples, {validation.meta.get('source', 'given')}",
         "max_steps": int(max_steps),
         "seconds": time.perf_counter() - start,
     }

@@ -21,8 +21,9 @@ from scipy import signal
 
 from ..plotting import new_figure
 from .loop import DiscoveryResult, ResidualView
+from .probes import Remaining, describe_remaining
 
-__all__ = ["binned_mean", "binned_mean_2d", "residual_figure", "progress_figure", "CONFIDENCE_Z"]
+__all__ = ["binned_mean", "binned_mean_2d", "residual_figure", "progress_figure", "remaining_figure", "CONFIDENCE_Z"]
 
 #: Two-sided 95 % normal quantile of the confidence bands.
 CONFIDENCE_Z = 1.959964
@@ -180,4 +181,60 @@ def progress_figure(result: DiscoveryResult, labels: Sequence[str] | None = None
     ax.set_ylim(bottom=0)
     ax.grid(True, alpha=0.3)
     ax.legend(fontsize=7)
+    return fig
+
+
+def remaining_figure(view: ResidualView, remaining: Remaining, units: dict[str, str] | None = None):
+    """What remains in a model's residual: against z by direction of motion (loops show memory), against v,
+    and how much each probe predicts.
+
+    Parameters
+    ----------
+    view
+        The residual of the model (estimation record).
+    remaining
+        What the probes found (:func:`nlid.discovery.probes.probe_residual`).
+    units
+        ``{"f": ..., "z": ...}`` for the axis labels.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+    """
+    fu, zu, vu = _units(units)
+    fig, axes = new_figure(1, 3, width=13.0, height=4.0)
+    ax = axes[0]
+    for mask, label, color in ((view.v > 0, "moving up (v > 0)", "C3"), (view.v < 0, "moving down (v < 0)", "C0")):
+        if mask.sum() < 2 * MIN_BIN_SAMPLES:
+            continue
+        c, m, h, _ = binned_mean(view.z[mask], view.r[mask], view.tau_samples)
+        ax.fill_between(c, m - h, m + h, color=color, alpha=0.25)
+        ax.plot(c, m, "-o", ms=3, color=color, label=label)
+    ax.axhline(0.0, color="k", lw=0.8)
+    ax.set_xlabel(f"z ({zu})")
+    ax.set_ylabel(f"residual ({fu})")
+    ax.set_title("against z, by direction (two branches: memory)", fontsize=9)
+    ax.legend(fontsize=7)
+    ax = axes[1]
+    c, m, h, _ = binned_mean(view.v, view.r, view.tau_samples)
+    ax.fill_between(c, m - h, m + h, color="C1", alpha=0.3)
+    ax.plot(c, m, "-o", ms=3, color="C1", label="binned mean, 95 % band")
+    ax.axhline(0.0, color="k", lw=0.8)
+    ax.set_xlabel(f"v ({vu})")
+    ax.set_ylabel(f"residual ({fu})")
+    ax.set_title("against v", fontsize=9)
+    ax.legend(fontsize=7)
+    ax = axes[2]
+    names = list(remaining.probes)
+    values = [100 * remaining.probes[n].explained for n in names]
+    colors = ["C3" if remaining.probes[n].structured else "0.6" for n in names]
+    ax.barh(names, values, color=colors)
+    ax.axvline(100 * remaining.threshold, color="k", ls=":", lw=1, label=f"threshold {100 * remaining.threshold:g} %")
+    ax.axvline(0.0, color="k", lw=0.8)
+    ax.set_xlabel("held-out residual variance predicted (%)")
+    ax.set_title("remaining-structure probes (cross-fitted)", fontsize=9)
+    ax.set_xlim(left=min(-5.0, min(values) if values else 0.0))
+    ax.legend(fontsize=7)
+    text = describe_remaining(remaining)
+    fig.suptitle(f"{view.label}: " + (text if len(text) < 140 else text[:137] + "..."), fontsize=9)
     return fig

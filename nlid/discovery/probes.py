@@ -112,6 +112,9 @@ class Remaining:
         Every probe's result.
     threshold
         :data:`MIN_STRUCTURE` used.
+    residual_of_force
+        RMS of the held-out residual relative to the RMS force (the scale of
+        what remains).
     """
 
     structured: bool
@@ -119,6 +122,7 @@ class Remaining:
     dominant: str | None
     probes: dict[str, ProbeResult] = field(default_factory=dict)
     threshold: float = MIN_STRUCTURE
+    residual_of_force: float = float("nan")
 
     def to_dict(self) -> dict[str, Any]:
         """The ``remaining`` object of ``nlid discover --json``."""
@@ -127,6 +131,7 @@ class Remaining:
             "explained_holdout": self.explained_holdout,
             "dominant": self.dominant,
             "threshold": self.threshold,
+            "residual_of_force": self.residual_of_force,
             "text": describe_remaining(self),
             "probes": {k: v.to_dict() for k, v in self.probes.items()},
         }
@@ -253,7 +258,9 @@ def probe_residual(estimation: Residual, holdout: Residual, threshold: float = M
     total = {n: results[n].explained for n in PROBES}
     total["memory"] = 0.5 * sum(raw["memory"])
     structured = any(r.structured for r in results.values())
-    return Remaining(structured, max(total.values()), _dominant(results) if structured else None, results, threshold)
+    scale = float(np.sqrt(np.mean(holdout.r**2)) / max(np.sqrt(np.mean(holdout.f**2)), 1e-300))
+    dominant = _dominant(results) if structured else None
+    return Remaining(structured, max(total.values()), dominant, results, threshold, scale)
 
 
 #: A simpler probe is named dominant when it explains within this much of a richer one.
@@ -277,7 +284,7 @@ _WHERE = {
     "z": "a function of the displacement: a stiffness law outside the model (a gap or stop, a higher power)",
     "v": "a function of the velocity: a friction or damping law outside the model",
     "z,v": "a function of position and velocity together: position-dependent friction or damping",
-    "acceleration": "the acceleration: the mass is wrong",
+    "acceleration": "the acceleration: a wrong mass, or an inertial effect the model lacks",
     "force-rate": "the force's rate of change: the force and the motion are skewed in time",
     "memory": "the motion's history beyond the instantaneous (z, v): an effect with memory "
     "(hysteresis, pre-sliding friction, an unmodelled mode)",
@@ -303,7 +310,10 @@ def describe_remaining(remaining: Remaining) -> str:
         )
     d = remaining.dominant
     share = remaining.probes[d].explained
+    scale = ""
+    if np.isfinite(remaining.residual_of_force):
+        scale = f" (about {100 * np.sqrt(share) * remaining.residual_of_force:.2g} % of the force's RMS)"
     return (
-        f"{100 * share:.2g} % of the held-out residual variance remains predictable from {_WHERE[d]}; "
+        f"{100 * share:.2g} % of the held-out residual variance{scale} remains predictable from {_WHERE[d]}; "
         f"{_TRY[d]}"
     )

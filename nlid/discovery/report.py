@@ -33,6 +33,7 @@ from ..plotting import save_figure
 from ..terms import parse_term
 from .evidence import Evidence
 from .loop import DiscoveryResult, Stage
+from .probes import describe_remaining
 
 __all__ = ["summary_table", "write_report", "coefficient_unit"]
 
@@ -74,33 +75,40 @@ def _pct(x: float | None) -> str:
     return "-" if x is None else f"{_num(x)} %"
 
 
-def _sim(fit: Stage, units: dict[str, str]) -> str:
-    if fit.sim_rms_holdout is None:
+def _length(x: float | None, units: dict[str, str]) -> str:
+    """A displacement (free-run error) in mm (mV for a voltage record), "-" when missing."""
+    if x is None:
         return "-"
     zu = units.get("z", "m")
-    x = fit.sim_rms_holdout
     if zu in ("m", "V"):
         prefix = {"m": "mm", "V": "mV"}[zu]
         return f"{_num(1000 * x)} {prefix}"
     return f"{x:.3g} {zu}"
 
 
-def _model_rows(result: DiscoveryResult) -> list[list[str]]:
+def _sim(fit: Stage, units: dict[str, str]) -> str:
+    return _length(fit.sim_rms_holdout, units)
+
+
+def _model_rows(result: DiscoveryResult) -> tuple[list[str], list[list[str]]]:
     units = result.info.get("units", {})
+    validation = any(st.validation is not None for st in result.states)
+    headers = list(_MODEL_HEADERS) + (["free-run RMS error validation"] if validation else [])
     rows = []
     for label, fit in zip(_labels(result), result.states, strict=True):
         s = fit.scores
-        rows.append(
-            [
-                label,
-                _pct(s.eps),
-                _pct(s.eps_holdout),
-                _pct(s.force_residual),
-                _pct(s.force_residual_holdout),
-                _sim(fit, units),
-            ]
-        )
-    return rows
+        row = [
+            label,
+            _pct(s.eps),
+            _pct(s.eps_holdout),
+            _pct(s.force_residual),
+            _pct(s.force_residual_holdout),
+            _sim(fit, units),
+        ]
+        if validation:
+            row.append(_length(fit.sim_rms_validation, units))
+        rows.append(row)
+    return headers, rows
 
 
 _MODEL_HEADERS = [
@@ -154,7 +162,7 @@ def summary_table(result: DiscoveryResult) -> str:
         f"method: {result.method}   mass: {final.mass:.6g} {_mass_unit(units)} ({how})   "
         f"held-out: {result.info.get('holdout', '')}",
         "",
-        _format_table(_MODEL_HEADERS, _model_rows(result)),
+        _format_table(*_model_rows(result)),
         "",
     ]
     for number, step in enumerate(result.steps, 1):
@@ -287,7 +295,7 @@ class _Doc:
 
 def write_report(result: DiscoveryResult, out_dir: str | Path) -> list[Path]:
     """Write the report (see the module docstring) and return the files written."""
-    from .plots import progress_figure, residual_figure
+    from .plots import progress_figure, remaining_figure, residual_figure
 
     out = Path(out_dir)
     figures = out / "figures"
@@ -327,7 +335,7 @@ def write_report(result: DiscoveryResult, out_dir: str | Path) -> list[Path]:
         "error is the RMS difference between the measured displacement of the held-out record and the "
         "model's simulated response to its measured force."
     )
-    doc.table(_MODEL_HEADERS, _model_rows(result))
+    doc.table(*_model_rows(result))
     doc.images([("figures/progress.png", "residuals after each step")])
 
     for number, step in enumerate(result.steps, 1):
@@ -336,7 +344,7 @@ def write_report(result: DiscoveryResult, out_dir: str | Path) -> list[Path]:
         doc.p(
             f"Accepted: {ev.reason}. Effective sample size of the current residual N_eff = {ev.n_eff:.4g} "
             f"(integrated autocorrelation time {ev.tau_samples:.3g} samples)."
-            + (f" Stribeck scale c = {ev.shape:.3g}." if ev.shape is not None else "")
+            + (f" Shape parameter(s) chosen: {ev.shape}." if ev.shape is not None else "")
         )
         doc.table(_RANK_HEADERS, _ranking_rows(step.ranking))
         imgs = []
@@ -354,6 +362,22 @@ def write_report(result: DiscoveryResult, out_dir: str | Path) -> list[Path]:
         doc.table(_RANK_HEADERS, _ranking_rows(result.final_ranking))
     if not result.steps and fig_paths and fig_paths[0]:
         doc.images([(fig_paths[0], "residual of the declared model")])
+
+    doc.h(2, "What remains")
+    remaining = result.remaining
+    if remaining is not None:
+        doc.p(describe_remaining(remaining)[:1].upper() + describe_remaining(remaining)[1:] + ".")
+        doc.table(
+            ["probe", "held-out variance predicted", "fitted on held-out, scored on estimation", "structure"],
+            [
+                [name, _pct(100 * p.explained_holdout), _pct(100 * p.explained_estimation), "yes" if p.structured else "no"]
+                for name, p in remaining.probes.items()
+            ],
+        )
+        if result.views:
+            fig = remaining_figure(result.views[-1], remaining, units)
+            written += save_figure(fig, figures / "remaining", formats=("png",))
+            doc.images([("figures/remaining.png", "what remains in the final model's residual")])
 
     doc.h(2, "Final model")
     final = result.final

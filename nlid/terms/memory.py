@@ -12,7 +12,9 @@ Two laws, both rate-independent, so their state is a function of the path of
     coefficient the Coulomb level in N; ``rho`` (m) is the pre-sliding
     displacement, ``coefficient / rho`` the pre-sliding stiffness.
 
-Each step between samples is integrated exactly: with ``s = sign(dz)`` and
+The samples of ``z`` are first interpolated (band-limited, :data:`OVERSAMPLE`
+times) so that reversals between samples are not cut short; each step is
+then integrated exactly: with ``s = sign(dz)`` and
 ``sigma = sign(w)`` fixed, both laws are linear ODEs in ``z`` (the Bouc-Wen
 step is split where ``w`` changes sign). The state starts at ``w = 0``; its
 memory of that start fades within a travel of about ``1 / a`` (``rho``).
@@ -56,13 +58,27 @@ def dahl_path(z: np.ndarray, rho: float, w0: float = 0.0) -> np.ndarray:
     return out
 
 
-def path(kind: str, params: tuple[float, ...], z: np.ndarray) -> np.ndarray:
-    """The state of a memory law along ``z``."""
+#: Band-limited interpolation factor of ``z`` before the path is integrated: a reversal between two
+#: samples is otherwise cut short. Measured on the Bouc-Wen benchmark's model at 750 Hz: the force
+#: balance with the state from the samples themselves misses by 1.1 % of RMS(f), by 0.12 % at 4 and 8.
+OVERSAMPLE = 8
+
+
+def path(kind: str, params: tuple[float, ...], z: np.ndarray, oversample: int = OVERSAMPLE) -> np.ndarray:
+    """The state of a memory law along the samples ``z`` (interpolated ``oversample`` times in between)."""
+    z = np.asarray(z, dtype=float)
+    fine = z
+    if oversample > 1 and z.size >= 16:
+        from scipy import signal
+
+        fine = signal.resample_poly(z, oversample, 1)
     if kind == "bouc_wen":
-        return bouc_wen_path(z, *params)
-    if kind == "dahl":
-        return dahl_path(z, *params)
-    raise ValueError(f"unknown memory law {kind!r}")
+        w = bouc_wen_path(fine, *params)
+    elif kind == "dahl":
+        w = dahl_path(fine, *params)
+    else:
+        raise ValueError(f"unknown memory law {kind!r}")
+    return w[:: oversample] if fine is not z else w
 
 
 def initial_slope(kind: str, params: tuple[float, ...]) -> float:

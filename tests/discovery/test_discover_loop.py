@@ -96,5 +96,5 @@ def test_known_mass_is_used_and_held_out_record_may_be_separate(make_case):
 def test_max_steps_zero_only_scores_the_declared_model(make_case):
     record, declared = make_case("double", "coulomb", ("z",), 13)
     result = discover(record, declared, "rfs", max_steps=0, simulate=False, views=False)
-    assert result.steps == [] and result.stop_reason == "maximum number of steps reached"
+    assert result.steps == [] and result.stop_reason.startswith("maximum number of steps reached; ")
     assert result.to_dict()["eps_initial"] == result.to_dict()["eps_final"]

@@ -23,7 +23,7 @@ def test_emps_finds_coulomb_first(emps_run):
     assert 15.0 < step["force_residual_before_holdout"] < 19.0 and step["force_residual_after_holdout"] < 5.0
     # epsilon of Eq. 26 is relative to f - m a, so larger
     assert step["eps_after"] < 7.5 and step["eps_after_holdout"] < 7.5 < 20.0 < step["eps_before"]
-    assert 90.0 < out["mass"] < 100.0 and 19.0 < out["coefficients"]["sign(v)"] < 22.0
+    assert 90.0 < step["mass_after"] < 100.0 and 19.0 < step["coefficients_after"]["sign(v)"] < 22.0
 
 
 def test_emps_reports_whether_anything_else_is_significant(emps_run):
