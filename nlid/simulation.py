@@ -24,6 +24,7 @@ import numpy as np
 
 from .errors import InputError, NlidError
 from .terms import Model, px_coefficients
+from .terms._memory_kernels import bouc_wen_step
 
 __all__ = ["simulate", "free_run", "encode_model", "encode_memory", "random_force", "SimulationError", "FREE_RUN_OVERSAMPLE"]
 
@@ -318,31 +319,40 @@ def _rk4(force, dt, mass, theta, parts, special, pxc, z0, v0, out_z, out_v, out_
 
 
 @numba.njit(cache=True, inline="always")
-def _memory_rates(memory, w, v, out):
-    """``w'`` of every memory state for velocity ``v`` (the rate forms of :mod:`nlid.terms.memory`)."""
-    av = abs(v)
-    sv = _sign(v)
+def _memory_step(memory, w, dz, out):
+    """Every memory state after a monotone displacement step ``dz``, exactly (:mod:`nlid.terms.memory`).
+
+    The laws are rate-independent, so a state follows the path of ``z``: the
+    integrator moves it along each stage's displacement from the step's start
+    with the exact solution, which stays stable however stiff the law is
+    (a Dahl pre-sliding displacement far below what the motion covers in
+    one step).
+    """
     for i in range(memory.shape[0]):
         law = memory[i, 0]
-        if law == 1.0:  # Bouc-Wen, nu = 1
-            out[i] = v - memory[i, 1] * av * w[i] - memory[i, 2] * v * abs(w[i])
-        elif law == 2.0:  # Dahl
-            out[i] = (v / memory[i, 1]) * (1.0 - w[i] * sv)
+        if law == 1.0:
+            out[i] = bouc_wen_step(w[i], dz, memory[i, 1], memory[i, 2]) if dz != 0.0 else w[i]
+        elif law == 2.0:
+            if dz != 0.0:
+                s = 1.0 if dz > 0 else -1.0
+                out[i] = s + (w[i] - s) * np.exp(-abs(dz) / memory[i, 1])
+            else:
+                out[i] = w[i]
         else:
             out[i] = 0.0
 
 
 @numba.njit(cache=True)
 def _rk4_memory(force, dt, mass, plain, theta, memory, parts, special, pxc, z0, v0, out_z, out_v, out_a):
-    """RK4 of ``(z, v, w_1..w_k)``: the memory terms' states integrated with the motion (their force ``theta_i w_i``)."""
+    """RK4 of ``(z, v)`` with the memory terms' states moved exactly along each stage's displacement.
+
+    The memory force is ``theta_i w_i``; each stage's states are those after
+    the stage's displacement from the step's start (:func:`_memory_step`).
+    """
     plan, top = _plan(parts, special)
     n = theta.size
     w = np.zeros(n)
-    k1 = np.zeros(n)
-    k2 = np.zeros(n)
-    k3 = np.zeros(n)
-    k4 = np.zeros(n)
-    tmp = np.zeros(n)
+    ws = np.zeros(n)
     z = z0
     v = v0
     inv_m = 1.0 / mass
@@ -350,32 +360,27 @@ def _rk4_memory(force, dt, mass, plain, theta, memory, parts, special, pxc, z0, 
     for k in range(force.size):
         fk = force[k]
         a1 = (fk - _restoring_special(z, v, plain, special, pxc, plan, top) - np.dot(theta, w)) * inv_m
-        _memory_rates(memory, w, v, k1)
         out_z[k] = z
         out_v[k] = v
         out_a[k] = a1
         z2 = z + h2 * v
         v2 = v + h2 * a1
-        for i in range(n):
-            tmp[i] = w[i] + h2 * k1[i]
-        a2 = (fk - _restoring_special(z2, v2, plain, special, pxc, plan, top) - np.dot(theta, tmp)) * inv_m
-        _memory_rates(memory, tmp, v2, k2)
+        _memory_step(memory, w, z2 - z, ws)
+        a2 = (fk - _restoring_special(z2, v2, plain, special, pxc, plan, top) - np.dot(theta, ws)) * inv_m
         z3 = z + h2 * v2
         v3 = v + h2 * a2
-        for i in range(n):
-            tmp[i] = w[i] + h2 * k2[i]
-        a3 = (fk - _restoring_special(z3, v3, plain, special, pxc, plan, top) - np.dot(theta, tmp)) * inv_m
-        _memory_rates(memory, tmp, v3, k3)
+        _memory_step(memory, w, z3 - z, ws)
+        a3 = (fk - _restoring_special(z3, v3, plain, special, pxc, plan, top) - np.dot(theta, ws)) * inv_m
         z4 = z + dt * v3
         v4 = v + dt * a3
-        for i in range(n):
-            tmp[i] = w[i] + dt * k3[i]
-        a4 = (fk - _restoring_special(z4, v4, plain, special, pxc, plan, top) - np.dot(theta, tmp)) * inv_m
-        _memory_rates(memory, tmp, v4, k4)
-        z = z + dt / 6.0 * (v + 2.0 * v2 + 2.0 * v3 + v4)
+        _memory_step(memory, w, z4 - z, ws)
+        a4 = (fk - _restoring_special(z4, v4, plain, special, pxc, plan, top) - np.dot(theta, ws)) * inv_m
+        z_new = z + dt / 6.0 * (v + 2.0 * v2 + 2.0 * v3 + v4)
         v = v + dt / 6.0 * (a1 + 2.0 * a2 + 2.0 * a3 + a4)
+        _memory_step(memory, w, z_new - z, ws)
         for i in range(n):
-            w[i] = w[i] + dt / 6.0 * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i])
+            w[i] = ws[i]
+        z = z_new
         if not (np.isfinite(z) and np.isfinite(v)):
             return k
     return -1

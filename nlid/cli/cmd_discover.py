@@ -22,6 +22,12 @@ examples:
   nlid discover dataset:emps --declared "v, 1"
   nlid discover dataset:silverbox:multisine --declared "1, z, v" --holdout dataset:silverbox:arrow
   nlid discover x.csv --declared "1, z, z^3, v" --mass 0.2 --out report/ --json
+  nlid discover dataset:bouc-wen --declared "z, v" --validation dataset:bouc-wen:sinesweep
+
+what remains: after the last step, probes ask how much of the held-out residual is still
+  predictable from z, v, (z, v), the acceleration (a wrong mass), the force's rate (a time
+  skew) or the motion's history (memory); the report says "clean" or what remains and what
+  to try. See docs/discover.md.
 """
 
 
@@ -55,9 +61,16 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         "(file or dataset:NAME, read like DATA)",
     )
     p.add_argument(
+        "--validation",
+        metavar="FILE",
+        help="a record every model is also scored on (free-run error, epsilon) without taking part in any "
+        "decision, e.g. a benchmark's validation set (file or dataset:NAME, read like DATA)",
+    )
+    p.add_argument(
         "--candidates",
         metavar="NAMES",
-        help="comma-separated candidate effects to test (default: all of the library and of installed plugins)",
+        help="comma-separated candidate effects to test (default: all of the library and of installed plugins, "
+        "plus 'mass' (re-estimate a given mass) and 'dictionary' (sparse regression on an automatic dictionary))",
     )
     p.add_argument(
         "--candidate",
@@ -119,6 +132,9 @@ def run(args: argparse.Namespace) -> int:
         args.method,
         mass=args.mass,
         holdout=_holdout(args),
+        validation=None
+        if not args.validation
+        else load_data(argparse.Namespace(data=args.validation, columns=args.columns, fs=args.fs)),
         candidates=args.candidates,
         extra_candidates=args.candidate or (),
         rule=rule,

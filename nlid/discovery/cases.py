@@ -20,9 +20,11 @@ from __future__ import annotations
 
 import dataclasses
 
+import numpy as np
+
 from ..presets import Preset, get_preset
 
-__all__ = ["WELLS", "EFFECTS", "BOTH_WELLS", "build_case"]
+__all__ = ["WELLS", "EFFECTS", "BOTH_WELLS", "OPEN_WORLD", "build_case", "build_open_case"]
 
 _G = 9.81
 
@@ -98,3 +100,48 @@ def build_case(well: str, effect: str) -> tuple[Preset, list[str]]:
     leave_out = list(extra) if leave_out is None else leave_out
     declared = [t for t in coefficients if t not in leave_out]
     return preset, declared
+
+
+#: Cases of issue 13 on the single well: an effect outside the first ten candidates. Each is
+#: ``(extra true terms, terms the declared model leaves out or None for the added ones,
+#: what should be found)``; "found" names the effect the loop should add first, or the probe
+#: that should flag what no candidate can express.
+OPEN_WORLD: dict[str, tuple[dict[str, float], list[str] | None, str]] = {
+    "hysteresis": ({"bouc_wen(150, -50)": 1000.0}, None, "hysteresis-bouc-wen"),
+    "pre-sliding": ({"dahl(0.0005)": 2.0}, None, "dahl-friction"),
+    "gap": ({"gap(z, 0.007)": 2000.0}, None, "gap"),
+    "product-friction": ({"|z|*sign(v)": 300.0}, None, "dictionary"),
+    "wrong-mass": ({}, [], "mass"),
+    "time-skew": ({}, [], "force-rate"),
+}
+#: The wrong-mass case gives the mass this many times the true one.
+WRONG_MASS_FACTOR = 1.15
+#: The time-skew case delays the recorded force by this many samples.
+SKEW_SAMPLES = 2
+
+
+def build_open_case(effect: str, seed: int, noise: float = 0.02):
+    """A single-well record with one effect of :data:`OPEN_WORLD`, the declared terms and the mass to give.
+
+    Returns
+    -------
+    record : Record
+        ``noise`` on ``z`` only (velocity and acceleration estimated).
+    declared : list of str
+        The model without the effect.
+    mass : float
+        The mass to give the loop (wrong by :data:`WRONG_MASS_FACTOR` in the ``wrong-mass`` case).
+    """
+    extra, leave_out, _ = OPEN_WORLD[effect]
+    base = WELLS["single"]
+    coefficients = {**base.coefficients, **extra}
+    user_terms = ", ".join(t for t in coefficients if t not in ("1", "z", "v"))
+    preset = dataclasses.replace(base, name=f"single-{effect}", terms=user_terms, coefficients=coefficients)
+    leave_out = list(extra) if leave_out is None else leave_out
+    declared = [t for t in coefficients if t not in leave_out]
+    record = preset.simulate(seed, noise={"z": noise}, channels=("z",))
+    mass = preset.mass * (WRONG_MASS_FACTOR if effect == "wrong-mass" else 1.0)
+    if effect == "time-skew":
+        f = np.concatenate([np.full(SKEW_SAMPLES, record.f[0]), record.f[:-SKEW_SAMPLES]])
+        record = record.replace(f=f)
+    return record, declared, mass

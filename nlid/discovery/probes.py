@@ -14,9 +14,11 @@ probe               what it is given (besides a constant)
 ``z``               Legendre polynomials of the displacement, degree 1-8
 ``v``               Legendre polynomials of the velocity, degree 1-7, and ``sign(v)``
 ``z,v``             products of Legendre polynomials of z (0-4) and of v (1-4, ``sign(v)``)
-``acceleration``    the acceleration of the balance: a mass error leaves ``dm * a``
-``force-rate``      the force's time derivative: a time skew ``dt`` between the force and
-                    the motion leaves ``dt * f'``
+``acceleration``    every function of (z, v) of the ``z``, ``v`` and ``z,v`` probes plus the
+                    acceleration of the balance: a mass error leaves ``dm * a``; its fraction
+                    is what the acceleration adds
+``force-rate``      the same with the force's time derivative: a time skew ``dt`` between
+                    the force and the motion leaves ``dt * f'``
 ``memory``          every function above of (z, v) plus the recent history of the motion: play
                     (backlash) operators of z of four widths (rate-independent
                     hysteresis: pre-sliding friction, Bouc-Wen) and z, v lagged by 1,
@@ -56,6 +58,8 @@ PROBES = ("z", "v", "z,v", "acceleration", "force-rate", "memory")
 PLAY_WIDTHS = (0.05, 0.15, 0.4, 1.0)
 #: Lags of z and v, in periods of the equation band.
 LAG_PERIODS = (1, 2, 4, 8)
+#: Probes counted by what they add to every static function of (z, v).
+INCREMENTAL = ("acceleration", "force-rate", "memory")
 
 
 @dataclass(frozen=True)
@@ -197,8 +201,8 @@ class _Scaler:
             "z": z_basis,
             "v": v_basis,
             "z,v": zv,
-            "acceleration": res.a[:, None],
-            "force-rate": fdot[:, None],
+            "acceleration": np.column_stack([static, res.a]),
+            "force-rate": np.column_stack([static, fdot]),
             "static": static,
             "memory": np.column_stack([static, *history]) if history else static,
         }
@@ -247,16 +251,17 @@ def probe_residual(estimation: Residual, holdout: Residual, threshold: float = M
         ho = _explained(fe_e[name], estimation.r, fh_e[name], holdout.r, skip)
         es = _explained(fh_h[name], holdout.r, fe_h[name], estimation.r, skip)
         raw[name] = (ho, es)
-    # what the history adds to every static function of (z, v); a static fit that predicts nothing counts as 0
+    # what the acceleration, the force rate and the history add to every static function of (z, v);
+    # a static fit that predicts nothing counts as 0
     base_ho, base_es = (max(x, 0.0) for x in raw["static"])
     for name in PROBES:
         ho, es = raw[name]
-        if name == "memory":
+        if name in INCREMENTAL:
             ho, es = ho - base_ho, es - base_es
         value = 0.5 * (ho + es)
         results[name] = ProbeResult(name, value, ho, es, fe_e[name].shape[1], value >= threshold)
     total = {n: results[n].explained for n in PROBES}
-    total["memory"] = 0.5 * sum(raw["memory"])
+    total.update({n: 0.5 * sum(raw[n]) for n in INCREMENTAL})
     structured = any(r.structured for r in results.values())
     scale = float(np.sqrt(np.mean(holdout.r**2)) / max(np.sqrt(np.mean(holdout.f**2)), 1e-300))
     dominant = _dominant(results) if structured else None
@@ -273,10 +278,9 @@ def _dominant(results: dict[str, ProbeResult]) -> str:
     best = max(PROBES, key=lambda n: e[n])
     if best == "z,v" and max(e["z"], e["v"]) >= e["z,v"] - SIMPLER_WITHIN:
         best = "z" if e["z"] >= e["v"] else "v"
-    if best in ("z", "v", "z,v"):
-        single = max(("acceleration", "force-rate"), key=lambda n: e[n])
-        if e[single] >= e[best] - SIMPLER_WITHIN:
-            best = single
+    single = max(("acceleration", "force-rate"), key=lambda n: e[n])
+    if best != single and results[single].structured and e[single] >= e[best] - SIMPLER_WITHIN:
+        best = single  # one function explains about as much as a flexible family: name it
     return best
 
 
