@@ -30,7 +30,11 @@ residual of the force balance ``e = f - m a - G theta`` (Eq. 25-26):
    grid). It must be at most ``max_delta_bic`` (default -10, "very strong"
    evidence on the Kass-Raftery scale).
 
-The accepted effect is the highest-ranked candidate that passes both. RSS
+The accepted effect is the highest-ranked candidate that passes both, except
+that among the candidates passing both whose held-out share is within
+:data:`PARSIMONY` of the best, the one with the fewest parameters is taken
+(data that cannot tell a Dahl law from the Coulomb friction it reduces to get
+the Coulomb friction). RSS
 ratios are ratios of the force residual (the residual relative to RMS(f),
 whose denominator does not depend on the model or the estimated mass), so
 they are exact ratios of residual sums of squares.
@@ -95,6 +99,10 @@ class AcceptanceRule:
     def to_dict(self) -> dict[str, Any]:
         """JSON-friendly form, with the sentence."""
         return {**asdict(self), "text": self.describe()}
+
+
+#: Eligible candidates whose held-out share is within this of the best one are ranked by simplicity.
+PARSIMONY = 0.02
 
 
 def integrated_time(residual: np.ndarray) -> float:
@@ -281,14 +289,21 @@ def rank(evidence: list[Evidence]) -> tuple[list[Evidence], Evidence | None]:
     fitted = [e for e in evidence if e.explained_holdout is not None]
     rest = [e for e in evidence if e.explained_holdout is None]
     fitted.sort(key=lambda e: -float(e.explained_holdout))  # type: ignore[arg-type]
+    eligible = [e for e in fitted if e.status == "eligible"]
     accepted = None
-    for e in fitted:
-        if e.status != "eligible":
-            continue
-        if accepted is None:
-            accepted = e
-            e.status = "accepted"
-        else:
+    if eligible:
+        # parsimony: of the eligible candidates within PARSIMONY of the best share, the one with the fewest
+        # parameters (a Coulomb friction rather than a Dahl law that reduces to it, on data that cannot tell)
+        top = float(eligible[0].explained_holdout)  # type: ignore[arg-type]
+        close = [e for e in eligible if float(e.explained_holdout) >= top - PARSIMONY]  # type: ignore[arg-type]
+        accepted = min(close, key=lambda e: (e.extra_parameters, -float(e.explained_holdout)))  # type: ignore[arg-type]
+        accepted.status = "accepted"
+        for e in eligible:
+            if e is accepted:
+                continue
             e.status = "rejected"
-            e.reason = f"passes the rule, but {accepted.effect!r} explains more; " + e.reason
+            why = "explains more" if float(e.explained_holdout) <= float(accepted.explained_holdout) else (  # type: ignore[arg-type]
+                f"explains about as much (within {100 * PARSIMONY:g} points) with fewer parameters"
+            )
+            e.reason = f"passes the rule, but {accepted.effect!r} {why}; " + e.reason
     return fitted + rest, accepted

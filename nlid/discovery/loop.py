@@ -487,16 +487,16 @@ DICTIONARY_MAX_TERMS = 4
 def _test_dictionary(ctx: _Context, current: Stage, z_range: tuple[float, float]) -> tuple[Evidence, Stage | None, str]:
     """The ``dictionary`` candidate: terms of the automatic dictionary chosen by sparse regression on the residual.
 
-    Orthogonal matching pursuit (scikit-learn) orders the dictionary's
-    columns (band-limited like the force balance) by how well they explain
-    the current estimation residual; the number of terms (1 to
-    :data:`DICTIONARY_MAX_TERMS`) is the one whose least-squares fit
-    explains the most of the held-out residual (the smallest within one
-    point of it). The chosen terms are then added to the model and the whole
+    The lasso path (scikit-learn's ``lars_path``) of the dictionary's columns
+    (band-limited like the force balance) on the current estimation residual
+    gives a sequence of term sets; the one (of 1 to
+    :data:`DICTIONARY_MAX_TERMS` terms) whose least-squares fit explains the
+    most of the held-out residual is chosen (the smallest within one point of
+    it). The chosen terms are then added to the model and the whole
     model identified and judged like any candidate (with one more parameter
     for the choice).
     """
-    from sklearn.linear_model import orthogonal_mp
+    from sklearn.linear_model import lars_path
 
     evidence = Evidence("dictionary")
     roots = current.model.px_roots
@@ -518,23 +518,33 @@ def _test_dictionary(ctx: _Context, current: Stage, z_range: tuple[float, float]
     if kmax == 0:
         evidence.status, evidence.reason = "not applicable", "the dictionary has no usable term"
         return evidence, None, ""
-    path = orthogonal_mp(xs, est.r - est.r.mean(), n_nonzero_coefs=kmax, return_path=True)
-    path = path.reshape(cols.size, -1)
-    scores: list[tuple[float, list[int]]] = []
+    _, _, coefs = lars_path(xs, est.r - est.r.mean(), method="lasso", max_iter=8 * kmax)
+    supports: list[list[int]] = []
+    for k in range(coefs.shape[1]):
+        support = sorted(int(cols[j]) for j in np.flatnonzero(coefs[:, k]))
+        if support and len(support) <= kmax and support not in supports:
+            supports.append(support)
     total = float(np.sum((ho.r - ho.r.mean()) ** 2))
-    for k in range(path.shape[1]):
-        support = [int(cols[j]) for j in np.flatnonzero(path[:, k])]
-        if not support:
-            continue
+
+    def held_out(support: list[int]) -> float:
+        """Fraction of the held-out residual a least-squares fit of these columns on the estimation one predicts."""
         a = np.column_stack([np.ones(est.r.size), x_est[:, support]])
         coef, *_ = np.linalg.lstsq(a, est.r, rcond=None)
         pred = np.column_stack([np.ones(ho.r.size), x_ho[:, support]]) @ coef
-        scores.append((1.0 - float(np.sum((ho.r - pred) ** 2)) / total if total > 0 else 0.0, support))
+        return 1.0 - float(np.sum((ho.r - pred) ** 2)) / total if total > 0 else 0.0
+
+    scores = sorted(((held_out(sup), sup) for sup in supports), key=lambda item: len(item[1]))
     if not scores:
         evidence.status, evidence.reason = "not applicable", "no dictionary term explains the residual"
         return evidence, None, ""
     best = max(x for x, _ in scores)
     explained, support = next((x, sup) for x, sup in scores if x >= best - 0.01)
+    # the lasso path enters correlated terms on the way to the right one: drop what the held-out data do not need
+    for j in sorted(support, reverse=True):
+        if len(support) > 1:
+            rest = [k for k in support if k != j]
+            if held_out(rest) >= explained - 0.005:
+                support, explained = rest, held_out(rest)
     terms = [lib.terms[j] for j in support]
     evidence.terms = [t.name for t in terms]
     if explained < ctx.rule.min_explained:

@@ -1,0 +1,67 @@
+"""Remaining-structure probes: complete models are clean, each kind of missing effect is named (issue 13)."""
+
+from __future__ import annotations
+
+import pytest
+
+import nlid
+from nlid import derivatives
+from nlid.discovery.cases import build_case, build_open_case
+from nlid.discovery.probes import MIN_STRUCTURE, PROBES, describe_remaining, probe_residual
+
+
+def _probe(record, declared, mass):
+    est, held = record.split(0.25)
+    fc = derivatives.suggest_cutoff(est.z, est.fs)
+    fit = nlid.identify(est, nlid.Model.from_spec(declared, defaults=False), "rfs", mass=mass, cutoff=fc)
+    return probe_residual(fit.residual(est, cutoff=fc), fit.residual(held, cutoff=fc))
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("well", ["double", "single"])
+@pytest.mark.parametrize("noise", [0.01, 0.02, 0.05])
+def test_complete_models_are_clean(well, noise):
+    # (benchmarks/calibration_probes.py runs many more seeds: the largest fraction stays below 1 %)
+    preset, declared = build_case(well, "none")
+    for seed in (3, 4):
+        remaining = _probe(preset.simulate(seed, noise={"z": noise}, channels=("z",)), declared, preset.mass)
+        assert not remaining.structured, {k: p.explained for k, p in remaining.probes.items()}
+        assert remaining.dominant is None and describe_remaining(remaining).startswith("clean")
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize(
+    "case, probe",
+    [
+        (("open", "hysteresis"), "memory"),
+        (("open", "wrong-mass"), "acceleration"),
+        (("open", "time-skew"), "force-rate"),
+        (("open", "gap"), "z"),
+        (("open", "product-friction"), "z,v"),
+        (("library", "coulomb"), "v"),
+    ],
+)
+def test_each_probe_names_its_kind_of_missing_effect(case, probe):
+    for seed in (5, 6):
+        if case[0] == "open":
+            record, declared, mass = build_open_case(case[1], seed)
+        else:
+            preset, declared = build_case("single", case[1])
+            record, mass = preset.simulate(seed, noise={"z": 0.02}, channels=("z",)), preset.mass
+        remaining = _probe(record, declared, mass)
+        assert remaining.structured and remaining.dominant == probe, (
+            seed,
+            remaining.dominant,
+            {k: round(p.explained, 3) for k, p in remaining.probes.items()},
+        )
+        assert remaining.probes[probe].explained >= MIN_STRUCTURE
+
+
+def test_the_json_object_and_the_sentence():
+    record, declared, mass = build_open_case("time-skew", 1)
+    remaining = _probe(record, declared, mass)
+    out = remaining.to_dict()
+    assert {"structured", "explained_holdout", "dominant", "probes", "text"} <= set(out)
+    assert set(out["probes"]) == set(PROBES) and out["structured"] is True and out["dominant"] == "force-rate"
+    assert "force's rate of change" in out["text"] and "% of the force's RMS" in out["text"]
+    assert out["explained_holdout"] >= out["probes"]["force-rate"]["explained"]
