@@ -7,8 +7,8 @@ value reads the same everywhere:
 * :func:`sig` writes a number with a given count of significant digits,
   keeping trailing zeros (``1.000e+06``, ``0.0500``) so that the count shows;
 * :func:`spread_digits` / :func:`column_digits` choose that count from the
-  spread over repetitions: enough digits to tell the smallest from the
-  largest value of a cell, the same count for every row of a column;
+  spread over repetitions: enough digits to tell the minimum, the median and
+  the maximum of a cell apart, the same count for every row of a column;
 * :func:`spread_cell` writes ``median [min, max]``;
 * :func:`text_table` lays a table out for a terminal of a given width,
   splitting it into column groups (each repeating the label column) when it
@@ -80,7 +80,7 @@ def sig(x: float | None, digits: int = 3) -> str:
 
 
 def spread_digits(median: float, lo: float, hi: float, *, default: int = 3) -> int:
-    """Significant digits that tell ``lo`` from ``hi`` (one digit of the spread beyond them).
+    """Significant digits that tell ``lo``, ``median`` and ``hi`` apart (one digit beyond the smallest gap).
 
     Parameters
     ----------
@@ -98,9 +98,12 @@ def spread_digits(median: float, lo: float, hi: float, *, default: int = 3) -> i
     if not values:
         return default
     size = max(abs(v) for v in values)
-    spread = abs(hi - lo) if _finite(lo) and _finite(hi) else 0.0
     if size == 0:
         return default
+    # the smallest gap between the median and either end: every number of the cell must read differently
+    gaps = [abs(b - a) for a, b in ((lo, median), (median, hi)) if _finite(a) and _finite(b)]
+    gaps = [g for g in gaps if g > 1e-12 * size] or ([abs(hi - lo)] if _finite(lo) and _finite(hi) else [])
+    spread = min(gaps) if gaps else 0.0
     if spread <= 1e-12 * size:
         return default
     digits = math.ceil(math.log10(size / spread)) + 1
