@@ -155,7 +155,7 @@ def cell(values: pd.Series, absolute: bool = False, digits: int | None = None) -
 
 @dataclass(frozen=True)
 class Column:
-    """A metric column of a method table: results column, header, |value|?, lower is better?"""
+    """A metric column of a method table: results column, header, absolute value?, lower is better?"""
 
     key: str
     header: str
