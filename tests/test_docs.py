@@ -98,3 +98,16 @@ def test_the_site_builds_without_warnings(tmp_path):
     )
     assert proc.returncode == 0, proc.stderr[-3000:]
     assert (tmp_path / "html" / "api" / "identified.html").is_file()
+
+
+def test_licence_and_citation():
+    import tomllib
+
+    import nlid
+
+    assert (ROOT / "LICENSE").read_text().startswith("MIT License")
+    project = tomllib.loads((ROOT / "pyproject.toml").read_text())["project"]
+    assert project["license"] == {"text": "MIT"}
+    citation = (ROOT / "CITATION.cff").read_text()
+    assert "cff-version: 1.2.0" in citation and f"version: {nlid.__version__}" in citation
+    assert "license: MIT" in citation
