@@ -101,7 +101,10 @@ def test_the_site_builds_without_warnings(tmp_path):
 
 
 def test_licence_and_citation():
-    import tomllib
+    try:
+        import tomllib
+    except ModuleNotFoundError:  # Python 3.10
+        import tomli as tomllib
 
     import nlid
 
