@@ -227,8 +227,11 @@ def _summary_figure(section: Section, folder: Path) -> Figure | None:
         for prefix, name in (("fn_error_pct", "fn"), ("zeta_error_pct", "zeta"), ("eq_error_pct", "z*")):
             if f"{prefix}:{label}" in cols:
                 modal.append((f"{prefix}:{label}", f"{name} {label}"))
-    fit = [(c, n) for c, n in (("eps_holdout_percent", "eps held-out"), ("freerun_nrmse_pct", "free-run NRMSE"))
-           if c in cols]
+    fit = [
+        (c, n)
+        for c, n in (("eps_holdout_percent", "eps held-out"), ("freerun_nrmse_pct", "free-run NRMSE"))
+        if c in cols
+    ]
     if not fit and "eps_percent" in cols:
         fit = [("eps_percent", "eps")]
     panels = [
@@ -240,7 +243,11 @@ def _summary_figure(section: Section, folder: Path) -> Figure | None:
     panels = [p for p in panels if p[0]]
     widths = [max(1.5, 0.55 * len(c) * max(1, len(groups)) / 2 + 0.8) for c, _ in panels]
     fig, axes = new_figure(
-        1, len(panels), width=min(16.0, sum(widths) + 1.5), height=4.2, squeeze=False,
+        1,
+        len(panels),
+        width=min(16.0, sum(widths) + 1.5),
+        height=4.2,
+        squeeze=False,
         gridspec_kw={"width_ratios": widths},
     )
     for ax, (columns, title) in zip(axes[0], panels, strict=True):

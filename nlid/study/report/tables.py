@@ -153,6 +153,10 @@ def cell(values: pd.Series, absolute: bool = False, digits: int | None = None) -
     return spread_cell(*st.triple, digits=digits) if st.n > 1 else sig(st.median, digits)
 
 
+#: Significant digits of time and memory (machine measurements: their spread is the machine's load).
+COST_DIGITS = 3
+
+
 @dataclass(frozen=True)
 class Column:
     """A metric column of a method table: results column, header, absolute value?, lower is better?"""
@@ -386,7 +390,13 @@ def _fill(section: Section) -> None:
         if has_mass:
             reference_row.append(exact(ref.get("mass")))
         rows = [reference_row, *rows]
-    section.tables.append(Table("Identified coefficients (SI, coefficients of R = f - m z'')", ["method", "runs", *(c.header for c in cols)], rows))
+    section.tables.append(
+        Table(
+            "Identified coefficients (SI, coefficients of R = f - m z'')",
+            ["method", "runs", *(c.header for c in cols)],
+            rows,
+        )
+    )
 
     eq_labels = _labels(frame, "eq_error_pct:")
     modal_labels = sorted(set(_labels(frame, "fn_hz:")) | set(eq_labels), key=lambda s: int(s[1:]))
@@ -410,14 +420,21 @@ def _fill(section: Section) -> None:
         if errors:
             for row, method in zip(rows, section.present_methods, strict=True):
                 row.append(_found_cell(section.ok(method)))
-            header = ["method", "runs", *(c.header for c in cols), f"wells found (of {len(ref.get('equilibria') or [])})"]
+            header = [
+                "method",
+                "runs",
+                *(c.header for c in cols),
+                f"wells found (of {len(ref.get('equilibria') or [])})",
+            ]
             title = (
                 "Modal parameters (Eq. 8, 22) and stable equilibria sK (see the reference values): "
                 "|relative error| in %"
             )
             section.tables.append(Table(title, header, rows, best=best))
         else:
-            section.tables.append(Table("Modal parameters (Eq. 8, 22)", ["method", "runs", *(c.header for c in cols)], rows))
+            section.tables.append(
+                Table("Modal parameters (Eq. 8, 22)", ["method", "runs", *(c.header for c in cols)], rows)
+            )
 
     _append_term_table(
         section,
@@ -440,7 +457,11 @@ def _fill(section: Section) -> None:
         cols.append(Column("eps_holdout_percent", "eps held-out (%)", False, True))
     if "freerun_nrmse_pct" in frame.columns:
         cols.append(Column("freerun_nrmse_pct", "free-run NRMSE (%)", False, True))
-    cols += [Column("seconds", "time (s)", False, True), Column("peak_memory_mb", "memory (MB)", False, True, digits=3)]
+    # cost columns measure the machine, not the method's result: three digits, whatever the spread
+    cols += [
+        Column("seconds", "time (s)", False, True, digits=COST_DIGITS),
+        Column("peak_memory_mb", "memory (MB)", False, True, digits=COST_DIGITS),
+    ]
     notes = []
     if "freerun_note" in frame.columns:
         for method in section.methods:
@@ -671,14 +692,21 @@ def summary_text(config: Any, sections: list[Section], width: int = TERMINAL_WID
     for section in sections:
         lines += ["", rule, f"{_title(section)}", rule]
         lines.append(
-            wrap(section.description + (f"; terms: {', '.join(section.terms)}" if section.terms else ""), width, subsequent="")
+            wrap(
+                section.description + (f"; terms: {', '.join(section.terms)}" if section.terms else ""),
+                width,
+                subsequent="",
+            )
         )
         if section.frame.empty:
             lines.append("No finished runs yet.")
             continue
         if section.verdict is not None:
             lines += ["", "VERDICT", section.verdict.text(width)]
-        lines += ["", "Tables: median [min, max] over repetitions; * = best (lowest) median of an error or cost column."]
+        lines += [
+            "",
+            "Tables: median [min, max] over repetitions; * = best (lowest) median of an error or cost column.",
+        ]
         for table in section.tables:
             rows = [
                 [f"{c}*" if (i, j) in table.best else c for j, c in enumerate(row)] for i, row in enumerate(table.rows)

@@ -36,6 +36,7 @@ import numpy as np
 import pandas as pd
 
 from ...formatting import column_digits, sig, spread_cell, wrap
+from .tables import COST_DIGITS
 
 __all__ = ["Finding", "Verdict", "build_verdict", "METHOD_DOCS"]
 
@@ -198,11 +199,7 @@ class Verdict:
     def separation(self) -> str:
         """Which metrics separate the methods beyond the spread, and which only record by record."""
         clear = [f.metric for f in self.findings if f.runner_up is not None and not f.within_spread]
-        every = [
-            f.metric
-            for f in self.findings
-            if f.within_spread and f.paired[1] > 1 and f.paired[0] == f.paired[1]
-        ]
+        every = [f.metric for f in self.findings if f.within_spread and f.paired[1] > 1 and f.paired[0] == f.paired[1]]
         parts = [f"Separated beyond the spread: {', '.join(clear) if clear else 'none'}."]
         if every:
             parts.append(f"Within the spread but lower on every record: {', '.join(every)}.")
@@ -280,7 +277,9 @@ def _same(a: pd.Series, b: pd.Series, rel: float = _SAME) -> bool:
     return bool(np.all(np.abs(a.to_numpy() - b.to_numpy()) <= rel * np.maximum(scale, 1e-300)))
 
 
-def _finding(section: Any, key: str, label: str, absolute: bool, kind: str, same: dict[str, tuple[str, ...]]) -> Finding | None:
+def _finding(
+    section: Any, key: str, label: str, absolute: bool, kind: str, same: dict[str, tuple[str, ...]]
+) -> Finding | None:
     series = {m: _series(section, m, key, absolute) for m in section.present_methods}
     series = {m: s for m, s in series.items() if len(s)}
     if not series:
@@ -295,7 +294,7 @@ def _finding(section: Any, key: str, label: str, absolute: bool, kind: str, same
         s = series[g[0]]
         entries.append(Entry(g, float(np.median(s)), float(s.min()), float(s.max()), len(s), s))
     entries.sort(key=lambda e: e.median)
-    digits = column_digits([(e.median, e.lo, e.hi) for e in entries])
+    digits = COST_DIGITS if kind == "cost" else column_digits([(e.median, e.lo, e.hi) for e in entries])
     return Finding(label, key, kind, tuple(entries), digits)
 
 
@@ -430,8 +429,10 @@ def _reasons(section: Any, findings: list[Finding]) -> dict[str, list[str]]:
         if bias:
             why.append(bias)
         for other in methods:
-            if other != method and methods.index(other) < methods.index(method) and _coefficients_same(
-                section, method, other
+            if (
+                other != method
+                and methods.index(other) < methods.index(method)
+                and _coefficients_same(section, method, other)
             ):
                 text = f"coefficients identical to {other}'s on every record"
                 if any(isinstance(d.get("kept_terms"), list) for d in diags):
