@@ -29,6 +29,7 @@ from typing import Any
 
 import pandas as pd
 
+from ..formatting import TERMINAL_WIDTH, text_table, wrap
 from ..plotting import save_figure
 from ..terms import parse_term
 from .evidence import Evidence
@@ -103,28 +104,22 @@ def _model_rows(result: DiscoveryResult) -> list[list[str]]:
 
 _MODEL_HEADERS = [
     "model",
-    "eps (Eq. 26)",
+    "eps",
     "eps held-out",
-    "force residual",
-    "force residual held-out",
-    "free-run RMS error held-out",
+    "force res.",
+    "force res. held-out",
+    "free-run held-out",
 ]
+#: What the columns of the before/after table are (printed under it).
+_MODEL_NOTE = (
+    "eps: Eq. 26, relative to f - m a; force res.: the same error relative to f; free-run: RMS error of the "
+    "displacement simulated from the held-out force"
+)
 
 
 def _format_table(headers: list[str], rows: list[list[str]]) -> str:
-    widths = [max(len(str(r[i])) for r in [headers, *rows]) for i in range(len(headers))]
-    lines = [
-        "  ".join(
-            str(h).ljust(w) if i == 0 else str(h).rjust(w) for i, (h, w) in enumerate(zip(headers, widths, strict=True))
-        )
-    ]
-    for row in rows:
-        lines.append(
-            "  ".join(
-                str(c).ljust(w) if i == 0 else str(c).rjust(w) for i, (c, w) in enumerate(zip(row, widths, strict=True))
-            )
-        )
-    return "\n".join(lines)
+    """Aligned text within the terminal width (:func:`nlid.formatting.text_table`)."""
+    return text_table([str(h) for h in headers], [[str(c) for c in r] for r in rows])
 
 
 def _coefficient_rows(fit: Stage, units: dict[str, str]) -> tuple[list[str], list[list[str]]]:
@@ -153,6 +148,7 @@ def summary_table(result: DiscoveryResult) -> str:
         f"held-out: {result.info.get('holdout', '')}",
         "",
         _format_table(_MODEL_HEADERS, _model_rows(result)),
+        wrap(_MODEL_NOTE, TERMINAL_WIDTH, subsequent="  "),
         "",
     ]
     for number, step in enumerate(result.steps, 1):
