@@ -153,11 +153,12 @@ def summary_table(result: DiscoveryResult) -> str:
     ]
     for number, step in enumerate(result.steps, 1):
         ev = step.evidence
-        lines.append(
+        text = (
             f"step {number}: {step.effect} explains {100 * ev.explained_holdout:.3g} % of the held-out residual "  # type: ignore[operator]
             f"variance, dBIC = {ev.delta_bic:.4g} (N_eff = {ev.n_eff:.4g})"
         )
-    lines.append(f"stopped: {result.stop_reason}")
+        lines.append(wrap(text, TERMINAL_WIDTH, subsequent="  "))
+    lines.append(wrap(f"stopped: {result.stop_reason}", TERMINAL_WIDTH, subsequent="  "))
     for ev in result.final_ranking[:3]:
         if ev.explained_holdout is not None:
             lines.append(f"  {ev.effect:<28} {_explained(ev)}")
