@@ -15,8 +15,9 @@ Run a benchmark study: every identifier of the study on the same data
 finished run saved at once. Running the same study again skips finished runs
 (--rerun to redo them), so an interrupted study resumes where it stopped.
 Outputs in the study folder: results.csv (one row per run), summary.md
-(method x metric tables, printed at the end), figures/ (PNG and SVG) and a
-self-contained report.html.
+(the verdict, then method x metric tables), summary.txt (the same for a
+terminal, printed at the end), figures/ (PNG and SVG) and a self-contained
+report.html.
 """
 
 EPILOG = """\
@@ -76,6 +77,7 @@ def _terminate(signum: int, frame: object) -> None:
 
 def run_command(args: argparse.Namespace) -> int:
     from ..study import load_study, make_executor, run_study
+    from ..study.report import TEXT_SUMMARY
 
     config = load_study(args.study)
     executor = make_executor(args.executor, jobs=args.jobs, scheduler=args.scheduler)
@@ -89,7 +91,9 @@ def run_command(args: argparse.Namespace) -> int:
         )
     finally:
         signal.signal(signal.SIGTERM, previous)
-    print(outcome.summary)
+    # the terminal summary (verdict first, no line over 100 characters); summary.md holds the Markdown
+    text = outcome.folder / TEXT_SUMMARY
+    print(text.read_text().rstrip("\n") if text.is_file() else outcome.summary)
     print(
         f"nlid study: {outcome.executed} runs executed, {outcome.skipped} reused; report: {outcome.report}",
         file=sys.stderr,

@@ -16,6 +16,7 @@ from collections.abc import Sequence
 from .. import __version__
 from ..errors import IdentificationError, NlidError
 from . import (
+    cmd_data,
     cmd_discover,
     cmd_identify,
     cmd_methods,
@@ -37,6 +38,7 @@ COMMANDS = (
     cmd_simulate,
     cmd_methods,
     cmd_terms,
+    cmd_data,
 )
 
 DESCRIPTION = """\
@@ -53,6 +55,7 @@ examples:
   nlid identify dataset:emps --method rfs --terms "sign(v)" --without z
   nlid discover dataset:emps --declared "v, 1"
   nlid posterior x.csv --terms "z^3,z^2,v*|v|" --mass 0.2 --params damping
+  nlid data                       # the measured benchmarks: where to get them, which files are here
 """
 
 
