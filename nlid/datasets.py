@@ -63,10 +63,11 @@ SILVERBOX_FS = 1e7 / 2**14
 #: Number of samples of the Silverbox "arrow head" (test) section.
 SILVERBOX_ARROW = 40_000
 
-#: The Bouc-Wen benchmark's own model (Noel & Schoukens 2016): m y'' + c y' + k y + z = u,
-#: z' = alpha y' - beta (gamma |y'| z + delta y' |z|) with m = 2 kg, c = 10 N s/m, k = 5e4 N/m,
-#: alpha = 5e4 N/m, beta = 1e3 1/m, gamma = 0.8, delta = -1.1, nu = 1: in nlid's terms
-#: alpha * bouc_wen(beta gamma, beta delta) with w = z / alpha (see nlid.terms.memory).
+#: The Bouc-Wen benchmark's own model (Noel & Schoukens 2016), ``m y'' + c y' + k y + w = u``,
+#: ``w' = alpha y' - beta (gamma |y'| w + delta y' |w|)`` with m = 2 kg, c = 10 N s/m,
+#: k = 5e4 N/m, alpha = 5e4 N/m, beta = 1e3 1/m, gamma = 0.8, delta = -1.1, nu = 1: in nlid's
+#: terms ``alpha * bouc_wen(beta gamma, beta delta)`` with the state ``w / alpha`` (see
+#: :mod:`nlid.terms.memory`).
 BOUC_WEN_REFERENCE = {
     "mass": 2.0,
     "coefficients": {"z": 5e4, "v": 10.0, "bouc_wen(800, -1100)": 5e4},
