@@ -55,6 +55,7 @@ from ..physics import RegressionData, regression_data
 from ..record import Record
 from ..simulation import SimulationError, simulate
 from ..terms import Model
+from .noise import channel_noise
 
 __all__ = ["BiasCorrection", "simulate_bias", "indirect_inference", "regressor_noise"]
 
@@ -101,25 +102,16 @@ class BiasCorrection:
 
 
 def regressor_noise(record: Record, model: Model, noise: Mapping[str, float] | None = None) -> dict[str, float]:
-    """Noise level on each channel the regressors are built from.
+    """Noise standard deviation on each channel the regressors are built from.
 
     ``z`` always (it gives the position terms and, when not measured, the
     velocity and acceleration) and ``v`` when it is measured and the model
-    uses it. Levels in ``noise`` win; the others come from
-    :func:`nlid.derivatives.noise_sd`.
+    uses it. Levels in ``noise`` win; the others are established from the
+    record by :func:`nlid.bayes.noise.channel_noise` (``z`` from its noise
+    floor, ``v`` from its consistency with ``dz/dt``), which refuses
+    (:class:`~nlid.bayes.noise.UnknownNoiseError`) when it cannot.
     """
-    given = dict(noise or {})
-    unknown = set(given) - {"z", "v"}
-    if unknown:
-        raise InputError(f"noise levels can be given for z and v only, not {sorted(unknown)[0]!r}")
-    channels = ["z"] + (["v"] if model.uses_velocity and record.is_measured("v") else [])
-    out = {}
-    for c in channels:
-        level = float(given[c]) if c in given else derivatives.noise_sd(getattr(record, c), record.fs)
-        if not (np.isfinite(level) and level >= 0):
-            raise InputError(f"noise level on {c} must be a non-negative number, got {level}")
-        out[c] = level
-    return out
+    return {c: level.sd for c, level in channel_noise(record, model, noise).items()}
 
 
 def _fit(G: np.ndarray, B: np.ndarray, scale: np.ndarray) -> np.ndarray:
@@ -275,6 +267,8 @@ def indirect_inference(
     if iterations < 1:
         raise InputError(f"the bias correction needs at least one iteration, got {iterations}")
     theta_hat = np.asarray(theta_hat, dtype=float)
+    levels = channel_noise(record, model, noise)
+    sds = {c: level.sd for c, level in levels.items()}
     theta = theta_hat
     deviations = []
     steps = []
@@ -283,7 +277,7 @@ def indirect_inference(
         # the earlier steps only move the point where the binding function is evaluated: half the pairs do
         n_pairs = pairs if it == iterations - 1 else max(2, pairs // 2)
         corr = simulate_bias(
-            record, model, theta, mass, data, pairs=n_pairs, noise=noise, rng=rng, phase=it / iterations
+            record, model, theta, mass, data, pairs=n_pairs, noise=sds, rng=rng, phase=it / iterations
         )
         each = corr.pair_estimates(theta_hat)
         deviations.append(each - each.mean(axis=0))
@@ -293,5 +287,11 @@ def indirect_inference(
     spread = dev.T @ dev / (dev.shape[0] - iterations)
     jinv = np.linalg.inv(corr.binding)
     cov = jinv @ np.asarray(covariance, dtype=float) @ jinv.T + (1.0 + 1.0 / pairs) * spread
-    info = {"noise_sd": corr.noise, "pairs": pairs, "iterations": iterations, "steps": [s.tolist() for s in steps]}
+    info = {
+        "noise_sd": corr.noise,
+        "noise": {c: level.to_dict() for c, level in levels.items()},
+        "pairs": pairs,
+        "iterations": iterations,
+        "steps": [s.tolist() for s in steps],
+    }
     return theta, 0.5 * (cov + cov.T), info

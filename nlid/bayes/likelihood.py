@@ -419,6 +419,7 @@ def build_likelihood(
             record, model, theta_hat, mass, data, cov, pairs=pairs, iterations=iterations, noise=noise, rng=rng
         )
         info["noise_sd"] = corr_info["noise_sd"]
+        info["noise"] = corr_info["noise"]
         info["bias_pairs"] = corr_info["pairs"]
         info["bias_iterations"] = corr_info["iterations"]
         info["bias"] = {n: float(x) for n, x in zip(model.names, theta_hat - center, strict=True)}
