@@ -43,6 +43,7 @@ enters ``y`` linearly and independently of ``G``) and is not simulated.
 
 from __future__ import annotations
 
+import copy
 from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any
@@ -267,15 +268,18 @@ def indirect_inference(
     if iterations < 1:
         raise InputError(f"the bias correction needs at least one iteration, got {iterations}")
     theta_hat = np.asarray(theta_hat, dtype=float)
+    rng = rng if rng is not None else np.random.default_rng(0)
     levels = channel_noise(record, model, noise)
     sds = {c: level.sd for c, level in levels.items()}
     theta = theta_hat
     deviations = []
     steps = []
     corr = None
+    last = (theta, rng)
     for it in range(iterations):
         # the earlier steps only move the point where the binding function is evaluated: half the pairs do
         n_pairs = pairs if it == iterations - 1 else max(2, pairs // 2)
+        last = (theta, copy.deepcopy(rng))
         corr = simulate_bias(
             record, model, theta, mass, data, pairs=n_pairs, noise=sds, rng=rng, phase=it / iterations
         )
@@ -287,9 +291,25 @@ def indirect_inference(
     spread = dev.T @ dev / (dev.shape[0] - iterations)
     jinv = np.linalg.inv(corr.binding)
     cov = jinv @ np.asarray(covariance, dtype=float) @ jinv.T + (1.0 + 1.0 / pairs) * spread
+    # a noise level estimated with a standard error: repeat the last step with the same trajectories and
+    # draws at a variance one standard error higher; the move of the corrected estimate is added as a
+    # rank-one covariance (the delta method over one standard error of the level)
+    widening = {}
+    for c, level in levels.items():
+        if not level.relative_se:
+            continue
+        point, state = last
+        bumped = dict(sds, **{c: level.sd * np.sqrt(1.0 + level.relative_se)})
+        other = simulate_bias(
+            record, model, point, mass, data, pairs=pairs, noise=bumped, rng=state, phase=(iterations - 1) / iterations
+        )
+        move = other.correct(theta_hat) - theta
+        cov = cov + np.outer(move, move)
+        widening[c] = {n: float(x) for n, x in zip(model.names, move, strict=True)}
     info = {
         "noise_sd": corr.noise,
         "noise": {c: level.to_dict() for c, level in levels.items()},
+        "noise_level_moves": widening,
         "pairs": pairs,
         "iterations": iterations,
         "steps": [s.tolist() for s in steps],
