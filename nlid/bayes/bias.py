@@ -280,9 +280,7 @@ def indirect_inference(
         # the earlier steps only move the point where the binding function is evaluated: half the pairs do
         n_pairs = pairs if it == iterations - 1 else max(2, pairs // 2)
         last = (theta, copy.deepcopy(rng))
-        corr = simulate_bias(
-            record, model, theta, mass, data, pairs=n_pairs, noise=sds, rng=rng, phase=it / iterations
-        )
+        corr = simulate_bias(record, model, theta, mass, data, pairs=n_pairs, noise=sds, rng=rng, phase=it / iterations)
         each = corr.pair_estimates(theta_hat)
         deviations.append(each - each.mean(axis=0))
         theta = corr.correct(theta_hat)

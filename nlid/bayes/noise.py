@@ -151,8 +151,8 @@ class NoiseLevel:
         return asdict(self)
 
     def describe(self) -> str:
-        """E.g. ``"v = 0.014 m/s (v - dz/dt, +/- 3 %)"``."""
-        extra = "" if self.relative_se is None else f", +/- {50 * self.relative_se:.0f} %"
+        """E.g. ``"v = 0.014 m/s (v - dz/dt, sd +/- 3 %)"`` (the sd's relative error is half the variance's)."""
+        extra = "" if self.relative_se is None else f", sd +/- {50 * self.relative_se:.0f} %"
         return f"{self.channel} = {self.sd:.3g} {UNITS.get(self.channel, '')} ({self.source}{extra})"
 
 

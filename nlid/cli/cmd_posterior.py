@@ -138,10 +138,10 @@ def parse_noise_levels(items: list[str] | None, noise_z: float | None = None) ->
 
 
 def run(args: argparse.Namespace) -> int:
-    from ..pipeline import as_model
     from ..bayes import PosteriorSampler
     from ..bayes.noise import UNITS, UnknownNoiseError
     from ..bayes.priors import parse_prior_assignments
+    from ..pipeline import as_model
     from ..terms import Model
 
     if args.walkers is not None and args.walkers < 2:
