@@ -156,7 +156,7 @@ def run(cells: list[tuple[str, str, float]], seeds: range, workers: int, path: P
                 nxt = next(queue, None)
                 if nxt is not None:
                     pending.add(pool.submit(replicate, *nxt))
-            if finished % 20 == 0 or not pending:
+            if finished % 20 < len(ready) or not pending:
                 print(f"  {finished}/{len(todo)} in {time.perf_counter() - start:.0f} s", flush=True)
 
 
@@ -198,6 +198,31 @@ def summary(path: Path, cells: list[tuple[str, str, float]], seeds: range) -> No
             print(f"  {cell[0]} {cell[1]} {100 * cell[2]:.0f}% {t}: {cov:.0f} % of {n}")
 
 
+def markdown(path: Path, cells: list[tuple[str, str, float]], seeds: range) -> None:
+    """The table of docs/posterior.md: per preset and channel set, each noise level's coverage range."""
+    wanted = {(p, c, float(x)) for p, c, x in cells}
+    rows = [r for r in read_rows(path) if _key(r)[:3] in wanted and int(r["seed"]) in seeds and r["status"] == "ok"]
+    noises = sorted({float(x) for _, _, x in cells})
+    print("| preset | channels | " + " | ".join(f"{100 * x:.0f} % noise" for x in noises) + " |")
+    print("| --- | --- | " + " | ".join("---" for _ in noises) + " |")
+    for preset, channels in dict.fromkeys((p, c) for p, c, _ in cells):
+        out = []
+        for x in noises:
+            sel = [r for r in rows if (r["preset"], r["channels"], float(r["noise"])) == (preset, channels, x)]
+            if not sel:
+                out.append("–")
+                continue
+            reps = len({int(r["seed"]) for r in sel})
+            cov, sdz = [], []
+            for t in dict.fromkeys(str(r["term"]) for r in sel):
+                ts = [r for r in sel if r["term"] == t]
+                cov.append(100 * np.mean([int(r["covers"]) for r in ts]))
+                sdz.append(np.std([float(r["z"]) for r in ts]))
+            rng = f"{min(cov):.0f}" if min(cov) == max(cov) else f"{min(cov):.0f}–{max(cov):.0f}"
+            out.append(f"{rng} % ({min(sdz):.2f}–{max(sdz):.2f}; n = {reps})")
+        print(f"| {preset} | {channels} | " + " | ".join(out) + " |")
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--seeds", default="1000:1050", help="first:stop of the replicate seeds (default 1000:1050)")
@@ -207,6 +232,7 @@ def main() -> None:
     parser.add_argument("--noise", action="append", type=float, help="noise fraction(s) (default 0.01 0.02 0.05)")
     parser.add_argument("--csv", type=Path, default=DEFAULT_CSV, help=f"per-replicate results (default {DEFAULT_CSV})")
     parser.add_argument("--summary-only", action="store_true", help="print the table from the CSV, run nothing")
+    parser.add_argument("--markdown", action="store_true", help="also print the compact table of docs/posterior.md")
     args = parser.parse_args()
     first, stop = (int(x) for x in args.seeds.split(":"))
     seeds = range(first, stop)
@@ -216,6 +242,8 @@ def main() -> None:
     if not args.summary_only:
         run(cells, seeds, args.workers, args.csv)
     summary(args.csv, cells, seeds)
+    if args.markdown:
+        markdown(args.csv, cells, seeds)
 
 
 if __name__ == "__main__":
