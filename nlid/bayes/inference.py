@@ -105,7 +105,9 @@ class PosteriorSampler:
     bias_iterations
         Fixed-point steps of that correction.
     noise
-        Known noise standard deviation on ``z`` (and ``v``), e.g. ``{"z": 4e-4}``.
+        Known noise standard deviation on ``z`` (and ``v``), e.g. ``{"z": 4e-4}``
+        (m, m/s); the others are established from the record or refused
+        (:func:`nlid.bayes.noise.channel_noise`).
     cutoff
         Equation band in Hz (default: the shared filter's suggestion).
     others

@@ -17,6 +17,7 @@ from ..balance import RegressionData
 from ..scoring import damping_slice
 from ..terms import Model, parse_term
 from .likelihood import Likelihood
+from .noise import NoiseLevel
 from .sampler import Chains
 
 __all__ = ["Posterior", "DampingBand", "QUANTILES"]
@@ -142,6 +143,39 @@ class Posterior:
         full[:, [self.model.index(n) for n in self.names]] = samples
         return full
 
+    @property
+    def bias_shifts(self) -> dict[str, float]:
+        """How far the bias correction moved each sampled coefficient, in its standard deviations.
+
+        ``(theta_c - theta_hat) / sd`` with ``theta_hat`` the least-squares
+        estimate of the force balance, ``theta_c`` the corrected one and
+        ``sd`` the corrected estimate's standard deviation; empty without
+        the correction.
+        """
+        shifts = self.likelihood.info.get("bias_shift_sd", {})
+        return {n: float(shifts[n]) for n in self.names if n in shifts}
+
+    @property
+    def large_corrections(self) -> dict[str, dict[str, float]]:
+        """The sampled coefficients the bias correction moved by more than one standard deviation.
+
+        ``{term: {"least_squares", "corrected", "shift_sd"}}``. Such a
+        correction is only as right as the noise levels it simulated
+        (``likelihood.info["noise"]``): the text table and the JSON document
+        show it so that a wrong one is never silent.
+        """
+        lik = self.likelihood
+        out = {}
+        for name, shift in self.bias_shifts.items():
+            if abs(shift) > 1.0:
+                i = self.model.index(name)
+                out[name] = {
+                    "least_squares": float(lik.estimate[i]),
+                    "corrected": float(lik.center[i]),
+                    "shift_sd": shift,
+                }
+        return out
+
     def summary(self) -> dict[str, dict[str, float]]:
         """``{term: {"mean", "sd", "q05", "q50", "q95"}}``."""
         s = self.samples
@@ -192,6 +226,8 @@ class Posterior:
                 "others": self.others,
                 "fixed": self.not_sampled if self.others == "fixed" else {},
                 "not_sampled": list(self.not_sampled),
+                "bias_shift_sd": self.bias_shifts,
+                "large_corrections": self.large_corrections,
                 "priors": self.priors,
                 "units": {n: parse_term(n).coefficient_unit for n in self.names},
                 "sampler": {
@@ -276,6 +312,15 @@ class Posterior:
             f"likelihood: equation error over {info['samples']} samples{where}, effective {info['dof']:.0f} "
             f"(residual correlated over {info['tau_residual_samples']:.1f} samples), {bias}"
         )
+        noise = info.get("noise", {})
+        if noise:
+            levels = ", ".join(NoiseLevel(**level).describe() for level in noise.values())
+            lines.append(f"noise levels simulated by the correction: {levels}")
+        for name, c in self.large_corrections.items():
+            lines.append(
+                f"note: the bias correction moved {name} by {c['shift_sd']:+.1f} sd (least squares "
+                f"{c['least_squares']:.5g} -> {c['corrected']:.5g}); it is only as right as the noise levels above"
+            )
         lines.append(f"time: {self.seconds:.3g} s")
         return "\n".join(lines)
 
