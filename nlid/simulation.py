@@ -68,38 +68,169 @@ def encode_model(model: Model) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     return parts, special, pxc
 
 
-@numba.njit(cache=True, inline="always")
-def _part(x, ax, sx, p, s):
-    if p == 0:
-        return sx if s == 1 else 1.0
-    if s == 1:
-        if p % 2 == 1:
-            return x if p == 1 else x**p
-        return sx * ax**p
-    if p % 2 == 0:
-        return x**p
-    return ax if p == 1 else ax**p
+# --------------------------------------------------------------------------- compiled kernel
+#
+# The restoring force is evaluated term by term exactly as ``Term.evaluate``
+# defines it, ``theta_i * zpart * vpart * pxpart * special factors`` with each
+# part ``|x|^p sign(x)^s``, and summed in model order. The kernel is
+# specialised, not the arithmetic: the parts' powers are formed once per
+# evaluation (square and multiply, the products numba's ``x ** p`` forms for an
+# integer ``p``), a missing part or a sign ``+1`` is not multiplied in (both are
+# exact), ``px(z)`` is evaluated only when a term uses it, and the special
+# factors get their own instantiation of the step loop. Every value is
+# therefore bitwise the one of a straightforward term-by-term evaluation; this
+# matters because some presets are chaotic (paper-experimental: a change in the
+# last bit of one force evaluation grows to O(1) differences within seconds).
+#
+# A new kind of term needs: a field in :func:`encode_model`'s arrays, its
+# decoding in :func:`_plan`, and its factor in :func:`_term` (or, for factors
+# that need a library call such as ``exp``, in :func:`_restoring_special`).
 
 
 @numba.njit(cache=True)
-def _restoring(z, v, theta, parts, special, pxc):
+def _plan(parts, special):
+    """Per-term evaluation plan from :func:`encode_model`'s arrays.
+
+    Returns
+    -------
+    plan : int64 array (p, 5)
+        ``(pz, pv, ppx, signs, n_special)`` of each term: the powers of its z, v
+        and px parts, a bit mask of the sign factors it carries (1: z, 2: v,
+        4: px) and its number of special factors.
+    top : int64 array (3,)
+        Largest power of z, v and px any term uses (-1: no term has a part in
+        that variable; px(z) is then not evaluated).
+    """
+    n = parts.shape[0]
+    plan = np.zeros((n, 5), np.int64)
+    top = np.full(3, -1, np.int64)
+    for i in range(n):
+        mask = 0
+        for var in range(3):
+            p = parts[i, 2 * var]
+            s = parts[i, 2 * var + 1]
+            plan[i, var] = p
+            if s == 1:
+                mask |= 1 << var
+            if p > 0 or s > 0:
+                top[var] = max(top[var], p)
+        plan[i, 3] = mask
+        k = 0
+        for j in range(special.shape[1]):
+            if special[i, j, 0] == 0.0:
+                break
+            k += 1
+        plan[i, 4] = k
+    return plan, top
+
+
+@numba.njit(cache=True, inline="always")
+def _sign(x):
+    """``sign(x)`` (0 at 0 and for NaN)."""
+    return 1.0 if x > 0 else (-1.0 if x < 0 else 0.0)
+
+
+@numba.njit(cache=True, inline="always")
+def _abs_power(ax, x2, x3, x4, p):
+    """``|x|^p`` for ``p >= 1`` from the precomputed ``|x|^2..|x|^4``.
+
+    Higher powers by square and multiply with the low bits first: the same
+    products (hence the same rounding) as numba's ``x ** p`` for an integer
+    ``p``, which is also how ``x2 = ax ax``, ``x3 = ax x2`` and ``x4 = x2 x2``
+    are formed.
+    """
+    if p == 1:
+        return ax
+    if p == 2:
+        return x2
+    if p == 3:
+        return x3
+    if p == 4:
+        return x4
+    r = 1.0
+    a = ax
+    while p != 0:
+        if p & 1:
+            r *= a
+        p >>= 1
+        if p != 0:
+            a *= a
+    return r
+
+
+@numba.njit(cache=True, inline="always")
+def _term(i, theta, plan, az, z2, z3, z4, av, v2, v3, v4, apx, p2, p3, p4, sz, sv, spx):
+    """``theta_i * zpart * vpart * pxpart`` of term ``i`` (without special factors)."""
+    g = theta[i]
+    p = plan[i, 0]
+    if p != 0:
+        g *= _abs_power(az, z2, z3, z4, p)
+    p = plan[i, 1]
+    if p != 0:
+        g *= _abs_power(av, v2, v3, v4, p)
+    p = plan[i, 2]
+    if p != 0:
+        g *= _abs_power(apx, p2, p3, p4, p)
+    mask = plan[i, 3]
+    if mask != 0:  # sign factors are +-1 or 0: exact wherever they are multiplied in
+        if mask & 1:
+            g *= sz
+        if mask & 2:
+            g *= sv
+        if mask & 4:
+            g *= spx
+    return g
+
+
+@numba.njit(cache=True, inline="always")
+def _restoring_plain(z, v, theta, special, pxc, plan, top):
+    """``R(z, v)`` of a model without special factors."""
     az = abs(z)
-    sz = 1.0 if z > 0 else (-1.0 if z < 0 else 0.0)
     av = abs(v)
-    sv = 1.0 if v > 0 else (-1.0 if v < 0 else 0.0)
-    px = ((pxc[0] * z + pxc[1]) * z + pxc[2]) * z + pxc[3]
-    apx = abs(px)
-    spx = 1.0 if px > 0 else (-1.0 if px < 0 else 0.0)
+    sz = _sign(z)
+    sv = _sign(v)
+    apx = 0.0
+    spx = 0.0
+    if top[2] >= 0:
+        px = ((pxc[0] * z + pxc[1]) * z + pxc[2]) * z + pxc[3]
+        apx = abs(px)
+        spx = _sign(px)
+    z2 = az * az
+    v2 = av * av
+    p2 = apx * apx
+    z3, z4 = az * z2, z2 * z2
+    v3, v4 = av * v2, v2 * v2
+    p3, p4 = apx * p2, p2 * p2
     total = 0.0
     for i in range(theta.size):
-        g = theta[i]
-        g *= _part(z, az, sz, parts[i, 0], parts[i, 1])
-        g *= _part(v, av, sv, parts[i, 2], parts[i, 3])
-        g *= _part(px, apx, spx, parts[i, 4], parts[i, 5])
-        for j in range(special.shape[1]):
+        total += _term(i, theta, plan, az, z2, z3, z4, av, v2, v3, v4, apx, p2, p3, p4, sz, sv, spx)
+    return total
+
+
+@numba.njit(cache=True, inline="always")
+def _restoring_special(z, v, theta, special, pxc, plan, top):
+    """``R(z, v)`` of a model with special factors (``exp``, ``tanh``), applied after the parts."""
+    az = abs(z)
+    av = abs(v)
+    sz = _sign(z)
+    sv = _sign(v)
+    apx = 0.0
+    spx = 0.0
+    if top[2] >= 0:
+        px = ((pxc[0] * z + pxc[1]) * z + pxc[2]) * z + pxc[3]
+        apx = abs(px)
+        spx = _sign(px)
+    z2 = az * az
+    v2 = av * av
+    p2 = apx * apx
+    z3, z4 = az * z2, z2 * z2
+    v3, v4 = av * v2, v2 * v2
+    p3, p4 = apx * p2, p2 * p2
+    total = 0.0
+    for i in range(theta.size):
+        g = _term(i, theta, plan, az, z2, z3, z4, av, v2, v3, v4, apx, p2, p3, p4, sz, sv, spx)
+        for j in range(plan[i, 4]):
             kind = special[i, j, 0]
-            if kind == 0.0:
-                break
             x = z if special[i, j, 1] == 0.0 else v
             scale = special[i, j, 2]
             mult = special[i, j, 3]
@@ -113,32 +244,50 @@ def _restoring(z, v, theta, parts, special, pxc):
     return total
 
 
-@numba.njit(cache=True)
-def _rk4(force, dt, mass, theta, parts, special, pxc, z0, v0, out_z, out_v, out_a):
+@numba.njit(cache=True, inline="always")
+def _steps(restoring, force, dt, mass, theta, special, pxc, plan, top, z0, v0, out_z, out_v, out_a):
+    """Classical RK4 with one step per force sample, the force held over the step.
+
+    Returns the first sample whose state is not finite, or -1.
+    """
     z = z0
     v = v0
     inv_m = 1.0 / mass
     h2 = 0.5 * dt
     for k in range(force.size):
         fk = force[k]
-        a1 = (fk - _restoring(z, v, theta, parts, special, pxc)) * inv_m
+        a1 = (fk - restoring(z, v, theta, special, pxc, plan, top)) * inv_m
         out_z[k] = z
         out_v[k] = v
         out_a[k] = a1
         z2 = z + h2 * v
         v2 = v + h2 * a1
-        a2 = (fk - _restoring(z2, v2, theta, parts, special, pxc)) * inv_m
+        a2 = (fk - restoring(z2, v2, theta, special, pxc, plan, top)) * inv_m
         z3 = z + h2 * v2
         v3 = v + h2 * a2
-        a3 = (fk - _restoring(z3, v3, theta, parts, special, pxc)) * inv_m
+        a3 = (fk - restoring(z3, v3, theta, special, pxc, plan, top)) * inv_m
         z4 = z + dt * v3
         v4 = v + dt * a3
-        a4 = (fk - _restoring(z4, v4, theta, parts, special, pxc)) * inv_m
+        a4 = (fk - restoring(z4, v4, theta, special, pxc, plan, top)) * inv_m
         z = z + dt / 6.0 * (v + 2.0 * v2 + 2.0 * v3 + v4)
         v = v + dt / 6.0 * (a1 + 2.0 * a2 + 2.0 * a3 + a4)
         if not (np.isfinite(z) and np.isfinite(v)):
             return k
     return -1
+
+
+@numba.njit(cache=True)
+def _rk4(force, dt, mass, theta, parts, special, pxc, z0, v0, out_z, out_v, out_a):
+    """Integrate over the whole record in one compiled loop (see :func:`simulate`).
+
+    The model is decoded once (:func:`_plan`); a model without special factors
+    runs a step loop whose force evaluation has no library calls (their
+    register spills cost ~15 % even when never taken).
+    """
+    plan, top = _plan(parts, special)
+    if plan[:, 4].max() > 0:
+        return _steps(_restoring_special, force, dt, mass, theta, special, pxc, plan, top, z0, v0, out_z, out_v, out_a)
+    return _steps(_restoring_plain, force, dt, mass, theta, special, pxc, plan, top, z0, v0, out_z, out_v, out_a)
 
 
 def simulate(
