@@ -88,7 +88,7 @@ from nlid import IdentificationResult, Identifier, Option, Record, physics
 from nlid.terms import Model
 
 from .basis import split_model
-from .channels import Channels, perturbation_map, prepare_channels, static_constant
+from .channels import Channels, perturbation_map, perturbation_subspace, prepare_channels, static_constant
 from .common import (
     COMMON_OPTIONS,
     HOLD_ASSUMED,
@@ -107,7 +107,7 @@ from .fit import NSIFit, UnstableULSError, fit_extended, format_eigenvalues
 from .gram import block_hankel_gram, clip_indefinite, sub_gram, transform_gram
 from .intersample import force_interval_mean
 from .noise import subtract_noise
-from .subspace import po_moesp
+from .subspace import PerturbedMOESP, po_moesp
 
 __all__ = ["NSIInputPerturbation", "search_k_tilde", "ensemble_values", "combine_fits"]
 
@@ -127,11 +127,13 @@ def search_k_tilde(
     max_order: int,
     zeta_max: float,
     trials: list[dict[str, Any]],
+    subspace: PerturbedMOESP | None = None,
 ) -> float:
     """Smallest ``k~1`` on the grid ``start + j step`` whose ULS passes the test of Eq. 18.
 
-    Each trial (a congruence, a Cholesky and an SVD on ``gram``) is appended
-    to ``trials``.
+    Each trial (PO-MOESP of the perturbed channels on ``gram``; through
+    ``subspace``, the same step prepared once for every k~1, when given) is
+    appended to ``trials``.
 
     Raises
     ------
@@ -142,7 +144,10 @@ def search_k_tilde(
     rows = gram.shape[0] // 2
     while k <= k_max:
         t = perturbation_map(ch, k)
-        a, _, _, _ = po_moesp(transform_gram(gram, t), t.shape[0] - 1, order, max_order)
+        if subspace is not None:
+            a = subspace.estimate(t, order, max_order)[0]
+        else:
+            a = po_moesp(transform_gram(gram, t), t.shape[0] - 1, order, max_order)[0]
         lc = continuous_eigenvalues(a, dt)
         ok = uls_ok(lc, zeta_max)
         trials.append({"k_tilde": k, "block_rows": rows, "accepted": ok, "eigenvalues": eigen_list(lc)})
@@ -292,8 +297,28 @@ class NSIInputPerturbation(Identifier):
 
         uls_mass = mass if opt["mass_in_uls_fit"] else None
 
+        subspaces: dict[int, PerturbedMOESP] = {}
+
+        def prepared(ch: Channels, gram: np.ndarray) -> PerturbedMOESP:
+            """The subspace step of ``gram`` for every k~1, prepared on first use (one per Gram)."""
+            if id(gram) not in subspaces:
+                subspaces[id(gram)] = perturbation_subspace(ch, gram)
+            return subspaces[id(gram)]
+
         def fit(ch: Channels, gram: np.ndarray, k: float) -> NSIFit:
-            return fit_extended(ch, perturbation_map(ch, k), gram, dt, band, order, max_order, zeta_max, k, uls_mass)
+            return fit_extended(
+                ch,
+                perturbation_map(ch, k),
+                gram,
+                dt,
+                band,
+                order,
+                max_order,
+                zeta_max,
+                k,
+                uls_mass,
+                prepared(ch, gram),
+            )
 
         ch1 = prepare_channels(z, v, f_held, dt, basis, 0.0, None, True, False, opt["noise_max_lag"])
         g1 = block_hankel_gram(ch1.base, s)
@@ -309,7 +334,17 @@ class NSIInputPerturbation(Identifier):
         while True:
             if not explicit:
                 k_use = search_k_tilde(
-                    g_search, ch1, dt, k_use, opt["k_step"], opt["k_max"], order or 2, max_order, zeta_max, trials
+                    g_search,
+                    ch1,
+                    dt,
+                    k_use,
+                    opt["k_step"],
+                    opt["k_max"],
+                    order or 2,
+                    max_order,
+                    zeta_max,
+                    trials,
+                    prepared(ch1, g_search),
                 )
             try:
                 result = fit(ch1, g1, k_use)
@@ -358,7 +393,9 @@ class NSIInputPerturbation(Identifier):
                     {"k_tilde": k_use, "block_rows": block_rows, "accepted": False, "eigenvalues": eigen_list(lc)}
                 )
                 if explicit:
-                    raise UnstableULSError(self._explicit_failure(k_use, lc, g1, ch1, dt), lc) from None
+                    raise UnstableULSError(
+                        self._explicit_failure(k_use, lc, g1, ch1, dt, prepared(ch1, g1)), lc
+                    ) from None
                 if rechecks >= MAX_RECHECKS:
                     raise UnstableULSError(
                         f"nsi-ip: {rechecks} values of k~1 accepted by the search failed with the full model "
@@ -460,7 +497,9 @@ class NSIInputPerturbation(Identifier):
             arrays=fit_arrays(result),
         )
 
-    def _explicit_failure(self, k: float, lc: np.ndarray, gram: np.ndarray, ch: Channels, dt: float) -> str:
+    def _explicit_failure(
+        self, k: float, lc: np.ndarray, gram: np.ndarray, ch: Channels, dt: float, subspace: PerturbedMOESP | None = None
+    ) -> str:
         """The message for an explicit k~1 that fails, with the value the search would accept."""
         opt = self.settings
         msg = (
@@ -483,6 +522,7 @@ class NSIInputPerturbation(Identifier):
                 opt["max_order"],
                 opt["zeta_max"],
                 [],
+                subspace,
             )
             hint = f"; use a larger k~1 (the automatic search from {k + opt['k_step']:g} N/m accepts {k_ok:g} N/m)"
         except UnstableULSError:
