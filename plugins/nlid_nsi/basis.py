@@ -39,6 +39,9 @@ class Basis:
     jumps_in_z, jumps_in_v
         The function is discontinuous in that variable (``sign(...)`` factors):
         its first-order noise propagation is left out there.
+    uses_z, uses_v
+        The function depends on that variable (its derivative in a variable
+        it does not use is zero without evaluating it).
     """
 
     name: str
@@ -46,6 +49,8 @@ class Basis:
     power: int | None = None
     jumps_in_z: bool = False
     jumps_in_v: bool = False
+    uses_z: bool = True
+    uses_v: bool = True
 
     def jacobian(
         self, z: np.ndarray, v: np.ndarray, hz: float | None = None, hv: float | None = None
@@ -57,8 +62,14 @@ class Basis:
         """
         hz = 1e-6 * (float(np.std(z)) + 1e-300) if hz is None else hz
         hv = 1e-6 * (float(np.std(v)) + 1e-300) if hv is None else hv
-        dz = np.zeros_like(z) if self.jumps_in_z else (self.func(z + hz, v) - self.func(z - hz, v)) / (2 * hz)
-        dv = np.zeros_like(z) if self.jumps_in_v else (self.func(z, v + hv) - self.func(z, v - hv)) / (2 * hv)
+        if self.jumps_in_z or not self.uses_z:
+            dz = np.zeros_like(z)
+        else:
+            dz = (self.func(z + hz, v) - self.func(z - hz, v)) / (2 * hz)
+        if self.jumps_in_v or not self.uses_v:
+            dv = np.zeros_like(z)
+        else:
+            dv = (self.func(z, v + hv) - self.func(z, v - hv)) / (2 * hv)
         return dz, dv
 
 
@@ -151,7 +162,10 @@ def _term_func(term: Term, model: Model) -> Func:
 def _basis(term: Term, model: Model) -> Basis:
     jumps_z = term.z == (0, 1) or term.px == (0, 1)
     jumps_v = term.v == (0, 1)
-    return Basis(term.name, _term_func(term, model), term.polynomial_power, jumps_z, jumps_v)
+    uses_z = term.z != (0, 0) or term.px != (0, 0) or any(sp[1] == "z" for sp in term.special)
+    return Basis(
+        term.name, _term_func(term, model), term.polynomial_power, jumps_z, jumps_v, uses_z, term.depends_on_v
+    )
 
 
 @dataclass(frozen=True)
@@ -195,8 +209,18 @@ def shifted_basis(basis: tuple[Basis, ...], shift: float) -> tuple[tuple[Basis, 
     """
     powers = [b.power for b in basis if b.power is not None]
     kmax = max(powers) if powers else 1
-    out = [Basis(f"x^{k}", lambda x, v, k=k: int_power(x, k), k) for k in range(kmax, 1, -1)]
+    out = [Basis(f"x^{k}", lambda x, v, k=k: int_power(x, k), k, uses_v=False) for k in range(kmax, 1, -1)]
     for b in basis:
         if b.power is None:
-            out.append(Basis(b.name, lambda x, v, g=b.func, s=shift: g(x + s, v), None, b.jumps_in_z, b.jumps_in_v))
+            out.append(
+                Basis(
+                    b.name,
+                    lambda x, v, g=b.func, s=shift: g(x + s, v),
+                    None,
+                    b.jumps_in_z,
+                    b.jumps_in_v,
+                    b.uses_z,
+                    b.uses_v,
+                )
+            )
     return tuple(out), kmax

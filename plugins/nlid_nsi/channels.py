@@ -121,8 +121,9 @@ def prepare_channels(
     base = np.empty((n, c))
     base[:, 0] = f_held
     inner = base[:, 1 : c - 1]
+    signs = [1.0] * (off - 1) + [-1.0] * len(basis)  # the extended inputs are -g_j (Eq. 16)
     if intersample == "gauss":
-        interval_means(funcs, zz, vv, dt, out=inner)
+        interval_means(funcs, zz, vv, dt, out=inner, signs=signs)
     else:
         for r0 in range(0, n, BLOCK):
             r1 = min(r0 + BLOCK, n)
@@ -131,8 +132,7 @@ def prepare_channels(
                 values = np.asarray(func(zz[r0:stop], vv[r0:stop]), dtype=float)
                 if intersample == "trapezoid":
                     values = trapezoid_mean(values)
-                inner[r0:r1, j] = values[: r1 - r0]
-    base[:, off : c - 1] *= -1.0  # the extended inputs are -g_j (Eq. 16)
+                inner[r0:r1, j] = signs[j] * values[: r1 - r0]
     base[:, c - 1] = np.asarray(z, dtype=float) - shift
     means = base.mean(axis=0)
     sumsq = np.zeros(c)

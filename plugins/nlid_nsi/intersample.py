@@ -49,6 +49,7 @@ def interval_means(
     dt: float,
     out: np.ndarray | None = None,
     block: int = BLOCK,
+    signs: Sequence[float] | None = None,
 ) -> np.ndarray:
     """Mean of every ``func(z(t), v(t))`` over each sample interval ``[t_k, t_k+1)``.
 
@@ -70,6 +71,9 @@ def interval_means(
         Array of shape ``(N, len(funcs))`` (or a view) to write into.
     block
         Samples per block.
+    signs
+        ``+1`` or ``-1`` per function: the mean of ``sign * func`` is written
+        (exact: a sign flip rounds nothing).
 
     Returns
     -------
@@ -79,6 +83,7 @@ def interval_means(
     n = len(z)
     if out is None:
         out = np.empty((n, len(funcs)))
+    signs = [1.0] * len(funcs) if signs is None else [float(x) for x in signs]
     for r0 in range(0, n - 1, block):
         r1 = min(r0 + block, n - 1)
         z0, z1, v0, v1 = z[r0:r1], z[r0 + 1 : r1 + 1], v[r0:r1], v[r0 + 1 : r1 + 1]
@@ -90,10 +95,10 @@ def interval_means(
             zs = h00 * z0 + h10 * dt * v0 + h01 * z1 + h11 * dt * v1
             vs = d00 * (z0 - z1) + d10 * v0 + d11 * v1
             for j, func in enumerate(funcs):
-                acc[:, j] += 0.5 * weight * func(zs, vs)
+                acc[:, j] += (0.5 * weight * signs[j]) * func(zs, vs)
         out[r0:r1] = acc
     for j, func in enumerate(funcs):
-        out[n - 1, j] = func(z[-1:], v[-1:])[0]
+        out[n - 1, j] = signs[j] * func(z[-1:], v[-1:])[0]
     return out
 
 

@@ -320,15 +320,23 @@ class NSIInputPerturbation(Identifier):
                 prepared(ch, gram),
             )
 
-        ch1 = prepare_channels(z, v, f_held, dt, basis, 0.0, None, True, False, opt["noise_max_lag"])
-        g1 = block_hankel_gram(ch1.base, s)
+        def first_pass() -> Channels:
+            """Pass 1's channels; their samples are dropped while pass 2 runs and rebuilt if needed again."""
+            nonlocal ch1
+            if ch1 is None or ch1.base is None:
+                ch1 = prepare_channels(z, v, f_held, dt, basis, 0.0, None, True, False, opt["noise_max_lag"])
+            return ch1
+
+        ch1: Channels | None = None
+        g1 = block_hankel_gram(first_pass().base, s)
         g_search = sub_gram(g1, min(opt["search_block_rows"], block_rows))
         timings["gram"] = time.perf_counter() - t0
         trials: list[dict[str, Any]] = []
         explicit = opt["k_tilde"] is not None
         k_use = float(opt["k_tilde"] if explicit else opt["k_start"])
         ch2 = g2 = None
-        denoise_fc = rec = None
+        denoise_fc = None
+        rec_diagnostics = reconstruction_diagnostics(None)
         gram_clipped = False
         rechecks = 0
         while True:
@@ -347,7 +355,7 @@ class NSIInputPerturbation(Identifier):
                     prepared(ch1, g_search),
                 )
             try:
-                result = fit(ch1, g1, k_use)
+                result = fit(first_pass(), g1, k_use)
                 trials.append(
                     {
                         "k_tilde": k_use,
@@ -361,6 +369,7 @@ class NSIInputPerturbation(Identifier):
                 if opt["reconstruct"]:
                     if ch2 is None:
                         m_surrogate = float(mass) if mass is not None else result.uls.m
+                        ch1.base = None  # memory: one set of channels at a time (rebuilt if a retry needs it)
                         rec, denoise_fc = reconstruction(
                             record, vel, f_held, (m_surrogate, result.uls.c, result.uls.k), opt
                         )
@@ -378,6 +387,8 @@ class NSIInputPerturbation(Identifier):
                             opt["intersample"],
                             opt["sign_calibration"],
                         )
+                        rec_diagnostics = reconstruction_diagnostics(rec)
+                        del rec
                         g2 = block_hankel_gram(ch2.base, s)
                         if ch2.noise is not None:
                             g2 = subtract_noise(g2, ch2.noise, output=ch2.base.shape[1] - 1)
@@ -473,7 +484,7 @@ class NSIInputPerturbation(Identifier):
             "velocity": vel.provenance,
             "velocity_cutoff_hz": vel.cutoff,
             "denoise_cutoff_hz": denoise_fc,
-            **reconstruction_diagnostics(rec),
+            **rec_diagnostics,
             "force_hold": hold,
             "force_model": "held over each sample (exact ZOH)"
             if hold == "zoh"

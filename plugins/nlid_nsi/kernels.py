@@ -9,7 +9,7 @@ from __future__ import annotations
 import numba
 import numpy as np
 
-__all__ = ["allpole"]
+__all__ = ["allpole", "allpole_lagged"]
 
 
 @numba.njit(cache=True)
@@ -30,3 +30,46 @@ def allpole(x: np.ndarray, den: np.ndarray, ext: np.ndarray) -> None:  # pragma:
             for i in range(1, n + 1):
                 acc -= den[i] * ext[n + t - i, j]
             ext[n + t, j] = acc
+
+
+@numba.njit(cache=True)
+def allpole_lagged(x: np.ndarray, den: np.ndarray, hist: np.ndarray, lagged: np.ndarray) -> None:  # pragma: no cover
+    """All-pole filter ``e = x / den`` of every column, written with its lags ``0..n``.
+
+    ``lagged[t, l k + j] = e_j(t - l)`` for ``l = 0..n`` (``k`` columns,
+    ``n = len(den) - 1``), ``e_j(t) = x[t, j] - sum_{i=1..n} den[i] e_j(t - i)``;
+    ``hist`` holds ``e(-n .. -1)`` on entry (the filter state) and ``e(rows - n
+    .. rows - 1)`` on return, so consecutive blocks continue one another.
+    """
+    rows, k = x.shape
+    n = den.size - 1
+    head = min(n, rows)
+    for t in range(head):  # the first n rows reach into the history
+        for j in range(k):
+            acc = x[t, j]
+            for i in range(1, n + 1):
+                acc -= den[i] * (lagged[t - i, j] if t >= i else hist[n + t - i, j])
+            lagged[t, j] = acc
+            for lag in range(1, n + 1):
+                lagged[t, lag * k + j] = lagged[t - lag, j] if t >= lag else hist[n + t - lag, j]
+    if n == 2:  # the usual order: straight-line recursions, the columns interleaved
+        d1, d2 = den[1], den[2]
+        for t in range(head, rows):
+            for j in range(k):
+                e1 = lagged[t - 1, j]
+                e2 = lagged[t - 2, j]
+                lagged[t, j] = x[t, j] - d1 * e1 - d2 * e2
+                lagged[t, k + j] = e1
+                lagged[t, 2 * k + j] = e2
+    else:
+        for t in range(head, rows):
+            for j in range(k):
+                acc = x[t, j]
+                for i in range(1, n + 1):
+                    acc -= den[i] * lagged[t - i, j]
+                lagged[t, j] = acc
+                for lag in range(1, n + 1):
+                    lagged[t, lag * k + j] = lagged[t - lag, j]
+    for i in range(n):
+        for j in range(k):
+            hist[i, j] = lagged[rows - n + i, j] if rows - n + i >= 0 else hist[rows + i, j]

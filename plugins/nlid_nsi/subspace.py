@@ -322,26 +322,24 @@ def _state_filters(a: np.ndarray, cm: np.ndarray) -> tuple[np.ndarray, list[np.n
 B_BLOCK = 16384
 
 
-def _row_blocks(u: np.ndarray, y: np.ndarray, size: int = B_BLOCK) -> Iterator[tuple[np.ndarray, np.ndarray]]:
-    """``(u, y)`` in consecutive blocks of rows."""
+def _row_blocks(u: np.ndarray, y: np.ndarray, size: int = B_BLOCK) -> Iterator[np.ndarray]:
+    """``[u, y]`` in consecutive blocks of rows (new arrays)."""
     for r0 in range(0, len(y), size):
-        yield u[r0 : r0 + size], y[r0 : r0 + size]
+        yield np.column_stack([u[r0 : r0 + size], y[r0 : r0 + size]])
 
 
-def channel_blocks(base: np.ndarray, t: np.ndarray, size: int = B_BLOCK) -> Iterator[tuple[np.ndarray, np.ndarray]]:
-    """Inputs and output of the channels ``t w`` (``w = base``), in blocks of rows.
+def channel_blocks(base: np.ndarray, t: np.ndarray, size: int = B_BLOCK) -> Iterator[np.ndarray]:
+    """The channels ``t w`` (``w = base``: inputs, then the output) in consecutive blocks of rows.
 
     The mapped channels (``fbar = f + k~1 <z>`` for nsi-ip) are formed one
     block at a time: never a second copy of the record.
     """
-    m = t.shape[0] - 1
     for r0 in range(0, len(base), size):
-        w = base[r0 : r0 + size] @ t.T
-        yield w[:, :m], w[:, m]
+        yield base[r0 : r0 + size] @ t.T
 
 
 def _normal_equations(
-    den: np.ndarray, nums: list[np.ndarray], blocks: Iterable[tuple[np.ndarray, np.ndarray]]
+    den: np.ndarray, nums: list[np.ndarray], blocks: Iterable[np.ndarray]
 ) -> tuple[np.ndarray, np.ndarray, int]:
     """Normal equations of the output-error regression of :func:`estimate_b`, in one pass.
 
@@ -349,12 +347,15 @@ def _normal_equations(
     e_r u_j`` for the inputs, the impulse response ``C A^t e_r`` for the
     initial state. The all-pole part ``e_j = u_j / den`` is run once per input
     (and once for an impulse at ``t = -1``, whose response at ``t >= 0`` is
-    the initial-state regressor), carrying its state from block to block; the
-    regressors are the FIR ``nums_r`` over lags ``0..n`` of those signals. So
-    ``phi^T phi`` and ``phi^T y`` follow from the lag products
-    ``Q[d] = sum_t e(t) e(t - d)^T`` (``d = 0..n``) and ``R[l] = sum_t e(t - l) y(t)``,
-    accumulated per block, plus end corrections over the first and last ``n``
-    samples: no regressor matrix of the record's length is formed.
+    the initial-state regressor), carrying its state from block to block
+    (:func:`nlid_nsi.kernels.allpole_lagged`); the regressors are the FIR
+    ``nums_r`` over lags ``0..n`` of those signals. So ``phi^T phi`` and
+    ``phi^T y`` are a fixed linear map of the Gram of ``[e(t), e(t-1), ..,
+    e(t-n), y(t)]``, accumulated per block: one product per block, no matrix
+    of the record's length.
+
+    ``blocks`` are consecutive blocks of rows ``[u_1 .. u_m, y]`` (new
+    arrays: they are overwritten).
 
     Returns
     -------
@@ -363,54 +364,29 @@ def _normal_equations(
     length
         Number of rows.
     """
-    from .kernels import allpole
+    from .kernels import allpole_lagged
 
     n = len(den) - 1
     taps = np.array(nums)  # (n, n + 1); taps[:, 0] = 0 (no feedthrough)
     den = np.ascontiguousarray(den, dtype=float)
-    ext = q = r = head = last = None
-    total = 0
-    for u, y in blocks:
-        rows, m = u.shape
-        if ext is None:
-            q = np.zeros((n + 1, m + 1, m + 1))
-            r = np.zeros((n + 1, m + 1))
-            ext = np.zeros((n, m + 1))
-            ext[n - 1, m] = 1.0  # the impulse at t = -1: e(-1) = 1 in the last column
-        x = np.zeros((rows, m + 1))
-        x[:, :m] = u
-        new = np.empty((rows + n, m + 1))
-        new[:n] = ext[-n:]
-        allpole(x, den, new)
-        ext = new
-        if head is None:
-            head = last = ext[:n].copy()  # the history e(-n .. -1)
-        if len(head) < 2 * n:  # e(-n .. n-1), for the start correction
-            head = np.concatenate([head, ext[n:]])[: 2 * n]
-        last = np.concatenate([last, ext[n:]])[-2 * n :]  # e(N-2n .. N-1), for the end correction
-        for d in range(n + 1):
-            q[d] += ext[n:].T @ ext[n - d : n - d + rows]
-            r[d] += ext[n - d : n - d + rows].T @ y
+    hist = acc = None
+    total = m = 0
+    for x in blocks:
+        rows, k1 = x.shape
+        m = k1 - 1
+        if hist is None:
+            hist = np.zeros((n, k1))
+            hist[n - 1, m] = 1.0  # the impulse at t = -1: e(-1) = 1 in the last column
+            acc = np.zeros(((n + 1) * k1 + 1, (n + 1) * k1 + 1))
+        lagged = np.empty((rows, (n + 1) * k1 + 1))
+        lagged[:, -1] = x[:, m]
+        x[:, m] = 0.0  # the impulse column's input (the impulse itself is in the history)
+        allpole_lagged(x, den, hist, lagged)
+        acc += blas.dsyrk(1.0, lagged.T, trans=0, lower=0)  # upper triangle of lagged^T lagged (no copy)
         total += rows
-    if total < n:
-        raise ValueError(f"{total} samples are too few for a model of order {n}")
-    # lagged Gram: G[(l, j), (l + d, j')] = sum_{t<N} e_j(t - l) e_j'(t - l - d)
-    #   = Q[d] + sum_{tau=-l}^{-1} e(tau) e(tau - d)^T - sum_{tau=N-l}^{N-1} e(tau) e(tau - d)^T
     k1 = m + 1
-    lag_gram = np.zeros(((n + 1) * k1, (n + 1) * k1))
-    full = head  # e(-n .. n-1): index tau + n
-    for lag in range(n + 1):
-        for d in range(n + 1 - lag):
-            block = q[d].copy()
-            for tau in range(-lag, 0):
-                block += np.outer(full[tau + n], full[tau - d + n])
-            for tau in range(total - lag, total):
-                i0 = tau - (total - 2 * n)  # index into last: e(N-2n .. N-1)
-                block -= np.outer(last[i0], last[i0 - d])
-            lag_gram[lag * k1 : (lag + 1) * k1, (lag + d) * k1 : (lag + d + 1) * k1] = block
-            if d:
-                lag_gram[(lag + d) * k1 : (lag + d + 1) * k1, lag * k1 : (lag + 1) * k1] = block.T
-    lag_rhs = r.reshape(-1)  # R[l] = sum_t e(t - l) y(t): no correction
+    acc = np.triu(acc) + np.triu(acc, 1).T
+    lag_gram, lag_rhs = acc[:-1, :-1], acc[:-1, -1]
     # phi[:, r m + j] = sum_l taps[r, l] e_j(t - l), the initial-state column likewise from e_imp
     k = np.zeros(((n + 1) * k1, n * m + n))
     for rr in range(n):
@@ -444,7 +420,7 @@ def estimate_b(
     noise: NoiseModel | None = None,
     output: int | None = None,
     ir_len: int = 16384,
-    blocks: Iterable[tuple[np.ndarray, np.ndarray]] | None = None,
+    blocks: Iterable[np.ndarray] | None = None,
 ) -> np.ndarray:
     """``B`` (n x m) by least squares of ``y`` on ``C (qI - A)^-1 e_r u_j`` plus an initial state.
 
@@ -462,7 +438,7 @@ def estimate_b(
     ir_len
         Length of the impulse responses used for the noise correction.
     blocks
-        The data as consecutive ``(u, y)`` blocks of rows (e.g.
+        The data as consecutive blocks of rows ``[u, y]`` (new arrays, e.g.
         :func:`channel_blocks`) instead of ``u`` and ``y``.
     """
     n = a.shape[0]
