@@ -34,7 +34,8 @@ class Channels:
     Attributes
     ----------
     base
-        ``(N, c)`` array ``[f, (<z>), -<g_1>.., y]``.
+        ``(N, c)`` array ``[f, (<z>), -<g_1>.., y]``; ``None`` once the samples
+        are no longer needed (nsi-ip drops pass 1's while pass 2 runs).
     means, scales
         Means removed and scales divided out.
     names
@@ -45,7 +46,7 @@ class Channels:
         Noise model (errors-in-variables correction) or ``None``.
     """
 
-    base: np.ndarray
+    base: np.ndarray | None
     means: np.ndarray
     scales: np.ndarray
     names: list[str]
@@ -55,7 +56,7 @@ class Channels:
     @property
     def n_basis(self) -> int:
         """Number of basis-function channels."""
-        return self.base.shape[1] - (3 if self.has_z else 2)
+        return len(self.scales) - (3 if self.has_z else 2)
 
 
 def prepare_channels(
@@ -209,7 +210,7 @@ def _calibrated(func, sigma_v: float):
 
 def perturbation_map(ch: Channels, k_tilde: float) -> np.ndarray:
     """The map ``T`` with ``T [f, <z>, -<g>.., y] = [f + k~1 <z>, -<g>.., y]`` in scaled units (Eq. 13)."""
-    c = ch.base.shape[1]
+    c = len(ch.scales)
     if not ch.has_z:
         return np.eye(c)
     t = np.zeros((c - 1, c))

@@ -320,7 +320,7 @@ def reconstruction(
         # a crossover outside (0, fs/2) is refused by nlid.derivatives.complementary, naming the option
         rec = fuse_motion(z, record.a, record.f, f_held, record.dt, uls, opt["crossover"])
         return rec, None
-    auto = vel.cutoff if vel.differentiate is not None and opt["velocity_cutoff"] is None else None
+    auto = vel.cutoff if vel.differentiate is not None and opt.get("velocity_cutoff") is None else None
     lowpass, fc = denoise_operator(z, record.fs, opt["denoise_cutoff"], auto)
     return reconstruct_motion(z, vel.v, f_held, record.dt, uls, lowpass, vel.differentiate), fc
 

@@ -224,8 +224,11 @@ def subtract_noise(gram: np.ndarray, model: NoiseModel, output: int) -> np.ndarr
     cov = model.lag_covariance(exclude_output=output)
     s = gram.shape[0]
     lmax = min(model.max_lag, s - 1)
-    out = gram.copy()
-    for lag in range(-lmax, lmax + 1):
-        p = np.arange(max(0, -lag), min(s, s - lag))
-        out[p, :, p + lag, :] -= cov[model.max_lag + lag]
+    big, c = model.max_lag, gram.shape[1]
+    cov_t = np.ascontiguousarray(cov.transpose(1, 0, 2)).reshape(c, -1)  # [a, (L + lag) c + b]
+    out = np.array(gram, dtype=float, order="C")
+    rows = out.reshape(s, c, s * c)
+    for p in range(s):  # block row p: out[p, :, q, :] -= cov[L + q - p] for |q - p| <= lmax
+        q0, q1 = max(0, p - lmax), min(s, p + lmax + 1)
+        rows[p, :, q0 * c : q1 * c] -= cov_t[:, (big + q0 - p) * c : (big + q1 - p) * c]
     return out
