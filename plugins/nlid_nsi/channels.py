@@ -34,7 +34,8 @@ class Channels:
     Attributes
     ----------
     base
-        ``(N, c)`` array ``[f, (<z>), -<g_1>.., y]``; ``None`` once the samples
+        ``(N, c)`` array ``[f, (<z>), -<g_1>.., y]`` (column-major: one
+        contiguous column per channel); ``None`` once the samples
         are no longer needed (nsi-ip drops pass 1's while pass 2 runs).
     means, scales
         Means removed and scales divided out.
@@ -119,7 +120,7 @@ def prepare_channels(
         sigma_v = float(np.sqrt(rec.velocity_noise_var))
     funcs = [_identity] if with_z else []
     funcs += [_calibrated(b.func, sigma_v) if b.jumps_in_v and sigma_v > 0 else b.func for b in basis]
-    base = np.empty((n, c))
+    base = np.empty((n, c), order="F")  # one contiguous column per channel
     base[:, 0] = f_held
     inner = base[:, 1 : c - 1]
     signs = [1.0] * (off - 1) + [-1.0] * len(basis)  # the extended inputs are -g_j (Eq. 16)
@@ -136,12 +137,8 @@ def prepare_channels(
                 inner[r0:r1, j] = signs[j] * values[: r1 - r0]
     base[:, c - 1] = np.asarray(z, dtype=float) - shift
     means = base.mean(axis=0)
-    sumsq = np.zeros(c)
-    for r0 in range(0, n, BLOCK):
-        blk = base[r0 : r0 + BLOCK]
-        blk -= means
-        sumsq += np.einsum("ij,ij->j", blk, blk)
-    scales = np.sqrt(sumsq / n)
+    base -= means
+    scales = np.sqrt(np.array([base[:, j] @ base[:, j] for j in range(c)]) / n)
     if np.any(scales == 0):
         names = ["f"] + (["z"] if with_z else []) + [b.name for b in basis] + ["y"]
         flat = [names[i] for i in np.flatnonzero(scales == 0)]
@@ -189,7 +186,7 @@ def _jacobian_sums(
             jac[:, col + 1] = -dv
             col += 2
         jtj += jac.T @ jac
-        jsum += jac.sum(axis=0)
+        jsum += np.ones(len(zb)) @ jac
     return jtj, jsum
 
 

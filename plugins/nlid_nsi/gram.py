@@ -118,13 +118,12 @@ def block_hankel_gram(w: np.ndarray, block_rows: int) -> np.ndarray:
     # block (p, q) is block (p-1, q-1) of the outer products of the stacked edge samples
     tl, hd = w[j:].reshape(-1), w[: s - 1].reshape(-1)  # s - 1 samples each
     step = np.multiply.outer(tl, tl)
-    step -= np.multiply.outer(hd, hd)
+    if len(hd):
+        linalg.blas.dger(-1.0, hd, hd, a=step.T, overwrite_a=True)  # step -= hd hd^T in place (step.T: F order)
     for p in range(1, s):
         r, r0 = slice(p * c, (p + 1) * c), slice((p - 1) * c, p * c)
         np.add(out[r0, (p - 1) * c : (s - 1) * c], step[r0, (p - 1) * c : (s - 1) * c], out=out[r, p * c :])
-    for p in range(s - 1):  # the block-lower half mirrors the upper half
-        r = slice(p * c, (p + 1) * c)
-        out[(p + 1) * c :, r] = out[r, (p + 1) * c :].T
+    mirror_upper(out)  # the block-lower half mirrors the upper half (diagonal blocks are symmetric)
     out /= j
     return out.reshape(s, c, s, c)
 
@@ -192,6 +191,25 @@ def clip_indefinite(gram: np.ndarray, floor: float = 1e-8) -> tuple[np.ndarray, 
     # gg + V diag(low - ev) V^T as a symmetric rank-k update (half the flops of the product)
     root = vec * np.sqrt(low - ev)
     out = linalg.blas.dsyrk(1.0, root, beta=1.0, c=gg, trans=0, lower=0, overwrite_c=1)
-    low_idx = np.tril_indices(len(out), -1)
-    out[low_idx] = out.T[low_idx]
+    mirror_upper(out)
     return out.reshape(shape), True
+
+
+def mirror_upper(a: np.ndarray, block: int = 64) -> None:
+    """Copy the upper triangle of the square matrix ``a`` into its lower triangle, in place."""
+    n = len(a)
+    for r in range(0, n, block):
+        a[r + block :, r : r + block] = a[r : r + block, r + block :].T
+        blk = a[r : r + block, r : r + block]
+        low = _tril(len(blk))
+        blk[low] = blk.T[low]
+
+
+_TRIL: dict[int, tuple[np.ndarray, np.ndarray]] = {}
+
+
+def _tril(n: int) -> tuple[np.ndarray, np.ndarray]:
+    """``np.tril_indices(n, -1)``, cached."""
+    if n not in _TRIL:
+        _TRIL[n] = np.tril_indices(n, -1)
+    return _TRIL[n]

@@ -87,7 +87,7 @@ def interval_means(
     for r0 in range(0, n - 1, block):
         r1 = min(r0 + block, n - 1)
         z0, z1, v0, v1 = z[r0:r1], z[r0 + 1 : r1 + 1], v[r0:r1], v[r0 + 1 : r1 + 1]
-        acc = np.zeros((r1 - r0, len(funcs)))
+        acc = np.zeros((len(funcs), r1 - r0))
         for x, weight in zip(*_GAUSS3, strict=True):
             s = 0.5 * (x + 1.0)
             h00, h10, h01, h11 = 2 * s**3 - 3 * s**2 + 1, s**3 - 2 * s**2 + s, -2 * s**3 + 3 * s**2, s**3 - s**2
@@ -95,8 +95,9 @@ def interval_means(
             zs = h00 * z0 + h10 * dt * v0 + h01 * z1 + h11 * dt * v1
             vs = d00 * (z0 - z1) + d10 * v0 + d11 * v1
             for j, func in enumerate(funcs):
-                acc[:, j] += (0.5 * weight * signs[j]) * func(zs, vs)
-        out[r0:r1] = acc
+                acc[j] += (0.5 * weight * signs[j]) * func(zs, vs)
+        for j in range(len(funcs)):
+            out[r0:r1, j] = acc[j]
     for j, func in enumerate(funcs):
         out[n - 1, j] = signs[j] * func(z[-1:], v[-1:])[0]
     return out

@@ -45,7 +45,7 @@ from scipy import fft as sp_fft
 from scipy import linalg, signal
 from scipy.linalg import blas
 
-from .gram import transform_gram
+from .gram import mirror_upper, transform_gram
 from .noise import NoiseModel
 
 __all__ = ["select_order", "po_moesp", "PerturbedMOESP", "estimate_b", "channel_blocks"]
@@ -139,12 +139,7 @@ def _schur(gram: np.ndarray, drop: int) -> np.ndarray:
     low = linalg.cholesky(gram[:drop, :drop], lower=True, check_finite=False)
     x = linalg.solve_triangular(low, gram[:drop, drop:], lower=True, check_finite=False)
     out = gram[drop:, drop:] - blas.dsyrk(1.0, x, trans=1, lower=0)  # x^T x: upper triangle only
-    n = len(out)
-    for r in range(0, n, 64):  # mirror the upper triangle, 64 rows at a time
-        out[r + 64 :, r : r + 64] = out[r : r + 64, r + 64 :].T
-        blk = out[r : r + 64, r : r + 64]
-        low = np.tril_indices(len(blk), -1)
-        blk[low] = blk.T[low]
+    mirror_upper(out)
     return out
 
 
