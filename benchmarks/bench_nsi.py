@@ -18,6 +18,10 @@ shared: compare before/after in the same session).
 
     python benchmarks/bench_nsi.py               # everything
     python benchmarks/bench_nsi.py --quick       # skip the 10^6-sample runs and nfoursid
+    python benchmarks/bench_nsi.py --profile 122880   # cProfile (CPU time) of one call, top entries
+
+``--profile`` measures whatever ``nlid`` and ``nlid_nsi`` are importable: to
+profile another version put its tree first on ``PYTHONPATH`` (docs/performance.md).
 """
 
 from __future__ import annotations
@@ -186,7 +190,34 @@ def nfoursid_side_by_side(n: int = 16_384, block_rows: int = 100, k_tilde: float
     print(f"    nsi-ip, full method, same record: errors {fmt(errors(full.coefficients))}")
 
 
+def profile(n: int, top: int = 25) -> None:
+    """cProfile of one nsi-ip call (after a warm-up call), timed in CPU seconds; top entries by cumulative time."""
+    import cProfile
+    import io
+    import pstats
+
+    import nlid_nsi
+
+    rec = record(n)
+    model = Model.from_spec(TERMS)
+    ident = NSIInputPerturbation()
+    ident.identify(rec, model)
+    prof = cProfile.Profile(time.process_time)
+    prof.enable()
+    res = ident.identify(rec, model)
+    prof.disable()
+    out = io.StringIO()
+    stats = pstats.Stats(prof, stream=out)
+    stats.sort_stats("cumulative").print_stats(top)
+    print(f"nlid_nsi from {Path(nlid_nsi.__file__).parent}; N = {n:,}; load {os.getloadavg()[0]:.2f}")
+    print(f"timings_s (wall, inside the call): {res.diagnostics['timings_s']}")
+    print(out.getvalue())
+
+
 def main() -> None:
+    if "--profile" in sys.argv:
+        profile(int(sys.argv[sys.argv.index("--profile") + 1]))
+        return
     quick = "--quick" in sys.argv
     rec = record(122_880)
     model = Model.from_spec(TERMS)

@@ -163,9 +163,7 @@ def _basis(term: Term, model: Model) -> Basis:
     jumps_z = term.z == (0, 1) or term.px == (0, 1)
     jumps_v = term.v == (0, 1)
     uses_z = term.z != (0, 0) or term.px != (0, 0) or any(sp[1] == "z" for sp in term.special)
-    return Basis(
-        term.name, _term_func(term, model), term.polynomial_power, jumps_z, jumps_v, uses_z, term.depends_on_v
-    )
+    return Basis(term.name, _term_func(term, model), term.polynomial_power, jumps_z, jumps_v, uses_z, term.depends_on_v)
 
 
 @dataclass(frozen=True)

@@ -509,7 +509,13 @@ class NSIInputPerturbation(Identifier):
         )
 
     def _explicit_failure(
-        self, k: float, lc: np.ndarray, gram: np.ndarray, ch: Channels, dt: float, subspace: PerturbedMOESP | None = None
+        self,
+        k: float,
+        lc: np.ndarray,
+        gram: np.ndarray,
+        ch: Channels,
+        dt: float,
+        subspace: PerturbedMOESP | None = None,
     ) -> str:
         """The message for an explicit k~1 that fails, with the value the search would accept."""
         opt = self.settings
