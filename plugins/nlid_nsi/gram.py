@@ -188,11 +188,12 @@ def clip_indefinite(gram: np.ndarray, floor: float = 1e-8) -> tuple[np.ndarray, 
     low = floor * float(np.trace(gg)) / len(gg)
     # only the eigenpairs below the floor (half the cost of the full decomposition)
     ev, vec = linalg.eigh(gg, subset_by_value=(-np.inf, low), driver="evr", check_finite=False)
-    # gg + V diag(low - ev) V^T as a symmetric rank-k update (half the flops of the product)
+    # gg + V diag(low - ev) V^T as a symmetric rank-k update (half the flops of the product), in place:
+    # gg.T is gg in Fortran order, whose "upper" triangle is gg's lower one
     root = vec * np.sqrt(low - ev)
-    out = linalg.blas.dsyrk(1.0, root, beta=1.0, c=gg, trans=0, lower=0, overwrite_c=1)
-    mirror_upper(out)
-    return out.reshape(shape), True
+    linalg.blas.dsyrk(1.0, root, beta=1.0, c=gg.T, trans=0, lower=0, overwrite_c=1)
+    mirror_upper(gg.T)
+    return gg.reshape(shape), True
 
 
 def mirror_upper(a: np.ndarray, block: int = 64) -> None:
