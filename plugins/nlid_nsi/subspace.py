@@ -342,12 +342,12 @@ def _normal_equations(
     e_r u_j`` for the inputs, the impulse response ``C A^t e_r`` for the
     initial state. The all-pole part ``e_j = u_j / den`` is run once per input
     (and once for an impulse at ``t = -1``, whose response at ``t >= 0`` is
-    the initial-state regressor), carrying its state from block to block
-    (:func:`nlid_nsi.kernels.allpole_lagged`); the regressors are the FIR
-    ``nums_r`` over lags ``0..n`` of those signals. So ``phi^T phi`` and
-    ``phi^T y`` are a fixed linear map of the Gram of ``[e(t), e(t-1), ..,
-    e(t-n), y(t)]``, accumulated per block: one product per block, no matrix
-    of the record's length.
+    the initial-state regressor) by ``scipy.signal.lfilter``, block by block
+    with its state carried over; the regressors are the FIR ``nums_r`` over
+    lags ``0..n`` of those signals. So ``phi^T phi`` and ``phi^T y`` are a
+    fixed linear map of the Gram of ``[e(t), e(t-1), .., e(t-n), y(t)]``,
+    accumulated per block (one BLAS ``syrk``): no matrix of the record's
+    length.
 
     ``blocks`` are consecutive blocks of rows ``[u_1 .. u_m, y]`` (new
     arrays: they are overwritten).
@@ -359,24 +359,27 @@ def _normal_equations(
     length
         Number of rows.
     """
-    from .kernels import allpole_lagged
-
     n = len(den) - 1
     taps = np.array(nums)  # (n, n + 1); taps[:, 0] = 0 (no feedthrough)
-    den = np.ascontiguousarray(den, dtype=float)
-    hist = acc = None
+    hist = zi = acc = None
     total = m = 0
     for x in blocks:
         rows, k1 = x.shape
         m = k1 - 1
         if hist is None:
-            hist = np.zeros((n, k1))
+            hist = np.zeros((n, k1))  # e(-n .. -1)
             hist[n - 1, m] = 1.0  # the impulse at t = -1: e(-1) = 1 in the last column
+            zi = np.zeros((n, k1))
+            zi[:, m] = signal.lfiltic([1.0], den, [1.0])
             acc = np.zeros(((n + 1) * k1 + 1, (n + 1) * k1 + 1))
         lagged = np.empty((rows, (n + 1) * k1 + 1))
         lagged[:, -1] = x[:, m]
-        x[:, m] = 0.0  # the impulse column's input (the impulse itself is in the history)
-        allpole_lagged(x, den, hist, lagged)
+        x[:, m] = 0.0  # the impulse column's input (the impulse itself is in the state)
+        e, zi = signal.lfilter([1.0], den, x, axis=0, zi=zi)
+        ext = np.concatenate([hist, e])  # e(t0 - n .. t0 + rows - 1)
+        for lag in range(n + 1):  # lagged[:, l (m + 1) + j] = e_j(t - l)
+            lagged[:, lag * k1 : (lag + 1) * k1] = ext[n - lag : n - lag + rows]
+        hist = ext[-n:] if n else hist
         acc += blas.dsyrk(1.0, lagged.T, trans=0, lower=0)  # upper triangle of lagged^T lagged (no copy)
         total += rows
     k1 = m + 1
