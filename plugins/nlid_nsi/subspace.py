@@ -314,7 +314,7 @@ def _state_filters(a: np.ndarray, cm: np.ndarray) -> tuple[np.ndarray, list[np.n
 
 
 #: Rows of the data processed at a time by the B step (bounds its temporary memory).
-B_BLOCK = 16384
+B_BLOCK = 65536
 
 
 def _row_blocks(u: np.ndarray, y: np.ndarray, size: int = B_BLOCK) -> Iterator[np.ndarray]:
@@ -376,10 +376,12 @@ def _normal_equations(
         lagged[:, -1] = x[:, m]
         x[:, m] = 0.0  # the impulse column's input (the impulse itself is in the state)
         e, zi = signal.lfilter([1.0], den, x, axis=0, zi=zi)
-        ext = np.concatenate([hist, e])  # e(t0 - n .. t0 + rows - 1)
-        for lag in range(n + 1):  # lagged[:, l (m + 1) + j] = e_j(t - l)
-            lagged[:, lag * k1 : (lag + 1) * k1] = ext[n - lag : n - lag + rows]
-        hist = ext[-n:] if n else hist
+        for lag in range(n + 1):  # lagged[:, l (m + 1) + j] = e_j(t - l), e(t < t0) from the history
+            cols = slice(lag * k1, (lag + 1) * k1)
+            head = min(lag, rows)
+            lagged[:head, cols] = hist[n - lag : n - lag + head]
+            lagged[head:, cols] = e[: rows - head]
+        hist = np.concatenate([hist, e])[-n:] if n else hist
         acc += blas.dsyrk(1.0, lagged.T, trans=0, lower=0)  # upper triangle of lagged^T lagged (no copy)
         total += rows
     k1 = m + 1
