@@ -31,8 +31,11 @@ balance ``theta_1 = mean(f - m a - theta_z z - c_v v - sum theta_j g_j)``.
 Choosing k~1 (``k_tilde = auto``)
     From ``k_start`` in steps of ``k_step`` (the paper steps by 100 N/m). One
     base Gram serves every trial (``fbar`` is a linear map of the base
-    channels; :func:`nlid_nsi.gram.transform_gram`): a trial is one Cholesky
-    and one SVD on a ``search_block_rows`` sub-Gram (~15 ms). The first
+    channels), and its subspace step is prepared once for every k~1
+    (:class:`nlid_nsi.subspace.PerturbedMOESP`: the rows that do not depend on
+    k~1 are eliminated once): a trial on the ``search_block_rows`` sub-Gram
+    then costs ~0.5 ms, the subspace step of a full fit ~2 ms
+    (docs/performance.md). The first
     accepted value is re-checked with the full model, and the search goes on
     if it fails there: on paper-numerical k~1 = 500 = -theta_z makes the true
     ULS ``m s^2 + c s`` (eigenvalues 0 and -5 rad/s), which noise can make

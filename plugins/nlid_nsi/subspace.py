@@ -26,6 +26,11 @@ Order
     test: 7.5 against 6.1). The order is 2 on the paper's example in every
     run; ``order`` overrides the choice.
 
+Many k~1 on one Gram (:class:`PerturbedMOESP`)
+    nsi-ip fits the channels ``T(k~1) w`` for up to ~15 values of k~1 (search,
+    re-checks, ensemble) on three Grams; only the ``fbar`` rows depend on k~1,
+    so the rest of the factorisation is done once per Gram (see the class).
+
 B by least squares in output-error form (D = 0)
     Given ``(A, C)`` the output is linear in ``B`` and the initial state:
     ``y = sum_j C (qI - A)^-1 b_j u_j + C A^k x0``. The MOESP Toeplitz
