@@ -318,8 +318,9 @@ def _state_filters(a: np.ndarray, cm: np.ndarray) -> tuple[np.ndarray, list[np.n
     return den, nums
 
 
-#: Rows of the data processed at a time by the B step (bounds its temporary memory).
-B_BLOCK = 65536
+#: Rows of the data processed at a time by the B step: its temporaries (~1 MB) stay in cache; measured
+#: at 10^6 samples, 4 096-8 192 rows 80-81 ms per call, 16 384 rows 86 ms, 65 536 rows 108 ms.
+B_BLOCK = 8192
 
 
 def _row_blocks(u: np.ndarray, y: np.ndarray, size: int = B_BLOCK) -> Iterator[np.ndarray]:
