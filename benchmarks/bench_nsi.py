@@ -19,6 +19,7 @@ shared: compare before/after in the same session).
     python benchmarks/bench_nsi.py               # everything
     python benchmarks/bench_nsi.py --quick       # skip the 10^6-sample runs and nfoursid
     python benchmarks/bench_nsi.py --profile 122880   # cProfile (CPU time) of one call, top entries
+    python benchmarks/bench_nsi.py --cli-phases 1000000   # nlid identify's steps timed in one process
 
 ``--profile`` measures whatever ``nlid`` and ``nlid_nsi`` are importable: to
 profile another version put its tree first on ``PYTHONPATH`` (docs/performance.md).
@@ -133,6 +134,52 @@ def cli(n: int, repeat: int = 3) -> None:
     )
 
 
+_PHASES = r"""
+import resource, sys, time
+t0, c0 = time.perf_counter(), time.process_time()
+import nlid.cli.main  # noqa: F401 - what the CLI imports
+from nlid import pipeline
+from nlid.io import read_record
+from nlid.registry import default_registry
+default_registry()
+t1, c1 = time.perf_counter(), time.process_time()
+rec = read_record(sys.argv[1])
+t2, c2 = time.perf_counter(), time.process_time()
+core = {}
+complete = pipeline.complete_result
+def timed(*args, **kwargs):
+    s, sc = time.perf_counter(), time.process_time()
+    out = complete(*args, **kwargs)
+    core["t"] = (time.perf_counter() - s, time.process_time() - sc)
+    return out
+pipeline.complete_result = timed
+pipeline.identify(rec, sys.argv[2], "nsi-ip")
+t3, c3 = time.perf_counter(), time.process_time()
+w, c = core["t"]
+rss = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
+print(f"    imports + registry {t1 - t0:.2f} s wall / {c1 - c0:.2f} s CPU; reading {t2 - t1:.2f} / {c2 - c1:.2f}; "
+      f"identify (plugin) {t3 - t2 - w:.2f} / {c3 - c2 - c:.2f}; core post-processing {w:.2f} / {c:.2f}; "
+      f"total {t3 - t0:.2f} / {c3 - c0:.2f}; peak RSS {rss:.0f} MB")
+"""
+
+
+def cli_phases(n: int) -> None:
+    """Where the time of ``nlid identify`` goes: the CLI's steps run in one fresh process, each timed (wall, CPU)."""
+    import tempfile
+
+    with tempfile.TemporaryDirectory() as tmp:
+        path = Path(tmp) / "record.npz"
+        preset = get_preset("paper-numerical")
+        args = ["simulate", "--preset", "paper-numerical", "--seed", "0", "--noise", "0.02"]
+        args += ["--duration", repr(n / preset.fs), "--out", str(path)]
+        subprocess.run([sys.executable, "-m", "nlid.cli.main", *args], check=True, capture_output=True)
+        out = subprocess.run(
+            [sys.executable, "-c", _PHASES, str(path), TERMS], check=True, capture_output=True, text=True
+        )
+    print(f"  nlid identify's steps, N = {n:,} (load {os.getloadavg()[0]:.2f}):")
+    print(out.stdout.rstrip())
+
+
 def nfoursid_side_by_side(n: int = 16_384, block_rows: int = 100, k_tilde: float = 600.0) -> None:
     """The same extended-input problem solved by nfoursid and by nlid_nsi's subspace step."""
     try:
@@ -224,6 +271,9 @@ def main() -> None:
     if "--profile" in sys.argv:
         profile(int(sys.argv[sys.argv.index("--profile") + 1]))
         return
+    if "--cli-phases" in sys.argv:
+        cli_phases(int(sys.argv[sys.argv.index("--cli-phases") + 1]))
+        return
     quick = "--quick" in sys.argv
     rec = record(122_880)
     model = Model.from_spec(TERMS)
@@ -258,6 +308,7 @@ def main() -> None:
         print("whole nlid identify process (fresh child process each):")
         cli(122_880)
         cli(1_000_000)
+        cli_phases(1_000_000)
         print("side by side with nfoursid (both with one BLAS thread):")
         from nlid_nsi.common import blas_threads
 
