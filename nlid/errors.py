@@ -23,6 +23,16 @@ __all__ = [
 ]
 
 
+def excerpt(text: str, position: int | None = None, width: int = 60) -> str:
+    """``repr(text)``, shortened around ``position`` when longer than ``width`` (messages stay one readable line)."""
+    if len(text) <= width:
+        return repr(text)
+    centre = 0 if position is None else position
+    start = max(0, min(centre - width // 2, len(text) - width))
+    piece = text[start : start + width]
+    return f"{'...' if start else ''}{piece!r}{'...' if start + width < len(text) else ''} ({len(text)} characters)"
+
+
 class NlidError(Exception):
     """Base class of every error raised by nlid on purpose."""
 
@@ -53,7 +63,7 @@ class TermError(InputError):
         self.position = position
         self.reason = message
         if text is not None and position is not None:
-            message = f"{message} at character {position + 1} of {text!r}"
+            message = f"{message} at character {position + 1} of {excerpt(text, position)}"
         super().__init__(message)
 
 
