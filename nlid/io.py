@@ -70,7 +70,11 @@ class ColumnExpr:
 
     def evaluate(self, table: Mapping[str, np.ndarray], source: str) -> np.ndarray:
         """Apply the expression to a table of columns/variables."""
-        out = np.array(_lookup(table, self.column, source, column=True), dtype=float)
+        out = _real(_lookup(table, self.column, source, column=True), self.column, source, "column")
+        if sum(1 for n in out.shape if n > 1) > 1:
+            raise DataError(
+                f"column {self.column!r} in {source} is an array of shape {out.shape}; a channel needs one dimension"
+            )
         for factor in self.factors:
             out = out * _scalar(table, factor, source)
         for divisor in self.divisors:
@@ -89,10 +93,24 @@ def _lookup(table: Mapping[str, np.ndarray], name: str, source: str, column: boo
     return np.asarray(table[name])
 
 
+def _real(value: Any, name: str, source: str, what: str) -> np.ndarray:
+    """``value`` as a float array, refusing what is not real numbers (text, cells, structs, complex)."""
+    array = np.asarray(value)
+    kind = array.dtype.kind
+    if kind == "c":
+        raise DataError(f"{what} {name!r} in {source} holds complex numbers; nlid needs real ones (take .real or abs)")
+    if kind not in "biuf":
+        described = {"U": "text", "S": "text", "O": "objects (a cell array or strings)", "V": "a struct"}.get(
+            kind, f"values of type {array.dtype}"
+        )
+        raise DataError(f"{what} {name!r} in {source} holds {described}, not numbers")
+    return np.array(array, dtype=float)
+
+
 def _scalar(table: Mapping[str, np.ndarray], item: str | float, source: str) -> float:
     if isinstance(item, float):
         return item
-    value = np.asarray(_lookup(table, item, source, column=False), dtype=float)
+    value = _real(_lookup(table, item, source, column=False), item, source, "scale factor")
     if value.size != 1:
         raise DataError(f"{item!r} in {source} is used as a scale factor but has {value.size} values")
     return float(value.ravel()[0])
@@ -175,8 +193,10 @@ def read_table(path: str | Path) -> dict[str, np.ndarray]:
         If the file is missing, unreadable or of an unknown type.
     """
     path = Path(path)
+    if path.is_dir():
+        raise DataError(f"{path} is a folder, not a data file")
     if not path.is_file():
-        raise DataError(f"file not found: {path}")
+        raise DataError(f"file not found: {path}" if not path.exists() else f"{path} is not a regular file")
     suffix = path.suffix.lower()
     try:
         if suffix in (".csv", ".txt"):
@@ -303,7 +323,7 @@ def read_record(
         except DataError as exc:
             raise DataError(f"{path}: {exc}") from None
     if fs is None and "fs" in table and np.asarray(table["fs"]).size == 1:
-        fs = float(np.asarray(table["fs"]).ravel()[0])
+        fs = float(_real(table["fs"], "fs", str(path), "variable").ravel()[0])
     if fs is None:
         raise DataError(f"{path}: no time column 't' and no sampling frequency; give fs= or map a time column (columns= with t=NAME)")
     try:

@@ -26,7 +26,7 @@ from typing import Any
 
 import numpy as np
 
-from . import physics
+from . import numerics, physics
 from .errors import IdentificationError, InputError, NlidError, PluginError
 from .identified import IdentifiedModel
 from .interface import Estimate
@@ -227,10 +227,21 @@ def identify(
     elif getattr(identifier, "needs_mass", False):
         raise InputError(f"method {_name(identifier)!r} cannot estimate the mass: give mass= (in kg)")
     extra: dict[str, Any] = {}
-    if model.uses_px and model.px_roots is None:
-        estimate, model, seconds, extra = _px_fixed_point(identifier, record, model, mass, px_tol, px_max_iter)
-    else:
-        estimate, seconds = _run(identifier, record, model, mass)
+    with numerics.collect_warnings() as numerical:
+        try:
+            if model.uses_px and model.px_roots is None:
+                estimate, model, seconds, extra = _px_fixed_point(identifier, record, model, mass, px_tol, px_max_iter)
+            else:
+                estimate, seconds = _run(identifier, record, model, mass)
+        except IdentificationError as exc:
+            failed: IdentificationError | None = exc
+        else:
+            failed = None
+    if failed is not None:
+        if numerical:
+            why = f" (numpy: {numerics.describe_warnings(numerical)}){numerics.overflow_hint(numerical)}"
+            raise IdentificationError(f"{failed}{why}") from None
+        raise failed
     return IdentifiedModel.from_estimate(
         estimate,
         model=model,
@@ -241,4 +252,5 @@ def identify(
         seconds=seconds,
         cutoff=cutoff,
         diagnostics=extra,
+        numerical=numerical,
     )

@@ -8,13 +8,23 @@ from typing import Any
 
 import numpy as np
 
-from ..errors import InputError
+from .. import numerics
+from ..errors import IdentificationError, InputError
 from ..balance import regression_data
 from ..identified import IdentifiedModel
 from ..record import Record
 from ..terms import Model, parse_term
 from .likelihood import build_likelihood, check_identifiable
-from .priors import Prior, PriorError, default_priors, joint_logpdf, parse_prior_assignments
+from .priors import (
+    Normal,
+    Prior,
+    PriorConflictError,
+    PriorError,
+    default_priors,
+    joint_logpdf,
+    parse_prior_assignments,
+    prior_conflicts,
+)
 from .result import Posterior
 from .sampler import MOVES, run_until_converged
 
@@ -135,6 +145,16 @@ class PosteriorSampler:
     ) -> None:
         if others not in OTHERS:
             raise InputError(f"others must be one of {', '.join(OTHERS)}, got {others!r}")
+        if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or not 0 <= int(seed) < 2**63:
+            raise InputError(f"seed must be a non-negative integer, got {seed!r}")
+        if walkers is not None and (isinstance(walkers, bool) or not isinstance(walkers, (int, np.integer)) or walkers < 2):
+            raise InputError(f"walkers must be an integer of at least 2, got {walkers!r}")
+        if isinstance(max_steps, bool) or not isinstance(max_steps, (int, np.integer)) or max_steps < 1:
+            raise InputError(f"max_steps must be a positive integer, got {max_steps!r}")
+        if isinstance(bias_pairs, bool) or not isinstance(bias_pairs, (int, np.integer)) or bias_pairs < 1:
+            raise InputError(f"bias_pairs must be a positive integer, got {bias_pairs!r}")
+        if cutoff is not None and not (numerics.is_finite(cutoff) and float(cutoff) > 0):
+            raise InputError(f"cutoff must be a positive number of Hz, got {cutoff!r}")
         if move not in MOVES:
             raise InputError(f"unknown move {move!r}; choose one of {', '.join(MOVES)}")
         self.params = params
@@ -167,9 +187,37 @@ class PosteriorSampler:
         InputError
             Bad parameters or priors, a prior that excludes the estimate,
             degenerate (collinear) parameters, unknown mass.
+        PriorConflictError
+            A prior lies far from what the data say (:func:`~nlid.bayes.priors.prior_conflicts`).
         ConvergenceError
             The chains did not converge within ``max_steps``.
+        IdentificationError
+            The samples contradict themselves or their priors
+            (:meth:`Posterior.problems`), or a figure is not finite.
         """
+        with numerics.collect_warnings() as caught:
+            try:
+                posterior, prior_sd = self._run(record, fit)
+            except IdentificationError as exc:
+                failed: IdentificationError | None = exc
+            else:
+                failed = None
+        if failed is not None:
+            if caught:
+                raise type(failed)(f"{failed} (numpy: {numerics.describe_warnings(caught)})") from None
+            raise failed
+        problems = posterior.problems(prior_sd)
+        if problems:
+            why = f" (numpy: {numerics.describe_warnings(caught)})" if caught else ""
+            raise IdentificationError(
+                f"the posterior cannot be trusted: {'; '.join(problems)}{why}; the walkers have not explored "
+                "one posterior: check the priors and the model, or sample longer (max_steps=)"
+            )
+        if caught:
+            posterior.warnings = (*posterior.warnings, f"numerical warnings: {numerics.describe_warnings(caught)}")
+        return posterior
+
+    def _run(self, record: Record, fit: IdentifiedModel) -> tuple[Posterior, dict[str, float]]:
         start_time = time.perf_counter()
         if not isinstance(fit, IdentifiedModel):
             raise InputError(f"fit must be the IdentifiedModel nlid.identify returns, got {type(fit).__name__}")
@@ -232,6 +280,12 @@ class PosteriorSampler:
                 lp[good] += lik(theta)
                 return lp
 
+        conflicts = prior_conflicts(names, priors, mean, cov)
+        if conflicts:
+            raise PriorConflictError(
+                f"prior in conflict with the data: {'; '.join(conflicts)}; a posterior between the two would "
+                "describe neither: correct or widen the prior (priors=), or check the model and the data"
+            )
         walkers = self.walkers if self.walkers is not None else max(32, 8 * len(idx))
         chains = run_until_converged(
             log_prob,
@@ -243,6 +297,7 @@ class PosteriorSampler:
             move=self.move,
             names=names,
         )
+        prior_sd = {n: priors[n].sd for n in names if isinstance(priors[n], Normal)}
         return Posterior(
             model=model,
             names=names,
@@ -256,7 +311,7 @@ class PosteriorSampler:
             others=self.others,
             gaussian=(mean, cov),
             data=data,
-        )
+        ), prior_sd
 
 
 def sample_posterior(record: Record, fit: IdentifiedModel, **settings: Any) -> Posterior:
