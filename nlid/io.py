@@ -265,8 +265,13 @@ def _read_sidecar(path: Path) -> dict[str, Any]:
     return {k: data[k] for k in META_KEYS if k in data}
 
 
-def _write_sidecar(record: Record, path: Path) -> None:
+def _check_sidecar(path: Path) -> None:
+    from .outputs import check_sidecar
 
+    check_sidecar(path)
+
+
+def _write_sidecar(record: Record, path: Path) -> None:
     meta = {k: record.meta[k] for k in META_KEYS if k in record.meta}
     meta["force_hold"] = record.force_hold
     sidecar_path(path).write_text(json.dumps(to_jsonable(meta), indent=1, allow_nan=False) + "\n")
@@ -348,6 +353,7 @@ def write_csv(record: Record, path: str | Path, channels: tuple[str, ...] | None
         raise InputError(f"record has no channel {missing[0]!r}")
     frame = pd.DataFrame({"t": record.t, **{c: getattr(record, c) for c in channels}})
     path = Path(path)
+    _check_sidecar(path)
     frame.to_csv(path, index=False, float_format="%.12g")
     _write_sidecar(record, path)
     return path
@@ -356,6 +362,7 @@ def write_csv(record: Record, path: str | Path, channels: tuple[str, ...] | None
 def write_npz(record: Record, path: str | Path) -> Path:
     """Write the channels, ``t`` and ``fs`` to an NPZ file (no pickled objects), and the metadata sidecar."""
     path = Path(path)
+    _check_sidecar(path)
     arrays = {c: getattr(record, c) for c in record.channels}
     np.savez(path, t=record.t, fs=np.array(record.fs), **arrays)
     _write_sidecar(record, path)

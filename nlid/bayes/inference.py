@@ -145,8 +145,7 @@ class PosteriorSampler:
     ) -> None:
         if others not in OTHERS:
             raise InputError(f"others must be one of {', '.join(OTHERS)}, got {others!r}")
-        if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or not 0 <= int(seed) < 2**63:
-            raise InputError(f"seed must be a non-negative integer, got {seed!r}")
+        numerics.check_seed(seed)
         if walkers is not None and (isinstance(walkers, bool) or not isinstance(walkers, (int, np.integer)) or walkers < 2):
             raise InputError(f"walkers must be an integer of at least 2, got {walkers!r}")
         if isinstance(max_steps, bool) or not isinstance(max_steps, (int, np.integer)) or max_steps < 1:

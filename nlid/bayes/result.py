@@ -369,17 +369,30 @@ class Posterior:
         return points
 
     # ------------------------------------------------------------------ files
-    def save(self, out_dir: str | Path, *, figures: bool = True, slices: Sequence[float] | None = None) -> list[Path]:
+    def save(
+        self,
+        out_dir: str | Path,
+        *,
+        figures: bool = True,
+        slices: Sequence[float] | None = None,
+        force: bool = False,
+    ) -> list[Path]:
         """Write the table (CSV), the document (JSON), the samples (NPZ) and the figures (PNG).
 
         Files: ``posterior_table.csv``, ``posterior.json``,
         ``posterior_samples.npz`` (``samples``, ``names``, ``chain``,
         ``log_prob``, ``tau``, ``not_sampled_names``, ``not_sampled_estimates`` and the damping
         bands), ``posterior_corner.png``, ``posterior_trace.png``,
-        ``posterior_damping.png``.
+        ``posterior_damping.png``. nlid writes only into folders it created or
+        that were empty; ``force=True`` writes beside files it did not write,
+        never replacing them (:mod:`nlid.outputs`).
         """
-        out = Path(out_dir)
-        out.mkdir(parents=True, exist_ok=True)
+        from ..outputs import POSTERIOR_OUTPUTS, output_folder
+
+        with output_folder(out_dir, POSTERIOR_OUTPUTS, force=force) as out:
+            return self._save(out, figures, slices)
+
+    def _save(self, out: Path, figures: bool, slices: Sequence[float] | None) -> list[Path]:
         paths = []
         path = out / "posterior_table.csv"
         self.table().to_csv(path, index=False)

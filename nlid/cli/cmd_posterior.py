@@ -96,6 +96,11 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--json", action="store_true", help="print one JSON object instead of a table")
     p.add_argument("--out", metavar="DIR", help="write the table (CSV), JSON, samples (NPZ) and figures (PNG) to DIR")
     p.add_argument("--no-figures", action="store_true", help="with --out, skip the PNG figures")
+    p.add_argument(
+        "--force",
+        action="store_true",
+        help="with --out, write into a folder that holds files nlid did not write (it never replaces them)",
+    )
     p.set_defaults(func=run)
 
 
@@ -143,7 +148,7 @@ def run(args: argparse.Namespace) -> int:
     result = identify(record, model, args.method, mass=args.mass, options=parse_settings(args.set))
     posterior = sampler.run(record, result)
     if args.out:
-        paths = posterior.save(args.out, figures=not args.no_figures, slices=slices)
+        paths = posterior.save(args.out, figures=not args.no_figures, slices=slices, force=args.force)
         print(f"wrote {', '.join(str(p) for p in paths)}", file=sys.stderr)
     if args.json:
         print_json(posterior.to_dict())
