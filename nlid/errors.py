@@ -20,7 +20,21 @@ __all__ = [
     "OptionError",
     "PluginError",
     "IdentificationError",
+    "describe_exception",
+    "PASS_THROUGH",
 ]
+
+#: Exceptions a plugin boundary lets through (the user pressed Ctrl-C): everything else a plugin
+#: raises, ``SystemExit`` included, is reported as that plugin's failure.
+PASS_THROUGH = (KeyboardInterrupt,)
+
+
+def describe_exception(exc: BaseException) -> str:
+    """What a plugin did, in a few words: ``"called sys.exit(3)"`` or ``"raised ValueError: ..."``."""
+    if isinstance(exc, SystemExit):
+        return f"called sys.exit({exc.code!r})" if exc.code is not None else "called sys.exit()"
+    text = str(exc)
+    return f"raised {type(exc).__name__}" + (f": {text}" if text else "")
 
 
 def excerpt(text: str, position: int | None = None, width: int = 60) -> str:

@@ -35,6 +35,7 @@ FLAGS: dict[str, str] = {
     "executor": "--executor",
     "options": "--set",
     "force=True": "--force",
+    "timeout": "--timeout",
 }
 _PARAM = re.compile(r"(?<![\w.-])(" + "|".join(sorted(map(re.escape, FLAGS), key=len, reverse=True)) + r")=(?=[\s),;:]|$)")
 _PARAM_VALUE = re.compile(
