@@ -348,10 +348,20 @@ def _check_finite(where: Where, value: Any) -> None:
         raise where.error(f"expected a finite number, got {value!r}")
 
 
+#: Package folder of the built-in studies (package data; copies of the repository's ``studies/``).
+BUILTIN_PACKAGE_DIR = "studies"
+
+
 def builtin_dirs() -> list[Path]:
-    """Folders searched for built-in studies: the source tree's ``studies/``, then the installed copy."""
-    here = Path(__file__).resolve()
-    return [here.parents[2] / "studies", Path(sys.prefix) / "share" / "nlid" / "studies"]
+    """Folders searched for built-in studies: the package data folder ``nlid/studies``.
+
+    The studies ship inside the package (read with :mod:`importlib.resources`),
+    so every kind of install finds them: a virtual environment, ``pip install
+    --user``, ``pip install --target DIR`` or the source tree.
+    """
+    from importlib.resources import files
+
+    return [Path(str(files("nlid") / BUILTIN_PACKAGE_DIR))]
 
 
 def builtin_studies() -> dict[str, Path]:
