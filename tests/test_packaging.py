@@ -63,11 +63,15 @@ def test_pip_install_target_lists_the_builtin_studies(tmp_path):
     env = {k: v for k, v in os.environ.items() if k != "PYTHONPATH"}
     env["PYTHONPATH"] = str(target)
     where = subprocess.run(
-        [sys.executable, "-c", "import nlid; print(nlid.__file__)"], env=env, capture_output=True, text=True
+        [sys.executable, "-c", "import nlid; print(nlid.__file__)"],
+        env=env,
+        capture_output=True,
+        text=True,
+        cwd=tmp_path,
     )
     assert where.stdout.strip().startswith(str(target)), where.stdout + where.stderr
     listed = subprocess.run(
-        [str(target / "bin" / "nlid"), "study", "list"], env=env, capture_output=True, text=True, timeout=300
+        [str(target / "bin" / "nlid"), "study", "list"], env=env, capture_output=True, text=True, timeout=300, cwd=tmp_path
     )
     assert listed.returncode == 0, listed.stderr
     names = [line.split()[0] for line in listed.stdout.splitlines() if line.strip()]
@@ -78,6 +82,7 @@ def test_pip_install_target_lists_the_builtin_studies(tmp_path):
         capture_output=True,
         text=True,
         timeout=300,
+        cwd=tmp_path,
     )
     assert "unknown study" not in ran.stderr, ran.stderr  # found; refused only for --jobs 0
     assert ran.returncode == 2 and "jobs" in ran.stderr
