@@ -118,12 +118,33 @@ class Preset:
             )
         if n < 64:
             raise InputError(f"preset {self.name!r}: duration x fs = {n:.3g} samples; at least 64 are needed")
+        if not (isinstance(self.x0, (tuple, list)) and len(self.x0) == 2):
+            raise InputError(f"preset {self.name!r}: x0 must be (displacement, velocity), got {self.x0!r}")
         for i, x in enumerate(self.x0):
-            if not math.isfinite(float(x)):
-                raise InputError(f"preset {self.name!r}: x0[{i}] must be finite, got {x!r}")
-        bad = [k for k, v in self.coefficients.items() if not math.isfinite(float(v))]
+            if isinstance(x, bool) or not isinstance(x, numbers.Real) or not math.isfinite(float(x)):
+                raise InputError(f"preset {self.name!r}: x0[{i}] must be a finite number, got {x!r}")
+        bad = [
+            k
+            for k, v in self.coefficients.items()
+            if isinstance(v, bool) or not isinstance(v, numbers.Real) or not math.isfinite(float(v))
+        ]
         if bad:
-            raise InputError(f"preset {self.name!r}: the coefficient of {bad[0]} must be finite")
+            raise InputError(f"preset {self.name!r}: the coefficient of {bad[0]} must be a finite number")
+        for name in ("terms", "reference", "description"):
+            if not isinstance(getattr(self, name), str):
+                raise InputError(f"preset {self.name!r}: {name} must be text, got {getattr(self, name)!r}")
+        if self.excitation not in ("force", "base"):
+            raise InputError(f"preset {self.name!r}: excitation must be 'force' or 'base', got {self.excitation!r}")
+        if self.band is not None:
+            band = self.band
+            ok = isinstance(band, (tuple, list)) and len(band) == 2 and all(
+                isinstance(x, numbers.Real) and not isinstance(x, bool) and math.isfinite(x) for x in band
+            )
+            if not ok or not 0 <= band[0] < band[1] < self.fs / 2:
+                raise InputError(
+                    f"preset {self.name!r}: band must be (low, high) in Hz with 0 <= low < high < fs/2 = "
+                    f"{self.fs / 2:g}, got {band!r}"
+                )
 
     @property
     def n(self) -> int:

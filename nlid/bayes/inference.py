@@ -34,6 +34,19 @@ __all__ = ["PosteriorSampler", "sample_posterior", "select_params"]
 OTHERS = ("fixed", "marginal")
 #: Spread of the initial walker ball, in Gaussian-limit posterior standard deviations.
 START_SPREAD = 0.1
+#: Largest settings accepted (beyond them a run would not finish in any reasonable time).
+MAX_WALKERS = 10_000
+MAX_STEPS = 10_000_000
+MAX_BIAS_PAIRS = 1_000
+MAX_BIAS_ITERATIONS = 100
+#: Highest equation band (Hz).
+MAX_CUTOFF = 1e7
+
+
+def _integer(name: str, value: object, minimum: int, maximum: int) -> int:
+    if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or not minimum <= int(value) <= maximum:
+        raise InputError(f"{name}= must be an integer from {minimum} to {maximum}, got {value!r}")
+    return int(value)
 
 
 def _precision(covariance: np.ndarray) -> np.ndarray:
@@ -146,14 +159,31 @@ class PosteriorSampler:
         if others not in OTHERS:
             raise InputError(f"others must be one of {', '.join(OTHERS)}, got {others!r}")
         numerics.check_seed(seed)
-        if walkers is not None and (isinstance(walkers, bool) or not isinstance(walkers, (int, np.integer)) or walkers < 2):
-            raise InputError(f"walkers must be an integer of at least 2, got {walkers!r}")
-        if isinstance(max_steps, bool) or not isinstance(max_steps, (int, np.integer)) or max_steps < 1:
-            raise InputError(f"max_steps must be a positive integer, got {max_steps!r}")
-        if isinstance(bias_pairs, bool) or not isinstance(bias_pairs, (int, np.integer)) or bias_pairs < 1:
-            raise InputError(f"bias_pairs must be a positive integer, got {bias_pairs!r}")
-        if cutoff is not None and not (numerics.is_finite(cutoff) and float(cutoff) > 0):
-            raise InputError(f"cutoff must be a positive number of Hz, got {cutoff!r}")
+        if walkers is not None:
+            _integer("walkers", walkers, 2, MAX_WALKERS)
+        _integer("max_steps", max_steps, 1, MAX_STEPS)
+        _integer("bias_pairs", bias_pairs, 1, MAX_BIAS_PAIRS)
+        _integer("bias_iterations", bias_iterations, 1, MAX_BIAS_ITERATIONS)
+        if not isinstance(bias_correction, (bool, np.bool_)):
+            raise InputError(f"bias_correction must be true or false, got {bias_correction!r}")
+        if cutoff is not None and not (
+            not isinstance(cutoff, bool) and numerics.is_finite(cutoff) and 0 < float(cutoff) <= MAX_CUTOFF
+        ):
+            raise InputError(f"cutoff must be a positive number of Hz (at most {MAX_CUTOFF:g}), got {cutoff!r}")
+        if noise is not None:
+            if not isinstance(noise, Mapping):
+                raise InputError(f"noise must map channels to standard deviations, e.g. {{'z': 4e-4}}; got {noise!r}")
+            for channel, sd in noise.items():
+                if channel not in ("z", "v"):
+                    raise InputError(f"noise is given for channel {channel!r}; only z and v are corrected")
+                if isinstance(sd, bool) or not numerics.is_finite(sd) or float(sd) < 0:
+                    raise InputError(f"noise on {channel} must be a standard deviation >= 0, got {sd!r}")
+        if isinstance(params, str):
+            if params.strip().lower() not in ("damping", "friction", "all"):
+                Model.from_spec(params, defaults=False)
+        elif not all(isinstance(p, str) for p in params):
+            raise InputError(f"params must be 'damping', 'all' or terms, got {params!r}")
+        parse_prior_assignments(priors)
         if move not in MOVES:
             raise InputError(f"unknown move {move!r}; choose one of {', '.join(MOVES)}")
         self.params = params

@@ -119,10 +119,6 @@ def run(args: argparse.Namespace) -> int:
     from ..bayes.priors import parse_prior_assignments
     from ..terms import Model
 
-    if args.walkers is not None and args.walkers < 2:
-        raise InputError(f"--walkers must be at least 2, got {args.walkers}")
-    if args.bias_pairs < 1:
-        raise InputError(f"--bias-pairs must be at least 1, got {args.bias_pairs}")
     if args.noise_z is not None and not args.noise_z >= 0:
         raise InputError(f"--noise-z must be a non-negative number of metres, got {args.noise_z}")
     slices = _floats(args.slices, "--slices")

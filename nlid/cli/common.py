@@ -21,6 +21,8 @@ FLAGS: dict[str, str] = {
     "params": "--params",
     "priors": "--prior",
     "max_steps": "--steps",
+    "walkers": "--walkers",
+    "bias_pairs": "--bias-pairs",
     "bias_correction=False": "--no-bias-correction",
     "noise": "--noise-level",
     "columns": "--columns",
