@@ -132,7 +132,7 @@ class IdentifiedModel:
         if self.mass is not None:
             mass = float(self.mass)
             if not (np.isfinite(mass) and mass > 0):
-                raise InputError(f"mass must be a positive number of kg, got {self.mass}")
+                raise InputError(f"mass= must be a positive number of kg, got {self.mass}")
             set_(self, "mass", mass)
         set_(self, "modal", tuple(Modal.from_dict(m) for m in self.modal))
         set_(self, "options", freeze(dict(self.options)))

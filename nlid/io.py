@@ -312,6 +312,9 @@ def read_record(
         if channel not in exprs and channel in table and np.asarray(table[channel]).size > 1:
             exprs[channel] = ColumnExpr(channel)
     for required in ("f", "z"):
+        if required not in exprs and required in table:
+            _real(table[required], required, str(path), "column")  # says what it holds if not numbers
+            raise DataError(f"{path}: {required!r} holds a single value, not a column of samples")
         if required not in exprs:
             raise DataError(
                 f"{path}: no column for channel {required!r}; map one with columns= "
@@ -322,7 +325,7 @@ def read_record(
     kwargs: dict[str, Any] = {c: arrays[c] for c in CHANNELS if c in arrays}
     if "t" in arrays:
         if fs is not None:
-            raise InputError("give either a time column or fs, not both")
+            raise InputError("give either a time column or fs=, not both")
         try:
             return Record.from_time(arrays["t"], meta=meta, units=units or {}, **kwargs)
         except DataError as exc:

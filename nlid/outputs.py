@@ -125,39 +125,33 @@ def _legacy_study(folder: Path) -> bool:
     return False
 
 
-def _claim(folder: Path, outputs: Sequence[str], force: bool) -> None:
-    """Check that nlid may write ``outputs`` into ``folder`` and record them in its manifest."""
-    if folder.exists() and not folder.is_dir():
-        raise InputError(f"the output folder {folder} exists and is not a folder")
-    if not folder.exists():
-        try:
-            folder.mkdir(parents=True)
-        except OSError as exc:
-            raise InputError(f"cannot create the output folder {folder}: {exc.strerror or exc}") from None
-        _write_manifest(folder, outputs)
-        return
+def _owned(folder: Path, outputs: Sequence[str], force: bool) -> set[str]:
+    """What nlid owns in an existing ``folder`` if it may write ``outputs`` there; raises otherwise (touches nothing)."""
     manifest = _read_manifest(folder)
     present = sorted(p.name for p in folder.iterdir() if p.name not in _OWN)
-    if manifest is None:
-        owned: set[str] = set()
-        if set(outputs) == set(STUDY_OUTPUTS) and _legacy_study(folder):
-            owned = set(present) & set(STUDY_OUTPUTS)
-        elif present and not force:
-            shown = ", ".join(present[:5]) + (f" and {len(present) - 5} more" if len(present) > 5 else "")
-            raise InputError(
-                f"the output folder {folder} holds files nlid did not write ({shown}); choose a new or empty "
-                "folder, or give force=True to write beside them (nlid never replaces them)"
-            )
-    else:
+    owned: set[str] = set()
+    if manifest is not None:
         owned = {str(e) for e in manifest["entries"]}
+    elif set(outputs) == set(STUDY_OUTPUTS) and _legacy_study(folder):
+        owned = set(present) & set(STUDY_OUTPUTS)
+    elif present and not force:
+        shown = ", ".join(present[:5]) + (f" and {len(present) - 5} more" if len(present) > 5 else "")
+        raise InputError(
+            f"the output folder {folder} holds files nlid did not write ({shown}); choose a new or empty "
+            "folder, or give force=True to write beside them (nlid never replaces them)"
+        )
     foreign = [name for name in outputs if (folder / name).exists() and name not in owned]
     if foreign:
         raise InputError(
             f"the output folder {folder} already holds {', '.join(foreign)}, which nlid did not write and would "
             "replace; move them away or choose another folder"
         )
+    return owned
+
+
+def _record(folder: Path, entries: set[str]) -> None:
     try:
-        _write_manifest(folder, owned | set(outputs))
+        _write_manifest(folder, entries)
     except OSError as exc:
         raise InputError(f"cannot write into the output folder {folder}: {exc.strerror or exc}") from None
 
@@ -222,10 +216,19 @@ def output_folder(folder: str | os.PathLike[str], outputs: Sequence[str], *, for
     path = Path(folder)
     if path.exists() and not path.is_dir():
         raise InputError(f"the output folder {path} exists and is not a folder")
-    if not path.exists():
-        _claim(path, outputs, force)
+    if path.exists():
+        _owned(path, outputs, force)  # refuse before creating anything in a folder that is not ours
+    else:
+        try:
+            path.mkdir(parents=True)
+        except FileExistsError:
+            pass  # created meanwhile by another writer: checked under the lock below
+        except OSError as exc:
+            raise InputError(f"cannot create the output folder {path}: {exc.strerror or exc}") from None
+        else:
+            _record(path, set(outputs))
     with _lock(path):
-        _claim(path, outputs, force)
+        _record(path, _owned(path, outputs, force) | set(outputs))
         yield path
 
 

@@ -247,7 +247,7 @@ def identify(
     if mass is not None:
         mass = float(mass)
         if not (np.isfinite(mass) and mass > 0):
-            raise InputError(f"mass must be a positive number of kg, got {mass}")
+            raise InputError(f"mass= must be a positive number of kg, got {mass}")
     elif getattr(identifier, "needs_mass", False):
         raise InputError(f"method {_name(identifier)!r} cannot estimate the mass: give mass= (in kg)")
     extra: dict[str, Any] = {}
@@ -311,7 +311,7 @@ def _identify_isolated(timeout: float, record: Record, terms: Any, method: Any, 
     from .isolation import describe_exit, run_in_child
 
     if isinstance(timeout, bool) or not numerics.is_finite(timeout) or not 0 < float(timeout) <= MAX_TIMEOUT:
-        raise InputError(f"timeout must be a number of seconds between 0 and {MAX_TIMEOUT:g}, got {timeout!r}")
+        raise InputError(f"timeout= must be a number of seconds between 0 and {MAX_TIMEOUT:g}, got {timeout!r}")
     name = method if isinstance(method, str) else _name(method)
     try:
         outcome = run_in_child(_identify_in_child, (record, terms, method, kwargs), timeout=float(timeout))
