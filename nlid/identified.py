@@ -300,7 +300,8 @@ class IdentifiedModel:
             if not (numerics.is_finite(m.fn_hz) and m.fn_hz > 0 and numerics.is_finite(m.zeta)):
                 out.append(f"the modal parameters at z* = {m.equilibrium:.6g} m are fn = {m.fn_hz} Hz, zeta = {m.zeta}")
         if self.scores is not None:
-            found = check("", {"epsilon": self.scores.eps_percent, "the force residual": self.scores.force_residual_percent})
+            scores = {"epsilon": self.scores.eps_percent, "the force residual": self.scores.force_residual_percent}
+            found = check("", scores)
             out += [found] if found else []
         return out
 

@@ -126,7 +126,10 @@ def _legacy_study(folder: Path) -> bool:
 
 
 def _owned(folder: Path, outputs: Sequence[str], force: bool) -> set[str]:
-    """What nlid owns in an existing ``folder`` if it may write ``outputs`` there; raises otherwise (touches nothing)."""
+    """What nlid owns in an existing ``folder`` if it may write ``outputs`` there; raises otherwise.
+
+    Nothing is created or changed.
+    """
     manifest = _read_manifest(folder)
     present = sorted(p.name for p in folder.iterdir() if p.name not in _OWN)
     owned: set[str] = set()

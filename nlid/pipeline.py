@@ -307,7 +307,9 @@ def _rebuild_error(names: Sequence[str], message: str) -> NlidError:
     return NlidError(message)
 
 
-def _identify_isolated(timeout: float, record: Record, terms: Any, method: Any, kwargs: dict[str, Any]) -> IdentifiedModel:
+def _identify_isolated(
+    timeout: float, record: Record, terms: Any, method: Any, kwargs: dict[str, Any]
+) -> IdentifiedModel:
     from .isolation import describe_exit, run_in_child
 
     if isinstance(timeout, bool) or not numerics.is_finite(timeout) or not 0 < float(timeout) <= MAX_TIMEOUT:

@@ -71,7 +71,12 @@ def test_pip_install_target_lists_the_builtin_studies(tmp_path):
     )
     assert where.stdout.strip().startswith(str(target)), where.stdout + where.stderr
     listed = subprocess.run(
-        [str(target / "bin" / "nlid"), "study", "list"], env=env, capture_output=True, text=True, timeout=300, cwd=tmp_path
+        [str(target / "bin" / "nlid"), "study", "list"],
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=300,
+        cwd=tmp_path,
     )
     assert listed.returncode == 0, listed.stderr
     names = [line.split()[0] for line in listed.stdout.splitlines() if line.strip()]

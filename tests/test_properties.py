@@ -151,7 +151,8 @@ scalars = st.one_of(
 values = st.recursive(
     scalars,
     lambda inner: st.one_of(
-        st.lists(inner, max_size=3), st.dictionaries(st.sampled_from(["z", "v", "a", "q", "duration", "mass"]), inner, max_size=3)
+        st.lists(inner, max_size=3),
+        st.dictionaries(st.sampled_from(["z", "v", "a", "q", "duration", "mass"]), inner, max_size=3),
     ),
     max_leaves=6,
 )

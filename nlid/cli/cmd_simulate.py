@@ -39,7 +39,9 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         metavar="KEY=VALUE",
         help="override a preset parameter (mass, force_rms, fs, g) or a coefficient (e.g. --set 'z^3=8e5')",
     )
-    p.add_argument("--out", required=True, metavar="FILE", help="output file, .csv or .npz (not replaced unless --force)")
+    p.add_argument(
+        "--out", required=True, metavar="FILE", help="output file, .csv or .npz (not replaced unless --force)"
+    )
     p.add_argument("--force", action="store_true", help="replace the output file if it exists")
     p.set_defaults(func=run)
 

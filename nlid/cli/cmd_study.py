@@ -7,7 +7,6 @@ import signal
 import sys
 from pathlib import Path
 
-
 DESCRIPTION = """\
 Run a benchmark study: every identifier of the study on the same data
 (datasets x models x identifiers x repetitions), in parallel, with each

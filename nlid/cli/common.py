@@ -13,7 +13,17 @@ from ..errors import InputError
 from ..interface import to_jsonable
 from ..record import Record
 
-__all__ = ["Parser", "describe_os_error", "parse_settings", "load_data", "print_json", "add_data_arguments", "DATA_HELP", "to_cli", "FLAGS"]
+__all__ = [
+    "Parser",
+    "describe_os_error",
+    "parse_settings",
+    "load_data",
+    "print_json",
+    "add_data_arguments",
+    "DATA_HELP",
+    "to_cli",
+    "FLAGS",
+]
 
 #: Python parameter names in library messages -> the command-line flag that sets them.
 FLAGS: dict[str, str] = {

@@ -16,6 +16,7 @@ from collections.abc import Sequence
 
 from .. import __version__
 from ..errors import IdentificationError, NlidError
+from ..numerics import collect_warnings, describe_warnings
 from . import (
     cmd_discover,
     cmd_identify,
@@ -25,7 +26,6 @@ from . import (
     cmd_study,
     cmd_terms,
 )
-from ..numerics import collect_warnings, describe_warnings
 from .common import Parser, describe_os_error, to_cli
 
 __all__ = ["main", "build_parser", "COMMANDS"]

@@ -333,7 +333,10 @@ def _roots(where: Where, value: Any) -> tuple[float, float] | None:
         return None
     if not isinstance(value, list) or len(value) != 2:
         raise where.error(f"expected two numbers [z-, z+], got {value!r}")
-    return tuple(float((where / f"[{i}]").number(x, minimum=-MAX_POSITION, maximum=MAX_POSITION)) for i, x in enumerate(value))  # type: ignore[return-value]
+    low, high = (
+        float((where / f"[{i}]").number(x, minimum=-MAX_POSITION, maximum=MAX_POSITION)) for i, x in enumerate(value)
+    )
+    return low, high
 
 
 def _check_model(where: Where, model: ModelConfig) -> None:

@@ -30,8 +30,8 @@ from concurrent.futures import wait as wait_futures
 from typing import Any
 
 from ..errors import InputError
-from .plan import Run
 from ..isolation import start_fork_server
+from .plan import Run
 from .worker import kill_children, run_isolated
 
 __all__ = ["LocalExecutor", "DaskExecutor", "make_executor", "default_jobs"]
