@@ -197,6 +197,7 @@ G2_CONFIG = [  # study configs refused before any run, naming file, table and ke
     (["study", "run", "notutf8.toml"], 2, "not UTF-8"),
     (["study", "run", "bad.toml"], 2, "not valid TOML"),
     (["study", "run", "dir.toml"], 2, "is a folder"),
+    (["study", "run", "plugins"], 2, "study file plugins is a folder, not a .toml file"),
     (["study", "run", "missing.toml"], 2, "not found"),
     (["study", "run", "paper-numerica"], 2, "did you mean 'paper-numerical'"),
     (["study", "run", "tiny.toml", "--jobs", "0"], 2, "--jobs must be at least 1"),

@@ -295,11 +295,11 @@ class DiscoveryResult:
 
         return summary_table(self)
 
-    def write_report(self, out_dir: str) -> list:
+    def write_report(self, out_dir: str, *, force: bool = False) -> list:
         """Write the Markdown/HTML report with figures (:func:`nlid.discovery.write_report`)."""
         from .report import write_report
 
-        return write_report(self, out_dir)
+        return write_report(self, out_dir, force=force)
 
     def __repr__(self) -> str:
         added = ", ".join(s.effect for s in self.steps) or "nothing"

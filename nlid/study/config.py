@@ -394,6 +394,8 @@ def resolve_study_path(name_or_path: str | os.PathLike[str]) -> Path:
     """
     text = str(name_or_path)
     path = Path(text).expanduser()
+    if path.is_dir():
+        raise InputError(f"study file {text} is a folder, not a .toml file")
     if path.suffix == ".toml" or os.sep in text or path.is_file():
         if path.is_dir():
             raise InputError(f"study file {text} is a folder, not a .toml file")
