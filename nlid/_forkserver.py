@@ -43,14 +43,20 @@ def _on_parent_death(signum: int, frame: object) -> None:
 
 
 def _in_fork_server() -> bool:
+    """True while ``multiprocessing.forkserver.main`` imports its preload modules (and nowhere else)."""
     import sys
 
-    main = sys.modules.get("__main__")
-    return getattr(main, "__file__", None) is None and "multiprocessing.forkserver" in sys.modules
+    frame = sys._getframe(1)
+    while frame is not None:
+        code = frame.f_code
+        if code.co_name == "main" and code.co_filename.replace("\\", "/").endswith("multiprocessing/forkserver.py"):
+            return True
+        frame = frame.f_back
+    return False
 
 
 _PARENT = int(os.environ.get(PARENT_ENV, "0") or 0)
-if _PARENT and _in_fork_server() and FORKSERVER_ENV not in os.environ:
+if _PARENT and _PARENT != os.getpid() and FORKSERVER_ENV not in os.environ and _in_fork_server():
     os.environ[FORKSERVER_ENV] = str(os.getpid())
     signal.signal(signal.SIGTERM, _on_parent_death)
     die_with_parent(_PARENT, signal.SIGTERM)
