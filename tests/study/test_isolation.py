@@ -95,7 +95,7 @@ def test_a_second_writer_of_a_folder_is_refused_naming_the_first(tmp_path):
 
 def test_study_run_into_a_folder_being_written_exits_2(small_study, registry, tmp_path, capsys):
     study = tmp_path / "s.toml"
-    study.write_text(small_study('["echo"]', repetitions=1, duration=2.0))
+    study.write_text(small_study('["rfs"]', repetitions=1, duration=2.0))
     folder = tmp_path / "out"
     with output_folder(folder, STUDY_OUTPUTS):
         status = main(["study", "run", str(study), "--out", str(folder), "--no-progress"])
