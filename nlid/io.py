@@ -258,7 +258,7 @@ def _read_sidecar(path: Path) -> dict[str, Any]:
         return {}
     try:
         data = json.loads(side.read_text())
-    except (OSError, ValueError) as exc:
+    except (OSError, ValueError, RecursionError) as exc:
         raise DataError(f"cannot read the metadata file {side}: {exc}") from None
     if not isinstance(data, dict):
         raise DataError(f"{side}: expected a JSON object")

@@ -92,7 +92,7 @@ def _read_manifest(folder: Path) -> dict | None:
         return None
     try:
         data = json.loads(path.read_text(encoding="utf-8"))
-    except (OSError, ValueError):
+    except (OSError, ValueError, RecursionError):
         return None
     if not isinstance(data, dict) or not isinstance(data.get("entries"), list):
         return None
@@ -119,7 +119,7 @@ def _legacy_study(folder: Path) -> bool:
     for path in sorted(runs.glob("*.json"))[:1]:
         try:
             data = json.loads(path.read_text(encoding="utf-8"))
-        except (OSError, ValueError):
+        except (OSError, ValueError, RecursionError):
             return False
         return isinstance(data, dict) and "run_id" in data and "digest" in data
     return False
@@ -269,7 +269,7 @@ def check_sidecar(path: str | os.PathLike[str]) -> None:
         return
     try:
         data = json.loads(side.read_text(encoding="utf-8"))
-    except (OSError, ValueError):
+    except (OSError, ValueError, RecursionError):
         data = None
     if not (isinstance(data, dict) and set(data) <= set(META_KEYS)):
         raise InputError(f"{side} exists and was not written by nlid; move it away before writing {Path(path).name}")

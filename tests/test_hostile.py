@@ -161,6 +161,9 @@ def files(tmp_path_factory):
         "[study]\nidentifiers = ['rfs']\n[[datasets]]\npreset = 'paper-numerical'\noverrides = { duration = 2 }\n"
     )
     (d / "dir.toml").mkdir()
+    (d / "deep.toml").write_text("x = " + "[" * 5000 + "]" * 5000 + "\n")
+    frame.to_csv(d / "deep.csv", index=False)
+    (d / "deep.csv.meta.json").write_text("[" * 100000 + "]" * 100000)
     plugins = d / "plugins"
     plugins.mkdir()
     (plugins / "nlid_hostile_plugins.py").write_text(textwrap.dedent(HOSTILE_PLUGINS))
@@ -197,6 +200,7 @@ G2_CONFIG = [  # study configs refused before any run, naming file, table and ke
     (["study", "run", "notutf8.toml"], 2, "not UTF-8"),
     (["study", "run", "bad.toml"], 2, "not valid TOML"),
     (["study", "run", "dir.toml"], 2, "is a folder"),
+    (["study", "run", "deep.toml"], 2, "deep.toml: not usable TOML: arrays or tables nested too deeply"),
     (["study", "run", "plugins"], 2, "study file plugins is a folder, not a .toml file"),
     (["study", "run", "missing.toml"], 2, "not found"),
     (["study", "run", "paper-numerica"], 2, "did you mean 'paper-numerical'"),
@@ -300,6 +304,7 @@ G5_ONE_LINE = [  # tracebacks where one line belongs
     (["identify", "jitter.csv", "--terms", "z^3"], 2, "jitter.csv"),
     (["identify", "flat.csv", "--terms", "z^3"], 2, "flat.csv"),
     (["identify", "folder.csv", "--terms", "z^3"], 2, "is a folder, not a data file"),
+    (["identify", "deep.csv", "--terms", "z^3"], 2, "cannot read the metadata file"),
     (["identify", "missing.csv", "--terms", "z^3"], 2, "file not found"),
     (["identify", "x.csv", "--fs", "100", "--terms", "z^3"], 2, "either a time column or --fs"),
     (["identify", "x.csv", "--terms", "z^3", "--mass", "-1"], 2, "--mass must be a positive"),

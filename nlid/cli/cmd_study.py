@@ -115,7 +115,7 @@ def list_command(args: argparse.Namespace) -> int:
     for name, path in studies.items():
         try:
             description = tomllib.loads(path.read_text()).get("study", {}).get("description", "")
-        except (OSError, UnicodeDecodeError, tomllib.TOMLDecodeError):
+        except (OSError, UnicodeDecodeError, RecursionError, tomllib.TOMLDecodeError):
             description = "(unreadable)"
         print(f"{name:<{width}}  {description}")
     return 0

@@ -459,6 +459,8 @@ def parse_study(
         raw = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
         raise ConfigError(source, "", f"not valid TOML: {exc}") from None
+    except RecursionError:
+        raise ConfigError(source, "", "not usable TOML: arrays or tables nested too deeply") from None
     top = Where(source, "")
     _check_keys(top, raw, _TOP_KEYS)
     at = Where(source, "study")
