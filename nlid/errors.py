@@ -21,6 +21,8 @@ __all__ = [
     "PluginError",
     "IdentificationError",
     "describe_exception",
+    "excerpt",
+    "brief",
     "PASS_THROUGH",
 ]
 
@@ -45,6 +47,12 @@ def excerpt(text: str, position: int | None = None, width: int = 60) -> str:
     start = max(0, min(centre - width // 2, len(text) - width))
     piece = text[start : start + width]
     return f"{'...' if start else ''}{piece!r}{'...' if start + width < len(text) else ''} ({len(text)} characters)"
+
+
+def brief(value: object, width: int = 80) -> str:
+    """``repr(value)``, cut to about ``width`` characters (a huge value stays one readable line)."""
+    text = repr(value)
+    return text if len(text) <= width else f"{text[: width - 20]}... ({len(text)} characters)"
 
 
 class NlidError(Exception):

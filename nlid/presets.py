@@ -39,7 +39,7 @@ from typing import Any
 
 import numpy as np
 
-from .errors import InputError, TermError
+from .errors import InputError, TermError, brief
 from .numerics import check_seed
 from .physics import stiffness_roots
 from .record import Record
@@ -119,7 +119,7 @@ class Preset:
         if n < 64:
             raise InputError(f"preset {self.name!r}: duration x fs = {n:.3g} samples; at least 64 are needed")
         if not (isinstance(self.x0, (tuple, list)) and len(self.x0) == 2):
-            raise InputError(f"preset {self.name!r}: x0 must be (displacement, velocity), got {self.x0!r}")
+            raise InputError(f"preset {self.name!r}: x0 must be (displacement, velocity), got {brief(self.x0)}")
         for i, x in enumerate(self.x0):
             if isinstance(x, bool) or not isinstance(x, numbers.Real) or not math.isfinite(float(x)):
                 raise InputError(f"preset {self.name!r}: x0[{i}] must be a finite number, got {x!r}")
@@ -132,7 +132,7 @@ class Preset:
             raise InputError(f"preset {self.name!r}: the coefficient of {bad[0]} must be a finite number")
         for name in ("terms", "reference", "description"):
             if not isinstance(getattr(self, name), str):
-                raise InputError(f"preset {self.name!r}: {name} must be text, got {getattr(self, name)!r}")
+                raise InputError(f"preset {self.name!r}: {name} must be text, got {brief(getattr(self, name))}")
         if self.excitation not in ("force", "base"):
             raise InputError(f"preset {self.name!r}: excitation must be 'force' or 'base', got {self.excitation!r}")
         if self.band is not None:
@@ -143,7 +143,7 @@ class Preset:
             if not ok or not 0 <= band[0] < band[1] < self.fs / 2:
                 raise InputError(
                     f"preset {self.name!r}: band must be (low, high) in Hz with 0 <= low < high < fs/2 = "
-                    f"{self.fs / 2:g}, got {band!r}"
+                    f"{self.fs / 2:g}, got {brief(band)}"
                 )
 
     @property

@@ -67,7 +67,7 @@ from pathlib import Path
 from typing import Any
 
 from .._frozen import FrozenDict
-from ..errors import InputError, NlidError
+from ..errors import InputError, NlidError, brief
 from ..interface import resolve_options
 from ..io import parse_columns
 from ..pipeline import as_model
@@ -317,7 +317,7 @@ def _check_keys(where: Where, table: Mapping[str, Any], known: tuple[str, ...]) 
 
 def _table(where: Where, value: Any) -> dict[str, Any]:
     if not isinstance(value, Mapping):
-        raise where.error(f"expected a table, got {type(value).__name__} {value!r}")
+        raise where.error(f"expected a table, got {type(value).__name__} {brief(value)}")
     return dict(value)
 
 
@@ -332,7 +332,7 @@ def _roots(where: Where, value: Any) -> tuple[float, float] | None:
     if value is None:
         return None
     if not isinstance(value, list) or len(value) != 2:
-        raise where.error(f"expected two numbers [z-, z+], got {value!r}")
+        raise where.error(f"expected two numbers [z-, z+], got {brief(value)}")
     low, high = (
         float((where / f"[{i}]").number(x, minimum=-MAX_POSITION, maximum=MAX_POSITION)) for i, x in enumerate(value)
     )
@@ -355,7 +355,7 @@ def _check_finite(where: Where, value: Any) -> None:
         for i, v in enumerate(value):
             _check_finite(where / f"[{i}]", v)
     elif isinstance(value, float) and not math.isfinite(value):
-        raise where.error(f"expected a finite number, got {value!r}")
+        raise where.error(f"expected a finite number, got {brief(value)}")
 
 
 #: Package folder of the built-in studies (package data; copies of the repository's ``studies/``).
@@ -489,7 +489,7 @@ def parse_study(
             raise (at / "identifiers").error("an identifier is listed twice")
         identifiers = tuple(wanted)
     else:
-        raise (at / "identifiers").error(f'expected "all" or a list of names, got {wanted!r}')
+        raise (at / "identifiers").error(f'expected "all" or a list of names, got {brief(wanted)}')
 
     at_options = Where(source, "options")
     options_raw = _table(at_options, raw.get("options", {}))
@@ -638,7 +638,7 @@ def _preset_source(where: Where, value: str, entry: dict[str, Any]) -> tuple[Pre
             raise (where / "noise").error("noise is a fraction of the signal's std (0.02 = 2 %)")
     channels_raw = entry.get("channels", list(noise) if isinstance(noise, dict) else ["z"])
     if not isinstance(channels_raw, list) or not all(c in ("z", "v", "a") for c in channels_raw):
-        raise (where / "channels").error(f"expected a list of z, v, a; got {channels_raw!r}")
+        raise (where / "channels").error(f"expected a list of z, v, a; got {brief(channels_raw)}")
     channels = tuple(dict.fromkeys(["z", *channels_raw]))
     if isinstance(noise, dict):
         missing = [c for c in noise if c not in channels]
@@ -746,10 +746,10 @@ def _dataset(where: Where, entry: dict[str, Any], base: Path, reps: int, timeout
 
     freerun = entry.get("freerun", True)
     if not isinstance(freerun, bool):
-        raise (where / "freerun").error(f"expected true or false, got {freerun!r}")
+        raise (where / "freerun").error(f"expected true or false, got {brief(freerun)}")
     slices = entry.get("slices", [])
     if not isinstance(slices, list):
-        raise (where / "slices").error(f"expected a list of positions in m, got {slices!r}")
+        raise (where / "slices").error(f"expected a list of positions in m, got {brief(slices)}")
     slices = tuple(
         float((where / f"slices[{i}]").number(z, minimum=-MAX_POSITION, maximum=MAX_POSITION))
         for i, z in enumerate(slices)
