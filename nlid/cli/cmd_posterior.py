@@ -101,6 +101,11 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--json", action="store_true", help="print one JSON object instead of a table")
     p.add_argument("--out", metavar="DIR", help="write the table (CSV), JSON, samples (NPZ) and figures (PNG) to DIR")
     p.add_argument("--no-figures", action="store_true", help="with --out, skip the PNG figures")
+    p.add_argument(
+        "--force",
+        action="store_true",
+        help="with --out, write into a folder that holds files nlid did not write (it never replaces them)",
+    )
     p.set_defaults(func=run)
 
 
@@ -144,10 +149,6 @@ def run(args: argparse.Namespace) -> int:
     from ..pipeline import as_model
     from ..terms import Model
 
-    if args.walkers is not None and args.walkers < 2:
-        raise InputError(f"--walkers must be at least 2, got {args.walkers}")
-    if args.bias_pairs < 1:
-        raise InputError(f"--bias-pairs must be at least 1, got {args.bias_pairs}")
     if args.noise_z is not None and not args.noise_z >= 0:
         raise InputError(f"--noise-z must be a non-negative number of metres, got {args.noise_z}")
     noise = parse_noise_levels(args.noise_level, args.noise_z)
@@ -182,7 +183,7 @@ def run(args: argparse.Namespace) -> int:
             "or a record at rest"
         ) from None
     if args.out:
-        paths = posterior.save(args.out, figures=not args.no_figures, slices=slices)
+        paths = posterior.save(args.out, figures=not args.no_figures, slices=slices, force=args.force)
         print(f"wrote {', '.join(str(p) for p in paths)}", file=sys.stderr)
     if args.json:
         print_json(posterior.to_dict())

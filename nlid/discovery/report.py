@@ -290,11 +290,21 @@ class _Doc:
         )
 
 
-def write_report(result: DiscoveryResult, out_dir: str | Path) -> list[Path]:
-    """Write the report (see the module docstring) and return the files written."""
+def write_report(result: DiscoveryResult, out_dir: str | Path, *, force: bool = False) -> list[Path]:
+    """Write the report (see the module docstring) and return the files written.
+
+    nlid writes only into folders it created or that were empty; ``force=True``
+    writes beside files it did not write, never replacing them (:mod:`nlid.outputs`).
+    """
+    from ..outputs import DISCOVERY_OUTPUTS, output_folder
+
+    with output_folder(out_dir, DISCOVERY_OUTPUTS, force=force) as out:
+        return _write_report(result, out)
+
+
+def _write_report(result: DiscoveryResult, out: Path) -> list[Path]:
     from .plots import progress_figure, remaining_figure, residual_figure
 
-    out = Path(out_dir)
     figures = out / "figures"
     figures.mkdir(parents=True, exist_ok=True)
     units = result.info.get("units", {})
