@@ -589,7 +589,14 @@ def _pow_d(x, p, s):
             return 1.0, 0.0
         return _sign(x), 0.0
     ax = abs(x)
-    pm = ax ** (p - 1)
+    if p == 1:
+        pm = 1.0
+    elif p == 2:
+        pm = ax
+    elif p == 3:
+        pm = ax * ax
+    else:
+        pm = ax ** (p - 1)
     if s == 1:
         return pm * ax * _sign(x), p * pm
     return pm * ax, p * pm * _sign(x)
@@ -624,58 +631,86 @@ def _special_d(kind, x, c, mult):
     return base * t, d / c, -d * x / (c * c)
 
 
-@numba.njit(cache=True)
-def _terms_d(z, v, parts, special, pxc, memory, g, gz, gv, gs, fac, dfac):
+@numba.njit(cache=True, inline="always")
+def _powers(x, top, out):
+    """``|x|^k`` for ``k = 0..top`` into ``out`` (products in increasing order)."""
+    ax = abs(x)
+    out[0] = 1.0
+    for k in range(1, top + 1):
+        out[k] = out[k - 1] * ax
+
+
+@numba.njit(cache=True, inline="always")
+def _part_d(pw, p, s, sx):
+    """``|x|^p sign(x)^s`` and its derivative (a.e.) from the powers ``pw`` of ``|x|``."""
+    if p == 0:
+        return (sx if s == 1 else 1.0), 0.0
+    if s == 1:
+        return pw[p] * sx, p * pw[p - 1]
+    return pw[p], p * pw[p - 1] * sx
+
+
+@numba.njit(cache=True, inline="always")
+def _terms_d(z, v, parts, special, pxc, memory, top, g, gz, gv, gs, fac, dfac, pz, pv, pp):
     """Every non-memory term's value and derivatives at ``(z, v)``.
 
     Fills ``g[i]``, ``gz[i] = dg_i/dz``, ``gv[i] = dg_i/dv`` and ``gs[i, j]`` (derivative with respect to
-    the scale of special factor ``j``); memory terms get zeros (they act through their states).
+    the scale of special factor ``j``, for the factors the term has); memory terms get zeros (they act
+    through their states). ``top`` holds the largest power of z, v and px(z) any term uses (-1: none).
     """
-    px = ((pxc[0] * z + pxc[1]) * z + pxc[2]) * z + pxc[3]
-    dpx = (3.0 * pxc[0] * z + 2.0 * pxc[1]) * z + pxc[2]
+    sz = _sign(z)
+    sv = _sign(v)
+    _powers(z, top[0], pz)
+    _powers(v, top[1], pv)
+    px = 0.0
+    dpx = 0.0
+    spx = 0.0
+    if top[2] >= 0:
+        px = ((pxc[0] * z + pxc[1]) * z + pxc[2]) * z + pxc[3]
+        dpx = (3.0 * pxc[0] * z + 2.0 * pxc[1]) * z + pxc[2]
+        spx = _sign(px)
+        _powers(px, top[2], pp)
     for i in range(parts.shape[0]):
-        g[i] = 0.0
-        gz[i] = 0.0
-        gv[i] = 0.0
-        for j in range(special.shape[1]):
-            gs[i, j] = 0.0
         if memory[i, 0] != 0.0:
+            g[i] = 0.0
+            gz[i] = 0.0
+            gv[i] = 0.0
             continue
-        val, dz_ = _pow_d(z, parts[i, 0], parts[i, 1])
-        dv_ = 0.0
-        f, fv = _pow_d(v, parts[i, 2], parts[i, 3])
+        val, dz_ = _part_d(pz, parts[i, 0], parts[i, 1], sz)
+        f, fv = _part_d(pv, parts[i, 2], parts[i, 3], sv)
         dz_ *= f
         dv_ = val * fv
         val *= f
         if parts[i, 4] != 0 or parts[i, 5] != 0:
-            f, fp = _pow_d(px, parts[i, 4], parts[i, 5])
+            f, fp = _part_d(pp, parts[i, 4], parts[i, 5], spx)
             dz_ = dz_ * f + val * fp * dpx
             dv_ *= f
             val *= f
-        base = val
-        k = 0
-        for j in range(special.shape[1]):
-            kind = special[i, j, 0]
-            if kind == 0.0:
-                break
-            x = z if special[i, j, 1] == 0.0 else v
-            f, fx, fc = _special_d(kind, x, special[i, j, 2], special[i, j, 3])
-            fac[j] = f
-            dfac[j] = fc
-            if special[i, j, 1] == 0.0:
-                dz_ = dz_ * f + val * fx
-                dv_ *= f
-            else:
-                dv_ = dv_ * f + val * fx
-                dz_ *= f
-            val *= f
-            k += 1
-        for j in range(k):
-            other = base
-            for l in range(k):
-                if l != j:
-                    other *= fac[l]
-            gs[i, j] = other * dfac[j]
+        if special[i, 0, 0] != 0.0:
+            base = val
+            k = 0
+            for j in range(special.shape[1]):
+                kind = special[i, j, 0]
+                if kind == 0.0:
+                    break
+                x = z if special[i, j, 1] == 0.0 else v
+                f, fx, fc = _special_d(kind, x, special[i, j, 2], special[i, j, 3])
+                fac[j] = f
+                dfac[j] = fc
+                if special[i, j, 1] == 0.0:
+                    dz_ = dz_ * f + val * fx
+                    dv_ *= f
+                else:
+                    dv_ = dv_ * f + val * fx
+                    dz_ *= f
+                val *= f
+                k += 1
+            for j in range(k):
+                other = base
+                for l in range(k):
+                    if l != j:
+                        other *= fac[l]
+                gs[i, j] = other * dfac[j]
         g[i] = val
         gz[i] = dz_
         gv[i] = dv_
@@ -695,9 +730,9 @@ def _memory_d(memory, mem_terms, w, dz, ws, mw, mdz, ma, mb):
 
 @numba.njit(cache=True)
 def _accel_d(fk, z, v, ws, Sz, Sv, Sw, inv_m, theta, parts, special, pxc, memory, mem_terms, shape_col,
-             col_mass, sens, g, gz, gv, gs, fac, dfac, out_da):
+             col_mass, sens, top, g, gz, gv, gs, fac, dfac, pz, pv, pp, out_da):
     """Acceleration ``(f - R) / m`` at a stage and (if ``sens``) its derivative for every column."""
-    _terms_d(z, v, parts, special, pxc, memory, g, gz, gv, gs, fac, dfac)
+    _terms_d(z, v, parts, special, pxc, memory, top, g, gz, gv, gs, fac, dfac, pz, pv, pp)
     R = 0.0
     Rz = 0.0
     Rv = 0.0
@@ -759,6 +794,10 @@ def _segment_d(fine, q, dt, mass, theta, parts, special, pxc, memory, mem_terms,
     gs = np.zeros((p, k_max))
     fac = np.zeros(k_max)
     dfac = np.zeros(k_max)
+    _, top = _plan(parts, special)
+    pz = np.zeros(max(top[0], 0) + 1)
+    pv = np.zeros(max(top[1], 0) + 1)
+    pp = np.zeros(max(top[2], 0) + 1)
     Sz = np.zeros(ncol)
     Sv = np.zeros(ncol)
     Sw = np.zeros((M, ncol))
@@ -804,7 +843,7 @@ def _segment_d(fine, q, dt, mass, theta, parts, special, pxc, memory, mem_terms,
             for r in range(M):
                 ws[r] = w[r]
             a1 = _accel_d(fk, z, v, ws, Sz, Sv, Sw, inv_m, theta, parts, special, pxc, memory, mem_terms,
-                          shape_col, col_mass, sens, g, gz, gv, gs, fac, dfac, da1)
+                          shape_col, col_mass, sens, top, g, gz, gv, gs, fac, dfac, pz, pv, pp, da1)
             if sub == 0:
                 out_a[start + k] = a1
                 if sens:
@@ -820,7 +859,7 @@ def _segment_d(fine, q, dt, mass, theta, parts, special, pxc, memory, mem_terms,
                     Sv2[c] = Sv[c] + h2 * da1[c]
                 _memory_sens(Sw, Sz2, Sz, mw, mdz, ma, mb, mem_terms, shape_col, Sws)
             a2 = _accel_d(fk, z2, v2, ws, Sz2, Sv2, Sws, inv_m, theta, parts, special, pxc, memory, mem_terms,
-                          shape_col, col_mass, sens, g, gz, gv, gs, fac, dfac, da2)
+                          shape_col, col_mass, sens, top, g, gz, gv, gs, fac, dfac, pz, pv, pp, da2)
             # stage 3
             z3 = z + h2 * v2
             v3 = v + h2 * a2
@@ -831,7 +870,7 @@ def _segment_d(fine, q, dt, mass, theta, parts, special, pxc, memory, mem_terms,
                     Sv3[c] = Sv[c] + h2 * da2[c]
                 _memory_sens(Sw, Sz3, Sz, mw, mdz, ma, mb, mem_terms, shape_col, Sws)
             a3 = _accel_d(fk, z3, v3, ws, Sz3, Sv3, Sws, inv_m, theta, parts, special, pxc, memory, mem_terms,
-                          shape_col, col_mass, sens, g, gz, gv, gs, fac, dfac, da3)
+                          shape_col, col_mass, sens, top, g, gz, gv, gs, fac, dfac, pz, pv, pp, da3)
             # stage 4
             z4 = z + dt * v3
             v4 = v + dt * a3
@@ -842,7 +881,7 @@ def _segment_d(fine, q, dt, mass, theta, parts, special, pxc, memory, mem_terms,
                     Sv4[c] = Sv[c] + dt * da3[c]
                 _memory_sens(Sw, Sz4, Sz, mw, mdz, ma, mb, mem_terms, shape_col, Sws)
             a4 = _accel_d(fk, z4, v4, ws, Sz4, Sv4, Sws, inv_m, theta, parts, special, pxc, memory, mem_terms,
-                          shape_col, col_mass, sens, g, gz, gv, gs, fac, dfac, da4)
+                          shape_col, col_mass, sens, top, g, gz, gv, gs, fac, dfac, pz, pv, pp, da4)
             z_new = z + h6 * (v + 2.0 * v2 + 2.0 * v3 + v4)
             v_new = v + h6 * (a1 + 2.0 * a2 + 2.0 * a3 + a4)
             _memory_d(memory, mem_terms, w, z_new - z, ws, mw, mdz, ma, mb)
