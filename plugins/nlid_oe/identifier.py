@@ -75,7 +75,7 @@ MIN_SEGMENT = 32
 MIN_SAMPLES = 64
 #: A start model whose free run misses the data by more than this fraction of std(z) (RMS) is first fitted
 #: on short segments (:data:`SHORT_PERIODS` periods of the start model's highest natural frequency).
-DIRECT_LIMIT = 0.1
+DIRECT_LIMIT = 0.02
 #: Largest Jacobian (rows x columns) handled densely (trust-region steps by SVD); beyond it, sparse (LSMR).
 DENSE_LIMIT = 8_000_000
 #: Length of the short segments, in periods of the start model's highest natural frequency.
@@ -95,11 +95,11 @@ def _fastest_frequency(start: Any, record: Record) -> float:
     return float(max(f[int(np.argmax(pxx))], record.fs / z.size))
 
 
-def _shape_selection(text: str, model: Model) -> list[int]:
-    """Indices of the terms whose shape parameters are fitted (option ``shapes``)."""
-    spec = text.strip()
-    if spec.lower() == "none":
+def _shape_selection(text: str | None, model: Model) -> list[int]:
+    """Indices of the terms whose shape parameters are fitted (option ``shapes``; ``None``: none)."""
+    if text is None or text.strip().lower() == "none":
         return []
+    spec = text.strip()
     shaped = [i for i, t in enumerate(model.terms) if t.shapes]
     if spec.lower() == "all":
         return shaped
@@ -126,7 +126,8 @@ class OutputError(Identifier):
     options = (
         Option("init", "str", None, "identifier whose estimate starts the fit (default: the preferred installed one)",
                nullable=True),
-        Option("shapes", "str", "all", "shape parameters to fit: all, none, or a comma-separated list of terms"),
+        Option("shapes", "str", "all", "shape parameters to fit: all, none, or a comma-separated list of terms",
+               nullable=True),
         Option("outputs", "str", "z", "measured channels whose free-run error is minimised",
                choices=("z", "z,v", "z,a", "z,v,a")),
         Option("segment_seconds", "float", None,
