@@ -76,8 +76,10 @@ MIN_SAMPLES = 64
 #: A start model whose free run misses the data by more than this fraction of std(z) (RMS) is first fitted
 #: on short segments (:data:`SHORT_PERIODS` periods of the start model's highest natural frequency).
 DIRECT_LIMIT = 0.02
+#: Most segments of the short-segment stage (longer segments on long records keep its Jacobian dense).
+MAX_SHORT_SEGMENTS = 40
 #: Largest Jacobian (rows x columns) handled densely (trust-region steps by SVD); beyond it, sparse (LSMR).
-DENSE_LIMIT = 8_000_000
+DENSE_LIMIT = 16_000_000
 #: Length of the short segments, in periods of the start model's highest natural frequency.
 SHORT_PERIODS = 5.0
 
@@ -239,6 +241,7 @@ class OutputError(Identifier):
             miss = float(np.sqrt(np.mean(r0[: problem.rows_data] ** 2)))
             if miss > DIRECT_LIMIT:
                 short = int(round(SHORT_PERIODS * record.fs / _fastest_frequency(start, record)))
+                short = max(short, record.n // MAX_SHORT_SEGMENTS)
                 if short < record.n // 2:
                     pre = setup(short, None, None)
                     res = self._solve(pre, method)
