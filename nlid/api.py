@@ -361,6 +361,7 @@ def run_study(
     rerun: bool = False,
     report: bool = True,
     progress: bool | None = None,
+    force: bool = False,
 ) -> StudyOutcome:
     """Run a study (a built-in name such as ``"paper-numerical"`` or a TOML file) and write its report.
 
@@ -381,10 +382,21 @@ def run_study(
         Write ``results.csv``, ``summary.md``, figures and ``report.html``.
     progress
         Show a progress line (default: when stderr is a terminal).
+    force
+        Write into a folder that holds files nlid did not write (never
+        replacing them; see :mod:`nlid.outputs`).
     """
     from .study import load_study, make_executor
     from .study import run_study as _run
 
     config = load_study(study)
     folder = Path(out) if out is not None else Path("nlid-studies") / config.name
-    return _run(config, folder, executor=make_executor(executor, jobs=jobs), rerun=rerun, report=report, progress=progress)
+    return _run(
+        config,
+        folder,
+        executor=make_executor(executor, jobs=jobs),
+        rerun=rerun,
+        report=report,
+        progress=progress,
+        force=force,
+    )

@@ -19,7 +19,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from . import derivatives
-from .errors import DataError
+from .errors import DataError, InputError
 from .record import Record
 from .terms import Model
 
@@ -165,6 +165,10 @@ def regression_data(
         columns and the model only says which channels are needed: for
         callers that evaluate the regressors themselves.
     """
+    if cutoff is not None and not (np.isfinite(cutoff) and 0.0 < float(cutoff) < record.fs / 2.0):
+        raise InputError(
+            f"cutoff must lie between 0 and the Nyquist frequency {record.fs / 2:g} Hz, got {float(cutoff):g}"
+        )
     needs_v = model.uses_velocity
     estimated = not record.is_measured("a") or (needs_v and not record.is_measured("v"))
     prov = {c: record.source_of(c) for c in record.channels}

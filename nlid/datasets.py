@@ -1,14 +1,22 @@
 """Loaders for measured benchmark records (nonlinearbenchmark.org).
 
 The files are not shipped with nlid: they are read from the folder named by
-the environment variable ``NLID_DATA_DIR`` (holding ``emps/`` and
-``silverbox/``). Cite the original authors in any report that uses them.
+the environment variable ``NLID_DATA_DIR`` (holding ``emps/``,
+``silverbox/`` and ``boucwen/``). :data:`BENCHMARKS` lists every known
+benchmark with its source, its files and their SHA-256 checksums (the one
+place they are kept); :func:`check` tells which files are present and intact
+(``nlid data`` prints it). Cite the original authors in any report that uses
+them.
 
 ``emps`` (Janot, Gautier, Brunot 2019)
     Electro-mechanical positioning system in closed loop, 1 kHz, 24 841
     samples. ``f = gtau * vir`` (N, motor force), ``z = qm`` (m). Velocity and
     acceleration are not measured. Reference (IDIM-LS): M = 95.1 kg,
     Fv = 203.5 N s/m, Fc = 20.4 N, offset -3.16 N, residual about 4 %.
+``boucwen`` (Noel & Schoukens 2016)
+    Bouc-Wen hysteretic oscillator, 750 Hz: listed with its files and
+    checksums; no loader yet (its hysteretic force has an internal state,
+    outside the scope of ``R(z, v)`` models).
 ``silverbox`` (Wigren & Schoukens 2013)
     Electronic Duffing oscillator ``m y'' + d y' + (a + b y^2) y = u``;
     ``f = V1``, ``z = V2`` in volts (means removed, as the benchmark notes
@@ -19,7 +27,9 @@ the environment variable ``NLID_DATA_DIR`` (holding ``emps/`` and
 
 from __future__ import annotations
 
+import hashlib
 import os
+from dataclasses import dataclass
 from difflib import get_close_matches
 from pathlib import Path
 
@@ -29,7 +39,22 @@ from .errors import DataError, InputError
 from .io import read_table
 from .record import Record
 
-__all__ = ["DATA_ENV", "data_dir", "load", "DATASETS", "SILVERBOX_FS", "SILVERBOX_ARROW", "BOUC_WEN_REFERENCE", "EMPS_REFERENCE"]
+__all__ = [
+    "DATA_ENV",
+    "data_dir",
+    "load",
+    "DATASETS",
+    "BENCHMARKS",
+    "Benchmark",
+    "DataFile",
+    "FileStatus",
+    "check",
+    "sha256",
+    "SILVERBOX_FS",
+    "SILVERBOX_ARROW",
+    "BOUC_WEN_REFERENCE",
+    "EMPS_REFERENCE",
+]
 
 #: Environment variable naming the data folder.
 DATA_ENV = "NLID_DATA_DIR"
@@ -38,21 +63,182 @@ SILVERBOX_FS = 1e7 / 2**14
 #: Number of samples of the Silverbox "arrow head" (test) section.
 SILVERBOX_ARROW = 40_000
 
-DATASETS = {
-    "emps": "EMPS positioning stage, Coulomb friction (emps/DATA_EMPS.mat)",
-    "silverbox": "Silverbox electronic Duffing oscillator (silverbox/SNLS80mV.mat)",
-    "bouc-wen": "Bouc-Wen hysteretic oscillator (boucwen/train_multisine.mat; part 'sinesweep': the validation set)",
-}
-
-#: The Bouc-Wen benchmark's own model (Noel & Schoukens 2016): m y'' + c y' + k y + z = u,
-#: z' = alpha y' - beta (gamma |y'| z + delta y' |z|) with m = 2 kg, c = 10 N s/m, k = 5e4 N/m,
-#: alpha = 5e4 N/m, beta = 1e3 1/m, gamma = 0.8, delta = -1.1, nu = 1: in nlid's terms
-#: alpha * bouc_wen(beta gamma, beta delta) with w = z / alpha (see nlid.terms.memory).
+#: The Bouc-Wen benchmark's own model (Noel & Schoukens 2016), ``m y'' + c y' + k y + w = u``,
+#: ``w' = alpha y' - beta (gamma |y'| w + delta y' |w|)`` with m = 2 kg, c = 10 N s/m,
+#: k = 5e4 N/m, alpha = 5e4 N/m, beta = 1e3 1/m, gamma = 0.8, delta = -1.1, nu = 1: in nlid's
+#: terms ``alpha * bouc_wen(beta gamma, beta delta)`` with the state ``w / alpha`` (see
+#: :mod:`nlid.terms.memory`).
 BOUC_WEN_REFERENCE = {
     "mass": 2.0,
     "coefficients": {"z": 5e4, "v": 10.0, "bouc_wen(800, -1100)": 5e4},
     "published_rms_error_m": {"pnlss_multisine": 1.2e-5, "neural_block_oriented_multisine": 4.5e-5, "linear": 2e-4},
 }
+
+
+@dataclass(frozen=True)
+class DataFile:
+    """One file of a benchmark: its path under ``$NLID_DATA_DIR``, SHA-256 and content."""
+
+    path: str
+    sha256: str
+    content: str
+
+
+@dataclass(frozen=True)
+class Benchmark:
+    """A measured benchmark nlid knows: where it comes from and the files it expects.
+
+    Attributes
+    ----------
+    name
+        Short name (``dataset:NAME`` when :attr:`loader` is true).
+    title
+        What it is.
+    source
+        Where to get it.
+    citation
+        What to cite.
+    loader
+        Whether :func:`load` reads it.
+    files
+        The files, relative to ``$NLID_DATA_DIR``, with their checksums.
+    """
+
+    name: str
+    title: str
+    source: str
+    citation: str
+    loader: bool
+    files: tuple[DataFile, ...]
+
+
+#: Every known benchmark, its files and their SHA-256 checksums (the only copy of them in nlid).
+BENCHMARKS: dict[str, Benchmark] = {
+    "emps": Benchmark(
+        "emps",
+        "EMPS electro-mechanical positioning system, closed loop, Coulomb and viscous friction, 1 kHz",
+        "nonlinearbenchmark.org, benchmark 'EMPS' (https://www.nonlinearbenchmark.org)",
+        "A. Janot, M. Gautier, M. Brunot, Data set and reference models of EMPS, "
+        "Nonlinear System Identification Benchmarks, 2019",
+        True,
+        (
+            DataFile(
+                "emps/DATA_EMPS.mat",
+                "6cf6814ae14618795da0101aae2bb97ff0c6351b0501b5492751b02b07facf7e",
+                "t, qm (motor position, m), qg, vir (motor voltage), gtau = 35.15 N/V, kp, kv; 24 841 samples",
+            ),
+        ),
+    ),
+    "silverbox": Benchmark(
+        "silverbox",
+        "Silverbox electronic Duffing oscillator (cubic spring), 610.35 Hz",
+        "nonlinearbenchmark.org, benchmark 'Silverbox' (https://www.nonlinearbenchmark.org)",
+        "T. Wigren, J. Schoukens, Three free data sets for development and benchmarking in nonlinear system "
+        "identification, ECC 2013",
+        True,
+        (
+            DataFile(
+                "silverbox/SNLS80mV.mat",
+                "5c7413a52255af0cb4e2f93fb6903beb92b08965ba1e6ad0a6ffedfed8477ed4",
+                "V1 input, V2 output (V), 131 072 samples: arrow head (first 40 000) then odd multisines",
+            ),
+            DataFile(
+                "silverbox/Schroeder80mV.mat",
+                "ec5a9740a4789aa20b9d84f387424c0218e843844807b30b367c218778339fb6",
+                "the same layout with one Schroeder-phase multisine section",
+            ),
+        ),
+    ),
+    "bouc-wen": Benchmark(
+        "bouc-wen",
+        "Bouc-Wen hysteretic oscillator (simulated benchmark), 750 Hz; part 'sinesweep': the validation set",
+        "nonlinearbenchmark.org, benchmark 'Bouc-Wen' (https://www.nonlinearbenchmark.org)",
+        "J.P. Noel, M. Schoukens, Hysteretic benchmark with a dynamic nonlinearity, "
+        "Workshop on Nonlinear System Identification Benchmarks, 2016",
+        True,
+        (
+            DataFile(
+                "boucwen/train_multisine.mat",
+                "2041c7af6bebf47fff5398ba2563e06fc320958c0764f7168b87fcee29a03531",
+                "u force (N), y displacement (m), 40 960 samples (5 multisine periods)",
+            ),
+            DataFile(
+                "boucwen/uval_sinesweep.mat",
+                "2598fff9cae7e83f745d20ef7dcdb2987a41d38501848f04c95014d5d0a44a62",
+                "uval_sinesweep: validation force (N), 153 000 samples",
+            ),
+            DataFile(
+                "boucwen/yval_sinesweep.mat",
+                "b05e2370b0b654f223f331706a8ae1c6b5c4f86df67e7a14d8d7f43415bdb20d",
+                "yval_sinesweep: validation displacement (m), 153 000 samples",
+            ),
+        ),
+    ),
+}
+
+#: The benchmarks :func:`load` reads, with the file it reads.
+DATASETS = {
+    name: f"{b.title.split(',')[0]} ({b.files[0].path})" for name, b in BENCHMARKS.items() if b.loader
+}
+
+
+@dataclass(frozen=True)
+class FileStatus:
+    """What :func:`check` found for one file: ``"ok"``, ``"missing"`` or ``"mismatch"``."""
+
+    benchmark: str
+    file: DataFile
+    path: Path | None
+    status: str
+    found_sha256: str | None = None
+
+
+def sha256(path: str | os.PathLike[str], chunk: int = 1 << 20) -> str:
+    """The SHA-256 hex digest of a file, read in chunks."""
+    digest = hashlib.sha256()
+    with open(path, "rb") as fh:
+        while block := fh.read(chunk):
+            digest.update(block)
+    return digest.hexdigest()
+
+
+def check(folder: str | os.PathLike[str] | None = None, names: list[str] | None = None) -> list[FileStatus]:
+    """Which benchmark files are present under ``folder`` and whether their checksums match.
+
+    Parameters
+    ----------
+    folder
+        The data folder; default ``$NLID_DATA_DIR``. ``None`` with the
+        variable unset (or not a folder) reports every file as missing.
+    names
+        Benchmarks to check (default: all of :data:`BENCHMARKS`).
+
+    Returns
+    -------
+    list of FileStatus
+        One per file, in the order of :data:`BENCHMARKS`.
+    """
+    unknown = [n for n in names or [] if n not in BENCHMARKS]
+    if unknown:
+        raise InputError(f"unknown benchmark {unknown[0]!r}; known: {', '.join(BENCHMARKS)}")
+    if folder is None:
+        value = os.environ.get(DATA_ENV)
+        folder = Path(value).expanduser() if value else None
+    root = Path(folder) if folder is not None else None
+    if root is not None and not root.is_dir():
+        root = None
+    out = []
+    for name, bench in BENCHMARKS.items():
+        if names and name not in names:
+            continue
+        for f in bench.files:
+            path = root / f.path if root is not None else None
+            if path is None or not path.is_file():
+                out.append(FileStatus(name, f, path, "missing"))
+                continue
+            found = sha256(path)
+            out.append(FileStatus(name, f, path, "ok" if found == f.sha256 else "mismatch", found))
+    return out
 
 EMPS_REFERENCE = {"mass": 95.1, "coefficients": {"v": 203.5, "sign(v)": 20.4, "1": -3.16}, "eps_percent": 4.0}
 
@@ -67,7 +253,10 @@ def data_dir() -> Path:
     """
     value = os.environ.get(DATA_ENV)
     if not value:
-        raise DataError(f"set {DATA_ENV} to the folder that holds the measured data (emps/, silverbox/)")
+        raise DataError(
+            f"set {DATA_ENV} to the folder that holds the measured data (emps/, silverbox/, boucwen/; "
+            "'nlid data' or nlid.datasets.check() lists where to get them and what is there)"
+        )
     path = Path(value).expanduser()
     if not path.is_dir():
         raise DataError(f"{DATA_ENV}={value} is not a folder")
@@ -104,7 +293,7 @@ def load(name: str, *, part: str = "all") -> Record:
     if name == "emps":
         if part != "all":
             raise InputError("the emps record has no parts; use part='all'")
-        path = _file("emps/DATA_EMPS.mat")
+        path = _file(BENCHMARKS["emps"].files[0].path)
         table = read_table(path)
         gtau = float(np.asarray(table["gtau"]).ravel()[0])
         return Record.from_time(
@@ -119,19 +308,16 @@ def load(name: str, *, part: str = "all") -> Record:
             },
         )
     if name in ("bouc-wen", "boucwen"):
-        citation = (
-            "J.P. Noel, M. Schoukens, Hysteretic benchmark with a dynamic nonlinearity, "
-            "Nonlinear System Identification Benchmarks, 2016"
-        )
+        citation = BENCHMARKS["bouc-wen"].citation
         if part in ("all", "train", "multisine"):
-            path = _file("boucwen/train_multisine.mat")
+            path = _file(BENCHMARKS["bouc-wen"].files[0].path)
             table = read_table(path)
             u, y = table["u"], table["y"]
             fs = float(np.asarray(table["fs"]).ravel()[0])
         elif part in ("sinesweep", "validation"):
-            path = _file("boucwen/uval_sinesweep.mat")
+            path = _file(BENCHMARKS["bouc-wen"].files[1].path)
             u = read_table(path)["uval_sinesweep"]
-            y = read_table(_file("boucwen/yval_sinesweep.mat"))["yval_sinesweep"]
+            y = read_table(_file(BENCHMARKS["bouc-wen"].files[2].path))["yval_sinesweep"]
             fs = 750.0
         else:
             raise InputError(f"unknown bouc-wen part {part!r}; use train (the multisine) or sinesweep")
@@ -148,7 +334,7 @@ def load(name: str, *, part: str = "all") -> Record:
             },
         )
     if name == "silverbox":
-        path = _file("silverbox/SNLS80mV.mat")
+        path = _file(BENCHMARKS["silverbox"].files[0].path)
         table = read_table(path)
         u = np.asarray(table["V1"], dtype=float).ravel()
         y = np.asarray(table["V2"], dtype=float).ravel()

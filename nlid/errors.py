@@ -20,7 +20,39 @@ __all__ = [
     "OptionError",
     "PluginError",
     "IdentificationError",
+    "describe_exception",
+    "excerpt",
+    "brief",
+    "PASS_THROUGH",
 ]
+
+#: Exceptions a plugin boundary lets through (the user pressed Ctrl-C): everything else a plugin
+#: raises, ``SystemExit`` included, is reported as that plugin's failure.
+PASS_THROUGH = (KeyboardInterrupt,)
+
+
+def describe_exception(exc: BaseException) -> str:
+    """What a plugin did, in a few words: ``"called sys.exit(3)"`` or ``"raised ValueError: ..."``."""
+    if isinstance(exc, SystemExit):
+        return f"called sys.exit({exc.code!r})" if exc.code is not None else "called sys.exit()"
+    text = str(exc)
+    return f"raised {type(exc).__name__}" + (f": {text}" if text else "")
+
+
+def excerpt(text: str, position: int | None = None, width: int = 60) -> str:
+    """``repr(text)``, shortened around ``position`` when longer than ``width`` (messages stay one readable line)."""
+    if len(text) <= width:
+        return repr(text)
+    centre = 0 if position is None else position
+    start = max(0, min(centre - width // 2, len(text) - width))
+    piece = text[start : start + width]
+    return f"{'...' if start else ''}{piece!r}{'...' if start + width < len(text) else ''} ({len(text)} characters)"
+
+
+def brief(value: object, width: int = 80) -> str:
+    """``repr(value)``, cut to about ``width`` characters (a huge value stays one readable line)."""
+    text = repr(value)
+    return text if len(text) <= width else f"{text[: width - 20]}... ({len(text)} characters)"
 
 
 class NlidError(Exception):
@@ -53,7 +85,7 @@ class TermError(InputError):
         self.position = position
         self.reason = message
         if text is not None and position is not None:
-            message = f"{message} at character {position + 1} of {text!r}"
+            message = f"{message} at character {position + 1} of {excerpt(text, position)}"
         super().__init__(message)
 
 

@@ -31,9 +31,9 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from . import physics, scoring
+from . import numerics, physics, scoring
 from ._frozen import FrozenDict, freeze
-from .errors import InputError, NlidError
+from .errors import IdentificationError, InputError, NlidError
 from .interface import Estimate, to_jsonable
 from .physics import Equilibria, Modal
 from .record import Record
@@ -132,7 +132,7 @@ class IdentifiedModel:
         if self.mass is not None:
             mass = float(self.mass)
             if not (np.isfinite(mass) and mass > 0):
-                raise InputError(f"mass must be a positive number of kg, got {self.mass}")
+                raise InputError(f"mass= must be a positive number of kg, got {self.mass}")
             set_(self, "mass", mass)
         set_(self, "modal", tuple(Modal.from_dict(m) for m in self.modal))
         set_(self, "options", freeze(dict(self.options)))
@@ -156,12 +156,17 @@ class IdentifiedModel:
         seconds: float | None = None,
         cutoff: float | None = None,
         diagnostics: Mapping[str, Any] | None = None,
+        numerical: Sequence[str] = (),
     ) -> IdentifiedModel:
         """Complete an identifier's :class:`~nlid.interface.Estimate` (what :func:`nlid.identify` does).
 
         Equilibria and modal parameters come from :mod:`nlid.physics` (modal
         only if the method did not measure its own), the scores on the
         estimation record from :mod:`nlid.scoring` (always from the data).
+        A result with a figure that is not finite (:meth:`problems`) is
+        refused; numpy's runtime warnings never reach the terminal: they are
+        named in that refusal, or, when every figure is finite, in
+        :attr:`warnings`.
 
         Parameters
         ----------
@@ -183,7 +188,44 @@ class IdentifiedModel:
             Equation band (Hz) for the scores.
         diagnostics
             Diagnostics the core adds (e.g. the ``px(z)`` iteration).
+        numerical
+            Runtime warnings collected while the estimate was computed
+            (:func:`nlid.numerics.collect_warnings`).
+
+        Raises
+        ------
+        IdentificationError
+            When a reported figure (coefficient, standard error, mass,
+            equilibrium, natural frequency, damping ratio, epsilon, force
+            residual) is not finite.
         """
+        with numerics.collect_warnings() as caught:
+            draft = cls._complete(estimate, model, record, method, mass, options, seconds, cutoff, diagnostics)
+        found = [*numerical, *caught]
+        problems = draft.problems()
+        if problems:
+            why = f" (numpy: {numerics.describe_warnings(found)}){numerics.overflow_hint(found)}" if found else ""
+            raise IdentificationError(
+                f"the identification by {method!r} cannot be trusted: {'; '.join(problems)}{why}"
+            )
+        if found:
+            note = f"numerical warnings while identifying (the figures are finite): {numerics.describe_warnings(found)}"
+            draft = dataclasses.replace(draft, warnings=(*draft.warnings, note))
+        return draft
+
+    @classmethod
+    def _complete(
+        cls,
+        estimate: Estimate,
+        model: Model,
+        record: Record,
+        method: str,
+        mass: float | None,
+        options: Mapping[str, Any] | None,
+        seconds: float | None,
+        cutoff: float | None,
+        diagnostics: Mapping[str, Any] | None,
+    ) -> IdentifiedModel:
         warnings = list(estimate.warnings)
         if mass is not None:
             used, estimated = float(mass), False
@@ -227,6 +269,41 @@ class IdentifiedModel:
         else:
             warnings.append("epsilon not computed: the mass is unknown")
         return dataclasses.replace(draft, scores=scores, diagnostics=diag, warnings=tuple(warnings))
+
+    def problems(self) -> list[str]:
+        """The reported figures that are not finite, or contradict each other (empty when all is well).
+
+        Checked: coefficients, standard errors (finite, not negative), mass
+        and its standard error, equilibria, natural frequencies (positive),
+        damping ratios, and epsilon and the force residual on the estimation
+        record.
+        """
+        out = []
+        check = numerics.nonfinite
+        found = check("coefficients", self.coefficients)
+        out += [found] if found else []
+        se = dict(self.standard_errors or {})
+        found = check("standard errors", se)
+        out += [found] if found else []
+        negative = [n for n, x in se.items() if numerics.is_finite(x) and x < 0]
+        if negative:
+            out.append(f"standard errors of {', '.join(negative)} are negative")
+        if self.mass_standard_error is not None and not (
+            numerics.is_finite(self.mass_standard_error) and self.mass_standard_error >= 0
+        ):
+            out.append(f"the standard error of the mass is {self.mass_standard_error}")
+        if self.equilibria is not None:
+            bad_eq = [z for z in self.equilibria.all if not numerics.is_finite(z)]
+            if bad_eq:
+                out.append(f"an equilibrium is {bad_eq[0]}")
+        for m in self.modal:
+            if not (numerics.is_finite(m.fn_hz) and m.fn_hz > 0 and numerics.is_finite(m.zeta)):
+                out.append(f"the modal parameters at z* = {m.equilibrium:.6g} m are fn = {m.fn_hz} Hz, zeta = {m.zeta}")
+        if self.scores is not None:
+            scores = {"epsilon": self.scores.eps_percent, "the force residual": self.scores.force_residual_percent}
+            found = check("", scores)
+            out += [found] if found else []
+        return out
 
     # ------------------------------------------------------------------ plain views
     @property

@@ -70,7 +70,11 @@ class ColumnExpr:
 
     def evaluate(self, table: Mapping[str, np.ndarray], source: str) -> np.ndarray:
         """Apply the expression to a table of columns/variables."""
-        out = np.array(_lookup(table, self.column, source, column=True), dtype=float)
+        out = _real(_lookup(table, self.column, source, column=True), self.column, source, "column")
+        if sum(1 for n in out.shape if n > 1) > 1:
+            raise DataError(
+                f"column {self.column!r} in {source} is an array of shape {out.shape}; a channel needs one dimension"
+            )
         for factor in self.factors:
             out = out * _scalar(table, factor, source)
         for divisor in self.divisors:
@@ -89,10 +93,24 @@ def _lookup(table: Mapping[str, np.ndarray], name: str, source: str, column: boo
     return np.asarray(table[name])
 
 
+def _real(value: Any, name: str, source: str, what: str) -> np.ndarray:
+    """``value`` as a float array, refusing what is not real numbers (text, cells, structs, complex)."""
+    array = np.asarray(value)
+    kind = array.dtype.kind
+    if kind == "c":
+        raise DataError(f"{what} {name!r} in {source} holds complex numbers; nlid needs real ones (take .real or abs)")
+    if kind not in "biuf":
+        described = {"U": "text", "S": "text", "O": "objects (a cell array or strings)", "V": "a struct"}.get(
+            kind, f"values of type {array.dtype}"
+        )
+        raise DataError(f"{what} {name!r} in {source} holds {described}, not numbers")
+    return np.array(array, dtype=float)
+
+
 def _scalar(table: Mapping[str, np.ndarray], item: str | float, source: str) -> float:
     if isinstance(item, float):
         return item
-    value = np.asarray(_lookup(table, item, source, column=False), dtype=float)
+    value = _real(_lookup(table, item, source, column=False), item, source, "scale factor")
     if value.size != 1:
         raise DataError(f"{item!r} in {source} is used as a scale factor but has {value.size} values")
     return float(value.ravel()[0])
@@ -175,8 +193,10 @@ def read_table(path: str | Path) -> dict[str, np.ndarray]:
         If the file is missing, unreadable or of an unknown type.
     """
     path = Path(path)
+    if path.is_dir():
+        raise DataError(f"{path} is a folder, not a data file")
     if not path.is_file():
-        raise DataError(f"file not found: {path}")
+        raise DataError(f"file not found: {path}" if not path.exists() else f"{path} is not a regular file")
     suffix = path.suffix.lower()
     try:
         if suffix in (".csv", ".txt"):
@@ -238,15 +258,20 @@ def _read_sidecar(path: Path) -> dict[str, Any]:
         return {}
     try:
         data = json.loads(side.read_text())
-    except (OSError, ValueError) as exc:
+    except (OSError, ValueError, RecursionError) as exc:
         raise DataError(f"cannot read the metadata file {side}: {exc}") from None
     if not isinstance(data, dict):
         raise DataError(f"{side}: expected a JSON object")
     return {k: data[k] for k in META_KEYS if k in data}
 
 
-def _write_sidecar(record: Record, path: Path) -> None:
+def _check_sidecar(path: Path) -> None:
+    from .outputs import check_sidecar
 
+    check_sidecar(path)
+
+
+def _write_sidecar(record: Record, path: Path) -> None:
     meta = {k: record.meta[k] for k in META_KEYS if k in record.meta}
     meta["force_hold"] = record.force_hold
     sidecar_path(path).write_text(json.dumps(to_jsonable(meta), indent=1, allow_nan=False) + "\n")
@@ -287,6 +312,9 @@ def read_record(
         if channel not in exprs and channel in table and np.asarray(table[channel]).size > 1:
             exprs[channel] = ColumnExpr(channel)
     for required in ("f", "z"):
+        if required not in exprs and required in table:
+            _real(table[required], required, str(path), "column")  # says what it holds if not numbers
+            raise DataError(f"{path}: {required!r} holds a single value, not a column of samples")
         if required not in exprs:
             raise DataError(
                 f"{path}: no column for channel {required!r}; map one with columns= "
@@ -297,13 +325,13 @@ def read_record(
     kwargs: dict[str, Any] = {c: arrays[c] for c in CHANNELS if c in arrays}
     if "t" in arrays:
         if fs is not None:
-            raise InputError("give either a time column or fs, not both")
+            raise InputError("give either a time column or fs=, not both")
         try:
             return Record.from_time(arrays["t"], meta=meta, units=units or {}, **kwargs)
         except DataError as exc:
             raise DataError(f"{path}: {exc}") from None
     if fs is None and "fs" in table and np.asarray(table["fs"]).size == 1:
-        fs = float(np.asarray(table["fs"]).ravel()[0])
+        fs = float(_real(table["fs"], "fs", str(path), "variable").ravel()[0])
     if fs is None:
         raise DataError(f"{path}: no time column 't' and no sampling frequency; give fs= or map a time column (columns= with t=NAME)")
     try:
@@ -328,6 +356,7 @@ def write_csv(record: Record, path: str | Path, channels: tuple[str, ...] | None
         raise InputError(f"record has no channel {missing[0]!r}")
     frame = pd.DataFrame({"t": record.t, **{c: getattr(record, c) for c in channels}})
     path = Path(path)
+    _check_sidecar(path)
     frame.to_csv(path, index=False, float_format="%.12g")
     _write_sidecar(record, path)
     return path
@@ -336,6 +365,7 @@ def write_csv(record: Record, path: str | Path, channels: tuple[str, ...] | None
 def write_npz(record: Record, path: str | Path) -> Path:
     """Write the channels, ``t`` and ``fs`` to an NPZ file (no pickled objects), and the metadata sidecar."""
     path = Path(path)
+    _check_sidecar(path)
     arrays = {c: getattr(record, c) for c in record.channels}
     np.savez(path, t=record.t, fs=np.array(record.fs), **arrays)
     _write_sidecar(record, path)

@@ -26,8 +26,8 @@ from typing import Any
 
 import numpy as np
 
-from . import physics
-from .errors import IdentificationError, InputError, NlidError, PluginError
+from . import numerics, physics
+from .errors import PASS_THROUGH, IdentificationError, InputError, NlidError, PluginError, describe_exception
 from .identified import IdentifiedModel
 from .interface import Estimate, refined_terms
 from .physics import Modal
@@ -70,10 +70,10 @@ def _run(identifier: Any, record: Record, model: Model, mass: float | None) -> t
     start = time.perf_counter()
     try:
         estimate = identifier.identify(record, model, mass=mass)
-    except NlidError:
+    except (NlidError, *PASS_THROUGH):
         raise
-    except Exception as exc:  # noqa: BLE001 - a plugin bug is reported by name
-        raise PluginError(f"identifier {name!r} raised {type(exc).__name__}: {exc}") from exc
+    except BaseException as exc:  # noqa: BLE001 - a plugin bug (sys.exit too) is reported by name
+        raise PluginError(f"identifier {name!r} {describe_exception(exc)}") from exc
     elapsed = time.perf_counter() - start
     check_estimate(estimate, model, name, mass)
     return estimate, elapsed
@@ -188,6 +188,7 @@ def identify(
     px_max_iter: int = 30,
     cutoff: float | None = None,
     registry: Registry | None = None,
+    timeout: float | None = None,
 ) -> IdentifiedModel:
     """Identify the coefficients of a model from a record.
 
@@ -215,6 +216,11 @@ def identify(
         Differentiating-filter cut-off (Hz) used by the core for epsilon.
     registry
         Where to find ``method``; default: the installed plugins.
+    timeout
+        Run the identifier in a child process (:func:`nlid.isolation.run_in_child`,
+        as studies do) and stop it after this many seconds: a hanging or
+        crashing identifier becomes one error instead of a hang or a dead
+        process. ``None`` (default) runs it in this process.
 
     Returns
     -------
@@ -229,8 +235,26 @@ def identify(
     PluginError
         The identifier is broken (raised an unexpected exception).
     IdentificationError
-        The identification ran but its answer cannot be trusted.
+        The identification ran but its answer cannot be trusted, or did not
+        finish within ``timeout``.
     """
+    if timeout is not None:
+        return _identify_isolated(
+            timeout,
+            record,
+            terms,
+            method,
+            dict(
+                mass=mass,
+                options=options,
+                without=without,
+                px_roots=px_roots,
+                px_tol=px_tol,
+                px_max_iter=px_max_iter,
+                cutoff=cutoff,
+                registry=registry,
+            ),
+        )
     model = as_model(terms, without=without, px_roots=px_roots)
     if isinstance(method, str):
         identifier = (registry or default_registry()).create(method, options)
@@ -241,16 +265,27 @@ def identify(
     if mass is not None:
         mass = float(mass)
         if not (np.isfinite(mass) and mass > 0):
-            raise InputError(f"mass must be a positive number of kg, got {mass}")
+            raise InputError(f"mass= must be a positive number of kg, got {mass}")
     elif getattr(identifier, "needs_mass", False):
         raise InputError(f"method {_name(identifier)!r} cannot estimate the mass: give mass= (in kg)")
     extra: dict[str, Any] = {}
     given = model
-    if model.uses_px and model.px_roots is None:
-        estimate, model, seconds, extra = _px_fixed_point(identifier, record, model, mass, px_tol, px_max_iter)
-    else:
-        estimate, seconds = _run(identifier, record, model, mass)
-        model = _estimated_model(estimate, model)
+    with numerics.collect_warnings() as numerical:
+        try:
+            if model.uses_px and model.px_roots is None:
+                estimate, model, seconds, extra = _px_fixed_point(identifier, record, model, mass, px_tol, px_max_iter)
+            else:
+                estimate, seconds = _run(identifier, record, model, mass)
+                model = _estimated_model(estimate, model)
+        except IdentificationError as exc:
+            failed: IdentificationError | None = exc
+        else:
+            failed = None
+    if failed is not None:
+        if numerical:
+            why = f" (numpy: {numerics.describe_warnings(numerical)}){numerics.overflow_hint(numerical)}"
+            raise IdentificationError(f"{failed}{why}") from None
+        raise failed
     if model.terms != given.terms:  # the identifier refined shape parameters: say which terms became which
         pairs = refined_terms(given.with_px_roots(model.px_roots), model)
         extra["refined_terms"] = {old: new for old, new in pairs.items() if old != new}
@@ -264,4 +299,57 @@ def identify(
         seconds=seconds,
         cutoff=cutoff,
         diagnostics=extra,
+        numerical=numerical,
     )
+
+
+# --------------------------------------------------------------------------- isolated
+#: Longest time limit of an isolated identification (s): a week.
+MAX_TIMEOUT = 7 * 24 * 3600.0
+
+
+def _identify_in_child(record: Record, terms: Any, method: Any, kwargs: dict[str, Any]) -> tuple:
+    """The child's side of :func:`_identify_isolated`: the result, or the error's class names and message."""
+    try:
+        return ("ok", identify(record, terms, method, **kwargs))
+    except PASS_THROUGH:
+        raise
+    except NlidError as exc:
+        return ("error", [c.__name__ for c in type(exc).__mro__], str(exc))
+    except BaseException as exc:  # noqa: BLE001 - reported in the parent as one line
+        return ("error", ["PluginError"], f"identification failed in its child process: {describe_exception(exc)}")
+
+
+def _rebuild_error(names: Sequence[str], message: str) -> NlidError:
+    from . import errors
+
+    for name in names:
+        cls = getattr(errors, name, None)
+        if isinstance(cls, type) and issubclass(cls, NlidError) and cls not in (errors.TermError,):
+            return cls(message)
+    return NlidError(message)
+
+
+def _identify_isolated(
+    timeout: float, record: Record, terms: Any, method: Any, kwargs: dict[str, Any]
+) -> IdentifiedModel:
+    from .isolation import describe_exit, run_in_child
+
+    if isinstance(timeout, bool) or not numerics.is_finite(timeout) or not 0 < float(timeout) <= MAX_TIMEOUT:
+        raise InputError(f"timeout= must be a number of seconds between 0 and {MAX_TIMEOUT:g}, got {timeout!r}")
+    name = method if isinstance(method, str) else _name(method)
+    try:
+        outcome = run_in_child(_identify_in_child, (record, terms, method, kwargs), timeout=float(timeout))
+    except RuntimeError as exc:
+        raise InputError(f"cannot isolate the identification (timeout=): {exc}") from None
+    if outcome.status == "timeout":
+        raise IdentificationError(
+            f"identifier {name!r} did not finish within the time limit of {float(timeout):g} s and was stopped "
+            "(raise timeout=)"
+        )
+    if outcome.status == "died":
+        raise PluginError(f"identifier {name!r} crashed: its process ended with {describe_exit(outcome.exitcode)}")
+    kind, *rest = outcome.value
+    if kind == "ok":
+        return rest[0]
+    raise _rebuild_error(rest[0], rest[1])

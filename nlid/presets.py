@@ -31,6 +31,7 @@ seed does not depend on which channels are written or how noisy they are.
 from __future__ import annotations
 
 import math
+import numbers
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, replace
 from difflib import get_close_matches
@@ -38,7 +39,8 @@ from typing import Any
 
 import numpy as np
 
-from .errors import InputError
+from .errors import InputError, TermError, brief
+from .numerics import check_seed
 from .physics import stiffness_roots
 from .record import Record
 from .simulation import random_force, simulate
@@ -116,12 +118,33 @@ class Preset:
             )
         if n < 64:
             raise InputError(f"preset {self.name!r}: duration x fs = {n:.3g} samples; at least 64 are needed")
+        if not (isinstance(self.x0, (tuple, list)) and len(self.x0) == 2):
+            raise InputError(f"preset {self.name!r}: x0 must be (displacement, velocity), got {brief(self.x0)}")
         for i, x in enumerate(self.x0):
-            if not math.isfinite(float(x)):
-                raise InputError(f"preset {self.name!r}: x0[{i}] must be finite, got {x!r}")
-        bad = [k for k, v in self.coefficients.items() if not math.isfinite(float(v))]
+            if isinstance(x, bool) or not isinstance(x, numbers.Real) or not math.isfinite(float(x)):
+                raise InputError(f"preset {self.name!r}: x0[{i}] must be a finite number, got {x!r}")
+        bad = [
+            k
+            for k, v in self.coefficients.items()
+            if isinstance(v, bool) or not isinstance(v, numbers.Real) or not math.isfinite(float(v))
+        ]
         if bad:
-            raise InputError(f"preset {self.name!r}: the coefficient of {bad[0]} must be finite")
+            raise InputError(f"preset {self.name!r}: the coefficient of {bad[0]} must be a finite number")
+        for name in ("terms", "reference", "description"):
+            if not isinstance(getattr(self, name), str):
+                raise InputError(f"preset {self.name!r}: {name} must be text, got {brief(getattr(self, name))}")
+        if self.excitation not in ("force", "base"):
+            raise InputError(f"preset {self.name!r}: excitation must be 'force' or 'base', got {self.excitation!r}")
+        if self.band is not None:
+            band = self.band
+            ok = isinstance(band, (tuple, list)) and len(band) == 2 and all(
+                isinstance(x, numbers.Real) and not isinstance(x, bool) and math.isfinite(x) for x in band
+            )
+            if not ok or not 0 <= band[0] < band[1] < self.fs / 2:
+                raise InputError(
+                    f"preset {self.name!r}: band must be (low, high) in Hz with 0 <= low < high < fs/2 = "
+                    f"{self.fs / 2:g}, got {brief(band)}"
+                )
 
     @property
     def n(self) -> int:
@@ -172,14 +195,25 @@ class Preset:
         if "coefficients" in new:
             model = Model.from_spec(new.get("terms", self.terms))
             for key, value in dict(new.pop("coefficients")).items():
-                coeffs[model.terms[model.index(key)].name] = float(value)
+                try:
+                    name = model.terms[model.index(key)].name
+                except TermError:
+                    hint = get_close_matches(str(key), sorted(allowed), n=1)
+                    raise InputError(
+                        f"{key!r} is neither a preset parameter"
+                        + (f" (did you mean {hint[0]!r}?)" if hint else "")
+                        + f" ({', '.join(sorted(allowed - {'coefficients'}))}) nor a term of the model ({model})"
+                    ) from None
+                if isinstance(value, bool) or not isinstance(value, numbers.Real):
+                    raise InputError(f"the coefficient of {name} must be a number, got {value!r}")
+                coeffs[name] = float(value)
         if ("mass" in new or "g" in new) and "1" not in dict(overrides.get("coefficients", {})):
             coeffs["1"] = float(new.get("mass", self.mass)) * float(new.get("g", self.g))
         return replace(self, coefficients=coeffs, **new)
 
     def force(self, seed: int) -> np.ndarray:
         """The force record of a seed (N)."""
-        streams = np.random.SeedSequence(seed).spawn(4)
+        streams = np.random.SeedSequence(check_seed(seed)).spawn(4)
         return random_force(self.n, self.fs, self.force_rms, np.random.default_rng(streams[0]), self.band)
 
     def simulate(
@@ -208,6 +242,7 @@ class Preset:
             With ``meta`` holding ``mass``, ``g``, ``source``, ``truth``,
             ``seed`` and ``noise``.
         """
+        check_seed(seed)
         channels = tuple(dict.fromkeys(("z", *channels)))
         for c in channels:
             if c not in RESPONSE_CHANNELS:
@@ -222,7 +257,7 @@ class Preset:
         if any(not (0.0 <= x < 10.0) or not np.isfinite(x) for x in levels.values()):
             raise InputError(f"noise levels must be fractions >= 0 (0.02 = 2 %), got {levels}")
         model = self.model()
-        streams = np.random.SeedSequence(seed).spawn(4)
+        streams = np.random.SeedSequence(check_seed(seed)).spawn(4)
         f = random_force(self.n, self.fs, self.force_rms, np.random.default_rng(streams[0]), self.band)
         z, v, a = simulate(model, dict(self.coefficients), self.mass, f, self.fs, self.x0)
         exact = {"z": z, "v": v, "a": a}

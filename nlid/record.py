@@ -35,6 +35,7 @@ import numpy as np
 from scipy import signal
 
 from . import derivatives
+from ._frozen import FrozenDict
 from .errors import DataError, InputError
 
 __all__ = ["Record", "CHANNELS", "MIN_SAMPLES", "TIME_TOLERANCE", "DEFAULT_UNITS"]
@@ -50,7 +51,8 @@ DEFAULT_UNITS: Mapping[str, str] = MappingProxyType({"f": "N", "z": "m", "v": "m
 
 
 def _freeze(mapping: Mapping[str, Any] | None) -> Mapping[str, Any]:
-    return MappingProxyType(dict(mapping or {}))
+    """A read-only copy that pickles (records cross process boundaries: studies, ``identify(timeout=)``)."""
+    return FrozenDict(dict(mapping or {}))
 
 
 @dataclass(frozen=True, eq=False)

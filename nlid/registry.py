@@ -23,7 +23,7 @@ from typing import Any
 import pluggy
 
 from . import hookspecs
-from .errors import InputError, PluginError
+from .errors import PASS_THROUGH, InputError, NlidError, PluginError, describe_exception
 from .interface import Option
 
 __all__ = ["ENTRY_POINT_GROUP", "Registry", "plugin_manager", "load_registry", "default_registry", "check_contract"]
@@ -59,8 +59,10 @@ def plugin_manager(
         try:
             plugin = ep.load()
             pm.register(plugin, name=ep.name)
-        except Exception as exc:  # noqa: BLE001 - any plugin error is reported, not raised
-            failures[ep.name] = f"failed to load ({ep.value}): {type(exc).__name__}: {exc}"
+        except PASS_THROUGH:
+            raise
+        except BaseException as exc:  # noqa: BLE001 - any plugin error (sys.exit too) is reported, not raised
+            failures[ep.name] = f"failed to load ({ep.value}): {describe_exception(exc)}"
     while True:
         try:
             pm.check_pending()
@@ -132,9 +134,25 @@ class Registry:
         )
 
     def create(self, name: str, options: Mapping[str, Any] | None = None) -> Any:
-        """Instantiate an identifier with validated options."""
+        """Instantiate an identifier with validated options.
+
+        Raises
+        ------
+        OptionError
+            Bad options (from the identifier's declaration).
+        PluginError
+            The identifier's constructor failed otherwise (``sys.exit`` too).
+        """
         cls = self.get(name)
-        return cls(**dict(options or {}))
+        try:
+            return cls(**dict(options or {}))
+        except (NlidError, *PASS_THROUGH):
+            raise
+        except BaseException as exc:  # noqa: BLE001 - a plugin bug is reported by name
+            raise PluginError(
+                f"identifier {name!r} (plugin {self.plugins.get(name, '?')!r}) {describe_exception(exc)} "
+                "when created"
+            ) from None
 
 
 def load_registry(pm: pluggy.PluginManager | None = None, failures: dict[str, str] | None = None) -> Registry:
@@ -158,8 +176,13 @@ def load_registry(pm: pluggy.PluginManager | None = None, failures: dict[str, st
             classes = list(impl.function())
             for cls in classes:
                 check_contract(cls)
-        except Exception as exc:  # noqa: BLE001 - reported per plugin
-            reg.failures[impl.plugin_name] = f"nlid_identifiers() raised {type(exc).__name__}: {exc}"
+        except PASS_THROUGH:
+            raise
+        except PluginError as exc:
+            reg.failures[impl.plugin_name] = f"nlid_identifiers() returned a broken identifier: {exc}"
+            continue
+        except BaseException as exc:  # noqa: BLE001 - reported per plugin, sys.exit too
+            reg.failures[impl.plugin_name] = f"nlid_identifiers() {describe_exception(exc)}"
             continue
         for cls in classes:
             if cls.name in reg.identifiers:

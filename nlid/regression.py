@@ -42,7 +42,7 @@ Non-smooth velocity terms (:func:`nonsmooth_warnings`)
     (white force, many fast reversals).
 
 Collinearity (:func:`collinear_pairs`)
-    Two terms whose columns are almost proportional on a record (|correlation|
+    Two terms whose columns are almost proportional on a record (absolute correlation
     above ``COLLINEAR_CORRELATION``) cannot be told apart: their coefficients
     trade off and their variances are inflated by ``1 / (1 - r^2)`` (50 at
     r = 0.99). When the model has a constant term the correlation of two other
@@ -75,7 +75,7 @@ __all__ = [
     "nonsmooth_warnings",
 ]
 
-#: |correlation| of two regressor columns above which they are reported as
+#: Absolute correlation of two regressor columns above which they are reported as
 #: near-collinear (variance inflation 1 / (1 - r^2) >= 50).
 COLLINEAR_CORRELATION = 0.99
 #: Fraction of samples whose velocity sign changes when cut to the equation

@@ -67,7 +67,7 @@ from typing import Any
 
 import numpy as np
 
-from .errors import IdentificationError, InputError, NlidError, OptionError, PluginError
+from .errors import IdentificationError, InputError, NlidError, OptionError, PluginError, describe_exception
 from .interface import Estimate, Option, refined_terms, to_jsonable
 from .record import Record
 from .terms import Model
@@ -117,8 +117,8 @@ class _Setup:
         """Call the plugin directly; any exception it raises is the failure of the check that expected success."""
         try:
             return self.instance().identify(record, model, mass=mass)
-        except Exception as exc:  # noqa: BLE001 - reported as the broken rule
-            raise _fail(f"{self.cls.name}: identify() raised {type(exc).__name__}: {exc}") from exc
+        except (Exception, SystemExit) as exc:  # noqa: BLE001 - reported as the broken rule (sys.exit too)
+            raise _fail(f"{self.cls.name}: identify() {describe_exception(exc)}") from exc
 
     def call(self, record: Record, model: Model, mass: float | None) -> Any:
         """Call the plugin directly, letting its exception through (for checks that expect one)."""
@@ -196,7 +196,7 @@ def check_unknown_option_rejected(s: _Setup) -> None:
         s.cls(**{**s.options, "no_such_option_xyz": 1})
     except OptionError:
         return
-    except Exception as exc:  # noqa: BLE001 - the wrong kind of error is the failure reported
+    except (Exception, SystemExit) as exc:  # noqa: BLE001 - the wrong kind of error (sys.exit too)
         raise _fail(f"{s.cls.name}: an unknown option must raise OptionError, got {type(exc).__name__}") from None
     raise _fail(f"{s.cls.name}: the constructor accepted an unknown option (it must raise OptionError)")
 
@@ -216,7 +216,7 @@ def check_bad_option_value_rejected(s: _Setup) -> None:
             s.cls(**{**s.options, opt.name: bad})
         except OptionError:
             continue
-        except Exception as exc:  # noqa: BLE001
+        except (Exception, SystemExit) as exc:  # noqa: BLE001 - sys.exit in a plugin is a broken rule too
             raise _fail(
                 f"{s.cls.name}: option {opt.name!r}={bad!r} must raise OptionError, got {type(exc).__name__}"
             ) from None
@@ -239,7 +239,7 @@ def check_estimated_mass(s: _Setup) -> None:
             s.call(s.data(), model, None)
         except InputError:
             return
-        except Exception as exc:  # noqa: BLE001
+        except (Exception, SystemExit) as exc:  # noqa: BLE001 - sys.exit in a plugin is a broken rule too
             raise _fail(
                 f"{s.cls.name}: needs_mass is True, so identify(mass=None) must raise InputError, "
                 f"got {type(exc).__name__}: {exc}"
@@ -298,7 +298,7 @@ def check_bad_record(s: _Setup) -> None:
     except NlidError as exc:
         raise _fail(f"{s.cls.name}: an unusable record must raise DataError, InputError or IdentificationError, "
                     f"got {type(exc).__name__}") from None
-    except Exception as exc:  # noqa: BLE001
+    except (Exception, SystemExit) as exc:  # noqa: BLE001 - sys.exit in a plugin is a broken rule too
         raise _fail(f"{s.cls.name}: an unusable record raised {type(exc).__name__}: {exc} - raise "
                     "nlid.plugin.DataError (or InputError/IdentificationError) with a clear message") from None
 

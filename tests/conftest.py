@@ -1,4 +1,10 @@
-"""Shared fixtures: simulated presets (built once per session) and the data folder."""
+"""Shared fixtures: simulated presets (built once per session) and the data folder; parallel runs.
+
+``python -m pytest`` without paths runs the whole suite on every core when
+pytest-xdist is installed (``-n auto``, added by :func:`pytest_cmdline_main`);
+``-n 0`` (or ``-p no:xdist``) runs it serially, and a run of chosen paths
+stays serial unless ``-n`` is given.
+"""
 
 from __future__ import annotations
 
@@ -11,6 +17,22 @@ from nlid.presets import get_preset
 
 ROOT = Path(__file__).resolve().parents[1]
 DEFAULT_DATA = (ROOT / ".." / "shared" / "data").resolve()
+
+
+
+@pytest.hookimpl(tryfirst=True)
+def pytest_cmdline_main(config: pytest.Config) -> None:
+    """``-n auto`` for the whole suite when pytest-xdist is installed and ``-n`` was not given."""
+    if (
+        config.pluginmanager.hasplugin("xdist")
+        and getattr(config.option, "numprocesses", None) is None
+        and not hasattr(config, "workerinput")
+        and not os.environ.get("PYTEST_XDIST_WORKER")
+        and config.args_source == pytest.Config.ArgsSource.TESTPATHS
+        and not config.getoption("usepdb", False)
+    ):
+        config.option.numprocesses = "auto"
+
 
 # The measured benchmarks live outside the repository; tests default to ../shared/data.
 os.environ.setdefault("NLID_DATA_DIR", str(DEFAULT_DATA))

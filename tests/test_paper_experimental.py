@@ -44,6 +44,7 @@ def test_built_in_study_summary_has_every_c_j_with_quality_and_interval(tmp_path
     for old, new in (
         ("repetitions = 3", "repetitions = 1"),
         ('identifiers = "all"', 'identifiers = ["nsi-ip"]'),
+        ('[options.sindy]\nlibrary = "automatic"\n', ""),  # sindy is not in this cut-down study
         ('preset = "paper-experimental"', 'preset = "paper-experimental"\noverrides = { duration = 60.0 }'),
     ):
         assert old in text, old

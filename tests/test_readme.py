@@ -47,3 +47,83 @@ def test_example_plugin_passes_the_compliance_checks():
     namespace: dict = {"__name__": "my_package.plugin"}
     exec(compile(blocks[0], "README.md", "exec"), namespace)  # noqa: S102
     check_identifier(namespace["MyMethod"], accuracy=1e-3)
+
+
+# --------------------------------------------------------------------------- the command-line examples
+NUMBER = re.compile(r"[-+]?\d+(?:\.\d+)?(?:e[-+]?\d+)?")
+
+
+def _cli_blocks(text: str) -> list[list[tuple[str, list[str]]]]:
+    """Every fenced block with ``$ nlid`` lines: [(command, expected output lines), ...] per block."""
+    blocks = []
+    for body in re.findall(r"```[a-z]*\n(.*?)```", text, flags=re.S):
+        if "$ nlid " not in body:
+            continue
+        steps: list[tuple[str, list[str]]] = []
+        for line in body.splitlines():
+            if line.startswith("$ nlid "):
+                steps.append((line[2:], []))
+            elif steps:
+                steps[-1][1].append(line)
+        blocks.append(steps)
+    return blocks
+
+
+def _same_number(expected: str, actual: str) -> bool:
+    """``actual`` equals ``expected`` to within one unit of the last digit ``expected`` shows."""
+    mantissa, _, exponent = expected.lower().partition("e")
+    decimals = len(mantissa.split(".")[1]) if "." in mantissa else 0
+    unit = 10.0 ** (-decimals + (int(exponent) if exponent else 0))
+    return abs(float(actual) - float(expected)) <= unit * (1 + 1e-9)
+
+
+def _compare(command: str, expected: list[str], actual: list[str]) -> list[str]:
+    """Differences between the README's output and the command's (numbers to their printed digits)."""
+    problems = []
+    if len(expected) != len(actual):
+        return [f"{command}: {len(expected)} lines in the README, {len(actual)} printed:\n" + "\n".join(actual)]
+    for want, got in zip(expected, actual, strict=True):
+        text_want, text_got = NUMBER.split(want), NUMBER.split(got)
+        nums_want, nums_got = NUMBER.findall(want), NUMBER.findall(got)
+        if [" ".join(t.split()) for t in text_want] != [" ".join(t.split()) for t in text_got]:
+            problems.append(f"{command}:\n  README: {want}\n  prints: {got}")
+            continue
+        if want.startswith("time:"):
+            continue  # wall time: the machine's, not the method's
+        if not all(_same_number(w, g) for w, g in zip(nums_want, nums_got, strict=True)):
+            problems.append(f"{command}:\n  README: {want}\n  prints: {got}")
+    return problems
+
+
+def test_every_cli_block_has_commands():
+    blocks = _cli_blocks(README)
+    commands = [c for b in blocks for c, _ in b]
+    assert any(c.startswith("nlid identify x.csv --method rfs") for c in commands)
+    assert any(c.startswith("nlid discover dataset:emps") for c in commands)
+    assert "--noise 0.02" in next(c for c in commands if c.startswith("nlid simulate")), "the example is noisy"
+    for line in README.splitlines():
+        assert 'install "nlid[' not in line, "a clone installs extras as '.[extra]'"
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("index", range(len(_cli_blocks(README))))
+def test_cli_block_prints_what_the_readme_shows(index, tmp_path):
+    """Each ``$ nlid ...`` block, run in a fresh folder, prints the README's output (numbers to their digits)."""
+    import os
+    import shlex
+    import subprocess
+    import sys
+
+    block = _cli_blocks(README)[index]
+    data = Path(os.environ.get("NLID_DATA_DIR", ""))
+    if any("dataset:" in c for c, _ in block) and not (data / "emps" / "DATA_EMPS.mat").is_file():
+        pytest.skip(f"measured data not found in NLID_DATA_DIR={data}")
+    problems = []
+    for command, expected in block:
+        argv = shlex.split(command)[1:]
+        proc = subprocess.run(
+            [sys.executable, "-m", "nlid.cli.main", *argv], cwd=tmp_path, capture_output=True, text=True, timeout=600
+        )
+        assert proc.returncode == 0, f"{command}: {proc.stderr[-2000:]}"
+        problems += _compare(command, expected, proc.stdout.rstrip("\n").splitlines() if proc.stdout.strip() else [])
+    assert not problems, "\n".join(problems)

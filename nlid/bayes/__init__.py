@@ -14,7 +14,8 @@ estimate, ``others="fixed"``)::
 
 Modules: :mod:`~nlid.bayes.likelihood` (the adjusted equation-error
 likelihood from sufficient statistics), :mod:`~nlid.bayes.bias`
-(errors-in-variables correction by simulation), :mod:`~nlid.bayes.priors`,
+(errors-in-variables correction by simulation), :mod:`~nlid.bayes.noise`
+(the noise levels that correction simulates), :mod:`~nlid.bayes.priors`,
 :mod:`~nlid.bayes.sampler` (emcee until converged),
 :mod:`~nlid.bayes.result`, :mod:`~nlid.bayes.plots`,
 :mod:`~nlid.bayes.study` (the study runner's hook). The assumptions are
@@ -24,6 +25,7 @@ written out in ``docs/posterior.md``.
 from .bias import BiasCorrection, simulate_bias
 from .inference import PosteriorSampler, sample_posterior, select_params
 from .likelihood import DegenerateParametersError, Likelihood, SufficientStatistics, build_likelihood
+from .noise import NoiseLevel, UnknownNoiseError, channel_noise
 from .priors import Flat, Normal, PriorError, Uniform, default_priors, parse_prior
 from .result import DampingBand, Posterior
 from .sampler import Chains, ConvergenceError, run_until_converged
@@ -40,6 +42,9 @@ __all__ = [
     "build_likelihood",
     "BiasCorrection",
     "simulate_bias",
+    "channel_noise",
+    "NoiseLevel",
+    "UnknownNoiseError",
     "Normal",
     "Uniform",
     "Flat",

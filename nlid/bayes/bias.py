@@ -55,6 +55,7 @@ from ..balance import RegressionData, regression_data
 from ..record import Record
 from ..simulation import SimulationError, simulate
 from ..terms import Model
+from .noise import channel_noise
 
 __all__ = ["BiasCorrection", "simulate_bias", "indirect_inference", "regressor_noise"]
 
@@ -101,25 +102,16 @@ class BiasCorrection:
 
 
 def regressor_noise(record: Record, model: Model, noise: Mapping[str, float] | None = None) -> dict[str, float]:
-    """Noise level on each channel the regressors are built from.
+    """Noise standard deviation on each channel the regressors are built from.
 
     ``z`` always (it gives the position terms and, when not measured, the
     velocity and acceleration) and ``v`` when it is measured and the model
-    uses it. Levels in ``noise`` win; the others come from
-    :func:`nlid.derivatives.noise_sd`.
+    uses it. Levels in ``noise`` win; the others are established from the
+    record by :func:`nlid.bayes.noise.channel_noise` (``z`` from its noise
+    floor, ``v`` from its consistency with ``dz/dt``), which refuses
+    (:class:`~nlid.bayes.noise.UnknownNoiseError`) when it cannot.
     """
-    given = dict(noise or {})
-    unknown = set(given) - {"z", "v"}
-    if unknown:
-        raise InputError(f"noise levels can be given for z and v only, not {sorted(unknown)[0]!r}")
-    channels = ["z"] + (["v"] if model.uses_velocity and record.is_measured("v") else [])
-    out = {}
-    for c in channels:
-        level = float(given[c]) if c in given else derivatives.noise_sd(getattr(record, c), record.fs)
-        if not (np.isfinite(level) and level >= 0):
-            raise InputError(f"noise level on {c} must be a non-negative number, got {level}")
-        out[c] = level
-    return out
+    return {c: level.sd for c, level in channel_noise(record, model, noise).items()}
 
 
 def _fit(G: np.ndarray, B: np.ndarray, scale: np.ndarray) -> np.ndarray:
@@ -168,16 +160,38 @@ def simulate_bias(
     IdentificationError
         If the identified model cannot be simulated (it diverges).
     """
+    levels = regressor_noise(record, model, noise)
+    return _bindings(record, model, theta, mass, data, [levels], pairs=pairs, rng=rng, phase=phase)[0]
+
+
+def _bindings(
+    record: Record,
+    model: Model,
+    theta: np.ndarray,
+    mass: float,
+    data: RegressionData,
+    level_sets: list[dict[str, float]],
+    *,
+    pairs: int,
+    rng: np.random.Generator | None,
+    phase: float,
+) -> list[BiasCorrection]:
+    """:func:`simulate_bias` for several sets of noise levels on the same trajectories and noise draws.
+
+    Every set must name the same channels; each set's noise is the same
+    standard-normal draws times its levels (common random numbers), so the
+    differences between the sets' corrections are due to the levels alone.
+    """
     if pairs < 1:
         raise InputError(f"bias correction needs at least one noise pair, got {pairs}")
     rng = rng if rng is not None else np.random.default_rng(0)
     theta = np.asarray(theta, dtype=float)
-    levels = regressor_noise(record, model, noise)
     v0 = float(record.v[0]) if record.is_measured("v") else 0.0
     fc = data.filtered_at
     meta = {"force_hold": record.force_hold}
     scale = None
-    J_pairs, d_pairs = [], []
+    J_pairs: list[list[np.ndarray]] = [[] for _ in level_sets]
+    d_pairs: list[list[np.ndarray]] = [[] for _ in level_sets]
     for pair in range(pairs):
         # each pair drives its own trajectory: the recorded force shifted circularly by pair/pairs of its length
         force = np.roll(record.f, -int((pair + phase) * record.n / pairs))
@@ -193,33 +207,43 @@ def simulate_bias(
             exact = derivatives.lowpass(exact, record.fs, fc)
         states = {"z": zs, "v": vs}
         channels = {"a": as_} if record.is_measured("a") else {}
-        draws = {c: s * rng.standard_normal(record.n) for c, s in levels.items()}
-        Js, ds = [], []
-        for sign in (1.0, -1.0):
-            noisy = dict(channels)
-            for c, n in draws.items():
-                noisy[c] = states[c] + sign * n
-            sim = Record(f=force, fs=record.fs, meta=meta, **noisy)
-            d = regression_data(sim, model, cutoff=fc)
-            G_ex = exact[d.kept]
-            if scale is None:
-                scale = np.sqrt(np.mean(d.G**2, axis=0))
-                scale[scale == 0] = 1.0
-            both = _fit(d.G, np.column_stack([G_ex, d.restoring_force(mass) - G_ex @ theta]), scale)
-            Js.append(both[:, :-1])
-            ds.append(both[:, -1])
-        J_pairs.append(0.5 * (Js[0] + Js[1]))
-        d_pairs.append(0.5 * (ds[0] + ds[1]))
-    J = np.mean(J_pairs, axis=0)
-    d = np.mean(d_pairs, axis=0)
-    if not np.all(np.isfinite(J)) or np.linalg.cond(J) > 1e12:
-        raise IdentificationError(
-            "bias correction: the simulated attenuation matrix is singular (a term carries no information "
-            "once noise is added); switch the correction off or remove the term"
+        unit = {c: rng.standard_normal(record.n) for c in level_sets[0]}
+        for k, levels in enumerate(level_sets):
+            Js, ds = [], []
+            for sign in (1.0, -1.0):
+                noisy = dict(channels)
+                for c, n in unit.items():
+                    noisy[c] = states[c] + sign * (levels[c] * n)
+                sim = Record(f=force, fs=record.fs, meta=meta, **noisy)
+                d = regression_data(sim, model, cutoff=fc)
+                G_ex = exact[d.kept]
+                if scale is None:
+                    scale = np.sqrt(np.mean(d.G**2, axis=0))
+                    scale[scale == 0] = 1.0
+                both = _fit(d.G, np.column_stack([G_ex, d.restoring_force(mass) - G_ex @ theta]), scale)
+                Js.append(both[:, :-1])
+                ds.append(both[:, -1])
+            J_pairs[k].append(0.5 * (Js[0] + Js[1]))
+            d_pairs[k].append(0.5 * (ds[0] + ds[1]))
+    out = []
+    for k, levels in enumerate(level_sets):
+        J = np.mean(J_pairs[k], axis=0)
+        d = np.mean(d_pairs[k], axis=0)
+        if not np.all(np.isfinite(J)) or np.linalg.cond(J) > 1e12:
+            raise IdentificationError(
+                "bias correction: the simulated attenuation matrix is singular (a term carries no information "
+                "once noise is added); switch the correction off or remove the term"
+            )
+        out.append(
+            BiasCorrection(
+                binding=J,
+                offset=d,
+                pair_bindings=np.array(J_pairs[k]),
+                pair_offsets=np.array(d_pairs[k]),
+                noise=dict(levels),
+            )
         )
-    return BiasCorrection(
-        binding=J, offset=d, pair_bindings=np.array(J_pairs), pair_offsets=np.array(d_pairs), noise=levels
-    )
+    return out
 
 
 def indirect_inference(
@@ -275,16 +299,25 @@ def indirect_inference(
     if iterations < 1:
         raise InputError(f"the bias correction needs at least one iteration, got {iterations}")
     theta_hat = np.asarray(theta_hat, dtype=float)
+    rng = rng if rng is not None else np.random.default_rng(0)
+    levels = channel_noise(record, model, noise)
+    sds = {c: level.sd for c, level in levels.items()}
+    # a level estimated with a standard error: the last step also gives the correction at a variance one
+    # standard error higher, on the same trajectories and draws; the move of the corrected estimate enters the
+    # covariance as a rank-one term (the delta method over one standard error of the level)
+    uncertain = [c for c, level in levels.items() if level.relative_se]
+    bumped = [dict(sds, **{c: levels[c].sd * np.sqrt(1.0 + levels[c].relative_se)}) for c in uncertain]
     theta = theta_hat
     deviations = []
     steps = []
     corr = None
+    others: list[BiasCorrection] = []
     for it in range(iterations):
         # the earlier steps only move the point where the binding function is evaluated: half the pairs do
-        n_pairs = pairs if it == iterations - 1 else max(2, pairs // 2)
-        corr = simulate_bias(
-            record, model, theta, mass, data, pairs=n_pairs, noise=noise, rng=rng, phase=it / iterations
-        )
+        final = it == iterations - 1
+        n_pairs = pairs if final else max(2, pairs // 2)
+        sets = [sds, *bumped] if final else [sds]
+        corr, *others = _bindings(record, model, theta, mass, data, sets, pairs=n_pairs, rng=rng, phase=it / iterations)
         each = corr.pair_estimates(theta_hat)
         deviations.append(each - each.mean(axis=0))
         theta = corr.correct(theta_hat)
@@ -293,5 +326,17 @@ def indirect_inference(
     spread = dev.T @ dev / (dev.shape[0] - iterations)
     jinv = np.linalg.inv(corr.binding)
     cov = jinv @ np.asarray(covariance, dtype=float) @ jinv.T + (1.0 + 1.0 / pairs) * spread
-    info = {"noise_sd": corr.noise, "pairs": pairs, "iterations": iterations, "steps": [s.tolist() for s in steps]}
+    widening = {}
+    for c, other in zip(uncertain, others, strict=True):
+        move = other.correct(theta_hat) - theta
+        cov = cov + np.outer(move, move)
+        widening[c] = {n: float(x) for n, x in zip(model.names, move, strict=True)}
+    info = {
+        "noise_sd": corr.noise,
+        "noise": {c: level.to_dict() for c, level in levels.items()},
+        "noise_level_moves": widening,
+        "pairs": pairs,
+        "iterations": iterations,
+        "steps": [s.tolist() for s in steps],
+    }
     return theta, 0.5 * (cov + cov.T), info

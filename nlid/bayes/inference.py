@@ -8,13 +8,23 @@ from typing import Any
 
 import numpy as np
 
-from ..errors import InputError
+from .. import numerics
+from ..errors import IdentificationError, InputError
 from ..balance import regression_data
 from ..identified import IdentifiedModel
 from ..record import Record
 from ..terms import Model, parse_term
 from .likelihood import build_likelihood, check_identifiable
-from .priors import Prior, PriorError, default_priors, joint_logpdf, parse_prior_assignments
+from .priors import (
+    Normal,
+    Prior,
+    PriorConflictError,
+    PriorError,
+    default_priors,
+    joint_logpdf,
+    parse_prior_assignments,
+    prior_conflicts,
+)
 from .result import Posterior
 from .sampler import MOVES, run_until_converged
 
@@ -24,6 +34,19 @@ __all__ = ["PosteriorSampler", "sample_posterior", "select_params"]
 OTHERS = ("fixed", "marginal")
 #: Spread of the initial walker ball, in Gaussian-limit posterior standard deviations.
 START_SPREAD = 0.1
+#: Largest settings accepted (beyond them a run would not finish in any reasonable time).
+MAX_WALKERS = 10_000
+MAX_STEPS = 10_000_000
+MAX_BIAS_PAIRS = 1_000
+MAX_BIAS_ITERATIONS = 100
+#: Highest equation band (Hz).
+MAX_CUTOFF = 1e7
+
+
+def _integer(name: str, value: object, minimum: int, maximum: int) -> int:
+    if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or not minimum <= int(value) <= maximum:
+        raise InputError(f"{name}= must be an integer from {minimum} to {maximum}, got {value!r}")
+    return int(value)
 
 
 def _precision(covariance: np.ndarray) -> np.ndarray:
@@ -105,7 +128,9 @@ class PosteriorSampler:
     bias_iterations
         Fixed-point steps of that correction.
     noise
-        Known noise standard deviation on ``z`` (and ``v``), e.g. ``{"z": 4e-4}``.
+        Known noise standard deviation on ``z`` (and ``v``), e.g. ``{"z": 4e-4}``
+        (m, m/s); the others are established from the record or refused
+        (:func:`nlid.bayes.noise.channel_noise`).
     cutoff
         Equation band in Hz (default: the shared filter's suggestion).
     others
@@ -135,6 +160,32 @@ class PosteriorSampler:
     ) -> None:
         if others not in OTHERS:
             raise InputError(f"others must be one of {', '.join(OTHERS)}, got {others!r}")
+        numerics.check_seed(seed)
+        if walkers is not None:
+            _integer("walkers", walkers, 2, MAX_WALKERS)
+        _integer("max_steps", max_steps, 1, MAX_STEPS)
+        _integer("bias_pairs", bias_pairs, 1, MAX_BIAS_PAIRS)
+        _integer("bias_iterations", bias_iterations, 1, MAX_BIAS_ITERATIONS)
+        if not isinstance(bias_correction, (bool, np.bool_)):
+            raise InputError(f"bias_correction must be true or false, got {bias_correction!r}")
+        if cutoff is not None and not (
+            not isinstance(cutoff, bool) and numerics.is_finite(cutoff) and 0 < float(cutoff) <= MAX_CUTOFF
+        ):
+            raise InputError(f"cutoff must be a positive number of Hz (at most {MAX_CUTOFF:g}), got {cutoff!r}")
+        if noise is not None:
+            if not isinstance(noise, Mapping):
+                raise InputError(f"noise must map channels to standard deviations, e.g. {{'z': 4e-4}}; got {noise!r}")
+            for channel, sd in noise.items():
+                if channel not in ("z", "v"):
+                    raise InputError(f"noise is given for channel {channel!r}; only z and v are corrected")
+                if isinstance(sd, bool) or not numerics.is_finite(sd) or float(sd) < 0:
+                    raise InputError(f"noise on {channel} must be a standard deviation >= 0, got {sd!r}")
+        if isinstance(params, str):
+            if params.strip().lower() not in ("damping", "friction", "all"):
+                Model.from_spec(params, defaults=False)
+        elif not all(isinstance(p, str) for p in params):
+            raise InputError(f"params must be 'damping', 'all' or terms, got {params!r}")
+        parse_prior_assignments(priors)
         if move not in MOVES:
             raise InputError(f"unknown move {move!r}; choose one of {', '.join(MOVES)}")
         self.params = params
@@ -167,9 +218,37 @@ class PosteriorSampler:
         InputError
             Bad parameters or priors, a prior that excludes the estimate,
             degenerate (collinear) parameters, unknown mass.
+        PriorConflictError
+            A prior lies far from what the data say (:func:`~nlid.bayes.priors.prior_conflicts`).
         ConvergenceError
             The chains did not converge within ``max_steps``.
+        IdentificationError
+            The samples contradict themselves or their priors
+            (:meth:`Posterior.problems`), or a figure is not finite.
         """
+        with numerics.collect_warnings() as caught:
+            try:
+                posterior, prior_sd = self._run(record, fit)
+            except IdentificationError as exc:
+                failed: IdentificationError | None = exc
+            else:
+                failed = None
+        if failed is not None:
+            if caught:
+                raise type(failed)(f"{failed} (numpy: {numerics.describe_warnings(caught)})") from None
+            raise failed
+        problems = posterior.problems(prior_sd)
+        if problems:
+            why = f" (numpy: {numerics.describe_warnings(caught)})" if caught else ""
+            raise IdentificationError(
+                f"the posterior cannot be trusted: {'; '.join(problems)}{why}; the walkers have not explored "
+                "one posterior: check the priors and the model, or sample longer (max_steps=)"
+            )
+        if caught:
+            posterior.warnings = (*posterior.warnings, f"numerical warnings: {numerics.describe_warnings(caught)}")
+        return posterior
+
+    def _run(self, record: Record, fit: IdentifiedModel) -> tuple[Posterior, dict[str, float]]:
         start_time = time.perf_counter()
         if not isinstance(fit, IdentifiedModel):
             raise InputError(f"fit must be the IdentifiedModel nlid.identify returns, got {type(fit).__name__}")
@@ -232,6 +311,12 @@ class PosteriorSampler:
                 lp[good] += lik(theta)
                 return lp
 
+        conflicts = prior_conflicts(names, priors, mean, cov)
+        if conflicts:
+            raise PriorConflictError(
+                f"prior in conflict with the data: {'; '.join(conflicts)}; a posterior between the two would "
+                "describe neither: correct or widen the prior (priors=), or check the model and the data"
+            )
         walkers = self.walkers if self.walkers is not None else max(32, 8 * len(idx))
         chains = run_until_converged(
             log_prob,
@@ -243,6 +328,7 @@ class PosteriorSampler:
             move=self.move,
             names=names,
         )
+        prior_sd = {n: priors[n].sd for n in names if isinstance(priors[n], Normal)}
         return Posterior(
             model=model,
             names=names,
@@ -256,7 +342,7 @@ class PosteriorSampler:
             others=self.others,
             gaussian=(mean, cov),
             data=data,
-        )
+        ), prior_sd
 
 
 def sample_posterior(record: Record, fit: IdentifiedModel, **settings: Any) -> Posterior:

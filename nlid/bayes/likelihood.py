@@ -419,7 +419,13 @@ def build_likelihood(
             record, model, theta_hat, mass, data, cov, pairs=pairs, iterations=iterations, noise=noise, rng=rng
         )
         info["noise_sd"] = corr_info["noise_sd"]
+        info["noise"] = corr_info["noise"]
+        info["noise_level_moves"] = corr_info["noise_level_moves"]
         info["bias_pairs"] = corr_info["pairs"]
         info["bias_iterations"] = corr_info["iterations"]
         info["bias"] = {n: float(x) for n, x in zip(model.names, theta_hat - center, strict=True)}
+        # how far the correction moved each estimate, in standard deviations of the corrected estimate
+        info["bias_shift_sd"] = {
+            n: float(x) for n, x in zip(model.names, (center - theta_hat) / np.sqrt(np.diag(cov)), strict=True)
+        }
     return Likelihood(tuple(model.names), stats, theta_hat, center, cov, dof, info)

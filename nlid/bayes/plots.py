@@ -99,20 +99,37 @@ def trace_figure(posterior: Posterior, max_walkers: int = 32):
 def damping_figure(bands: Sequence[DampingBand], band_hz: float | None = None):
     """The measured damping force on each slice with the posterior's 5-95 % band (paper Fig. 21 b-d).
 
-    With a filtered force balance (``band_hz``) the data are the in-band
-    damping force: at high speed, where ``D`` has content above the band, they
-    fall short of the curve ``D(z0, v)`` even for the true model.
+    Top row: the data and the posterior band of ``D(z0, v)`` (median line,
+    5 and 95 % quantiles as lines bounding the shaded band, drawn above the
+    data). The band is usually far narrower than the scatter of the data, so
+    the bottom row shows it on its own scale: the 5 and 95 % quantiles minus
+    the median, in N. With a filtered force balance (``band_hz``) the data are
+    the in-band damping force: at high speed, where ``D`` has content above
+    the band, they fall short of the curve ``D(z0, v)`` even for the true
+    model.
     """
     n = len(bands)
-    fig, axes = new_figure(1, n, width=4.0 * n, height=3.6, squeeze=False)
-    for ax, band in zip(axes[0], bands, strict=True):
-        ax.plot(band.v, band.measured, ".", color="0.6", ms=2, label="data: R_e - K(z)")
-        ax.fill_between(band.v_grid, band.q05, band.q95, color="tab:blue", alpha=0.35, label="posterior 5-95 %")
-        ax.plot(band.v_grid, band.q50, color="tab:blue", lw=1.5, label="posterior median")
-        ax.set_title(f"z = {band.z0:.4g} m (+/- {band.half_width:.2g})")
-        ax.set_xlabel("v (m/s)")
+    fig, axes = new_figure(2, n, width=4.0 * n, height=6.0, squeeze=False, sharex="col", height_ratios=[2.2, 1])
+    for k, band in enumerate(bands):
+        ax, width = axes[0, k], axes[1, k]
+        ax.plot(band.v, band.measured, ".", color="0.75", ms=2, zorder=1, label="data: R_e - K(z)")
+        ax.fill_between(
+            band.v_grid, band.q05, band.q95, color="tab:orange", alpha=0.5, zorder=3, label="posterior 5-95 %"
+        )
+        for q in (band.q05, band.q95):
+            ax.plot(band.v_grid, q, color="tab:red", lw=0.8, zorder=4)
+        ax.plot(band.v_grid, band.q50, color="tab:blue", lw=1.2, zorder=5, label="posterior median")
+        ax.set_title(f"z = {band.z0:.4g} m (+/- {band.half_width:.2g} m)")
+        width.fill_between(band.v_grid, band.q05 - band.q50, band.q95 - band.q50, color="tab:orange", alpha=0.5)
+        width.plot(band.v_grid, band.q05 - band.q50, color="tab:red", lw=0.8)
+        width.plot(band.v_grid, band.q95 - band.q50, color="tab:red", lw=0.8)
+        width.axhline(0.0, color="tab:blue", lw=1.0)
+        width.set_xlabel("v (m/s)")
     axes[0, 0].set_ylabel("damping force D (N)")
+    axes[1, 0].set_ylabel("5 and 95 % minus median (N)")
+    title = "posterior band of the damping force (bottom: its width on its own scale)"
     if band_hz is not None:
-        fig.suptitle(f"data: restoring force minus stiffness, both below {band_hz:.3g} Hz (in-band D)")
+        title += f"\ndata: restoring force minus stiffness, both below {band_hz:.3g} Hz (in-band D)"
+    fig.suptitle(title, fontsize=10)
     axes[0, 0].legend(loc="best", fontsize="small")
     return fig

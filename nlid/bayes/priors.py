@@ -23,7 +23,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..errors import InputError
+from ..errors import IdentificationError, InputError
 from ..terms import parse_term
 from .likelihood import SufficientStatistics
 
@@ -34,6 +34,9 @@ __all__ = [
     "Uniform",
     "Flat",
     "PriorError",
+    "PriorConflictError",
+    "prior_conflicts",
+    "PRIOR_CONFLICT_SIGMAS",
     "parse_prior",
     "parse_prior_assignments",
     "default_priors",
@@ -44,8 +47,18 @@ __all__ = [
 DEFAULT_SCALE = 10.0
 
 
+#: A prior conflicts with the data when its centre lies more than this many standard deviations
+#: (prior and likelihood combined) from the likelihood's centre (a prior-predictive check in the
+#: Gaussian limit: 5 sd happen by chance with probability 6e-7).
+PRIOR_CONFLICT_SIGMAS = 5.0
+
+
 class PriorError(InputError):
     """A prior is malformed or excludes the identifier's estimate."""
+
+
+class PriorConflictError(IdentificationError):
+    """A prior and the likelihood disagree so much that a posterior between them describes neither."""
 
 
 class Prior:
@@ -204,3 +217,40 @@ def joint_logpdf(priors: Sequence[Prior]) -> Callable[[np.ndarray], np.ndarray]:
         return out
 
     return logpdf
+
+
+def prior_conflicts(
+    names: Sequence[str], priors: Mapping[str, Prior], mean: np.ndarray, cov: np.ndarray
+) -> list[str]:
+    """The sampled terms whose prior conflicts with the likelihood's Gaussian limit (see :data:`PRIOR_CONFLICT_SIGMAS`).
+
+    Parameters
+    ----------
+    names
+        The sampled terms.
+    priors
+        Their priors.
+    mean, cov
+        Centre and covariance of the likelihood of the sampled coefficients.
+
+    Returns
+    -------
+    list of str
+        One description per conflicting term (empty when none conflicts).
+    """
+    out = []
+    sd = np.sqrt(np.clip(np.diag(np.asarray(cov, dtype=float)), 0.0, None))
+    for i, name in enumerate(names):
+        prior = priors[name]
+        if isinstance(prior, Normal):
+            distance = abs(prior.mean - float(mean[i])) / math.hypot(prior.sd, float(sd[i]))
+        elif isinstance(prior, Uniform) and sd[i] > 0:
+            distance = max(prior.low - float(mean[i]), float(mean[i]) - prior.high, 0.0) / float(sd[i])
+        else:
+            continue
+        if distance > PRIOR_CONFLICT_SIGMAS:
+            out.append(
+                f"the prior of {name} ({prior.describe()}) lies {distance:.3g} standard deviations from what the "
+                f"data say ({float(mean[i]):.4g} +/- {float(sd[i]):.2g} {parse_term(name).coefficient_unit})"
+            )
+    return out

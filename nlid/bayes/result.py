@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import json
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -17,12 +17,16 @@ from ..balance import RegressionData
 from ..scoring import damping_slice
 from ..terms import Model, parse_term
 from .likelihood import Likelihood
+from .noise import NoiseLevel
 from .sampler import Chains
 
 __all__ = ["Posterior", "DampingBand", "QUANTILES"]
 
 #: Quantiles reported for each coefficient.
 QUANTILES = (0.05, 0.5, 0.95)
+#: A posterior sd above this multiple of its normal prior's sd is a contradiction (sampling error of an sd
+#: estimated from a few hundred effective samples is a few percent).
+SD_SLACK = 1.25
 
 
 @dataclass(frozen=True)
@@ -85,6 +89,8 @@ class Posterior:
         Gaussian limit (flat priors), for comparison with the samples.
     data
         The force balance (for damping slices); not serialised.
+    warnings
+        Things the user should know (e.g. numerical warnings while sampling).
     """
 
     model: Model
@@ -99,6 +105,7 @@ class Posterior:
     others: str = "marginal"
     gaussian: tuple[np.ndarray, np.ndarray] | None = field(default=None, repr=False)
     data: RegressionData | None = field(default=None, repr=False)
+    warnings: tuple[str, ...] = ()
 
     # ------------------------------------------------------------------ numbers
     @property
@@ -142,6 +149,39 @@ class Posterior:
         full[:, [self.model.index(n) for n in self.names]] = samples
         return full
 
+    @property
+    def bias_shifts(self) -> dict[str, float]:
+        """How far the bias correction moved each sampled coefficient, in its standard deviations.
+
+        ``(theta_c - theta_hat) / sd`` with ``theta_hat`` the least-squares
+        estimate of the force balance, ``theta_c`` the corrected one and
+        ``sd`` the corrected estimate's standard deviation; empty without
+        the correction.
+        """
+        shifts = self.likelihood.info.get("bias_shift_sd", {})
+        return {n: float(shifts[n]) for n in self.names if n in shifts}
+
+    @property
+    def large_corrections(self) -> dict[str, dict[str, float]]:
+        """The sampled coefficients the bias correction moved by more than one standard deviation.
+
+        ``{term: {"least_squares", "corrected", "shift_sd"}}``. Such a
+        correction is only as right as the noise levels it simulated
+        (``likelihood.info["noise"]``): the text table and the JSON document
+        show it so that a wrong one is never silent.
+        """
+        lik = self.likelihood
+        out = {}
+        for name, shift in self.bias_shifts.items():
+            if abs(shift) > 1.0:
+                i = self.model.index(name)
+                out[name] = {
+                    "least_squares": float(lik.estimate[i]),
+                    "corrected": float(lik.center[i]),
+                    "shift_sd": shift,
+                }
+        return out
+
     def summary(self) -> dict[str, dict[str, float]]:
         """``{term: {"mean", "sd", "q05", "q50", "q95"}}``."""
         s = self.samples
@@ -156,6 +196,33 @@ class Posterior:
             }
             for i, name in enumerate(self.names)
         }
+
+    def problems(self, prior_sd: Mapping[str, float] | None = None) -> list[str]:
+        """Reported figures that are not finite or contradict each other (empty when all is well).
+
+        Parameters
+        ----------
+        prior_sd
+            Standard deviation of each sampled term's normal prior: a
+            posterior cannot be wider than a normal prior (with a log-concave
+            likelihood its variance is at most the prior's), so a standard
+            deviation more than :data:`SD_SLACK` times the prior's means the
+            walkers did not sample one posterior.
+        """
+        out = []
+        for name, s in self.summary().items():
+            if not all(np.isfinite(x) for x in s.values()):
+                out.append(f"the summary of {name} is not finite ({', '.join(f'{k} {x:.4g}' for k, x in s.items())})")
+                continue
+            if not s["q05"] <= s["mean"] <= s["q95"]:
+                out.append(
+                    f"the mean of {name} ({s['mean']:.5g}) lies outside its own 5-95 % range "
+                    f"[{s['q05']:.5g}, {s['q95']:.5g}]"
+                )
+            limit = (prior_sd or {}).get(name)
+            if limit is not None and s["sd"] > SD_SLACK * limit:
+                out.append(f"the sd of {name} ({s['sd']:.3g}) exceeds the sd of its normal prior ({limit:.3g})")
+        return out
 
     def interval(self, level: float = 0.9) -> dict[str, tuple[float, float]]:
         """Equal-tailed credible interval of each sampled coefficient."""
@@ -192,7 +259,10 @@ class Posterior:
                 "others": self.others,
                 "fixed": self.not_sampled if self.others == "fixed" else {},
                 "not_sampled": list(self.not_sampled),
+                "bias_shift_sd": self.bias_shifts,
+                "large_corrections": self.large_corrections,
                 "priors": self.priors,
+                "warnings": list(self.warnings),
                 "units": {n: parse_term(n).coefficient_unit for n in self.names},
                 "sampler": {
                     "walkers": self.chains.walkers,
@@ -276,7 +346,17 @@ class Posterior:
             f"likelihood: equation error over {info['samples']} samples{where}, effective {info['dof']:.0f} "
             f"(residual correlated over {info['tau_residual_samples']:.1f} samples), {bias}"
         )
+        noise = info.get("noise", {})
+        if noise:
+            levels = ", ".join(NoiseLevel(**level).describe() for level in noise.values())
+            lines.append(f"noise levels simulated by the correction: {levels}")
+        for name, c in self.large_corrections.items():
+            lines.append(
+                f"note: the bias correction moved {name} by {c['shift_sd']:+.1f} sd (least squares "
+                f"{c['least_squares']:.5g} -> {c['corrected']:.5g}); it is only as right as the noise levels above"
+            )
         lines.append(f"time: {self.seconds:.3g} s")
+        lines += [f"warning: {w}" for w in self.warnings]
         return "\n".join(lines)
 
     # ------------------------------------------------------------------ damping bands
@@ -334,17 +414,30 @@ class Posterior:
         return points
 
     # ------------------------------------------------------------------ files
-    def save(self, out_dir: str | Path, *, figures: bool = True, slices: Sequence[float] | None = None) -> list[Path]:
+    def save(
+        self,
+        out_dir: str | Path,
+        *,
+        figures: bool = True,
+        slices: Sequence[float] | None = None,
+        force: bool = False,
+    ) -> list[Path]:
         """Write the table (CSV), the document (JSON), the samples (NPZ) and the figures (PNG).
 
         Files: ``posterior_table.csv``, ``posterior.json``,
         ``posterior_samples.npz`` (``samples``, ``names``, ``chain``,
         ``log_prob``, ``tau``, ``not_sampled_names``, ``not_sampled_estimates`` and the damping
         bands), ``posterior_corner.png``, ``posterior_trace.png``,
-        ``posterior_damping.png``.
+        ``posterior_damping.png``. nlid writes only into folders it created or
+        that were empty; ``force=True`` writes beside files it did not write,
+        never replacing them (:mod:`nlid.outputs`).
         """
-        out = Path(out_dir)
-        out.mkdir(parents=True, exist_ok=True)
+        from ..outputs import POSTERIOR_OUTPUTS, output_folder
+
+        with output_folder(out_dir, POSTERIOR_OUTPUTS, force=force) as out:
+            return self._save(out, figures, slices)
+
+    def _save(self, out: Path, figures: bool, slices: Sequence[float] | None) -> list[Path]:
         paths = []
         path = out / "posterior_table.csv"
         self.table().to_csv(path, index=False)

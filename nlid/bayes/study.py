@@ -3,8 +3,13 @@
 A study config asks for posteriors with a ``[posterior]`` table; its keys are
 the options of :class:`~nlid.bayes.PosteriorSampler` (``params``,
 ``walkers``, ``max_steps``, ``seed``, ``move``, ``bias_correction``,
-``bias_pairs``, ``priors``, ``cutoff``) plus ``level`` (credible level of the
-interval, default 0.9).
+``bias_pairs``, ``bias_iterations``, ``noise``, ``priors``, ``cutoff``,
+``others``) plus ``level`` (credible level of the interval, default 0.9).
+
+The posterior is the one :func:`nlid.bayes.sample_posterior` gives, whatever
+channels the record has (the noise levels of the correction established as
+:mod:`nlid.bayes.noise` says); a level that cannot be established fails the
+posterior, which the study records as a warning on the run.
 """
 
 from __future__ import annotations
@@ -54,8 +59,10 @@ def study_metrics(
         equal-tailed credible interval), ``"ci_width:<term>"`` and, when the
         truth is known, ``"ci_covers:<term>"``; ``"posterior:level"``,
         ``"posterior:tau"`` (the largest integrated autocorrelation time,
-        steps) and ``"posterior:seconds"``. The study summary turns the
-        ``ci_*`` families into one table.
+        steps), ``"posterior:seconds"`` and ``"posterior:max_bias_shift_sd"``
+        (the largest move of a sampled coefficient by the bias correction, in
+        its standard deviations; 0 without the correction). The study
+        summary turns the ``ci_*`` families into one table.
     """
     options = dict(options)
     level = float(options.pop("level", 0.9))
@@ -73,4 +80,5 @@ def study_metrics(
             out[f"ci_covers:{name}"] = bool(lo <= coeffs[name] <= hi)
     out["posterior:tau"] = max(posterior.tau.values())
     out["posterior:seconds"] = posterior.seconds
+    out["posterior:max_bias_shift_sd"] = max((abs(x) for x in posterior.bias_shifts.values()), default=0.0)
     return out

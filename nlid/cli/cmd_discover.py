@@ -99,6 +99,11 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--set", action="append", metavar="KEY=VALUE", help="identifier option (repeatable)")
     p.add_argument("--json", action="store_true", help="print one JSON object instead of the table")
     p.add_argument("--out", metavar="DIR", help="write a report (Markdown, HTML, figures, CSV, JSON) to DIR")
+    p.add_argument(
+        "--force",
+        action="store_true",
+        help="with --out, write into a folder that holds files nlid did not write (it never replaces them)",
+    )
     p.add_argument("--quiet", action="store_true", help="no progress lines on stderr")
     p.add_argument(
         "--refine",
@@ -153,7 +158,7 @@ def run(args: argparse.Namespace) -> int:
     )
     if args.out:
         try:
-            paths = write_report(result, args.out)
+            paths = write_report(result, args.out, force=args.force)
         except OSError as exc:
             raise InputError(f"cannot write the report to {args.out}: {exc.strerror or exc}") from None
         progress(f"report written to {paths[1]} (and {paths[0].name})")

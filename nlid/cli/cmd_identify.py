@@ -20,6 +20,13 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     )
     add_data_arguments(p)
     add_model_arguments(p, "identifier to use (default rfs; see nlid methods)")
+    p.add_argument(
+        "--timeout",
+        type=float,
+        metavar="SECONDS",
+        help="run the identifier in a separate process and stop it after SECONDS (a hanging or crashing "
+        "plugin then gives one error line)",
+    )
     p.add_argument("--json", action="store_true", help="print one JSON object instead of a table")
     p.set_defaults(func=run)
 
@@ -34,6 +41,7 @@ def run(args: argparse.Namespace) -> int:
         options=parse_settings(args.set),
         without=args.without,
         px_roots=parse_px_roots(args.px_roots),
+        timeout=args.timeout,
     )
     if args.json:
         print_json(result.to_dict())

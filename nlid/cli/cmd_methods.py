@@ -1,21 +1,39 @@
-"""``nlid methods``: installed identifiers, their options and defaults."""
+"""``nlid methods``: which identifier to choose, the installed ones, their options and defaults."""
 
 from __future__ import annotations
 
 import argparse
 
+from ..errors import InputError
+from ..formatting import TERMINAL_WIDTH, wrap
 from ..registry import default_registry
 from .common import print_json
+
+#: When to choose each built-in identifier, one line each (docs/methods.md has the table with the measurements).
+WHEN: dict[str, str] = {
+    "rfs": "first choice: least squares on the force balance, any model, estimates the mass, the fastest "
+    "(~1 s per 60 s record); viscous damping biased (+1 to +8 % on paper-numerical) when v is "
+    "differentiated from a noisy z",
+    "sindy": "unsure which terms belong in the model: sparse selection from the model's terms plus a "
+    "polynomial/friction library (--set library=automatic) by cross-validation, reporting what it kept; "
+    "fragile with sign(v) on an estimated velocity",
+    "nsi-ip": "accurate damping ratios and natural frequencies from a noisy z, several wells, an unstable "
+    "linear part (paper Sec. 3.2); 4-10x slower than rfs",
+    "nsi-shift": "the paper's zero-reference shift (Sec. 3.1): one fit per stable well, combined; the slowest",
+}
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser(
         "methods",
         help="list the installed identifiers and their options",
-        description="List the identifiers found through the 'nlid.identifiers' entry points, with their "
-        "options (set them with 'nlid identify --set NAME=VALUE'). Plugins that failed to load are listed "
-        "with their error.",
+        description="Which identifier to choose, then the identifiers found through the 'nlid.identifiers' "
+        "entry points with a one-line summary. Give NAMEs (or --all) to list their options (set them with "
+        "'nlid identify --set NAME=VALUE'). Plugins that failed to load are listed with their error. "
+        "docs/methods.md has the decision table with the measurements behind it.",
     )
+    p.add_argument("names", nargs="*", metavar="NAME", help="identifiers whose options to list")
+    p.add_argument("--all", action="store_true", help="list the options of every identifier")
     p.add_argument("--json", action="store_true", help="machine-readable output")
     p.set_defaults(func=run)
 
@@ -38,17 +56,43 @@ def run(args: argparse.Namespace) -> int:
             }
         )
         return 0
+    unknown = [n for n in args.names if n not in reg.identifiers]
+    if unknown:
+        reg.get(unknown[0])  # raises the registry's error, with a suggestion
+        raise InputError(f"unknown identifier {unknown[0]!r}")
     if not reg.identifiers:
         print("no identifiers installed")
+    detailed = set(args.names) if args.names else set(reg.names()) if args.all else set()
+    if not args.names:
+        print("Which method? (docs/methods.md has the decision table and the measurements)")
+        for name in [n for n in WHEN if n in reg.identifiers]:
+            if name in WHEN:
+                print(wrap(f"{name}: {WHEN[name]}", TERMINAL_WIDTH, indent="  ", subsequent="      "))
+        print(
+            wrap(
+                "any fit: 'nlid posterior' puts intervals on its friction coefficients, 'nlid discover' finds "
+                "what the model lacks, 'nlid study run' compares methods on the same data.",
+                TERMINAL_WIDTH,
+                indent="  ",
+                subsequent="      ",
+            )
+        )
+        print()
     for name in reg.names():
+        if args.names and name not in detailed:
+            continue
         cls = reg.identifiers[name]
         mass = "needs --mass" if cls.needs_mass else "estimates the mass when --mass is not given"
         print(f"{name}  ({mass})")
-        print(f"    {cls.summary}")
+        print(wrap(cls.summary, TERMINAL_WIDTH, indent="    ", subsequent="    "))
+        if name not in detailed:
+            print(f"    {len(cls.options)} options: nlid methods {name}")
+            continue
         for opt in cls.options:
             default = "auto" if opt.default is None else opt.default
             choices = f" [{'|'.join(map(str, opt.choices))}]" if opt.choices else ""
-            print(f"    --set {opt.name}=<{opt.type}>{choices}  (default {default})  {opt.help}")
+            print(f"    --set {opt.name}=<{opt.type}>{choices}  (default {default})")
+            print(wrap(opt.help, TERMINAL_WIDTH, indent="        ", subsequent="        "))
         print()
     for plugin, error in sorted(reg.failures.items()):
         print(f"{plugin}  UNUSABLE: {error}")

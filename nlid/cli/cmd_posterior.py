@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 import sys
 
-from ..errors import InputError
+from ..errors import DataError, InputError
 from ..pipeline import identify
 from .common import add_data_arguments, add_model_arguments, load_data, parse_px_roots, parse_settings, print_json
 
@@ -79,8 +79,13 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     )
     p.add_argument("--bias-pairs", type=int, default=4, metavar="N", help="antithetic noise pairs (default 4)")
     p.add_argument(
-        "--noise-z", type=float, metavar="M", help="noise standard deviation on z in m (default: from its noise floor)"
+        "--noise-level",
+        action="append",
+        metavar="CHANNEL=SD",
+        help="known noise standard deviation of a channel in its SI unit, e.g. z=4e-4 (m) or v=0.003 (m/s) "
+        "(repeatable; default: z from its noise floor, a measured v from its consistency with dz/dt)",
     )
+    p.add_argument("--noise-z", type=float, metavar="M", help="same as --noise-level z=M")
     p.add_argument(
         "--others",
         default="marginal",
@@ -96,6 +101,11 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--json", action="store_true", help="print one JSON object instead of a table")
     p.add_argument("--out", metavar="DIR", help="write the table (CSV), JSON, samples (NPZ) and figures (PNG) to DIR")
     p.add_argument("--no-figures", action="store_true", help="with --out, skip the PNG figures")
+    p.add_argument(
+        "--force",
+        action="store_true",
+        help="with --out, write into a folder that holds files nlid did not write (it never replaces them)",
+    )
     p.set_defaults(func=run)
 
 
@@ -108,18 +118,40 @@ def _floats(text: str | None, what: str) -> list[float] | None:
         raise InputError(f"{what} expects comma-separated numbers, got {text!r}") from None
 
 
+def parse_noise_levels(items: list[str] | None, noise_z: float | None = None) -> dict[str, float] | None:
+    """``["v=0.003", ...]`` (and ``--noise-z``) to ``{"v": 0.003, ...}``; ``None`` when nothing is given."""
+    levels: dict[str, float] = {}
+    if noise_z is not None:
+        levels["z"] = noise_z
+    for item in items or []:
+        channel, sep, value = item.partition("=")
+        channel = channel.strip()
+        if not sep or channel not in ("z", "v"):
+            raise InputError(
+                f"--noise-level expects CHANNEL=SD with CHANNEL z or v (noise on a needs no level), got {item!r}"
+            )
+        try:
+            level = float(value)
+        except ValueError:
+            raise InputError(f"--noise-level {channel}= expects a number, got {value.strip()!r}") from None
+        if not (level >= 0 and level < float("inf")):
+            raise InputError(f"--noise-level {channel}= must be a non-negative number, got {value.strip()!r}")
+        if channel in levels:
+            raise InputError(f"--noise-level gives the level of {channel} twice")
+        levels[channel] = level
+    return levels or None
+
+
 def run(args: argparse.Namespace) -> int:
-    from ..pipeline import as_model
     from ..bayes import PosteriorSampler
+    from ..bayes.noise import UNITS, UnknownNoiseError
     from ..bayes.priors import parse_prior_assignments
+    from ..pipeline import as_model
     from ..terms import Model
 
-    if args.walkers is not None and args.walkers < 2:
-        raise InputError(f"--walkers must be at least 2, got {args.walkers}")
-    if args.bias_pairs < 1:
-        raise InputError(f"--bias-pairs must be at least 1, got {args.bias_pairs}")
     if args.noise_z is not None and not args.noise_z >= 0:
         raise InputError(f"--noise-z must be a non-negative number of metres, got {args.noise_z}")
+    noise = parse_noise_levels(args.noise_level, args.noise_z)
     slices = _floats(args.slices, "--slices")
     # read priors and parameter names before the (slower) identification, so typos fail at once
     parse_prior_assignments(args.prior)
@@ -134,16 +166,24 @@ def run(args: argparse.Namespace) -> int:
         move=args.move,
         bias_correction=not args.no_bias_correction,
         bias_pairs=args.bias_pairs,
-        noise=None if args.noise_z is None else {"z": args.noise_z},
+        noise=noise,
         cutoff=args.cutoff,
         others=args.others,
     )
     record = load_data(args)
     model = as_model(args.terms, without=args.without, px_roots=parse_px_roots(args.px_roots))
     result = identify(record, model, args.method, mass=args.mass, options=parse_settings(args.set))
-    posterior = sampler.run(record, result)
+    try:
+        posterior = sampler.run(record, result)
+    except UnknownNoiseError as exc:
+        wanted = " ".join(f"{c}=SD" for c in exc.channels)
+        units = ", ".join(f"{c} in {UNITS[c]}" for c in exc.channels)
+        raise DataError(
+            f"{exc.reason}; give the level with --noise-level {wanted} ({units}) from the sensor's specification "
+            "or a record at rest"
+        ) from None
     if args.out:
-        paths = posterior.save(args.out, figures=not args.no_figures, slices=slices)
+        paths = posterior.save(args.out, figures=not args.no_figures, slices=slices, force=args.force)
         print(f"wrote {', '.join(str(p) for p in paths)}", file=sys.stderr)
     if args.json:
         print_json(posterior.to_dict())

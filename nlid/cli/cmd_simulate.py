@@ -7,6 +7,7 @@ import sys
 
 from ..errors import InputError
 from ..io import write_csv, write_npz
+from ..outputs import check_new_file
 from ..presets import PRESETS, get_preset
 from .common import parse_settings
 
@@ -38,7 +39,10 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         metavar="KEY=VALUE",
         help="override a preset parameter (mass, force_rms, fs, g) or a coefficient (e.g. --set 'z^3=8e5')",
     )
-    p.add_argument("--out", required=True, metavar="FILE", help="output file, .csv or .npz")
+    p.add_argument(
+        "--out", required=True, metavar="FILE", help="output file, .csv or .npz (not replaced unless --force)"
+    )
+    p.add_argument("--force", action="store_true", help="replace the output file if it exists")
     p.set_defaults(func=run)
 
 
@@ -72,6 +76,7 @@ def run(args: argparse.Namespace) -> int:
     out = args.out
     if not out.lower().endswith((".csv", ".npz")):
         raise InputError(f"--out must end in .csv or .npz, got {out!r}")
+    check_new_file(out, force=args.force)
     record = preset.simulate(args.seed, noise=args.noise, channels=("z", *extra))
     try:
         if out.lower().endswith(".csv"):
@@ -79,6 +84,6 @@ def run(args: argparse.Namespace) -> int:
         else:
             write_npz(record, out)
     except OSError as exc:
-        raise InputError(f"cannot write {out}: {exc.strerror}") from None
+        raise InputError(f"cannot write {out}: {exc.strerror or exc}") from None
     print(f"wrote {record.n} samples at {record.fs:g} Hz to {out} ({record.meta['source']})", file=sys.stderr)
     return 0

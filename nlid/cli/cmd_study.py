@@ -7,16 +7,15 @@ import signal
 import sys
 from pathlib import Path
 
-from ..errors import InputError
-
 DESCRIPTION = """\
 Run a benchmark study: every identifier of the study on the same data
 (datasets x models x identifiers x repetitions), in parallel, with each
 finished run saved at once. Running the same study again skips finished runs
 (--rerun to redo them), so an interrupted study resumes where it stopped.
 Outputs in the study folder: results.csv (one row per run), summary.md
-(method x metric tables, printed at the end), figures/ (PNG and SVG) and a
-self-contained report.html.
+(the verdict, then method x metric tables), summary.txt (the same for a
+terminal, printed at the end), figures/ (PNG and SVG) and a self-contained
+report.html.
 """
 
 EPILOG = """\
@@ -58,6 +57,11 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     )
     run.add_argument("--jobs", type=int, metavar="N", help="runs at the same time (default: every core)")
     run.add_argument("--rerun", action="store_true", help="run everything again, even runs already saved")
+    run.add_argument(
+        "--force",
+        action="store_true",
+        help="write into a folder that holds files nlid did not write (it never replaces them)",
+    )
     run.add_argument("--no-progress", action="store_true", help="no progress line (it only shows on a terminal)")
     run.set_defaults(func=run_command)
     lst = actions.add_parser("list", help="list the built-in studies", description="List the built-in studies.")
@@ -76,20 +80,26 @@ def _terminate(signum: int, frame: object) -> None:
 
 def run_command(args: argparse.Namespace) -> int:
     from ..study import load_study, make_executor, run_study
+    from ..study.report import TEXT_SUMMARY
 
     config = load_study(args.study)
     executor = make_executor(args.executor, jobs=args.jobs, scheduler=args.scheduler)
     out = Path(args.out) if args.out else Path("nlid-studies") / config.name
-    if out.exists() and not out.is_dir():
-        raise InputError(f"--out {out} exists and is not a folder")
     previous = signal.signal(signal.SIGTERM, _terminate)  # stop children and keep what is saved
     try:
         outcome = run_study(
-            config, out, executor=executor, rerun=args.rerun, progress=False if args.no_progress else None
+            config,
+            out,
+            executor=executor,
+            rerun=args.rerun,
+            progress=False if args.no_progress else None,
+            force=args.force,
         )
     finally:
         signal.signal(signal.SIGTERM, previous)
-    print(outcome.summary)
+    # the terminal summary (verdict first, no line over 100 characters); summary.md holds the Markdown
+    text = outcome.folder / TEXT_SUMMARY
+    print(text.read_text().rstrip("\n") if text.is_file() else outcome.summary)
     print(
         f"nlid study: {outcome.executed} runs executed, {outcome.skipped} reused; report: {outcome.report}",
         file=sys.stderr,
@@ -109,7 +119,7 @@ def list_command(args: argparse.Namespace) -> int:
     for name, path in studies.items():
         try:
             description = tomllib.loads(path.read_text()).get("study", {}).get("description", "")
-        except (OSError, tomllib.TOMLDecodeError):
+        except (OSError, UnicodeDecodeError, RecursionError, tomllib.TOMLDecodeError):
             description = "(unreadable)"
         print(f"{name:<{width}}  {description}")
     return 0

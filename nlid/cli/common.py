@@ -13,7 +13,17 @@ from ..errors import InputError
 from ..interface import to_jsonable
 from ..record import Record
 
-__all__ = ["Parser", "parse_settings", "load_data", "print_json", "add_data_arguments", "DATA_HELP", "to_cli", "FLAGS"]
+__all__ = [
+    "Parser",
+    "describe_os_error",
+    "parse_settings",
+    "load_data",
+    "print_json",
+    "add_data_arguments",
+    "DATA_HELP",
+    "to_cli",
+    "FLAGS",
+]
 
 #: Python parameter names in library messages -> the command-line flag that sets them.
 FLAGS: dict[str, str] = {
@@ -21,6 +31,8 @@ FLAGS: dict[str, str] = {
     "params": "--params",
     "priors": "--prior",
     "max_steps": "--steps",
+    "walkers": "--walkers",
+    "bias_pairs": "--bias-pairs",
     "bias_correction=False": "--no-bias-correction",
     "noise": "--noise-level",
     "columns": "--columns",
@@ -34,6 +46,8 @@ FLAGS: dict[str, str] = {
     "scheduler": "--scheduler",
     "executor": "--executor",
     "options": "--set",
+    "force=True": "--force",
+    "timeout": "--timeout",
 }
 _PARAM = re.compile(r"(?<![\w.-])(" + "|".join(sorted(map(re.escape, FLAGS), key=len, reverse=True)) + r")=(?=[\s),;:]|$)")
 _PARAM_VALUE = re.compile(
@@ -56,9 +70,17 @@ class Parser(argparse.ArgumentParser):
 def to_cli(message: str) -> str:
     """A library message with its Python parameters (``mass=``) replaced by the flags that set them (``--mass``)."""
     message = message.replace("bias_correction=False", FLAGS["bias_correction=False"])
+    message = message.replace("force=True", FLAGS["force=True"])
     message = _PARAM_VALUE.sub(lambda m: f"{FLAGS[m.group(1)]} {m.group(2) if m.group(2) is not None else m.group(3)}", message)
     message = _PARAM.sub(lambda m: FLAGS[m.group(1)], message)
     return message
+
+
+def describe_os_error(exc: OSError) -> str:
+    """One line for an operating-system error: what failed and on which path."""
+    what = exc.strerror or str(exc) or type(exc).__name__
+    paths = [str(p) for p in (exc.filename, exc.filename2) if p is not None]
+    return f"{what}: {' -> '.join(paths)}" if paths else what
 
 
 def parse_settings(items: Sequence[str] | None) -> dict[str, str]:

@@ -3,8 +3,9 @@
 Every subcommand lives in its own module with ``add_parser(subparsers)`` and
 ``run(args) -> int``. Errors nlid raises on purpose become one line on stderr:
 exit status 2 for bad input (file, term, option, unknown method, broken
-plugin), 1 when an identification ran but cannot be trusted. ``--debug``
-shows the traceback instead.
+plugin) and for a file or folder that cannot be read or written, 1 when an
+identification ran but cannot be trusted. numpy's runtime warnings become one
+warning line. ``--debug`` shows the traceback and the raw warnings instead.
 """
 
 from __future__ import annotations
@@ -15,7 +16,9 @@ from collections.abc import Sequence
 
 from .. import __version__
 from ..errors import IdentificationError, NlidError
+from ..numerics import collect_warnings, describe_warnings
 from . import (
+    cmd_data,
     cmd_discover,
     cmd_identify,
     cmd_methods,
@@ -24,7 +27,7 @@ from . import (
     cmd_study,
     cmd_terms,
 )
-from .common import Parser, to_cli
+from .common import Parser, describe_os_error, to_cli
 
 __all__ = ["main", "build_parser", "COMMANDS"]
 
@@ -37,6 +40,7 @@ COMMANDS = (
     cmd_simulate,
     cmd_methods,
     cmd_terms,
+    cmd_data,
 )
 
 DESCRIPTION = """\
@@ -53,6 +57,7 @@ examples:
   nlid identify dataset:emps --method rfs --terms "sign(v)" --without z
   nlid discover dataset:emps --declared "v, 1"
   nlid posterior x.csv --terms "z^3,z^2,v*|v|" --mass 0.2 --params damping
+  nlid data                       # the measured benchmarks: where to get them, which files are here
 """
 
 
@@ -74,17 +79,27 @@ def main(argv: Sequence[str] | None = None) -> int:
     if args.command is None:
         parser.print_help()
         return 0
-    try:
+    if args.debug:
         return int(args.func(args) or 0)
+    try:
+        with collect_warnings() as numerical:
+            status = int(args.func(args) or 0)
     except NlidError as exc:
-        if args.debug:
-            raise
         status = 1 if isinstance(exc, IdentificationError) else 2
         print(f"nlid {args.command}: error: {to_cli(str(exc))}", file=sys.stderr)
         return status
+    except OSError as exc:  # a file or folder the command reads or writes, whatever path it took
+        print(f"nlid {args.command}: error: {describe_os_error(exc)}", file=sys.stderr)
+        return 2
+    except MemoryError:
+        print(f"nlid {args.command}: error: not enough memory (try a shorter record or fewer samples)", file=sys.stderr)
+        return 2
     except KeyboardInterrupt:
         print("nlid: interrupted", file=sys.stderr)
         return 130
+    if numerical:
+        print(f"nlid {args.command}: warning: numerical warnings: {describe_warnings(numerical)}", file=sys.stderr)
+    return status
 
 
 if __name__ == "__main__":  # pragma: no cover

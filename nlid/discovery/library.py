@@ -62,7 +62,7 @@ from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
 from difflib import get_close_matches
 
-from ..errors import InputError, NlidError
+from ..errors import PASS_THROUGH, InputError, NlidError, describe_exception
 from ..terms import Model, Term, parse_term, split_terms
 
 __all__ = [
@@ -481,8 +481,10 @@ def plugin_candidates(pm=None) -> tuple[list[Candidate], dict[str, str]]:
             bad = [x for x in items if not isinstance(x, Candidate)]
             if bad:
                 raise TypeError(f"expected nlid.discovery.Candidate objects, got {type(bad[0]).__name__}")
-        except Exception as exc:  # noqa: BLE001 - reported per plugin
-            failures[impl.plugin_name] = f"nlid_candidates() raised {type(exc).__name__}: {exc}"
+        except PASS_THROUGH:
+            raise
+        except BaseException as exc:  # noqa: BLE001 - reported per plugin, sys.exit too
+            failures[impl.plugin_name] = f"nlid_candidates() {describe_exception(exc)}"
             continue
         out.extend(items)
     return out, failures

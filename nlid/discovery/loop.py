@@ -325,11 +325,11 @@ class DiscoveryResult:
 
         return summary_table(self)
 
-    def write_report(self, out_dir: str) -> list:
+    def write_report(self, out_dir: str, *, force: bool = False) -> list:
         """Write the Markdown/HTML report with figures (:func:`nlid.discovery.write_report`)."""
         from .report import write_report
 
-        return write_report(self, out_dir)
+        return write_report(self, out_dir, force=force)
 
     def __repr__(self) -> str:
         added = ", ".join(s.effect for s in self.steps) or "nothing"
@@ -843,12 +843,16 @@ def discover(
         notes = [f"method {method!r} given"]
     identifier = reg.create(method, options)
     if mass is not None and not (np.isfinite(mass) and mass > 0):
-        raise InputError(f"mass must be a positive number of kg, got {mass}")
+        raise InputError(f"mass= must be a positive number of kg, got {mass}")
     if mass is None and getattr(identifier, "needs_mass", False):
         raise InputError(f"method {method!r} cannot estimate the mass: give mass= (in kg)")
     estimation, held, held_text = _split(record, holdout)
     if cutoff is None:
         cutoff = derivatives.suggest_cutoff(estimation.z, estimation.fs)
+    elif not (np.isfinite(cutoff) and 0.0 < float(cutoff) < estimation.fs / 2.0):
+        raise InputError(
+            f"cutoff must lie between 0 and the Nyquist frequency {estimation.fs / 2:g} Hz, got {float(cutoff):g}"
+        )
     ctx = _Context(estimation, held, identifier, mass, float(cutoff), rule, float(structure))
     use_mass = use_mass and not getattr(identifier, "needs_mass", False)
     z_range = (float(estimation.z.min()), float(estimation.z.max()))

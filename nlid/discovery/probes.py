@@ -299,7 +299,7 @@ _WHERE = {
     "(hysteresis, pre-sliding friction, an unmodelled mode)",
 }
 _TRY = {
-    "z": "try stiffness candidates (gap, stop, z^5) or your own (--candidate NAME=TERMS)",
+    "z": "try stiffness candidates (gap, stop, z^5) or a candidate of your own",
     "v": "try friction candidates (stribeck, dictionary) or your own",
     "z,v": "try position-dependent friction (sign(v)*|px(z)|) or products in the dictionary",
     "acceleration": "let the method estimate the mass (omit it) or check the value given",

@@ -29,6 +29,7 @@ from typing import Any
 
 import pandas as pd
 
+from ..formatting import TERMINAL_WIDTH, text_table, wrap
 from ..plotting import save_figure
 from ..terms import parse_term
 from .evidence import Evidence
@@ -93,7 +94,7 @@ def _sim(fit: Stage, units: dict[str, str]) -> str:
 def _model_rows(result: DiscoveryResult) -> tuple[list[str], list[list[str]]]:
     units = result.info.get("units", {})
     validation = any(st.validation is not None for st in result.states)
-    headers = list(_MODEL_HEADERS) + (["free-run RMS error validation"] if validation else [])
+    headers = list(_MODEL_HEADERS) + (["free-run validation"] if validation else [])
     rows = []
     for label, fit in zip(_labels(result), result.states, strict=True):
         s = fit.scores
@@ -113,28 +114,22 @@ def _model_rows(result: DiscoveryResult) -> tuple[list[str], list[list[str]]]:
 
 _MODEL_HEADERS = [
     "model",
-    "eps (Eq. 26)",
+    "eps",
     "eps held-out",
-    "force residual",
-    "force residual held-out",
-    "free-run RMS error held-out",
+    "force res.",
+    "force res. held-out",
+    "free-run held-out",
 ]
+#: What the columns of the before/after table are (printed under it).
+_MODEL_NOTE = (
+    "eps: Eq. 26, relative to f - m a; force res.: the same error relative to f; free-run: RMS error of the "
+    "displacement simulated from the held-out (validation) force"
+)
 
 
 def _format_table(headers: list[str], rows: list[list[str]]) -> str:
-    widths = [max(len(str(r[i])) for r in [headers, *rows]) for i in range(len(headers))]
-    lines = [
-        "  ".join(
-            str(h).ljust(w) if i == 0 else str(h).rjust(w) for i, (h, w) in enumerate(zip(headers, widths, strict=True))
-        )
-    ]
-    for row in rows:
-        lines.append(
-            "  ".join(
-                str(c).ljust(w) if i == 0 else str(c).rjust(w) for i, (c, w) in enumerate(zip(row, widths, strict=True))
-            )
-        )
-    return "\n".join(lines)
+    """Aligned text within the terminal width (:func:`nlid.formatting.text_table`)."""
+    return text_table([str(h) for h in headers], [[str(c) for c in r] for r in rows])
 
 
 def _coefficient_rows(fit: Stage, units: dict[str, str]) -> tuple[list[str], list[list[str]]]:
@@ -163,17 +158,19 @@ def summary_table(result: DiscoveryResult) -> str:
         f"held-out: {result.info.get('holdout', '')}",
         "",
         _format_table(*_model_rows(result)),
+        wrap(_MODEL_NOTE, TERMINAL_WIDTH, subsequent="  "),
         "",
     ]
     for number, step in enumerate(result.steps, 1):
         ev = step.evidence
-        lines.append(
+        text = (
             f"step {number}: {step.effect} explains {100 * ev.explained_holdout:.3g} % of the held-out residual "  # type: ignore[operator]
             f"variance, dBIC = {ev.delta_bic:.4g} (N_eff = {ev.n_eff:.4g})"
         )
+        lines.append(wrap(text, TERMINAL_WIDTH, subsequent="  "))
     for number, step in enumerate(result.steps, 1):
-        lines += [f"  note (step {number}): {n}" for n in step.notes]
-    lines.append(f"stopped: {result.stop_reason}")
+        lines += [wrap(f"  note (step {number}): {n}", TERMINAL_WIDTH, subsequent="    ") for n in step.notes]
+    lines.append(wrap(f"stopped: {result.stop_reason}", TERMINAL_WIDTH, subsequent="  "))
     for ev in result.final_ranking[:3]:
         if ev.explained_holdout is not None:
             lines.append(f"  {ev.effect:<28} {_explained(ev)}")
@@ -293,11 +290,21 @@ class _Doc:
         )
 
 
-def write_report(result: DiscoveryResult, out_dir: str | Path) -> list[Path]:
-    """Write the report (see the module docstring) and return the files written."""
+def write_report(result: DiscoveryResult, out_dir: str | Path, *, force: bool = False) -> list[Path]:
+    """Write the report (see the module docstring) and return the files written.
+
+    nlid writes only into folders it created or that were empty; ``force=True``
+    writes beside files it did not write, never replacing them (:mod:`nlid.outputs`).
+    """
+    from ..outputs import DISCOVERY_OUTPUTS, output_folder
+
+    with output_folder(out_dir, DISCOVERY_OUTPUTS, force=force) as out:
+        return _write_report(result, out)
+
+
+def _write_report(result: DiscoveryResult, out: Path) -> list[Path]:
     from .plots import progress_figure, remaining_figure, residual_figure
 
-    out = Path(out_dir)
     figures = out / "figures"
     figures.mkdir(parents=True, exist_ok=True)
     units = result.info.get("units", {})

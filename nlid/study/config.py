@@ -67,11 +67,13 @@ from pathlib import Path
 from typing import Any
 
 from .._frozen import FrozenDict
-from ..errors import InputError, NlidError
+from ..errors import InputError, NlidError, brief
 from ..interface import resolve_options
+from ..io import parse_columns
 from ..pipeline import as_model
 from ..registry import Registry, default_registry
 from .values import (
+    MAX_MASS,
     MAX_TIMEOUT,
     BenchmarkSource,
     ConfigError,
@@ -103,12 +105,17 @@ __all__ = [
     "builtin_studies",
     "resolve_study_path",
     "MAX_RUNS",
+    "MAX_POSITION",
 ]
 
 DEFAULT_TIMEOUT = 600.0
 MAIN_MODEL = "main"
 #: Most runs a study may plan (datasets x term sets x identifiers x repetitions).
 MAX_RUNS = 20_000
+#: Largest position (m) a study may name (slices, equilibria, px roots): a kilometre.
+MAX_POSITION = 1e3
+#: Highest natural frequency (Hz) a reference may give.
+MAX_FREQUENCY = 1e7
 
 _STUDY_KEYS = ("name", "description", "seed", "repetitions", "timeout", "identifiers")
 _TOP_KEYS = ("study", "options", "datasets", "posterior")
@@ -310,7 +317,7 @@ def _check_keys(where: Where, table: Mapping[str, Any], known: tuple[str, ...]) 
 
 def _table(where: Where, value: Any) -> dict[str, Any]:
     if not isinstance(value, Mapping):
-        raise where.error(f"expected a table, got {type(value).__name__} {value!r}")
+        raise where.error(f"expected a table, got {type(value).__name__} {brief(value)}")
     return dict(value)
 
 
@@ -325,8 +332,11 @@ def _roots(where: Where, value: Any) -> tuple[float, float] | None:
     if value is None:
         return None
     if not isinstance(value, list) or len(value) != 2:
-        raise where.error(f"expected two numbers [z-, z+], got {value!r}")
-    return (float(where.number(value[0])), float(where.number(value[1])))
+        raise where.error(f"expected two numbers [z-, z+], got {brief(value)}")
+    low, high = (
+        float((where / f"[{i}]").number(x, minimum=-MAX_POSITION, maximum=MAX_POSITION)) for i, x in enumerate(value)
+    )
+    return low, high
 
 
 def _check_model(where: Where, model: ModelConfig) -> None:
@@ -345,13 +355,23 @@ def _check_finite(where: Where, value: Any) -> None:
         for i, v in enumerate(value):
             _check_finite(where / f"[{i}]", v)
     elif isinstance(value, float) and not math.isfinite(value):
-        raise where.error(f"expected a finite number, got {value!r}")
+        raise where.error(f"expected a finite number, got {brief(value)}")
+
+
+#: Package folder of the built-in studies (package data; copies of the repository's ``studies/``).
+BUILTIN_PACKAGE_DIR = "studies"
 
 
 def builtin_dirs() -> list[Path]:
-    """Folders searched for built-in studies: the source tree's ``studies/``, then the installed copy."""
-    here = Path(__file__).resolve()
-    return [here.parents[2] / "studies", Path(sys.prefix) / "share" / "nlid" / "studies"]
+    """Folders searched for built-in studies: the package data folder ``nlid/studies``.
+
+    The studies ship inside the package (read with :mod:`importlib.resources`),
+    so every kind of install finds them: a virtual environment, ``pip install
+    --user``, ``pip install --target DIR`` or the source tree.
+    """
+    from importlib.resources import files
+
+    return [Path(str(files("nlid") / BUILTIN_PACKAGE_DIR))]
 
 
 def builtin_studies() -> dict[str, Path]:
@@ -374,6 +394,8 @@ def resolve_study_path(name_or_path: str | os.PathLike[str]) -> Path:
     """
     text = str(name_or_path)
     path = Path(text).expanduser()
+    if path.is_dir():
+        raise InputError(f"study file {text} is a folder, not a .toml file")
     if path.suffix == ".toml" or os.sep in text or path.is_file():
         if path.is_dir():
             raise InputError(f"study file {text} is a folder, not a .toml file")
@@ -437,6 +459,8 @@ def parse_study(
         raw = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
         raise ConfigError(source, "", f"not valid TOML: {exc}") from None
+    except RecursionError:
+        raise ConfigError(source, "", "not usable TOML: arrays or tables nested too deeply") from None
     top = Where(source, "")
     _check_keys(top, raw, _TOP_KEYS)
     at = Where(source, "study")
@@ -465,7 +489,7 @@ def parse_study(
             raise (at / "identifiers").error("an identifier is listed twice")
         identifiers = tuple(wanted)
     else:
-        raise (at / "identifiers").error(f'expected "all" or a list of names, got {wanted!r}')
+        raise (at / "identifiers").error(f'expected "all" or a list of names, got {brief(wanted)}')
 
     at_options = Where(source, "options")
     options_raw = _table(at_options, raw.get("options", {}))
@@ -495,7 +519,7 @@ def parse_study(
     if dup:
         raise ConfigError(source, "datasets", f"dataset name {dup[0]!r} is used twice; give each a unique name")
 
-    posterior = _posterior(Where(source, "posterior"), raw["posterior"]) if "posterior" in raw else None
+    posterior = _posterior(Where(source, "posterior"), raw["posterior"], datasets) if "posterior" in raw else None
 
     config = StudyConfig(
         name=name,
@@ -517,7 +541,7 @@ def parse_study(
     return config
 
 
-def _posterior(where: Where, value: Any) -> dict[str, Any]:
+def _posterior(where: Where, value: Any, datasets: list[DatasetConfig]) -> dict[str, Any]:
     """The ``[posterior]`` table: the settings of :class:`nlid.bayes.PosteriorSampler` plus ``level``."""
     table = _table(where, value)
     try:
@@ -540,15 +564,44 @@ def _posterior(where: Where, value: Any) -> dict[str, Any]:
     try:
         PosteriorSampler(**settings)
     except (NlidError, TypeError, ValueError) as exc:
-        raise where.error(str(exc)) from None
+        text = str(exc)
+        # name the key when the message is about one setting ("max_steps= must be ...")
+        key = next((k for k in sorted(settings, key=len, reverse=True) if re.match(rf"{re.escape(k)}\b", text)), None)
+        raise (where / key if key else where).error(text) from None
+    _check_posterior_terms(where, settings, datasets)
     return table
+
+
+def _check_posterior_terms(where: Where, settings: Mapping[str, Any], datasets: list[DatasetConfig]) -> None:
+    """The sampled terms and the terms given priors exist in each dataset's own term set.
+
+    (Alternative term sets may lack them: their runs then report the posterior as a warning.)
+    """
+    from ..bayes import select_params
+    from ..bayes.priors import parse_prior_assignments
+
+    params = settings.get("params", "damping")
+    priors = parse_prior_assignments(settings.get("priors"))
+    for ds in datasets:
+        main = ds.models[0]
+        model = as_model(main.terms, without=main.without, px_roots=main.px_roots)
+        try:
+            names = [model.names[i] for i in select_params(model, params)]
+        except NlidError as exc:
+            raise (where / "params").error(f"dataset {ds.name!r}: {exc}") from None
+        stray = [n for n in priors if n not in names]
+        if stray:
+            raise (where / "priors").error(
+                f"a prior is given for {', '.join(stray)}, which dataset {ds.name!r} does not sample "
+                f"(it samples {', '.join(names)})"
+            )
 
 
 def _validate_options(where: Where, registry: Registry, ident: str, opts: Mapping[str, Any]) -> None:
     cls = registry.get(ident)
     try:
         resolve_options(tuple(getattr(cls, "options", ())), opts)
-        cls(**dict(opts))
+        registry.create(ident, opts)
     except NlidError as exc:
         raise where.error(str(exc)) from None
 
@@ -585,7 +638,7 @@ def _preset_source(where: Where, value: str, entry: dict[str, Any]) -> tuple[Pre
             raise (where / "noise").error("noise is a fraction of the signal's std (0.02 = 2 %)")
     channels_raw = entry.get("channels", list(noise) if isinstance(noise, dict) else ["z"])
     if not isinstance(channels_raw, list) or not all(c in ("z", "v", "a") for c in channels_raw):
-        raise (where / "channels").error(f"expected a list of z, v, a; got {channels_raw!r}")
+        raise (where / "channels").error(f"expected a list of z, v, a; got {brief(channels_raw)}")
     channels = tuple(dict.fromkeys(["z", *channels_raw]))
     if isinstance(noise, dict):
         missing = [c for c in noise if c not in channels]
@@ -629,6 +682,10 @@ def _dataset(where: Where, entry: dict[str, Any], base: Path, reps: int, timeout
         if "fs" in entry:
             fs = float((where / "fs").number(entry["fs"], positive=True, maximum=1e9))
         columns = None if "columns" not in entry else (where / "columns").string(entry["columns"])
+        try:
+            parse_columns(columns)
+        except NlidError as exc:
+            raise (where / "columns").error(str(exc)) from None
         source = FileSource(os.path.normpath(os.path.abspath(path)), columns, fs)
 
     name = _name(where / "name", entry.get("name", value if kind != "file" else Path(value).stem))
@@ -689,11 +746,14 @@ def _dataset(where: Where, entry: dict[str, Any], base: Path, reps: int, timeout
 
     freerun = entry.get("freerun", True)
     if not isinstance(freerun, bool):
-        raise (where / "freerun").error(f"expected true or false, got {freerun!r}")
+        raise (where / "freerun").error(f"expected true or false, got {brief(freerun)}")
     slices = entry.get("slices", [])
     if not isinstance(slices, list):
-        raise (where / "slices").error(f"expected a list of positions in m, got {slices!r}")
-    slices = tuple(float((where / f"slices[{i}]").number(z)) for i, z in enumerate(slices))
+        raise (where / "slices").error(f"expected a list of positions in m, got {brief(slices)}")
+    slices = tuple(
+        float((where / f"slices[{i}]").number(z, minimum=-MAX_POSITION, maximum=MAX_POSITION))
+        for i, z in enumerate(slices)
+    )
     d_reps = int(
         (where / "repetitions").number(entry.get("repetitions", reps), minimum=1, maximum=MAX_RUNS, integer=True)
     )
@@ -728,12 +788,15 @@ def _reference(where: Where, value: Any) -> dict[str, Any]:
                 raise (where / "coefficients").error(str(exc)) from None
         reference["coefficients"] = {as_model(t, without="1,z,v").names[0]: float(x) for t, x in coeffs.items()}
     if "mass" in reference:
-        reference["mass"] = float((where / "mass").number(reference["mass"], positive=True))
+        reference["mass"] = float((where / "mass").number(reference["mass"], positive=True, maximum=MAX_MASS))
     if "equilibria" in reference:
         eq = reference["equilibria"]
         if not isinstance(eq, list):
             raise (where / "equilibria").error("expected a list of positions (m)")
-        reference["equilibria"] = sorted(float((where / f"equilibria[{i}]").number(x)) for i, x in enumerate(eq))
+        reference["equilibria"] = sorted(
+            float((where / f"equilibria[{i}]").number(x, minimum=-MAX_POSITION, maximum=MAX_POSITION))
+            for i, x in enumerate(eq)
+        )
     if "modal" in reference:
         modal = reference["modal"]
         if not isinstance(modal, list) or not all(isinstance(m, Mapping) for m in modal):
@@ -741,14 +804,17 @@ def _reference(where: Where, value: Any) -> dict[str, Any]:
         for j, m in enumerate(modal):
             mw = where / f"modal[{j}]"
             _check_keys(mw, m, ("fn_hz", "zeta"))
-            for k, x in m.items():
-                (mw / k).number(x, positive=True)
+            missing = [k for k in ("fn_hz", "zeta") if k not in m]
+            if missing:
+                raise mw.error(f"needs {' and '.join(missing)} (a table {{ fn_hz = ..., zeta = ... }})")
+            (mw / "fn_hz").number(m["fn_hz"], positive=True, maximum=MAX_FREQUENCY)
+            (mw / "zeta").number(m["zeta"], positive=True)
     return reference
 
 
 # --------------------------------------------------------------------------- the disk
 def resolve_study(config: StudyConfig) -> StudyConfig:
-    """Check what a parsed study names on disk: files read, benchmark parts load, "known" masses are known.
+    """Check what a parsed study names: files read, benchmark parts load, "known" masses are known, presets simulate.
 
     This is the only step of loading a study that touches the disk; it
     returns the config marked ``resolved``.
@@ -775,6 +841,8 @@ def resolve_study(config: StudyConfig) -> StudyConfig:
             known = bool(loaded is not None and (loaded.mass or (loaded.meta.get("reference") or {}).get("mass")))
             if isinstance(ds.mass, KnownMass) and not known and not (ds.reference and "mass" in ds.reference):
                 raise (where / "mass").error('the mass is not known for this data: give it in kg or "estimate"')
+        elif isinstance(src, PresetSource):
+            _trial_simulation(where, src)
         elif isinstance(src, FileSource):
             if not Path(src.path).is_file():
                 raise (where / "file").error(f"file {src.path} not found")
@@ -783,4 +851,19 @@ def resolve_study(config: StudyConfig) -> StudyConfig:
             except NlidError as exc:
                 raise (where / "file").error(str(exc)) from None
     return replace(config, resolved=True)
+
+
+#: Seconds of a preset simulated by :func:`resolve_study` to check that the overrides give a stable model.
+TRIAL_SECONDS = 1.0
+
+
+def _trial_simulation(where: Where, source: PresetSource) -> None:
+    """Simulate the first :data:`TRIAL_SECONDS` of a preset dataset: absurd overrides diverge at once."""
+    preset = source.preset()
+    duration = min(preset.duration, max(TRIAL_SECONDS, 64.0 / preset.fs))
+    try:
+        preset.with_overrides(duration=duration).simulate(0, channels=source.channels)
+    except NlidError as exc:
+        key = "overrides" if source.overrides else "preset"
+        raise (where / key).error(f"the first {duration:g} s of the simulation fail: {exc}") from None
 

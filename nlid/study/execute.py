@@ -22,6 +22,7 @@ its spec alone (:mod:`nlid.study.plan`).
 
 from __future__ import annotations
 
+import multiprocessing
 import os
 from collections.abc import Callable, Sequence
 from concurrent.futures import FIRST_COMPLETED, ThreadPoolExecutor
@@ -29,6 +30,7 @@ from concurrent.futures import wait as wait_futures
 from typing import Any
 
 from ..errors import InputError
+from ..isolation import start_fork_server
 from .plan import Run
 from .worker import kill_children, run_isolated
 
@@ -64,6 +66,8 @@ class LocalExecutor:
         if not runs:
             return
         jobs = self.jobs or default_jobs()
+        if not multiprocessing.current_process().daemon:
+            start_fork_server()  # from this thread: the fork server dies with it (nlid.isolation)
         pool = ThreadPoolExecutor(max_workers=min(jobs, len(runs)), thread_name_prefix="nlid-run")
         try:
             pending = {pool.submit(run_isolated, run.spec): run for run in runs}

@@ -8,6 +8,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, TextIO
 
+from ..outputs import STUDY_OUTPUTS, output_folder
 from .config import StudyConfig
 from .execute import LocalExecutor
 from .plan import Run, plan_study
@@ -91,6 +92,7 @@ def run_study(
     report: bool = True,
     progress: bool | None = None,
     log: TextIO | None = None,
+    force: bool = False,
 ) -> StudyOutcome:
     """Run every run of a study not yet done, persisting each as it finishes, then report.
 
@@ -99,7 +101,9 @@ def run_study(
     config
         From :func:`nlid.study.load_study`.
     folder
-        Output folder (created; results of earlier sessions are kept and reused).
+        Output folder (created; results of earlier sessions are kept and
+        reused). nlid writes only into folders it created or that were empty,
+        and locks the folder while the study runs (:mod:`nlid.outputs`).
     executor
         :class:`~nlid.study.execute.LocalExecutor` (default) or
         :class:`~nlid.study.execute.DaskExecutor`.
@@ -111,7 +115,29 @@ def run_study(
         Show the progress line (default: when stderr is a terminal).
     log
         Where one-line status messages go (default ``sys.stderr``; ``None`` is the default).
+    force
+        Write into a folder that holds files nlid did not write (never replacing them).
+
+    Raises
+    ------
+    InputError
+        The folder holds files nlid did not write, or cannot be written.
+    FolderBusyError
+        Another process is running a study in the folder.
     """
+    with output_folder(folder, STUDY_OUTPUTS, force=force) as path:
+        return _run_study(config, path, executor, rerun, report, progress, log)
+
+
+def _run_study(
+    config: StudyConfig,
+    folder: Path,
+    executor: Any,
+    rerun: bool,
+    report: bool,
+    progress: bool | None,
+    log: TextIO | None,
+) -> StudyOutcome:
     log = log if log is not None else sys.stderr
     store = ResultStore(folder)
     (store.folder / "study.toml").write_text(config.text)

@@ -81,7 +81,7 @@ class ResultStore:
             return None
         try:
             return json.loads(path.read_text())
-        except (OSError, ValueError):
+        except (OSError, ValueError, RecursionError):
             return None
 
     def is_done(self, run: Run) -> bool:

@@ -20,7 +20,7 @@ from dataclasses import dataclass, field
 from typing import Any, Union
 
 from .._frozen import FrozenDict
-from ..errors import InputError
+from ..errors import InputError, brief
 
 __all__ = [
     "ConfigError",
@@ -96,7 +96,7 @@ class Where:
         """A finite number (or integer) within bounds, else a :class:`ConfigError` here."""
         ok = isinstance(value, int) if integer else isinstance(value, (int, float))
         if isinstance(value, bool) or not ok:
-            raise self.error(f"expected {'an integer' if integer else 'a number'}, got {value!r}")
+            raise self.error(f"expected {'an integer' if integer else 'a number'}, got {brief(value)}")
         if not math.isfinite(value):
             raise self.error(f"expected a finite number, got {value!r}")
         if positive and not value > 0:
@@ -110,7 +110,7 @@ class Where:
     def string(self, value: Any) -> str:
         """A string, else a :class:`ConfigError` here."""
         if not isinstance(value, str):
-            raise self.error(f"expected a string, got {value!r}")
+            raise self.error(f"expected a string, got {brief(value)}")
         return value
 
 

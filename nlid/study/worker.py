@@ -8,14 +8,16 @@ adds ``nlid.bayes.study_metrics(record, model, result, reference,
 ``status = "failed"`` and the error message.
 
 :func:`run_isolated` runs :func:`execute_run` in a child process so a hung or
-crashing identifier can be stopped: the child is forked from a
-``multiprocessing`` fork server that has nlid imported (cheap to start), or,
-inside a daemonic process such as a default Dask worker (which may not have
-``multiprocessing`` children), started as ``python -m nlid.study.child``. A
-child still running at the time limit is killed and the run is recorded as
-timed out; a child that dies is recorded as failed with its exit code. The
-child gets the parent's ``sys.path`` and environment, so plugins visible to the
-parent are visible to it.
+crashing identifier can be stopped: the child is forked from nlid's fork
+server (:func:`nlid.isolation.run_in_child`, shared with ``nlid identify
+--timeout``), or, inside a daemonic process such as a default Dask worker
+(which may not have ``multiprocessing`` children), started as ``python -m
+nlid.study.child``. A child still running at the time limit is killed and the
+run is recorded as timed out; a child that dies is recorded as failed with
+its exit code or signal. Children die with their parent
+(:func:`nlid.isolation.die_with_parent`). The child gets the parent's
+``sys.path`` and environment, so plugins visible to the parent are visible to
+it.
 """
 
 from __future__ import annotations
@@ -23,19 +25,19 @@ from __future__ import annotations
 import json
 import multiprocessing
 import os
+import shutil
 import subprocess
 import sys
 import tempfile
-import threading
 import time
 import traceback
 import tracemalloc
-from multiprocessing.connection import wait
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
+from .. import isolation
 from ..errors import NlidError
 from ..interface import to_jsonable
 from ..pipeline import as_model, identify
@@ -46,8 +48,8 @@ from .plan import RunSpec
 
 __all__ = ["execute_run", "run_isolated", "kill_children", "failure_payload", "subprocess_main"]
 
-_LIVE: set[Any] = set()
-_LIVE_LOCK = threading.Lock()
+#: Prefix of the temporary folders of runs started as ``python -m nlid.study.child`` (then the parent's pid).
+RUN_FOLDER_PREFIX = "nlid-run-"
 
 
 def _base_row(spec: RunSpec) -> dict[str, Any]:
@@ -152,38 +154,17 @@ def _execute(spec: RunSpec) -> dict[str, Any]:
 
 
 # --------------------------------------------------------------------------- isolation
-def _child_main(spec: RunSpec, conn: Any, path: list[str], env: dict[str, str]) -> None:
-    sys.path[:] = path
-    os.environ.clear()
-    os.environ.update(env)
-    payload = execute_run(spec)
-    try:
-        conn.send(payload)
-    except OSError:  # the parent is gone: nothing to report to
-        pass
-    finally:
-        conn.close()
-
-
-def _context() -> Any:
-    ctx = multiprocessing.get_context("forkserver")
-    ctx.set_forkserver_preload(["nlid.study.worker"])
-    return ctx
-
-
 def kill_children() -> None:
     """Kill every run child process this process started (on interrupt)."""
-    with _LIVE_LOCK:
-        live = list(_LIVE)
-    for proc in live:
-        try:
-            proc.kill()
-        except (OSError, ValueError):
-            pass
+    isolation.kill_children()
+
+
+def _died(spec: RunSpec, exitcode: int | None) -> dict[str, Any]:
+    return failure_payload(spec, "failed", f"worker process died ({isolation.describe_exit(exitcode)})")
 
 
 def run_isolated(spec: RunSpec, timeout: float | None = None, *, use_subprocess: bool | None = None) -> dict:
-    """Run :func:`execute_run` in a child process, killed at the time limit.
+    """Run :func:`execute_run` in a child process, killed at the time limit (:func:`nlid.isolation.run_in_child`).
 
     Parameters
     ----------
@@ -200,49 +181,38 @@ def run_isolated(spec: RunSpec, timeout: float | None = None, *, use_subprocess:
         use_subprocess = bool(multiprocessing.current_process().daemon)
     if use_subprocess:
         return _run_subprocess(spec, timeout)
-    ctx = _context()
-    receiver, sender = ctx.Pipe(duplex=False)
-    proc = ctx.Process(target=_child_main, args=(spec, sender, list(sys.path), dict(os.environ)), daemon=False)
-    with _LIVE_LOCK:
-        proc.start()
-        _LIVE.add(proc)
-    sender.close()
-    try:
-        ready = wait([receiver, proc.sentinel], timeout)
-        if receiver in ready:
-            try:
-                payload = receiver.recv()
-            except EOFError:
-                proc.join(5)
-                payload = failure_payload(spec, "failed", f"worker process died (exit code {proc.exitcode})")
-        elif ready:
-            proc.join(5)
-            payload = failure_payload(spec, "failed", f"worker process died (exit code {proc.exitcode})")
-        else:
-            proc.kill()
-            payload = failure_payload(spec, "timeout", f"stopped after the time limit of {timeout:g} s")
-        proc.join(5)
-        if proc.is_alive():
-            proc.kill()
-            proc.join()
-    finally:
-        receiver.close()
-        with _LIVE_LOCK:
-            _LIVE.discard(proc)
-    return payload
+    outcome = isolation.run_in_child(execute_run, (spec,), timeout=timeout)
+    if outcome.status == "ok":
+        return outcome.value
+    if outcome.status == "timeout":
+        return failure_payload(spec, "timeout", f"stopped after the time limit of {timeout:g} s")
+    return _died(spec, outcome.exitcode)
+
+
+def _sweep_run_folders() -> None:
+    """Remove run folders left in the temporary folder by parents that were killed."""
+    for folder in Path(tempfile.gettempdir()).glob(f"{RUN_FOLDER_PREFIX}*"):
+        try:
+            pid = int(folder.name[len(RUN_FOLDER_PREFIX) :].split("-", 1)[0])
+            os.kill(pid, 0)
+        except ProcessLookupError:
+            shutil.rmtree(folder, ignore_errors=True)
+        except (ValueError, PermissionError, OSError):
+            continue
 
 
 def _run_subprocess(spec: RunSpec, timeout: float) -> dict[str, Any]:
-    with tempfile.TemporaryDirectory(prefix="nlid-run-") as tmp:
+    _sweep_run_folders()
+    with tempfile.TemporaryDirectory(prefix=f"{RUN_FOLDER_PREFIX}{os.getpid()}-") as tmp:
         folder = Path(tmp)
         (folder / "spec.json").write_text(json.dumps(spec.to_dict()))
         env = dict(os.environ)
         env["PYTHONPATH"] = os.pathsep.join(p for p in sys.path if p)
+        env[isolation.PARENT_ENV] = str(os.getpid())
         proc = subprocess.Popen(
             [sys.executable, "-m", "nlid.study.child", str(folder)], env=env, stdout=subprocess.DEVNULL
         )
-        with _LIVE_LOCK:
-            _LIVE.add(proc)
+        isolation.track(proc)
         try:
             proc.wait(timeout)
         except subprocess.TimeoutExpired:
@@ -250,11 +220,10 @@ def _run_subprocess(spec: RunSpec, timeout: float) -> dict[str, Any]:
             proc.wait()
             return failure_payload(spec, "timeout", f"stopped after the time limit of {timeout:g} s")
         finally:
-            with _LIVE_LOCK:
-                _LIVE.discard(proc)
+            isolation.untrack(proc)
         out = folder / "payload.json"
         if proc.returncode != 0 or not out.is_file():
-            return failure_payload(spec, "failed", f"worker process died (exit code {proc.returncode})")
+            return _died(spec, proc.returncode)
         payload = json.loads(out.read_text())
         arrays = folder / "arrays.npz"
         if arrays.is_file():
@@ -265,6 +234,8 @@ def _run_subprocess(spec: RunSpec, timeout: float) -> dict[str, Any]:
 
 def subprocess_main(folder: str) -> int:
     """Run the spec in ``folder/spec.json``; write ``payload.json`` and ``arrays.npz`` there."""
+    parent = os.environ.get(isolation.PARENT_ENV)
+    isolation.die_with_parent(int(parent) if parent else None)
     path = Path(folder)
     spec = RunSpec.from_dict(json.loads((path / "spec.json").read_text()))
     payload = execute_run(spec)

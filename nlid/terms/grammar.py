@@ -22,6 +22,12 @@ Grammar (whitespace is ignored; ``**`` may be written for ``^``)::
 A model is a comma-separated list of terms (commas inside parentheses belong
 to the term). Errors carry the position of the offending character
 (:class:`nlid.errors.TermError`).
+
+Limits: parentheses, ``|...|`` and function calls nest at most
+:data:`MAX_DEPTH` levels (the parser recurses once per level), and the power
+of every variable and factor *in the normal form* is at most
+:data:`~nlid.terms.term.MAX_POWER`, however it is written (``z^16``,
+``z*z*...*z`` sixteen times and ``(z^4)^4`` are refused alike).
 """
 
 from __future__ import annotations
@@ -30,10 +36,13 @@ import re
 from collections import Counter
 from dataclasses import dataclass
 
-from ..errors import TermError
-from .term import MAX_POWER, VARIABLES, Term
+from ..errors import TermError, excerpt
+from .term import MAX_POWER, VARIABLES, Term, _special_name
 
-__all__ = ["parse_term", "split_terms"]
+__all__ = ["parse_term", "split_terms", "MAX_DEPTH"]
+
+#: Deepest nesting of parentheses, bars and function calls in one term.
+MAX_DEPTH = 32
 
 _TOKEN = re.compile(
     r"\s*(?:(?P<number>\d+\.?\d*(?:[eE][+-]?\d+)?|\.\d+(?:[eE][+-]?\d+)?)"
@@ -108,6 +117,17 @@ class _Mono:
             return None
         return _Mono({var: (p, 0) for var, (p, s) in self.parts.items()}, self.special)
 
+    def too_high(self) -> str | None:
+        """The first factor whose power exceeds :data:`MAX_POWER`, as ``"z^16"``, else ``None``."""
+        for var in VARIABLES:
+            p, _ = self.parts.get(var, (0, 0))
+            if p > MAX_POWER:
+                return f"{'px(z)' if var == 'px' else var}^{p}"
+        for (kind, var, scale), mult in self.special.items():
+            if mult > MAX_POWER:
+                return _special_name((kind, var, scale, mult))
+        return None
+
     def to_term(self) -> Term:
         if self.memory is not None:
             return Term(memory=self.memory)
@@ -126,6 +146,7 @@ class _Parser:
         self.text = text
         self.toks = _tokenize(text)
         self.i = 0
+        self.depth = 0
 
     # ---------------------------------------------------------------- helpers
     def peek(self) -> _Tok:
@@ -173,7 +194,22 @@ class _Parser:
         tok = self.peek()
         if tok.kind != "end":
             raise self.fail(f"unexpected {tok.text!r}", tok)
+        high = mono.too_high()
+        if high is not None:
+            raise TermError(
+                f"{excerpt(self.text.strip())} is {high} in normal form: powers above {MAX_POWER} are not allowed"
+            )
         return mono.to_term()
+
+    def nested(self, stop: tuple[str, ...], opener: _Tok) -> _Mono:
+        """A product inside parentheses, bars or a function call (depth-limited)."""
+        self.depth += 1
+        if self.depth > MAX_DEPTH:
+            raise self.fail(f"nested more than {MAX_DEPTH} levels deep", opener)
+        try:
+            return self.product(stop=stop)
+        finally:
+            self.depth -= 1
 
     def product(self, stop: tuple[str, ...]) -> _Mono:
         mono = self.factor()
@@ -231,7 +267,7 @@ class _Parser:
             return _Mono()
         if tok.text == "|":
             self.take()
-            inner = self.product(stop=("|",))
+            inner = self.nested(("|",), tok)
             self.expect("|", "closing '|'")
             out = inner.absolute()
             if out is None:
@@ -239,7 +275,7 @@ class _Parser:
             return out
         if tok.text == "(":
             self.take()
-            inner = self.product(stop=(")",))
+            inner = self.nested((")",), tok)
             self.expect(")", "closing ')'")
             return inner
         if tok.kind == "name":
@@ -273,7 +309,7 @@ class _Parser:
 
     def _fn_abs(self, tok: _Tok) -> _Mono:
         self.expect("(")
-        inner = self.product(stop=(")",))
+        inner = self.nested((")",), tok)
         self.expect(")", "closing ')'")
         out = inner.absolute()
         if out is None:
@@ -282,7 +318,7 @@ class _Parser:
 
     def _fn_sign(self, tok: _Tok) -> _Mono:
         self.expect("(")
-        inner = self.product(stop=(")",))
+        inner = self.nested((")",), tok)
         self.expect(")", "closing ')'")
         if inner.special or inner.memory is not None:
             raise self.fail("sign(...) of exp, tanh, gap, stop or a memory term is not supported", tok)

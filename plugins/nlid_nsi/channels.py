@@ -19,11 +19,12 @@ import numpy as np
 from scipy import special
 
 from .basis import Basis
-from .intersample import interval_mean, trapezoid_mean
-from .noise import NoiseModel, build_noise_model
+from .intersample import BLOCK, interval_means, trapezoid_mean
+from .noise import NoiseModel, jacobian_moments, noise_xcorr
 from .reconstruction import Reconstruction
+from .subspace import PerturbedMOESP
 
-__all__ = ["Channels", "prepare_channels", "perturbation_map", "static_constant"]
+__all__ = ["Channels", "prepare_channels", "perturbation_map", "perturbation_subspace", "static_constant"]
 
 
 @dataclass
@@ -33,7 +34,9 @@ class Channels:
     Attributes
     ----------
     base
-        ``(N, c)`` array ``[f, (<z>), -<g_1>.., y]``.
+        ``(N, c)`` array ``[f, (<z>), -<g_1>.., y]`` (column-major: one
+        contiguous column per channel); ``None`` once the samples
+        are no longer needed (nsi-ip drops pass 1's while pass 2 runs).
     means, scales
         Means removed and scales divided out.
     names
@@ -44,7 +47,7 @@ class Channels:
         Noise model (errors-in-variables correction) or ``None``.
     """
 
-    base: np.ndarray
+    base: np.ndarray | None
     means: np.ndarray
     scales: np.ndarray
     names: list[str]
@@ -54,7 +57,7 @@ class Channels:
     @property
     def n_basis(self) -> int:
         """Number of basis-function channels."""
-        return self.base.shape[1] - (3 if self.has_z else 2)
+        return len(self.scales) - (3 if self.has_z else 2)
 
 
 def prepare_channels(
@@ -102,48 +105,40 @@ def prepare_channels(
         ``erf(v / (sqrt(2) sigma_v))``, in terms that jump in v (regression
         calibration; needs ``rec`` with a velocity derived from z).
     """
-    zz = (rec.z if rec is not None else z) - shift
-    vv = rec.v if rec is not None else v
+    zz = (rec.z if rec is not None else np.asarray(z, dtype=float)) - shift
+    vv = np.asarray(rec.v if rec is not None else v, dtype=float)
     if rec is None and intersample == "gauss":
         intersample = "trapezoid"
-
-    def mean(func):
-        if intersample == "gauss":
-            return interval_mean(func, zz, vv, dt)
-        values = np.asarray(func(zz, vv), dtype=float)
-        if intersample == "trapezoid":
-            return trapezoid_mean(values)
-        if intersample == "zoh":
-            return values
+    if intersample not in ("gauss", "trapezoid", "zoh"):
         raise ValueError(f"unknown intersample treatment {intersample!r}")
-
     n = len(zz)
-    base = np.empty((n, len(basis) + (3 if with_z else 2)))
-    base[:, 0] = f_held
-    col = 1
-    jacobians: list[tuple[np.ndarray, np.ndarray]] = []
+    c = len(basis) + (3 if with_z else 2)
+    off = 2 if with_z else 1
     build_noise = noise_model and rec is not None and rec.has_noise
-    if with_z:
-        base[:, col] = mean(lambda a, b: a)
-        col += 1
-        if build_noise:
-            jacobians.append((np.ones(n), np.zeros(n)))
     sigma_v = 0.0
     if sign_calibration and rec is not None:
         sigma_v = float(np.sqrt(rec.velocity_noise_var))
-    for b in basis:
-        func = b.func
-        if b.jumps_in_v and sigma_v > 0:
-            func = _calibrated(b.func, sigma_v)
-        base[:, col] = -mean(func)
-        col += 1
-        if build_noise:
-            dz, dv = b.jacobian(zz, vv)
-            jacobians.append((-dz, -dv))
-    base[:, col] = np.asarray(z, dtype=float) - shift
+    funcs = [_identity] if with_z else []
+    funcs += [_calibrated(b.func, sigma_v) if b.jumps_in_v and sigma_v > 0 else b.func for b in basis]
+    base = np.empty((n, c), order="F")  # one contiguous column per channel
+    base[:, 0] = f_held
+    inner = base[:, 1 : c - 1]
+    signs = [1.0] * (off - 1) + [-1.0] * len(basis)  # the extended inputs are -g_j (Eq. 16)
+    if intersample == "gauss":
+        interval_means(funcs, zz, vv, dt, out=inner, signs=signs)
+    else:
+        for r0 in range(0, n, BLOCK):
+            r1 = min(r0 + BLOCK, n)
+            stop = min(r1 + 1, n)  # the trapezoid needs the next sample
+            for j, func in enumerate(funcs):
+                values = np.asarray(func(zz[r0:stop], vv[r0:stop]), dtype=float)
+                if intersample == "trapezoid":
+                    values = trapezoid_mean(values)
+                inner[r0:r1, j] = signs[j] * values[: r1 - r0]
+    base[:, c - 1] = np.asarray(z, dtype=float) - shift
     means = base.mean(axis=0)
     base -= means
-    scales = base.std(axis=0)
+    scales = np.sqrt(np.array([base[:, j] @ base[:, j] for j in range(c)]) / n)
     if np.any(scales == 0):
         names = ["f"] + (["z"] if with_z else []) + [b.name for b in basis] + ["y"]
         flat = [names[i] for i in np.flatnonzero(scales == 0)]
@@ -151,9 +146,48 @@ def prepare_channels(
     base /= scales
     noise = None
     if build_noise:
-        noise = build_noise_model(list(rec.sources), jacobians, scales, max_lag)
+        jtj, jsum = _jacobian_sums(basis, zz, vv, with_z)
+        mom = jacobian_moments(jtj, jsum, n, scales)
+        noise = NoiseModel(1.0, mom, noise_xcorr(list(rec.sources), max_lag))
     names = ["f"] + (["z"] if with_z else []) + [b.name for b in basis] + ["y"]
     return Channels(base, means, scales, names, with_z, noise)
+
+
+def _identity(z: np.ndarray, v: np.ndarray) -> np.ndarray:
+    """The ``<z>`` channel's function."""
+    return z
+
+
+def _jacobian_sums(
+    basis: tuple[Basis, ...], z: np.ndarray, v: np.ndarray, with_z: bool
+) -> tuple[np.ndarray, np.ndarray]:
+    """``sum_t J J^T`` and ``sum_t J`` of the input channels' Jacobians, one block at a time.
+
+    ``J(t) = [d<u_1>/dz, d<u_1>/dv, ...]`` at the samples: ``(1, 0)`` for
+    ``<z>``, ``-(dg/dz, dg/dv)`` for the extended input ``-g`` (central
+    differences, :meth:`nlid_nsi.basis.Basis.jacobian`, with steps from the
+    whole record).
+    """
+    hz = 1e-6 * (float(np.std(z)) + 1e-300)
+    hv = 1e-6 * (float(np.std(v)) + 1e-300)
+    q = len(basis) + (1 if with_z else 0)
+    jtj = np.zeros((2 * q, 2 * q))
+    jsum = np.zeros(2 * q)
+    for r0 in range(0, len(z), BLOCK):
+        zb, vb = z[r0 : r0 + BLOCK], v[r0 : r0 + BLOCK]
+        jac = np.zeros((len(zb), 2 * q))
+        col = 0
+        if with_z:
+            jac[:, 0] = 1.0
+            col = 2
+        for b in basis:
+            dz, dv = b.jacobian(zb, vb, hz, hv)
+            jac[:, col] = -dz
+            jac[:, col + 1] = -dv
+            col += 2
+        jtj += jac.T @ jac
+        jsum += np.ones(len(zb)) @ jac
+    return jtj, jsum
 
 
 def _calibrated(func, sigma_v: float):
@@ -173,7 +207,7 @@ def _calibrated(func, sigma_v: float):
 
 def perturbation_map(ch: Channels, k_tilde: float) -> np.ndarray:
     """The map ``T`` with ``T [f, <z>, -<g>.., y] = [f + k~1 <z>, -<g>.., y]`` in scaled units (Eq. 13)."""
-    c = ch.base.shape[1]
+    c = len(ch.scales)
     if not ch.has_z:
         return np.eye(c)
     t = np.zeros((c - 1, c))
@@ -182,6 +216,19 @@ def perturbation_map(ch: Channels, k_tilde: float) -> np.ndarray:
     for a in range(2, c):
         t[a - 1, a] = 1.0
     return t
+
+
+def perturbation_subspace(ch: Channels, gram: np.ndarray) -> PerturbedMOESP:
+    """The subspace step of ``gram`` prepared for every ``perturbation_map(ch, k~1)``.
+
+    ``T(k~1) = T(0) + kappa E`` with ``kappa = k~1 s_z / s_f`` and ``E`` the unit
+    map of ``<z>`` into ``fbar`` (:class:`nlid_nsi.subspace.PerturbedMOESP`).
+    """
+    t0 = perturbation_map(ch, 0.0)
+    t1 = np.zeros_like(t0)
+    if ch.has_z:
+        t1[0, 1] = 1.0
+    return PerturbedMOESP(gram, t0, t1)
 
 
 def static_constant(

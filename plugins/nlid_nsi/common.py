@@ -222,10 +222,17 @@ def velocity_estimate(record: Record, how: str | None, cutoff: float | None) -> 
 
 
 def denoise_operator(
-    z: np.ndarray, fs: float, cutoff: float | None
+    z: np.ndarray, fs: float, cutoff: float | None, auto: float | None = None
 ) -> tuple[Callable[[np.ndarray], np.ndarray], float]:
-    """The zero-phase low-pass that de-noises ``z`` and its cut-off (Hz)."""
-    fc = default_cutoff(z, fs) if cutoff is None else float(cutoff)
+    """The zero-phase low-pass that de-noises ``z`` and its cut-off (Hz).
+
+    ``auto`` is :func:`default_cutoff` of ``z`` when it is already known
+    (the velocity's differentiator uses the same rule on the same ``z``).
+    """
+    if cutoff is None:
+        fc = default_cutoff(z, fs) if auto is None else float(auto)
+    else:
+        fc = float(cutoff)
     if not 0 < fc < fs / 2:
         raise InputError(f"denoise_cutoff must lie between 0 and the Nyquist frequency {fs / 2:g} Hz, got {fc:g}")
 
@@ -312,7 +319,8 @@ def reconstruction(
         # a crossover outside (0, fs/2) is refused by nlid.derivatives.complementary, naming the option
         rec = fuse_motion(z, record.a, record.f, f_held, record.dt, uls, opt["crossover"])
         return rec, None
-    lowpass, fc = denoise_operator(z, record.fs, opt["denoise_cutoff"])
+    auto = vel.cutoff if vel.differentiate is not None and opt.get("velocity_cutoff") is None else None
+    lowpass, fc = denoise_operator(z, record.fs, opt["denoise_cutoff"], auto)
     return reconstruct_motion(z, vel.v, f_held, record.dt, uls, lowpass, vel.differentiate), fc
 
 

@@ -31,7 +31,7 @@ from .continuous import (
     uls_ok,
 )
 from .gram import transform_gram
-from .subspace import estimate_b, po_moesp
+from .subspace import PerturbedMOESP, channel_blocks, estimate_b, po_moesp
 
 __all__ = ["UnstableULSError", "NSIFit", "fit_extended", "format_eigenvalues"]
 
@@ -127,6 +127,7 @@ def fit_extended(
     zeta_max: float,
     k_tilde: float | None = None,
     mass: float | None = None,
+    subspace: PerturbedMOESP | None = None,
 ) -> NSIFit:
     """Identify the extended-input model of the channels ``T w`` (Eq. 16-20).
 
@@ -150,6 +151,10 @@ def fit_extended(
         For messages only.
     mass
         Known mass (constrains the ULS fit), or ``None``.
+    subspace
+        The subspace step prepared for every map ``t0 + kappa t1`` of this
+        ``gram`` (nsi-ip's k~1 values); ``None``: PO-MOESP on the transformed
+        Gram (the same result, one full factorisation per call).
 
     Raises
     ------
@@ -157,13 +162,15 @@ def fit_extended(
         The ULS fails the test of Eq. 18.
     """
     m_in = t.shape[0] - 1
-    a, cm, sv, n = po_moesp(transform_gram(gram, t), m_in, order, max_order)
+    if subspace is not None:
+        a, cm, sv, n = subspace.estimate(t, order, max_order)
+    else:
+        a, cm, sv, n = po_moesp(transform_gram(gram, t), m_in, order, max_order)
     lc = continuous_eigenvalues(a, dt)
     if not uls_ok(lc, zeta_max):
         raise UnstableULSError(unstable_message(k_tilde, lc, zeta_max), lc)
-    w = ch.base @ t.T
     noise = ch.noise.transformed(t) if ch.noise is not None else None
-    b = estimate_b(a, cm, w[:, :m_in], w[:, m_in], noise, output=m_in)
+    b = estimate_b(a, cm, None, None, noise, output=m_in, blocks=channel_blocks(ch.base, t))
     b, cm = _unscale(ch, b, cm)
     ac, bc, lc = d2c_zoh(a, b, dt)
     wn = float(np.abs(lc[0]))

@@ -7,14 +7,16 @@ columns). Every quantity PO-MOESP needs is a function of its Gram matrix
 ``W`` (``s c x J``: 2 GB for 10^6 samples) is never formed:
 
 * the first block row ``G[0, q]`` holds cross-correlations of the channels at
-  lags ``0..s-1``, computed by FFT (one real FFT per channel, ``c`` inverse
-  FFTs of length ``N``);
+  lags ``0..s-1``, accumulated by FFT over blocks of the record
+  (:func:`lag_products`: one pass over the data, no array of the record's
+  length);
 * the other blocks follow from the Hankel recursion
-  ``G[p+1, q+1] = G[p, q] + w(p+J) w(q+J)^T - w(p) w(q)^T``, evaluated as
-  cumulative sums along each block diagonal.
+  ``G[p+1, q+1] = G[p, q] + w(p+J) w(q+J)^T - w(p) w(q)^T``, one block row
+  at a time; the lower half mirrors the upper.
 
-Memory is O(N c + (s c)^2), time O(c^2 N log N + s^2 c^2). The result agrees
-with the explicit product ``W W^T / J`` to rounding (tests/plugins/nsi).
+Memory is O((s c)^2) besides the data, time O(c^2 N log s + s^2 c^2). The
+result agrees with the explicit product ``W W^T / J`` to rounding
+(tests/plugins/test_nsi_parts.py).
 
 Changing the channels by a fixed linear map ``w' = T w`` changes the Gram by a
 block congruence (:func:`transform_gram`); nsi-ip uses this so that one Gram
@@ -28,7 +30,56 @@ import numpy as np
 from scipy import fft as sp_fft
 from scipy import linalg
 
-__all__ = ["block_hankel_gram", "transform_gram", "sub_gram", "clip_indefinite"]
+__all__ = ["block_hankel_gram", "lag_products", "transform_gram", "sub_gram", "clip_indefinite"]
+
+
+#: FFT length of the blocks over which the lag products are accumulated.
+LAG_FFT = 2048
+#: Number of blocks transformed together (bounds the temporary memory to
+#: about ``2 * LAG_CHUNK * LAG_FFT * c`` doubles, 1.6 MB for six channels).
+LAG_CHUNK = 8
+
+
+def lag_products(w: np.ndarray, lags: int, length: int) -> np.ndarray:
+    """``P[d, a, b] = sum_{t < length} w_a(t) w_b(t + d)`` for ``d = 0..lags-1``.
+
+    The sum is accumulated over blocks of ``L = LAG_FFT - lags + 1`` values of
+    ``t`` in the frequency domain: for a block starting at ``t0``,
+    ``conj(FFT(w[t0 : t0 + L], zero-padded)) * FFT(w[t0 : t0 + LAG_FFT])`` is the
+    circular cross-correlation of the two windows, which equals the linear one
+    for every lag below ``lags`` (``t + d < LAG_FFT``). The products of all
+    blocks are summed per frequency and transformed back once. One pass over
+    the data; memory O(LAG_FFT c^2), not O(N c).
+
+    Parameters
+    ----------
+    w
+        Data, shape ``(N, c)``.
+    lags
+        Number of lags.
+    length
+        Number of terms ``t`` (``length + lags - 1 <= N``).
+    """
+    n, c = w.shape
+    size = max(LAG_FFT, sp_fft.next_fast_len(4 * lags, real=True))
+    step = size - lags + 1
+    acc = np.zeros((size // 2 + 1, c, c), dtype=complex)
+    starts = np.arange(0, length, step)
+    for first in range(0, len(starts), LAG_CHUNK):
+        chunk = starts[first : first + LAG_CHUNK]
+        head = np.zeros((len(chunk), size, c))
+        tail = np.zeros((len(chunk), size, c))
+        for k, t0 in enumerate(chunk):
+            la = min(step, length - t0)
+            lb = min(size, n - t0)
+            head[k, :la] = w[t0 : t0 + la]
+            tail[k, :lb] = w[t0 : t0 + lb]
+        fh = sp_fft.rfft(head, axis=1)
+        ft = sp_fft.rfft(tail, axis=1)
+        del head, tail
+        # sum over the blocks of conj(fh) x ft, per frequency: (F, c, k) @ (F, k, c)
+        acc += np.matmul(fh.conj().transpose(1, 2, 0), ft.transpose(1, 0, 2))
+    return sp_fft.irfft(acc, size, axis=0)[:lags]
 
 
 def block_hankel_gram(w: np.ndarray, block_rows: int) -> np.ndarray:
@@ -44,7 +95,8 @@ def block_hankel_gram(w: np.ndarray, block_rows: int) -> np.ndarray:
     Returns
     -------
     numpy.ndarray
-        ``G[p, a, q, b] = sum_t w_a(p + t) w_b(q + t) / J``, shape ``(s, c, s, c)``.
+        ``G[p, a, q, b] = sum_t w_a(p + t) w_b(q + t) / J``, shape ``(s, c, s, c)``
+        (exactly symmetric).
 
     Raises
     ------
@@ -57,30 +109,23 @@ def block_hankel_gram(w: np.ndarray, block_rows: int) -> np.ndarray:
     j = n - s + 1
     if j < s * c:
         raise ValueError(f"record too short ({n} samples) for {s} block rows of {c} channels")
-    nfft = sp_fft.next_fast_len(n, real=True)  # t + d <= n - 1: no wrap-around
-    spec = sp_fft.rfft(w, nfft, axis=0)
-    first = np.empty((s, c, c))  # first[d, a, b] = sum_{t<J} w_a(t) w_b(t + d)
-    for a in range(c):
-        head = sp_fft.rfft(w[:j, a], nfft)
-        first[:, a, :] = sp_fft.irfft(np.conj(head)[:, None] * spec, nfft, axis=0)[:s]
-    del spec
-    hd, tl = w[:s], w[j : j + s]
-    out = np.empty((s, c, s, c))
-    for d in range(s):
-        length = s - d
-        blocks = np.empty((length, c, c))
-        blocks[0] = first[d]
-        if length > 1:
-            step = np.einsum("ka,kb->kab", tl[: length - 1], tl[d : d + length - 1])
-            step -= np.einsum("ka,kb->kab", hd[: length - 1], hd[d : d + length - 1])
-            np.cumsum(step, axis=0, out=blocks[1:])
-            blocks[1:] += first[d]
-        p = np.arange(length)
-        out[p, :, p + d, :] = blocks
-        if d:
-            out[p + d, :, p, :] = blocks.transpose(0, 2, 1)
+    first = lag_products(w, s, j)  # first[d, a, b] = sum_{t<J} w_a(t) w_b(t + d) = J G[0, a, d, b]
+    first[0] = 0.5 * (first[0] + first[0].T)
+    sc = s * c
+    out = np.empty((sc, sc))
+    out[:c] = first.transpose(1, 0, 2).reshape(c, sc)
+    # G[p, q] = G[p-1, q-1] + w(p-1+J) w(q-1+J)^T - w(p-1) w(q-1)^T for q >= p: the update of
+    # block (p, q) is block (p-1, q-1) of the outer products of the stacked edge samples
+    tl, hd = w[j:].reshape(-1), w[: s - 1].reshape(-1)  # s - 1 samples each
+    step = np.multiply.outer(tl, tl)
+    if len(hd):
+        linalg.blas.dger(-1.0, hd, hd, a=step.T, overwrite_a=True)  # step -= hd hd^T in place (step.T: F order)
+    for p in range(1, s):
+        r, r0 = slice(p * c, (p + 1) * c), slice((p - 1) * c, p * c)
+        np.add(out[r0, (p - 1) * c : (s - 1) * c], step[r0, (p - 1) * c : (s - 1) * c], out=out[r, p * c :])
+    mirror_upper(out)  # the block-lower half mirrors the upper half (diagonal blocks are symmetric)
     out /= j
-    return out
+    return out.reshape(s, c, s, c)
 
 
 def transform_gram(gram: np.ndarray, t: np.ndarray) -> np.ndarray:
@@ -143,4 +188,29 @@ def clip_indefinite(gram: np.ndarray, floor: float = 1e-8) -> tuple[np.ndarray, 
     low = floor * float(np.trace(gg)) / len(gg)
     # only the eigenpairs below the floor (half the cost of the full decomposition)
     ev, vec = linalg.eigh(gg, subset_by_value=(-np.inf, low), driver="evr", check_finite=False)
-    return (gg + (vec * (low - ev)) @ vec.T).reshape(shape), True
+    # gg + V diag(low - ev) V^T as a symmetric rank-k update (half the flops of the product), in place:
+    # gg.T is gg in Fortran order, whose "upper" triangle is gg's lower one
+    root = vec * np.sqrt(low - ev)
+    linalg.blas.dsyrk(1.0, root, beta=1.0, c=gg.T, trans=0, lower=0, overwrite_c=1)
+    mirror_upper(gg.T)
+    return gg.reshape(shape), True
+
+
+def mirror_upper(a: np.ndarray, block: int = 64) -> None:
+    """Copy the upper triangle of the square matrix ``a`` into its lower triangle, in place."""
+    n = len(a)
+    for r in range(0, n, block):
+        a[r + block :, r : r + block] = a[r : r + block, r + block :].T
+        blk = a[r : r + block, r : r + block]
+        low = _tril(len(blk))
+        blk[low] = blk.T[low]
+
+
+_TRIL: dict[int, tuple[np.ndarray, np.ndarray]] = {}
+
+
+def _tril(n: int) -> tuple[np.ndarray, np.ndarray]:
+    """``np.tril_indices(n, -1)``, cached."""
+    if n not in _TRIL:
+        _TRIL[n] = np.tril_indices(n, -1)
+    return _TRIL[n]

@@ -29,37 +29,90 @@ Force (:func:`force_interval_mean`)
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 
 import numpy as np
 
-__all__ = ["interval_mean", "trapezoid_mean", "force_interval_mean"]
+__all__ = ["interval_mean", "interval_means", "trapezoid_mean", "force_interval_mean"]
 
 _GAUSS3 = (np.array([-math.sqrt(0.6), 0.0, math.sqrt(0.6)]), np.array([5.0, 8.0, 5.0]) / 9.0)
+
+
+#: Samples per block of :func:`interval_means` (bounds its temporary memory).
+BLOCK = 16384
+
+
+def interval_means(
+    funcs: Sequence[Callable[[np.ndarray, np.ndarray], np.ndarray]],
+    z: np.ndarray,
+    v: np.ndarray,
+    dt: float,
+    out: np.ndarray | None = None,
+    block: int = BLOCK,
+    signs: Sequence[float] | None = None,
+) -> np.ndarray:
+    """Mean of every ``func(z(t), v(t))`` over each sample interval ``[t_k, t_k+1)``.
+
+    ``z(t)`` is the cubic Hermite interpolant of the samples of ``z`` with
+    slopes ``v`` and ``v(t)`` its derivative; the mean is the 3-point
+    Gauss-Legendre rule on it. The interpolant at the Gauss points is formed
+    once for all functions, one block of samples at a time. The last sample
+    (no following interval) keeps its point value.
+
+    Parameters
+    ----------
+    funcs
+        Vectorised functions of ``(z, v)``.
+    z, v
+        Samples, shape ``(N,)``.
+    dt
+        Sampling interval.
+    out
+        Array of shape ``(N, len(funcs))`` (or a view) to write into.
+    block
+        Samples per block.
+    signs
+        ``+1`` or ``-1`` per function: the mean of ``sign * func`` is written
+        (exact: a sign flip rounds nothing).
+
+    Returns
+    -------
+    numpy.ndarray
+        ``out``, shape ``(N, len(funcs))``.
+    """
+    n = len(z)
+    if out is None:
+        out = np.empty((n, len(funcs)))
+    signs = [1.0] * len(funcs) if signs is None else [float(x) for x in signs]
+    for r0 in range(0, n - 1, block):
+        r1 = min(r0 + block, n - 1)
+        z0, z1, v0, v1 = z[r0:r1], z[r0 + 1 : r1 + 1], v[r0:r1], v[r0 + 1 : r1 + 1]
+        acc = np.zeros((len(funcs), r1 - r0))
+        for x, weight in zip(*_GAUSS3, strict=True):
+            s = 0.5 * (x + 1.0)
+            h00, h10, h01, h11 = 2 * s**3 - 3 * s**2 + 1, s**3 - 2 * s**2 + s, -2 * s**3 + 3 * s**2, s**3 - s**2
+            d00, d10, d11 = (6 * s**2 - 6 * s) / dt, 3 * s**2 - 4 * s + 1, 3 * s**2 - 2 * s
+            zs = h00 * z0 + h10 * dt * v0 + h01 * z1 + h11 * dt * v1
+            vs = d00 * (z0 - z1) + d10 * v0 + d11 * v1
+            for j, func in enumerate(funcs):
+                acc[j] += (0.5 * weight * signs[j]) * func(zs, vs)
+        for j in range(len(funcs)):
+            out[r0:r1, j] = acc[j]
+    for j, func in enumerate(funcs):
+        out[n - 1, j] = signs[j] * func(z[-1:], v[-1:])[0]
+    return out
 
 
 def interval_mean(
     func: Callable[[np.ndarray, np.ndarray], np.ndarray], z: np.ndarray, v: np.ndarray, dt: float
 ) -> np.ndarray:
-    """Mean of ``func(z(t), v(t))`` over each sample interval ``[t_k, t_k+1)``.
+    """Mean of ``func(z(t), v(t))`` over each sample interval ``[t_k, t_k+1)`` (see :func:`interval_means`).
 
     ``z(t)`` is the cubic Hermite interpolant of the samples of ``z`` with
     slopes ``v`` and ``v(t)`` its derivative. The last sample (no following
     interval) keeps its point value.
     """
-    z0, z1, v0, v1 = z[:-1], z[1:], v[:-1], v[1:]
-    acc = np.zeros(len(z) - 1)
-    for x, weight in zip(*_GAUSS3, strict=True):
-        s = 0.5 * (x + 1.0)
-        h00, h10, h01, h11 = 2 * s**3 - 3 * s**2 + 1, s**3 - 2 * s**2 + s, -2 * s**3 + 3 * s**2, s**3 - s**2
-        d00, d10, d11 = (6 * s**2 - 6 * s) / dt, 3 * s**2 - 4 * s + 1, 3 * s**2 - 2 * s
-        zs = h00 * z0 + h10 * dt * v0 + h01 * z1 + h11 * dt * v1
-        vs = d00 * (z0 - z1) + d10 * v0 + d11 * v1
-        acc += 0.5 * weight * func(zs, vs)
-    out = np.empty(len(z))
-    out[:-1] = acc
-    out[-1] = func(z[-1:], v[-1:])[0]
-    return out
+    return interval_means([func], z, v, dt)[:, 0]
 
 
 def trapezoid_mean(x: np.ndarray) -> np.ndarray:

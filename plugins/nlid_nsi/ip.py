@@ -31,8 +31,11 @@ balance ``theta_1 = mean(f - m a - theta_z z - c_v v - sum theta_j g_j)``.
 Choosing k~1 (``k_tilde = auto``)
     From ``k_start`` in steps of ``k_step`` (the paper steps by 100 N/m). One
     base Gram serves every trial (``fbar`` is a linear map of the base
-    channels; :func:`nlid_nsi.gram.transform_gram`): a trial is one Cholesky
-    and one SVD on a ``search_block_rows`` sub-Gram (~15 ms). The first
+    channels), and its subspace step is prepared once for every k~1
+    (:class:`nlid_nsi.subspace.PerturbedMOESP`: the rows that do not depend on
+    k~1 are eliminated once): a trial on the ``search_block_rows`` sub-Gram
+    then costs ~0.5 ms, the subspace step of a full fit ~2 ms
+    (docs/performance.md). The first
     accepted value is re-checked with the full model, and the search goes on
     if it fails there: on paper-numerical k~1 = 500 = -theta_z makes the true
     ULS ``m s^2 + c s`` (eigenvalues 0 and -5 rad/s), which noise can make
@@ -87,7 +90,7 @@ import numpy as np
 from nlid.plugin import Estimate, Identifier, Model, Option, Record, equilibria, modal
 
 from .basis import split_model
-from .channels import Channels, perturbation_map, prepare_channels, static_constant
+from .channels import Channels, perturbation_map, perturbation_subspace, prepare_channels, static_constant
 from .common import (
     COMMON_OPTIONS,
     HOLD_ASSUMED,
@@ -106,7 +109,7 @@ from .fit import NSIFit, UnstableULSError, fit_extended, format_eigenvalues
 from .gram import block_hankel_gram, clip_indefinite, sub_gram, transform_gram
 from .intersample import force_interval_mean
 from .noise import subtract_noise
-from .subspace import po_moesp
+from .subspace import PerturbedMOESP, po_moesp
 
 __all__ = ["NSIInputPerturbation", "search_k_tilde", "ensemble_values", "combine_fits"]
 
@@ -126,11 +129,13 @@ def search_k_tilde(
     max_order: int,
     zeta_max: float,
     trials: list[dict[str, Any]],
+    subspace: PerturbedMOESP | None = None,
 ) -> float:
     """Smallest ``k~1`` on the grid ``start + j step`` whose ULS passes the test of Eq. 18.
 
-    Each trial (a congruence, a Cholesky and an SVD on ``gram``) is appended
-    to ``trials``.
+    Each trial (PO-MOESP of the perturbed channels on ``gram``; through
+    ``subspace``, the same step prepared once for every k~1, when given) is
+    appended to ``trials``.
 
     Raises
     ------
@@ -141,7 +146,10 @@ def search_k_tilde(
     rows = gram.shape[0] // 2
     while k <= k_max:
         t = perturbation_map(ch, k)
-        a, _, _, _ = po_moesp(transform_gram(gram, t), t.shape[0] - 1, order, max_order)
+        if subspace is not None:
+            a = subspace.estimate(t, order, max_order)[0]
+        else:
+            a = po_moesp(transform_gram(gram, t), t.shape[0] - 1, order, max_order)[0]
         lc = continuous_eigenvalues(a, dt)
         ok = uls_ok(lc, zeta_max)
         trials.append({"k_tilde": k, "block_rows": rows, "accepted": ok, "eigenvalues": eigen_list(lc)})
@@ -291,27 +299,65 @@ class NSIInputPerturbation(Identifier):
 
         uls_mass = mass if opt["mass_in_uls_fit"] else None
 
-        def fit(ch: Channels, gram: np.ndarray, k: float) -> NSIFit:
-            return fit_extended(ch, perturbation_map(ch, k), gram, dt, band, order, max_order, zeta_max, k, uls_mass)
+        subspaces: dict[int, PerturbedMOESP] = {}
 
-        ch1 = prepare_channels(z, v, f_held, dt, basis, 0.0, None, True, False, opt["noise_max_lag"])
-        g1 = block_hankel_gram(ch1.base, s)
+        def prepared(ch: Channels, gram: np.ndarray) -> PerturbedMOESP:
+            """The subspace step of ``gram`` for every k~1, prepared on first use (one per Gram)."""
+            if id(gram) not in subspaces:
+                subspaces[id(gram)] = perturbation_subspace(ch, gram)
+            return subspaces[id(gram)]
+
+        def fit(ch: Channels, gram: np.ndarray, k: float) -> NSIFit:
+            return fit_extended(
+                ch,
+                perturbation_map(ch, k),
+                gram,
+                dt,
+                band,
+                order,
+                max_order,
+                zeta_max,
+                k,
+                uls_mass,
+                prepared(ch, gram),
+            )
+
+        def first_pass() -> Channels:
+            """Pass 1's channels; their samples are dropped while pass 2 runs and rebuilt if needed again."""
+            nonlocal ch1
+            if ch1 is None or ch1.base is None:
+                ch1 = prepare_channels(z, v, f_held, dt, basis, 0.0, None, True, False, opt["noise_max_lag"])
+            return ch1
+
+        ch1: Channels | None = None
+        g1 = block_hankel_gram(first_pass().base, s)
         g_search = sub_gram(g1, min(opt["search_block_rows"], block_rows))
         timings["gram"] = time.perf_counter() - t0
         trials: list[dict[str, Any]] = []
         explicit = opt["k_tilde"] is not None
         k_use = float(opt["k_tilde"] if explicit else opt["k_start"])
         ch2 = g2 = None
-        denoise_fc = rec = None
+        denoise_fc = None
+        rec_diagnostics = reconstruction_diagnostics(None)
         gram_clipped = False
         rechecks = 0
         while True:
             if not explicit:
                 k_use = search_k_tilde(
-                    g_search, ch1, dt, k_use, opt["k_step"], opt["k_max"], order or 2, max_order, zeta_max, trials
+                    g_search,
+                    ch1,
+                    dt,
+                    k_use,
+                    opt["k_step"],
+                    opt["k_max"],
+                    order or 2,
+                    max_order,
+                    zeta_max,
+                    trials,
+                    prepared(ch1, g_search),
                 )
             try:
-                result = fit(ch1, g1, k_use)
+                result = fit(first_pass(), g1, k_use)
                 trials.append(
                     {
                         "k_tilde": k_use,
@@ -325,6 +371,7 @@ class NSIInputPerturbation(Identifier):
                 if opt["reconstruct"]:
                     if ch2 is None:
                         m_surrogate = float(mass) if mass is not None else result.uls.m
+                        ch1.base = None  # memory: one set of channels at a time (rebuilt if a retry needs it)
                         rec, denoise_fc = reconstruction(
                             record, vel, f_held, (m_surrogate, result.uls.c, result.uls.k), opt
                         )
@@ -342,6 +389,8 @@ class NSIInputPerturbation(Identifier):
                             opt["intersample"],
                             opt["sign_calibration"],
                         )
+                        rec_diagnostics = reconstruction_diagnostics(rec)
+                        del rec
                         g2 = block_hankel_gram(ch2.base, s)
                         if ch2.noise is not None:
                             g2 = subtract_noise(g2, ch2.noise, output=ch2.base.shape[1] - 1)
@@ -357,7 +406,9 @@ class NSIInputPerturbation(Identifier):
                     {"k_tilde": k_use, "block_rows": block_rows, "accepted": False, "eigenvalues": eigen_list(lc)}
                 )
                 if explicit:
-                    raise UnstableULSError(self._explicit_failure(k_use, lc, g1, ch1, dt), lc) from None
+                    raise UnstableULSError(
+                        self._explicit_failure(k_use, lc, g1, ch1, dt, prepared(ch1, g1)), lc
+                    ) from None
                 if rechecks >= MAX_RECHECKS:
                     raise UnstableULSError(
                         f"nsi-ip: {rechecks} values of k~1 accepted by the search failed with the full model "
@@ -435,7 +486,7 @@ class NSIInputPerturbation(Identifier):
             "velocity": vel.provenance,
             "velocity_cutoff_hz": vel.cutoff,
             "denoise_cutoff_hz": denoise_fc,
-            **reconstruction_diagnostics(rec),
+            **rec_diagnostics,
             "force_hold": hold,
             "force_model": "held over each sample (exact ZOH)"
             if hold == "zoh"
@@ -458,7 +509,15 @@ class NSIInputPerturbation(Identifier):
             arrays=fit_arrays(result),
         )
 
-    def _explicit_failure(self, k: float, lc: np.ndarray, gram: np.ndarray, ch: Channels, dt: float) -> str:
+    def _explicit_failure(
+        self,
+        k: float,
+        lc: np.ndarray,
+        gram: np.ndarray,
+        ch: Channels,
+        dt: float,
+        subspace: PerturbedMOESP | None = None,
+    ) -> str:
         """The message for an explicit k~1 that fails, with the value the search would accept."""
         opt = self.settings
         msg = (
@@ -481,6 +540,7 @@ class NSIInputPerturbation(Identifier):
                 opt["max_order"],
                 opt["zeta_max"],
                 [],
+                subspace,
             )
             hint = f"; use a larger k~1 (the automatic search from {k + opt['k_step']:g} N/m accepts {k_ok:g} N/m)"
         except UnstableULSError:

@@ -36,7 +36,15 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["NoiseModel", "NoiseSource", "impulse_response", "build_noise_model", "subtract_noise"]
+__all__ = [
+    "NoiseModel",
+    "NoiseSource",
+    "impulse_response",
+    "build_noise_model",
+    "jacobian_moments",
+    "noise_xcorr",
+    "subtract_noise",
+]
 
 
 @dataclass(frozen=True)
@@ -125,6 +133,53 @@ class NoiseSource:
     output: bool
 
 
+def noise_xcorr(sources: list[NoiseSource], max_lag: int) -> np.ndarray:
+    """``xcorr[i, j, L + l]`` of the paths (displacement, velocity, output), summed over the sources.
+
+    Independent noises add: each contributes ``var * xcorr(kernels)`` with the
+    kernels folded with the 2-tap interval mean.
+    """
+    xc = np.zeros((3, 3, 2 * max_lag + 1))
+    for src in sources:
+        half = (len(src.kernel_z) - 1) // 2
+        avg = np.zeros(2 * half + 1)
+        avg[half], avg[half - 1] = 0.5, 0.5  # the interval mean: nu(k) ~ (n(k) + n(k+1)) / 2
+        kz = np.convolve(src.kernel_z, avg, mode="same")
+        kv = np.convolve(src.kernel_v, avg, mode="same") if src.kernel_v is not None else np.zeros_like(kz)
+        ky = np.zeros_like(kz)
+        if src.output:
+            ky[half] = 1.0
+        xc += src.var * _xcorr([kz, kv, ky], max_lag)
+    return xc
+
+
+def jacobian_moments(jtj: np.ndarray, jsum: np.ndarray, n: int, scales: np.ndarray) -> np.ndarray:
+    """``moments[a, b, i, j] = mean_t J_ai J_bj`` of the base channels from sums over the samples.
+
+    Parameters
+    ----------
+    jtj
+        ``sum_t J(t) J(t)^T`` of the stacked Jacobian columns ``[dg_1/dz,
+        dg_1/dv, ..., dg_q/dz, dg_q/dv]`` of the input channels ``u_1..u_q``
+        (``2 q x 2 q``).
+    jsum
+        ``sum_t J(t)`` (``2 q``).
+    n
+        Number of samples.
+    scales
+        Scales of the base channels ``[f, u_1, ..., u_q, y]``.
+    """
+    q = len(jsum) // 2
+    nch = q + 2
+    mom = np.zeros((nch, nch, 3, 3))
+    # input channels a = 1..q carry the paths 0 (z) and 1 (v); the output (last) carries path 2 alone
+    mom[1 : q + 1, 1 : q + 1, :2, :2] = (jtj / n).reshape(q, 2, q, 2).transpose(0, 2, 1, 3)
+    mom[1 : q + 1, -1, :2, 2] = (jsum / n).reshape(q, 2)
+    mom[-1, 1 : q + 1, 2, :2] = (jsum / n).reshape(q, 2)
+    mom[-1, -1, 2, 2] = 1.0
+    return mom / (scales[:, None, None, None] * scales[None, :, None, None])
+
+
 def build_noise_model(
     sources: list[NoiseSource],
     jacobians: list[tuple[np.ndarray, np.ndarray]],
@@ -148,27 +203,10 @@ def build_noise_model(
     max_lag
         Largest lag of the correction.
     """
-    xc = np.zeros((3, 3, 2 * max_lag + 1))
-    for src in sources:
-        half = (len(src.kernel_z) - 1) // 2
-        avg = np.zeros(2 * half + 1)
-        avg[half], avg[half - 1] = 0.5, 0.5  # the interval mean: nu(k) ~ (n(k) + n(k+1)) / 2
-        kz = np.convolve(src.kernel_z, avg, mode="same")
-        kv = np.convolve(src.kernel_v, avg, mode="same") if src.kernel_v is not None else np.zeros_like(kz)
-        ky = np.zeros_like(kz)
-        if src.output:
-            ky[half] = 1.0
-        xc += src.var * _xcorr([kz, kv, ky], max_lag)
-    nch = len(jacobians) + 2
     n = len(jacobians[0][0]) if jacobians else 1
-    jac = np.zeros((n, nch, 3))
-    for a, (dz, dv) in enumerate(jacobians, start=1):
-        jac[:, a, 0] = dz
-        jac[:, a, 1] = dv
-    jac[:, -1, 2] = 1.0
-    jac /= scales[None, :, None]
-    mom = np.einsum("tai,tbj->abij", jac, jac, optimize=True) / n
-    return NoiseModel(1.0, mom, xc)
+    jac = np.column_stack([col for pair in jacobians for col in pair]) if jacobians else np.zeros((n, 0))
+    mom = jacobian_moments(jac.T @ jac, jac.sum(axis=0), n, scales)
+    return NoiseModel(1.0, mom, noise_xcorr(sources, max_lag))
 
 
 def subtract_noise(gram: np.ndarray, model: NoiseModel, output: int) -> np.ndarray:
@@ -186,8 +224,11 @@ def subtract_noise(gram: np.ndarray, model: NoiseModel, output: int) -> np.ndarr
     cov = model.lag_covariance(exclude_output=output)
     s = gram.shape[0]
     lmax = min(model.max_lag, s - 1)
-    out = gram.copy()
-    for lag in range(-lmax, lmax + 1):
-        p = np.arange(max(0, -lag), min(s, s - lag))
-        out[p, :, p + lag, :] -= cov[model.max_lag + lag]
+    big, c = model.max_lag, gram.shape[1]
+    cov_t = np.ascontiguousarray(cov.transpose(1, 0, 2)).reshape(c, -1)  # [a, (L + lag) c + b]
+    out = np.array(gram, dtype=float, order="C")
+    rows = out.reshape(s, c, s * c)
+    for p in range(s):  # block row p: out[p, :, q, :] -= cov[L + q - p] for |q - p| <= lmax
+        q0, q1 = max(0, p - lmax), min(s, p + lmax + 1)
+        rows[p, :, q0 * c : q1 * c] -= cov_t[:, (big + q0 - p) * c : (big + q1 - p) * c]
     return out

@@ -16,6 +16,7 @@ from nlid.bayes import (
     sample_posterior,
     study_metrics,
 )
+from nlid.errors import InputError
 from nlid.presets import get_preset
 from nlid.terms import Model
 
@@ -166,6 +167,7 @@ def test_study_metrics(record, result, preset):
         "posterior:level",
         "posterior:tau",
         "posterior:seconds",
+        "posterior:max_bias_shift_sd",
     }
     for t in ("v", "v*|v|"):
         lo, hi = metrics[f"ci_lo:{t}"], metrics[f"ci_hi:{t}"]

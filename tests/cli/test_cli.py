@@ -56,7 +56,15 @@ def test_identify_table(csv_exact, cli):
 
 def test_methods_and_terms(cli):
     status, out, _ = cli("methods")
-    assert status == 0 and "rfs" in out and "--set cutoff" in out
+    assert status == 0 and out.startswith("Which method?") and "rfs: first choice" in out
+    assert "--set cutoff" not in out and "2 options: nlid methods rfs" in out  # options on request
+    assert max(len(line) for line in out.splitlines()) <= 100
+    status, out, _ = cli("methods", "rfs")
+    assert status == 0 and "--set cutoff" in out and "Which method?" not in out and "sindy" not in out
+    status, out, _ = cli("methods", "--all")
+    assert "--set cutoff" in out and "--set library=<str> [terms|automatic]" in out
+    status, _, err = cli("methods", "rfx")
+    assert status == 2 and "did you mean 'rfs'" in err
     status, out, _ = cli("methods", "--json")
     assert "rfs" in json.loads(out)["methods"]
     status, out, _ = cli("terms")

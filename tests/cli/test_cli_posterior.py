@@ -59,3 +59,115 @@ def test_unconverged_chains_are_not_reported(csv_noisy, cli):
     status, out, err = cli("posterior", str(csv_noisy), *TERMS, "--steps", "100", "--no-bias-correction")
     assert status == 1 and out == ""
     assert "did not converge in 100 steps" in err and "raise --steps" in err and err.count("\n") == 1
+
+
+# ---------------------------------------------------------------------------- channels and noise levels (issue 15)
+@pytest.fixture(scope="module")
+def csv_velocity(tmp_path_factory):
+    """20 s of paper-numerical, 2 % noise, channels f, z, v, a (the record of issue 15, shortened)."""
+    path = tmp_path_factory.mktemp("posterior_v") / "x.csv"
+    argv = ["simulate", "--preset", "paper-numerical", "--seed", "0", "--duration", "20", "--noise", "0.02"]
+    assert main([*argv, "--channels", "v,a", "--out", str(path)]) == 0
+    return path
+
+
+def test_measured_velocity_noise_comes_from_v_minus_dz_dt(csv_velocity, cli):
+    status, out, err = cli("posterior", str(csv_velocity), *TERMS, "--json", "--seed", "0", "--bias-pairs", "2")
+    assert status == 0, err
+    doc = json.loads(out)
+    noise = doc["likelihood"]["noise"]
+    assert noise["z"]["source"] == "noise floor" and noise["v"]["source"] == "v - dz/dt"
+    # 2 % of the velocity's sd (0.70 m/s) is 0.014 m/s; the old floor read 0.065
+    assert 0.010 < noise["v"]["sd"] < 0.018
+    assert set(doc["bias_shift_sd"]) == {"v", "v*|v|"} and isinstance(doc["large_corrections"], dict)
+    for name, truth in (("v", 1.0), ("v*|v|", 5.0)):
+        s = doc["params"][name]
+        assert abs(s["mean"] - truth) < 4 * s["sd"], (name, s)
+
+
+def test_noise_level_given_on_the_command_line(csv_velocity, cli):
+    status, out, err = cli(
+        "posterior",
+        str(csv_velocity),
+        *TERMS,
+        "--json",
+        "--bias-pairs",
+        "2",
+        "--noise-level",
+        "v=0.014",
+        "--noise-level",
+        "z=3.7e-4",
+    )
+    assert status == 0, err
+    noise = json.loads(out)["likelihood"]["noise"]
+    assert noise == {
+        "z": {"channel": "z", "sd": 3.7e-4, "source": "given", "relative_se": None},
+        "v": {"channel": "v", "sd": 0.014, "source": "given", "relative_se": None},
+    }
+
+
+def test_noise_levels_in_the_table(csv_velocity, cli):
+    status, out, err = cli("posterior", str(csv_velocity), *TERMS, "--bias-pairs", "2")
+    assert status == 0, err
+    assert "noise levels simulated by the correction: z = " in out and "m/s (v - dz/dt, sd +/- " in out
+
+
+def test_a_large_correction_is_printed(tmp_path, cli):
+    path = tmp_path / "x.csv"
+    argv = ["simulate", "--preset", "paper-experimental", "--seed", "5", "--duration", "60", "--noise", "0.02"]
+    assert cli(*argv, "--channels", "a", "--out", str(path))[0] == 0
+    terms = "z^3,z^2,sign(v)*|px(z)|,v*|px(z)|,v*|v|*|px(z)|,v^3*|px(z)|"
+    roots = ("--px-roots=-0.02798,0.02668",)
+    status, out, err = cli(
+        "posterior",
+        str(path),
+        "--mass",
+        "0.265",
+        "--terms",
+        terms,
+        *roots,
+        "--params",
+        "sign(v)*|px(z)|",
+        "--bias-pairs",
+        "2",
+    )
+    assert status == 0, err
+    assert "note: the bias correction moved sign(v)*|px(z)| by " in out and "sd (least squares" in out
+
+
+@pytest.mark.parametrize(
+    "extra, message",
+    [
+        (("--noise-level", "a=1"), "--noise-level expects CHANNEL=SD with CHANNEL z or v"),
+        (("--noise-level", "v"), "--noise-level expects CHANNEL=SD"),
+        (("--noise-level", "v=fast"), "--noise-level v= expects a number, got 'fast'"),
+        (("--noise-level", "v=-1"), "--noise-level v= must be a non-negative number"),
+        (("--noise-level", "v=1", "--noise-level", "v=2"), "gives the level of v twice"),
+    ],
+)
+def test_bad_noise_levels_are_one_line_with_status_2(csv_velocity, cli, extra, message):
+    status, out, err = cli("posterior", str(csv_velocity), *TERMS, *extra)
+    assert status == 2 and out == ""
+    assert err.count("\n") == 1 and message in err
+
+
+def test_a_noise_level_that_cannot_be_established_is_asked_for(tmp_path, cli):
+    path = tmp_path / "clean.csv"
+    argv = ["simulate", "--preset", "paper-numerical", "--seed", "1", "--duration", "20", "--noise", "0"]
+    assert cli(*argv, "--channels", "v,a", "--out", str(path))[0] == 0
+    # noise-free channels (written to 12 digits): nothing in v - dz/dt is the white noise the correction simulates
+    status, out, err = cli("posterior", str(path), *TERMS)
+    assert status == 2 and out == "" and err.count("\n") == 1
+    assert "noise level" in err and "cannot be established" in err
+    assert "--noise-level " in err and "v=SD" in err and "m/s)" in err and "noise={" not in err
+
+
+def test_velocity_and_acceleration_without_displacement_are_refused(csv_velocity, tmp_path, cli):
+    lines = csv_velocity.read_text().splitlines()
+    header = lines[0].split(",")
+    keep = [i for i, name in enumerate(header) if name != "z"]
+    path = tmp_path / "no_z.csv"
+    path.write_text("\n".join(",".join(row.split(",")[i] for i in keep) for row in lines) + "\n")
+    status, out, err = cli("posterior", str(path), *TERMS)
+    assert status == 2 and out == "" and err.count("\n") == 1
+    assert "no column for channel 'z'" in err

@@ -1,5 +1,7 @@
 """``nlid study``: list, run (summary on stdout), one-line errors with exit status 2."""
 
+import re
+
 import pytest
 
 from nlid.cli.main import main
@@ -37,7 +39,11 @@ def test_study_run_prints_the_summary(tmp_path, capsys):
     path.write_text(STUDY)
     assert main(["study", "run", str(path), "--out", str(tmp_path / "out"), "--jobs", "1"]) == 0
     captured = capsys.readouterr()
-    assert "# Study cli-small" in captured.out and "| rfs | 1/1 |" in captured.out
+    # the terminal summary (summary.txt): the verdict first, tables as aligned text within 100 columns
+    out = captured.out
+    assert out.startswith("Study cli-small") and "VERDICT" in out and re.search(r"^rfs\s+1/1\s", out, re.M)
+    assert out.rstrip("\n") == (tmp_path / "out" / "summary.txt").read_text().rstrip("\n")
+    assert max(len(line) for line in out.splitlines()) <= 100
     assert "1 runs executed, 0 reused" in captured.err
     assert main(["study", "run", str(path), "--out", str(tmp_path / "out")]) == 0
     assert "0 runs executed, 1 reused" in capsys.readouterr().err

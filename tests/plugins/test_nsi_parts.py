@@ -216,3 +216,156 @@ def test_clip_indefinite_projects_only_an_indefinite_gram():
     np.testing.assert_allclose(ev_fixed[1:], ev[1:], rtol=1e-9)  # the other directions are untouched
     t = rng.standard_normal((2, 3))
     np.linalg.cholesky(transform_gram(fixed, t).reshape(8, 8))  # every congruence is positive definite
+
+
+# --------------------------------------------------------------------------- issue 14: the fast paths
+
+
+def _two_input_record(n=6000, seed=5, noise=1e-3):
+    """A second-order system driven by a white input and a band-limited one, with output noise."""
+    rng = np.random.default_rng(seed)
+    lam = np.exp((-3.0 + 22.0j) / 512)
+    a = np.array([[lam.real, -lam.imag], [lam.imag, lam.real]])
+    b = np.array([[1.0, -0.5], [0.3, 0.8]])
+    u = np.column_stack([rng.standard_normal(n), np.convolve(rng.standard_normal(n), np.ones(5) / 5, "same")])
+    x, y = np.zeros(2), np.empty(n)
+    for t in range(n):
+        y[t] = x[0]
+        x = a @ x + b @ u[t]
+    y += noise * y.std() * rng.standard_normal(n)
+    return u, y
+
+
+def test_lag_products_equal_the_direct_sums():
+    from nlid_nsi.gram import lag_products
+
+    rng = np.random.default_rng(7)
+    w = rng.standard_normal((5000, 3))
+    for lags, length in ((1, 5000), (7, 4990), (60, 4941)):
+        got = lag_products(w, lags, length)
+        ref = np.array([w[:length].T @ w[d : d + length] for d in range(lags)])
+        np.testing.assert_allclose(got, ref, rtol=0, atol=1e-10 * np.abs(ref).max())
+
+
+def test_perturbed_moesp_equals_po_moesp_on_every_map():
+    from nlid_nsi.subspace import PerturbedMOESP
+
+    # channels [f, z, g, y]: T(kappa) = [f + kappa z, g, y] as nsi-ip forms them
+    u, y = _two_input_record()
+    rng = np.random.default_rng(8)
+    zc = y + 0.05 * rng.standard_normal(len(y))  # a channel correlated with the output
+    w = np.column_stack([u[:, 0], zc, u[:, 1], y])
+    w = (w - w.mean(0)) / w.std(0)
+    gram = block_hankel_gram(w, 2 * 15)
+    t0 = np.array([[1.0, 0, 0, 0], [0, 0, 1.0, 0], [0, 0, 0, 1.0]])
+    t1 = np.zeros_like(t0)
+    t1[0, 1] = 1.0
+    fam = PerturbedMOESP(gram, t0, t1)
+    assert fam.ok
+    for kappa in (0.0, 0.4, 2.5):
+        t = t0 + kappa * t1
+        a1, c1, sv1, n1 = po_moesp(transform_gram(gram, t), 2)
+        a2, c2, sv2, n2 = fam.estimate(t)
+        assert n1 == n2 == 2
+        np.testing.assert_allclose(sv2, sv1, rtol=1e-7, atol=1e-12)
+        np.testing.assert_allclose(
+            np.sort_complex(np.linalg.eigvals(a2)), np.sort_complex(np.linalg.eigvals(a1)), rtol=1e-10
+        )
+        # the state coordinates may differ by signs only: C A^k is the same up to them, |C| is not changed
+        np.testing.assert_allclose(np.abs(c2), np.abs(c1), rtol=1e-9)
+    # a map that is not t0 + kappa t1 goes through po_moesp itself
+    other = t0.copy()
+    other[1, 1] = 0.3
+    got = fam.estimate(other)
+    ref = po_moesp(transform_gram(gram, other), 2)
+    np.testing.assert_array_equal(got[0], ref[0])
+
+
+def test_perturbed_moesp_falls_back_on_a_singular_gram():
+    from nlid_nsi.subspace import PerturbedMOESP
+
+    u, y = _two_input_record(n=3000)
+    w = np.column_stack([u[:, 0], u[:, 0], u[:, 1], y])  # z is a copy of f: the varying rows are singular
+    w = (w - w.mean(0)) / w.std(0)
+    gram = block_hankel_gram(w, 20)
+    t0 = np.array([[1.0, 0, 0, 0], [0, 0, 1.0, 0], [0, 0, 0, 1.0]])
+    t1 = np.zeros_like(t0)
+    t1[0, 1] = 1.0
+    fam = PerturbedMOESP(gram, t0, t1)
+    t = t0 - 1.0 * t1  # fbar = f - z = 0: PO-MOESP's Cholesky needs its diagonal load
+    got = fam.estimate(t)
+    ref = po_moesp(transform_gram(gram, t), 2)
+    for g, r in zip(got, ref, strict=True):
+        np.testing.assert_array_equal(g, r)
+
+
+def test_b_step_normal_equations_equal_the_explicit_regressors():
+    from scipy import signal
+
+    from nlid_nsi import subspace
+
+    rng = np.random.default_rng(9)
+    lam = np.exp((-30 + 220j) / 2048)
+    a = np.array([[lam.real, -lam.imag], [lam.imag, lam.real]])
+    cm = np.array([[0.3, -0.7]])
+    den, nums = subspace._state_filters(a, cm)
+    n, m, length = 2, 3, 301
+    u, y = rng.standard_normal((length, m)), rng.standard_normal(length)
+    phi = np.empty((length, n * m + n))
+    for r in range(n):
+        for j in range(m):
+            phi[:, r * m + j] = signal.lfilter(nums[r], den, u[:, j])
+        imp = np.zeros(length + 1)
+        imp[0] = 1.0
+        phi[:, n * m + r] = signal.lfilter(nums[r], den, imp)[1:]
+    for size in (1, 2, 7, 64, 1000):  # blocks shorter than the filter order too
+        gram, rhs, total = subspace._normal_equations(den, nums, subspace._row_blocks(u, y, size))
+        assert total == length
+        np.testing.assert_allclose(gram, phi.T @ phi, rtol=0, atol=1e-12 * np.abs(phi.T @ phi).max())
+        np.testing.assert_allclose(rhs, phi.T @ y, rtol=0, atol=1e-12 * np.abs(phi.T @ y).max())
+
+
+def test_interval_means_of_several_functions_with_signs():
+    from nlid_nsi.intersample import interval_means
+
+    rng = np.random.default_rng(10)
+    z, v = rng.standard_normal(1000), rng.standard_normal(1000)
+    funcs = [lambda a, b: a**3, lambda a, b: b * np.abs(b), lambda a, b: a * b]
+    got = interval_means(funcs, z, v, 0.01, block=97, signs=[1.0, -1.0, 1.0])
+    for j, (func, sign) in enumerate(zip(funcs, (1.0, -1.0, 1.0), strict=True)):
+        np.testing.assert_array_equal(got[:, j], sign * interval_mean(func, z, v, 0.01))
+
+
+def test_noise_subtraction_matches_the_lag_loop():
+    from nlid_nsi.noise import NoiseModel, subtract_noise
+
+    rng = np.random.default_rng(11)
+    for s, c, lag in ((40, 4, 30), (10, 3, 30), (50, 2, 5)):
+        gram = rng.standard_normal((s, c, s, c))
+        model = NoiseModel(1.0, rng.standard_normal((c, c, 3, 3)), rng.standard_normal((3, 3, 2 * lag + 1)))
+        cov = model.lag_covariance(exclude_output=c - 1)
+        ref = gram.copy()
+        for d in range(-min(lag, s - 1), min(lag, s - 1) + 1):
+            p = np.arange(max(0, -d), min(s, s - d))
+            ref[p, :, p + d, :] -= cov[lag + d]
+        np.testing.assert_array_equal(subtract_noise(gram, model, c - 1), ref)
+
+
+def test_fast_term_evaluation_matches_the_term_language():
+    from nlid.terms import Model
+    from nlid_nsi.basis import split_model
+
+    spec = (
+        "z^3, z^2, z*|z|, |z|^5, sign(z), v*|v|, v^3, |v|^4, z^15, sign(v)*|px(z)|, v*|px(z)|, "
+        "v*|v|*|px(z)|, px(z)^2*v, z^2*v*exp(-|v|/0.1), tanh(v/0.01)^2*z, v*exp(-(v/0.1)^2)"
+    )
+    model = Model.from_spec(spec).with_px_roots((-0.027, 0.017))
+    rng = np.random.default_rng(12)
+    z, v = 0.03 * rng.standard_normal(2000), 0.5 * rng.standard_normal(2000)
+    z[:3], v[:3] = 0.0, 0.0  # signs and powers at zero
+    terms = {t.name: t for t in model.terms}
+    for b in split_model(model).basis:
+        term = terms[b.name]
+        ref = np.asarray(term.evaluate(z, v, model.px(z) if term.uses_px else None, {}), dtype=float)
+        np.testing.assert_allclose(b.func(z, v), ref, rtol=1e-14, atol=0, err_msg=b.name)
+        assert b.uses_v == term.depends_on_v

@@ -1,4 +1,8 @@
-"""A study's outputs: results.csv, summary.md / summary.csv, figures and a self-contained report.html."""
+"""A study's outputs: results.csv, summary.md / summary.txt / summary.csv, figures and a self-contained report.html.
+
+``summary.txt`` is what ``nlid study run`` prints: the verdict first, then the
+tables, no line wider than :data:`nlid.formatting.TERMINAL_WIDTH`.
+"""
 
 from __future__ import annotations
 
@@ -11,9 +15,12 @@ from typing import Any
 from ... import __version__
 from ..store import ResultStore
 from .figures import Figure, section_figures
-from .tables import Section, build_sections, summary_long, summary_markdown
+from .tables import Section, Table, build_sections, summary_long, summary_markdown, summary_text
 
-__all__ = ["write_report", "report_html"]
+__all__ = ["write_report", "report_html", "TEXT_SUMMARY"]
+
+#: The terminal summary's file name in the study folder.
+TEXT_SUMMARY = "summary.txt"
 
 
 def write_report(config: Any, runs: list, store: ResultStore) -> tuple[str, Path]:
@@ -33,6 +40,7 @@ def write_report(config: Any, runs: list, store: ResultStore) -> tuple[str, Path
     sections = build_sections(config, frame, records)
     summary = summary_markdown(config, sections)
     (folder / "summary.md").write_text(summary + "\n")
+    (folder / TEXT_SUMMARY).write_text(summary_text(config, sections) + "\n")
     summary_long(frame).to_csv(folder / "summary.csv", index=False)
     fig_dir = folder / "figures"
     figures = {(s.dataset, s.model): section_figures(s, records, store, fig_dir) for s in sections}
@@ -47,6 +55,11 @@ table { border-collapse: collapse; margin: 0.5em 0 1.2em; font-size: 0.9em; }
 th, td { border: 1px solid #ccc; padding: 0.25em 0.6em; text-align: right; }
 th:first-child, td:first-child { text-align: left; }
 tr.reference td { background: #f3f3f3; font-style: italic; }
+td.best { background: #dff0d8; font-weight: bold; }
+section.verdict { border: 2px solid #4a7; border-radius: 6px; padding: 0.2em 1em 0.6em; margin: 1em 0 2em;
+  background: #f7fcf8; }
+section.verdict td, section.verdict th { text-align: left; }
+p.caption { font-size: 0.9em; color: #555; margin-top: -0.6em; }
 figure { margin: 1em 0 2em; }
 figure img { max-width: 100%; border: 1px solid #eee; }
 figcaption { font-size: 0.9em; color: #555; }
@@ -63,17 +76,37 @@ window.addEventListener("load", function () {
 """
 
 
-def _table_html(table: Any) -> str:
-    out = [f"<h4>{html.escape(table.title)}</h4>", "<table>", "<tr>"]
-    out += [f"<th>{html.escape(h)}</th>" for h in table.header]
-    out.append("</tr>")
-    for row in table.rows:
+def _rows_html(header: list[str], rows: list[list[str]], best: set[tuple[int, int]] = frozenset()) -> list[str]:
+    out = ["<table>", "<tr>" + "".join(f"<th>{html.escape(h)}</th>" for h in header) + "</tr>"]
+    for i, row in enumerate(rows):
         cls = ' class="reference"' if row and row[0] == "reference" else ""
-        out.append(f"<tr{cls}>" + "".join(f"<td>{html.escape(c)}</td>" for c in row) + "</tr>")
+        cells = "".join(
+            f'<td class="best">{html.escape(c)}</td>' if (i, j) in best else f"<td>{html.escape(c)}</td>"
+            for j, c in enumerate(row)
+        )
+        out.append(f"<tr{cls}>{cells}</tr>")
     out.append("</table>")
+    return out
+
+
+def _table_html(table: Table) -> str:
+    out = [f"<h4>{html.escape(table.title)}</h4>", *_rows_html(table.header, table.rows, table.best)]
     if table.notes:
         out.append("<ul>" + "".join(f"<li>{html.escape(n)}</li>" for n in table.notes) + "</ul>")
     return "\n".join(out)
+
+
+def _verdict_html(section: Section, titled: bool) -> str:
+    v = section.verdict
+    header, rows = v.table_rows()
+    parts = ['<section class="verdict">']
+    parts.append(f"<h2>Verdict{': ' + html.escape(section.dataset + ' / ' + section.model) if titled else ''}</h2>")
+    parts.append(f"<p><b>{html.escape(v.headline())}</b></p><p>{html.escape(v.separation())}</p>")
+    parts += _rows_html(header, rows)
+    parts.append("<p>Why:</p><ul>")
+    parts += [f"<li><b>{html.escape(m)}</b>: {html.escape('; '.join(why))}</li>" for m, why in v.reasons.items()]
+    parts.append("</ul></section>")
+    return "\n".join(parts)
 
 
 def _figure_html(fig: Figure) -> str:
@@ -99,9 +132,16 @@ def report_html(
         f"<p>{html.escape(config.description)}</p>" if config.description else "",
         f"<p>{finished} of {planned} runs finished; identifiers: {html.escape(', '.join(config.identifiers))}; "
         f"study seed {config.seed}; nlid {__version__}; written {now}.</p>",
-        "<p>Cells are median [min, max] over repetitions; error columns are |relative error| in %, with the "
-        "reference value in the first row. Epsilon is Eq. 26, computed by nlid from the data.</p>",
     ]
+    judged = [sec for sec in sections if sec.verdict is not None]
+    if judged:
+        parts.append('<a id="verdict"></a>')
+    parts += [_verdict_html(sec, len(sections) > 1) for sec in judged]
+    parts.append(
+        "<p>Cells are median [min, max] over repetitions, with significant digits chosen from the spread; error "
+        "columns are |relative error| in % of the reference values listed first; highlighted: the best (lowest) "
+        "median of an error or cost column. Epsilon is Eq. 26, computed by nlid from the data.</p>"
+    )
     for section in sections:
         parts.append(f"<h2>{html.escape(section.dataset)} / {html.escape(section.model)}</h2>")
         terms = f"; terms: {', '.join(section.terms)}" if section.terms else ""

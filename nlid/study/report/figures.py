@@ -1,16 +1,22 @@
 """Study figures (PNG and SVG through :mod:`nlid.plotting`, never pyplot).
 
-* ``kz_<dataset>_<model>``: the identified elastic force K(z) (Eq. 6) of every
-  successful run against the reference, equilibria marked, and the difference
-  identified - reference below.
-* ``bars_<dataset>_<model>``: epsilon (Eq. 26, estimation and held-out data)
-  and the largest equilibrium error per method: bar = median, whisker =
-  min-max over repetitions.
+Every figure has units on its axes, a legend and a one-line caption.
+
+* ``summary_<dataset>_<model>``: the metrics that separate the methods - the
+  |error| of every coefficient, of the modal parameters and equilibria, the
+  held-out residual and free-run error, and the time per identification: bar
+  = median, whisker = min-max over repetitions, log scale; methods with
+  identical results share a bar (``rfs = sindy``).
+* ``kz_<dataset>_<model>``: the identified elastic force K(z) (Eq. 6) against
+  the reference, equilibria marked, and below the difference identified -
+  reference per method (line: median over the repetitions, band: min-max).
+* ``rms_*``: each term's RMS contribution to R (paper Fig. 22).
 * From a result's ``arrays`` when the method provides them
   (:class:`nlid.identified.IdentifiedModel`): ``sv_*`` singular values
-  (paper Fig. 9/12), ``frf_*`` the underlying-linear receptance (Fig. 10/15),
-  ``coef_*`` the frequency-dependent coefficient estimates, real and imaginary
-  parts (Fig. 11/13).
+  (paper Fig. 9/12), ``frf_*`` the method's underlying-linear receptance
+  (Fig. 10/15) with the identified model linearised at each stable
+  equilibrium, ``coef_*`` the frequency-dependent coefficient estimates, real
+  and imaginary parts, with the band they are averaged over (Fig. 11/13).
 """
 
 from __future__ import annotations
@@ -23,6 +29,7 @@ import numpy as np
 import pandas as pd
 
 from ... import physics
+from ...formatting import sig
 from ...plotting import new_figure, save_figure
 from ...terms import Model
 from .tables import Section
@@ -69,21 +76,28 @@ def section_figures(section: Section, records: list[dict[str, Any]], store: Any,
     ]
     if not recs:
         return figures
-    kz = _kz_figure(section, recs, folder)
-    if kz:
-        figures.append(kz)
-    bars = _bars_figure(section, folder)
-    if bars:
-        figures.append(bars)
-    rms = _rms_figure(section, folder)
-    if rms:
-        figures.append(rms)
+    for make in (_summary_figure, _kz_figure, _rms_figure):
+        fig = make(section, folder) if make is not _kz_figure else make(section, recs, folder)
+        if fig:
+            figures.append(fig)
     for method in section.methods:
         for rec in recs:
             if rec["row"]["method"] == method and rec.get("arrays"):
                 figures += _array_figures(section, method, rec, store.arrays(rec["run_id"]), folder)
                 break
     return figures
+
+
+def _groups(section: Section) -> list[tuple[str, ...]]:
+    """The methods with runs, those with identical coefficients on every record merged (``rfs = sindy``)."""
+    from .verdict import identical_methods
+
+    same = identical_methods(section)
+    out: list[tuple[str, ...]] = []
+    for m in section.present_methods:
+        if same.get(m, (m,)) not in out:
+            out.append(same.get(m, (m,)))
+    return out
 
 
 def _kz_figure(section: Section, recs: list[dict[str, Any]], folder: Path) -> Figure | None:
@@ -95,33 +109,47 @@ def _kz_figure(section: Section, recs: list[dict[str, Any]], folder: Path) -> Fi
     if ref.get("terms") and ref.get("coefficients"):
         ref_model = _model(ref["terms"], ref.get("px_roots"))
         k_ref = physics.elastic(ref_model, ref["coefficients"], z)
-    fig, axes = new_figure(2 if k_ref is not None else 1, 1, width=7.0, height=6.0 if k_ref is not None else 4.0)
+    fig, axes = new_figure(2 if k_ref is not None else 1, 1, width=7.0, height=6.4 if k_ref is not None else 4.0)
     ax = axes[0] if k_ref is not None else axes
     if k_ref is not None:
-        ax.plot(z, k_ref, color="black", lw=2.0, label="reference")
+        ax.plot(z, k_ref, color="black", lw=2.5, label="reference")
         eq = ref.get("equilibria") or []
         ax.plot(eq, np.zeros(len(eq)), "o", mfc="none", mec="black", ms=10, label="reference stable equilibria")
-    colors = dict(zip(section.methods, _colors(len(section.methods)), strict=True))
-    labelled: set[str] = set()
+    groups = _groups(section)
+    colors = dict(zip(groups, _colors(len(groups)), strict=True))
+    curves: dict[tuple[str, ...], list[np.ndarray]] = {g: [] for g in groups}
     for rec in recs:
         res, method = rec["result"], rec["row"]["method"]
+        group = next((g for g in groups if method in g), None)
+        if group is None or method != group[0]:
+            continue  # identical methods: drawn once
         model = _model(res["terms"], res.get("px_roots"))
-        k = physics.elastic(model, res["coefficients"], z)
-        label = method if method not in labelled else None
-        labelled.add(method)
-        ax.plot(z, k, color=colors[method], lw=0.8, alpha=0.8, label=label)
+        curves[group].append(physics.elastic(model, res["coefficients"], z))
         stable = (res.get("equilibria") or {}).get("stable", [])
-        ax.plot(stable, np.zeros(len(stable)), "x", color=colors[method], ms=7)
+        ax.plot(stable, np.zeros(len(stable)), "x", color=colors[group], ms=7)
+    for group, ks in curves.items():
+        if not ks:
+            continue
+        k = np.asarray(ks)
+        name = " = ".join(group)
+        ax.plot(z, np.median(k, axis=0), color=colors[group], lw=1.0, label=f"{name} (median of {len(ks)} runs)")
         if k_ref is not None:
-            axes[1].plot(z, k - k_ref, color=colors[method], lw=0.8, alpha=0.8)
+            d = k - k_ref
+            axes[1].fill_between(z, d.min(axis=0), d.max(axis=0), color=colors[group], alpha=0.2, lw=0)
+            axes[1].plot(z, np.median(d, axis=0), color=colors[group], lw=1.5, label=f"{name}: median, band min-max")
+    ax.plot([], [], "x", color="0.3", label="identified stable equilibria")
     ax.axhline(0.0, color="0.6", lw=0.5)
     ax.set_ylabel("K(z) (N)")
-    ax.set_title(f"{section.dataset} / {section.model}: elastic restoring force, equilibria (x: identified)")
+    ax.set_title(f"{section.dataset} / {section.model}: elastic restoring force K(z)")
     ax.legend(fontsize=8)
     if k_ref is not None:
         axes[1].axhline(0.0, color="0.6", lw=0.5)
         axes[1].set_ylabel("identified - reference (N)")
         axes[1].set_xlabel("z (m)")
+        axes[1].set_title(f"error of K(z) over the {len(recs) // max(1, len(section.present_methods))} repetitions")
+        axes[1].legend(fontsize=8)
+        for zq in ref.get("equilibria") or []:
+            axes[1].axvline(zq, color="0.5", lw=0.6, ls=":")
     else:
         ax.set_xlabel("z (m)")
     stem = _stem(folder, "kz", section.dataset, section.model)
@@ -129,17 +157,20 @@ def _kz_figure(section: Section, recs: list[dict[str, Any]], folder: Path) -> Fi
     return Figure(
         "Elastic restoring force K(z)",
         stem,
-        "Identified K(z) of every successful run (one line per repetition) against the reference; "
-        "circles: reference stable equilibria, crosses: identified ones.",
+        "Top: identified K(z) (median over repetitions per method) against the reference, with the stable "
+        "equilibria; bottom: identified minus reference per method, line the median, band min-max over "
+        "repetitions (dotted: reference equilibria).",
     )
 
 
-def _stats(frame: pd.DataFrame, column: str, methods: list[str]) -> tuple[list[float], list[float], list[float]]:
+def _stats(frame: pd.DataFrame, column: str, methods: list[str], absolute: bool = True) -> tuple[list, list, list]:
     med, lo, hi = [], [], []
     for m in methods:
         sub = frame[(frame["method"] == m) & (frame["status"] == "ok")]
         x = pd.to_numeric(sub[column], errors="coerce").to_numpy(dtype=float) if column in sub else np.array([])
         x = x[np.isfinite(x)]
+        if absolute:
+            x = np.abs(x)
         if x.size:
             med.append(float(np.median(x)))
             lo.append(float(np.median(x) - x.min()))
@@ -151,44 +182,88 @@ def _stats(frame: pd.DataFrame, column: str, methods: list[str]) -> tuple[list[f
     return med, lo, hi
 
 
-def _bars_figure(section: Section, folder: Path) -> Figure | None:
+def _grouped_bars(ax: Any, frame: pd.DataFrame, columns: list[tuple[str, str]], groups: list[tuple[str, ...]]) -> None:
+    """Bars of ``columns`` (x axis) per method group (colours): median, whiskers min-max, log scale."""
+    x = np.arange(len(columns))
+    width = 0.8 / max(1, len(groups))
+    colors = _colors(len(groups))
+    for i, group in enumerate(groups):
+        med, lo, hi = [], [], []
+        for col, _ in columns:
+            m, a, b = _stats(frame, col, [group[0]])
+            med.append(m[0])
+            lo.append(a[0])
+            hi.append(b[0])
+        med = np.asarray(med)
+        # a log axis cannot show a bar reaching zero: the lower whisker stops at 1 % of the median
+        lo = np.minimum(np.asarray(lo), 0.99 * np.nan_to_num(med))
+        ax.bar(
+            x + (i - (len(groups) - 1) / 2) * width,
+            med,
+            width,
+            yerr=[lo, hi],
+            capsize=2,
+            color=colors[i],
+            label=" = ".join(group),
+            error_kw={"lw": 0.8},
+        )
+    ax.set_yscale("log")
+    ax.set_xticks(x, [label for _, label in columns], rotation=30, ha="right", fontsize=8)
+
+
+def _summary_figure(section: Section, folder: Path) -> Figure | None:
+    """The metrics that separate the methods: coefficient, modal and equilibrium errors, residuals, time."""
     frame = section.frame
-    methods = [m for m in section.methods if (frame["method"] == m).any()]
-    panels = [("eps_percent", "eps, estimation data"), ("eps_holdout_percent", "eps, held-out data")]
-    panels = [p for p in panels if p[0] in frame.columns]
-    has_eq = "eq_error_max_pct" in frame.columns or "eq_error_pct:s1" in frame.columns
-    fig, axes = new_figure(1, 2 if has_eq else 1, width=9.0 if has_eq else 5.5, height=3.8)
-    ax_eps = axes[0] if has_eq else axes
-    x = np.arange(len(methods))
-    width = 0.8 / max(1, len(panels))
-    for i, (col, label) in enumerate(panels):
-        med, lo, hi = _stats(frame, col, methods)
-        ax_eps.bar(x + (i - (len(panels) - 1) / 2) * width, med, width, yerr=[lo, hi], capsize=4, label=label)
-    ax_eps.set_xticks(x, methods)
-    ax_eps.set_ylabel("eps (Eq. 26) %")
-    ax_eps.set_title("residual of the restoring force")
-    ax_eps.legend(fontsize=8)
-    if has_eq:
-        eq_cols = sorted(c for c in frame.columns if c.startswith("eq_error_pct:"))
-        width = 0.8 / max(1, len(eq_cols))
-        for i, col in enumerate(eq_cols):
-            med, lo, hi = _stats(frame, col, methods)
-            label = f"stable equilibrium {col.split(':')[1]}"
-            axes[1].bar(x + (i - (len(eq_cols) - 1) / 2) * width, med, width, yerr=[lo, hi], capsize=4, label=label)
-        for j, m in enumerate(methods):
-            ok = frame[(frame["method"] == m) & (frame["status"] == "ok")]
-            if "eq_missing" in ok and pd.to_numeric(ok["eq_missing"], errors="coerce").fillna(0).max() > 0:
-                axes[1].annotate("missed a well", (x[j], 0), ha="center", va="bottom", color="red", fontsize=8)
-        axes[1].set_xticks(x, methods)
-        axes[1].set_ylabel("|equilibrium error| %")
-        axes[1].set_title("stable equilibria")
-        axes[1].legend(fontsize=8)
-    stem = _stem(folder, "bars", section.dataset, section.model)
+    groups = _groups(section)
+    if not groups:
+        return None
+    cols = frame.columns
+    coef = [(f"coef_error_pct:{t}", t) for t in section.terms if f"coef_error_pct:{t}" in cols]
+    if "mass_error_pct" in cols:
+        coef.append(("mass_error_pct", "mass"))
+    labels = sorted({c.split(":", 1)[1] for c in cols if c.startswith("eq_error_pct:")}, key=lambda s: int(s[1:]))
+    modal = []
+    for label in labels:
+        for prefix, name in (("fn_error_pct", "fn"), ("zeta_error_pct", "zeta"), ("eq_error_pct", "z*")):
+            if f"{prefix}:{label}" in cols:
+                modal.append((f"{prefix}:{label}", f"{name} {label}"))
+    fit = [
+        (c, n)
+        for c, n in (("eps_holdout_percent", "eps held-out"), ("freerun_nrmse_pct", "free-run NRMSE"))
+        if c in cols
+    ]
+    if not fit and "eps_percent" in cols:
+        fit = [("eps_percent", "eps")]
+    panels = [
+        (coef, "coefficients: |error| (%)"),
+        (modal, "modal parameters and equilibria: |error| (%)"),
+        (fit, "held-out residual, free run (%)"),
+        ([("seconds", "time")] if "seconds" in cols else [], "time per identification (s)"),
+    ]
+    panels = [p for p in panels if p[0]]
+    widths = [max(1.5, 0.55 * len(c) * max(1, len(groups)) / 2 + 0.8) for c, _ in panels]
+    fig, axes = new_figure(
+        1,
+        len(panels),
+        width=min(16.0, sum(widths) + 1.5),
+        height=4.2,
+        squeeze=False,
+        gridspec_kw={"width_ratios": widths},
+    )
+    for ax, (columns, title) in zip(axes[0], panels, strict=True):
+        _grouped_bars(ax, frame, columns, groups)
+        ax.set_title(title, fontsize=9)
+    axes[0, 0].set_ylabel("median (whiskers: min-max)")
+    handles, names = axes[0, 0].get_legend_handles_labels()
+    fig.legend(handles, names, loc="outside upper center", ncols=len(groups), fontsize=9)
+    stem = _stem(folder, "summary", section.dataset, section.model)
     save_figure(fig, stem)
     return Figure(
-        "Residual and equilibrium errors per method",
+        "What separates the methods",
         stem,
-        "Bars: median over repetitions; whiskers: minimum to maximum.",
+        "Median over repetitions (whiskers: min-max, log scale) of each coefficient's |error|, the modal and "
+        "equilibrium errors, the held-out residual and free-run error, and the time per identification; lower "
+        "is better; methods with identical results share a bar.",
     )
 
 
@@ -246,6 +321,137 @@ def _slices_figure(section: Section, method: str, tag: str, arrays: dict, folder
     )
 
 
+def _frf_curves(arrays: dict) -> list[tuple[str, np.ndarray, np.ndarray]]:
+    """``(suffix, frequency, FRF)`` of every underlying-linear FRF in a result's arrays (``@wellN`` suffixes)."""
+    out = []
+    for key in sorted(k for k in arrays if k == "frf" or k.startswith("frf@")):
+        suffix = key[3:]
+        if f"frf_frequency_hz{suffix}" in arrays:
+            freq = np.asarray(arrays[f"frf_frequency_hz{suffix}"], dtype=float).ravel()
+            out.append((suffix, freq, np.asarray(arrays[key]).ravel()))
+    return out
+
+
+def _frf_figure(section: Section, method: str, rec: dict[str, Any], arrays: dict, folder: Path) -> Figure | None:
+    """The method's underlying-linear FRF(s) with the identified model linearised at each stable equilibrium."""
+    curves = _frf_curves(arrays)
+    if not curves:
+        return None
+    res = rec["result"]
+    diag = res.get("diagnostics") or {}
+    mass = res.get("mass")
+    modal = [m for m in res.get("modal") or [] if m.get("stiffness") is not None]
+    f_max = max(float(c[1].max()) for c in curves)
+    if modal:
+        f_max = max(f_max, 2.0 * max(m["fn_hz"] for m in modal))
+    freq = np.linspace(f_max / 2000, f_max, 1500)
+    w = 2 * np.pi * freq
+    fig, axes = new_figure(2, 1, width=7.0, height=5.6, sharex=True)
+    k_tilde = diag.get("k_tilde")
+    uls = diag.get("uls") if isinstance(diag.get("uls"), dict) else {}
+    for i, (suffix, f, h) in enumerate(curves):
+        if k_tilde is not None:
+            label = f"{method}: identified underlying-linear system with k~1 = {sig(float(k_tilde), 3)} N/m added"
+            if uls.get("fn_hz"):
+                label += f" (fn {sig(uls['fn_hz'], 3)} Hz)"
+        elif suffix.startswith("@well"):
+            label = f"{method}: underlying-linear system of well {int(suffix[5:]) + 1}"
+        elif "wells" in diag:
+            label = f"{method}: underlying-linear system of well 1"
+        else:
+            label = f"{method}: underlying-linear system"
+        axes[0].semilogy(f, np.abs(h), color=f"C{i}", lw=1.8, label=label)
+        axes[1].plot(f, np.degrees(np.unwrap(np.angle(h))), color=f"C{i}", lw=1.8)
+    for j, m in enumerate(modal):
+        k, c = float(m["stiffness"]), float(m.get("damping") or 0.0)
+        if mass is None:
+            continue
+        h = 1.0 / (k - mass * w**2 + 1j * c * w)
+        color = f"C{len(curves) + j}"
+        label = f"identified model linearised at z* = {sig(m['equilibrium'], 3)} m (fn {sig(m['fn_hz'], 3)} Hz)"
+        axes[0].semilogy(freq, np.abs(h), "--", color=color, lw=1.2, label=label)
+        axes[1].plot(freq, np.degrees(np.unwrap(np.angle(h))), "--", color=color, lw=1.2)
+        for ax in axes:
+            ax.axvline(m["fn_hz"], color=color, lw=0.6, ls=":")
+    axes[0].set_ylabel("|H| (m/N)")
+    axes[0].set_title(f"receptance ({method}, {rec['run_id']})", fontsize=10)
+    axes[0].legend(fontsize=7)
+    axes[1].set_ylabel("phase (deg)")
+    axes[1].set_xlabel("frequency (Hz)")
+    stem = _stem(folder, "frf", section.dataset, section.model, method)
+    save_figure(fig, stem)
+    if k_tilde is not None:
+        why = (
+            f"Solid: the FRF {method} identifies, that of the system perturbed by the virtual stiffness k~1 "
+            f"= {sig(float(k_tilde), 3)} N/m about z = 0 (Sec. 3.2), so its peak is not a natural frequency of the "
+            "oscillator"
+        )
+    else:
+        why = f"Solid: the underlying-linear FRF {method} identifies (paper Fig. 10/15)"
+    return Figure(
+        f"Underlying-linear FRF, {method}",
+        stem,
+        why + "; dashed: the identified model linearised at each stable equilibrium, whose peaks (dotted) are the "
+        "natural frequencies of the modal table.",
+    )
+
+
+def _coef_figure(section: Section, method: str, rec: dict[str, Any], arrays: dict, folder: Path) -> Figure | None:
+    """Real and imaginary parts of each coefficient spectrum, the band averaged over and the reported value."""
+    spectra = sorted(k for k in arrays if k.startswith("coef_spectrum:") and "@" not in k)
+    if not spectra or "coef_frequency_hz" not in arrays:
+        return None
+    res = rec["result"]
+    diag = res.get("diagnostics") or {}
+    band = diag.get("band_hz")
+    band = band if isinstance(band, (list, tuple)) and len(band) == 2 else None
+    freq = np.asarray(arrays["coef_frequency_hz"], dtype=float).ravel()
+    fig, axes = new_figure(len(spectra), 2, width=8.5, height=2.4 * len(spectra) + 0.8, squeeze=False)
+    for i, key in enumerate(spectra):
+        term = key.split(":", 1)[1]
+        c = np.asarray(arrays[key]).ravel()
+        unit = section.unit(term) if term in section.terms else ""
+        axes[i, 0].plot(freq, c.real, color="C0", lw=1.5, label="estimate at each frequency")
+        axes[i, 1].plot(freq, c.imag, color="C0", lw=1.5)
+        values = [c.real]
+        if band is not None:
+            for ax in axes[i]:
+                ax.axvspan(band[0], band[1], color="C2", alpha=0.15, lw=0, label="band averaged over")
+            inside = (freq >= band[0]) & (freq <= band[1])
+            if inside.any():
+                mean = float(np.mean(c.real[inside]))
+                axes[i, 0].axhline(mean, color="C2", lw=1.2, label=f"this fit's estimate {sig(mean, 5)}")
+                values.append(np.array([mean]))
+        reported = res["coefficients"].get(term)
+        if reported is not None:
+            axes[i, 0].axhline(reported, color="black", ls="--", lw=1.0, label=f"reported {sig(reported, 5)}")
+            values.append(np.array([reported]))
+        lo = min(float(np.min(v)) for v in values)
+        hi = max(float(np.max(v)) for v in values)
+        pad = 0.1 * (hi - lo) if hi > lo else 0.01 * max(abs(hi), 1e-12)
+        axes[i, 0].set_ylim(lo - pad, hi + pad)
+        axes[i, 0].ticklabel_format(axis="y", useOffset=False)
+        axes[i, 0].set_ylabel(f"{term}" + (f" ({unit})" if unit else ""))
+        axes[i, 0].legend(fontsize=7, loc="best")
+    axes[0, 0].set_title("real part")
+    axes[0, 1].set_title("imaginary part")
+    axes[-1, 0].set_xlabel("frequency (Hz)")
+    axes[-1, 1].set_xlabel("frequency (Hz)")
+    stem = _stem(folder, "coef", section.dataset, section.model, method)
+    save_figure(fig, stem)
+    note = ""
+    if "k_tilde_ensemble" in diag or "mean over" in str(diag.get("reported_fit", "")):
+        note = " The reported value is the mean over the k~1 ensemble, so it differs from this one fit's estimate."
+    elif "wells" in diag:
+        note = " Spectra of the first well in its shifted basis x = z - z*; the reported values combine the wells."
+    return Figure(
+        f"Coefficient spectra, {method}",
+        stem,
+        f"Frequency-dependent coefficient estimates of {method} ({rec['run_id']}; paper Fig. 11/13): shaded, the "
+        f"band the estimate averages; solid horizontal, that average; dashed, the reported coefficient.{note}",
+    )
+
+
 def _array_figures(section: Section, method: str, rec: dict[str, Any], arrays: dict, folder: Path) -> list[Figure]:
     out = []
     tag = f"{method}, {rec['run_id']}"
@@ -255,50 +461,26 @@ def _array_figures(section: Section, method: str, rec: dict[str, Any], arrays: d
     if "singular_values" in arrays:
         sv = np.asarray(arrays["singular_values"], dtype=float).ravel()
         fig, ax = new_figure(width=6.0, height=3.6)
-        ax.semilogy(np.arange(1, sv.size + 1), sv, "o-", ms=3)
+        ax.semilogy(np.arange(1, sv.size + 1), sv, "o-", ms=3, label="singular values")
+        order = (rec["result"].get("diagnostics") or {}).get("order")
+        if isinstance(order, int) and 0 < order <= sv.size:
+            ax.axvline(order + 0.5, color="C3", ls="--", lw=1.0, label=f"model order {order}")
         ax.set_xlabel("index")
-        ax.set_ylabel("singular value")
-        ax.set_title(f"singular values ({tag})")
+        ax.set_ylabel("singular value (normalised channels)")
+        ax.set_title(f"singular values ({tag})", fontsize=10)
+        ax.legend(fontsize=8)
         stem = _stem(folder, "sv", section.dataset, section.model, method)
-        save_figure(fig, stem)
-        out.append(Figure(f"Singular values, {method}", stem, "Subspace singular values (paper Fig. 9/12)."))
-    if "frf" in arrays and "frf_frequency_hz" in arrays:
-        freq = np.asarray(arrays["frf_frequency_hz"], dtype=float).ravel()
-        h = np.asarray(arrays["frf"]).ravel()
-        fig, axes = new_figure(2, 1, width=6.5, height=5.0, sharex=True)
-        axes[0].semilogy(freq, np.abs(h))
-        axes[0].set_ylabel("|H| (m/N)")
-        axes[0].set_title(f"underlying-linear FRF ({tag})")
-        axes[1].plot(freq, np.degrees(np.unwrap(np.angle(h))))
-        axes[1].set_ylabel("phase (deg)")
-        axes[1].set_xlabel("frequency (Hz)")
-        stem = _stem(folder, "frf", section.dataset, section.model, method)
-        save_figure(fig, stem)
-        out.append(Figure(f"Underlying-linear FRF, {method}", stem, "Receptance (paper Fig. 10/15)."))
-    spectra = sorted(k for k in arrays if k.startswith("coef_spectrum:"))
-    if spectra and "coef_frequency_hz" in arrays:
-        freq = np.asarray(arrays["coef_frequency_hz"], dtype=float).ravel()
-        fig, axes = new_figure(len(spectra), 2, width=8.0, height=2.2 * len(spectra) + 0.6, squeeze=False)
-        for i, key in enumerate(spectra):
-            term = key.split(":", 1)[1]
-            c = np.asarray(arrays[key]).ravel()
-            axes[i, 0].plot(freq, c.real)
-            axes[i, 1].plot(freq, c.imag)
-            value = rec["result"]["coefficients"].get(term)
-            if value is not None:
-                axes[i, 0].axhline(value, color="black", ls="--", lw=0.8)
-            axes[i, 0].set_ylabel(term)
-        axes[0, 0].set_title("real part")
-        axes[0, 1].set_title("imaginary part")
-        axes[-1, 0].set_xlabel("frequency (Hz)")
-        axes[-1, 1].set_xlabel("frequency (Hz)")
-        stem = _stem(folder, "coef", section.dataset, section.model, method)
         save_figure(fig, stem)
         out.append(
             Figure(
-                f"Coefficient spectra, {method}",
+                f"Singular values, {method}",
                 stem,
-                f"Frequency-dependent coefficient estimates of {tag}; dashed: the identified value (Fig. 11/13).",
+                "Subspace singular values (paper Fig. 9/12); the gap after the model order separates the system "
+                "from the noise.",
             )
         )
+    for make in (_frf_figure, _coef_figure):
+        fig = make(section, method, rec, arrays, folder)
+        if fig:
+            out.append(fig)
     return out
