@@ -265,6 +265,7 @@ def predictability_horizon(
     *,
     oversample: int | None = None,
     starts: int = HORIZON_STARTS,
+    quantile: float = 0.5,
 ) -> float | None:
     """How long a free run of a model on a record stays predictable: the chaos check of :func:`free_run_error` as a time.
 
@@ -272,7 +273,8 @@ def predictability_horizon(
     :func:`initial_state`), a run and a copy displaced by :data:`SENSITIVITY_DELTA` ``std(z)`` are
     integrated over half the record; each pair's time is the first at which the two displacements differ by
     more than :data:`SENSITIVITY_LIMIT` ``std(z)`` (a growth by ``SENSITIVITY_LIMIT / SENSITIVITY_DELTA``,
-    the factor the chaos check allows). The horizon is the median of these times.
+    the factor the chaos check allows). The horizon is the median of these times (by default; a lower
+    ``quantile`` calls a record unpredictable when fewer of its starts separate).
 
     Parameters
     ----------
@@ -284,12 +286,14 @@ def predictability_horizon(
         Sub-steps per sample (default :data:`nlid.simulation.FREE_RUN_OVERSAMPLE`).
     starts
         Number of starting points.
+    quantile
+        Quantile of the pairs' times taken as the horizon (0.5: the median; the lower value of two).
 
     Returns
     -------
     float or None
-        The horizon in seconds; ``None`` when most pairs stay within the limit over half the record (the
-        free run is predictable over the record, as :func:`free_run_error` requires).
+        The horizon in seconds; ``None`` when that quantile of the pairs stays within the limit over half
+        the record (the free run is predictable over the record, as :func:`free_run_error` requires).
 
     Raises
     ------
@@ -305,6 +309,8 @@ def predictability_horizon(
     half = n // 2
     if half < 2 or starts < 1:
         raise InputError(f"the record is too short ({n} samples) to measure a predictability horizon")
+    if not 0.0 <= quantile <= 1.0:
+        raise InputError(f"quantile must lie in [0, 1], got {quantile}")
     fine = fine_force(record.f, record.force_hold, q)
     points = np.unique(np.linspace(0, half, starts, endpoint=False).astype(int))
     memory = sum(t.is_memory for t in model.terms)
@@ -328,7 +334,7 @@ def predictability_horizon(
         ]
         apart = np.flatnonzero(np.abs(runs[0] - runs[1]) > SENSITIVITY_LIMIT * scale)
         times.append(apart[0] / record.fs if apart.size else np.inf)
-    horizon = float(np.median(times))
+    horizon = float(np.median(times)) if quantile == 0.5 else float(np.quantile(times, quantile, method="lower"))
     return horizon if np.isfinite(horizon) else None
 
 

@@ -82,6 +82,26 @@ MAX_SHORT_SEGMENTS = 40
 DENSE_LIMIT = 16_000_000
 #: Length of the short segments, in periods of the start model's highest natural frequency.
 SHORT_PERIODS = 5.0
+#: Quantile of the predictability times (from :data:`nlid.scoring.HORIZON_STARTS` starts) taken as the
+#: horizon: a record is fitted in one free run only when three quarters of its starts stay predictable
+#: (the chaos check of the scores uses the median; a single free run over a record that is sensitive in a
+#: quarter of its starts has local minima far from the truth).
+HORIZON_QUANTILE = 0.25
+#: The whole-record free run fitted after the short segments is kept only when its RMS error on the data is
+#: at most this multiple of the short segments' (a larger one is a local minimum of the single free run:
+#: the short segments' answer is kept).
+WHOLE_RECORD_RATIO = 1.5
+#: Automatic multiple shooting whose RMS error exceeds this multiple of the measurement noise floor
+#: (:func:`nlid.derivatives.noise_sd`, relative to each channel's std) halves its segments and fits again,
+#: at most :data:`MAX_HALVINGS` times.
+NOISE_RATIO = 1.25
+MAX_HALVINGS = 3
+
+
+def _data_rms(problem: Problem, res: Any) -> float:
+    """RMS of a solved problem's data residual (channels scaled by their std), continuity rows left out."""
+    r = problem.residual(res.x)[: problem.rows_data]
+    return float(np.sqrt(np.mean(r**2)))
 
 
 def _fastest_frequency(start: Any, record: Record) -> float:
@@ -175,7 +195,7 @@ class OutputError(Identifier):
         seconds = self.settings["segment_seconds"]
         try:
             if seconds is None:
-                horizon = predictability_horizon(model, theta0, m0, record, oversample=q)
+                horizon = predictability_horizon(model, theta0, m0, record, oversample=q, quantile=HORIZON_QUANTILE)
         except SimulationError as exc:
             raise IdentificationError(f"oe: the start model ({method}) diverges in a free run: {exc}") from None
         if seconds is not None:
@@ -184,6 +204,11 @@ class OutputError(Identifier):
         elif horizon is not None:
             length = int(round(SEGMENT_FRACTION * horizon * record.fs))
             rule = f"a third of the start model's predictability horizon ({horizon:.4g} s)"
+        elif len(start.equilibria.stable) > 1:
+            length = self._short_length(start, record)
+            rule = (f"multiple shooting on {length / record.fs:.3g}-s segments: the start model has "
+                    f"{len(start.equilibria.stable)} stable equilibria, and a single free run over wells it may "
+                    "cross differently has local minima far from the truth")
         else:
             length, rule = record.n, "one segment: the start model's free run stays predictable over the record"
 
@@ -230,6 +255,7 @@ class OutputError(Identifier):
             return prob
 
         stages = []
+        short_fit = None
         problem = setup(length, None, None)
         if problem.K == 1 and seconds is None:
             # a free run that misses the data by much starts far from the optimum's basin (e.g. different well
@@ -240,17 +266,54 @@ class OutputError(Identifier):
                 raise IdentificationError(f"oe: the start model ({method}) diverges in a free run: {exc}") from None
             miss = float(np.sqrt(np.mean(r0[: problem.rows_data] ** 2)))
             if miss > DIRECT_LIMIT:
-                short = int(round(SHORT_PERIODS * record.fs / _fastest_frequency(start, record)))
-                short = max(short, record.n // MAX_SHORT_SEGMENTS)
+                short = self._short_length(start, record)
                 if short < record.n // 2:
                     pre = setup(short, None, None)
                     res = self._solve(pre, method)
+                    short_fit = (pre, res)
                     stages.append(self._stage_info(pre, res, "short segments first: the start model's free run "
                                                    f"misses by {100 * miss:.3g} % of std(z)"))
                     globals_, first = pre.globals_of(res.x), pre.states_of(res.x)[0]
+                    # the start model may have been more predictable than the fitted one (a damping biased
+                    # high): measure the horizon again before fitting the whole record in one free run
+                    fitted, theta1, mass1, _, _ = pre.unpack(res.x)
+                    try:
+                        again = predictability_horizon(fitted, theta1, mass1, record, oversample=q,
+                                                       quantile=HORIZON_QUANTILE)
+                    except SimulationError:
+                        again = None
+                    if again is not None:
+                        horizon = again
+                        length = int(round(SEGMENT_FRACTION * horizon * record.fs))
+                        rule = (f"a third of the predictability horizon ({horizon:.4g} s) of the model fitted on "
+                                "short segments")
                     problem = setup(length, globals_, first)
         res = self._solve(problem, method)
         stages.append(self._stage_info(problem, res, rule))
+        if short_fit is not None and problem.K < short_fit[0].K:
+            miss_short, miss_whole = _data_rms(*short_fit), _data_rms(problem, res)
+            if miss_whole > WHOLE_RECORD_RATIO * miss_short:
+                problem, res = short_fit
+                rule = (f"short segments: the longer free run misses the data by {100 * miss_whole:.3g} % of std(z) "
+                        f"against {100 * miss_short:.3g} % on the short segments (a local minimum), so the short "
+                        "segments' answer is kept")
+                stages.append({"segments": int(problem.K), "rule": rule})
+        if seconds is None and problem.K > 1:
+            # multiple shooting that stays far above the measurement noise has segments whose states are
+            # stuck in a wrong well: shorter segments, from the current answer, until it reaches the noise
+            floor = float(np.sqrt(np.mean([
+                (derivatives.noise_sd(getattr(record, c), record.fs) / max(float(np.std(getattr(record, c))), 1e-300))
+                ** 2 for c in channels])))
+            for _ in range(MAX_HALVINGS):
+                miss = _data_rms(problem, res)
+                length = int(np.diff(np.append(problem.starts, record.n)).min()) // 2
+                if miss <= NOISE_RATIO * floor or length < MIN_SEGMENT:
+                    break
+                problem = setup(length, problem.globals_of(res.x), None)
+                res = self._solve(problem, method)
+                rule = (f"segments halved to {length / record.fs:.3g} s: the fit missed the data by "
+                        f"{100 * miss:.3g} % of std against a noise floor of {100 * floor:.3g} %")
+                stages.append(self._stage_info(problem, res, rule))
         # the start model on the final segments, from the data's states: the "before" figure
         before = Problem(model, record, params, theta0, m0 if mass is None else mass, problem.starts,
                          states[problem.starts], channels, q, fine, np.asarray(scales), state_scales, 1.0)
@@ -303,7 +366,7 @@ class OutputError(Identifier):
             "rms_error_fit": {c: float(x) for c, x in zip(channels, rms1, strict=True)},
             "continuity_defect_max": float(np.max(np.abs(defect)) / problem.weight) if defect.size else 0.0,
             "initial_state": [float(s) for s in states[0, :2]],
-            "nfev": int(sum(st["nfev"] for st in stages)),
+            "nfev": int(sum(st.get("nfev", 0) for st in stages)),
             "correlation_length_samples": corr,
             "standard_error_batches": batches,
             "standard_errors_iid": {names[p.term]: float(se_iid[k]) for k, p in enumerate(params) if p.kind == "theta"},
@@ -352,6 +415,13 @@ class OutputError(Identifier):
     def _solver(problem: Problem) -> str:
         """``"exact"`` (dense Jacobian, SVD) while the Jacobian is small, else ``"lsmr"`` (sparse)."""
         return "exact" if problem.rows * problem.size <= DENSE_LIMIT else "lsmr"
+
+    @staticmethod
+    def _short_length(start: Any, record: Record) -> int:
+        """Samples of a short segment: :data:`SHORT_PERIODS` periods of the fastest mode, at most
+        :data:`MAX_SHORT_SEGMENTS` segments."""
+        short = int(round(SHORT_PERIODS * record.fs / _fastest_frequency(start, record)))
+        return max(short, record.n // MAX_SHORT_SEGMENTS)
 
     @staticmethod
     def _stage_info(problem: Problem, res: Any, rule: str) -> dict[str, Any]:
