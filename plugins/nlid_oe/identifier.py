@@ -21,7 +21,10 @@ Multiple shooting
     soft constraint (:mod:`nlid_oe.problem`). The segment length is a fraction
     (:data:`SEGMENT_FRACTION`) of the start model's predictability horizon
     (:func:`nlid.plugin.predictability_horizon`: the time over which the chaos check's initial offset
-    grows to its limit); a record whose free run stays predictable is fitted in one segment.
+    grows to its limit); a start model with several stable equilibria is fitted on short segments (a single
+    free run over both wells has local minima far from the truth); a record whose free run stays
+    predictable is fitted in one segment. Automatic segments are halved while the fit stays above the
+    measurement noise floor (docs/oe.md).
 
 Standard errors
     From the Jacobian at the optimum: the segments' initial states are profiled out (each segment's
@@ -153,8 +156,9 @@ class OutputError(Identifier):
         Option("outputs", "str", "z", "measured channels whose free-run error is minimised",
                choices=("z", "z,v", "z,a", "z,v,a")),
         Option("segment_seconds", "float", None,
-               "multiple-shooting segment length in s (default: a third of the predictability horizon; "
-               "one segment when the free run is predictable; 0: one segment)", nullable=True, minimum=0.0),
+               "multiple-shooting segment length in s (default: a third of the predictability horizon when "
+               "chaotic, short segments for a model with several stable equilibria, else one segment; "
+               "0: one segment)", nullable=True, minimum=0.0),
         Option("continuity_weight", "float", 1.0, "weight of the continuity defects between segments",
                minimum=1e-6),
         Option("oversample", "int", FREE_RUN_OVERSAMPLE, "RK4 sub-steps per sample of the fitted free run",
