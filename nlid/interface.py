@@ -37,7 +37,7 @@ from .errors import OptionError
 from .record import Record
 from .terms import Model
 
-__all__ = ["Option", "Identifier", "Estimate", "resolve_options", "to_jsonable"]
+__all__ = ["Option", "Identifier", "Estimate", "resolve_options", "to_jsonable", "refined_terms"]
 
 _TYPES = ("int", "float", "bool", "str", "floats")
 _TRUE = {"1", "true", "yes", "on"}
@@ -284,6 +284,13 @@ class Estimate:
         underlying-linear receptance, m/N), ``coef_frequency_hz`` and
         ``coef_spectrum:<term>`` (complex frequency-dependent coefficient
         estimates, NSI Eq. 20).
+    model
+        The model with the shape parameters the method refined (the same
+        terms, in the same number, each differing from the given model's at
+        most in its shape parameters, :attr:`nlid.terms.Term.shapes`; the
+        ``px(z)`` roots unchanged), when it fitted them; the coefficients
+        and standard errors are then keyed by its canonical names. ``None``:
+        the model given.
     """
 
     coefficients: Mapping[str, float]
@@ -294,3 +301,35 @@ class Estimate:
     diagnostics: Mapping[str, Any] = field(default_factory=dict)
     warnings: Sequence[str] = ()
     arrays: Mapping[str, np.ndarray] = field(default_factory=dict, repr=False)
+    model: Model | None = None
+
+
+def refined_terms(given: Model, refined: Model) -> dict[str, str]:
+    """Pair each term of ``given`` with the term of ``refined`` it became by changing its shape parameters.
+
+    Returns
+    -------
+    dict
+        ``{given canonical name: refined canonical name}`` for every term (equal names when unchanged).
+
+    Raises
+    ------
+    ValueError
+        If ``refined`` is not ``given`` with (at most) other shape parameters: a term added, removed or
+        changed otherwise, or other ``px(z)`` roots.
+    """
+    if len(refined.terms) != len(given.terms) or refined.px_roots != given.px_roots:
+        raise ValueError(f"the refined model ({refined}) does not have the terms of the model ({given})")
+    pairs: dict[str, str] = {}
+    left = list(refined.terms)
+    for term in given.terms:
+        match = next((t for t in left if t == term), None)
+        if match is None:
+            match = next((t for t in left if len(t.shapes) == len(term.shapes) and t.shapes
+                          and term.with_shapes(t.shapes) == t), None)
+        if match is None:
+            raise ValueError(f"term {term.name!r} has no counterpart in the refined model ({refined}) that differs "
+                             "only in its shape parameters")
+        left.remove(match)
+        pairs[term.name] = match.name
+    return pairs

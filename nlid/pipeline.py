@@ -29,13 +29,18 @@ import numpy as np
 from . import numerics, physics
 from .errors import PASS_THROUGH, IdentificationError, InputError, NlidError, PluginError, describe_exception
 from .identified import IdentifiedModel
-from .interface import Estimate
+from .interface import Estimate, refined_terms
 from .physics import Modal
 from .record import Record
 from .registry import Registry, default_registry
 from .terms import Model, Term
 
 __all__ = ["identify", "as_model", "check_estimate"]
+
+
+def _estimated_model(estimate: Estimate, model: Model) -> Model:
+    """The model the estimate's coefficients belong to: ``model``, or its shape-refined version."""
+    return model if estimate.model is None else estimate.model
 
 
 def as_model(
@@ -56,7 +61,11 @@ def _name(identifier: Any) -> str:
 
 
 def _run(identifier: Any, record: Record, model: Model, mass: float | None) -> tuple[Estimate, float]:
-    """Call the plugin, time it, and check what it returned (never modified afterwards)."""
+    """Call the plugin, time it, and check what it returned (never modified afterwards).
+
+    When the estimate carries a model with refined shape parameters (:attr:`Estimate.model`), it is
+    checked against ``model`` and the coefficients against its names; use :func:`_estimated_model`.
+    """
     name = _name(identifier)
     start = time.perf_counter()
     try:
@@ -83,6 +92,14 @@ def check_estimate(estimate: Any, model: Model, name: str, mass: float | None) -
     """
     if not isinstance(estimate, Estimate):
         raise PluginError(f"identifier {name!r} returned {type(estimate).__name__}, not nlid.Estimate")
+    if estimate.model is not None:
+        if not isinstance(estimate.model, Model):
+            raise PluginError(f"identifier {name!r} returned a refined model that is not an nlid Model")
+        try:
+            refined_terms(model, estimate.model)
+        except ValueError as exc:
+            raise PluginError(f"identifier {name!r}: {exc}") from None
+        model = estimate.model
     keys = list(estimate.coefficients)
     missing = [n for n in model.names if n not in estimate.coefficients]
     extra = [n for n in keys if n not in model.names]
@@ -126,6 +143,7 @@ def _px_fixed_point(
         current = model.with_px_roots(roots)
         estimate, seconds = _run(identifier, record, current, mass)
         total += seconds
+        current = _estimated_model(estimate, current)
         try:
             new = physics.stiffness_roots(current, dict(estimate.coefficients), z_range)
         except InputError as exc:
@@ -135,7 +153,7 @@ def _px_fixed_point(
         history.append({"z_minus": new[0], "z_plus": new[1], "change": change})
         if change < tol:
             info = {"converged": True, "iterations": iteration, "tolerance": tol, "history": history}
-            return estimate, model.with_px_roots(new), total, {"px_iteration": info}
+            return estimate, current.with_px_roots(new), total, {"px_iteration": info}
         if len(history) >= 3:
             two_back = history[-3]
             back = max(abs(new[0] - two_back["z_minus"]), abs(new[1] - two_back["z_plus"]))
@@ -251,12 +269,14 @@ def identify(
     elif getattr(identifier, "needs_mass", False):
         raise InputError(f"method {_name(identifier)!r} cannot estimate the mass: give mass= (in kg)")
     extra: dict[str, Any] = {}
+    given = model
     with numerics.collect_warnings() as numerical:
         try:
             if model.uses_px and model.px_roots is None:
                 estimate, model, seconds, extra = _px_fixed_point(identifier, record, model, mass, px_tol, px_max_iter)
             else:
                 estimate, seconds = _run(identifier, record, model, mass)
+                model = _estimated_model(estimate, model)
         except IdentificationError as exc:
             failed: IdentificationError | None = exc
         else:
@@ -266,6 +286,9 @@ def identify(
             why = f" (numpy: {numerics.describe_warnings(numerical)}){numerics.overflow_hint(numerical)}"
             raise IdentificationError(f"{failed}{why}") from None
         raise failed
+    if model.terms != given.terms:  # the identifier refined shape parameters: say which terms became which
+        pairs = refined_terms(given.with_px_roots(model.px_roots), model)
+        extra["refined_terms"] = {old: new for old, new in pairs.items() if old != new}
     return IdentifiedModel.from_estimate(
         estimate,
         model=model,

@@ -20,7 +20,13 @@ The toolkit has four axes, which identifiers compose rather than re-implement:
   helpers of :mod:`nlid.regression`;
 * **physics and simulation**: equilibria and modal parameters
   (:func:`equilibria`, :func:`modal`, :func:`stiffness_roots`), the simulator
-  (:func:`simulate`, :func:`free_run`) and the scores (:func:`score`).
+  (:func:`simulate`, :func:`free_run`, and :func:`simulate_segments`: free
+  runs of segments with their sensitivities, for output-error methods) and
+  the scores (:func:`score`, :func:`initial_state`,
+  :func:`predictability_horizon`);
+* **other identifiers**: :func:`identify` (the core's :func:`nlid.identify`,
+  e.g. for a method that starts from another method's estimate) and
+  :func:`choose_method` (the preferred installed identifier).
 
 Errors to raise: :class:`InputError` / :class:`DataError` for what the user
 gave (wrong model for the method, unusable record), :class:`IdentificationError`
@@ -71,7 +77,15 @@ __all__ = [
     "Modal",
     "simulate",
     "free_run",
+    "simulate_segments",
+    "fine_force",
+    "FREE_RUN_OVERSAMPLE",
+    "SimulationError",
     "score",
+    "initial_state",
+    "predictability_horizon",
+    "identify",
+    "choose_method",
     "to_jsonable",
     "NlidError",
     "InputError",
@@ -83,12 +97,20 @@ __all__ = [
 
 
 def __getattr__(name: str):  # the simulator (numba) and the scores are loaded only when a plugin uses them
-    if name in ("simulate", "free_run"):
+    if name in ("simulate", "free_run", "simulate_segments", "fine_force", "FREE_RUN_OVERSAMPLE", "SimulationError"):
         from . import simulation
 
         return getattr(simulation, name)
-    if name == "score":
-        from .scoring import score
+    if name in ("score", "initial_state", "predictability_horizon"):
+        from . import scoring
 
-        return score
+        return getattr(scoring, name)
+    if name == "identify":
+        from .pipeline import identify
+
+        return identify
+    if name == "choose_method":
+        from .discovery.loop import choose_method
+
+        return choose_method
     raise AttributeError(f"module 'nlid.plugin' has no attribute {name!r}")

@@ -55,6 +55,8 @@ __all__ = [
     "score",
     "residual",
     "free_run_error",
+    "predictability_horizon",
+    "HORIZON_STARTS",
     "initial_state",
     "epsilon",
     "force_residual_percent",
@@ -68,6 +70,8 @@ __all__ = [
 SENSITIVITY_DELTA = 1e-6
 #: Largest RMS difference (relative to std(z)) of the two sensitivity runs over the second half.
 SENSITIVITY_LIMIT = 1e-3
+#: Starting points of the pairs of runs :func:`predictability_horizon` measures (spread over the first half).
+HORIZON_STARTS = 8
 
 NAN = float("nan")
 
@@ -251,6 +255,87 @@ def free_run_error(fit: IdentifiedModel, record: Record) -> FreeRun:
         )
     rmse = float(np.sqrt(np.mean((z1 - z) ** 2)))
     return FreeRun(rmse, 100.0 * rmse / scale, "")
+
+
+def predictability_horizon(
+    model: Model,
+    coefficients: Coefficients,
+    mass: float,
+    record: Record,
+    *,
+    oversample: int | None = None,
+    starts: int = HORIZON_STARTS,
+    quantile: float = 0.5,
+) -> float | None:
+    """How long a free run of a model on a record stays predictable: the chaos check of :func:`free_run_error` as a time.
+
+    From :data:`HORIZON_STARTS` states spread over the first half of the free run (started from
+    :func:`initial_state`), a run and a copy displaced by :data:`SENSITIVITY_DELTA` ``std(z)`` are
+    integrated over half the record; each pair's time is the first at which the two displacements differ by
+    more than :data:`SENSITIVITY_LIMIT` ``std(z)`` (a growth by ``SENSITIVITY_LIMIT / SENSITIVITY_DELTA``,
+    the factor the chaos check allows). The horizon is the median of these times (by default; a lower
+    ``quantile`` calls a record unpredictable when fewer of its starts separate).
+
+    Parameters
+    ----------
+    model, coefficients, mass
+        The model, its coefficients and the mass (kg).
+    record
+        The force that drives it and the displacement whose ``std`` sets the scale.
+    oversample
+        Sub-steps per sample (default :data:`nlid.simulation.FREE_RUN_OVERSAMPLE`).
+    starts
+        Number of starting points.
+    quantile
+        Quantile of the pairs' times taken as the horizon (0.5: the median; the lower value of two).
+
+    Returns
+    -------
+    float or None
+        The horizon in seconds; ``None`` when that quantile of the pairs stays within the limit over half
+        the record (the free run is predictable over the record, as :func:`free_run_error` requires).
+
+    Raises
+    ------
+    nlid.simulation.SimulationError
+        If the free run diverges.
+    """
+    from .simulation import FREE_RUN_OVERSAMPLE, fine_force, simulate_segments
+
+    q = FREE_RUN_OVERSAMPLE if oversample is None else int(oversample)
+    theta = dict_or_vector(model, coefficients)
+    scale = float(np.std(record.z))
+    n = record.n
+    half = n // 2
+    if half < 2 or starts < 1:
+        raise InputError(f"the record is too short ({n} samples) to measure a predictability horizon")
+    if not 0.0 <= quantile <= 1.0:
+        raise InputError(f"quantile must lie in [0, 1], got {quantile}")
+    fine = fine_force(record.f, record.force_hold, q)
+    points = np.unique(np.linspace(0, half, starts, endpoint=False).astype(int))
+    memory = sum(t.is_memory for t in model.terms)
+    state = np.zeros((1, 2 + memory))
+    state[0, :2] = initial_state(record)
+    here = 0
+    times = []
+    for start in points:
+        if start > here:  # move the reference run on to this start
+            run = simulate_segments(model, theta, mass, record.f[here:start], record.fs, [0], state,
+                                    oversample=q, sensitivities=False, fine=fine[here * q : start * q])
+            state = run.end_state.copy()
+            here = start
+        pair = np.vstack([state, state])
+        pair[1, 0] += SENSITIVITY_DELTA * scale
+        stop = start + half
+        runs = [
+            simulate_segments(model, theta, mass, record.f[start:stop], record.fs, [0], pair[i : i + 1],
+                              oversample=q, sensitivities=False, fine=fine[start * q : stop * q]).z
+            for i in range(2)
+        ]
+        apart = np.flatnonzero(np.abs(runs[0] - runs[1]) > SENSITIVITY_LIMIT * scale)
+        times.append(apart[0] / record.fs if apart.size else np.inf)
+    horizon = float(np.median(times)) if quantile == 0.5 else float(np.quantile(times, quantile, method="lower"))
+    return horizon if np.isfinite(horizon) else None
 
 
 def score(

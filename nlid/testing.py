@@ -68,7 +68,7 @@ from typing import Any
 import numpy as np
 
 from .errors import IdentificationError, InputError, NlidError, OptionError, PluginError, describe_exception
-from .interface import Estimate, Option, to_jsonable
+from .interface import Estimate, Option, refined_terms, to_jsonable
 from .record import Record
 from .terms import Model
 
@@ -132,6 +132,12 @@ def _fail(message: str) -> AssertionError:
 def _check_estimate(estimate: Any, model: Model, who: str) -> Estimate:
     if not isinstance(estimate, Estimate):
         raise _fail(f"{who}: identify() must return nlid.plugin.Estimate, got {type(estimate).__name__}")
+    if estimate.model is not None:  # shape parameters refined: the coefficients are keyed by the refined model
+        try:
+            refined_terms(model, estimate.model)
+        except (ValueError, AttributeError) as exc:
+            raise _fail(f"{who}: Estimate.model must be the model with refined shape parameters: {exc}") from None
+        model = estimate.model
     keys = list(estimate.coefficients)
     if keys != list(model.names):
         raise _fail(f"{who}: coefficients must be keyed by the model's canonical terms in order {list(model.names)}, "

@@ -105,6 +105,12 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         help="with --out, write into a folder that holds files nlid did not write (it never replaces them)",
     )
     p.add_argument("--quiet", action="store_true", help="no progress lines on stderr")
+    p.add_argument(
+        "--refine",
+        action="store_true",
+        help="refine the final model with the output-error identifier oe (fits the free-run error, shape "
+        "parameters included) and report the errors before and after",
+    )
     p.set_defaults(func=run)
 
 
@@ -148,6 +154,7 @@ def run(args: argparse.Namespace) -> int:
         options=parse_settings(args.set),
         progress=progress,
         views=bool(args.out),
+        refine=args.refine,
     )
     if args.out:
         try:
@@ -159,4 +166,31 @@ def run(args: argparse.Namespace) -> int:
         print_json(result.to_dict())
     else:
         print(summary_table(result))
+        if result.refined is not None:
+            print(_refined_lines(result))
     return 0
+
+
+def _refined_lines(result) -> str:
+    """What the refinement by oe changed: free-run errors before and after, the refined terms."""
+    unit = result.info.get("units", {}).get("z", "")
+    before, after = result.final, result.refined
+
+    def fmt(x):
+        return "n/a" if x is None else f"{x:.4g} {unit}"
+
+    lines = ["", f"refined with oe (output error on the free run, started from {result.method}):"]
+    lines.append(f"  free-run RMS error held-out: {fmt(before.sim_rms_holdout)} -> {fmt(after.sim_rms_holdout)}")
+    if before.validation is not None:
+        lines.append(f"  free-run RMS error validation: {fmt(before.sim_rms_validation)} -> "
+                     f"{fmt(after.sim_rms_validation)}")
+    if after.holdout.freerun_note and after.holdout.freerun_note != "not computed":
+        lines.append(f"  ({after.holdout.freerun_note})")
+    fit = after.identified
+    se = fit.standard_errors or {}
+    for name in fit.terms:
+        err = f"  +/- {se[name]:.3g}" if se.get(name) is not None else ""
+        lines.append(f"  {name:<28} {fit.coefficients[name]:14.6g}{err}")
+    if fit.mass_estimated:
+        lines.append(f"  mass {fit.mass:.6g} kg")
+    return "\n".join(lines)

@@ -292,6 +292,12 @@ class DiscoveryResult:
     rule: AcceptanceRule
     views: list[ResidualView] = field(default_factory=list, repr=False)
     info: dict[str, Any] = field(default_factory=dict)
+    refined: Stage | None = None
+
+    @property
+    def refined_model(self) -> IdentifiedModel | None:
+        """The final model refined by the output-error identifier ``oe`` (``discover(..., refine=True)``)."""
+        return None if self.refined is None else self.refined.identified
 
     @property
     def initial(self) -> Stage:
@@ -375,8 +381,34 @@ class DiscoveryResult:
                 },
                 "rule": self.rule.to_dict(),
                 "info": dict(self.info),
+                "refined": None if self.refined is None else _refined_dict(last, self.refined),
             }
         )
+
+
+def _refined_dict(final: Stage, refined: Stage) -> dict[str, Any]:
+    """The refinement by ``oe``: the final model's scores before and after, and the refined model."""
+    return {
+        "method": refined.identified.method,
+        "sim_rms_before_holdout": final.sim_rms_holdout,
+        "sim_rms_after_holdout": refined.sim_rms_holdout,
+        "sim_rms_before_validation": final.sim_rms_validation,
+        "sim_rms_after_validation": refined.sim_rms_validation,
+        "eps_before_holdout": final.scores.eps_holdout,
+        "eps_after_holdout": refined.scores.eps_holdout,
+        "model": refined.identified.to_dict(),
+    }
+
+
+def _refine_stage(ctx: _Context, final: Stage, registry: Registry, method: str, simulate: bool,
+                 validation: Record | None) -> Stage:
+    """The final model refined by the output-error identifier ``oe`` (started from ``method``), scored like the rest."""
+    oe = registry.create("oe", {"init": method})
+    fit = identify(ctx.estimation, final.model, oe, mass=ctx.mass, cutoff=ctx.cutoff)
+    stage = Stage(fit, fit.score(ctx.holdout, cutoff=ctx.cutoff, free_run=simulate))
+    if validation is not None:
+        stage = dataclasses.replace(stage, validation=fit.score(validation, cutoff=ctx.cutoff, free_run=simulate))
+    return stage
 
 
 # --------------------------------------------------------------------------- helpers
@@ -726,6 +758,7 @@ def discover(
     simulate: bool = True,
     views: bool = True,
     progress: Callable[[str], None] | None = None,
+    refine: bool = False,
 ) -> DiscoveryResult:
     """Find the effects a declared model lacks, one at a time (see the module docstring).
 
@@ -780,6 +813,9 @@ def discover(
         Keep the residual views for the report.
     progress
         Called with one line per stage (e.g. ``print`` to stderr).
+    refine
+        Refine the final model with the output-error identifier ``oe`` (free-run error, shape parameters
+        included), started from ``method``; :attr:`DiscoveryResult.refined` holds it with the same scores.
 
     Returns
     -------
@@ -926,6 +962,10 @@ def discover(
             for st in states
         ]
     steps = [dataclasses.replace(step, before=states[k], after=states[k + 1]) for k, step in enumerate(steps)]
+    refined = None
+    if refine:
+        say("refining the final model with oe (output error on the free run)")
+        refined = _refine_stage(ctx, states[-1], reg, method, simulate, validation)
     info = {
         "samples_estimation": estimation.n,
         "samples_holdout": held.n,
@@ -953,4 +993,5 @@ def discover(
         rule=rule,
         views=all_views if views else [],
         info=info,
+        refined=refined,
     )
