@@ -20,6 +20,9 @@ WHEN: dict[str, str] = {
     "nsi-ip": "accurate damping ratios and natural frequencies from a noisy z, several wells, an unstable "
     "linear part (paper Sec. 3.2); 4-10x slower than rfs",
     "nsi-shift": "the paper's zero-reference shift (Sec. 3.1): one fit per stable well, combined; the slowest",
+    "oe": "the figure that matters is the free-run (simulation) error, or a shape parameter enters "
+    "nonlinearly: refines another method's fit on the free run (multiple shooting when chaotic); removes "
+    "rfs's damping bias; 10-100x slower than rfs; avoid with sign(v) terms and frequent reversals",
 }
 
 
