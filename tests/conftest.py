@@ -63,3 +63,23 @@ def exact_record(numerical):
 def short_record(numerical):
     """10 s of paper-numerical, seed 1, noise-free, exact v and a."""
     return numerical.with_overrides(duration=10.0).simulate(1, channels=("z", "v", "a"))
+
+
+@pytest.fixture(scope="session")
+def rfs_oe_registry():
+    """A function making a registry of rfs and oe registered in-process (no installed entry point needed)."""
+    import pluggy
+
+    import nlid_oe
+    import nlid_rfs
+    from nlid import hookspecs
+    from nlid.registry import load_registry
+
+    def make():
+        pm = pluggy.PluginManager(hookspecs.PROJECT)
+        pm.add_hookspecs(hookspecs)
+        pm.register(nlid_rfs, name="rfs")
+        pm.register(nlid_oe, name="oe")
+        return load_registry(pm)
+
+    return make

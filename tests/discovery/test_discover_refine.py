@@ -4,29 +4,14 @@ from __future__ import annotations
 
 import json
 
-import pluggy
-
-import nlid_oe
-import nlid_rfs
-from nlid import hookspecs
 from nlid.discovery import discover
 from nlid.presets import get_preset
-from nlid.registry import load_registry
 
 
-def _registry():
-    """rfs and oe registered in-process (the test does not rely on an installed entry point)."""
-    pm = pluggy.PluginManager(hookspecs.PROJECT)
-    pm.add_hookspecs(hookspecs)
-    pm.register(nlid_rfs, name="rfs")
-    pm.register(nlid_oe, name="oe")
-    return load_registry(pm)
-
-
-def test_refine_reports_the_final_model_before_and_after_oe():
+def test_refine_reports_the_final_model_before_and_after_oe(rfs_oe_registry):
     preset = get_preset("paper-numerical").with_overrides(duration=10.0)
     record = preset.simulate(0, noise={"z": 0.02, "a": 0.02}, channels=("z", "a"))
-    result = discover(record, "1, z, z^2, z^3, v, v*|v|", "rfs", mass=0.2, max_steps=0, registry=_registry(),
+    result = discover(record, "1, z, z^2, z^3, v, v*|v|", "rfs", mass=0.2, max_steps=0, registry=rfs_oe_registry(),
                       refine=True, views=False, options=None)
     assert result.refined is not None and result.refined_model.method == "oe"
     assert result.refined_model.diagnostics["init"] == "rfs"
@@ -35,6 +20,6 @@ def test_refine_reports_the_final_model_before_and_after_oe():
     data = json.loads(json.dumps(result.to_dict()))
     assert data["refined"]["sim_rms_after_holdout"] == after
     assert data["refined"]["model"]["method"] == "oe"
-    unrefined = discover(record, "1, z, z^2, z^3, v, v*|v|", "rfs", mass=0.2, max_steps=0, registry=_registry(),
+    unrefined = discover(record, "1, z, z^2, z^3, v, v*|v|", "rfs", mass=0.2, max_steps=0, registry=rfs_oe_registry(),
                          views=False, simulate=False)
     assert unrefined.refined is None and unrefined.to_dict()["refined"] is None
