@@ -110,6 +110,11 @@ def choose_method(mass: float | None, registry: Registry | None = None) -> tuple
     )
 
 
+#: The validation note (:attr:`DiscoveryResult.validation_note`) appears when the final model's validation
+#: free-run error exceeds the best stage's by this factor.
+VALIDATION_WORSE = 1.25
+
+
 @dataclass
 class Stage:
     """One model of the loop: identified on the estimation record, scored on both records.
@@ -319,6 +324,35 @@ class DiscoveryResult:
         """What the remaining-structure probes find in the final model's residual."""
         return self.states[-1].remaining
 
+    @property
+    def validation_note(self) -> str | None:
+        """A sentence when the validation record prefers an earlier model than the final one, else ``None``.
+
+        The validation record takes no part in the decisions; this only says when the steps that
+        improved the held-out equation error make the validation free run worse by more than
+        :data:`VALIDATION_WORSE` (typically terms that extrapolate badly beyond the estimation record's
+        range), so that the user can choose.
+        """
+        sims = [st.sim_rms_validation for st in self.states]
+        if any(x is None for x in sims) or len(sims) < 2:
+            return None
+        best = int(np.argmin(sims))
+        final = sims[-1]
+        if best == len(sims) - 1 or final <= VALIDATION_WORSE * sims[best]:  # type: ignore[operator]
+            return None
+        label = "the declared model" if best == 0 else f"step {best} ({self.steps[best - 1].effect})"
+        unit = self.info.get("units", {}).get("z", "")
+        text = (f"on the validation record the free run of {label} is the best ({sims[best]:.4g} {unit} RMS "
+                f"against {final:.4g} {unit} for the final model): the later steps improve the held-out equation error but "
+                "not the simulation there")
+        zr, zv = self.info.get("z_range"), self.info.get("z_range_validation")
+        if zr and zv and (zv[0] < zr[0] or zv[1] > zr[1]):
+            span = zr[1] - zr[0]
+            beyond = max(zr[0] - zv[0], zv[1] - zr[1]) / span if span > 0 else float("inf")
+            text += (f"; the validation record reaches {100 * beyond:.3g} % of the estimation range beyond it, "
+                     "where added terms extrapolate")
+        return text
+
     def summary(self) -> str:
         """The table ``nlid discover`` prints: each model's errors, each step, the stop reason."""
         from .report import summary_table
@@ -373,6 +407,7 @@ class DiscoveryResult:
                 "mass_estimated": bool(last.identified.mass_estimated),
                 "px_roots": None if last.model.px_roots is None else list(last.model.px_roots),
                 "remaining": None if last.remaining is None else last.remaining.to_dict(),
+                "validation_note": self.validation_note,
                 "remaining_initial": None if first.remaining is None else first.remaining.to_dict(),
                 "final_model": last.identified.to_dict(),
                 "final_check": {
@@ -979,6 +1014,8 @@ def discover(
         "validation": None
         if validation is None
         else f"{validation.n} samples, {validation.meta.get('source', 'given')}",
+        "z_range": list(z_range),
+        "z_range_validation": None if validation is None else [float(validation.z.min()), float(validation.z.max())],
         "max_steps": int(max_steps),
         "seconds": time.perf_counter() - start,
     }

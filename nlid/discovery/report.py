@@ -174,6 +174,8 @@ def summary_table(result: DiscoveryResult) -> str:
     for ev in result.final_ranking[:3]:
         if ev.explained_holdout is not None:
             lines.append(f"  {ev.effect:<28} {_explained(ev)}")
+    if result.validation_note:
+        lines.append(wrap(f"validation: {result.validation_note}", TERMINAL_WIDTH, subsequent="  "))
     lines.append("")
     headers, rows = _coefficient_rows(final, units)
     lines.append(_format_table(headers, rows))

@@ -71,3 +71,26 @@ def test_binned_means_and_their_bands():
     assert np.allclose(half4, 2 * half)  # four times fewer effective samples: twice as wide
     xe, ye, grid = binned_mean_2d(x, rng.uniform(-1, 1, x.size), r, bins=10)
     assert grid.shape == (10, 10) and np.nanmax(np.abs(grid - np.sign(0.5 * (xe[1:] + xe[:-1]))[:, None])) < 0.2
+
+
+def test_validation_note_names_the_better_earlier_model(make_case):
+    """When a validation record prefers an earlier model, the summary and the JSON say so (and only then)."""
+    import dataclasses
+
+    record, declared = make_case("single", "coulomb", ("z",), 22)
+    est, val = record.split(0.3)
+    run = discover(est, declared, "rfs", candidates="coulomb", validation=val)
+    assert len(run.states) == 2 and all(st.sim_rms_validation is not None for st in run.states)
+    assert run.validation_note is None or "declared model" in run.validation_note
+    # the same run as if the step had worsened the validation free run fivefold
+    first, last = run.states
+    worse = dataclasses.replace(last.validation, freerun_rmse=5 * first.sim_rms_validation)
+    spoiled = dataclasses.replace(run, states=[first, dataclasses.replace(last, validation=worse)])
+    note = spoiled.validation_note
+    assert note is not None and "the declared model is the best" in note
+    assert "validation: on the validation record" in summary_table(spoiled)
+    assert json.loads(json.dumps(spoiled.to_dict()))["validation_note"] == note
+    # a final model within the tolerance of the best: no note
+    close = dataclasses.replace(last.validation, freerun_rmse=1.1 * first.sim_rms_validation)
+    fine = dataclasses.replace(run, states=[first, dataclasses.replace(last, validation=close)])
+    assert fine.validation_note is None
