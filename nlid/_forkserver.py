@@ -8,14 +8,21 @@ socket and the temporary folder holding it (``pymp-*``, which the killed
 parent could not remove) if nothing else is left there, and exits; the run
 children it forked, which asked for ``SIGKILL`` when it dies, die with it.
 
+The kernel closes the dead parent's end of the fork server's "alive" pipe
+before it sends the signal, so the fork server may see the pipe close first
+and leave through ``SystemExit``; an exit handler then does the same clean-up
+(a fork server with few preloaded modules exits before the signal arrives).
+
 Importing this module anywhere but in the fork server does nothing.
 """
 
 from __future__ import annotations
 
+import atexit
 import contextlib
 import os
 import signal
+import time
 
 from .isolation import FORKSERVER_ENV, PARENT_ENV, die_with_parent
 
@@ -24,22 +31,35 @@ def _parent_gone(expected: int) -> bool:
     return os.getppid() != expected
 
 
+def _remove_socket() -> None:
+    from multiprocessing import forkserver
+
+    address = forkserver._forkserver._forkserver_address
+    if isinstance(address, str) and os.path.basename(os.path.dirname(address)).startswith("pymp-"):
+        # the socket is ours; the folder may be shared (a spawned process inherits its parent's
+        # temporary folder), so it goes only if nothing else is left in it
+        with contextlib.suppress(OSError):
+            os.unlink(address)
+        with contextlib.suppress(OSError):
+            os.rmdir(os.path.dirname(address))
+
+
 def _on_parent_death(signum: int, frame: object) -> None:
     if not _parent_gone(_PARENT):
         return  # the starting thread ended; the parent process is alive
     try:
-        from multiprocessing import forkserver
-
-        address = forkserver._forkserver._forkserver_address
-        if isinstance(address, str) and os.path.basename(os.path.dirname(address)).startswith("pymp-"):
-            # the socket is ours; the folder may be shared (a spawned process inherits its parent's
-            # temporary folder), so it goes only if nothing else is left in it
-            with contextlib.suppress(OSError):
-                os.unlink(address)
-            with contextlib.suppress(OSError):
-                os.rmdir(os.path.dirname(address))
+        _remove_socket()
     finally:
         os._exit(0)
+
+
+def _at_exit() -> None:
+    """The "alive" pipe closed: the parent is exiting; once it is gone (re-parented), clean up as above."""
+    deadline = time.monotonic() + 1.0
+    while not _parent_gone(_PARENT) and time.monotonic() < deadline:
+        time.sleep(0.01)
+    if _parent_gone(_PARENT):
+        _remove_socket()
 
 
 def _in_fork_server() -> bool:
@@ -59,4 +79,5 @@ _PARENT = int(os.environ.get(PARENT_ENV, "0") or 0)
 if _PARENT and _PARENT != os.getpid() and FORKSERVER_ENV not in os.environ and _in_fork_server():
     os.environ[FORKSERVER_ENV] = str(os.getpid())
     signal.signal(signal.SIGTERM, _on_parent_death)
+    atexit.register(_at_exit)
     die_with_parent(_PARENT, signal.SIGTERM)
