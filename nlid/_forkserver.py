@@ -13,6 +13,11 @@ before it sends the signal, so the fork server may see the pipe close first
 and leave through ``SystemExit``; an exit handler then does the same clean-up
 (a fork server with few preloaded modules exits before the signal arrives).
 
+It also pins the thread pools of the numerical libraries (BLAS, OpenMP,
+numba) to one thread, before anything imports numpy: every run forked from
+the server inherits them, so N runs on N cores do not fight over the cores.
+Variables the user set are kept.
+
 Importing this module anywhere but in the fork server does nothing.
 """
 
@@ -75,9 +80,21 @@ def _in_fork_server() -> bool:
     return False
 
 
+#: Thread-pool sizes of the numerical libraries, read when they load (one thread per run process).
+THREAD_ENV = (
+    "OMP_NUM_THREADS",
+    "OPENBLAS_NUM_THREADS",
+    "MKL_NUM_THREADS",
+    "VECLIB_MAXIMUM_THREADS",
+    "NUMEXPR_NUM_THREADS",
+    "NUMBA_NUM_THREADS",
+)
+
 _PARENT = int(os.environ.get(PARENT_ENV, "0") or 0)
 if _PARENT and _PARENT != os.getpid() and FORKSERVER_ENV not in os.environ and _in_fork_server():
     os.environ[FORKSERVER_ENV] = str(os.getpid())
+    for _name in THREAD_ENV:
+        os.environ.setdefault(_name, "1")
     signal.signal(signal.SIGTERM, _on_parent_death)
     atexit.register(_at_exit)
     die_with_parent(_PARENT, signal.SIGTERM)
