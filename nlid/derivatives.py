@@ -53,8 +53,6 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy import fft as sp_fft
-from scipy import signal
 
 from .errors import InputError
 
@@ -176,6 +174,8 @@ def noise_sd(x: np.ndarray, fs: float) -> float:
 
 def _welch_noise_band(x: np.ndarray, fs: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Welch PSD of ``x`` (segments of up to 4096 samples) and the mask of the noise-only band ``NOISE_BAND``."""
+    from scipy import signal
+
     x = np.asarray(x, dtype=float)
     freqs, psd = signal.welch(x - x.mean(), fs=fs, nperseg=int(min(x.size, 4096)))
     band = (freqs >= NOISE_BAND[0] * fs) & (freqs <= NOISE_BAND[1] * fs)
@@ -232,6 +232,8 @@ def _apply(
         _check_band(cutoff, fs, "cutoff")
     pad = _pad_length(n, fs, cutoff)
     ext, offset, slope = _extend(x, pad)
+    from scipy import fft as sp_fft
+
     size = sp_fft.next_fast_len(ext.shape[0], real=True)
     spectrum = sp_fft.rfft(ext, size, axis=0)
     freqs = sp_fft.rfftfreq(size, d=1.0 / fs)
@@ -424,5 +426,7 @@ def integrate(x: np.ndarray, fs: float, *, highpass: float | None = None) -> tup
         highpass = 10.0 / duration
     _check_band(highpass, fs, "highpass")
     y = np.concatenate(([0.0], np.cumsum(0.5 * (x[1:] + x[:-1])) / fs))
+    from scipy import signal
+
     sos = signal.butter(2, highpass, btype="high", fs=fs, output="sos")
     return signal.sosfiltfilt(sos, y - y.mean()), float(highpass)

@@ -47,8 +47,9 @@ __all__ = [
 PARENT_ENV = "NLID_ISOLATION_PARENT"
 #: Environment variable the fork server sets to its own pid (inherited by the children it forks).
 FORKSERVER_ENV = "NLID_FORKSERVER_PID"
-#: Modules the fork server imports once (children start with them loaded).
-PRELOAD = ["nlid._forkserver", "nlid.study.worker"]
+#: Modules the fork server imports once (children start with them loaded): its own set-up (parent
+#: death, one thread per numerical library), the study worker, then the plugins and compiled kernels.
+PRELOAD = ["nlid._forkserver", "nlid.study.worker", "nlid._preload"]
 
 _LIVE: set[Any] = set()
 _LIVE_LOCK = threading.Lock()

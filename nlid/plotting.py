@@ -31,12 +31,24 @@ def new_figure(nrows: int = 1, ncols: int = 1, *, width: float = 6.4, height: fl
 
 
 def save_figure(fig, stem: str | Path, formats: Sequence[str] = ("png", "svg"), dpi: int = 120) -> list[Path]:
-    """Save ``fig`` as ``stem.png``, ``stem.svg`` ... and return the paths."""
+    """Save ``fig`` as ``stem.png``, ``stem.svg`` ... and return the paths.
+
+    The layout (constrained layout: margins in inches, whatever the format)
+    is computed when the first format is drawn and kept for the others,
+    which then cost only their drawing.
+    """
     stem = Path(stem)
     stem.parent.mkdir(parents=True, exist_ok=True)
     paths = []
-    for fmt in formats:
-        path = stem.with_suffix(f".{fmt}")
-        fig.savefig(path, dpi=dpi)
-        paths.append(path)
+    engine = fig.get_layout_engine()
+    try:
+        for i, fmt in enumerate(formats):
+            if i == 1 and engine is not None:
+                fig.set_layout_engine("none")  # the axes keep the positions the first draw gave them
+            path = stem.with_suffix(f".{fmt}")
+            fig.savefig(path, dpi=dpi)
+            paths.append(path)
+    finally:
+        if engine is not None and fig.get_layout_engine() is not engine:
+            fig.set_layout_engine(engine)
     return paths

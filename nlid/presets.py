@@ -35,16 +35,15 @@ import numbers
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, replace
 from difflib import get_close_matches
-from typing import Any
-
-import numpy as np
+from typing import TYPE_CHECKING, Any
 
 from .errors import InputError, TermError, brief
-from .numerics import check_seed
-from .physics import stiffness_roots
-from .record import Record
-from .simulation import random_force, simulate
-from .terms import Model
+
+if TYPE_CHECKING:  # imported where used: the preset table is read by 'nlid simulate --help'
+    import numpy as np
+
+    from .record import Record
+    from .terms import Model
 
 __all__ = ["Preset", "PRESETS", "get_preset", "RESPONSE_CHANNELS"]
 
@@ -153,6 +152,9 @@ class Preset:
 
     def model(self) -> Model:
         """The true model; ``px(z)`` takes its roots from the true stiffness (Eq. 11)."""
+        from .physics import stiffness_roots
+        from .terms import Model
+
         model = Model.from_spec(self.terms)
         if model.uses_px:
             model = model.with_px_roots(stiffness_roots(model, dict(self.coefficients)))
@@ -193,6 +195,8 @@ class Preset:
         coeffs = dict(self.coefficients)
         new = dict(overrides)
         if "coefficients" in new:
+            from .terms import Model
+
             model = Model.from_spec(new.get("terms", self.terms))
             for key, value in dict(new.pop("coefficients")).items():
                 try:
@@ -213,6 +217,11 @@ class Preset:
 
     def force(self, seed: int) -> np.ndarray:
         """The force record of a seed (N)."""
+        import numpy as np
+
+        from .numerics import check_seed
+        from .simulation import random_force
+
         streams = np.random.SeedSequence(check_seed(seed)).spawn(4)
         return random_force(self.n, self.fs, self.force_rms, np.random.default_rng(streams[0]), self.band)
 
@@ -242,6 +251,12 @@ class Preset:
             With ``meta`` holding ``mass``, ``g``, ``source``, ``truth``,
             ``seed`` and ``noise``.
         """
+        import numpy as np
+
+        from .numerics import check_seed
+        from .record import Record
+        from .simulation import random_force, simulate
+
         check_seed(seed)
         channels = tuple(dict.fromkeys(("z", *channels)))
         for c in channels:

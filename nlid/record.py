@@ -32,7 +32,6 @@ from types import MappingProxyType
 from typing import Any
 
 import numpy as np
-from scipy import signal
 
 from . import derivatives
 from ._frozen import FrozenDict
@@ -296,6 +295,8 @@ class Record:
         denominator of at most 1000.
         """
         from fractions import Fraction
+
+        from scipy import signal
 
         ratio = Fraction(float(fs) / self.fs).limit_denominator(1000)
         if ratio == 1:

@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import argparse
 
-from ..pipeline import identify
 from .common import add_data_arguments, add_model_arguments, load_data, parse_px_roots, parse_settings, print_json
 
 
@@ -32,6 +31,8 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    from ..pipeline import identify
+
     record = load_data(args)
     result = identify(
         record,

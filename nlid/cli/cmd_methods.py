@@ -6,7 +6,6 @@ import argparse
 
 from ..errors import InputError
 from ..formatting import TERMINAL_WIDTH, wrap
-from ..registry import default_registry
 from .common import print_json
 
 #: When to choose each built-in identifier, one line each (docs/methods.md has the table with the measurements).
@@ -42,6 +41,8 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    from ..registry import default_registry
+
     reg = default_registry()
     if args.json:
         print_json(

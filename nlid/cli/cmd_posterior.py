@@ -6,7 +6,6 @@ import argparse
 import sys
 
 from ..errors import DataError, InputError
-from ..pipeline import identify
 from .common import add_data_arguments, add_model_arguments, load_data, parse_px_roots, parse_settings, print_json
 
 DESCRIPTION = """\
@@ -146,7 +145,7 @@ def run(args: argparse.Namespace) -> int:
     from ..bayes import PosteriorSampler
     from ..bayes.noise import UNITS, UnknownNoiseError
     from ..bayes.priors import parse_prior_assignments
-    from ..pipeline import as_model
+    from ..pipeline import as_model, identify
     from ..terms import Model
 
     if args.noise_z is not None and not args.noise_z >= 0:

@@ -6,7 +6,6 @@ import argparse
 import sys
 
 from ..errors import InputError
-from ..io import write_csv, write_npz
 from ..outputs import check_new_file
 from ..presets import PRESETS, get_preset
 from .common import parse_settings
@@ -47,6 +46,8 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    from ..io import write_csv, write_npz
+
     preset = get_preset(args.preset)
     overrides: dict = {}
     coefficients = {}

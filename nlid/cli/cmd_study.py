@@ -82,6 +82,10 @@ def run_command(args: argparse.Namespace) -> int:
     from ..study import load_study, make_executor, run_study
     from ..study.report import TEXT_SUMMARY
 
+    if args.executor == "local":
+        from ..isolation import start_fork_server
+
+        start_fork_server()  # it loads the plugins while this process reads the study (nlid._preload)
     config = load_study(args.study)
     executor = make_executor(args.executor, jobs=args.jobs, scheduler=args.scheduler)
     out = Path(args.out) if args.out else Path("nlid-studies") / config.name

@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import argparse
 
-from ..terms import EXAMPLES, LANGUAGE, Model
 from .common import print_json
 
 
@@ -21,6 +20,8 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    from ..terms import EXAMPLES, LANGUAGE, Model
+
     if args.check:
         model = Model.from_spec(args.check, defaults=False)
         rows = [

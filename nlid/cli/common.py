@@ -7,11 +7,12 @@ import json
 import re
 import sys
 from collections.abc import Sequence
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from ..errors import InputError
-from ..interface import to_jsonable
-from ..record import Record
+
+if TYPE_CHECKING:
+    from ..record import Record
 
 __all__ = [
     "Parser",
@@ -154,5 +155,7 @@ def load_data(args: argparse.Namespace) -> Record:
 
 def print_json(obj: Any) -> None:
     """One JSON object on stdout (NaN/inf written as null)."""
+    from ..interface import to_jsonable
+
     json.dump(to_jsonable(obj), sys.stdout, allow_nan=False)
     sys.stdout.write("\n")

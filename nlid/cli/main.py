@@ -16,7 +16,6 @@ from collections.abc import Sequence
 
 from .. import __version__
 from ..errors import IdentificationError, NlidError
-from ..numerics import collect_warnings, describe_warnings
 from . import (
     cmd_data,
     cmd_discover,
@@ -81,6 +80,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         return 0
     if args.debug:
         return int(args.func(args) or 0)
+    from ..numerics import collect_warnings, describe_warnings  # numpy: not for --help
+
     try:
         with collect_warnings() as numerical:
             status = int(args.func(args) or 0)

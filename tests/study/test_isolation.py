@@ -107,3 +107,21 @@ def test_study_run_into_a_folder_being_written_exits_2(small_study, registry, tm
     err = capsys.readouterr().err.strip().splitlines()
     assert status == 2 and len(err) == 1 and "is being written by nlid process" in err[0], err
     assert not (folder / "runs").exists() or not list((folder / "runs").iterdir())
+
+
+def _child_state() -> tuple[bool, bool, int]:
+    import numba
+
+    return "nlid.simulation" in sys.modules, "nlid_nsi" in sys.modules, numba.config.NUMBA_NUM_THREADS
+
+
+def test_a_run_child_starts_warm_with_one_thread_per_library():
+    """The fork server loaded the simulator and the plugins, and pinned numba/BLAS to one thread (issue 14)."""
+    from nlid.isolation import run_in_child
+
+    outcome = run_in_child(_child_state, timeout=120)
+    assert outcome.status == "ok"
+    simulator, plugin, threads = outcome.value
+    assert simulator and plugin
+    if "NUMBA_NUM_THREADS" not in os.environ:
+        assert threads == 1
