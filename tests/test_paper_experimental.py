@@ -22,8 +22,13 @@ def record():
     return get_preset("paper-experimental").simulate(0, noise={"z": 0.02, "a": 0.02}, channels=("z", "a"))
 
 
+# the equation-error identifiers; oe (output error) on this 120-s chaotic record needs ~270 shooting segments
+# and does not converge within its default evaluations (docs/oe.md, "Not when")
+EQUATION_ERROR = [name for name in default_registry().names() if name != "oe"]
+
+
 @pytest.mark.slow
-@pytest.mark.parametrize("method", default_registry().names())
+@pytest.mark.parametrize("method", EQUATION_ERROR)
 def test_damping_terms_lower_the_residual_and_px_converges(record, method):
     full = identify(record, FULL, method, mass=0.265)
     stiff = identify(record, STIFFNESS_ONLY, method, mass=0.265)
@@ -43,7 +48,7 @@ def test_built_in_study_summary_has_every_c_j_with_quality_and_interval(tmp_path
     text = builtin_studies()["paper-experimental"].read_text()
     for old, new in (
         ("repetitions = 3", "repetitions = 1"),
-        ('identifiers = "all"', 'identifiers = ["nsi-ip"]'),
+        ('identifiers = ["rfs", "sindy", "nsi-ip", "nsi-shift"]', 'identifiers = ["nsi-ip"]'),
         ('[options.sindy]\nlibrary = "automatic"\n', ""),  # sindy is not in this cut-down study
         ('preset = "paper-experimental"', 'preset = "paper-experimental"\noverrides = { duration = 60.0 }'),
     ):

@@ -7,6 +7,22 @@ import math
 import numba
 
 
+@numba.njit(cache=True, inline="always")
+def _crossing(w, k, s, remaining):
+    """Displacement at which the Bouc-Wen state ``w`` reaches zero within the step (``k`` fixed), else NaN."""
+    if abs(k) < 1e-300:
+        cross = -w
+    else:
+        w_inf = 1.0 / k
+        ratio = -w_inf / (w - w_inf)
+        if not ratio > 0:
+            return math.nan
+        cross = -math.log(ratio) / k
+    if cross * s <= 0 or abs(cross) >= abs(remaining):
+        return math.nan
+    return cross
+
+
 @numba.njit(cache=True)
 def bouc_wen_step(w, dz, a, b):
     """``w`` after a monotone displacement step ``dz``, exact, split where ``w`` changes sign."""
@@ -24,15 +40,8 @@ def bouc_wen_step(w, dz, a, b):
             new = w_inf + (w - w_inf) * math.exp(-k * remaining)
         if w != 0.0 and new != 0.0 and (new > 0) != (w > 0):
             # w crosses zero inside the step: go there, then on with the other sign
-            if abs(k) < 1e-300:
-                cross = -w
-            else:
-                w_inf = 1.0 / k
-                ratio = -w_inf / (w - w_inf)
-                if not ratio > 0:
-                    return new
-                cross = -math.log(ratio) / k
-            if cross * s <= 0 or abs(cross) >= abs(remaining):
+            cross = _crossing(w, k, s, remaining)
+            if math.isnan(cross):
                 return new
             remaining -= cross
             w = 0.0
@@ -120,15 +129,8 @@ def bouc_wen_step_d(w, dz, a, b):
         k = a * s + b * sigma
         new, p_w, p_r, p_k = _bw_piece(w, remaining, k)
         if w != 0.0 and new != 0.0 and (new > 0) != (w > 0):
-            if abs(k) < 1e-300:
-                cross = -w
-            else:
-                w_inf = 1.0 / k
-                ratio = -w_inf / (w - w_inf)
-                if not ratio > 0:
-                    return new, d_w * p_w, p_r, d_a * p_w + p_k * s, d_b * p_w + p_k * sigma
-                cross = -math.log(ratio) / k
-            if cross * s <= 0 or abs(cross) >= abs(remaining):
+            cross = _crossing(w, k, s, remaining)
+            if math.isnan(cross):
                 return new, d_w * p_w, p_r, d_a * p_w + p_k * s, d_b * p_w + p_k * sigma
             # derivatives at the crossing (w = 0 there, travel fixed): the chain through the first piece
             _, c_w, _, c_k = _bw_piece(w, cross, k)
