@@ -32,7 +32,7 @@ from .identified import IdentifiedModel
 from .interface import Estimate, refined_terms
 from .physics import Modal
 from .record import Record
-from .registry import Registry, default_registry
+from .registry import Registry, registry_for
 from .terms import Model, Term
 
 __all__ = ["identify", "as_model", "check_estimate"]
@@ -257,7 +257,7 @@ def identify(
         )
     model = as_model(terms, without=without, px_roots=px_roots)
     if isinstance(method, str):
-        identifier = (registry or default_registry()).create(method, options)
+        identifier = (registry or registry_for(method)).create(method, options)
     else:
         if options:
             raise InputError("options are given to the identifier's constructor when passing an instance")

@@ -200,3 +200,23 @@ def default_registry() -> Registry:
     """The registry of installed plugins, built once per process."""
     failures: dict[str, str] = {}
     return load_registry(plugin_manager(failures=failures), failures)
+
+
+@functools.lru_cache(maxsize=16)
+def registry_for(name: str) -> Registry:
+    """A registry that holds identifier ``name``, importing as few plugins as possible.
+
+    Built-in and well-behaved plugins register each identifier under an entry point of the same name, so
+    only that entry point is loaded (``nlid identify --method rfs`` does not import pysindy,
+    scikit-learn or pandas through the other plugins). When no entry point carries the name, or its
+    plugin does not provide it, the full :func:`default_registry` answers (with its suggestions and the
+    failures of every plugin).
+    """
+    matching = [ep for ep in importlib.metadata.entry_points(group=ENTRY_POINT_GROUP) if ep.name == name]
+    if matching:
+        failures: dict[str, str] = {}
+        reg = load_registry(plugin_manager(entry_points=matching[:1], failures=failures), failures)
+        if name in reg.identifiers:
+            return reg
+    return default_registry()
+

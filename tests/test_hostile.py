@@ -24,7 +24,7 @@ from scipy import io as sio
 
 from nlid.cli.main import main
 from nlid.presets import get_preset
-from nlid.registry import default_registry
+from nlid.registry import default_registry, registry_for
 
 TERMS = "z^3,z^2,v*|v|"
 NESTED = "(" * 500 + "z" + ")" * 500
@@ -177,8 +177,10 @@ def files(tmp_path_factory):
     with pytest.MonkeyPatch.context() as mp:
         mp.syspath_prepend(str(plugins))
         default_registry.cache_clear()
+        registry_for.cache_clear()
         yield d
     default_registry.cache_clear()
+    registry_for.cache_clear()
 
 
 # --------------------------------------------------------------------------- the cases

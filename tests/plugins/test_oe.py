@@ -147,7 +147,7 @@ def test_a_start_that_diverges_is_an_identification_error():
 
     registry = nlid.registry.Registry(identifiers={"unstable": Unstable})
     with pytest.MonkeyPatch.context() as mp:
-        mp.setattr("nlid.pipeline.default_registry", lambda: registry)
+        mp.setattr("nlid.pipeline.registry_for", lambda name: registry)
         with pytest.raises(IdentificationError, match="diverges"):
             nlid.identify(record, preset.terms, OutputError(init="unstable", oversample=1), mass=0.2)
 
