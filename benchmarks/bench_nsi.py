@@ -139,25 +139,26 @@ import resource, sys, time
 t0, c0 = time.perf_counter(), time.process_time()
 import nlid.cli.main  # noqa: F401 - what the CLI imports
 from nlid import pipeline
+from nlid.identified import IdentifiedModel
 from nlid.io import read_record
-from nlid.registry import default_registry
-default_registry()
+from nlid.registry import registry_for
+registry_for("nsi-ip")
 t1, c1 = time.perf_counter(), time.process_time()
 rec = read_record(sys.argv[1])
 t2, c2 = time.perf_counter(), time.process_time()
 core = {}
-complete = pipeline.complete_result
-def timed(*args, **kwargs):
+complete = IdentifiedModel.from_estimate.__func__
+def timed(cls, *args, **kwargs):
     s, sc = time.perf_counter(), time.process_time()
-    out = complete(*args, **kwargs)
+    out = complete(cls, *args, **kwargs)
     core["t"] = (time.perf_counter() - s, time.process_time() - sc)
     return out
-pipeline.complete_result = timed
+IdentifiedModel.from_estimate = classmethod(timed)
 pipeline.identify(rec, sys.argv[2], "nsi-ip")
 t3, c3 = time.perf_counter(), time.process_time()
 w, c = core["t"]
 rss = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
-print(f"    imports + registry {t1 - t0:.2f} s wall / {c1 - c0:.2f} s CPU; reading {t2 - t1:.2f} / {c2 - c1:.2f}; "
+print(f"    imports + plugin {t1 - t0:.2f} s wall / {c1 - c0:.2f} s CPU; reading {t2 - t1:.2f} / {c2 - c1:.2f}; "
       f"identify (plugin) {t3 - t2 - w:.2f} / {c3 - c2 - c:.2f}; core post-processing {w:.2f} / {c:.2f}; "
       f"total {t3 - t0:.2f} / {c3 - c0:.2f}; peak RSS {rss:.0f} MB")
 """
