@@ -181,7 +181,8 @@ class _Scaler:
     def xv(self, res: Residual) -> np.ndarray:
         return np.clip(res.v / self.v_half, -1.0, 1.0)
 
-    def features(self, res: Residual) -> dict[str, np.ndarray]:
+    def parts(self, res: Residual) -> dict[str, Any]:
+        """The blocks the probes' design matrices are made of (each probe's matrix: :func:`_design`)."""
         xz, xv = self.xz(res), self.xv(res)
         sv = np.sign(res.v)
         z_basis = _legendre(xz, range(1, 9))
@@ -189,7 +190,6 @@ class _Scaler:
         zp = _legendre(xz, range(0, 5))
         vp = np.column_stack([_legendre(xv, range(1, 5)), sv])
         zv = np.column_stack([zp[:, i] * vp[:, j] for i in range(zp.shape[1]) for j in range(vp.shape[1])] + [zp[:, 1:]])
-        fdot = np.gradient(res.f) * res.fs
         history = [_play(res.z, w * self.z_std) / self.z_std for w in PLAY_WIDTHS]
         n = res.z.size
         for periods in LAG_PERIODS:
@@ -200,31 +200,43 @@ class _Scaler:
                     shifted[lag:] = x[:-lag]
                     shifted[:lag] = x[0]
                     history.append(shifted)
-        static = np.column_stack([z_basis, v_basis, zv])
-        return {
-            "z": z_basis,
-            "v": v_basis,
-            "z,v": zv,
-            "acceleration": np.column_stack([static, res.a]),
-            "force-rate": np.column_stack([static, fdot]),
-            "static": static,
-            "memory": np.column_stack([static, *history]) if history else static,
-        }
+        return {"z": z_basis, "v": v_basis, "z,v": zv, "a": res.a, "f": res.f, "fs": res.fs, "history": history}
+
+
+def _design(parts: dict[str, Any], name: str) -> np.ndarray:
+    """The design matrix of probe ``name`` (or ``"static"``) from :meth:`_Scaler.parts`.
+
+    Built when needed and dropped after use: holding every probe's matrix for both records at once
+    made the probes the memory peak of ``nlid discover`` (several kB per sample).
+    """
+    if name in ("z", "v", "z,v"):
+        return parts[name]
+    static = np.column_stack([parts["z"], parts["v"], parts["z,v"]])
+    if name == "static":
+        return static
+    if name == "acceleration":
+        return np.column_stack([static, parts["a"]])
+    if name == "force-rate":
+        return np.column_stack([static, np.gradient(parts["f"]) * parts["fs"]])
+    if name == "memory":
+        return np.column_stack([static, *parts["history"]]) if parts["history"] else static
+    raise KeyError(name)
 
 
 def _explained(x_fit: np.ndarray, r_fit: np.ndarray, x_test: np.ndarray, r_test: np.ndarray, skip: int) -> float:
     """Fraction of ``r_test``'s variance predicted by least squares on ``(x_fit, r_fit)`` (constant included)."""
-    a = np.column_stack([np.ones(r_fit.size), x_fit])[skip:]
-    b = np.column_stack([np.ones(r_test.size), x_test])[skip:]
+    a = np.column_stack([np.ones(r_fit.size - skip), x_fit[skip:]])
+    b = np.column_stack([np.ones(r_test.size - skip), x_test[skip:]])
     scale = np.sqrt(np.mean(a**2, axis=0))
     scale[scale == 0] = 1.0
-    a = a / scale
+    a /= scale
+    b /= scale
     # ridge regression on standardised columns: the held-out record may be short, and a flexible
     # basis fitted to few samples must not extrapolate wildly within the other record's range
     gram = a.T @ a
     gram[np.diag_indices_from(gram)] += RIDGE * np.trace(gram) / gram.shape[0]
     coef = np.linalg.solve(gram, a.T @ r_fit[skip:])
-    pred = (b / scale) @ coef
+    pred = b @ coef
     target = r_test[skip:]
     total = float(np.sum((target - target.mean()) ** 2))
     if total <= 0:
@@ -245,16 +257,20 @@ def probe_residual(estimation: Residual, holdout: Residual, threshold: float = M
     # each direction scales (and clips) both records to the range of the record it fits on, so that no
     # polynomial is asked to extrapolate beyond the data it was fitted to
     fit_est, fit_ho = _Scaler(estimation), _Scaler(holdout)
-    fe_e, fh_e = fit_est.features(estimation), fit_est.features(holdout)
-    fh_h, fe_h = fit_ho.features(holdout), fit_ho.features(estimation)
+    pe_e, ph_e = fit_est.parts(estimation), fit_est.parts(holdout)
+    ph_h, pe_h = fit_ho.parts(holdout), fit_ho.parts(estimation)
     # the history features need a warm-up: leave out the longest lag at the start of each record
     skip = int(round(max(LAG_PERIODS) * fit_est.fs / fit_est.band))
     skip = min(skip, estimation.z.size // 4, holdout.z.size // 4)
     results: dict[str, ProbeResult] = {}
     raw: dict[str, tuple[float, float]] = {}
+    columns: dict[str, int] = {}
     for name in (*PROBES, "static"):
-        ho = _explained(fe_e[name], estimation.r, fh_e[name], holdout.r, skip)
-        es = _explained(fh_h[name], holdout.r, fe_h[name], estimation.r, skip)
+        x_fit = _design(pe_e, name)
+        columns[name] = x_fit.shape[1]
+        ho = _explained(x_fit, estimation.r, _design(ph_e, name), holdout.r, skip)
+        del x_fit
+        es = _explained(_design(ph_h, name), holdout.r, _design(pe_h, name), estimation.r, skip)
         raw[name] = (ho, es)
     # what the acceleration, the force rate and the history add to every static function of (z, v);
     # a static fit that predicts nothing counts as 0
@@ -264,7 +280,7 @@ def probe_residual(estimation: Residual, holdout: Residual, threshold: float = M
         if name in INCREMENTAL:
             ho, es = ho - base_ho, es - base_es
         value = 0.5 * (ho + es)
-        results[name] = ProbeResult(name, value, ho, es, fe_e[name].shape[1], value >= threshold)
+        results[name] = ProbeResult(name, value, ho, es, columns[name], value >= threshold)
     total = {n: results[n].explained for n in PROBES}
     total.update({n: 0.5 * sum(raw[n]) for n in INCREMENTAL})
     structured = any(r.structured for r in results.values())
