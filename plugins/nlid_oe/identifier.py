@@ -313,11 +313,16 @@ class OutputError(Identifier):
                 length = int(np.diff(np.append(problem.starts, record.n)).min()) // 2
                 if miss <= NOISE_RATIO * floor or length < MIN_SEGMENT:
                     break
-                problem = setup(length, problem.globals_of(res.x), None)
-                res = self._solve(problem, method)
-                rule = (f"segments halved to {length / record.fs:.3g} s: the fit missed the data by "
-                        f"{100 * miss:.3g} % of std against a noise floor of {100 * floor:.3g} %")
-                stages.append(self._stage_info(problem, res, rule))
+                halved = setup(length, problem.globals_of(res.x), None)
+                res_h = self._solve(halved, method)
+                info = self._stage_info(halved, res_h, f"segments halved to {length / record.fs:.3g} s: the fit "
+                                        f"missed the data by {100 * miss:.3g} % of std against a noise floor of "
+                                        f"{100 * floor:.3g} %")
+                stages.append(info)
+                if _data_rms(halved, res_h) >= miss:  # no better with shorter segments: keep the answer we had
+                    info["rule"] += "; not kept (no closer to the data)"
+                    break
+                problem, res, rule = halved, res_h, info["rule"]
         # the start model on the final segments, from the data's states: the "before" figure
         before = Problem(model, record, params, theta0, m0 if mass is None else mass, problem.starts,
                          states[problem.starts], channels, q, fine, np.asarray(scales), state_scales, 1.0)
