@@ -102,6 +102,16 @@ def _units(units: dict[str, str] | None) -> tuple[str, str, str]:
     return f, z, v
 
 
+def _binned_band(ax, x, r, tau, color, alpha, label, *, band_label=None, zero=True):
+    """Binned mean of ``r`` against ``x`` with its 95 % band (and the zero line); returns ``(centres, mean, half)``."""
+    c, m, h, _ = binned_mean(x, r, tau)
+    ax.fill_between(c, m - h, m + h, color=color, alpha=alpha, label=band_label)
+    ax.plot(c, m, "-o", ms=3, color=color, label=label)
+    if zero:
+        ax.axhline(0.0, color="k", lw=0.8)
+    return c, m, h
+
+
 def residual_figure(view: ResidualView, units: dict[str, str] | None = None, title: str | None = None):
     """Four panels: ``r`` against ``z`` and ``v`` (binned means, 95 % bands), over the (z, v) plane, and its PSD.
 
@@ -124,10 +134,8 @@ def residual_figure(view: ResidualView, units: dict[str, str] | None = None, tit
     pick = rng.choice(view.r.size, size=min(_SCATTER_POINTS, view.r.size), replace=False)
     for ax, x, name, unit in ((axes[0, 0], view.z, "z", zu), (axes[0, 1], view.v, "v", vu)):
         ax.plot(x[pick], view.r[pick], ".", ms=1.5, color="0.75", rasterized=True, label="samples")
-        c, m, h, _ = binned_mean(x, view.r, view.tau_samples)
-        ax.fill_between(c, m - h, m + h, color="C0", alpha=0.3, label="95 % band (effective samples)")
-        ax.plot(c, m, "-o", ms=3, color="C0", label="binned mean")
-        ax.axhline(0.0, color="k", lw=0.8)
+        c, m, h = _binned_band(ax, x, view.r, view.tau_samples, "C0", 0.3, "binned mean",
+                               band_label="95 % band (effective samples)")
         spread = np.nanmax(np.abs(np.concatenate([m - h, m + h]))) if np.isfinite(m).any() else 1.0
         scatter = np.quantile(np.abs(view.r), 0.99)
         ax.set_ylim(-1.2 * max(spread, scatter), 1.2 * max(spread, scatter))
@@ -207,19 +215,14 @@ def remaining_figure(view: ResidualView, remaining: Remaining, units: dict[str, 
     for mask, label, color in ((view.v > 0, "moving up (v > 0)", "C3"), (view.v < 0, "moving down (v < 0)", "C0")):
         if mask.sum() < 2 * MIN_BIN_SAMPLES:
             continue
-        c, m, h, _ = binned_mean(view.z[mask], view.r[mask], view.tau_samples)
-        ax.fill_between(c, m - h, m + h, color=color, alpha=0.25)
-        ax.plot(c, m, "-o", ms=3, color=color, label=label)
+        _binned_band(ax, view.z[mask], view.r[mask], view.tau_samples, color, 0.25, label, zero=False)
     ax.axhline(0.0, color="k", lw=0.8)
     ax.set_xlabel(f"z ({zu})")
     ax.set_ylabel(f"residual ({fu})")
     ax.set_title("against z, by direction (two branches: memory)", fontsize=9)
     ax.legend(fontsize=7)
     ax = axes[1]
-    c, m, h, _ = binned_mean(view.v, view.r, view.tau_samples)
-    ax.fill_between(c, m - h, m + h, color="C1", alpha=0.3)
-    ax.plot(c, m, "-o", ms=3, color="C1", label="binned mean, 95 % band")
-    ax.axhline(0.0, color="k", lw=0.8)
+    _binned_band(ax, view.v, view.r, view.tau_samples, "C1", 0.3, "binned mean, 95 % band")
     ax.set_xlabel(f"v ({vu})")
     ax.set_ylabel(f"residual ({fu})")
     ax.set_title("against v", fontsize=9)
