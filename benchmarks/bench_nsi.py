@@ -104,6 +104,15 @@ print(time.perf_counter() - t0, resource.getrusage(resource.RUSAGE_CHILDREN).ru_
 """
 
 
+def _record_file(folder: Path, n: int) -> Path:
+    """An ``n``-sample paper-numerical record (seed 0, 2 % noise on z) written by ``nlid simulate`` into ``folder``."""
+    path = folder / "record.npz"
+    args = ["simulate", "--preset", "paper-numerical", "--seed", "0", "--noise", "0.02"]
+    args += ["--duration", repr(n / get_preset("paper-numerical").fs), "--out", str(path)]
+    subprocess.run([sys.executable, "-m", "nlid.cli.main", *args], check=True, capture_output=True)
+    return path
+
+
 def cli(n: int, repeat: int = 3) -> None:
     """``nlid identify`` on a file of ``n`` samples (paper-numerical, seed 0, 2 % noise on z), in a child process.
 
@@ -115,11 +124,7 @@ def cli(n: int, repeat: int = 3) -> None:
     import tempfile
 
     with tempfile.TemporaryDirectory() as tmp:
-        path = Path(tmp) / "record.npz"
-        preset = get_preset("paper-numerical")
-        args = ["simulate", "--preset", "paper-numerical", "--seed", "0", "--noise", "0.02"]
-        args += ["--duration", repr(n / preset.fs), "--out", str(path)]
-        subprocess.run([sys.executable, "-m", "nlid.cli.main", *args], check=True, capture_output=True)
+        path = _record_file(Path(tmp), n)
         cmd = [sys.executable, "-m", "nlid.cli.main", "identify", str(path), "--method", "nsi-ip", "--terms", TERMS]
         walls, peaks = [], []
         for _ in range(repeat):
@@ -169,11 +174,7 @@ def cli_phases(n: int) -> None:
     import tempfile
 
     with tempfile.TemporaryDirectory() as tmp:
-        path = Path(tmp) / "record.npz"
-        preset = get_preset("paper-numerical")
-        args = ["simulate", "--preset", "paper-numerical", "--seed", "0", "--noise", "0.02"]
-        args += ["--duration", repr(n / preset.fs), "--out", str(path)]
-        subprocess.run([sys.executable, "-m", "nlid.cli.main", *args], check=True, capture_output=True)
+        path = _record_file(Path(tmp), n)
         out = subprocess.run(
             [sys.executable, "-c", _PHASES, str(path), TERMS], check=True, capture_output=True, text=True
         )
