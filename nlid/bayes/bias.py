@@ -50,8 +50,8 @@ from typing import Any
 import numpy as np
 
 from .. import derivatives
-from ..errors import IdentificationError, InputError
 from ..balance import RegressionData, regression_data
+from ..errors import IdentificationError, InputError
 from ..record import Record
 from ..simulation import SimulationError, simulate
 from ..terms import Model

@@ -9,8 +9,8 @@ from typing import Any
 import numpy as np
 
 from .. import numerics
-from ..errors import IdentificationError, InputError
 from ..balance import regression_data
+from ..errors import IdentificationError, InputError
 from ..identified import IdentifiedModel
 from ..record import Record
 from ..terms import Model, parse_term

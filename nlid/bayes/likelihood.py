@@ -65,8 +65,8 @@ from typing import Any
 import emcee
 import numpy as np
 
-from ..errors import DataError, InputError
 from ..balance import RegressionData, regression_data
+from ..errors import DataError, InputError
 from ..record import Record
 from ..terms import Model
 from .bias import indirect_inference

@@ -11,9 +11,9 @@ from typing import Any
 import numpy as np
 
 from .. import physics
+from ..balance import RegressionData
 from ..errors import InputError
 from ..interface import to_jsonable
-from ..balance import RegressionData
 from ..scoring import damping_slice
 from ..terms import Model, parse_term
 from .likelihood import Likelihood

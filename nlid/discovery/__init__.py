@@ -10,7 +10,7 @@ residual figures (:mod:`nlid.discovery.plots`). The command line is
 
 from .evidence import AcceptanceRule, Evidence, Scores
 from .library import LIBRARY, Candidate, Shape, library_names, resolve_candidates
-from .loop import DiscoveryResult, Stage, ResidualView, Step, choose_method, discover
+from .loop import DiscoveryResult, ResidualView, Stage, Step, choose_method, discover
 from .report import summary_table, write_report
 
 __all__ = [

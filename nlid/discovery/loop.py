@@ -40,8 +40,8 @@ import numpy as np
 from scipy import optimize
 
 from .. import derivatives, physics
-from ..errors import DataError, IdentificationError, InputError, NlidError
 from ..balance import regression_data
+from ..errors import DataError, IdentificationError, InputError, NlidError
 from ..identified import IdentifiedModel
 from ..interface import to_jsonable
 from ..pipeline import identify

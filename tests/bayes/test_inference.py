@@ -7,7 +7,6 @@ import numpy as np
 import pytest
 
 from nlid import identify
-from nlid.errors import InputError
 from nlid.bayes import (
     ConvergenceError,
     DegenerateParametersError,

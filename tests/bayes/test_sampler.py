@@ -3,8 +3,8 @@
 import numpy as np
 import pytest
 
-from nlid.errors import InputError
 from nlid.bayes.sampler import ConvergenceError, run_until_converged
+from nlid.errors import InputError
 
 
 def _gaussian(mean, cov):

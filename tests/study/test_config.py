@@ -14,8 +14,8 @@ from nlid.errors import NlidError
 from nlid.study import ConfigError, ResultStore, builtin_studies, load_study, parse_study, plan_study
 from nlid.study.config import resolve_study
 from nlid.study.plan import RunSpec, derive_seed, record_key
-from nlid.study.values import EstimatedMass, NoHoldout, PresetSource
 from nlid.study.report import write_report
+from nlid.study.values import EstimatedMass, NoHoldout, PresetSource
 from nlid.study.worker import execute_run
 
 BAD = [
