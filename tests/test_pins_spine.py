@@ -1,0 +1,236 @@
+"""The architecture-spine refactor (issue 22) changes no number: outputs pinned from the code before it.
+
+``tests/data/pins_before_issue22.json`` was written by this module
+(``python tests/test_pins_spine.py --write``) on the code before the
+refactor. It holds, for the records built below:
+
+* ``identify``: the ``--json`` object (:meth:`nlid.IdentifiedModel.to_dict`)
+  of every built-in equation-error identifier, with known and estimated mass
+  and with the paper's ``|px(z)|`` terms;
+* ``compare``: :func:`nlid.compare` frames as CSV text (the reference taken
+  from the record's truth, from a fitted model, and from a bare mapping; a
+  failing method; a held-out record);
+* ``study``: every column of every row of a small study (three identifiers,
+  a posterior, an independent held-out record).
+
+Wall times (``seconds`` and friends) are left out: they are not results. The
+test compares text exactly and numbers to 1e-9 relative (the last bits of a
+float may differ between CPUs' BLAS kernels; on one machine the outputs are
+byte-identical, which ``python tests/test_pins_spine.py --check`` shows by
+diffing the JSON text). Keys added later (new columns, new JSON fields) are
+allowed; keys pinned here must keep their values.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import sys
+from pathlib import Path
+from typing import Any
+
+import pytest
+
+PINS_PATH = Path(__file__).parent / "data" / "pins_before_issue22.json"
+REL = 1e-9
+#: Values that are wall times or memory readings, not results.
+VOLATILE = ("seconds", "peak_memory_mb", "method_seconds", "posterior:seconds", "timings_s")
+
+TERMS = "z^3, z^2, v*|v|"
+PX_TERMS = "z^3, z^2, sign(v)*|px(z)|, v*|px(z)|"
+
+STUDY = """
+[study]
+name = "spine"
+seed = 11
+repetitions = 1
+identifiers = ["rfs", "sindy", "nsi-ip"]
+
+[posterior]
+params = "damping"
+walkers = 16
+max_steps = 300
+seed = 0
+
+[[datasets]]
+name = "num"
+preset = "paper-numerical"
+overrides = { duration = 8 }
+noise = { z = 0.02 }
+terms = "z^3, z^2, v*|v|"
+holdout = "independent"
+
+[[datasets]]
+name = "exp"
+preset = "paper-experimental"
+overrides = { duration = 20 }
+noise = { z = 0.02, a = 0.02 }
+channels = ["z", "a"]
+terms = "z^3, z^2, sign(v)*|px(z)|, v*|px(z)|"
+holdout = "none"
+"""
+
+
+def _drop_volatile(value: Any) -> Any:
+    if isinstance(value, dict):
+        return {k: _drop_volatile(v) for k, v in value.items() if k not in VOLATILE}
+    if isinstance(value, list):
+        return [_drop_volatile(v) for v in value]
+    return value
+
+
+def _records():
+    import nlid
+
+    record = nlid.simulate("paper-numerical", seed=3, noise={"z": 0.02, "a": 0.02}, channels="z,a", duration=10)
+    other = nlid.simulate("paper-numerical", seed=4, noise={"z": 0.02, "a": 0.02}, channels="z,a", duration=10)
+    experimental = nlid.simulate("paper-experimental", seed=5, noise=0.02, channels="z,a", duration=30)
+    return record, other, experimental
+
+
+def collect_identify() -> dict[str, Any]:
+    import nlid
+
+    record, _, experimental = _records()
+    out: dict[str, Any] = {}
+    for name, method, mass in (
+        ("rfs_known", "rfs", 0.2),
+        ("rfs_estimated", "rfs", None),
+        ("sindy_known", "sindy", 0.2),
+        ("nsi_ip_known", "nsi-ip", 0.2),
+        ("nsi_shift_known", "nsi-shift", 0.2),
+    ):
+        out[name] = _drop_volatile(nlid.identify(record, TERMS, method=method, mass=mass).to_dict())
+    out["rfs_px"] = _drop_volatile(nlid.identify(experimental, PX_TERMS, method="rfs", mass=0.265).to_dict())
+    return out
+
+
+def _frame_text(frame) -> str:
+    frame = frame[frame["quantity"] != "seconds"].reset_index(drop=True)
+    return frame.to_csv(index=False)
+
+
+def collect_compare() -> dict[str, str]:
+    import nlid
+
+    record, other, _ = _records()
+    out = {}
+    out["truth_holdout"] = _frame_text(
+        nlid.compare(record, TERMS, ["rfs", "sindy", "nsi-ip", "no-such-method"], mass=0.2, holdout=other)
+    )
+    out["estimated_mass"] = _frame_text(nlid.compare(record, TERMS, ["rfs"]))
+    fit = nlid.identify(other, TERMS, method="rfs", mass=0.2)
+    out["reference_fit"] = _frame_text(nlid.compare(record, TERMS, ["rfs", "sindy"], mass=0.2, reference=fit))
+    out["reference_mapping"] = _frame_text(
+        nlid.compare(record, TERMS, ["rfs"], mass=0.2, reference={"z^3": 1e6, "z^2": 5e3, "v*|v|": 5.0})
+    )
+    return out
+
+
+def collect_study(folder: Path) -> dict[str, dict[str, Any]]:
+    from nlid.study import parse_study, run_study
+    from nlid.study.execute import LocalExecutor
+    from nlid.study.store import ResultStore
+
+    config = parse_study(STUDY)
+    outcome = run_study(config, folder, executor=LocalExecutor(jobs=1), report=False, progress=False)
+    frame = ResultStore(folder).results(outcome.runs)
+    rows: dict[str, dict[str, Any]] = {}
+    for record in frame.to_dict(orient="records"):
+        row = {}
+        for key, value in record.items():
+            if key in VOLATILE:
+                continue
+            if isinstance(value, float) and math.isnan(value):
+                value = None
+            elif hasattr(value, "item"):
+                value = value.item()
+            row[key] = value
+        rows[str(record["run_id"])] = row
+    return rows
+
+
+def _close(new: Any, old: Any, where: str) -> None:
+    if isinstance(old, dict):
+        assert isinstance(new, dict), where
+        for key, value in old.items():
+            assert key in new, f"{where}: key {key!r} is gone"
+            _close(new[key], value, f"{where}.{key}")
+    elif isinstance(old, list):
+        assert isinstance(new, list) and len(new) == len(old), where
+        for i, (a, b) in enumerate(zip(new, old, strict=True)):
+            _close(a, b, f"{where}[{i}]")
+    elif isinstance(old, bool) or old is None or isinstance(old, str):
+        if old is None and isinstance(new, float) and math.isnan(new):
+            return
+        assert new == old, f"{where}: {new!r} != {old!r}"
+    elif isinstance(old, (int, float)):
+        assert isinstance(new, (int, float)) and not isinstance(new, bool), f"{where}: {new!r}"
+        assert new == pytest.approx(old, rel=REL, abs=1e-300), f"{where}: {new!r} != {old!r}"
+    else:  # pragma: no cover - the pins hold JSON values only
+        raise AssertionError(f"{where}: unexpected pinned value {old!r}")
+
+
+def _csv_close(new: str, old: str, where: str) -> None:
+    """Two CSV texts: the same cells, numbers to :data:`REL`."""
+    new_lines, old_lines = new.splitlines(), old.splitlines()
+    assert len(new_lines) == len(old_lines), f"{where}: {len(new_lines)} lines, pinned {len(old_lines)}"
+    import csv
+
+    for i, (a, b) in enumerate(zip(csv.reader(new_lines), csv.reader(old_lines), strict=True)):
+        assert len(a) == len(b), f"{where} line {i}"
+        for x, y in zip(a, b, strict=True):
+            if x == y:
+                continue
+            try:
+                fx, fy = float(x), float(y)
+            except ValueError:
+                raise AssertionError(f"{where} line {i}: {x!r} != {y!r}") from None
+            assert fx == pytest.approx(fy, rel=REL), f"{where} line {i}: {x} != {y}"
+
+
+@pytest.fixture(scope="module")
+def pins() -> dict[str, Any]:
+    return json.loads(PINS_PATH.read_text())
+
+
+@pytest.mark.slow
+def test_identify_json_unchanged(pins):
+    new = collect_identify()
+    for name, old in pins["identify"].items():
+        _close(new[name], old, f"identify.{name}")
+
+
+@pytest.mark.slow
+def test_compare_frames_unchanged(pins):
+    new = collect_compare()
+    for name, old in pins["compare"].items():
+        _csv_close(new[name], old, f"compare.{name}")
+
+
+@pytest.mark.slow
+def test_study_rows_unchanged(pins, tmp_path):
+    new = collect_study(tmp_path)
+    assert sorted(new) == sorted(pins["study"])
+    for run_id, old in pins["study"].items():
+        _close(new[run_id], old, f"study.{run_id}")
+
+
+def _collect_all() -> dict[str, Any]:
+    import tempfile
+
+    with tempfile.TemporaryDirectory() as tmp:
+        return {"identify": collect_identify(), "compare": collect_compare(), "study": collect_study(Path(tmp))}
+
+
+if __name__ == "__main__":
+    text = json.dumps(_collect_all(), indent=1, sort_keys=True, allow_nan=False, default=str) + "\n"
+    if "--write" in sys.argv:
+        PINS_PATH.write_text(text)
+        print(f"wrote {PINS_PATH}")
+    elif "--check" in sys.argv:
+        same = text == PINS_PATH.read_text()
+        print("byte-identical" if same else "DIFFERENT from the pins")
+        sys.exit(0 if same else 1)
+    else:
+        print(__doc__)
