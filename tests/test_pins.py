@@ -69,9 +69,22 @@ def test_identify_json_unchanged(record, name, kwargs):
 
 
 def test_posterior_unchanged(record):
+    """The same posterior, to Monte Carlo precision.
+
+    The chain itself is not bit-reproducible across numpy/emcee releases (their random streams and
+    reductions change): on numpy 2.4 / emcee 3.1.6 every pinned figure moved by about 0.03 posterior sd
+    while the deterministic fit stayed identical. So the target distribution is checked: means and
+    quantiles within 0.1 posterior sd of the pins, the sd within 5 %. A change of the likelihood, the
+    bias correction or the priors moves them by far more (the bias correction alone moves ``v`` by 3 sd).
+    """
     fit = nlid.identify(record, "z^3, z^2, v*|v|", "rfs", mass=0.2)
     post = sample_posterior(record, fit, params="damping", seed=0)
-    _close(post.summary(), PINS["posterior"], rel=1e-4, where="posterior")
+    new = post.summary()
+    for term, old in PINS["posterior"].items():
+        sd = old["sd"]
+        assert new[term]["sd"] == pytest.approx(sd, rel=0.05), term
+        for key in ("mean", "q05", "q50", "q95"):
+            assert abs(new[term][key] - old[key]) <= 0.1 * sd, (term, key, new[term][key], old[key])
 
 
 def test_discover_unchanged_and_its_free_run_is_the_study_number():
