@@ -26,9 +26,11 @@ from .errors import InputError, NlidError
 from .identified import IdentifiedModel
 from .pipeline import as_model, identify
 from .record import Record
+from .sources import as_record
 
 if TYPE_CHECKING:  # pragma: no cover
     import pandas as pd
+    import xarray as xr
 
     from .bayes import Posterior
     from .discovery import DiscoveryResult
@@ -38,27 +40,36 @@ __all__ = ["load", "simulate", "compare", "posterior", "discover", "run_study"]
 
 
 def load(
-    source: str | Path,
+    source: str | Path | Record | pd.DataFrame | xr.Dataset | Mapping[str, Any],
     *,
     columns: str | Mapping[str, str] | None = None,
     fs: float | None = None,
     force_hold: str | None = None,
 ) -> Record:
-    """Read a record from a file or a bundled benchmark.
+    """Read a record from a file, a bundled benchmark, a DataFrame, an xarray Dataset or a mapping of arrays.
+
+    Files and tables share one column map and one set of rules (a DataFrame
+    written to CSV and loaded gives the same record as the DataFrame itself);
+    see :func:`nlid.sources.as_record`.
 
     Parameters
     ----------
     source
         A ``.csv`` (header names), ``.npz`` (read without pickle) or MATLAB
-        ``.mat`` file; or ``"dataset:NAME[:PART]"`` for a measured benchmark
+        ``.mat`` file; ``"dataset:NAME[:PART]"`` for a measured benchmark
         read from ``$NLID_DATA_DIR`` (``dataset:emps``, ``dataset:silverbox``,
-        ``dataset:silverbox:arrow``; see :mod:`nlid.datasets`).
+        ``dataset:silverbox:arrow``; see :mod:`nlid.datasets`); a pandas
+        DataFrame (a named index is one more column: an index named ``t``
+        is the time axis; see :meth:`Record.from_frame <nlid.record.Record.from_frame>`);
+        an xarray Dataset (its coordinates and variables are the columns;
+        xarray is optional); a mapping such as ``{"t": t, "f": f, "z": z}``;
+        or a :class:`~nlid.record.Record`, returned as is.
     columns
         Which columns are which channels, with optional scale factors, e.g.
         ``"f=vir*gtau,z=qm"`` or ``{"f": "vir*gtau", "z": "qm"}`` (channels
         ``t, f, z, v, a``; default: columns named like the channels).
     fs
-        Sampling frequency (Hz) when the file has no time column.
+        Sampling frequency (Hz) when the file or table has no time column.
     force_hold
         ``"sampled"`` (a sampled continuous force, the default for measured
         data) or ``"zoh"`` (held over each sample); default: what the file's
@@ -68,24 +79,16 @@ def load(
     ------
     DataError
         An unreadable file, a missing column, a NaN (channel and index named)...
+    InputError
+        A source of another type (a list, a bare numpy array...), named in the message.
+
+    Examples
+    --------
+    ``nlid.load(frame, columns="t=time,f=load_N,z=disp_mm*0.001")`` reads a
+    DataFrame ``frame`` exactly as ``nlid.load("rig.csv", columns=...)``
+    reads the same columns from a file.
     """
-    text = str(source)
-    if text.startswith("dataset:"):
-        from . import datasets
-
-        if columns or fs:
-            raise InputError("columns= and fs= do not apply to bundled datasets")
-        parts = text.split(":")
-        record = datasets.load(parts[1] if len(parts) > 1 else "", part=parts[2] if len(parts) > 2 else "all")
-    else:
-        from .io import read_record
-
-        record = read_record(text, columns, fs=fs)
-    if force_hold is not None:
-        if force_hold not in ("sampled", "zoh"):
-            raise InputError(f"force_hold must be 'sampled' or 'zoh', got {force_hold!r}")
-        record = record.with_meta(force_hold=force_hold)
-    return record
+    return as_record(source, columns=columns, fs=fs, force_hold=force_hold)
 
 
 def simulate(
@@ -284,6 +287,7 @@ def compare(
         percent of ``|reference|``) and ``note``. The fitted models are in
         ``frame.attrs["models"]``.
     """
+    record = as_record(record)
     import pandas as pd
 
     from .registry import default_registry
@@ -313,7 +317,9 @@ def compare(
     return frame
 
 
-def posterior(record: Record, fit: IdentifiedModel, *, params: str | Iterable[str] = "damping", **settings: Any) -> Posterior:
+def posterior(
+    record: Record, fit: IdentifiedModel, *, params: str | Iterable[str] = "damping", **settings: Any
+) -> Posterior:
     """Posterior of chosen coefficients of an identified model, sampled with emcee.
 
     Parameters
@@ -332,12 +338,15 @@ def posterior(record: Record, fit: IdentifiedModel, *, params: str | Iterable[st
     -------
     nlid.bayes.Posterior
     """
+    record = as_record(record)
     from .bayes import PosteriorSampler
 
     return PosteriorSampler(params, **settings).run(record, fit)
 
 
-def discover(record: Record, declared: str | Iterable[str], method: str | None = None, **settings: Any) -> DiscoveryResult:
+def discover(
+    record: Record, declared: str | Iterable[str], method: str | None = None, **settings: Any
+) -> DiscoveryResult:
     """Find the effects a declared model lacks (see :func:`nlid.discovery.discover` for the settings).
 
     Returns
@@ -347,6 +356,7 @@ def discover(record: Record, declared: str | Iterable[str], method: str | None =
         ``.final_model`` (an :class:`~nlid.identified.IdentifiedModel`),
         ``.summary()``, ``.to_dict()``.
     """
+    record = as_record(record)
     from .discovery import discover as _discover
 
     return _discover(record, declared, method, **settings)

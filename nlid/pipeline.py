@@ -33,6 +33,7 @@ from .interface import Estimate, refined_terms
 from .physics import Modal
 from .record import Record
 from .registry import Registry, registry_for
+from .sources import as_record
 from .terms import Model, Term
 
 __all__ = ["identify", "as_model", "check_estimate"]
@@ -49,10 +50,22 @@ def as_model(
     without: str | Iterable[str] = (),
     px_roots: Sequence[float] | None = None,
 ) -> Model:
-    """A :class:`Model` from a term list (defaults added) or a model."""
+    """A :class:`Model` from a term list (defaults added) or a model.
+
+    Raises
+    ------
+    InputError
+        ``terms`` missing (``None``) or of another type; :class:`~nlid.errors.TermError` for a bad term.
+    """
+    if terms is None:
+        raise InputError("terms are missing: give the model's terms, e.g. 'z^3, v*|v|' ('' for just 1, z, v)")
     if isinstance(terms, Model):
         model = terms.with_terms(remove=without) if without else terms
         return model if px_roots is None else model.with_px_roots(px_roots)
+    if not isinstance(terms, (str, Iterable)):
+        raise InputError(
+            f"terms must be a string such as 'z^3, v*|v|', a list of terms or a Model, got {type(terms).__name__}"
+        )
     return Model.from_spec(terms, without=without, px_roots=px_roots)
 
 
@@ -195,7 +208,10 @@ def identify(
     Parameters
     ----------
     record
-        The data.
+        The data: a :class:`Record`, or what :func:`nlid.load` reads without
+        a column map (a pandas DataFrame or xarray Dataset with columns named
+        ``t, f, z, v, a``, a mapping of arrays, a file path); see
+        :func:`nlid.sources.as_record`.
     terms
         The user's terms (``"z^3, z^2, v*|v|"``); ``1``, ``z`` and ``v`` are
         added unless listed in ``without``. A :class:`Model` is used as is.
@@ -231,13 +247,15 @@ def identify(
     Raises
     ------
     InputError
-        Bad terms, options or mass; unknown method.
+        A record of a type nlid cannot read; missing or bad terms, options
+        or mass; unknown method.
     PluginError
         The identifier is broken (raised an unexpected exception).
     IdentificationError
         The identification ran but its answer cannot be trusted, or did not
         finish within ``timeout``.
     """
+    record = as_record(record)
     if timeout is not None:
         return _identify_isolated(
             timeout,

@@ -26,16 +26,22 @@ was estimated (e.g. "zero-phase Butterworth low-pass (order 4, fc=120 Hz) +
 
 from __future__ import annotations
 
+import os
 from collections.abc import Mapping
 from dataclasses import dataclass, field, replace
 from types import MappingProxyType
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from . import derivatives
 from ._frozen import FrozenDict
+from .columnmap import channel_arrays, dataset_table, frame_table
 from .errors import DataError, InputError
+
+if TYPE_CHECKING:  # pragma: no cover
+    import pandas as pd
+    import xarray as xr
 
 __all__ = ["Record", "CHANNELS", "MIN_SAMPLES", "TIME_TOLERANCE", "DEFAULT_UNITS"]
 
@@ -171,6 +177,153 @@ class Record:
                 f"(tolerance {TIME_TOLERANCE:g} relative)"
             )
         return cls(f=f, z=z, fs=1.0 / step, t0=float(t[0]), **kwargs)
+
+    @classmethod
+    def from_table(
+        cls,
+        table: Mapping[str, Any],
+        columns: str | Mapping[str, str] | None = None,
+        *,
+        fs: float | None = None,
+        force_hold: str | None = None,
+        meta: Mapping[str, Any] | None = None,
+        units: Mapping[str, str] | None = None,
+        source: str | os.PathLike[str] = "mapping",
+    ) -> Record:
+        """Build a record from named columns under a column map; every source goes through here.
+
+        Files (:func:`nlid.io.read_record`), DataFrames (:meth:`from_frame`),
+        xarray Datasets (:meth:`from_xarray`) and mappings of arrays share
+        this one path, so they share the rules and the messages.
+
+        Parameters
+        ----------
+        table
+            Column or variable name -> array (scalars serve as scale factors
+            and ``fs``), e.g. ``{"t": t, "f": f, "z": z}``.
+        columns
+            Column map, ``"t=time,f=load_N,z=disp_mm*0.001"`` or
+            ``{"f": "load_N", "z": "disp_mm*0.001"}`` (see
+            :mod:`nlid.columnmap`); default: columns named like the channels
+            ``t, f, z, v, a``.
+        fs
+            Sampling frequency in Hz when there is no time column.
+        force_hold
+            ``"sampled"`` (default) or ``"zoh"`` (see :class:`Record`).
+        meta, units
+            As for :class:`Record`.
+        source
+            What the table came from, named in error messages: the path of a
+            file, or a word such as ``"DataFrame"``.
+
+        Raises
+        ------
+        DataError
+            A missing or non-numeric column, a non-finite value (channel and
+            index named), a non-uniform time axis, or no sampling frequency.
+        InputError
+            A malformed column map, both a time column and ``fs=``, or a bad
+            ``force_hold``.
+        """
+        if not isinstance(table, Mapping):
+            raise InputError(f"a table must map column names to arrays, got {type(table).__name__}")
+        if isinstance(source, os.PathLike):
+            label, noun = os.fspath(source), "file"
+        else:
+            label = noun = str(source)
+        named = {str(k): v for k, v in table.items()}
+        arrays, fs = channel_arrays(named, columns, fs=fs, source=label, noun=noun)
+        meta = dict(meta or {})
+        if force_hold is not None:
+            if force_hold not in ("sampled", "zoh"):
+                raise InputError(f"force_hold must be 'sampled' or 'zoh', got {force_hold!r}")
+            meta["force_hold"] = force_hold
+        kwargs: dict[str, Any] = {c: arrays[c] for c in CHANNELS if c in arrays}
+        try:
+            if "t" in arrays:
+                return cls.from_time(arrays["t"], meta=meta, units=units or {}, **kwargs)
+            return cls(fs=fs, meta=meta, units=units or {}, **kwargs)
+        except DataError as exc:
+            raise DataError(f"{label}: {exc}") from None
+
+    @classmethod
+    def from_frame(
+        cls,
+        frame: pd.DataFrame,
+        columns: str | Mapping[str, str] | None = None,
+        *,
+        fs: float | None = None,
+        force_hold: str | None = None,
+        meta: Mapping[str, Any] | None = None,
+        units: Mapping[str, str] | None = None,
+    ) -> Record:
+        """Build a record from a pandas DataFrame, with the column map files use.
+
+        ``Record.from_frame(df, "t=time,f=load_N,z=disp_mm*0.001")`` gives the
+        same record as writing ``df`` to CSV and reading it with
+        :func:`nlid.load`. Without a column map, columns named like the
+        channels ``t, f, z, v, a`` are used.
+
+        The index: a named index is one more column, so an index named ``t``
+        is the time axis by default and one named ``time`` is mapped with
+        ``t=time``; an unnamed index (such as the default ``RangeIndex``) is
+        ignored, and then ``fs=`` gives the sampling frequency. Durations
+        (``timedelta``) become seconds; dates are refused.
+
+        Parameters
+        ----------
+        frame
+            The data.
+        columns, fs, force_hold, meta, units
+            As for :meth:`from_table`.
+
+        Raises
+        ------
+        DataError, InputError
+            As for :meth:`from_table`; the messages name ``DataFrame`` where a
+            file's name its path.
+        """
+        import pandas as pd
+
+        if not isinstance(frame, pd.DataFrame):
+            raise InputError(f"Record.from_frame needs a pandas DataFrame, got {type(frame).__name__}")
+        table = frame_table(frame, "DataFrame")
+        return cls.from_table(table, columns, fs=fs, force_hold=force_hold, meta=meta, units=units, source="DataFrame")
+
+    @classmethod
+    def from_xarray(
+        cls,
+        dataset: xr.Dataset,
+        columns: str | Mapping[str, str] | None = None,
+        *,
+        fs: float | None = None,
+        force_hold: str | None = None,
+        meta: Mapping[str, Any] | None = None,
+        units: Mapping[str, str] | None = None,
+    ) -> Record:
+        """Build a record from an xarray Dataset, with the column map files use.
+
+        Its coordinates and data variables are the columns (a time coordinate
+        named ``t`` is the time axis by default; one named ``time`` is mapped
+        with ``t=time``); 0-d variables are scalars, usable as scale factors
+        or as ``fs``. xarray is optional: nlid never imports it.
+
+        Parameters
+        ----------
+        dataset
+            The data.
+        columns, fs, force_hold, meta, units
+            As for :meth:`from_table`.
+
+        Raises
+        ------
+        DataError, InputError
+            As for :meth:`from_table`; the messages name ``Dataset``.
+        """
+        if not (hasattr(dataset, "data_vars") and hasattr(dataset, "coords")):
+            raise InputError(f"Record.from_xarray needs an xarray Dataset, got {type(dataset).__name__}")
+        table = dataset_table(dataset, "Dataset")
+        return cls.from_table(table, columns, fs=fs, force_hold=force_hold, meta=meta, units=units, source="Dataset")
 
     # ------------------------------------------------------------------ properties
     @property

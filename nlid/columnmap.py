@@ -1,0 +1,315 @@
+"""Tables of named columns, and the column map that turns them into channels.
+
+Every source of a record goes through one path: a reader yields a *table*
+(column or variable name -> array) and :func:`channel_arrays` maps its columns
+to the channels of a :class:`~nlid.record.Record`
+(:meth:`Record.from_table <nlid.record.Record.from_table>`). Files are read
+into tables by :func:`nlid.io.read_table`; a pandas DataFrame by
+:func:`frame_table`, an xarray Dataset by :func:`dataset_table`; a mapping of
+arrays is a table already.
+
+Column maps
+-----------
+A column map says which column (or variable) of a table becomes which channel,
+optionally scaled: ``"f=vir*gtau, z=qm"`` or ``"f=-acc*0.265, z=disp/1000"``,
+or the same as a mapping ``{"f": "vir*gtau", "z": "qm"}``. Each entry is
+``channel=expr`` with ``channel`` one of ``t, f, z, v, a`` and ``expr`` an
+optional leading ``-`` and a product/quotient of exactly one column name with
+numbers or scalar variables of the table (a 1x1 MATLAB variable, an NPZ
+scalar, a 0-d variable of a Dataset, a scalar of a mapping). It is parsed by a
+small grammar, never evaluated. Channels not in the map are taken from columns
+of the same name when present.
+
+The sampling frequency comes from the time column (checked for uniformity, see
+:class:`nlid.record.Record`), else from ``fs=`` given by the caller, else from
+a scalar ``fs`` variable of the table.
+
+This module imports neither pandas nor xarray: it uses the objects it is given.
+"""
+
+from __future__ import annotations
+
+import re
+from collections.abc import Mapping
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from .errors import DataError, InputError
+
+__all__ = ["ColumnExpr", "parse_columns", "channel_arrays", "frame_table", "dataset_table", "MAP_CHANNELS"]
+
+#: Channels a column map can name: the time ``t`` and the channels of a record.
+MAP_CHANNELS = ("t", "f", "z", "v", "a")
+_OPERAND = re.compile(r"\s*([A-Za-z_][A-Za-z_0-9]*|[0-9]*\.?[0-9]+(?:[eE][+-]?[0-9]+)?)\s*")
+
+
+@dataclass(frozen=True)
+class ColumnExpr:
+    """``sign * column * prod(factors) / prod(divisors)``."""
+
+    column: str
+    factors: tuple[str | float, ...] = ()
+    divisors: tuple[str | float, ...] = ()
+    negate: bool = False
+
+    def evaluate(self, table: Mapping[str, np.ndarray], source: str) -> np.ndarray:
+        """Apply the expression to a table of columns/variables."""
+        out = _real(_lookup(table, self.column, source, column=True), self.column, source, "column")
+        if sum(1 for n in out.shape if n > 1) > 1:
+            raise DataError(
+                f"column {self.column!r} in {source} is an array of shape {out.shape}; a channel needs one dimension"
+            )
+        for factor in self.factors:
+            out = out * _scalar(table, factor, source)
+        for divisor in self.divisors:
+            value = _scalar(table, divisor, source)
+            if value == 0:
+                raise InputError(f"column map divides {self.column!r} by zero")
+            out = out / value
+        return -out if self.negate else out
+
+
+def _lookup(table: Mapping[str, np.ndarray], name: str, source: str, column: bool) -> np.ndarray:
+    if name not in table:
+        avail = ", ".join(sorted(table)) or "none"
+        what = "column" if column else "variable"
+        raise DataError(f"{what} {name!r} not found in {source}; it has: {avail}")
+    return np.asarray(table[name])
+
+
+def _real(value: Any, name: str, source: str, what: str) -> np.ndarray:
+    """``value`` as a float array, refusing what is not real numbers (text, cells, structs, complex)."""
+    array = np.asarray(value)
+    kind = array.dtype.kind
+    if kind == "c":
+        raise DataError(f"{what} {name!r} in {source} holds complex numbers; nlid needs real ones (take .real or abs)")
+    if kind not in "biuf":
+        described = {"U": "text", "S": "text", "O": "objects (a cell array or strings)", "V": "a struct"}.get(
+            kind, f"values of type {array.dtype}"
+        )
+        raise DataError(f"{what} {name!r} in {source} holds {described}, not numbers")
+    return np.array(array, dtype=float)
+
+
+def _scalar(table: Mapping[str, np.ndarray], item: str | float, source: str) -> float:
+    if isinstance(item, float):
+        return item
+    value = _real(_lookup(table, item, source, column=False), item, source, "scale factor")
+    if value.size != 1:
+        raise DataError(f"{item!r} in {source} is used as a scale factor but has {value.size} values")
+    return float(value.ravel()[0])
+
+
+def parse_columns(spec: str | Mapping[str, str] | None) -> dict[str, ColumnExpr]:
+    """Parse a column map such as ``"f=vir*gtau, z=qm"``.
+
+    Raises
+    ------
+    InputError
+        Naming the entry and what is wrong with it.
+    """
+    if not spec:
+        return {}
+    items = list(spec.items()) if isinstance(spec, Mapping) else []
+    if isinstance(spec, str):
+        for entry in spec.split(","):
+            if not entry.strip():
+                continue
+            if "=" not in entry:
+                raise InputError(f"column map entry {entry.strip()!r} must look like channel=column (e.g. f=vir*35.15)")
+            key, expr = entry.split("=", 1)
+            items.append((key, expr))
+    out: dict[str, ColumnExpr] = {}
+    for key, expr in items:
+        channel = key.strip()
+        if channel not in MAP_CHANNELS:
+            raise InputError(f"column map: unknown channel {channel!r}; channels are {', '.join(MAP_CHANNELS)}")
+        if channel in out:
+            raise InputError(f"column map gives channel {channel!r} twice")
+        out[channel] = _parse_expr(channel, str(expr))
+    return out
+
+
+def _parse_expr(channel: str, text: str) -> ColumnExpr:
+    rest = text.strip()
+    negate = rest.startswith("-")
+    if negate:
+        rest = rest[1:]
+    operands: list[tuple[str, str | float]] = []
+    op = "*"
+    pos = 0
+    while True:
+        m = _OPERAND.match(rest, pos)
+        if m is None or not m.group(1):
+            raise InputError(
+                f"column map entry {channel}={text.strip()!r}: expected a column name or a number "
+                f"at character {pos + 1 + int(negate)}"
+            )
+        token = m.group(1)
+        value: str | float = token if re.match(r"[A-Za-z_]", token) else float(token)
+        operands.append((op, value))
+        pos = m.end()
+        if pos >= len(rest):
+            break
+        op = rest[pos]
+        if op not in "*/":
+            raise InputError(
+                f"column map entry {channel}={text.strip()!r}: unexpected {op!r} (only * and / are allowed)"
+            )
+        pos += 1
+    # The column is the first name; every other name is a scalar variable.
+    names = [i for i, (o, v) in enumerate(operands) if isinstance(v, str) and o == "*"]
+    if not names:
+        raise InputError(f"column map entry {channel}={text.strip()!r} names no column")
+    col_index = names[0]
+    column = operands[col_index][1]
+    factors = tuple(v for i, (o, v) in enumerate(operands) if o == "*" and i != col_index)
+    divisors = tuple(v for o, v in operands if o == "/")
+    return ColumnExpr(column=str(column), factors=factors, divisors=divisors, negate=negate)
+
+
+def channel_arrays(
+    table: Mapping[str, Any],
+    columns: str | Mapping[str, str] | None = None,
+    *,
+    fs: float | None = None,
+    source: str = "the table",
+    noun: str = "table",
+) -> tuple[dict[str, np.ndarray], float | None]:
+    """The channels of a table under a column map: ``(arrays, fs)``.
+
+    Parameters
+    ----------
+    table
+        Column or variable name -> array (or scalar).
+    columns
+        Column map (see the module docstring); unmapped channels are taken
+        from same-named columns.
+    fs
+        Sampling frequency in Hz when the table has no time column.
+    source, noun
+        Where the table came from (a path, or a word such as ``"DataFrame"``)
+        and what it is (``"file"``, ``"DataFrame"``), for the messages.
+
+    Returns
+    -------
+    tuple
+        ``arrays`` (channel -> 1-d float array, ``t`` among them when there is
+        a time column) and the sampling frequency (``None`` when ``t`` is
+        there).
+
+    Raises
+    ------
+    DataError
+        A missing or non-numeric column, or no way to know the sampling frequency.
+    InputError
+        A malformed column map, or both a time column and ``fs=``.
+    """
+    exprs = parse_columns(columns)
+    for channel in MAP_CHANNELS:
+        if channel not in exprs and channel in table and np.asarray(table[channel]).size > 1:
+            exprs[channel] = ColumnExpr(channel)
+    for required in ("f", "z"):
+        if required not in exprs and required in table:
+            _real(table[required], required, source, "column")  # says what it holds if not numbers
+            raise DataError(f"{source}: {required!r} holds a single value, not a column of samples")
+        if required not in exprs:
+            raise DataError(
+                f"{source}: no column for channel {required!r}; map one with columns= "
+                f"(e.g. {required}=NAME); the {noun} has: {', '.join(sorted(table))}"
+            )
+    arrays = {c: e.evaluate(table, source).ravel() for c, e in exprs.items()}
+    if "t" in arrays:
+        if fs is not None:
+            raise InputError("give either a time column or fs=, not both")
+        return arrays, None
+    if fs is None and "fs" in table and np.asarray(table["fs"]).size == 1:
+        fs = float(_real(table["fs"], "fs", source, "variable").ravel()[0])
+    if fs is None:
+        raise DataError(
+            f"{source}: no time column 't' and no sampling frequency; "
+            "give fs= or map a time column (columns= with t=NAME)"
+        )
+    return arrays, fs
+
+
+# --------------------------------------------------------------------------- in-memory tables
+def _seconds(values: Any, name: object, source: str) -> np.ndarray | None:
+    """Durations as float seconds; ``None`` for values that are not times. Dates are refused."""
+    dtype = getattr(values, "dtype", None)
+    kind = getattr(dtype, "kind", "")
+    if kind == "m":
+        return np.asarray(values, dtype="timedelta64[ns]") / np.timedelta64(1, "s")
+    if kind == "M":
+        raise DataError(
+            f"{source}: column {name!r} holds dates and times; give seconds from the start, "
+            "e.g. (t - t[0]).total_seconds()"
+        )
+    return None
+
+
+def _frame_column(column: Any, name: object, source: str) -> np.ndarray:
+    """One pandas column (a Series) as floats; a value that is not a number is named with its row."""
+    import pandas as pd
+
+    seconds = _seconds(column, name, source)
+    if seconds is not None:
+        return seconds
+    if getattr(column.dtype, "kind", "") == "c":
+        _real(column.to_numpy(), str(name), source, "column")  # raises: complex numbers
+    try:
+        numeric = pd.to_numeric(column, errors="coerce")
+    except (TypeError, ValueError):
+        raise DataError(f"{source}: column {name!r} holds values of type {column.dtype}, not numbers") from None
+    bad = numeric.isna() & column.notna()
+    if bad.any():
+        i = int(np.argmax(bad.to_numpy()))
+        raise DataError(f"{source}: column {name!r} has a non-numeric value {column.iloc[i]!r} at row {i + 1}")
+    return numeric.to_numpy(dtype=float, na_value=np.nan)
+
+
+def frame_table(frame: Any, source: str = "DataFrame") -> dict[str, np.ndarray]:
+    """The columns of a pandas DataFrame as float arrays, keyed by name (stripped of spaces).
+
+    A named index is one more column (an index named ``t`` is the time axis by
+    default; one named ``time`` is mapped with ``t=time``); an unnamed index
+    is ignored. Durations (``timedelta``) become seconds; dates are refused.
+
+    Raises
+    ------
+    DataError
+        A column that is not numbers (the first bad value and its row are named),
+        or an index named like a column.
+    """
+    import pandas as pd
+
+    out: dict[str, np.ndarray] = {}
+    index = frame.index
+    for level, name in enumerate(index.names):
+        if name is None:
+            continue
+        key = str(name).strip()
+        if key in (str(c).strip() for c in frame.columns):
+            raise DataError(f"{source}: the index and a column are both named {key!r}; rename one")
+        out[key] = _frame_column(pd.Series(index.get_level_values(level)), name, source)
+    for name in frame.columns:
+        out[str(name).strip()] = _frame_column(frame[name], name, source)
+    return out
+
+
+def dataset_table(dataset: Any, source: str = "Dataset") -> dict[str, np.ndarray]:
+    """The coordinates and data variables of an xarray Dataset as arrays, keyed by name.
+
+    0-d variables are scalars (scale factors, ``fs``); durations (``timedelta``)
+    become seconds; dates are refused. Other values are checked when a column
+    map uses them.
+    """
+    out: dict[str, np.ndarray] = {}
+    for variables in (dataset.coords, dataset.data_vars):
+        for name, variable in variables.items():
+            values = np.asarray(variable.values)
+            seconds = _seconds(values, name, source)
+            out[str(name).strip()] = values if seconds is None else seconds
+    return out

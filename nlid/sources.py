@@ -1,0 +1,153 @@
+"""Where a record comes from: one function turns every accepted source into a :class:`~nlid.record.Record`.
+
+:func:`as_record` is the boundary the verbs share (:func:`nlid.load`,
+:func:`nlid.identify`, :func:`nlid.compare`, :func:`nlid.posterior`,
+:func:`nlid.discover`). It accepts
+
+* a :class:`~nlid.record.Record`, returned as is;
+* a path (``str`` or :class:`pathlib.Path`) to a ``.csv``, ``.txt``, ``.npz``
+  or ``.mat`` file (:func:`nlid.io.read_record`), or ``"dataset:NAME[:PART]"``
+  for a bundled benchmark (:func:`nlid.datasets.load`);
+* a pandas DataFrame (:meth:`Record.from_frame <nlid.record.Record.from_frame>`);
+* an xarray Dataset (:meth:`Record.from_xarray <nlid.record.Record.from_xarray>`);
+* a mapping of arrays such as ``{"t": t, "f": f, "z": z}``, or a numpy
+  structured array (:meth:`Record.from_table <nlid.record.Record.from_table>`).
+
+Files and tables share one column map and one set of rules (:mod:`nlid.columnmap`).
+Anything else is an :class:`~nlid.errors.InputError` naming what was given.
+pandas and xarray are never imported here: an object can only be a DataFrame
+or a Dataset if its library is already loaded.
+"""
+
+from __future__ import annotations
+
+import os
+import reprlib
+import sys
+from collections.abc import Mapping
+from typing import Any
+
+import numpy as np
+
+from . import datasets
+from .errors import InputError
+from .io import read_record
+from .record import Record
+
+__all__ = ["as_record", "ACCEPTED"]
+
+#: What :func:`as_record` accepts, as its messages say it.
+ACCEPTED = (
+    "a Record, a file path ('rig.csv'), 'dataset:NAME[:PART]', a pandas DataFrame, "
+    "an xarray Dataset or a mapping of arrays ({'t': t, 'f': f, 'z': z})"
+)
+
+
+def as_record(
+    source: Any,
+    *,
+    columns: str | Mapping[str, str] | None = None,
+    fs: float | None = None,
+    force_hold: str | None = None,
+) -> Record:
+    """A :class:`~nlid.record.Record` from any accepted source (see the module docstring).
+
+    Parameters
+    ----------
+    source
+        A Record, a file path, ``"dataset:NAME[:PART]"``, a pandas DataFrame,
+        an xarray Dataset, or a mapping of arrays.
+    columns
+        Column map for files and tables: ``"t=time,f=load_N,z=disp_mm*0.001"``
+        or ``{"f": "load_N", "z": "disp_mm*0.001"}``; default: columns named
+        like the channels ``t, f, z, v, a``.
+    fs
+        Sampling frequency (Hz) of a file or table without a time column.
+    force_hold
+        ``"sampled"`` or ``"zoh"``, set on the record's metadata; default:
+        what the source says (a file's ``.meta.json``, a Record's metadata).
+
+    Returns
+    -------
+    Record
+        ``source`` itself when it is a Record and ``force_hold`` is not given.
+
+    Raises
+    ------
+    InputError
+        A source of another type (its type and a short repr are named),
+        ``columns=``/``fs=`` given with a Record or a bundled dataset, or a
+        bad ``force_hold``.
+    DataError
+        An unreadable file, a missing column, a NaN (channel and index named)...
+    """
+    record = _convert(source, columns, fs)
+    if force_hold is not None:
+        if force_hold not in ("sampled", "zoh"):
+            raise InputError(f"force_hold must be 'sampled' or 'zoh', got {force_hold!r}")
+        record = record.with_meta(force_hold=force_hold)
+    return record
+
+
+def _convert(source: Any, columns: str | Mapping[str, str] | None, fs: float | None) -> Record:
+    if isinstance(source, Record):
+        if columns or fs is not None:
+            raise InputError("columns= and fs= apply to files and tables, not to a Record")
+        return source
+    if isinstance(source, (str, os.PathLike)):
+        return _from_path(source, columns, fs)
+    pandas = sys.modules.get("pandas")
+    if pandas is not None and isinstance(source, pandas.DataFrame):
+        return Record.from_frame(source, columns, fs=fs)
+    xarray = sys.modules.get("xarray")
+    if xarray is not None and isinstance(source, xarray.Dataset):  # before Mapping: a Dataset is one
+        return Record.from_xarray(source, columns, fs=fs)
+    if isinstance(source, np.ndarray) and source.dtype.names:
+        table = {name: source[name] for name in source.dtype.names}
+        return Record.from_table(table, columns, fs=fs, source="structured array")
+    if isinstance(source, Mapping):
+        return Record.from_table(source, columns, fs=fs, source="mapping")
+    raise InputError(f"cannot make a record from {_describe(source)}; give {ACCEPTED}")
+
+
+def _from_path(source: str | os.PathLike[str], columns: str | Mapping[str, str] | None, fs: float | None) -> Record:
+    text = os.fspath(source)
+    if isinstance(text, bytes):
+        raise InputError(f"cannot make a record from a bytes path {reprlib.repr(text)}; give the path as str")
+    if text.startswith("dataset:"):
+        if columns or fs:
+            raise InputError("columns= and fs= do not apply to bundled datasets")
+        parts = text.split(":")
+        return datasets.load(parts[1] if len(parts) > 1 else "", part=parts[2] if len(parts) > 2 else "all")
+    if "\n" in text:
+        raise InputError(
+            f"cannot make a record from the text {_short(text)}: a file path has no line breaks "
+            "(CSV text is read with pandas.read_csv(io.StringIO(text)))"
+        )
+    return read_record(text, columns, fs=fs)
+
+
+def _describe(source: Any) -> str:
+    """``list [1, 2, 3]``: the type and a short repr, on one line."""
+    if source is None:
+        return "None"
+    kind = type(source)
+    module = kind.__module__.split(".")[0]
+    name = kind.__name__ if module == "builtins" else f"{module}.{kind.__name__}"
+    if isinstance(source, np.ndarray):
+        return f"{name} of shape {source.shape} without column names"
+    if module != "builtins":  # another library's repr may be long or span lines: its shape says enough
+        shape = getattr(source, "shape", None)
+        return name if shape is None else f"{name} of shape {tuple(shape)}"
+    return f"{name} {_short(source)}"
+
+
+_REPR = reprlib.Repr()
+_REPR.maxstring = _REPR.maxother = 40
+_REPR.maxlist = _REPR.maxtuple = _REPR.maxdict = _REPR.maxset = 4
+
+
+def _short(value: Any) -> str:
+    """A repr on one line, at most 60 characters."""
+    text = " ".join(_REPR.repr(value).split())
+    return text if len(text) <= 60 else text[:57] + "..."
