@@ -34,21 +34,28 @@ class PlottedFit(ModelFit, Protocol):
     """What the figures read of a fitted model (:class:`nlid.identified.IdentifiedModel` is one)."""
 
     @property
-    def method(self) -> str: ...
+    def method(self) -> str:
+        """The identifier's name (figure titles)."""
 
     @property
-    def z_range(self) -> tuple[float, float] | None: ...
+    def z_range(self) -> tuple[float, float] | None:
+        """The displacement range of the estimation data (the figures' ``z`` axis)."""
 
     @property
-    def equilibria(self) -> Equilibria | None: ...
+    def equilibria(self) -> Equilibria | None:
+        """The equilibria (marked on ``K(z)``)."""
 
-    def elastic(self, z: np.ndarray) -> np.ndarray: ...
+    def elastic(self, z: np.ndarray) -> np.ndarray:
+        """``K(z)`` (N)."""
 
-    def potential(self, z: np.ndarray) -> np.ndarray: ...
+    def potential(self, z: np.ndarray) -> np.ndarray:
+        """``U(z)`` (J)."""
 
-    def damping(self, z: np.ndarray, v: np.ndarray) -> np.ndarray: ...
+    def damping(self, z: np.ndarray, v: np.ndarray) -> np.ndarray:
+        """``D(z, v)`` (N)."""
 
-    def residual(self, record: Record, *, cutoff: float | None = None) -> Residual: ...
+    def residual(self, record: Record, *, cutoff: float | None = None) -> Residual:
+        """The residual ``f - m a - R(z, v)`` on a record."""
 
 
 def _axes(ax: Any) -> Any:

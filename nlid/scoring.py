@@ -82,13 +82,16 @@ class ModelFit(Protocol):
     """
 
     @property
-    def model(self) -> Model: ...
+    def model(self) -> Model:
+        """The terms of ``R`` (with their ``px(z)`` roots)."""
 
     @property
-    def theta(self) -> np.ndarray: ...
+    def theta(self) -> np.ndarray:
+        """The coefficients in model order."""
 
     @property
-    def mass(self) -> float | None: ...
+    def mass(self) -> float | None:
+        """The mass in kg (``None``: not known; the scores that need it say so)."""
 
 
 def epsilon(measured: np.ndarray, identified: np.ndarray) -> float:
