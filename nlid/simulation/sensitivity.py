@@ -24,6 +24,9 @@ from .kernels import FREE_RUN_OVERSAMPLE, SimulationError, _plan, _sign
 
 __all__ = ["simulate_segments", "SegmentRun", "sensitivity_columns"]
 
+# numba's on-disk cache of a kernel is invalidated by changes of its own file only: after editing _plan or
+# _sign in kernels.py (or the memory steps of nlid.terms), delete nlid/simulation/__pycache__/sensitivity.*.nb[ci].
+
 # --------------------------------------------------------------------------- segments with sensitivities
 #
 # The output-error identifier fits the free run itself, over one or many segments of a record (multiple
