@@ -36,6 +36,7 @@ def profile(repeat: int = 21) -> None:
     import numpy as np
 
     import nlid.simulation as sim
+    from nlid.simulation import kernels
     from nlid.terms import Model
 
     @numba.njit(cache=False)
@@ -90,7 +91,7 @@ def profile(repeat: int = 21) -> None:
         theta = model.vector(coefs)
         parts, special, pxc = sim.encode_model(model)
         mass = experimental.mass if preset_name == "paper-experimental" else 0.2
-        ms = cpu_ms(lambda args=(mass, theta, parts, special, pxc): sim._rk4(force, dt, *args, 0.0, 0.0, *out))
+        ms = cpu_ms(lambda args=(mass, theta, parts, special, pxc): kernels._rk4(force, dt, *args, 0.0, 0.0, *out))
         print(f"  kernel, {label:50s} {ms:6.2f} ms")
     model = get_preset("paper-numerical").model()
     coefs = get_preset("paper-numerical").truth()["coefficients"]

@@ -31,7 +31,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from . import numerics, physics, scoring
+from . import modelplots, numerics, physics, scoring
 from ._frozen import FrozenDict, freeze
 from .errors import IdentificationError, InputError, NlidError
 from .interface import Estimate, to_jsonable
@@ -588,26 +588,16 @@ class IdentifiedModel:
     # ------------------------------------------------------------------ figures
     def plot_stiffness(self, ax: Any = None, *, potential: bool = False) -> Any:
         """``K(z)`` (or ``U(z)``) over the data range with the equilibria marked; returns the axes."""
-        from .modelplots import plot_stiffness
-
-        return plot_stiffness(self, ax=ax, potential=potential)
+        return modelplots.plot_stiffness(self, ax=ax, potential=potential)
 
     def plot_surface(self, record: Record, ax: Any = None, *, cutoff: float | None = None) -> Any:
         """The elastic slice of the restoring surface: ``f - m a - D(z, v)`` of the data and ``K(z)``."""
-        from .modelplots import plot_surface
-
-        return plot_surface(self, record, ax=ax, cutoff=cutoff)
+        return modelplots.plot_surface(self, record, ax=ax, cutoff=cutoff)
 
     def plot_damping_slice(self, record: Record, z0: float, ax: Any = None, *, cutoff: float | None = None) -> Any:
         """The damping force near ``z0`` against ``v``, data and model (paper Fig. 21 b-d)."""
-        from .modelplots import plot_damping_slice
+        return modelplots.plot_damping_slice(self, record, z0, ax=ax, cutoff=cutoff)
 
-        return plot_damping_slice(self, record, z0, ax=ax, cutoff=cutoff)
-
-    def plot_residual(
-        self, record: Record, against: str = "z", ax: Any = None, *, cutoff: float | None = None
-    ) -> Any:
+    def plot_residual(self, record: Record, against: str = "z", ax: Any = None, *, cutoff: float | None = None) -> Any:
         """The residual ``f - m a - R`` against ``"z"`` or ``"v"`` (binned mean drawn over the points)."""
-        from .modelplots import plot_residual
-
-        return plot_residual(self, record, against=against, ax=ax, cutoff=cutoff)
+        return modelplots.plot_residual(self, record, against=against, ax=ax, cutoff=cutoff)

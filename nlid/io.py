@@ -34,6 +34,7 @@ import numpy as np
 from .columnmap import ColumnExpr, frame_table, parse_columns
 from .errors import DataError, InputError
 from .interface import to_jsonable
+from .outputs import META_KEYS, check_sidecar, sidecar_path
 from .record import Record
 
 __all__ = [
@@ -50,8 +51,6 @@ __all__ = [
 
 #: File types understood by :func:`read_record`.
 SUFFIXES = (".csv", ".txt", ".npz", ".mat")
-#: Metadata keys written to and read from the ``.meta.json`` sidecar.
-META_KEYS = ("source", "force_hold", "mass", "g", "excitation", "preset", "seed", "noise", "truth")
 
 
 def read_table(path: str | Path) -> dict[str, np.ndarray]:
@@ -108,12 +107,6 @@ def read_table(path: str | Path) -> dict[str, np.ndarray]:
     raise DataError(f"cannot read {path}: unknown file type {suffix!r} (use {', '.join(SUFFIXES)})")
 
 
-def sidecar_path(path: str | Path) -> Path:
-    """``<file>.meta.json`` beside a data file."""
-    path = Path(path)
-    return path.with_name(path.name + ".meta.json")
-
-
 def _read_sidecar(path: Path) -> dict[str, Any]:
     side = sidecar_path(path)
     if not side.is_file():
@@ -125,12 +118,6 @@ def _read_sidecar(path: Path) -> dict[str, Any]:
     if not isinstance(data, dict):
         raise DataError(f"{side}: expected a JSON object")
     return {k: data[k] for k in META_KEYS if k in data}
-
-
-def _check_sidecar(path: Path) -> None:
-    from .outputs import check_sidecar
-
-    check_sidecar(path)
 
 
 def _write_sidecar(record: Record, path: Path) -> None:
@@ -189,7 +176,7 @@ def write_csv(record: Record, path: str | Path, channels: tuple[str, ...] | None
         raise InputError(f"record has no channel {missing[0]!r}")
     frame = pd.DataFrame({"t": record.t, **{c: getattr(record, c) for c in channels}})
     path = Path(path)
-    _check_sidecar(path)
+    check_sidecar(path)
     frame.to_csv(path, index=False, float_format="%.12g")
     _write_sidecar(record, path)
     return path
@@ -198,7 +185,7 @@ def write_csv(record: Record, path: str | Path, channels: tuple[str, ...] | None
 def write_npz(record: Record, path: str | Path) -> Path:
     """Write the channels, ``t`` and ``fs`` to an NPZ file (no pickled objects), and the metadata sidecar."""
     path = Path(path)
-    _check_sidecar(path)
+    check_sidecar(path)
     arrays = {c: getattr(record, c) for c in record.channels}
     np.savez(path, t=record.t, fs=np.array(record.fs), **arrays)
     _write_sidecar(record, path)

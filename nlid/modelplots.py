@@ -1,6 +1,8 @@
 """Figures of one identified model, drawn on axes the caller may give (``ax=``).
 
-Used by the plotting methods of :class:`nlid.identified.IdentifiedModel`.
+Used by the plotting methods of :class:`nlid.identified.IdentifiedModel`, which
+pass themselves: this module reads a fit through :class:`PlottedFit` and does
+not import the identified model.
 Without ``ax`` a new :class:`matplotlib.figure.Figure` is made
 (:func:`nlid.plotting.new_figure`: no ``pyplot``, nothing opens a window);
 every function returns the axes it drew on.
@@ -8,7 +10,7 @@ every function returns the axes it drew on.
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, Protocol
 
 import numpy as np
 
@@ -16,15 +18,44 @@ from .balance import regression_data
 from .errors import InputError
 from .plotting import new_figure
 from .record import Record
-from .scoring import damping_slice
+from .scoring import ModelFit, damping_slice
 
 if TYPE_CHECKING:  # pragma: no cover
-    from .identified import IdentifiedModel
+    from .physics import Equilibria
+    from .scoring import Residual
 
-__all__ = ["plot_stiffness", "plot_surface", "plot_damping_slice", "plot_residual"]
+__all__ = ["PlottedFit", "plot_stiffness", "plot_surface", "plot_damping_slice", "plot_residual"]
 
 #: Largest number of data points drawn in a scatter (evenly subsampled).
 MAX_POINTS = 4000
+
+
+class PlottedFit(ModelFit, Protocol):
+    """What the figures read of a fitted model (:class:`nlid.identified.IdentifiedModel` is one)."""
+
+    @property
+    def method(self) -> str:
+        """The identifier's name (figure titles)."""
+
+    @property
+    def z_range(self) -> tuple[float, float] | None:
+        """The displacement range of the estimation data (the figures' ``z`` axis)."""
+
+    @property
+    def equilibria(self) -> Equilibria | None:
+        """The equilibria (marked on ``K(z)``)."""
+
+    def elastic(self, z: np.ndarray) -> np.ndarray:
+        """``K(z)`` (N)."""
+
+    def potential(self, z: np.ndarray) -> np.ndarray:
+        """``U(z)`` (J)."""
+
+    def damping(self, z: np.ndarray, v: np.ndarray) -> np.ndarray:
+        """``D(z, v)`` (N)."""
+
+    def residual(self, record: Record, *, cutoff: float | None = None) -> Residual:
+        """The residual ``f - m a - R(z, v)`` on a record."""
 
 
 def _axes(ax: Any) -> Any:
@@ -38,7 +69,7 @@ def _subsample(n: int) -> np.ndarray:
     return np.linspace(0, n - 1, min(n, MAX_POINTS)).astype(int)
 
 
-def _z_grid(fit: IdentifiedModel, points: int = 400) -> np.ndarray:
+def _z_grid(fit: PlottedFit, points: int = 400) -> np.ndarray:
     if fit.z_range is None:
         raise InputError("the model has no data range (z_range) to draw over")
     lo, hi = fit.z_range
@@ -46,7 +77,7 @@ def _z_grid(fit: IdentifiedModel, points: int = 400) -> np.ndarray:
     return np.linspace(lo - pad, hi + pad, points)
 
 
-def plot_stiffness(fit: IdentifiedModel, ax: Any = None, *, potential: bool = False) -> Any:
+def plot_stiffness(fit: PlottedFit, ax: Any = None, *, potential: bool = False) -> Any:
     """``K(z)`` (N) or the potential ``U(z)`` (J, Eq. 7) with the equilibria (filled: stable)."""
     ax = _axes(ax)
     z = _z_grid(fit)
@@ -70,7 +101,7 @@ def plot_stiffness(fit: IdentifiedModel, ax: Any = None, *, potential: bool = Fa
     return ax
 
 
-def plot_surface(fit: IdentifiedModel, record: Record, ax: Any = None, *, cutoff: float | None = None) -> Any:
+def plot_surface(fit: PlottedFit, record: Record, ax: Any = None, *, cutoff: float | None = None) -> Any:
     """The elastic slice of the restoring surface: data ``f - m a - D_hat(z, v)`` against ``z``, and ``K(z)``."""
     ax = _axes(ax)
     res = fit.residual(record, cutoff=cutoff)
@@ -88,7 +119,7 @@ def plot_surface(fit: IdentifiedModel, record: Record, ax: Any = None, *, cutoff
 
 
 def plot_damping_slice(
-    fit: IdentifiedModel, record: Record, z0: float, ax: Any = None, *, cutoff: float | None = None
+    fit: PlottedFit, record: Record, z0: float, ax: Any = None, *, cutoff: float | None = None
 ) -> Any:
     """Damping force near ``z0``: data and the identified ``D(z0, v)`` (paper Fig. 21 b-d)."""
     if fit.mass is None:
@@ -107,7 +138,7 @@ def plot_damping_slice(
 
 
 def plot_residual(
-    fit: IdentifiedModel, record: Record, against: str = "z", ax: Any = None, *, cutoff: float | None = None
+    fit: PlottedFit, record: Record, against: str = "z", ax: Any = None, *, cutoff: float | None = None
 ) -> Any:
     """The residual ``f - m a - R_hat`` against ``z`` or ``v``, with its binned mean."""
     if against not in ("z", "v"):

@@ -49,6 +49,8 @@ __all__ = [
     "output_folder",
     "check_new_file",
     "check_sidecar",
+    "sidecar_path",
+    "META_KEYS",
     "FolderBusyError",
 ]
 
@@ -78,6 +80,8 @@ POSTERIOR_OUTPUTS = (
 )
 #: Entries :func:`nlid.discovery.write_report` writes.
 DISCOVERY_OUTPUTS = ("figures", "report.md", "report.html", "result.json", "models.csv")
+#: Metadata keys written to and read from the ``.meta.json`` sidecar of a data file (:mod:`nlid.io`).
+META_KEYS = ("source", "force_hold", "mass", "g", "excitation", "preset", "seed", "noise", "truth")
 
 _OWN = (MARKER, LOCK)
 
@@ -256,14 +260,18 @@ def check_new_file(path: str | os.PathLike[str], *, force: bool = False) -> Path
     return path
 
 
+def sidecar_path(path: str | os.PathLike[str]) -> Path:
+    """``<file>.meta.json`` beside a data file."""
+    path = Path(path)
+    return path.with_name(path.name + ".meta.json")
+
+
 def check_sidecar(path: str | os.PathLike[str]) -> None:
     """Refuse to replace a metadata sidecar ``<file>.meta.json`` that nlid did not write.
 
     A sidecar is nlid's when it is a JSON object whose keys are all keys
-    nlid writes (:data:`nlid.io.META_KEYS`).
+    nlid writes (:data:`META_KEYS`).
     """
-    from .io import META_KEYS, sidecar_path
-
     side = sidecar_path(path)
     if not side.exists():
         return

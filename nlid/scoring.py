@@ -34,7 +34,7 @@ Scores (:class:`Scores`, from :func:`score`):
 from __future__ import annotations
 
 from dataclasses import asdict, dataclass
-from typing import TYPE_CHECKING, Any
+from typing import Any, Protocol
 
 import numpy as np
 
@@ -45,10 +45,8 @@ from .physics import Coefficients, damping, dict_or_vector
 from .record import Record
 from .terms import Model
 
-if TYPE_CHECKING:  # pragma: no cover
-    from .identified import IdentifiedModel
-
 __all__ = [
+    "ModelFit",
     "Scores",
     "Residual",
     "FreeRun",
@@ -74,6 +72,26 @@ SENSITIVITY_LIMIT = 1e-3
 HORIZON_STARTS = 8
 
 NAN = float("nan")
+
+
+class ModelFit(Protocol):
+    """What the scores read of a fitted model: its model, its coefficients in model order and its mass.
+
+    :class:`nlid.identified.IdentifiedModel` is one; the scores need nothing else of it (so this module,
+    which the identified model uses, does not import it).
+    """
+
+    @property
+    def model(self) -> Model:
+        """The terms of ``R`` (with their ``px(z)`` roots)."""
+
+    @property
+    def theta(self) -> np.ndarray:
+        """The coefficients in model order."""
+
+    @property
+    def mass(self) -> float | None:
+        """The mass in kg (``None``: not known; the scores that need it say so)."""
 
 
 def epsilon(measured: np.ndarray, identified: np.ndarray) -> float:
@@ -188,13 +206,13 @@ class Residual:
     a: np.ndarray
 
 
-def _require_mass(fit: IdentifiedModel, what: str) -> float:
+def _require_mass(fit: ModelFit, what: str) -> float:
     if fit.mass is None:
         raise InputError(f"{what} needs the mass: the model has none (give mass= when identifying)")
     return float(fit.mass)
 
 
-def residual(fit: IdentifiedModel, record: Record, *, cutoff: float | None = None) -> Residual:
+def residual(fit: ModelFit, record: Record, *, cutoff: float | None = None) -> Residual:
     """The residual ``f - m a - R_hat(z, v)`` of an identified model on a record.
 
     Parameters
@@ -214,7 +232,15 @@ def residual(fit: IdentifiedModel, record: Record, *, cutoff: float | None = Non
     fitted = data.G[:, columns] @ fit.theta
     restoring = data.restoring_force(mass)
     return Residual(
-        data.z, data.v, restoring - fitted, restoring, fitted, record.fs, data.filtered_at, data.f, data.a  # type: ignore[arg-type]
+        data.z,
+        data.v,
+        restoring - fitted,
+        restoring,
+        fitted,
+        record.fs,
+        data.filtered_at,
+        data.f,
+        data.a,  # type: ignore[arg-type]
     )
 
 
@@ -231,7 +257,7 @@ def initial_state(record: Record) -> tuple[float, float]:
     return float(record.z[0]), float(v[0])
 
 
-def free_run_error(fit: IdentifiedModel, record: Record) -> FreeRun:
+def free_run_error(fit: ModelFit, record: Record) -> FreeRun:
     """Free-run simulation error of the displacement, with the chaos check (module docstring)."""
     from .simulation import free_run
 
@@ -267,7 +293,7 @@ def predictability_horizon(
     starts: int = HORIZON_STARTS,
     quantile: float = 0.5,
 ) -> float | None:
-    """How long a free run of a model on a record stays predictable: the chaos check of :func:`free_run_error` as a time.
+    """How long a model's free run on a record stays predictable: the chaos check of :func:`free_run_error` as a time.
 
     From :data:`HORIZON_STARTS` states spread over the first half of the free run (started from
     :func:`initial_state`), a run and a copy displaced by :data:`SENSITIVITY_DELTA` ``std(z)`` are
@@ -320,16 +346,36 @@ def predictability_horizon(
     times = []
     for start in points:
         if start > here:  # move the reference run on to this start
-            run = simulate_segments(model, theta, mass, record.f[here:start], record.fs, [0], state,
-                                    oversample=q, sensitivities=False, fine=fine[here * q : start * q])
+            run = simulate_segments(
+                model,
+                theta,
+                mass,
+                record.f[here:start],
+                record.fs,
+                [0],
+                state,
+                oversample=q,
+                sensitivities=False,
+                fine=fine[here * q : start * q],
+            )
             state = run.end_state.copy()
             here = start
         pair = np.vstack([state, state])
         pair[1, 0] += SENSITIVITY_DELTA * scale
         stop = start + half
         runs = [
-            simulate_segments(model, theta, mass, record.f[start:stop], record.fs, [0], pair[i : i + 1],
-                              oversample=q, sensitivities=False, fine=fine[start * q : stop * q]).z
+            simulate_segments(
+                model,
+                theta,
+                mass,
+                record.f[start:stop],
+                record.fs,
+                [0],
+                pair[i : i + 1],
+                oversample=q,
+                sensitivities=False,
+                fine=fine[start * q : stop * q],
+            ).z
             for i in range(2)
         ]
         apart = np.flatnonzero(np.abs(runs[0] - runs[1]) > SENSITIVITY_LIMIT * scale)
@@ -339,7 +385,7 @@ def predictability_horizon(
 
 
 def score(
-    fit: IdentifiedModel,
+    fit: ModelFit,
     record: Record,
     *,
     cutoff: float | None = None,
