@@ -129,7 +129,7 @@ def simulate(
         p = p.with_overrides(**overrides)
     if isinstance(channels, str):
         channels = tuple(c.strip() for c in channels.split(",") if c.strip())
-    return p.simulate(int(seed), noise=noise, channels=tuple(channels))
+    return p.simulate(seed, noise=noise, channels=tuple(channels))
 
 
 def _reference_of(record: Record, reference: Any) -> dict[str, Any]:

@@ -19,9 +19,10 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from . import derivatives
-from .errors import DataError, InputError
+from .errors import DataError
 from .record import Record
 from .terms import Model
+from .validate import check_cutoff
 
 __all__ = ["RegressionData", "regression_data", "REGRESSOR_BAND_FACTOR", "EDGE_PERIODS"]
 
@@ -165,10 +166,7 @@ def regression_data(
         columns and the model only says which channels are needed: for
         callers that evaluate the regressors themselves.
     """
-    if cutoff is not None and not (np.isfinite(cutoff) and 0.0 < float(cutoff) < record.fs / 2.0):
-        raise InputError(
-            f"cutoff must lie between 0 and the Nyquist frequency {record.fs / 2:g} Hz, got {float(cutoff):g}"
-        )
+    check_cutoff(cutoff, record.fs)
     needs_v = model.uses_velocity
     estimated = not record.is_measured("a") or (needs_v and not record.is_measured("v"))
     prov = {c: record.source_of(c) for c in record.channels}
@@ -191,7 +189,9 @@ def regression_data(
         if record.is_measured("v"):
             v = _cached(cache, ("v", wide), lambda: derivatives.lowpass(record.v, fs, wide))
         else:
-            v, used = _cached(cache, ("v~", wide), lambda: derivatives.differentiate(record.z, fs, order=1, cutoff=wide))
+            v, used = _cached(
+                cache, ("v~", wide), lambda: derivatives.differentiate(record.z, fs, order=1, cutoff=wide)
+            )
             prov["v"] = f"estimated from z: {used.describe()}"
     G = _columns(cache, model, z, v, fs, fc, wide) if regressors else np.empty((record.n, 0))
     if record.is_measured("a"):
@@ -215,5 +215,3 @@ def regression_data(
     if not trim:
         return RegressionData(f, a, G, z, v, fc, prov, keep)
     return RegressionData(f[keep], a[keep], G[keep], z[keep], None if v is None else v[keep], fc, prov, keep)
-
-

@@ -30,7 +30,6 @@ from __future__ import annotations
 import hashlib
 import os
 from dataclasses import dataclass
-from difflib import get_close_matches
 from pathlib import Path
 
 import numpy as np
@@ -38,6 +37,7 @@ import numpy as np
 from .errors import DataError, InputError
 from .io import read_table
 from .record import Record
+from .validate import did_you_mean
 
 __all__ = [
     "DATA_ENV",
@@ -177,9 +177,7 @@ BENCHMARKS: dict[str, Benchmark] = {
 }
 
 #: The benchmarks :func:`load` reads, with the file it reads.
-DATASETS = {
-    name: f"{b.title.split(',')[0]} ({b.files[0].path})" for name, b in BENCHMARKS.items() if b.loader
-}
+DATASETS = {name: f"{b.title.split(',')[0]} ({b.files[0].path})" for name, b in BENCHMARKS.items() if b.loader}
 
 
 @dataclass(frozen=True)
@@ -239,6 +237,7 @@ def check(folder: str | os.PathLike[str] | None = None, names: list[str] | None 
             found = sha256(path)
             out.append(FileStatus(name, f, path, "ok" if found == f.sha256 else "mismatch", found))
     return out
+
 
 EMPS_REFERENCE = {"mass": 95.1, "coefficients": {"v": 203.5, "sign(v)": 20.4, "1": -3.16}, "eps_percent": 4.0}
 
@@ -357,9 +356,4 @@ def load(name: str, *, part: str = "all") -> Record:
         if part == "multisine":
             return record[SILVERBOX_ARROW:]
         raise InputError(f"unknown silverbox part {part!r}; use all, arrow or multisine")
-    hint = get_close_matches(name, list(DATASETS), n=1)
-    raise InputError(
-        f"unknown dataset {name!r}"
-        + (f" (did you mean {hint[0]!r}?)" if hint else "")
-        + f"; available: {', '.join(DATASETS)}"
-    )
+    raise InputError(f"unknown dataset {name!r}{did_you_mean(name, DATASETS)}; available: {', '.join(DATASETS)}")

@@ -55,6 +55,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .errors import InputError
+from .validate import check_cutoff
 
 __all__ = [
     "DerivativeFilter",
@@ -182,11 +183,6 @@ def _welch_noise_band(x: np.ndarray, fs: float) -> tuple[np.ndarray, np.ndarray,
     return freqs, psd, band
 
 
-def _check_band(freq: float, fs: float, what: str) -> None:
-    if not (0.0 < freq < fs / 2.0):
-        raise InputError(f"{what} must lie between 0 and the Nyquist frequency {fs / 2:g} Hz, got {freq:g}")
-
-
 def _pad_length(n: int, fs: float, cutoff: float | None) -> int:
     if cutoff is None:
         return min(n - 1, 64)
@@ -229,14 +225,15 @@ def _apply(
     x = np.asarray(x, dtype=float)
     n = x.shape[0]
     if cutoff is not None:
-        _check_band(cutoff, fs, "cutoff")
+        check_cutoff(cutoff, fs)
     if x.ndim == 2 and x.shape[1] > 1:
         # one column at a time: the padded spectra of a whole regressor matrix would set the peak memory
         # of a long record (10^6 samples x 6 terms: ~0.3 GB of temporaries); the result is the same
         out = np.empty_like(x)
         for j in range(x.shape[1]):
-            out[:, j] = _apply(x[:, j], fs, cutoff, order=order, derivative=derivative, hold=hold,
-                               complement=complement)
+            out[:, j] = _apply(
+                x[:, j], fs, cutoff, order=order, derivative=derivative, hold=hold, complement=complement
+            )
         return out
     pad = _pad_length(n, fs, cutoff)
     ext, offset, slope = _extend(x, pad)
@@ -376,7 +373,7 @@ def complementary(
     """
     if derivative not in (0, 1):
         raise InputError(f"complementary gives the displacement (0) or the velocity (1), not derivative {derivative}")
-    _check_band(float(crossover), fs, "crossover")
+    check_cutoff(float(crossover), fs, name="crossover")
     out = _apply(a, fs, float(crossover), order=order, derivative=derivative - 2, complement=True)
     if z is not None:
         out = out + _apply(z, fs, float(crossover), order=order, derivative=derivative)
@@ -432,7 +429,7 @@ def integrate(x: np.ndarray, fs: float, *, highpass: float | None = None) -> tup
     duration = x.size / fs
     if highpass is None:
         highpass = 10.0 / duration
-    _check_band(highpass, fs, "highpass")
+    check_cutoff(highpass, fs, name="highpass")
     y = np.concatenate(([0.0], np.cumsum(0.5 * (x[1:] + x[:-1])) / fs))
     from scipy import signal
 

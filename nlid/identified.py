@@ -39,6 +39,7 @@ from .physics import Equilibria, Modal
 from .record import Record
 from .scoring import Residual, Scores
 from .terms import Model, parse_term
+from .validate import check_mass
 
 if TYPE_CHECKING:  # pragma: no cover
     import pandas as pd
@@ -130,10 +131,7 @@ class IdentifiedModel:
             se = {self.model.terms[self.model.index(k)].name: v for k, v in dict(self.standard_errors).items()}
             set_(self, "standard_errors", FrozenDict({n: float(se[n]) for n in names if se.get(n) is not None}))
         if self.mass is not None:
-            mass = float(self.mass)
-            if not (np.isfinite(mass) and mass > 0):
-                raise InputError(f"mass= must be a positive number of kg, got {self.mass}")
-            set_(self, "mass", mass)
+            set_(self, "mass", check_mass(self.mass))
         set_(self, "modal", tuple(Modal.from_dict(m) for m in self.modal))
         set_(self, "options", freeze(dict(self.options)))
         set_(self, "diagnostics", freeze(dict(self.diagnostics)))

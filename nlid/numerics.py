@@ -18,11 +18,8 @@ import warnings
 from collections import Counter
 from collections.abc import Iterable, Iterator, Mapping
 from contextlib import contextmanager
-from typing import Any
 
-import numpy as np
-
-from .errors import InputError
+from .validate import check_seed  # the seed rule lives in nlid.validate; kept importable from here
 
 __all__ = ["collect_warnings", "describe_warnings", "nonfinite", "is_finite", "overflow_hint", "check_seed"]
 
@@ -95,16 +92,3 @@ def nonfinite(what: str, values: Mapping[str, object]) -> str | None:
     keys = list(bad)
     names = keys[0] if len(keys) == 1 else f"{', '.join(keys[:-1])} and {keys[-1]}"
     return f"{f'{what} of ' if what else ''}{names} {'is' if len(bad) == 1 else 'are'} {' or '.join(shown)}"
-
-
-def check_seed(seed: Any, name: str = "seed") -> int:
-    """``seed`` as an int if it is a valid random seed (an integer from 0 to 2**63 - 1).
-
-    Raises
-    ------
-    InputError
-        Naming the parameter and the value.
-    """
-    if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or not 0 <= int(seed) < 2**63:
-        raise InputError(f"{name} must be an integer from 0 to 2**63 - 1, got {seed!r}")
-    return int(seed)

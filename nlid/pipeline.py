@@ -35,6 +35,7 @@ from .record import Record
 from .registry import Registry, registry_for
 from .sources import as_record
 from .terms import Model, Term
+from .validate import check_cutoff, check_mass
 
 __all__ = ["identify", "as_model", "check_estimate"]
 
@@ -280,11 +281,9 @@ def identify(
         if options:
             raise InputError("options are given to the identifier's constructor when passing an instance")
         identifier = method
-    if mass is not None:
-        mass = float(mass)
-        if not (np.isfinite(mass) and mass > 0):
-            raise InputError(f"mass= must be a positive number of kg, got {mass}")
-    elif getattr(identifier, "needs_mass", False):
+    mass = check_mass(mass)
+    check_cutoff(cutoff, getattr(record, "fs", None))  # before a long identification, not after it
+    if mass is None and getattr(identifier, "needs_mass", False):
         raise InputError(f"method {_name(identifier)!r} cannot estimate the mass: give mass= (in kg)")
     extra: dict[str, Any] = {}
     given = model

@@ -34,10 +34,12 @@ import math
 import numbers
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, replace
-from difflib import get_close_matches
 from typing import TYPE_CHECKING, Any
 
 from .errors import InputError, TermError, brief
+from .validate import DURATION, FS, MASS, check_noise, check_samples, check_seed, did_you_mean
+from .validate import MAX_FS as MAX_FS  # re-exported: the limits are declared with their rules
+from .validate import MAX_SAMPLES as MAX_SAMPLES
 
 if TYPE_CHECKING:  # imported where used: the preset table is read by 'nlid simulate --help'
     import numpy as np
@@ -49,10 +51,6 @@ __all__ = ["Preset", "PRESETS", "get_preset", "RESPONSE_CHANNELS"]
 
 #: Channels that can carry measurement noise.
 RESPONSE_CHANNELS = ("z", "v", "a")
-#: Most samples a preset may simulate (checked before anything is allocated).
-MAX_SAMPLES = 20_000_000
-#: Highest sampling frequency of a preset (Hz).
-MAX_FS = 1e7
 
 
 @dataclass(frozen=True)
@@ -98,25 +96,15 @@ class Preset:
     reference: str = ""
 
     def __post_init__(self) -> None:
-        for name in ("mass", "g", "fs", "duration", "force_rms"):
+        for name, rule in (("mass", MASS), ("fs", FS), ("duration", DURATION)):
+            rule.check(getattr(self, name), f"preset {self.name!r}: {name}")
+        for name in ("g", "force_rms"):
             value = getattr(self, name)
             if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
                 raise InputError(f"preset {self.name!r}: {name} must be a finite number, got {value!r}")
-        for name in ("mass", "fs", "duration"):
-            if not getattr(self, name) > 0:
-                raise InputError(f"preset {self.name!r}: {name} must be positive, got {getattr(self, name)!r}")
         if self.force_rms < 0 or self.g < 0:
             raise InputError(f"preset {self.name!r}: force_rms and g must not be negative")
-        if self.fs > MAX_FS:
-            raise InputError(f"preset {self.name!r}: fs = {self.fs:g} Hz is above the limit of {MAX_FS:g} Hz")
-        n = self.duration * self.fs
-        if n > MAX_SAMPLES:
-            raise InputError(
-                f"preset {self.name!r}: duration x fs = {n:.3g} samples, more than the limit of {MAX_SAMPLES:.3g} "
-                f"({8 * 4 * MAX_SAMPLES / 1e9:.1f} GB of channels); shorten the duration or lower fs"
-            )
-        if n < 64:
-            raise InputError(f"preset {self.name!r}: duration x fs = {n:.3g} samples; at least 64 are needed")
+        check_samples(self.duration, self.fs, where=f"preset {self.name!r}: ")
         if not (isinstance(self.x0, (tuple, list)) and len(self.x0) == 2):
             raise InputError(f"preset {self.name!r}: x0 must be (displacement, velocity), got {brief(self.x0)}")
         for i, x in enumerate(self.x0):
@@ -136,8 +124,10 @@ class Preset:
             raise InputError(f"preset {self.name!r}: excitation must be 'force' or 'base', got {self.excitation!r}")
         if self.band is not None:
             band = self.band
-            ok = isinstance(band, (tuple, list)) and len(band) == 2 and all(
-                isinstance(x, numbers.Real) and not isinstance(x, bool) and math.isfinite(x) for x in band
+            ok = (
+                isinstance(band, (tuple, list))
+                and len(band) == 2
+                and all(isinstance(x, numbers.Real) and not isinstance(x, bool) and math.isfinite(x) for x in band)
             )
             if not ok or not 0 <= band[0] < band[1] < self.fs / 2:
                 raise InputError(
@@ -186,12 +176,8 @@ class Preset:
         unknown = set(overrides) - allowed
         if unknown:
             bad = sorted(unknown)[0]
-            hint = get_close_matches(bad, sorted(allowed), n=1)
-            raise InputError(
-                f"unknown preset parameter {bad!r}"
-                + (f" (did you mean {hint[0]!r}?)" if hint else "")
-                + f"; known: {', '.join(sorted(allowed))}"
-            )
+            known = sorted(allowed)
+            raise InputError(f"unknown preset parameter {bad!r}{did_you_mean(bad, known)}; known: {', '.join(known)}")
         coeffs = dict(self.coefficients)
         new = dict(overrides)
         if "coefficients" in new:
@@ -202,11 +188,9 @@ class Preset:
                 try:
                     name = model.terms[model.index(key)].name
                 except TermError:
-                    hint = get_close_matches(str(key), sorted(allowed), n=1)
                     raise InputError(
-                        f"{key!r} is neither a preset parameter"
-                        + (f" (did you mean {hint[0]!r}?)" if hint else "")
-                        + f" ({', '.join(sorted(allowed - {'coefficients'}))}) nor a term of the model ({model})"
+                        f"{key!r} is neither a preset parameter{did_you_mean(key, sorted(allowed))}"
+                        f" ({', '.join(sorted(allowed - {'coefficients'}))}) nor a term of the model ({model})"
                     ) from None
                 if isinstance(value, bool) or not isinstance(value, numbers.Real):
                     raise InputError(f"the coefficient of {name} must be a number, got {value!r}")
@@ -219,7 +203,6 @@ class Preset:
         """The force record of a seed (N)."""
         import numpy as np
 
-        from .numerics import check_seed
         from .simulation import random_force
 
         streams = np.random.SeedSequence(check_seed(seed)).spawn(4)
@@ -253,26 +236,17 @@ class Preset:
         """
         import numpy as np
 
-        from .numerics import check_seed
         from .record import Record
         from .simulation import random_force, simulate
 
-        check_seed(seed)
+        seed = check_seed(seed)
         channels = tuple(dict.fromkeys(("z", *channels)))
         for c in channels:
             if c not in RESPONSE_CHANNELS:
                 raise InputError(f"unknown channel {c!r}; response channels are z, v, a")
-        if isinstance(noise, Mapping):
-            levels = {c: float(noise.get(c, 0.0)) for c in channels}
-            unknown = set(noise) - set(RESPONSE_CHANNELS)
-            if unknown:
-                raise InputError(f"noise given for unknown channel {sorted(unknown)[0]!r}")
-        else:
-            levels = {c: float(noise) for c in channels}
-        if any(not (0.0 <= x < 10.0) or not np.isfinite(x) for x in levels.values()):
-            raise InputError(f"noise levels must be fractions >= 0 (0.02 = 2 %), got {levels}")
+        levels = check_noise(noise, channels)
         model = self.model()
-        streams = np.random.SeedSequence(check_seed(seed)).spawn(4)
+        streams = np.random.SeedSequence(seed).spawn(4)
         f = random_force(self.n, self.fs, self.force_rms, np.random.default_rng(streams[0]), self.band)
         z, v, a = simulate(model, dict(self.coefficients), self.mass, f, self.fs, self.x0)
         exact = {"z": z, "v": v, "a": a}
@@ -355,9 +329,5 @@ def get_preset(name: str) -> Preset:
     try:
         return PRESETS[name]
     except KeyError:
-        hint = get_close_matches(name, list(PRESETS), n=1)
-        raise InputError(
-            f"unknown preset {name!r}"
-            + (f" (did you mean {hint[0]!r}?)" if hint else "")
-            + f"; available: {', '.join(PRESETS)}"
-        ) from None
+        hint = did_you_mean(name, PRESETS)
+        raise InputError(f"unknown preset {name!r}{hint}; available: {', '.join(PRESETS)}") from None

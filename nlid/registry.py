@@ -17,7 +17,6 @@ import functools
 import importlib.metadata
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass, field
-from difflib import get_close_matches
 from typing import Any
 
 import pluggy
@@ -25,6 +24,7 @@ import pluggy
 from . import hookspecs
 from .errors import PASS_THROUGH, InputError, NlidError, PluginError, describe_exception
 from .interface import Option
+from .validate import did_you_mean
 
 __all__ = ["ENTRY_POINT_GROUP", "Registry", "plugin_manager", "load_registry", "default_registry", "check_contract"]
 
@@ -126,11 +126,8 @@ class Registry:
             return self.identifiers[name]
         if name in self.failures:
             raise PluginError(f"identifier plugin {name!r} is installed but unusable: {self.failures[name]}")
-        hint = get_close_matches(name, self.names(), n=1)
         raise InputError(
-            f"unknown method {name!r}"
-            + (f" (did you mean {hint[0]!r}?)" if hint else "")
-            + f"; installed: {', '.join(self.names()) or 'none'}"
+            f"unknown method {name!r}{did_you_mean(name, self.names())}; installed: {', '.join(self.names()) or 'none'}"
         )
 
     def create(self, name: str, options: Mapping[str, Any] | None = None) -> Any:
@@ -150,8 +147,7 @@ class Registry:
             raise
         except BaseException as exc:  # noqa: BLE001 - a plugin bug is reported by name
             raise PluginError(
-                f"identifier {name!r} (plugin {self.plugins.get(name, '?')!r}) {describe_exception(exc)} "
-                "when created"
+                f"identifier {name!r} (plugin {self.plugins.get(name, '?')!r}) {describe_exception(exc)} when created"
             ) from None
 
 
@@ -219,4 +215,3 @@ def registry_for(name: str) -> Registry:
         if name in reg.identifiers:
             return reg
     return default_registry()
-

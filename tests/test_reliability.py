@@ -121,7 +121,7 @@ def test_the_posterior_api_reports_a_prior_in_conflict(numerical):
         ({"walkers": 1}, "walkers= must be"),
         ({"max_steps": 0}, "max_steps= must be"),
         ({"bias_pairs": 10**6}, "bias_pairs= must be"),
-        ({"cutoff": float("nan")}, "cutoff must be"),
+        ({"cutoff": float("nan")}, "cutoff= must be"),
         ({"noise": {"q": 1.0}}, "only z and v"),
         ({"priors": ["v=normal(0,0)"]}, "positive sd"),
         ({"bias_correction": "no"}, "bias_correction must be"),

@@ -14,6 +14,7 @@ from ..errors import IdentificationError, InputError
 from ..identified import IdentifiedModel
 from ..record import Record
 from ..terms import Model, parse_term
+from ..validate import Interval, Options, check_cutoff, check_noise_sd, check_seed
 from .likelihood import build_likelihood, check_identifiable
 from .priors import (
     Normal,
@@ -39,14 +40,11 @@ MAX_WALKERS = 10_000
 MAX_STEPS = 10_000_000
 MAX_BIAS_PAIRS = 1_000
 MAX_BIAS_ITERATIONS = 100
-#: Highest equation band (Hz).
-MAX_CUTOFF = 1e7
 
 
 def _integer(name: str, value: object, minimum: int, maximum: int) -> int:
-    if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or not minimum <= int(value) <= maximum:
-        raise InputError(f"{name}= must be an integer from {minimum} to {maximum}, got {value!r}")
-    return int(value)
+    rule = Interval(minimum, maximum, "both", f"an integer from {minimum} to {maximum}", integer=True)
+    return rule.check(value, f"{name}=")
 
 
 def _precision(covariance: np.ndarray) -> np.ndarray:
@@ -158,9 +156,8 @@ class PosteriorSampler:
         cutoff: float | None = None,
         others: str = "marginal",
     ) -> None:
-        if others not in OTHERS:
-            raise InputError(f"others must be one of {', '.join(OTHERS)}, got {others!r}")
-        numerics.check_seed(seed)
+        Options(OTHERS).check(others, "others")
+        check_seed(seed)
         if walkers is not None:
             _integer("walkers", walkers, 2, MAX_WALKERS)
         _integer("max_steps", max_steps, 1, MAX_STEPS)
@@ -168,18 +165,8 @@ class PosteriorSampler:
         _integer("bias_iterations", bias_iterations, 1, MAX_BIAS_ITERATIONS)
         if not isinstance(bias_correction, (bool, np.bool_)):
             raise InputError(f"bias_correction must be true or false, got {bias_correction!r}")
-        if cutoff is not None and not (
-            not isinstance(cutoff, bool) and numerics.is_finite(cutoff) and 0 < float(cutoff) <= MAX_CUTOFF
-        ):
-            raise InputError(f"cutoff must be a positive number of Hz (at most {MAX_CUTOFF:g}), got {cutoff!r}")
-        if noise is not None:
-            if not isinstance(noise, Mapping):
-                raise InputError(f"noise must map channels to standard deviations, e.g. {{'z': 4e-4}}; got {noise!r}")
-            for channel, sd in noise.items():
-                if channel not in ("z", "v"):
-                    raise InputError(f"noise is given for channel {channel!r}; only z and v are corrected")
-                if isinstance(sd, bool) or not numerics.is_finite(sd) or float(sd) < 0:
-                    raise InputError(f"noise on {channel} must be a standard deviation >= 0, got {sd!r}")
+        check_cutoff(cutoff)  # the record's Nyquist frequency is checked when it is known (run)
+        check_noise_sd(noise)  # and each level against the record's channel
         if isinstance(params, str):
             if params.strip().lower() not in ("damping", "friction", "all"):
                 Model.from_spec(params, defaults=False)

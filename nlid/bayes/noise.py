@@ -70,6 +70,7 @@ from .. import derivatives
 from ..errors import DataError, InputError
 from ..record import Record
 from ..terms import Model
+from ..validate import NOISE_SD_CHANNELS, NOISE_UNITS, check_noise_sd
 
 __all__ = [
     "NoiseLevel",
@@ -80,10 +81,9 @@ __all__ = [
     "MAX_RELATIVE_SE",
 ]
 
-#: Channels whose noise the bias correction simulates.
-NOISY_CHANNELS = ("z", "v")
-#: Units of those channels (SI).
-UNITS = {"z": "m", "v": "m/s"}
+#: Channels whose noise the bias correction simulates, and their units (SI; declared with their rule).
+NOISY_CHANNELS = NOISE_SD_CHANNELS
+UNITS = NOISE_UNITS
 #: Cut-off of the low-pass shared by ``v`` and ``dz/dt``, as a fraction of fs.
 CONSISTENCY_CUTOFF = 0.45
 #: Highest frequency of the fit, as a fraction of fs.
@@ -268,24 +268,13 @@ def velocity_noise(z: np.ndarray, v: np.ndarray, fs: float) -> VelocityNoiseFit:
     )
 
 
-def _given(noise: Mapping[str, float] | None) -> dict[str, float]:
-    given = dict(noise or {})
-    unknown = set(given) - set(NOISY_CHANNELS)
-    if unknown:
-        raise InputError(
-            f"noise levels can be given for z and v only, not {sorted(unknown)[0]!r} "
-            "(noise on the acceleration needs none: it does not bias the estimate)"
-        )
-    out = {}
-    for c, value in given.items():
-        try:
-            level = float(value)
-        except (TypeError, ValueError):
-            raise InputError(f"noise={{{c!r}: ...}} must be a number ({UNITS[c]}), got {value!r}") from None
-        if not (np.isfinite(level) and level >= 0):
-            raise InputError(f"noise={{{c!r}: ...}} must be a non-negative number ({UNITS[c]}), got {level}")
-        out[c] = level
-    return out
+def _given(noise: Mapping[str, float] | None, record: Record) -> dict[str, float]:
+    """The given levels, checked (each against the standard deviation of its channel in ``record``)."""
+    known = noise if isinstance(noise, Mapping) else {}
+    scales = {
+        c: float(np.std(getattr(record, c))) for c in NOISY_CHANNELS if c in known and getattr(record, c) is not None
+    }
+    return check_noise_sd(noise, scales=scales)
 
 
 def channel_noise(record: Record, model: Model, noise: Mapping[str, float] | None = None) -> dict[str, NoiseLevel]:
@@ -310,7 +299,7 @@ def channel_noise(record: Record, model: Model, noise: Mapping[str, float] | Non
     InputError
         A bad level in ``noise``.
     """
-    given = _given(noise)
+    given = _given(noise, record)
     if "v" in given and not record.is_measured("v"):
         raise InputError(
             "noise={'v': ...} is given but the record has no measured velocity (it is estimated from z, "

@@ -6,6 +6,7 @@ import argparse
 import sys
 
 from ..errors import DataError, InputError
+from ..validate import NOISE_SD
 from .common import add_data_arguments, add_model_arguments, load_data, parse_px_roots, parse_settings, print_json
 
 DESCRIPTION = """\
@@ -133,8 +134,7 @@ def parse_noise_levels(items: list[str] | None, noise_z: float | None = None) ->
             level = float(value)
         except ValueError:
             raise InputError(f"--noise-level {channel}= expects a number, got {value.strip()!r}") from None
-        if not (level >= 0 and level < float("inf")):
-            raise InputError(f"--noise-level {channel}= must be a non-negative number, got {value.strip()!r}")
+        NOISE_SD[channel].check(level, f"--noise-level {channel}=")
         if channel in levels:
             raise InputError(f"--noise-level gives the level of {channel} twice")
         levels[channel] = level
@@ -148,8 +148,8 @@ def run(args: argparse.Namespace) -> int:
     from ..pipeline import as_model, identify
     from ..terms import Model
 
-    if args.noise_z is not None and not args.noise_z >= 0:
-        raise InputError(f"--noise-z must be a non-negative number of metres, got {args.noise_z}")
+    if args.noise_z is not None:
+        NOISE_SD["z"].check(args.noise_z, "--noise-z")
     noise = parse_noise_levels(args.noise_level, args.noise_z)
     slices = _floats(args.slices, "--slices")
     # read priors and parameter names before the (slower) identification, so typos fail at once

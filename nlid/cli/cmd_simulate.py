@@ -8,6 +8,7 @@ import sys
 from ..errors import InputError
 from ..outputs import check_new_file
 from ..presets import PRESETS, get_preset
+from ..validate import DURATION, NOISE_FRACTION
 from .common import parse_settings
 
 _FIELDS = {"mass": float, "force_rms": float, "fs": float, "duration": float, "g": float}
@@ -63,17 +64,14 @@ def run(args: argparse.Namespace) -> int:
     if coefficients:
         overrides["coefficients"] = coefficients
     if args.duration is not None:
-        if not args.duration > 0:
-            raise InputError(f"--duration must be positive, got {args.duration}")
-        overrides["duration"] = args.duration
+        overrides["duration"] = DURATION.check(args.duration, "--duration")
     if overrides:
         preset = preset.with_overrides(**overrides)
     extra = tuple(c.strip() for c in args.channels.split(",") if c.strip())
     for c in extra:
         if c not in ("v", "a"):
             raise InputError(f"--channels: unknown channel {c!r}; choose from v, a")
-    if not (0.0 <= args.noise < 10.0):
-        raise InputError(f"--noise must be a fraction >= 0 (0.02 = 2 %), got {args.noise}")
+    NOISE_FRACTION.check(args.noise, "--noise")
     out = args.out
     if not out.lower().endswith((".csv", ".npz")):
         raise InputError(f"--out must end in .csv or .npz, got {out!r}")

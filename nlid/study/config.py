@@ -62,7 +62,6 @@ import re
 import sys
 from collections.abc import Mapping
 from dataclasses import dataclass, field, replace
-from difflib import get_close_matches
 from pathlib import Path
 from typing import Any
 
@@ -71,7 +70,9 @@ from ..errors import InputError, NlidError, brief
 from ..interface import resolve_options
 from ..io import parse_columns
 from ..pipeline import as_model
+from ..presets import RESPONSE_CHANNELS
 from ..registry import Registry, default_registry
+from ..validate import CUTOFF, NOISE_FRACTION, SEED, check_noise, did_you_mean
 from .values import (
     MAX_MASS,
     MAX_TIMEOUT,
@@ -243,7 +244,10 @@ class DatasetConfig:
         kind = data["kind"]
         if kind == "preset":
             src: DataSource = PresetSource(
-                data["source"], data.get("overrides") or {}, data.get("noise", 0.0), tuple(data.get("channels") or ("z",))
+                data["source"],
+                data.get("overrides") or {},
+                data.get("noise", 0.0),
+                tuple(data.get("channels") or ("z",)),
             )
         elif kind == "dataset":
             src = BenchmarkSource(data["source"], data.get("part", "all"))
@@ -252,7 +256,9 @@ class DatasetConfig:
         else:
             raise where.error(f"unknown dataset kind {kind!r}")
         models = tuple(
-            ModelConfig(m["name"], m["terms"], m.get("without", ""), None if m.get("px_roots") is None else tuple(m["px_roots"]))
+            ModelConfig(
+                m["name"], m["terms"], m.get("without", ""), None if m.get("px_roots") is None else tuple(m["px_roots"])
+            )
             for m in data.get("models") or ()
         )
         return cls(
@@ -301,12 +307,7 @@ class StudyConfig:
 
 # --------------------------------------------------------------------------- helpers
 def _unknown(source: str, key: str, name: str, known: tuple[str, ...] | list[str], what: str = "key") -> ConfigError:
-    hint = get_close_matches(name, list(known), n=1)
-    return ConfigError(
-        source,
-        key,
-        f"unknown {what} {name!r}" + (f" (did you mean {hint[0]!r}?)" if hint else "") + f"; known: {', '.join(known)}",
-    )
+    return ConfigError(source, key, f"unknown {what} {name!r}{did_you_mean(name, known)}; known: {', '.join(known)}")
 
 
 def _check_keys(where: Where, table: Mapping[str, Any], known: tuple[str, ...]) -> None:
@@ -405,11 +406,9 @@ def resolve_study_path(name_or_path: str | os.PathLike[str]) -> Path:
     studies = builtin_studies()
     if text in studies:
         return studies[text]
-    hint = get_close_matches(text, list(studies), n=1)
     raise InputError(
-        f"unknown study {text!r}"
-        + (f" (did you mean {hint[0]!r}?)" if hint else "")
-        + f"; built-in studies: {', '.join(studies) or 'none found'} (or give a path to a .toml file)"
+        f"unknown study {text!r}{did_you_mean(text, studies)}"
+        f"; built-in studies: {', '.join(studies) or 'none found'} (or give a path to a .toml file)"
     )
 
 
@@ -467,7 +466,7 @@ def parse_study(
     study = _table(at, raw.get("study", {}))
     _check_keys(at, study, _STUDY_KEYS)
     name = _name(at / "name", study.get("name", default_name))
-    seed = int((at / "seed").number(study.get("seed", 0), minimum=0, integer=True))
+    seed = (at / "seed").check(SEED, study.get("seed", 0))
     reps = int((at / "repetitions").number(study.get("repetitions", 1), minimum=1, maximum=MAX_RUNS, integer=True))
     timeout = float((at / "timeout").number(study.get("timeout", DEFAULT_TIMEOUT), positive=True, maximum=MAX_TIMEOUT))
     registry = registry or default_registry()
@@ -556,11 +555,13 @@ def _posterior(where: Where, value: Any, datasets: list[DatasetConfig]) -> dict[
     (where / "level").number(level)
     if not 0 < level < 1:
         raise (where / "level").error(f"the credible level must lie between 0 and 1, got {level}")
-    for key in ("walkers", "max_steps", "seed", "bias_pairs", "bias_iterations"):
+    for key in ("walkers", "max_steps", "bias_pairs", "bias_iterations"):
         if key in settings:
-            (where / key).number(settings[key], integer=True, minimum=0 if key == "seed" else 1)
+            (where / key).number(settings[key], integer=True, minimum=1)
+    if "seed" in settings:
+        (where / "seed").check(SEED, settings["seed"])
     if "cutoff" in settings and settings["cutoff"] is not None:
-        (where / "cutoff").number(settings["cutoff"], positive=True)
+        (where / "cutoff").check(CUTOFF, settings["cutoff"])
     try:
         PosteriorSampler(**settings)
     except (NlidError, TypeError, ValueError) as exc:
@@ -628,22 +629,19 @@ def _preset_source(where: Where, value: str, entry: dict[str, Any]) -> tuple[Pre
         if isinstance(raw_noise, Mapping):
             noise = {}
             for ch, x in raw_noise.items():
-                if ch not in ("z", "v", "a"):
-                    raise _unknown(where.source, (where / f"noise.{ch}").key, ch, ["z", "v", "a"], "channel")
-                noise[ch] = float((where / f"noise.{ch}").number(x, minimum=0.0))
+                if ch not in RESPONSE_CHANNELS:
+                    raise _unknown(where.source, (where / f"noise.{ch}").key, ch, RESPONSE_CHANNELS, "channel")
+                noise[ch] = (where / f"noise.{ch}").check(NOISE_FRACTION, x)
         else:
-            noise = float((where / "noise").number(raw_noise, minimum=0.0))
-        levels = noise.values() if isinstance(noise, dict) else [noise]
-        if any(x >= 10 for x in levels):
-            raise (where / "noise").error("noise is a fraction of the signal's std (0.02 = 2 %)")
+            noise = (where / "noise").check(NOISE_FRACTION, raw_noise)
     channels_raw = entry.get("channels", list(noise) if isinstance(noise, dict) else ["z"])
-    if not isinstance(channels_raw, list) or not all(c in ("z", "v", "a") for c in channels_raw):
+    if not isinstance(channels_raw, list) or not all(c in RESPONSE_CHANNELS for c in channels_raw):
         raise (where / "channels").error(f"expected a list of z, v, a; got {brief(channels_raw)}")
     channels = tuple(dict.fromkeys(["z", *channels_raw]))
-    if isinstance(noise, dict):
-        missing = [c for c in noise if c not in channels]
-        if missing:
-            raise (where / "noise").error(f"noise on channel {missing[0]!r}, which is not recorded")
+    try:
+        check_noise(noise, channels)  # each channel given a level is recorded
+    except InputError as exc:
+        raise (where / "noise").error(str(exc)) from None
     return PresetSource(value, overrides, noise, channels), preset.terms
 
 
@@ -742,7 +740,9 @@ def _dataset(where: Where, entry: dict[str, Any], base: Path, reps: int, timeout
     reference = _reference(where / "reference", entry["reference"]) if "reference" in entry else None
     if isinstance(mass, KnownMass) and isinstance(source, FileSource) and not (reference and "mass" in reference):
         raise (where / "mass").error('the mass is not known for this data: give it in kg or "estimate"')
-    holdout = parse_holdout(entry.get("holdout", "independent" if kind == "preset" else "none"), kind, where / "holdout")
+    holdout = parse_holdout(
+        entry.get("holdout", "independent" if kind == "preset" else "none"), kind, where / "holdout"
+    )
 
     freerun = entry.get("freerun", True)
     if not isinstance(freerun, bool):
@@ -866,4 +866,3 @@ def _trial_simulation(where: Where, source: PresetSource) -> None:
     except NlidError as exc:
         key = "overrides" if source.overrides else "preset"
         raise (where / key).error(f"the first {duration:g} s of the simulation fail: {exc}") from None
-

@@ -107,6 +107,13 @@ class Where:
             raise self.error(f"must be <= {maximum:g}, got {value!r}")
         return value
 
+    def check(self, rule: Any, value: Any) -> Any:
+        """``value`` checked by a rule of :mod:`nlid.validate`, whose complaint becomes a :class:`ConfigError` here."""
+        why = rule.reason(value)
+        if why is not None:
+            raise self.error(why)
+        return rule.check(value, self.key)
+
     def string(self, value: Any) -> str:
         """A string, else a :class:`ConfigError` here."""
         if not isinstance(value, str):

@@ -104,7 +104,7 @@ def test_unmeasured_displacement_needs_its_level(numerical, noisy):
 
 
 def test_bad_levels(numerical, noisy):
-    with pytest.raises(InputError, match="z and v only, not 'a'"):
+    with pytest.raises(InputError, match="channel 'a'; only z and v are corrected"):
         channel_noise(noisy, numerical.model(), {"a": 1.0})
     with pytest.raises(InputError, match="non-negative"):
         channel_noise(noisy, numerical.model(), {"v": -1.0})
