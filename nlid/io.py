@@ -55,7 +55,7 @@ __all__ = [
 SUFFIXES = (".csv", ".txt", ".npz", ".mat")
 _MAP_CHANNELS = ("t", *CHANNELS)
 #: Metadata keys written to and read from the ``.meta.json`` sidecar.
-META_KEYS = ("source", "force_hold", "mass", "g", "excitation", "preset", "seed", "noise", "truth")
+META_KEYS = ("source", "force_hold", "mass", "g", "excitation", "preset", "seed", "noise", "reference", "truth")
 _OPERAND = re.compile(r"\s*([A-Za-z_][A-Za-z_0-9]*|[0-9]*\.?[0-9]+(?:[eE][+-]?[0-9]+)?)\s*")
 
 
