@@ -57,6 +57,7 @@ __all__ = [
     "FORCE_RESIDUAL",
     "EPS_HOLDOUT",
     "FREERUN_NRMSE",
+    "FREERUN_FIT",
     "FREERUN_RMSE",
     "FREERUN_NOTE",
     "SECONDS",
@@ -226,6 +227,8 @@ EPS_HOLDOUT = _scalar(
 FREERUN_NRMSE = _scalar(
     "freerun_nrmse_pct", unit="%", title="free-run NRMSE", section=SECTION_RESIDUALS, lower_better=True
 )
+#: MATLAB ``compare``'s fit of the held-out free run, ``100 (1 - |z - z_sim| / |z - mean(z)|)`` (higher is better).
+FREERUN_FIT = _scalar("freerun_fit_pct", unit="%", title="free-run fit", section=SECTION_RESIDUALS)
 FREERUN_RMSE = _scalar("freerun_rmse", unit="m", title="free-run RMSE")
 FREERUN_NOTE = _scalar("freerun_note")
 SECONDS = _scalar(

@@ -29,12 +29,13 @@ errors are percentages, signed unless noted):
     RMS contribution of each term to the identified restoring force (paper
     Fig. 22) and the method's quality indicator when it reports one (NSI's
     E[Re/Im], paper Table 5); see :func:`surface_metrics`.
-``freerun_nrmse_pct``, ``freerun_rmse``, ``freerun_note``
+``freerun_nrmse_pct``, ``freerun_fit_pct``, ``freerun_rmse``, ``freerun_note``
     Free-run simulation error of the identified model driven by the held-out
     force, with the chaos check (:func:`nlid.scoring.free_run_error`: the
     same number ``nlid discover`` reports for the same model and record):
-    ``100 RMS(z_sim - z) / std(z)`` and the RMS error in the record's unit;
-    the note says why it was skipped.
+    ``100 RMS(z_sim - z) / std(z)``, MATLAB ``compare``'s fit
+    ``100 (1 - |z - z_sim| / |z - mean(z)|)`` and the RMS error in the
+    record's unit; the note says why it was skipped.
 """
 
 from __future__ import annotations
@@ -86,6 +87,7 @@ def holdout_metrics(heldout: Record | None, fit: IdentifiedModel, free_run: bool
     row: dict[str, Any] = {
         col.EPS_HOLDOUT.key(): NAN,
         col.FREERUN_NRMSE.key(): NAN,
+        col.FREERUN_FIT.key(): NAN,
         col.FREERUN_RMSE.key(): NAN,
         col.FREERUN_NOTE.key(): "skipped: disabled in the study" if not free_run else "skipped: no held-out data",
     }
@@ -95,6 +97,7 @@ def holdout_metrics(heldout: Record | None, fit: IdentifiedModel, free_run: bool
     row[col.EPS_HOLDOUT.key()] = scores.eps_percent
     if free_run:
         row[col.FREERUN_NRMSE.key()] = scores.freerun_nrmse_percent
+        row[col.FREERUN_FIT.key()] = scores.freerun_fit_percent
         row[col.FREERUN_RMSE.key()] = scores.freerun_rmse
         row[col.FREERUN_NOTE.key()] = scores.freerun_note
     return row

@@ -156,3 +156,31 @@ def test_figure_arrays_are_declared_by_the_identifier():
     assert figure_arrays("nsi-shift", {"frf": f + 0j}) == ()
     with pytest.raises(ValueError, match="needs its term"):
         FigureArray("coefficient spectrum", "x", "y")
+
+
+# ----------------------------------------------------------------------------- fit %: one declaration and its producer
+def test_the_free_run_fit_column_is_declared_produced_and_shown(short_record, numerical):
+    """MATLAB compare's fit of the held-out free run: declared in nlid.columns, produced from Scores, in the table."""
+    from nlid import identify, plugin
+    from nlid.study.metrics import holdout_metrics
+
+    fit = identify(short_record, "z^3, z^2, v*|v|", "rfs", mass=0.2)
+    held = numerical.with_overrides(duration=10.0).simulate(7, noise={"z": 0.01}, channels=("z", "a"))
+    scores = fit.score(held)
+    x0 = plugin.initial_state(held)
+    z, _, _ = plugin.free_run(fit.model, fit.theta, 0.2, held.f, held.fs, force_hold=held.force_hold, x0=x0)
+    expected = 100 * (1 - np.linalg.norm(held.z - z) / np.linalg.norm(held.z - held.z.mean()))
+    assert scores.freerun_fit_percent == pytest.approx(expected, rel=1e-12)
+    assert scores.freerun_fit_percent == pytest.approx(100 - scores.freerun_nrmse_percent, abs=1e-9)
+    assert scores.to_dict()["freerun_fit_percent"] == scores.freerun_fit_percent
+    row = holdout_metrics(held, fit)
+    assert row[col.FREERUN_FIT.key()] == scores.freerun_fit_percent and 90 < row[col.FREERUN_FIT.key()] < 100
+    assert np.isnan(holdout_metrics(None, fit)[col.FREERUN_FIT.key()])
+    frame = pd.DataFrame(
+        [
+            {"method": "a", "repetition": r, "status": "ok", "eps_percent": 1.0, **holdout_metrics(held, fit)}
+            for r in range(2)
+        ]
+    )
+    table = tables._residual_table(_section(frame))
+    assert table.header[2:6] == ["eps (%)", "eps held-out (%)", "free-run NRMSE (%)", "free-run fit (%)"]
