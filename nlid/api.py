@@ -26,6 +26,8 @@ from .errors import InputError, NlidError
 from .identified import IdentifiedModel
 from .pipeline import as_model, identify
 from .record import Record
+from .reference import FRAME_COLUMNS, Reference
+from .reference import compare as compare_fit
 from .sources import as_record
 
 if TYPE_CHECKING:  # pragma: no cover
@@ -120,7 +122,7 @@ def simulate(
     Returns
     -------
     Record
-        With the truth in ``meta["truth"]``.
+        With the truth in ``meta["reference"]`` (also readable as ``meta["truth"]``).
     """
     from .presets import get_preset
 
@@ -132,113 +134,13 @@ def simulate(
     return p.simulate(seed, noise=noise, channels=tuple(channels))
 
 
-def _reference_of(record: Record, reference: Any) -> dict[str, Any]:
-    if reference is None:
-        truth = record.meta.get("truth")
-        return dict(truth) if isinstance(truth, Mapping) else {}
-    if isinstance(reference, IdentifiedModel):
-        eq = reference.equilibria
-        return {
-            "coefficients": dict(reference.coefficients),
-            "mass": reference.mass,
-            "equilibria": None if eq is None else list(eq.stable),
-            "modal": [m.to_dict() for m in reference.modal],
-        }
-    if isinstance(reference, Mapping):
-        out = dict(reference)
-        if "coefficients" not in out and not {"mass", "equilibria", "modal"} & set(out):
-            out = {"coefficients": out}  # a bare {term: value}
-        return out
-    raise InputError(f"reference must be a dict, an IdentifiedModel or None, got {type(reference).__name__}")
-
-
-def _error_pct(value: float, ref: float | None) -> float:
-    if ref is None or not ref or not math.isfinite(value):
-        return math.nan
-    return 100.0 * (value - ref) / abs(ref)
-
-
-def _rows(fit: IdentifiedModel, reference: Mapping[str, Any], holdout: Record | None) -> list[dict[str, Any]]:
-    from .physics import equilibria as equilibria_of
-    from .physics import modal as modal_of
-    from .terms import Model
-
-    ref_coeffs = {}
-    for k, v in (reference.get("coefficients") or {}).items():
-        try:
-            ref_coeffs[Model.from_spec([k], defaults=False).names[0]] = float(v)
-        except NlidError:
-            continue
-    se = fit.standard_errors or {}
-    rows: list[dict[str, Any]] = []
-
-    def add(quantity: str, name: str, value: float, unit: str, ref: float | None = None, std: float = math.nan):
-        rows.append(
-            {
-                "method": fit.method,
-                "quantity": quantity,
-                "name": name,
-                "value": float(value),
-                "std_error": float(std),
-                "unit": unit,
-                "reference": math.nan if ref is None else float(ref),
-                "error_pct": _error_pct(float(value), ref),
-            }
-        )
-
-    for name, term in zip(fit.terms, fit.model.terms, strict=True):
-        add("coefficient", name, fit.coefficients[name], term.coefficient_unit, ref_coeffs.get(name), se.get(name, math.nan))
-    if fit.mass is not None:
-        ref_mass = reference.get("mass") if fit.mass_estimated else None
-        add("mass", "mass", fit.mass, "kg", ref_mass, fit.mass_standard_error or math.nan)
-    # equilibria and modes, matched to the reference's stable equilibria (nearest first)
-    ref_eq = list(reference.get("equilibria") or [])
-    ref_modal = list(reference.get("modal") or [])
-    if not ref_eq and ref_coeffs and fit.z_range is not None:
-        try:
-            true_model = Model.from_spec(list(ref_coeffs), defaults=False, px_roots=reference.get("px_roots"))
-            ref_eq = list(equilibria_of(true_model, ref_coeffs, fit.z_range).stable)
-            if reference.get("mass"):
-                ref_modal = [m.to_dict() for m in modal_of(true_model, ref_coeffs, float(reference["mass"]), ref_eq)]
-        except NlidError:
-            ref_eq, ref_modal = [], []
-    stable = sorted(fit.equilibria.stable) if fit.equilibria is not None else []
-    from .study.metrics import match_equilibria
-
-    match = match_equilibria(ref_eq, stable) if ref_eq else {}
-    inverse = {j: i for i, j in match.items()}
-    modal_by_eq = {m.equilibrium: m for m in fit.modal}
-    for j, z in enumerate(stable):
-        i = inverse.get(j)
-        label = f"s{j + 1}" if i is None else f"s{i + 1}"
-        ref_z = ref_eq[i] if i is not None else None
-        add("equilibrium", label, z, "m", ref_z)
-        m = modal_by_eq.get(z) or min(fit.modal, key=lambda mm: abs(mm.equilibrium - z), default=None)
-        if m is None:
-            continue
-        ref_m = ref_modal[i] if i is not None and i < len(ref_modal) else {}
-        add("fn_hz", label, m.fn_hz, "Hz", ref_m.get("fn_hz"))
-        add("zeta", label, m.zeta, "1", ref_m.get("zeta"))
-    if fit.scores is not None:
-        add("eps_percent", "estimation", fit.scores.eps_percent, "%")
-        add("force_residual_percent", "estimation", fit.scores.force_residual_percent, "%")
-    if holdout is not None and fit.mass is not None:
-        held = fit.score(holdout)
-        add("eps_percent", "holdout", held.eps_percent, "%")
-        add("force_residual_percent", "holdout", held.force_residual_percent, "%")
-        add("freerun_rmse", "holdout", held.freerun_rmse, holdout.units.get("z", "m"))
-    if fit.seconds is not None:
-        add("seconds", "identification", fit.seconds, "s")
-    return rows
-
-
 def compare(
     record: Record,
     terms: str | Iterable[str] | Any,
     methods: Sequence[str] | None = None,
     *,
     mass: float | None = None,
-    reference: Mapping[str, Any] | IdentifiedModel | None = None,
+    reference: Mapping[str, Any] | IdentifiedModel | Reference | None = None,
     holdout: Record | None = None,
     options: Mapping[str, Mapping[str, Any]] | None = None,
     without: str | Iterable[str] = (),
@@ -260,10 +162,13 @@ def compare(
         cannot are reported as failed).
     reference
         True or reference values: ``{"coefficients": {...}, "mass": ...,
-        "equilibria": [...], "modal": [...]}``, a bare ``{term: value}``, or an
-        :class:`~nlid.identified.IdentifiedModel`. Default: the record's
-        ``meta["truth"]`` (simulated records carry it); equilibria and modes of
-        the reference are computed from its coefficients when not given.
+        "equilibria": [...], "modal": [...]}``, a bare ``{term: value}``, an
+        :class:`~nlid.identified.IdentifiedModel` or a
+        :class:`~nlid.reference.Reference` (:meth:`~nlid.reference.Reference.of`).
+        Default: the record's ``meta["reference"]`` (simulated records carry
+        their truth there, measured benchmarks their published values);
+        equilibria and modes of the reference are computed from its
+        coefficients when not given.
     holdout
         A held-out record: adds epsilon, the force residual and the free-run
         error on it (:meth:`nlid.IdentifiedModel.score`).
@@ -298,7 +203,7 @@ def compare(
     names = list(methods) if methods is not None else default_registry().names()
     if not names:
         raise InputError("no method to compare: none is installed and methods= is empty")
-    ref = _reference_of(record, reference)
+    ref = Reference.of(record, reference)
     rows: list[dict[str, Any]] = []
     fits: dict[str, IdentifiedModel] = {}
     for name in names:
@@ -310,9 +215,8 @@ def compare(
             rows.append({"method": name, "quantity": "failed", "name": "", "value": math.nan, "note": str(exc)})
             continue
         fits[name] = fit
-        rows += [{**r, "note": ""} for r in _rows(fit, ref, holdout)]
-    columns = ["method", "quantity", "name", "value", "std_error", "unit", "reference", "error_pct", "note"]
-    frame = pd.DataFrame(rows, columns=columns)
+        rows += [{**r, "note": ""} for r in compare_fit(fit, ref, holdout).records()]
+    frame = pd.DataFrame(rows, columns=FRAME_COLUMNS)
     frame.attrs["models"] = fits
     return frame
 

@@ -394,7 +394,7 @@ class IdentifiedModel:
         Returns
         -------
         Record
-            ``f``, ``z``, ``v``, ``a`` with the model as ``meta["truth"]``.
+            ``f``, ``z``, ``v``, ``a`` with the model as ``meta["reference"]``.
         """
         from .simulation import FREE_RUN_OVERSAMPLE, free_run
 
@@ -407,7 +407,7 @@ class IdentifiedModel:
             "mass": self.mass,
             "source": f"simulated: {self.method} model ({', '.join(self.terms)})",
             "force_hold": force_hold,
-            "truth": {
+            "reference": {
                 "coefficients": dict(self.coefficients),
                 "mass": self.mass,
                 "px_roots": None if self.px_roots is None else list(self.px_roots),

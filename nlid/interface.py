@@ -37,7 +37,17 @@ from .errors import OptionError
 from .record import Record
 from .terms import Model
 
-__all__ = ["Option", "Identifier", "Estimate", "resolve_options", "to_jsonable", "refined_terms"]
+__all__ = [
+    "Option",
+    "Identifier",
+    "Estimate",
+    "FigureArray",
+    "FIGURE_KINDS",
+    "standard_figure_arrays",
+    "resolve_options",
+    "to_jsonable",
+    "refined_terms",
+]
 
 _TYPES = ("int", "float", "bool", "str", "floats")
 _TRUE = {"1", "true", "yes", "on"}
@@ -178,6 +188,62 @@ def resolve_options(declared: tuple[Option, ...], given: Mapping[str, Any], wher
     return {o.name: (o.parse(given[o.name], where) if o.name in given else o.default) for o in declared}
 
 
+#: What a :class:`FigureArray` is: ``"frf"`` (a complex underlying-linear receptance, m/N) or
+#: ``"coefficient spectrum"`` (a complex frequency-dependent estimate of one coefficient, NSI Eq. 20).
+FIGURE_KINDS = ("frf", "coefficient spectrum")
+
+
+@dataclass(frozen=True)
+class FigureArray:
+    """One array of an estimate that study reports draw, and what it is.
+
+    An identifier declares its own with :meth:`Identifier.figure_arrays`, so
+    that reports never parse its array names.
+
+    Attributes
+    ----------
+    kind
+        One of :data:`FIGURE_KINDS`.
+    values
+        Its key in :attr:`Estimate.arrays` (complex values).
+    frequency
+        The key of its frequency axis (Hz).
+    label
+        Which part of the estimate it belongs to when there are several
+        (e.g. ``"well 2"``); ``""`` when there is one.
+    term
+        The term of a coefficient spectrum.
+    """
+
+    kind: str
+    values: str
+    frequency: str
+    label: str = ""
+    term: str = ""
+
+    def __post_init__(self) -> None:
+        if self.kind not in FIGURE_KINDS:
+            raise ValueError(f"figure array {self.values!r}: kind must be one of {FIGURE_KINDS}, got {self.kind!r}")
+        if self.kind == "coefficient spectrum" and not self.term:
+            raise ValueError(f"figure array {self.values!r}: a coefficient spectrum needs its term")
+
+
+def standard_figure_arrays(arrays: Mapping[str, Any]) -> tuple[FigureArray, ...]:
+    """The figure arrays under the keys :class:`Estimate` documents, where present.
+
+    ``frf`` against ``frf_frequency_hz``, and ``coef_spectrum:<term>`` against
+    ``coef_frequency_hz`` (spectra in the order of their keys).
+    """
+    out: list[FigureArray] = []
+    if "frf" in arrays and "frf_frequency_hz" in arrays:
+        out.append(FigureArray("frf", "frf", "frf_frequency_hz"))
+    if "coef_frequency_hz" in arrays:
+        prefix = "coef_spectrum:"
+        for key in sorted(k for k in arrays if k.startswith(prefix) and "@" not in k):
+            out.append(FigureArray("coefficient spectrum", key, "coef_frequency_hz", term=key[len(prefix) :]))
+    return tuple(out)
+
+
 class Identifier:
     """Base class of identifiers (optional: the core relies on the attributes only).
 
@@ -216,6 +282,24 @@ class Identifier:
             :class:`~nlid.errors.InputError` if the method cannot).
         """
         raise NotImplementedError
+
+    @classmethod
+    def figure_arrays(cls, arrays: Mapping[str, Any]) -> tuple[FigureArray, ...]:
+        """Which of an estimate's ``arrays`` study reports draw, and as what.
+
+        Parameters
+        ----------
+        arrays
+            :attr:`Estimate.arrays` of one identification (as stored with a study run).
+
+        Returns
+        -------
+        tuple of FigureArray
+            In drawing order. Default: the keys :class:`Estimate` documents
+            (:func:`standard_figure_arrays`); an identifier with other keys
+            (several wells, several fits) declares them here.
+        """
+        return standard_figure_arrays(arrays)
 
     def __repr__(self) -> str:
         args = ", ".join(f"{k}={v!r}" for k, v in self.settings.items())
@@ -283,7 +367,8 @@ class Estimate:
         (subspace methods), ``frf_frequency_hz`` and ``frf`` (complex
         underlying-linear receptance, m/N), ``coef_frequency_hz`` and
         ``coef_spectrum:<term>`` (complex frequency-dependent coefficient
-        estimates, NSI Eq. 20).
+        estimates, NSI Eq. 20); an identifier that keeps such arrays under
+        other keys declares them with :meth:`Identifier.figure_arrays`.
     model
         The model with the shape parameters the method refined (the same
         terms, in the same number, each differing from the given model's at
@@ -325,11 +410,15 @@ def refined_terms(given: Model, refined: Model) -> dict[str, str]:
     for term in given.terms:
         match = next((t for t in left if t == term), None)
         if match is None:
-            match = next((t for t in left if len(t.shapes) == len(term.shapes) and t.shapes
-                          and term.with_shapes(t.shapes) == t), None)
+            match = next(
+                (t for t in left if len(t.shapes) == len(term.shapes) and t.shapes and term.with_shapes(t.shapes) == t),
+                None,
+            )
         if match is None:
-            raise ValueError(f"term {term.name!r} has no counterpart in the refined model ({refined}) that differs "
-                             "only in its shape parameters")
+            raise ValueError(
+                f"term {term.name!r} has no counterpart in the refined model ({refined}) that differs "
+                "only in its shape parameters"
+            )
         left.remove(match)
         pairs[term.name] = match.name
     return pairs

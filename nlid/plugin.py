@@ -10,8 +10,10 @@ The toolkit has four axes, which identifiers compose rather than re-implement:
 
 * **the contract**: :class:`Identifier` (settings only in the constructor,
   work in ``identify(record, model, *, mass=None)``), declared
-  :class:`Option`\\ s, the :class:`Estimate` an identifier returns, and the
-  :data:`hookimpl` marker of the ``nlid_identifiers`` hook;
+  :class:`Option`\\ s, the :class:`Estimate` an identifier returns, the
+  :class:`FigureArray`\\ s it declares for reports
+  (:meth:`Identifier.figure_arrays`), and the :data:`hookimpl` marker of the
+  ``nlid_identifiers`` hook;
 * **data and terms**: :class:`Record`, :class:`Model`, :class:`Term`,
   :func:`parse_term`;
 * **the force balance and derivatives**: :func:`regression_data` (the
@@ -39,7 +41,7 @@ from . import derivatives
 from .balance import EDGE_PERIODS, REGRESSOR_BAND_FACTOR, RegressionData, regression_data
 from .errors import DataError, IdentificationError, InputError, NlidError, OptionError, TermError
 from .hookspecs import hookimpl
-from .interface import Estimate, Identifier, Option, to_jsonable
+from .interface import FIGURE_KINDS, Estimate, FigureArray, Identifier, Option, standard_figure_arrays, to_jsonable
 from .physics import Equilibria, Modal, equilibria, modal, stiffness_roots
 from .record import Record
 from .regression import (
@@ -55,6 +57,9 @@ __all__ = [
     "Identifier",
     "Option",
     "Estimate",
+    "FigureArray",
+    "FIGURE_KINDS",
+    "standard_figure_arrays",
     "hookimpl",
     "Record",
     "Model",

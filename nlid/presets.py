@@ -231,7 +231,7 @@ class Preset:
         Returns
         -------
         Record
-            With ``meta`` holding ``mass``, ``g``, ``source``, ``truth``,
+            With ``meta`` holding ``mass``, ``g``, ``source``, ``reference`` (the truth),
             ``seed`` and ``noise``.
         """
         import numpy as np
@@ -267,7 +267,7 @@ class Preset:
             "noise": levels,
             "excitation": self.excitation,
             "force_hold": "zoh",
-            "truth": self.truth(),
+            "reference": self.truth(),
         }
         return Record(f=f, fs=self.fs, meta=meta, **out)
 

@@ -60,6 +60,42 @@ def _freeze(mapping: Mapping[str, Any] | None) -> Mapping[str, Any]:
     return FrozenDict(dict(mapping or {}))
 
 
+#: Earlier names of metadata keys: ``{old: current}``. A record stores the current name; the old one still reads.
+META_ALIASES: Mapping[str, str] = MappingProxyType({"truth": "reference"})
+
+
+class RecordMeta(FrozenDict):
+    """A record's metadata: read-only, each entry under one name; an earlier name (:data:`META_ALIASES`) still reads.
+
+    ``meta["truth"]`` and ``meta.get("truth")`` give ``meta["reference"]`` (simulated records carried their
+    truth under ``"truth"`` before); the old name is not a key (``"truth" in meta`` is false).
+    """
+
+    __slots__ = ()
+
+    @classmethod
+    def of(cls, mapping: Mapping[str, Any] | None) -> RecordMeta:
+        """The metadata of ``mapping`` with entries under an earlier name moved to the current one."""
+        items = dict(mapping or {})
+        for old, new in META_ALIASES.items():
+            if old in items and new not in items:
+                items[new] = items.pop(old)
+        return cls(items)
+
+    def __missing__(self, key: str) -> Any:
+        new = META_ALIASES.get(key)
+        if new is not None and dict.__contains__(self, new):
+            return dict.__getitem__(self, new)
+        raise KeyError(key)
+
+    def get(self, key: str, default: Any = None) -> Any:
+        """``meta[key]`` (an earlier name included), else ``default``."""
+        try:
+            return self[key]
+        except KeyError:
+            return default
+
+
 @dataclass(frozen=True, eq=False)
 class Record:
     """A uniformly sampled force/motion record.
@@ -80,8 +116,10 @@ class Record:
         Unit of each channel; defaults to SI (:data:`DEFAULT_UNITS`).
     meta
         Free metadata. Keys nlid understands: ``mass`` (kg), ``g`` (m/s^2),
-        ``source`` (str), ``truth`` (reference coefficients and mass for
-        simulated records), ``force_hold`` (``"sampled"``, the default: the
+        ``source`` (str), ``reference`` (reference values:
+        :meth:`nlid.reference.Reference.from_meta`; a simulation's truth, a
+        benchmark's published values; ``truth``, its earlier name, still
+        reads), ``force_hold`` (``"sampled"``, the default: the
         force is a sampled continuous signal; or ``"zoh"``: it was held
         constant over each sample interval, as a DAC output or the paper's
         simulation).
@@ -143,7 +181,7 @@ class Record:
         object.__setattr__(self, "units", _freeze(units))
         if self.meta and self.meta.get("force_hold", "sampled") not in ("sampled", "zoh"):
             raise DataError(f"meta['force_hold'] must be 'sampled' or 'zoh', got {self.meta['force_hold']!r}")
-        object.__setattr__(self, "meta", _freeze(self.meta))
+        object.__setattr__(self, "meta", RecordMeta.of(self.meta))
         object.__setattr__(self, "provenance", _freeze(self.provenance))
 
     # ------------------------------------------------------------------ construction

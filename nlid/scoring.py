@@ -16,12 +16,15 @@ Scores (:class:`Scores`, from :func:`score`):
     The same residual relative to the force, ``100 RMS(f - m a - R_hat) /
     RMS(f)``: the "relative force residual" of inverse-dynamics benchmarks
     such as EMPS.
-``freerun_rmse``, ``freerun_nrmse_percent``, ``freerun_note``
+``freerun_rmse``, ``freerun_nrmse_percent``, ``freerun_fit_percent``, ``freerun_note``
     The free-run simulation error of the displacement: the model driven by
     the record's force from the record's first state
     (:func:`nlid.simulation.free_run`, which holds a zero-order-held force
     and interpolates a sampled one), ``RMS(z_sim - z)`` in the unit of ``z``
-    and relative to ``std(z)``. The initial velocity is the measured one when
+    and relative to ``std(z)``; and the fit of MATLAB's ``compare``,
+    ``100 (1 - |z - z_sim| / |z - mean(z)|)`` (100 % a perfect match, the
+    norms over the record; ``100 - freerun_nrmse_percent`` up to rounding,
+    in the convention benchmark tables quote). The initial velocity is the measured one when
     the record has it, else the derivative of ``z`` through the shared filter
     at its suggested cut-off (a property of the record alone, so the number
     does not depend on who asks). It is not reported for a model that is too
@@ -126,6 +129,8 @@ class FreeRun:
         ``RMS(z_sim - z)`` in the unit of ``z`` (NaN when not computed).
     nrmse_percent
         ``100 rmse / std(z)``.
+    fit_percent
+        ``100 (1 - |z - z_sim| / |z - mean(z)|)``: MATLAB ``compare``'s fit (NaN when not computed).
     note
         Empty when computed, else why not (chaotic, diverged, no mass...).
     """
@@ -133,6 +138,7 @@ class FreeRun:
     rmse: float = NAN
     nrmse_percent: float = NAN
     note: str = ""
+    fit_percent: float = NAN
 
     @property
     def computed(self) -> bool:
@@ -150,7 +156,7 @@ class Scores:
         Eq. 26 (NaN without a mass).
     force_residual_percent
         The residual relative to ``RMS(f)``.
-    freerun_rmse, freerun_nrmse_percent, freerun_note
+    freerun_rmse, freerun_nrmse_percent, freerun_note, freerun_fit_percent
         The free-run error (:class:`FreeRun`).
     band_hz
         The equation band (Hz), ``None`` when nothing was filtered.
@@ -165,6 +171,7 @@ class Scores:
     freerun_note: str = "not computed"
     band_hz: float | None = None
     samples: int = 0
+    freerun_fit_percent: float = NAN
 
     def to_dict(self) -> dict[str, Any]:
         """Plain dictionary (NaN kept; :func:`nlid.interface.to_jsonable` maps it to null)."""
@@ -280,7 +287,8 @@ def free_run_error(fit: ModelFit, record: Record) -> FreeRun:
             f"{100 * spread:.3g} % of std(z) over the second half"
         )
     rmse = float(np.sqrt(np.mean((z1 - z) ** 2)))
-    return FreeRun(rmse, 100.0 * rmse / scale, "")
+    fit = 100.0 * (1.0 - float(np.linalg.norm(z - z1)) / float(np.linalg.norm(z - np.mean(z))))
+    return FreeRun(rmse, 100.0 * rmse / scale, "", fit)
 
 
 def predictability_horizon(
@@ -424,7 +432,16 @@ def score(
     eps = epsilon(data.restoring_force(mass), data.G @ theta)
     force = force_residual_percent(data, theta, mass)
     run = free_run_error(fit, record) if free_run else FreeRun(note="not computed")
-    return Scores(eps, force, run.rmse, run.nrmse_percent, run.note, data.filtered_at, int(data.f.size))
+    return Scores(
+        eps,
+        force,
+        run.rmse,
+        run.nrmse_percent,
+        run.note,
+        data.filtered_at,
+        int(data.f.size),
+        freerun_fit_percent=run.fit_percent,
+    )
 
 
 # --------------------------------------------------------------------------- slices of the surface

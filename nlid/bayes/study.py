@@ -17,27 +17,30 @@ from __future__ import annotations
 from collections.abc import Mapping
 from typing import Any
 
+from .. import columns as col
 from ..errors import InputError
 from ..identified import IdentifiedModel
 from ..record import Record
+from ..reference import Reference
 from .inference import PosteriorSampler
 
 __all__ = ["study_metrics"]
 
 
-def _truth_coefficients(truth: Mapping[str, Any] | None) -> dict[str, float] | None:
+def _truth_coefficients(truth: Reference | Mapping[str, Any] | None) -> dict[str, float] | None:
+    """The known coefficients (:meth:`nlid.reference.Reference.from_mapping` reads a mapping), ``None`` if unknown."""
     if truth is None:
         return None
-    coeffs = truth.get("coefficients", truth) if isinstance(truth, Mapping) else None
-    if not isinstance(coeffs, Mapping):
+    if not isinstance(truth, (Reference, Mapping)):
         raise InputError("truth must map term names to values (or hold them under 'coefficients')")
-    return {str(k): float(v) for k, v in coeffs.items()}
+    ref = truth if isinstance(truth, Reference) else Reference.from_mapping(truth)
+    return None if ref.coefficients is None else dict(ref.coefficients)
 
 
 def study_metrics(
     record: Record,
     fit: IdentifiedModel,
-    truth: Mapping[str, Any] | None,
+    truth: Reference | Mapping[str, Any] | None,
     **options: Any,
 ) -> dict[str, float | bool]:
     """Posterior metrics of one study run.
@@ -47,8 +50,9 @@ def study_metrics(
     record, fit
         The data and the identified model of the run.
     truth
-        True coefficients (``{term: value}``, or a preset's ``truth()`` with
-        a ``"coefficients"`` entry), or ``None`` when unknown.
+        The reference: a :class:`~nlid.reference.Reference`, true
+        coefficients (``{term: value}``, or a preset's ``truth()`` with a
+        ``"coefficients"`` entry), or ``None`` when unknown.
     **options
         ``level`` and the :class:`~nlid.bayes.PosteriorSampler` settings.
 
@@ -61,8 +65,9 @@ def study_metrics(
         ``"posterior:tau"`` (the largest integrated autocorrelation time,
         steps), ``"posterior:seconds"`` and ``"posterior:max_bias_shift_sd"``
         (the largest move of a sampled coefficient by the bias correction, in
-        its standard deviations; 0 without the correction). The study
-        summary turns the ``ci_*`` families into one table.
+        its standard deviations; 0 without the correction). The keys are
+        built through the declared column families (:mod:`nlid.columns`);
+        the study summary turns the ``ci_*`` families into one table.
     """
     options = dict(options)
     level = float(options.pop("level", 0.9))
@@ -73,12 +78,12 @@ def study_metrics(
     coeffs = _truth_coefficients(truth)
     if coeffs is not None:
         coeffs = {model.terms[model.index(k)].name: v for k, v in coeffs.items() if k in model}
-    out: dict[str, float | bool] = {"posterior:level": level}
+    out: dict[str, float | bool] = {col.POSTERIOR_LEVEL.key(): level}
     for name, (lo, hi) in posterior.interval(level).items():
-        out[f"ci_lo:{name}"], out[f"ci_hi:{name}"], out[f"ci_width:{name}"] = lo, hi, hi - lo
+        out[col.CI_LO.key(name)], out[col.CI_HI.key(name)], out[col.CI_WIDTH.key(name)] = lo, hi, hi - lo
         if coeffs is not None and name in coeffs:
-            out[f"ci_covers:{name}"] = bool(lo <= coeffs[name] <= hi)
-    out["posterior:tau"] = max(posterior.tau.values())
-    out["posterior:seconds"] = posterior.seconds
-    out["posterior:max_bias_shift_sd"] = max((abs(x) for x in posterior.bias_shifts.values()), default=0.0)
+            out[col.CI_COVERS.key(name)] = bool(lo <= coeffs[name] <= hi)
+    out[col.POSTERIOR_TAU.key()] = max(posterior.tau.values())
+    out[col.POSTERIOR_SECONDS.key()] = posterior.seconds
+    out[col.POSTERIOR_BIAS_SHIFT.key()] = max((abs(x) for x in posterior.bias_shifts.values()), default=0.0)
     return out

@@ -1,6 +1,7 @@
 """The metrics of one run: one flat row of numbers, flags and notes.
 
-Column names (errors are percentages, signed unless noted):
+Column names (each family declared once in :mod:`nlid.study.columns`;
+errors are percentages, signed unless noted):
 
 ``eps_percent``
     Eq. 26 on the estimation data, computed by the core from the data and the
@@ -28,17 +29,18 @@ Column names (errors are percentages, signed unless noted):
     RMS contribution of each term to the identified restoring force (paper
     Fig. 22) and the method's quality indicator when it reports one (NSI's
     E[Re/Im], paper Table 5); see :func:`surface_metrics`.
-``freerun_nrmse_pct``, ``freerun_rmse``, ``freerun_note``
+``freerun_nrmse_pct``, ``freerun_fit_pct``, ``freerun_rmse``, ``freerun_note``
     Free-run simulation error of the identified model driven by the held-out
     force, with the chaos check (:func:`nlid.scoring.free_run_error`: the
     same number ``nlid discover`` reports for the same model and record):
-    ``100 RMS(z_sim - z) / std(z)`` and the RMS error in the record's unit;
-    the note says why it was skipped.
+    ``100 RMS(z_sim - z) / std(z)``, MATLAB ``compare``'s fit
+    ``100 (1 - |z - z_sim| / |z - mean(z)|)`` and the RMS error in the
+    record's unit; the note says why it was skipped.
 """
 
 from __future__ import annotations
 
-import math
+from collections.abc import Mapping
 from typing import Any
 
 import numpy as np
@@ -48,118 +50,56 @@ from ..balance import regression_data
 from ..errors import NlidError
 from ..identified import IdentifiedModel
 from ..record import Record
+from ..reference import Reference, compare, match_equilibria
 from ..scoring import damping_slice
+from . import columns as col
 
 __all__ = [
     "coefficient_metrics",
     "equilibrium_metrics",
     "holdout_metrics",
     "surface_metrics",
+    "match_equilibria",
 ]
 
 NAN = float("nan")
 
 
-def _pct(value: float, ref: float) -> float:
-    return 100.0 * (value - ref) / abs(ref) if ref else NAN
+def coefficient_metrics(result: IdentifiedModel, reference: Reference | Mapping[str, Any]) -> dict[str, float]:
+    """``coef:<term>``, ``coef_error_pct:<term>``, ``mass`` and ``mass_error_pct``.
 
-
-def coefficient_metrics(result: IdentifiedModel, reference: dict[str, Any]) -> dict[str, float]:
-    """``coef:<term>``, ``coef_error_pct:<term>``, ``mass`` and ``mass_error_pct``."""
-    row: dict[str, float] = {}
-    ref = reference.get("coefficients") or {}
-    for name, value in result.coefficients.items():
-        row[f"coef:{name}"] = float(value)
-        if ref.get(name):
-            row[f"coef_error_pct:{name}"] = _pct(value, ref[name])
-    row["mass"] = NAN if result.mass is None else float(result.mass)
-    if result.mass_estimated and result.mass is not None and reference.get("mass"):
-        row["mass_error_pct"] = _pct(result.mass, reference["mass"])
-    return row
-
-
-def match_equilibria(expected: list[float], found: list[float]) -> dict[int, int]:
-    """Pair reference and identified equilibria, nearest first, each used once.
-
-    Returns
-    -------
-    dict
-        ``{index in expected: index in found}``; unmatched expected ones are absent.
+    :meth:`nlid.reference.Comparison.coefficient_row`.
     """
-    pairs = sorted((abs(e - f), i, j) for i, e in enumerate(expected) for j, f in enumerate(found))
-    used_i: set[int] = set()
-    used_j: set[int] = set()
-    out = {}
-    for _, i, j in pairs:
-        if i in used_i or j in used_j:
-            continue
-        out[i] = j
-        used_i.add(i)
-        used_j.add(j)
-    return out
+    return compare(result, reference).coefficient_row()
 
 
-def equilibrium_metrics(result: IdentifiedModel, reference: dict[str, Any]) -> dict[str, float]:
-    """Equilibrium counts and errors, and the modal parameters at each matched equilibrium."""
-    found = sorted(result.equilibria.stable) if result.equilibria is not None else []
-    row: dict[str, float] = {"eq_found": float(len(found))}
-    expected = reference.get("equilibria")
-    if not expected:
-        for k, m in enumerate(result.modal, start=1):
-            row[f"fn_hz:s{k}"] = m.fn_hz
-            row[f"zeta:s{k}"] = m.zeta
-        return row
-    ref_modal = reference.get("modal") or []
-    match = match_equilibria(list(expected), found)
-    # modal parameters are matched on their own: a method may linearise at its
-    # own reference point (nsi-shift: each well's shifted zero) rather than at
-    # the equilibrium of the combined model
-    modal = list(result.modal)
-    modal_match = match_equilibria(list(expected), [m.equilibrium for m in modal])
-    row["eq_expected"] = float(len(expected))
-    row["eq_missing"] = float(len(expected) - len(match))
-    errors = []
-    for i, z_ref in enumerate(expected):
-        label = f"s{i + 1}"
-        if i not in match:
-            row[f"eq:{label}"] = NAN
-            row[f"eq_error_pct:{label}"] = NAN
-            errors.append(NAN)
-            continue
-        z = found[match[i]]
-        err = 100.0 * abs(z - z_ref) / abs(z_ref) if z_ref else NAN
-        row[f"eq:{label}"] = z
-        row[f"eq_error_pct:{label}"] = err
-        errors.append(err)
-        m = modal[modal_match[i]] if i in modal_match else None
-        if m is not None:
-            row[f"fn_hz:{label}"] = m.fn_hz
-            row[f"zeta:{label}"] = m.zeta
-            if i < len(ref_modal):
-                row[f"fn_error_pct:{label}"] = _pct(m.fn_hz, ref_modal[i]["fn_hz"])
-                row[f"zeta_error_pct:{label}"] = _pct(m.zeta, ref_modal[i]["zeta"])
-    row["eq_error_max_pct"] = max(errors) if errors and not any(math.isnan(e) for e in errors) else NAN
-    return row
+def equilibrium_metrics(result: IdentifiedModel, reference: Reference | Mapping[str, Any]) -> dict[str, float]:
+    """Equilibrium counts and errors, and the modal parameters at each matched equilibrium.
+
+    :meth:`nlid.reference.Comparison.equilibrium_row`: the reference's equilibria are the columns, the modes are
+    matched to them by position.
+    """
+    return compare(result, reference).equilibrium_row()
 
 
 def holdout_metrics(heldout: Record | None, fit: IdentifiedModel, free_run: bool = True) -> dict[str, Any]:
     """``eps_holdout_percent`` and the free-run columns, from :meth:`nlid.IdentifiedModel.score`."""
     row: dict[str, Any] = {
-        "eps_holdout_percent": NAN,
-        "freerun_nrmse_pct": NAN,
-        "freerun_rmse": NAN,
-        "freerun_note": "skipped: disabled in the study" if not free_run else "skipped: no held-out data",
+        col.EPS_HOLDOUT.key(): NAN,
+        col.FREERUN_NRMSE.key(): NAN,
+        col.FREERUN_FIT.key(): NAN,
+        col.FREERUN_RMSE.key(): NAN,
+        col.FREERUN_NOTE.key(): "skipped: disabled in the study" if not free_run else "skipped: no held-out data",
     }
     if heldout is None:
         return row
     scores = fit.score(heldout, free_run=free_run)
-    row["eps_holdout_percent"] = scores.eps_percent
+    row[col.EPS_HOLDOUT.key()] = scores.eps_percent
     if free_run:
-        row.update(
-            freerun_nrmse_pct=scores.freerun_nrmse_percent,
-            freerun_rmse=scores.freerun_rmse,
-            freerun_note=scores.freerun_note,
-        )
+        row[col.FREERUN_NRMSE.key()] = scores.freerun_nrmse_percent
+        row[col.FREERUN_FIT.key()] = scores.freerun_fit_percent
+        row[col.FREERUN_RMSE.key()] = scores.freerun_rmse
+        row[col.FREERUN_NOTE.key()] = scores.freerun_note
     return row
 
 
@@ -192,10 +132,10 @@ def surface_metrics(
     row: dict[str, float] = {}
     for term, value in (result.diagnostics.get("quality") or {}).items():
         if value is not None:
-            row[f"quality:{term}"] = float(value)
+            row[col.QUALITY.key(term)] = float(value)
     data = regression_data(record, model)
     for term, value in physics.rms_contributions(model, result.theta, data.z, data.v).items():
-        row[f"rms:{term}"] = value
+        row[col.RMS.key(term)] = value
     arrays: dict[str, np.ndarray] = {}
     if result.mass is None or data.v is None:
         return row, arrays
@@ -205,9 +145,9 @@ def surface_metrics(
         except NlidError:
             continue
         keep = np.linspace(0, sl.v.size - 1, min(SLICE_POINTS, sl.v.size)).astype(int)
-        arrays[f"slice{k}:z0"] = np.array(sl.z0)
-        arrays[f"slice{k}:v"] = sl.v[keep]
-        arrays[f"slice{k}:measured"] = sl.measured[keep]
-        arrays[f"slice{k}:v_grid"] = sl.v_grid
-        arrays[f"slice{k}:model"] = sl.model
+        arrays[col.SLICES.key(k, "z0")] = np.array(sl.z0)
+        arrays[col.SLICES.key(k, "v")] = sl.v[keep]
+        arrays[col.SLICES.key(k, "measured")] = sl.measured[keep]
+        arrays[col.SLICES.key(k, "v_grid")] = sl.v_grid
+        arrays[col.SLICES.key(k, "model")] = sl.model
     return row, arrays

@@ -2,9 +2,10 @@
 
 :func:`execute_run` rebuilds the records from the run's spec, identifies
 (timing it and tracing its peak memory), computes the metrics
-(:mod:`nlid.study.metrics`) and, when the study has a ``[posterior]`` table,
-adds ``nlid.bayes.study_metrics(record, model, result, reference,
-**options)`` to the row. It never raises: a failure is a payload with
+(:mod:`nlid.study.metrics`, :meth:`nlid.reference.Comparison.to_row`; the
+columns are declared in :mod:`nlid.study.columns`) and, when the study has a
+``[posterior]`` table, adds ``nlid.bayes.study_metrics(record, result,
+reference, **options)`` to the row. It never raises: a failure is a payload with
 ``status = "failed"`` and the error message.
 
 :func:`run_isolated` runs :func:`execute_run` in a child process so a hung or
@@ -41,7 +42,9 @@ from .. import isolation
 from ..errors import NlidError
 from ..interface import to_jsonable
 from ..pipeline import as_model, identify
+from ..reference import compare
 from ..registry import load_registry
+from . import columns as col
 from . import metrics
 from .data import build_data
 from .plan import RunSpec
@@ -54,27 +57,29 @@ RUN_FOLDER_PREFIX = "nlid-run-"
 
 def _base_row(spec: RunSpec) -> dict[str, Any]:
     return {
-        "run_id": spec.run_id,
-        "dataset": spec.dataset.name,
-        "model": spec.model,
-        "method": spec.method,
-        "repetition": spec.repetition,
-        "seed": spec.seed,
-        "status": "ok",
-        "error": "",
+        col.RUN_ID.key(): spec.run_id,
+        col.DATASET.key(): spec.dataset.name,
+        col.MODEL.key(): spec.model,
+        col.METHOD.key(): spec.method,
+        col.REPETITION.key(): spec.repetition,
+        col.SEED.key(): spec.seed,
+        col.STATUS.key(): "ok",
+        col.ERROR.key(): "",
     }
 
 
 def failure_payload(spec: RunSpec, status: str, error: str) -> dict[str, Any]:
     """The payload of a run that produced no result."""
     row = _base_row(spec)
-    row.update(status=status, error=error)
+    row[col.STATUS.key()] = status
+    row[col.ERROR.key()] = error
     return {"run_id": spec.run_id, "row": row, "result": None, "reference": None, "arrays": {}}
 
 
 def _add_warning(row: dict[str, Any], text: str) -> None:
     """Append a warning to the row's ``warnings`` column (``" | "``-separated)."""
-    row["warnings"] = f"{row['warnings']} | {text}" if row["warnings"] else text
+    key = col.WARNINGS.key()
+    row[key] = f"{row[key]} | {text}" if row[key] else text
 
 
 def execute_run(spec: RunSpec) -> dict[str, Any]:
@@ -112,24 +117,21 @@ def _execute(spec: RunSpec) -> dict[str, Any]:
     finally:
         tracemalloc.stop()
     row = _base_row(spec)
-    row.update(
-        seconds=seconds,
-        peak_memory_mb=peak / 1e6,
-        method_seconds=result.seconds,
-        samples=data.record.n,
-        z_min=float(data.record.z.min()),
-        z_max=float(data.record.z.max()),
-        eps_percent=result.eps_percent,
-        force_residual_percent=result.force_residual_percent,
-        warnings=" | ".join(result.warnings),
-    )
+    row[col.SECONDS.key()] = seconds
+    row[col.PEAK_MEMORY.key()] = peak / 1e6
+    row[col.METHOD_SECONDS.key()] = result.seconds
+    row[col.SAMPLES.key()] = data.record.n
+    row[col.Z_MIN.key()] = float(data.record.z.min())
+    row[col.Z_MAX.key()] = float(data.record.z.max())
+    row[col.EPS.key()] = result.eps_percent
+    row[col.FORCE_RESIDUAL.key()] = result.force_residual_percent
+    row[col.WARNINGS.key()] = " | ".join(result.warnings)
     try:
         row.update(metrics.holdout_metrics(data.heldout, result, spec.dataset.freerun))
     except NlidError as exc:
         row.update(metrics.holdout_metrics(None, result, False))
         _add_warning(row, f"held-out scores: {exc}")
-    row.update(metrics.coefficient_metrics(result, data.reference))
-    row.update(metrics.equilibrium_metrics(result, data.reference))
+    row.update(compare(result, data.reference).to_row())
     slices = spec.dataset.slices
     surface, extra_arrays = metrics.surface_metrics(data.record, result, slices)
     row.update(surface)
@@ -142,13 +144,12 @@ def _execute(spec: RunSpec) -> dict[str, Any]:
         except NlidError as exc:
             extra = {}
             _add_warning(row, f"posterior: {exc}")
-        for key, value in dict(extra).items():
-            row[key if key not in row else f"posterior:{key}"] = value
+        row.update(extra)  # declared families (nlid.study.columns): they never collide with the columns above
     return {
         "run_id": spec.run_id,
         "row": to_jsonable(row),
         "result": result.to_dict(),
-        "reference": to_jsonable(data.reference),
+        "reference": to_jsonable(data.reference.to_dict()),
         "arrays": {**{k: np.asarray(v) for k, v in result.arrays.items()}, **extra_arrays},
     }
 

@@ -3,13 +3,13 @@
 from __future__ import annotations
 
 import contextlib
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 
-from nlid.plugin import DataError, InputError, Option, Record, derivatives
+from nlid.plugin import DataError, FigureArray, InputError, Option, Record, derivatives
 
 from .fit import NSIFit, format_eigenvalues
 from .reconstruction import Reconstruction, fuse_motion, reconstruct_motion
@@ -21,6 +21,8 @@ __all__ = [
     "denoise_operator",
     "blas_threads",
     "fit_arrays",
+    "well_suffix",
+    "figure_arrays",
     "reconstruction",
     "reconstruction_diagnostics",
 ]
@@ -290,8 +292,17 @@ def fit_summary(fit: NSIFit) -> dict[str, Any]:
     }
 
 
+#: Key of a coefficient spectrum: this prefix, the term, the fit's suffix (:func:`well_suffix`).
+SPECTRUM_PREFIX = "coef_spectrum:"
+
+
+def well_suffix(index: int) -> str:
+    """Suffix of the array keys of fit ``index`` (from 0): none for the first, ``@wellN`` for the others."""
+    return "" if index == 0 else f"@well{index}"
+
+
 def fit_arrays(fit: NSIFit, suffix: str = "") -> dict[str, np.ndarray]:
-    """The arrays of a fit under the keys of :class:`nlid.plugin.Estimate`."""
+    """The arrays of a fit under the keys of :class:`nlid.plugin.Estimate` (``suffix``: :func:`well_suffix`)."""
     f_hz = fit.w_plot / (2 * np.pi)
     out = {
         f"singular_values{suffix}": np.asarray(fit.singular_values),
@@ -300,8 +311,28 @@ def fit_arrays(fit: NSIFit, suffix: str = "") -> dict[str, np.ndarray]:
         f"coef_frequency_hz{suffix}": f_hz,
     }
     for s in fit.spectra:
-        out[f"coef_spectrum:{s.name}{suffix}"] = np.asarray(s.value)
+        out[f"{SPECTRUM_PREFIX}{s.name}{suffix}"] = np.asarray(s.value)
     return out
+
+
+def figure_arrays(arrays: Mapping[str, Any], wells: bool) -> tuple[FigureArray, ...]:
+    """What reports draw from the arrays :func:`fit_arrays` wrote (the identifiers' ``figure_arrays``).
+
+    Every fit's FRF, then every coefficient spectrum, in the order of their keys; with ``wells``
+    (nsi-shift: one fit per stable well) each is labelled with its well.
+    """
+    frfs: list[FigureArray] = []
+    spectra: list[FigureArray] = []
+    for key in sorted(arrays):
+        name, _, well = key.partition("@")
+        suffix = f"@{well}" if well else ""
+        label = f"well {int(well[len('well') :]) + 1 if well else 1}" if wells else ""
+        if name == "frf":
+            frfs.append(FigureArray("frf", key, f"frf_frequency_hz{suffix}", label))
+        elif name.startswith(SPECTRUM_PREFIX):
+            term = name[len(SPECTRUM_PREFIX) :]
+            spectra.append(FigureArray("coefficient spectrum", key, f"coef_frequency_hz{suffix}", label, term))
+    return (*frfs, *spectra)
 
 
 def reconstruction(

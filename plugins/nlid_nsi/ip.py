@@ -83,11 +83,12 @@ Mass
 from __future__ import annotations
 
 import time
+from collections.abc import Mapping
 from typing import Any
 
 import numpy as np
 
-from nlid.plugin import Estimate, Identifier, Model, Option, Record, equilibria, modal
+from nlid.plugin import Estimate, FigureArray, Identifier, Model, Option, Record, equilibria, modal
 
 from .basis import split_model
 from .channels import Channels, perturbation_map, perturbation_subspace, prepare_channels, static_constant
@@ -97,6 +98,7 @@ from .common import (
     blas_threads,
     check_length,
     eigen_list,
+    figure_arrays,
     fit_arrays,
     fit_summary,
     force_hold,
@@ -274,6 +276,11 @@ class NSIInputPerturbation(Identifier):
         ),
         *COMMON_OPTIONS,
     )
+
+    @classmethod
+    def figure_arrays(cls, arrays: Mapping[str, Any]) -> tuple[FigureArray, ...]:
+        """What study reports draw from this method's arrays (one FRF, its coefficient spectra)."""
+        return figure_arrays(arrays, wells=False)
 
     def identify(self, record: Record, model: Model, *, mass: float | None = None) -> Estimate:
         """Identify every coefficient of ``model`` (and the mass unless given)."""

@@ -51,11 +51,12 @@ from __future__ import annotations
 
 import math
 import time
+from collections.abc import Mapping
 from typing import Any
 
 import numpy as np
 
-from nlid.plugin import Estimate, IdentificationError, Identifier, Model, Option, Record, equilibria
+from nlid.plugin import Estimate, FigureArray, IdentificationError, Identifier, Model, Option, Record, equilibria
 
 from .basis import Basis, shifted_basis, split_model
 from .channels import prepare_channels, static_constant
@@ -64,12 +65,14 @@ from .common import (
     HOLD_ASSUMED,
     blas_threads,
     check_length,
+    figure_arrays,
     fit_arrays,
     fit_summary,
     force_hold,
     reconstruction,
     reconstruction_diagnostics,
     velocity_estimate,
+    well_suffix,
 )
 from .fit import NSIFit, UnstableULSError, fit_extended
 from .gram import block_hankel_gram, clip_indefinite
@@ -149,6 +152,11 @@ class NSIZeroShift(Identifier):
         ),
         *COMMON_OPTIONS,
     )
+
+    @classmethod
+    def figure_arrays(cls, arrays: Mapping[str, Any]) -> tuple[FigureArray, ...]:
+        """What study reports draw from this method's arrays: each well's FRF and coefficient spectra, by well."""
+        return figure_arrays(arrays, wells=True)
 
     def identify(self, record: Record, model: Model, *, mass: float | None = None) -> Estimate:
         """Identify every coefficient of ``model`` (and the mass unless given)."""
@@ -275,7 +283,7 @@ class NSIZeroShift(Identifier):
         ]
         arrays: dict[str, np.ndarray] = {}
         for i, fit in enumerate(fits):
-            arrays.update(fit_arrays(fit, "" if i == 0 else f"@well{i}"))
+            arrays.update(fit_arrays(fit, well_suffix(i)))
         diagnostics: dict[str, Any] = {
             "wells": wells,
             "combine": opt["combine"],

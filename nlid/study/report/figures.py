@@ -13,10 +13,12 @@ Every figure has units on its axes, a legend and a one-line caption.
 * ``rms_*``: each term's RMS contribution to R (paper Fig. 22).
 * From a result's ``arrays`` when the method provides them
   (:class:`nlid.identified.IdentifiedModel`): ``sv_*`` singular values
-  (paper Fig. 9/12), ``frf_*`` the method's underlying-linear receptance
+  (paper Fig. 9/12), ``frf_*`` the method's underlying-linear receptance(s)
   (Fig. 10/15) with the identified model linearised at each stable
   equilibrium, ``coef_*`` the frequency-dependent coefficient estimates, real
   and imaginary parts, with the band they are averaged over (Fig. 11/13).
+  Which arrays are receptances and spectra the method declares
+  (:meth:`nlid.plugin.Identifier.figure_arrays`); no array name is parsed here.
 """
 
 from __future__ import annotations
@@ -29,14 +31,20 @@ import numpy as np
 import pandas as pd
 
 from ... import physics
+from ...errors import NlidError
 from ...formatting import sig
+from ...interface import FigureArray, standard_figure_arrays
 from ...plotting import new_figure, save_figure
+from ...registry import registry_for
 from ...terms import Model
-from .tables import Section
+from .. import columns as col
+from .section import Section
+from .verdict import identical_methods
 
-__all__ = ["section_figures", "Figure"]
+__all__ = ["section_figures", "Figure", "figure_arrays"]
 
 _SAFE = re.compile(r"[^A-Za-z0-9_.+-]+")
+_DATASET, _MODEL, _METHOD = col.DATASET.key(), col.MODEL.key(), col.METHOD.key()
 
 
 class Figure:
@@ -72,7 +80,7 @@ def section_figures(section: Section, records: list[dict[str, Any]], store: Any,
     recs = [
         r
         for r in records
-        if r["row"]["dataset"] == section.dataset and r["row"]["model"] == section.model and r.get("result")
+        if r["row"][_DATASET] == section.dataset and r["row"][_MODEL] == section.model and r.get("result")
     ]
     if not recs:
         return figures
@@ -82,7 +90,7 @@ def section_figures(section: Section, records: list[dict[str, Any]], store: Any,
             figures.append(fig)
     for method in section.methods:
         for rec in recs:
-            if rec["row"]["method"] == method and rec.get("arrays"):
+            if rec["row"][_METHOD] == method and rec.get("arrays"):
                 figures += _array_figures(section, method, rec, store.arrays(rec["run_id"]), folder)
                 break
     return figures
@@ -90,8 +98,6 @@ def section_figures(section: Section, records: list[dict[str, Any]], store: Any,
 
 def _groups(section: Section) -> list[tuple[str, ...]]:
     """The methods with runs, those with identical coefficients on every record merged (``rfs = sindy``)."""
-    from .verdict import identical_methods
-
     same = identical_methods(section)
     out: list[tuple[str, ...]] = []
     for m in section.present_methods:
@@ -102,8 +108,8 @@ def _groups(section: Section) -> list[tuple[str, ...]]:
 
 def _kz_figure(section: Section, recs: list[dict[str, Any]], folder: Path) -> Figure | None:
     ref = section.reference or {}
-    z_lo = min(r["row"]["z_min"] for r in recs)
-    z_hi = max(r["row"]["z_max"] for r in recs)
+    z_lo = min(r["row"][col.Z_MIN.key()] for r in recs)
+    z_hi = max(r["row"][col.Z_MAX.key()] for r in recs)
     z = np.linspace(z_lo, z_hi, 400)
     k_ref = None
     if ref.get("terms") and ref.get("coefficients"):
@@ -119,7 +125,7 @@ def _kz_figure(section: Section, recs: list[dict[str, Any]], folder: Path) -> Fi
     colors = dict(zip(groups, _colors(len(groups)), strict=True))
     curves: dict[tuple[str, ...], list[np.ndarray]] = {g: [] for g in groups}
     for rec in recs:
-        res, method = rec["result"], rec["row"]["method"]
+        res, method = rec["result"], rec["row"][_METHOD]
         group = next((g for g in groups if method in g), None)
         if group is None or method != group[0]:
             continue  # identical methods: drawn once
@@ -166,7 +172,7 @@ def _kz_figure(section: Section, recs: list[dict[str, Any]], folder: Path) -> Fi
 def _stats(frame: pd.DataFrame, column: str, methods: list[str], absolute: bool = True) -> tuple[list, list, list]:
     med, lo, hi = [], [], []
     for m in methods:
-        sub = frame[(frame["method"] == m) & (frame["status"] == "ok")]
+        sub = frame[(frame[_METHOD] == m) & (frame[col.STATUS.key()] == "ok")]
         x = pd.to_numeric(sub[column], errors="coerce").to_numpy(dtype=float) if column in sub else np.array([])
         x = x[np.isfinite(x)]
         if absolute:
@@ -189,8 +195,8 @@ def _grouped_bars(ax: Any, frame: pd.DataFrame, columns: list[tuple[str, str]], 
     colors = _colors(len(groups))
     for i, group in enumerate(groups):
         med, lo, hi = [], [], []
-        for col, _ in columns:
-            m, a, b = _stats(frame, col, [group[0]])
+        for key, _ in columns:
+            m, a, b = _stats(frame, key, [group[0]])
             med.append(m[0])
             lo.append(a[0])
             hi.append(b[0])
@@ -218,27 +224,21 @@ def _summary_figure(section: Section, folder: Path) -> Figure | None:
     if not groups:
         return None
     cols = frame.columns
-    coef = [(f"coef_error_pct:{t}", t) for t in section.terms if f"coef_error_pct:{t}" in cols]
-    if "mass_error_pct" in cols:
-        coef.append(("mass_error_pct", "mass"))
-    labels = sorted({c.split(":", 1)[1] for c in cols if c.startswith("eq_error_pct:")}, key=lambda s: int(s[1:]))
+
+    def present(*families: col.ColumnFamily, label: str | None = None) -> list[tuple[str, str]]:
+        return [(f.key(label), f.short(label)) for f in families if f.key(label) in cols]
+
+    coef = [(col.COEF_ERROR.key(t), col.COEF_ERROR.short(t)) for t in section.terms_with(col.COEF_ERROR)]
+    coef += present(col.MASS_ERROR)
     modal = []
-    for label in labels:
-        for prefix, name in (("fn_error_pct", "fn"), ("zeta_error_pct", "zeta"), ("eq_error_pct", "z*")):
-            if f"{prefix}:{label}" in cols:
-                modal.append((f"{prefix}:{label}", f"{name} {label}"))
-    fit = [
-        (c, n)
-        for c, n in (("eps_holdout_percent", "eps held-out"), ("freerun_nrmse_pct", "free-run NRMSE"))
-        if c in cols
-    ]
-    if not fit and "eps_percent" in cols:
-        fit = [("eps_percent", "eps")]
+    for label in sorted(col.EQ_ERROR.labels(cols), key=col.label_order):
+        modal += present(col.FN_ERROR, col.ZETA_ERROR, col.EQ_ERROR, label=label)
+    fit = present(col.EPS_HOLDOUT, col.FREERUN_NRMSE) or present(col.EPS)
     panels = [
         (coef, "coefficients: |error| (%)"),
         (modal, "modal parameters and equilibria: |error| (%)"),
         (fit, "held-out residual, free run (%)"),
-        ([("seconds", "time")] if "seconds" in cols else [], "time per identification (s)"),
+        (present(col.SECONDS), "time per identification (s)"),
     ]
     panels = [p for p in panels if p[0]]
     widths = [max(1.5, 0.55 * len(c) * max(1, len(groups)) / 2 + 0.8) for c, _ in panels]
@@ -270,15 +270,15 @@ def _summary_figure(section: Section, folder: Path) -> Figure | None:
 def _rms_figure(section: Section, folder: Path) -> Figure | None:
     """Grouped bars of each term's RMS contribution to R per method (paper Fig. 22)."""
     frame = section.frame
-    terms = section.terms_with("rms:")
-    methods = [m for m in section.methods if (frame["method"] == m).any()]
+    terms = section.terms_with(col.RMS)
+    methods = [m for m in section.methods if (frame[_METHOD] == m).any()]
     if not terms or not methods:
         return None
     fig, ax = new_figure(width=max(6.0, 1.1 * len(terms) + 2.0), height=3.8)
     x = np.arange(len(terms))
     width = 0.8 / len(methods)
     for i, method in enumerate(methods):
-        med = [_stats(frame, f"rms:{t}", [method])[0][0] for t in terms]
+        med = [_stats(frame, col.RMS.key(t), [method])[0][0] for t in terms]
         ax.bar(x + (i - (len(methods) - 1) / 2) * width, med, width, label=method)
     ax.set_yscale("log")
     ax.set_xticks(x, terms, rotation=30, ha="right", fontsize=8)
@@ -296,17 +296,19 @@ def _rms_figure(section: Section, folder: Path) -> Figure | None:
 
 def _slices_figure(section: Section, method: str, tag: str, arrays: dict, folder: Path) -> Figure | None:
     """Measured damping force near each slice position against the identified D(z0, v) (Fig. 21 b-d)."""
-    count = 0
-    while f"slice{count}:z0" in arrays:
-        count += 1
+    count = col.SLICES.count(arrays)
     if not count:
         return None
     fig, axes = new_figure(1, count, width=3.2 * count + 0.6, height=3.4, squeeze=False)
     for k in range(count):
         ax = axes[0, k]
-        z0 = float(np.asarray(arrays[f"slice{k}:z0"]))
-        ax.plot(arrays[f"slice{k}:v"], arrays[f"slice{k}:measured"], ".", color="0.6", ms=2, label="measured")
-        ax.plot(arrays[f"slice{k}:v_grid"], arrays[f"slice{k}:model"], color="C0", lw=1.5, label="identified")
+
+        def part(name: str, k: int = k) -> np.ndarray:
+            return arrays[col.SLICES.key(k, name)]
+
+        z0 = float(np.asarray(part("z0")))
+        ax.plot(part("v"), part("measured"), ".", color="0.6", ms=2, label="measured")
+        ax.plot(part("v_grid"), part("model"), color="C0", lw=1.5, label="identified")
         ax.set_title(f"z near {z0:+.3g} m", fontsize=9)
         ax.set_xlabel("v (m/s)")
     axes[0, 0].set_ylabel("damping force D (N)")
@@ -321,22 +323,32 @@ def _slices_figure(section: Section, method: str, tag: str, arrays: dict, folder
     )
 
 
-def _frf_curves(arrays: dict) -> list[tuple[str, np.ndarray, np.ndarray]]:
-    """``(suffix, frequency, FRF)`` of every underlying-linear FRF in a result's arrays (``@wellN`` suffixes)."""
-    out = []
-    for key in sorted(k for k in arrays if k == "frf" or k.startswith("frf@")):
-        suffix = key[3:]
-        if f"frf_frequency_hz{suffix}" in arrays:
-            freq = np.asarray(arrays[f"frf_frequency_hz{suffix}"], dtype=float).ravel()
-            out.append((suffix, freq, np.asarray(arrays[key]).ravel()))
-    return out
+def figure_arrays(method: str, arrays: dict) -> tuple[FigureArray, ...]:
+    """The arrays of a run that the method declares for figures (:meth:`nlid.plugin.Identifier.figure_arrays`).
+
+    A method no longer installed is read with the keys :class:`nlid.plugin.Estimate` documents. Only
+    declared arrays present with their frequency axis are returned.
+    """
+    try:
+        cls = registry_for(method).get(method)
+    except NlidError:
+        cls = None
+    declare = getattr(cls, "figure_arrays", None)
+    declared = declare(arrays) if callable(declare) else standard_figure_arrays(arrays)
+    return tuple(a for a in declared if a.values in arrays and a.frequency in arrays)
+
+
+def _curve(arrays: dict, declared: FigureArray) -> tuple[np.ndarray, np.ndarray]:
+    """``(frequency, values)`` of a declared array."""
+    return np.asarray(arrays[declared.frequency], dtype=float).ravel(), np.asarray(arrays[declared.values]).ravel()
 
 
 def _frf_figure(section: Section, method: str, rec: dict[str, Any], arrays: dict, folder: Path) -> Figure | None:
     """The method's underlying-linear FRF(s) with the identified model linearised at each stable equilibrium."""
-    curves = _frf_curves(arrays)
-    if not curves:
+    frfs = [a for a in figure_arrays(method, arrays) if a.kind == "frf"]
+    if not frfs:
         return None
+    curves = [(a, *_curve(arrays, a)) for a in frfs]
     res = rec["result"]
     diag = res.get("diagnostics") or {}
     mass = res.get("mass")
@@ -349,15 +361,13 @@ def _frf_figure(section: Section, method: str, rec: dict[str, Any], arrays: dict
     fig, axes = new_figure(2, 1, width=7.0, height=5.6, sharex=True)
     k_tilde = diag.get("k_tilde")
     uls = diag.get("uls") if isinstance(diag.get("uls"), dict) else {}
-    for i, (suffix, f, h) in enumerate(curves):
+    for i, (declared, f, h) in enumerate(curves):
         if k_tilde is not None:
             label = f"{method}: identified underlying-linear system with k~1 = {sig(float(k_tilde), 3)} N/m added"
             if uls.get("fn_hz"):
                 label += f" (fn {sig(uls['fn_hz'], 3)} Hz)"
-        elif suffix.startswith("@well"):
-            label = f"{method}: underlying-linear system of well {int(suffix[5:]) + 1}"
-        elif "wells" in diag:
-            label = f"{method}: underlying-linear system of well 1"
+        elif declared.label:
+            label = f"{method}: underlying-linear system of {declared.label}"
         else:
             label = f"{method}: underlying-linear system"
         axes[0].semilogy(f, np.abs(h), color=f"C{i}", lw=1.8, label=label)
@@ -398,18 +408,18 @@ def _frf_figure(section: Section, method: str, rec: dict[str, Any], arrays: dict
 
 def _coef_figure(section: Section, method: str, rec: dict[str, Any], arrays: dict, folder: Path) -> Figure | None:
     """Real and imaginary parts of each coefficient spectrum, the band averaged over and the reported value."""
-    spectra = sorted(k for k in arrays if k.startswith("coef_spectrum:") and "@" not in k)
-    if not spectra or "coef_frequency_hz" not in arrays:
+    spectra = [a for a in figure_arrays(method, arrays) if a.kind == "coefficient spectrum"]
+    if not spectra:
         return None
+    spectra = [a for a in spectra if a.label == spectra[0].label]  # one fit's (nsi-shift: the first well's)
     res = rec["result"]
     diag = res.get("diagnostics") or {}
     band = diag.get("band_hz")
     band = band if isinstance(band, (list, tuple)) and len(band) == 2 else None
-    freq = np.asarray(arrays["coef_frequency_hz"], dtype=float).ravel()
     fig, axes = new_figure(len(spectra), 2, width=8.5, height=2.4 * len(spectra) + 0.8, squeeze=False)
-    for i, key in enumerate(spectra):
-        term = key.split(":", 1)[1]
-        c = np.asarray(arrays[key]).ravel()
+    for i, spectrum in enumerate(spectra):
+        term = spectrum.term
+        freq, c = _curve(arrays, spectrum)
         unit = section.unit(term) if term in section.terms else ""
         axes[i, 0].plot(freq, c.real, color="C0", lw=1.5, label="estimate at each frequency")
         axes[i, 1].plot(freq, c.imag, color="C0", lw=1.5)

@@ -4,25 +4,43 @@ Every cell is ``median [min, max]`` over the repetitions that succeeded
 (just the value when there is one). Error columns show absolute relative
 errors in percent, as the paper's Tables 2, 4 and 7 do; the reference value
 of each column is given in the first row.
+
+Each table reads the declared column families (:mod:`nlid.study.columns`):
+a scalar family declared with a table section (e.g. the residual and cost
+table) is shown there without code here; a column of no declared family is
+shown under "Other metrics". The pieces of a section live in
+:mod:`.section`, the text outputs in :mod:`.render` (both re-exported here).
 """
 
 from __future__ import annotations
 
-import math
-import re
 from collections.abc import Mapping
-from dataclasses import dataclass, field
 from typing import Any
 
-import numpy as np
 import pandas as pd
 
-from ...errors import NlidError
-from ...formatting import MISSING, TERMINAL_WIDTH, column_digits, sig, spread_cell, text_table, wrap
-from ...terms import parse_term
+from ...formatting import MISSING, column_digits, sig
+from .. import columns as col
 from ..values import PresetSource
+from .render import summary_long, summary_markdown, summary_text
+from .section import (
+    COST_DIGITS,
+    Column,
+    Section,
+    Stats,
+    Table,
+    cell,
+    exact,
+    fmt,
+    has_values,
+    method_rows,
+    runs_cell,
+    stats,
+)
+from .verdict import build_verdict
 
 __all__ = [
+    "COST_DIGITS",
     "Column",
     "Section",
     "Stats",
@@ -38,216 +56,19 @@ __all__ = [
     "summary_text",
 ]
 
-_KNOWN_PREFIXES = (
-    "rms:",
-    "quality:",
-    "ci_lo:",
-    "ci_hi:",
-    "ci_width:",
-    "ci_covers:",
-    "posterior:",
-    "coef:",
-    "coef_error_pct:",
-    "eq:",
-    "eq_error_pct:",
-    "fn_hz:",
-    "fn_error_pct:",
-    "zeta:",
-    "zeta_error_pct:",
-)
-_KNOWN = {
-    "run_id",
-    "dataset",
-    "model",
-    "method",
-    "repetition",
-    "seed",
-    "status",
-    "error",
-    "seconds",
-    "peak_memory_mb",
-    "method_seconds",
-    "samples",
-    "z_min",
-    "z_max",
-    "eps_percent",
-    "force_residual_percent",
-    "eps_holdout_percent",
-    "warnings",
-    "mass",
-    "mass_error_pct",
-    "eq_found",
-    "eq_expected",
-    "eq_missing",
-    "eq_error_max_pct",
-    "freerun_nrmse_pct",
-    "freerun_rmse",
-    "freerun_note",
-}
-
-
-def fmt(x: float | None, digits: int = 3) -> str:
-    """``digits`` significant digits (:func:`nlid.formatting.sig`); an en dash for a missing value."""
-    return sig(x, digits)
-
-
-def exact(x: float | None, max_digits: int = 6) -> str:
-    """The shortest text of ``x`` with at most ``max_digits`` significant digits (for reference values)."""
-    if x is None or not math.isfinite(x):
-        return MISSING
-    for digits in range(1, max_digits + 1):
-        text = sig(x, digits)
-        if math.isclose(float(text), x, rel_tol=0.5 * 10 ** -(max_digits - 1)):
-            return text
-    return sig(x, max_digits)
-
-
-@dataclass(frozen=True)
-class Stats:
-    """Median, minimum and maximum of a cell over the repetitions (``n`` values)."""
-
-    median: float
-    lo: float
-    hi: float
-    n: int
-
-    @property
-    def triple(self) -> tuple[float, float, float]:
-        """``(median, min, max)``."""
-        return self.median, self.lo, self.hi
-
-
-def stats(values: pd.Series | np.ndarray | list, absolute: bool = False) -> Stats | None:
-    """The :class:`Stats` of the finite values (``None`` when there is none)."""
-    x = pd.to_numeric(pd.Series(values), errors="coerce").to_numpy(dtype=float)
-    x = x[np.isfinite(x)]
-    if absolute:
-        x = np.abs(x)
-    if x.size == 0:
-        return None
-    return Stats(float(np.median(x)), float(x.min()), float(x.max()), int(x.size))
-
-
-def _is_flags(values: pd.Series) -> bool:
-    present = values.dropna()
-    return bool(len(present)) and all(isinstance(v, (bool, np.bool_)) for v in present)
-
-
-def _flags_cell(values: pd.Series) -> str:
-    present = values.dropna().astype(bool)
-    return f"{sig(float(np.mean(present)), 2)} ({int(present.sum())} of {len(present)})"
-
-
-def cell(values: pd.Series, absolute: bool = False, digits: int | None = None) -> str:
-    """``median [min, max]`` of the finite values (true/false values: the fraction true).
-
-    ``digits`` defaults to what the spread needs (:func:`nlid.formatting.spread_digits`).
-    """
-    if _is_flags(values):
-        return _flags_cell(values)
-    st = stats(values, absolute)
-    if st is None:
-        return MISSING
-    if digits is None:
-        digits = column_digits([st.triple])
-    return spread_cell(*st.triple, digits=digits) if st.n > 1 else sig(st.median, digits)
-
-
-#: Significant digits of time and memory (machine measurements: their spread is the machine's load).
-COST_DIGITS = 3
-
-
-@dataclass(frozen=True)
-class Column:
-    """A metric column of a method table: results column, header, absolute value?, lower is better?"""
-
-    key: str
-    header: str
-    absolute: bool = False
-    lower_better: bool = False
-    digits: int | None = None  # fixed significant digits (default: from the spread)
-
-
-@dataclass
-class Table:
-    """A titled table: header, rows of cells, notes below; ``best`` cells are highlighted."""
-
-    title: str
-    header: list[str]
-    rows: list[list[str]]
-    notes: list[str] = field(default_factory=list)
-    best: set[tuple[int, int]] = field(default_factory=set)
-    caption: str = ""
-
-
-@dataclass
-class Section:
-    """One dataset x model of a study."""
-
-    dataset: str
-    model: str
-    description: str
-    terms: list[str]
-    methods: list[str]
-    frame: pd.DataFrame
-    reference: dict[str, Any] | None
-    tables: list[Table] = field(default_factory=list)
-    failures: list[str] = field(default_factory=list)
-    units: dict[str, str] = field(default_factory=dict)
-    diagnostics: dict[str, list[dict[str, Any]]] = field(default_factory=dict)
-    verdict: Any = None
-
-    def terms_with(self, prefix: str) -> list[str]:
-        """The section's terms, in model order, that have a ``<prefix><term>`` column."""
-        return [t for t in self.terms if f"{prefix}{t}" in self.frame.columns]
-
-    @property
-    def present_methods(self) -> list[str]:
-        """The methods with at least one run in this section, in study order."""
-        if self.frame.empty:
-            return []
-        return [m for m in self.methods if (self.frame["method"] == m).any()]
-
-    def ok(self, method: str) -> pd.DataFrame:
-        """The successful runs of ``method``."""
-        f = self.frame
-        return f[(f["method"] == method) & (f["status"] == "ok")]
-
-    def unit(self, term: str) -> str:
-        """SI unit of a term's coefficient (from the results; computed from the term otherwise)."""
-        if term in self.units:
-            return self.units[term]
-        try:
-            return parse_term(term).coefficient_unit
-        except NlidError:
-            return ""
-
-
-def _labels(frame: pd.DataFrame, prefix: str) -> list[str]:
-    return [c[len(prefix) :] for c in frame.columns if c.startswith(prefix)]
-
-
-def _runs_cell(sub: pd.DataFrame) -> str:
-    n = len(sub)
-    ok = int((sub["status"] == "ok").sum())
-    text = f"{ok}/{n}"
-    timeouts = int((sub["status"] == "timeout").sum())
-    failed = n - ok - timeouts
-    extra = [f"{failed} failed"] * bool(failed) + [f"{timeouts} timed out"] * bool(timeouts)
-    return text + (f" ({', '.join(extra)})" if extra else "")
+_DATASET, _MODEL, _METHOD = col.DATASET.key(), col.MODEL.key(), col.METHOD.key()
+_STATUS, _REPETITION, _ERROR = col.STATUS.key(), col.REPETITION.key(), col.ERROR.key()
 
 
 def build_sections(config: Any, frame: pd.DataFrame, records: list[dict[str, Any]]) -> list[Section]:
     """Group the results by dataset and model, build their tables and their verdict."""
-    from .verdict import build_verdict
-
     sections = []
     refs: dict[tuple[str, str], dict[str, Any]] = {}
     terms: dict[tuple[str, str], list[str]] = {}
     units: dict[tuple[str, str], dict[str, str]] = {}
     diagnostics: dict[tuple[str, str], dict[str, list[dict[str, Any]]]] = {}
     for rec in records:
-        key = (rec["row"]["dataset"], rec["row"]["model"])
+        key = (rec["row"][_DATASET], rec["row"][_MODEL])
         if rec.get("reference") and key not in refs:
             refs[key] = rec["reference"]
         result = rec.get("result")
@@ -255,17 +76,17 @@ def build_sections(config: Any, frame: pd.DataFrame, records: list[dict[str, Any
             terms.setdefault(key, result["terms"])
             units.setdefault(key, {}).update(result.get("units") or {})
             diag = dict(result.get("diagnostics") or {})
-            diag["_repetition"] = rec["row"].get("repetition")
+            diag["_repetition"] = rec["row"].get(_REPETITION)
             diag["_model_terms"] = list(result["terms"])
             diag["_warnings"] = list(result.get("warnings") or [])
-            diagnostics.setdefault(key, {}).setdefault(rec["row"]["method"], []).append(diag)
+            diagnostics.setdefault(key, {}).setdefault(rec["row"][_METHOD], []).append(diag)
     for ds in config.datasets:
         for model in ds.models:
             key = (ds.name, model.name)
             if frame.empty:
                 sub = frame
             else:
-                sub = frame[(frame["dataset"] == ds.name) & (frame["model"] == model.name)].dropna(axis=1, how="all")
+                sub = frame[(frame[_DATASET] == ds.name) & (frame[_MODEL] == model.name)].dropna(axis=1, how="all")
             src = ds.source
             what = ds.description or f"{ds.kind} {ds.to_dict()['source']}"
             if isinstance(src, PresetSource):
@@ -290,230 +111,160 @@ def build_sections(config: Any, frame: pd.DataFrame, records: list[dict[str, Any
     return sections
 
 
-def _method_rows(section: Section, columns: list[Column], digits: int | None = None) -> tuple[list[list[str]], set]:
-    """One row per method with runs: ``[method, runs, cells...]``, and the best cells ``{(row, column)}``.
-
-    Every column has one count of significant digits, chosen from the spread of its cells
-    (:func:`nlid.formatting.column_digits`) unless ``digits`` is given; in a lower-is-better
-    column the cells with the lowest median are the best.
-    """
-    methods = section.present_methods
-    table: dict[str, list[Stats | str | None]] = {}
-    for method in methods:
-        ok = section.ok(method)
-        cells: list[Stats | str | None] = []
-        for col in columns:
-            if col.key not in ok.columns:
-                cells.append(None)
-            elif _is_flags(ok[col.key]):
-                cells.append(_flags_cell(ok[col.key]))
-            else:
-                cells.append(stats(ok[col.key], col.absolute))
-        table[method] = cells
-    rows = [[m, _runs_cell(section.frame[section.frame["method"] == m])] for m in methods]
-    best: set[tuple[int, int]] = set()
-    for j, col in enumerate(columns):
-        numeric = {m: table[m][j] for m in methods if isinstance(table[m][j], Stats)}
-        d = col.digits or digits or column_digits([st.triple for st in numeric.values()])
-        for i, m in enumerate(methods):
-            value = table[m][j]
-            if isinstance(value, Stats):
-                text = spread_cell(*value.triple, digits=d) if value.n > 1 else sig(value.median, d)
-            else:
-                text = value if isinstance(value, str) else MISSING
-            rows[i].append(text)
-        if col.lower_better and len(numeric) > 1:
-            lowest = min(st.median for st in numeric.values())
-            for i, m in enumerate(methods):
-                st = numeric.get(m)
-                if st is not None and st.median == lowest:
-                    best.add((i, j + 2))
-    return rows, best
-
-
-def _offset(best: set[tuple[int, int]], rows: int) -> set[tuple[int, int]]:
-    """Best-cell positions after ``rows`` rows were put above."""
-    return {(i + rows, j) for i, j in best}
-
-
 def _reference_table(section: Section) -> Table | None:
     """The reference values the error tables are relative to (SI), one per line."""
     ref = section.reference or {}
+    columns = section.frame.columns
     rows: list[list[str]] = []
     for term in section.terms:
         value = (ref.get("coefficients") or {}).get(term)
-        if value is not None and f"coef:{term}" in section.frame.columns:
+        if value is not None and col.COEF.key(term) in columns:
             rows.append([f"coefficient of {term}", exact(value), section.unit(term)])
-    if ref.get("mass") is not None and "mass_error_pct" in section.frame.columns:
+    if ref.get("mass") is not None and col.MASS_ERROR.key() in columns:
         rows.append(["mass", exact(ref["mass"]), "kg"])
     modal = ref.get("modal") or []
     for k, z in enumerate(ref.get("equilibria") or []):
-        rows.append([f"s{k + 1}: stable equilibrium", exact(z, 4), "m"])
+        label = col.equilibrium_label(k)
+        rows.append([f"{label}: stable equilibrium", exact(z, 4), "m"])
         if k < len(modal):
-            rows.append([f"s{k + 1}: natural frequency fn", exact(modal[k]["fn_hz"], 4), "Hz"])
-            rows.append([f"s{k + 1}: damping ratio zeta", exact(100 * modal[k]["zeta"], 3), "%"])
+            rows.append([f"{label}: natural frequency fn", exact(modal[k]["fn_hz"], 4), "Hz"])
+            rows.append([f"{label}: damping ratio zeta", exact(100 * modal[k]["zeta"], 3), "%"])
     if not rows:
         return None
     return Table("Reference values (the truth the errors are relative to)", ["quantity", "value", "unit"], rows)
 
 
-def _fill(section: Section) -> None:
-    frame, ref = section.frame, section.reference or {}
-    ref_coefs = ref.get("coefficients") or {}
-    reference = _reference_table(section)
-    if reference is not None:
-        section.tables.append(reference)
-    err_terms = _labels(frame, "coef_error_pct:")
+def _head(columns: list[Column]) -> list[str]:
+    """The header of a method table: method, runs, then the columns'."""
+    return [col.METHOD.header(), "runs", *(c.header for c in columns)]
+
+
+def _coefficient_error_table(section: Section) -> Table | None:
+    """|Relative error| of each coefficient and of an estimated mass."""
+    frame = section.frame
+    err_terms = col.COEF_ERROR.labels(frame.columns)
     order = {t: i for i, t in enumerate(section.terms)}
     err_terms.sort(key=lambda t: order.get(t, len(order)))
-    if err_terms:
-        cols = [Column(f"coef_error_pct:{t}", f"{t} (%)", True, True) for t in err_terms]
-        if "mass_error_pct" in frame.columns:
-            cols.append(Column("mass_error_pct", "mass (%)", True, True))
-        rows, best = _method_rows(section, cols)
-        section.tables.append(
-            Table(
-                "Coefficients: |relative error| in % (median [min, max] over repetitions)",
-                ["method", "runs", *(c.header for c in cols)],
-                rows,
-                best=best,
-            )
-        )
-    value_terms = section.terms_with("coef:")
-    cols = [Column(f"coef:{t}", f"{t} ({section.unit(t)})") for t in value_terms]
-    has_mass = frame.get("mass") is not None and pd.to_numeric(frame["mass"], errors="coerce").notna().any()
+    if not err_terms:
+        return None
+    cols = [Column.of(col.COEF_ERROR, t) for t in err_terms]
+    if col.MASS_ERROR.key() in frame.columns:
+        cols.append(Column.of(col.MASS_ERROR))
+    rows, best = method_rows(section, cols)
+    return Table(
+        "Coefficients: |relative error| in % (median [min, max] over repetitions)", _head(cols), rows, best=best
+    )
+
+
+def _coefficient_table(section: Section) -> Table:
+    """The identified coefficients and mass, below the reference values."""
+    frame, ref = section.frame, section.reference or {}
+    ref_coefs = ref.get("coefficients") or {}
+    value_terms = section.terms_with(col.COEF)
+    cols = [Column.of(col.COEF, t, unit=section.unit(t)) for t in value_terms]
+    mass = col.MASS.key()
+    has_mass = frame.get(mass) is not None and pd.to_numeric(frame[mass], errors="coerce").notna().any()
     if has_mass:
-        cols.append(Column("mass", "mass (kg)"))
-    rows, _ = _method_rows(section, cols)
+        cols.append(Column.of(col.MASS))
+    rows, _ = method_rows(section, cols)
     if ref_coefs:
         reference_row = ["reference", "", *(exact(ref_coefs.get(t)) for t in value_terms)]
         if has_mass:
             reference_row.append(exact(ref.get("mass")))
         rows = [reference_row, *rows]
-    section.tables.append(
-        Table(
-            "Identified coefficients (SI, coefficients of R = f - m z'')",
-            ["method", "runs", *(c.header for c in cols)],
-            rows,
-        )
-    )
+    return Table("Identified coefficients (SI, coefficients of R = f - m z'')", _head(cols), rows)
 
-    eq_labels = _labels(frame, "eq_error_pct:")
-    modal_labels = sorted(set(_labels(frame, "fn_hz:")) | set(eq_labels), key=lambda s: int(s[1:]))
-    if modal_labels:
-        errors = bool(eq_labels)
-        cols = []
-        for label in modal_labels:
-            if errors:
-                for key, name in (
-                    (f"fn_error_pct:{label}", f"fn {label} (%)"),
-                    (f"zeta_error_pct:{label}", f"zeta {label} (%)"),
-                    (f"eq_error_pct:{label}", f"z* {label} (%)"),
-                ):
-                    if key in frame.columns:
-                        cols.append(Column(key, name, True, True))
-            else:
-                for key, name in ((f"fn_hz:{label}", f"fn {label} (Hz)"), (f"zeta:{label}", f"zeta {label}")):
-                    if key in frame.columns:
-                        cols.append(Column(key, name))
-        rows, best = _method_rows(section, cols)
-        if errors:
-            for row, method in zip(rows, section.present_methods, strict=True):
-                row.append(_found_cell(section.ok(method)))
-            header = [
-                "method",
-                "runs",
-                *(c.header for c in cols),
-                f"wells found (of {len(ref.get('equilibria') or [])})",
-            ]
-            title = (
-                "Modal parameters (Eq. 8, 22) and stable equilibria sK (see the reference values): "
-                "|relative error| in %"
-            )
-            section.tables.append(Table(title, header, rows, best=best))
-        else:
-            section.tables.append(
-                Table("Modal parameters (Eq. 8, 22)", ["method", "runs", *(c.header for c in cols)], rows)
-            )
 
-    _append_term_table(
-        section,
-        "quality:",
-        "Quality indicator E[Re/Im] of each coefficient (NSI, paper Table 5; methods that report one)",
-        drop_empty=True,
-    )
-    posterior = _posterior_table(section)
-    if posterior is not None:
-        section.tables.append(posterior)
-    selection = _selection_table(section)
-    if selection is not None:
-        section.tables.append(selection)
-    _append_term_table(
-        section, "rms:", "RMS contribution of each term to the identified restoring force, N (paper Fig. 22)", unit="N"
-    )
+def _modal_table(section: Section) -> Table | None:
+    """Modal parameters and equilibria per stable well: errors when there is a reference, else values."""
+    frame, ref = section.frame, section.reference or {}
+    eq_labels = col.EQ_ERROR.labels(frame.columns)
+    modal_labels = sorted(set(col.FN.labels(frame.columns)) | set(eq_labels), key=col.label_order)
+    if not modal_labels:
+        return None
+    errors = bool(eq_labels)
+    families = (col.FN_ERROR, col.ZETA_ERROR, col.EQ_ERROR) if errors else (col.FN, col.ZETA)
+    cols = [Column.of(f, label) for label in modal_labels for f in families if f.key(label) in frame.columns]
+    rows, best = method_rows(section, cols)
+    if not errors:
+        return Table("Modal parameters (Eq. 8, 22)", _head(cols), rows)
+    for row, method in zip(rows, section.present_methods, strict=True):
+        row.append(_found_cell(section.ok(method)))
+    header = [*_head(cols), f"wells found (of {len(ref.get('equilibria') or [])})"]
+    title = "Modal parameters (Eq. 8, 22) and stable equilibria sK (see the reference values): |relative error| in %"
+    return Table(title, header, rows, best=best)
 
-    cols = [Column("eps_percent", "eps (%)", False, True)]
-    if "eps_holdout_percent" in frame.columns:
-        cols.append(Column("eps_holdout_percent", "eps held-out (%)", False, True))
-    if "freerun_nrmse_pct" in frame.columns:
-        cols.append(Column("freerun_nrmse_pct", "free-run NRMSE (%)", False, True))
-    # cost columns measure the machine, not the method's result: three digits, whatever the spread
-    cols += [
-        Column("seconds", "time (s)", False, True, digits=COST_DIGITS),
-        Column("peak_memory_mb", "memory (MB)", False, True, digits=COST_DIGITS),
-    ]
+
+def _residual_table(section: Section) -> Table:
+    """The families declared for the residual and cost table, with why a free run was skipped."""
+    frame = section.frame
+    # cost columns measure the machine, not the method's result: their digits are fixed in the declaration
+    cols = [Column.of(f) for f in col.section_families(col.SECTION_RESIDUALS) if f.always or f.key() in frame.columns]
     notes = []
-    if "freerun_note" in frame.columns:
+    note = col.FREERUN_NOTE.key()
+    if note in frame.columns:
         for method in section.methods:
             ok = section.ok(method) if not frame.empty else frame
-            skipped = ok["freerun_note"].dropna() if "freerun_note" in ok else pd.Series(dtype=str)
+            skipped = ok[note].dropna() if note in ok else pd.Series(dtype=str)
             skipped = skipped[skipped != ""]
             if len(skipped):
                 notes.append(f"{method}: free run {skipped.iloc[0]} ({len(skipped)} of {len(ok)} runs)")
-    rows, best = _method_rows(section, cols)
-    section.tables.append(
-        Table(
-            "Residuals (eps: Eq. 26), simulation error and cost",
-            ["method", "runs", *(c.header for c in cols)],
-            rows,
-            notes,
-            best=best,
-        )
+    rows, best = method_rows(section, cols)
+    return Table("Residuals (eps: Eq. 26), simulation error and cost", _head(cols), rows, notes, best=best)
+
+
+def _other_table(section: Section) -> Table | None:
+    """Columns of no declared family (a plugin's or a hook's own), as they come."""
+    frame = section.frame
+    other = [c for c in frame.columns if not col.declared(c) and not frame[c].dropna().empty]
+    if not other:
+        return None
+    rows, _ = method_rows(section, [Column(c, c) for c in other])
+    return Table(
+        "Other metrics (median [min, max]; true/false as the fraction true)",
+        [col.METHOD.header(), "runs", *other],
+        rows,
     )
 
-    other = [
-        c
-        for c in frame.columns
-        if c not in _KNOWN and not c.startswith(_KNOWN_PREFIXES) and not frame[c].dropna().empty
+
+def _fill(section: Section) -> None:
+    frame = section.frame
+    tables = [
+        _reference_table(section),
+        _coefficient_error_table(section),
+        _coefficient_table(section),
+        _modal_table(section),
+        _term_table(
+            section,
+            col.QUALITY,
+            "Quality indicator E[Re/Im] of each coefficient (NSI, paper Table 5; methods that report one)",
+            drop_empty=True,
+        ),
+        _posterior_table(section),
+        _selection_table(section),
+        _term_table(
+            section, col.RMS, "RMS contribution of each term to the identified restoring force, N (paper Fig. 22)"
+        ),
+        _residual_table(section),
+        _other_table(section),
     ]
-    if other:
-        cols = [Column(c, c) for c in other]
-        rows, _ = _method_rows(section, cols)
-        section.tables.append(
-            Table(
-                "Other metrics (median [min, max]; true/false as the fraction true)",
-                ["method", "runs", *other],
-                rows,
-            )
-        )
-
-    for _, row in frame[frame["status"] != "ok"].iterrows():
-        section.failures.append(f"{row['method']} r{row['repetition']}: {row['status']}: {row['error']}")
+    section.tables += [t for t in tables if t is not None]
+    for _, row in frame[frame[_STATUS] != "ok"].iterrows():
+        section.failures.append(f"{row[_METHOD]} r{row[_REPETITION]}: {row[_STATUS]}: {row[_ERROR]}")
 
 
-def _append_term_table(section: Section, prefix: str, title: str, drop_empty: bool = False, unit: str = "") -> None:
-    """Method x term table of the ``<prefix><term>`` columns, when there are any.
+def _term_table(section: Section, family: col.ColumnFamily, title: str, drop_empty: bool = False) -> Table | None:
+    """Method x term table of a per-term family, when it has columns.
 
     ``drop_empty`` leaves out the methods without a value (e.g. those that report no quality indicator).
     """
-    terms = section.terms_with(prefix)
+    terms = section.terms_with(family)
     if not terms:
-        return
-    rows, _ = _method_rows(section, [Column(f"{prefix}{t}", t) for t in terms])
+        return None
+    rows, _ = method_rows(section, [Column.of(family, t) for t in terms])
     if drop_empty:
-        rows = [r for r in rows if _has_values(r)]
-    header = [f"{t} ({unit})" if unit else t for t in terms]
-    section.tables.append(Table(title, ["method", "runs", *header], rows))
+        rows = [r for r in rows if has_values(r)]
+    return Table(title, [col.METHOD.header(), "runs", *(family.header(t) for t in terms)], rows)
 
 
 def selection(section: Section) -> dict[str, dict[str, Any]]:
@@ -572,30 +323,30 @@ def _selection_table(section: Section) -> Table | None:
 def _posterior_table(section: Section) -> Table | None:
     """Credible intervals of the posterior hook (``ci_*`` columns), coverage of the truth, tau and time."""
     frame = section.frame
-    terms = section.terms_with("ci_lo:")
+    terms = section.terms_with(col.CI_LO)
     if not terms:
         return None
-    levels = pd.to_numeric(frame.get("posterior:level", pd.Series(dtype=float)), errors="coerce").dropna()
+    levels = pd.to_numeric(frame.get(col.POSTERIOR_LEVEL.key(), pd.Series(dtype=float)), errors="coerce").dropna()
     level = f"{100 * levels.iloc[0]:g} %" if len(levels) else "credible"
     rows = []
     for method in section.methods:
-        sub = frame[frame["method"] == method]
-        ok = sub[sub["status"] == "ok"]
-        if ok.empty or ok[f"ci_lo:{terms[0]}"].dropna().empty:
+        sub = section.runs(method)
+        ok = sub[sub[_STATUS] == "ok"]
+        if ok.empty or ok[col.CI_LO.key(terms[0])].dropna().empty:
             continue
-        cells = [method, _runs_cell(sub)]
+        cells = [method, runs_cell(sub)]
         for t in terms:
-            lo = float(pd.to_numeric(ok[f"ci_lo:{t}"], errors="coerce").dropna().median())
-            hi = float(pd.to_numeric(ok[f"ci_hi:{t}"], errors="coerce").dropna().median())
+            lo = float(pd.to_numeric(ok[col.CI_LO.key(t)], errors="coerce").dropna().median())
+            hi = float(pd.to_numeric(ok[col.CI_HI.key(t)], errors="coerce").dropna().median())
             d = column_digits([(0.5 * (lo + hi), lo, hi)])
             text = f"[{sig(lo, d)}, {sig(hi, d)}]"
-            if f"ci_covers:{t}" in ok.columns:
-                covers = ok[f"ci_covers:{t}"].dropna().astype(bool)
+            if col.CI_COVERS.key(t) in ok.columns:
+                covers = ok[col.CI_COVERS.key(t)].dropna().astype(bool)
                 if len(covers):
                     text += f" covers {int(covers.sum())}/{len(covers)}"
             cells.append(text)
-        for col in ("posterior:tau", "posterior:seconds"):
-            cells.append(cell(ok[col]) if col in ok.columns else "–")
+        for family in (col.POSTERIOR_TAU, col.POSTERIOR_SECONDS):
+            cells.append(cell(ok[family.key()]) if family.key() in ok.columns else "–")
         rows.append(cells)
     if not rows:
         return None
@@ -603,140 +354,14 @@ def _posterior_table(section: Section) -> Table | None:
         f"Posterior (emcee): {level} credible interval of each coefficient (median of each bound over the runs) "
         "and how many runs' intervals cover the reference"
     )
-    return Table(title, ["method", "runs", *terms, "tau (steps)", "time (s)"], rows)
-
-
-def _has_values(row: list[str]) -> bool:
-    """False for a table row whose value cells are all empty."""
-    return any(c not in ("", "–") for c in row[2:])
+    header = [col.METHOD.header(), "runs", *terms, col.POSTERIOR_TAU.header(), col.POSTERIOR_SECONDS.header()]
+    return Table(title, header, rows)
 
 
 def _found_cell(ok: pd.DataFrame) -> str:
-    if ok.empty or "eq_found" not in ok.columns:
+    found_key = col.EQ_FOUND.key()
+    if ok.empty or found_key not in ok.columns:
         return "–"
-    found = pd.to_numeric(ok["eq_found"], errors="coerce").dropna().astype(int)
+    found = pd.to_numeric(ok[found_key], errors="coerce").dropna().astype(int)
     lo, hi = int(found.min()), int(found.max())
     return f"{lo}" if lo == hi else f"{lo}–{hi}"
-
-
-# --------------------------------------------------------------------------- output
-def _md_escape(text: str) -> str:
-    return text.replace("|", "\\|")
-
-
-def _md_table(header: list[str], rows: list[list[str]], best: set[tuple[int, int]] = frozenset()) -> list[str]:
-    lines = ["| " + " | ".join(_md_escape(h) for h in header) + " |"]
-    lines.append("|" + "|".join(" --- " for _ in header) + "|")
-    for i, row in enumerate(rows):
-        cells = [f"**{_md_escape(c)}**" if (i, j) in best else _md_escape(c) for j, c in enumerate(row)]
-        lines.append("| " + " | ".join(cells) + " |")
-    return lines
-
-
-def _title(section: Section) -> str:
-    return f"{section.dataset} / {section.model}"
-
-
-def summary_markdown(config: Any, sections: list[Section]) -> str:
-    """The summary as Markdown: the verdict of every section first, then the sections' tables."""
-    lines = [f"# Study {config.name}", ""]
-    if config.description:
-        lines += [config.description, ""]
-    judged = [s for s in sections if s.verdict is not None]
-    if judged:
-        lines += ["## Verdict", ""]
-        for section in judged:
-            v = section.verdict
-            if len(sections) > 1:
-                lines += [f"### {_title(section)}", ""]
-            lines += [_md_escape(v.headline()), "", _md_escape(v.separation()), ""]
-            header, rows = v.table_rows()
-            lines += _md_table(header, rows) + [""]
-            lines += ["Why:", ""]
-            lines += [f"- **{m}**: {_md_escape('; '.join(why))}" for m, why in v.reasons.items()] + [""]
-    lines += [
-        "Tables: median [min, max] over repetitions, significant digits chosen from the spread; "
-        "**bold**: the best (lowest) median of an error or cost column.",
-        "",
-    ]
-    for section in sections:
-        lines += [f"## {_title(section)}", ""]
-        lines += [_md_escape(section.description) + (f"; terms: {', '.join(section.terms)}" if section.terms else "")]
-        lines.append("")
-        if section.frame.empty:
-            lines += ["No finished runs yet.", ""]
-            continue
-        for table in section.tables:
-            lines += [f"### {table.title}", ""]
-            lines += _md_table(table.header, table.rows, table.best)
-            lines.append("")
-            for note in table.notes:
-                lines += [f"- {_md_escape(note)}"]
-            if table.notes:
-                lines.append("")
-        if section.failures:
-            lines += ["Failed runs:", ""] + [f"- {_md_escape(f)}" for f in section.failures] + [""]
-    return "\n".join(lines)
-
-
-def summary_text(config: Any, sections: list[Section], width: int = TERMINAL_WIDTH) -> str:
-    """The summary for a terminal: the verdict first, then every table, no line wider than ``width``.
-
-    Wide tables are split into column groups that repeat the method column; the best cell of an
-    error or cost column is marked with ``*``.
-    """
-    rule = "=" * min(width, 72)
-    lines = [f"Study {config.name}"]
-    if config.description:
-        lines.append(wrap(config.description, width, subsequent=""))
-    for section in sections:
-        lines += ["", rule, f"{_title(section)}", rule]
-        lines.append(
-            wrap(
-                section.description + (f"; terms: {', '.join(section.terms)}" if section.terms else ""),
-                width,
-                subsequent="",
-            )
-        )
-        if section.frame.empty:
-            lines.append("No finished runs yet.")
-            continue
-        if section.verdict is not None:
-            lines += ["", "VERDICT", section.verdict.text(width)]
-        lines += [
-            "",
-            "Tables: median [min, max] over repetitions; * = best (lowest) median of an error or cost column.",
-        ]
-        for table in section.tables:
-            rows = [
-                [f"{c}*" if (i, j) in table.best else c for j, c in enumerate(row)] for i, row in enumerate(table.rows)
-            ]
-            lines += ["", wrap(table.title, width, subsequent="  "), text_table(table.header, rows, width=width)]
-            lines += [wrap(f"- {n}", width, subsequent="  ") for n in table.notes]
-        if section.failures:
-            lines += ["", "Failed runs:"] + [wrap(f"- {f}", width, subsequent="  ") for f in section.failures]
-    return "\n".join(lines)
-
-
-_NUMERIC = re.compile(r"^(coef|coef_error_pct|eq|eq_error_pct|fn_hz|fn_error_pct|zeta|zeta_error_pct):")
-
-
-def summary_long(frame: pd.DataFrame) -> pd.DataFrame:
-    """Long-format summary: dataset, model, method, metric, n, median, min, max (signed values)."""
-    if frame.empty:
-        return pd.DataFrame(columns=["dataset", "model", "method", "metric", "n", "median", "min", "max"])
-    ok = frame[frame["status"] == "ok"]
-    skip = {"repetition", "seed", "samples", "z_min", "z_max"}
-    metrics = [
-        c
-        for c in ok.columns
-        if c not in skip and c not in ("run_id", "dataset", "model", "method", "status", "error", "warnings")
-    ]
-    out = []
-    for (ds, model, method), sub in ok.groupby(["dataset", "model", "method"], sort=False):
-        for col in metrics:
-            x = pd.to_numeric(sub[col], errors="coerce").to_numpy(dtype=float)
-            x = x[np.isfinite(x)]
-            if x.size:
-                out.append([ds, model, method, col, x.size, np.median(x), x.min(), x.max()])
-    return pd.DataFrame(out, columns=["dataset", "model", "method", "metric", "n", "median", "min", "max"])

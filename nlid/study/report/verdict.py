@@ -36,7 +36,8 @@ import numpy as np
 import pandas as pd
 
 from ...formatting import column_digits, sig, spread_cell, wrap
-from .tables import COST_DIGITS
+from .. import columns as col
+from ..columns import COST_DIGITS
 
 __all__ = ["Finding", "Verdict", "build_verdict", "METHOD_DOCS"]
 
@@ -235,26 +236,29 @@ def _metrics(section: Any) -> list[tuple[str, str, bool, str]]:
     """``(column, label, absolute, kind)`` of the section's lower-is-better metrics."""
     cols = section.frame.columns
     out: list[tuple[str, str, bool, str]] = []
+
+    def add(family: col.ColumnFamily, label: str | None = None, kind: str = "accuracy") -> None:
+        out.append((family.key(label), family.verdict_title(label), bool(family.error), kind))
+
     for t in section.terms:
-        if f"coef_error_pct:{t}" in cols:
-            out.append((f"coef_error_pct:{t}", f"{t} (|error| %)", True, "accuracy"))
-    if "mass_error_pct" in cols:
-        out.append(("mass_error_pct", "mass (|error| %)", True, "accuracy"))
-    labels = sorted({c.split(":", 1)[1] for c in cols if c.startswith("fn_error_pct:")}, key=lambda s: int(s[1:]))
-    for label in labels:
-        for prefix, name in (("fn_error_pct", "fn"), ("zeta_error_pct", "zeta")):
-            if f"{prefix}:{label}" in cols:
-                out.append((f"{prefix}:{label}", f"{name} {label} (|error| %)", True, "accuracy"))
-    if "eq_error_max_pct" in cols:
-        out.append(("eq_error_max_pct", "equilibria (largest |error| %)", True, "accuracy"))
-    if "eps_holdout_percent" in cols:
-        out.append(("eps_holdout_percent", "eps held-out (%)", False, "accuracy"))
-    elif "eps_percent" in cols:
-        out.append(("eps_percent", "eps (%)", False, "accuracy"))
-    if "freerun_nrmse_pct" in cols:
-        out.append(("freerun_nrmse_pct", "free-run NRMSE (%)", False, "accuracy"))
-    if "seconds" in cols:
-        out.append(("seconds", "time (s)", False, "cost"))
+        if col.COEF_ERROR.key(t) in cols:
+            add(col.COEF_ERROR, t)
+    if col.MASS_ERROR.key() in cols:
+        add(col.MASS_ERROR)
+    for label in sorted(col.FN_ERROR.labels(cols), key=col.label_order):
+        for family in (col.FN_ERROR, col.ZETA_ERROR):
+            if family.key(label) in cols:
+                add(family, label)
+    if col.EQ_ERROR_MAX.key() in cols:
+        add(col.EQ_ERROR_MAX)
+    if col.EPS_HOLDOUT.key() in cols:
+        add(col.EPS_HOLDOUT)
+    elif col.EPS.key() in cols:
+        add(col.EPS)
+    if col.FREERUN_NRMSE.key() in cols:
+        add(col.FREERUN_NRMSE)
+    if col.SECONDS.key() in cols:
+        add(col.SECONDS, kind="cost")
     return out
 
 
@@ -263,7 +267,7 @@ def _series(section: Any, method: str, key: str, absolute: bool) -> pd.Series:
     if key not in ok.columns:
         return pd.Series(dtype=float)
     x = pd.to_numeric(ok[key], errors="coerce")
-    x.index = ok["repetition"].to_numpy()
+    x.index = ok[col.REPETITION.key()].to_numpy()
     x = x[np.isfinite(x)]
     return x.abs() if absolute else x
 
@@ -350,7 +354,7 @@ def _bias(section: Any, method: str) -> str | None:
     """The coefficient with the largest median |error|, and whether its sign is systematic (a bias)."""
     worst: tuple[float, str, pd.Series] | None = None
     for t in section.terms:
-        s = _series(section, method, f"coef_error_pct:{t}", absolute=False)
+        s = _series(section, method, col.COEF_ERROR.key(t), absolute=False)
         if len(s) and (worst is None or float(np.median(s.abs())) > worst[0]):
             worst = (float(np.median(s.abs())), t, s)
     if worst is None:
@@ -404,18 +408,18 @@ def _mechanics(diags: list[dict[str, Any]], section: Any) -> list[str]:
 
 
 def _coefficients_same(section: Any, a: str, b: str) -> bool:
-    keys = [f"coef:{t}" for t in section.terms if f"coef:{t}" in section.frame.columns]
+    keys = [col.COEF.key(t) for t in section.terms_with(col.COEF)]
     return bool(keys) and all(_same(_series(section, a, k, False), _series(section, b, k, False)) for k in keys)
 
 
 def _reasons(section: Any, findings: list[Finding]) -> dict[str, list[str]]:
     out: dict[str, list[str]] = {}
-    time = next((f for f in findings if f.key == "seconds"), None)
+    time = next((f for f in findings if f.key == col.SECONDS.key()), None)
     fastest = time.best.median if time else None
     methods = section.present_methods
     for method in methods:
         why: list[str] = []
-        frame = section.frame[section.frame["method"] == method]
+        frame = section.runs(method)
         ok = section.ok(method)
         if len(ok) < len(frame):
             why.append(f"{len(frame) - len(ok)} of {len(frame)} runs failed or timed out (see the failed runs)")
@@ -439,7 +443,7 @@ def _reasons(section: Any, findings: list[Finding]) -> dict[str, list[str]]:
                     text += " (with the same terms kept, its final fit is least squares on the same columns)"
                 why.append(text)
         if time is not None and fastest:
-            s = _series(section, method, "seconds", False)
+            s = _series(section, method, col.SECONDS.key(), False)
             if len(s):
                 med = float(np.median(s))
                 ratio = med / fastest
@@ -457,5 +461,6 @@ def build_verdict(section: Any) -> Verdict:
     """The :class:`Verdict` of a section with results (see the module documentation)."""
     same = identical_methods(section)
     findings = [f for spec in _metrics(section) if (f := _finding(section, *spec, same)) is not None]
-    records = int(section.frame["repetition"].nunique()) if "repetition" in section.frame else 0
+    repetition = col.REPETITION.key()
+    records = int(section.frame[repetition].nunique()) if repetition in section.frame else 0
     return Verdict(findings, _ranking(findings), _reasons(section, findings), records)
