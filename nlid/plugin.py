@@ -9,9 +9,11 @@ reorganise its modules without breaking plugins::
 The toolkit has four axes, which identifiers compose rather than re-implement:
 
 * **the contract**: :class:`Identifier` (settings only in the constructor,
-  work in ``identify(record, model, *, mass=None)``), declared
-  :class:`Option`\\ s, the :class:`Estimate` an identifier returns, and the
-  :data:`hookimpl` marker of the ``nlid_identifiers`` hook;
+  work in ``identify(record, model, *, mass=None)``; class attributes that
+  tell the core about it: ``preference``, ``advice``, ``advice_order``,
+  ``docs``, ``refines``), declared :class:`Option`\\ s, the :class:`Estimate`
+  an identifier returns, and the :data:`hookimpl` marker of the
+  ``nlid_identifiers`` hook;
 * **data and terms**: :class:`Record`, :class:`Model`, :class:`Term`,
   :func:`parse_term`;
 * **the force balance and derivatives**: :func:`regression_data` (the
@@ -26,7 +28,7 @@ The toolkit has four axes, which identifiers compose rather than re-implement:
   :func:`predictability_horizon`);
 * **other identifiers**: :func:`identify` (the core's :func:`nlid.identify`,
   e.g. for a method that starts from another method's estimate) and
-  :func:`choose_method` (the preferred installed identifier).
+  :func:`choose_method` (the installed identifier with the best ``preference``).
 
 Errors to raise: :class:`InputError` / :class:`DataError` for what the user
 gave (wrong model for the method, unusable record), :class:`IdentificationError`
@@ -110,7 +112,7 @@ def __getattr__(name: str):  # the simulator (numba) and the scores are loaded o
 
         return identify
     if name == "choose_method":
-        from .discovery.loop import choose_method
+        from .methods import choose_method
 
         return choose_method
     raise AttributeError(f"module 'nlid.plugin' has no attribute {name!r}")

@@ -71,7 +71,7 @@ def test_identify_json_unchanged(record, name, kwargs):
 def test_posterior_unchanged(record):
     fit = nlid.identify(record, "z^3, z^2, v*|v|", "rfs", mass=0.2)
     post = sample_posterior(record, fit, params="damping", seed=0)
-    _close(post.summary(), PINS["posterior"], rel=1e-4, where="posterior")
+    _close(post.summary_dict(), PINS["posterior"], rel=1e-4, where="posterior")
 
 
 def test_discover_unchanged_and_its_free_run_is_the_study_number():
