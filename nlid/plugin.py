@@ -37,6 +37,8 @@ when the method ran but its answer cannot be trusted.
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 from . import derivatives
 from .balance import EDGE_PERIODS, REGRESSOR_BAND_FACTOR, RegressionData, regression_data
 from .errors import DataError, IdentificationError, InputError, NlidError, OptionError, TermError
@@ -52,6 +54,19 @@ from .regression import (
     triangular_factor,
 )
 from .terms import Model, Term, parse_term
+
+if TYPE_CHECKING:  # loaded on first use by __getattr__ below (the simulator compiles with numba)
+    from .methods import choose_method
+    from .pipeline import identify
+    from .scoring import initial_state, predictability_horizon, score
+    from .simulation import (
+        FREE_RUN_OVERSAMPLE,
+        SimulationError,
+        fine_force,
+        free_run,
+        simulate,
+        simulate_segments,
+    )
 
 __all__ = [
     "Identifier",

@@ -10,7 +10,6 @@ import argparse
 
 from ..errors import InputError
 from ..formatting import TERMINAL_WIDTH, wrap
-from ..methods import advice_of, ranked
 from .common import print_json
 
 
@@ -30,6 +29,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    from ..methods import advice_of, ranked
     from ..registry import default_registry
 
     reg = default_registry()

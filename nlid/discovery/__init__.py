@@ -15,10 +15,11 @@ are in :mod:`nlid.discovery.result`, the fits in :mod:`nlid.discovery.trials`.
 
 from ..methods import choose_method
 from .evidence import AcceptanceRule, Evidence, Scores
+from .inputs import CandidateLibrary, Split
 from .library import LIBRARY, Candidate, Shape, library_names, resolve_candidates
 from .report import discovery_summary, summary_table, write_report
 from .result import DiscoveryResult, ResidualView, Stage, Step
-from .search import CandidateLibrary, Discovery, SearchState, Split, discover
+from .search import Discovery, SearchState, discover
 
 __all__ = [
     "discover",

@@ -9,8 +9,9 @@ own attributes). ``PREFERRED_METHODS`` is now read from the installed identifier
 from __future__ import annotations
 
 from ..methods import choose_method
+from .inputs import BUILTIN_CANDIDATES, DEFAULT_HOLDOUT
 from .result import VALIDATION_WORSE, DiscoveryResult, ResidualView, Stage, Step
-from .search import BUILTIN_CANDIDATES, DEFAULT_HOLDOUT, DEFAULT_MAX_STEPS, discover
+from .search import DEFAULT_MAX_STEPS, discover
 from .trials import DICTIONARY_MAX_TERMS, SHAPE_REFINE_FITS, residual_view
 
 __all__ = [

@@ -29,9 +29,10 @@ after each round, so that the caller shows progress or stops early;
 :meth:`Discovery.finish` turns a state into the
 :class:`~nlid.discovery.result.DiscoveryResult` and :meth:`Discovery.run`
 drains the generator and finishes. Two small objects replace half of the
-keywords of :func:`discover`: a :class:`CandidateLibrary` (which effects may
-be added) and a :class:`Split` (estimation / hold-out, and a validation
-record that informs but never decides)::
+keywords of :func:`discover` (:mod:`nlid.discovery.inputs`): a
+:class:`CandidateLibrary` (which effects may be added) and a :class:`Split`
+(estimation / hold-out, and a validation record that informs but never
+decides)::
 
     search = Discovery("rfs", mass=0.2, split=Split(0.25), library=CandidateLibrary.select("coulomb, viscous"))
     for state in search.steps(record, "1, z, z^3, v"):
@@ -50,13 +51,14 @@ from typing import Any
 import numpy as np
 
 from .. import derivatives
-from ..errors import DataError, IdentificationError, InputError
+from ..errors import IdentificationError, InputError
 from ..methods import choose_method, choose_refiner
 from ..record import Record
 from ..registry import Registry, default_registry
 from ..terms import Model
 from .evidence import AcceptanceRule, Evidence, judge, rank
-from .library import Candidate, resolve_candidates
+from .inputs import BUILTIN_CANDIDATES, DEFAULT_HOLDOUT, CandidateLibrary, Split
+from .library import Candidate
 from .probes import MIN_STRUCTURE, describe_remaining
 from .result import DiscoveryResult, ResidualView, Stage, Step
 from .trials import (
@@ -81,16 +83,13 @@ __all__ = [
     "Split",
     "CandidateLibrary",
     "SearchState",
+    "SearchSetup",
     "Discovery",
     "discover",
 ]
 
-#: Held-out fraction (last part of the record) when none is given.
-DEFAULT_HOLDOUT = 0.25
 #: Most effects added by one run.
 DEFAULT_MAX_STEPS = 5
-#: Candidates the search builds itself (not in the library).
-BUILTIN_CANDIDATES = ("mass", "dictionary")
 #: The stop reason of a search that added ``max_steps`` effects.
 MAX_STEPS_REACHED = "maximum number of steps reached"
 
@@ -102,131 +101,20 @@ def _quiet(_message: str) -> None:
 
 
 @dataclass(frozen=True)
-class Split:
-    """How the data are divided: estimation and hold-out, and a validation record that informs but never decides.
+class SearchSetup:
+    """What a search fixed before its first round, shared by its states.
 
-    Parameters
-    ----------
-    holdout
-        Fraction of the record held out (its last part), or a separate held-out record.
-    validation
-        A record on which every model is also scored (epsilon, force residual and free-run error)
-        without taking part in any decision: e.g. a benchmark's validation set, whose excitation may
-        differ from the estimation record's.
-
-    Raises
-    ------
-    InputError
-        ``holdout`` is neither a number nor a :class:`~nlid.record.Record`.
-    DataError
-        The held-out record has no sampling frequency.
+    The records, identifier and band (:class:`~nlid.discovery.trials.Context`), the method and why, the
+    declared model, the candidates, the estimation record's range of ``z`` and the start time.
     """
-
-    holdout: float | Record = DEFAULT_HOLDOUT
-    validation: Record | None = None
-
-    def __post_init__(self) -> None:
-        if isinstance(self.holdout, Record):
-            if self.holdout.fs <= 0:
-                raise DataError("the held-out record has no sampling frequency")
-            return
-        try:
-            float(self.holdout)
-        except (TypeError, ValueError):
-            raise InputError(f"holdout must be a fraction between 0 and 1 or a Record, got {self.holdout!r}") from None
-
-    def divide(self, record: Record) -> tuple[Record, Record, str]:
-        """The estimation record, the held-out record and a description of the hold-out."""
-        if isinstance(self.holdout, Record):
-            held = self.holdout
-            return record, held, f"separate record ({held.n} samples, {held.meta.get('source', 'given')})"
-        fraction = float(self.holdout)
-        estimation, held = record.split(fraction)
-        return estimation, held, f"last {100 * fraction:g} % of the record ({held.n} samples)"
-
-
-@dataclass(frozen=True)
-class CandidateLibrary:
-    """The candidate effects a search may add: named candidates, and the search's own ``mass`` and ``dictionary``.
-
-    Build it with :meth:`select`; libraries compose with ``+`` (with another library, a
-    :class:`~nlid.discovery.library.Candidate` or a ``"NAME=TERMS"`` string).
-
-    Attributes
-    ----------
-    candidates
-        The named candidates (the library's, plugins', the user's).
-    mass
-        Test the ``mass`` candidate (re-estimate a given mass).
-    dictionary
-        Test the ``dictionary`` candidate (sparse regression on an automatic dictionary, tried when no
-        named candidate passes).
-    """
-
-    candidates: tuple[Candidate, ...]
-    mass: bool = True
-    dictionary: bool = True
-
-    @classmethod
-    def select(
-        cls,
-        names: str | Iterable[str] | None = None,
-        extra: Iterable[Candidate | str] = (),
-        *,
-        plugins: bool | Sequence[Candidate] = True,
-    ) -> CandidateLibrary:
-        """The candidates of a run.
-
-        Parameters
-        ----------
-        names
-            Names to test (comma-separated or an iterable; ``None`` or ``"all"``: every one): the
-            library's, plugins', and the search's own ``mass`` and ``dictionary``.
-        extra
-            User candidates (:class:`~nlid.discovery.library.Candidate` or ``"NAME=TERMS"``).
-        plugins
-            Include candidates from installed plugins (``True``), none (``False``), or the given ones.
-
-        Raises
-        ------
-        InputError
-            An unknown name (with a suggestion), or two candidates with the same name.
-        """
-        if names is None or (isinstance(names, str) and names.strip().lower() in ("", "all")):
-            return cls(tuple(resolve_candidates(names, extra, plugins=plugins)), True, True)
-        items = [n.strip() for n in (names.split(",") if isinstance(names, str) else names) if n.strip()]
-        rest = [n for n in items if n not in BUILTIN_CANDIDATES]
-        return cls(tuple(resolve_candidates(rest, extra, plugins=plugins)), "mass" in items, "dictionary" in items)
-
-    @property
-    def names(self) -> list[str]:
-        """The named candidates' names, in order."""
-        return [c.name for c in self.candidates]
-
-    def __add__(self, other: CandidateLibrary | Candidate | str) -> CandidateLibrary:
-        if isinstance(other, CandidateLibrary):
-            extra, mass, dictionary = other.candidates, other.mass, other.dictionary
-        elif isinstance(other, (Candidate, str)):
-            cand = other if isinstance(other, Candidate) else Candidate.from_spec(other)
-            extra, mass, dictionary = (cand,), False, False
-        else:
-            return NotImplemented
-        clash = sorted(set(self.names) & {c.name for c in extra})
-        if clash:
-            raise InputError(f"two candidates are called {clash[0]!r}; give user candidates distinct names")
-        return CandidateLibrary(self.candidates + tuple(extra), self.mass or mass, self.dictionary or dictionary)
-
-
-@dataclass(frozen=True)
-class _Run:
-    """What a search fixed before its first round (shared by its states)."""
 
     context: Context
     method: str
     method_notes: tuple[str, ...]
     declared: Model
     held_text: str
-    record_meta: dict[str, Any]
+    source: str
+    holdout_source: str
     units: dict[str, str]
     library: CandidateLibrary
     use_mass: bool
@@ -240,6 +128,8 @@ class SearchState:
 
     Attributes
     ----------
+    run
+        What the search fixed before its first round (:class:`SearchSetup`).
     stages
         The declared model's stage, then one per accepted step (each carries its own mass,
         :attr:`~nlid.discovery.result.Stage.given_mass`).
@@ -253,7 +143,7 @@ class SearchState:
         Why the search stopped; empty while it goes on.
     """
 
-    run: _Run = dataclasses.field(repr=False)
+    run: SearchSetup = dataclasses.field(repr=False)
     stages: tuple[Stage, ...]
     steps: tuple[Step, ...] = ()
     views: tuple[ResidualView, ...] = ()
@@ -420,13 +310,14 @@ class Discovery:
                 f"cutoff must lie between 0 and the Nyquist frequency {estimation.fs / 2:g} Hz, got {float(cutoff):g}"
             )
         ctx = Context(estimation, held, self.identifier, float(cutoff), self.rule, self.structure)
-        run = _Run(
+        run = SearchSetup(
             context=ctx,
             method=self.method,
             method_notes=self.method_notes,
             declared=model0,
             held_text=held_text,
-            record_meta={"source": record.meta.get("source", ""), "holdout_source": held.meta.get("source", "")},
+            source=str(record.meta.get("source", "")),
+            holdout_source=str(held.meta.get("source", "")),
             units={"f": record.units["f"], "z": record.units["z"]},
             library=self.library,
             use_mass=self.library.mass and not getattr(self.identifier, "needs_mass", False),
@@ -571,8 +462,8 @@ class Discovery:
             "fs_hz": estimation.fs,
             "band_hz": ctx.cutoff,
             "units": dict(run.units),
-            "source": str(run.record_meta["source"]),
-            "holdout_source": str(run.record_meta["holdout_source"]),
+            "source": run.source,
+            "holdout_source": run.holdout_source,
             "candidates": run.library.names,
             "validation": None
             if validation is None
