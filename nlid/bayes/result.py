@@ -316,12 +316,29 @@ class Posterior:
         out = Summary(f"posterior of {len(self.names)} coefficient(s); start: {self.method}, mass {self.mass:.6g} kg")
         ess = self.n_effective
         out.add_table(
-            [Column("term"), Column("mean", "right", 11), Column("sd", "right", 9), Column("5 %", "right", 11),
-             Column("50 %", "right", 11), Column("95 %", "right", 11), Column("tau", "right", 6),
-             Column("ESS", "right", 7), Column("unit")],
             [
-                [name, f"{s['mean']:.5g}", f"{s['sd']:.3g}", f"{s['q05']:.5g}", f"{s['q50']:.5g}", f"{s['q95']:.5g}",
-                 f"{self.tau[name]:.1f}", f"{ess[name]:.0f}", parse_term(name).coefficient_unit]
+                Column("term"),
+                Column("mean", "right", 11),
+                Column("sd", "right", 9),
+                Column("5 %", "right", 11),
+                Column("50 %", "right", 11),
+                Column("95 %", "right", 11),
+                Column("tau", "right", 6),
+                Column("ESS", "right", 7),
+                Column("unit"),
+            ],
+            [
+                [
+                    name,
+                    f"{s['mean']:.5g}",
+                    f"{s['sd']:.3g}",
+                    f"{s['q05']:.5g}",
+                    f"{s['q50']:.5g}",
+                    f"{s['q95']:.5g}",
+                    f"{self.tau[name]:.1f}",
+                    f"{ess[name]:.0f}",
+                    parse_term(name).coefficient_unit,
+                ]
                 for name, s in self.summary_dict().items()
             ],
         )

@@ -3,16 +3,11 @@
 1. Identify the declared model (taken literally: no default terms are added)
    with the chosen identifier through :func:`nlid.identify`, on the
    estimation record.
-2. Compute the residual ``r = R_e - R_hat(z, v)`` of the restoring-force
-   surface (``R_e = f - m a``, Eq. 25) and epsilon (Eq. 26) on the estimation
-   and on the held-out record, with the same equation band
-   (:func:`nlid.balance.regression_data`); keep the residual against ``z``,
-   ``v`` and time for the report (:mod:`nlid.discovery.plots`).
-3. Add each candidate of the library to the current model, identify it with
-   the same identifier, and score it on the held-out record
-   (:mod:`nlid.discovery.evidence`, :mod:`nlid.discovery.trials`); a
-   candidate that cannot be built (no double well for ``px``, terms already
-   in the model) is reported as not applicable.
+2. Compute its residual ``r = R_e - R_hat(z, v)`` (``R_e = f - m a``, Eq. 25) and
+   epsilon (Eq. 26) on the estimation and held-out records, in one equation band.
+3. Add each candidate of the library to the current model, identify it with the
+   same identifier and score it on the held-out record (:mod:`nlid.discovery.trials`,
+   :mod:`nlid.discovery.evidence`).
 4. Accept the best candidate if it passes the rule, re-identify (with the
    ``px(z)`` fixed point of :func:`nlid.identify` when the model uses
    ``px``), and recompute the residuals.
