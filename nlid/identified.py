@@ -24,7 +24,6 @@ Example::
 from __future__ import annotations
 
 import dataclasses
-import html
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
@@ -38,6 +37,7 @@ from .interface import Estimate, to_jsonable
 from .physics import Equilibria, Modal
 from .record import Record
 from .scoring import Residual, Scores
+from .summary import Column, Summary
 from .terms import Model, parse_term
 from .validate import check_mass
 
@@ -48,10 +48,6 @@ __all__ = ["IdentifiedModel", "SCHEMA"]
 
 #: Identifies the JSON layout of :meth:`IdentifiedModel.to_dict`.
 SCHEMA = "nlid.IdentifiedModel/1"
-
-
-def _fmt(x: float | None, spec: str = ".6g") -> str:
-    return "" if x is None or not np.isfinite(x) else format(x, spec)
 
 
 @dataclass(frozen=True, eq=False)
@@ -510,40 +506,46 @@ class IdentifiedModel:
         return pd.DataFrame(rows).set_index("term")
 
     # ------------------------------------------------------------------ text and HTML
-    def summary(self) -> str:
-        """The table ``nlid identify`` prints: coefficients, equilibria, modes, residuals."""
-        lines = [f"method: {self.method}"]
+    def summary(self) -> Summary:
+        """The table ``nlid identify`` prints: coefficients, equilibria, modes, residuals.
+
+        A :class:`~nlid.summary.Summary`: ``print()`` it (or ``str()``) for the
+        text, ``.as_markdown()`` / ``.as_html()`` for the other media.
+        """
+        out = Summary()
+        head = [("method", self.method)]
         if self.mass is not None:
             how = "estimated" if self.mass_estimated else "given"
             se = f" +/- {self.mass_standard_error:.3g}" if self.mass_standard_error else ""
-            lines.append(f"mass: {self.mass:.6g}{se} kg ({how})")
-        lines.append("")
+            head.append(("mass", f"{self.mass:.6g}{se} kg ({how})"))
+        out.add_fields(head)
         se = self.standard_errors or {}
-        width = max(4, *(len(t) for t in self.terms))
-        lines.append(f"{'term':<{width}}  {'coefficient':>14}  {'std. error':>11}  unit")
-        for name, term in zip(self.terms, self.model.terms, strict=True):
-            err = f"{se[name]:11.3g}" if se.get(name) is not None else " " * 11
-            lines.append(f"{name:<{width}}  {self.coefficients[name]:14.6g}  {err}  {term.coefficient_unit}")
+        out.add_table(
+            [Column("term"), Column("coefficient", "right", 14), Column("std. error", "right", 11), Column("unit")],
+            [
+                [name, f"{self.coefficients[name]:.6g}", "" if se.get(name) is None else f"{se[name]:.3g}",
+                 term.coefficient_unit]
+                for name, term in zip(self.terms, self.model.terms, strict=True)
+            ],
+        )
         if self.px_roots:
-            lines.append(f"px(z) roots: z- = {self.px_roots[0]:.6g} m, z+ = {self.px_roots[1]:.6g} m")
+            out.add_fields([("px(z) roots", f"z- = {self.px_roots[0]:.6g} m, z+ = {self.px_roots[1]:.6g} m")])
         if self.equilibria is not None:
             st = ", ".join(f"{z:.6g}" for z in self.equilibria.stable) or "none"
             un = ", ".join(f"{z:.6g}" for z in self.equilibria.unstable) or "none"
-            lines.append("")
-            lines.append(f"equilibria (m): stable {st}; unstable {un}")
-        for m in self.modal:
-            lines.append(f"  at z* = {m.equilibrium:.6g} m: fn = {m.fn_hz:.4g} Hz, zeta = {100 * m.zeta:.3g} %")
-        lines.append("")
+            out.add_fields([("equilibria (m)", f"stable {st}; unstable {un}")], gap=True)
+        out.add_text(
+            *(f"at z* = {m.equilibrium:.6g} m: fn = {m.fn_hz:.4g} Hz, zeta = {100 * m.zeta:.3g} %" for m in self.modal),
+            indent="  ",
+        )
+        scores = []
         if self.scores is not None:
-            lines.append(
-                f"epsilon (Eq. 26): {self.scores.eps_percent:.3g} %   "
-                f"force residual: {self.scores.force_residual_percent:.3g} %"
-            )
-        if self.seconds is not None:
-            lines.append(f"time: {self.seconds:.3g} s")
-        for w in self.warnings:
-            lines.append(f"warning: {w}")
-        return "\n".join(lines)
+            scores = [("epsilon (Eq. 26)", f"{self.scores.eps_percent:.3g} %"),
+                      ("force residual", f"{self.scores.force_residual_percent:.3g} %")]
+        out.add_fields(scores, separator="   ", gap=True)  # the blank line stays when there are no scores
+        tail = [] if self.seconds is None else [("time", f"{self.seconds:.3g} s")]
+        out.add_fields(tail + [("warning", w) for w in self.warnings])
+        return out
 
     def __repr__(self) -> str:
         mass = "mass unknown" if self.mass is None else f"mass={self.mass:.4g} kg"
@@ -553,35 +555,7 @@ class IdentifiedModel:
         return f"<IdentifiedModel {self.method!r}: {', '.join(self.terms)}; {mass}{eps}>"
 
     def _repr_html_(self) -> str:
-        esc = html.escape
-        se = self.standard_errors or {}
-        head = f"<b>{esc(self.method)}</b>"
-        if self.mass is not None:
-            head += f", mass {self.mass:.6g} kg ({'estimated' if self.mass_estimated else 'given'})"
-        if self.scores is not None:
-            head += (
-                f", &epsilon; (Eq. 26) {self.scores.eps_percent:.3g} %, "
-                f"force residual {self.scores.force_residual_percent:.3g} %"
-            )
-        rows = "".join(
-            f"<tr><td><code>{esc(n)}</code></td><td style='text-align:right'>{self.coefficients[n]:.6g}</td>"
-            f"<td style='text-align:right'>{_fmt(se.get(n), '.3g')}</td><td>{esc(t.coefficient_unit)}</td></tr>"
-            for n, t in zip(self.terms, self.model.terms, strict=True)
-        )
-        table = (
-            "<table><thead><tr><th>term</th><th>coefficient</th><th>std. error</th><th>unit</th></tr></thead>"
-            f"<tbody>{rows}</tbody></table>"
-        )
-        extra = []
-        if self.equilibria is not None:
-            st = ", ".join(f"{z:.5g}" for z in self.equilibria.stable) or "none"
-            un = ", ".join(f"{z:.5g}" for z in self.equilibria.unstable) or "none"
-            extra.append(f"equilibria (m): stable {st}; unstable {un}")
-        extra += [f"at z* = {m.equilibrium:.5g} m: f<sub>n</sub> = {m.fn_hz:.4g} Hz, &zeta; = {100 * m.zeta:.3g} %"
-                  for m in self.modal]
-        extra += [f"<span style='color:#a60'>warning: {esc(w)}</span>" for w in self.warnings]
-        body = "".join(f"<li>{x}</li>" for x in extra)
-        return f"<div class='nlid-identified'><p>{head}</p>{table}<ul>{body}</ul></div>"
+        return self.summary().as_html()
 
     # ------------------------------------------------------------------ figures
     def plot_stiffness(self, ax: Any = None, *, potential: bool = False) -> Any:

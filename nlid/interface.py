@@ -6,6 +6,11 @@ An identifier is a class with
 * ``options``: a tuple of :class:`Option` (typed, with defaults) that the CLI
   and study configs validate before anything runs;
 * ``needs_mass``: ``True`` if it cannot estimate the mass itself;
+* optionally what the core tells users about it, so that the core never names
+  a plugin: ``preference`` (rank as the default method), ``advice`` and
+  ``advice_order`` (the "Which method?" list of ``nlid methods``), ``docs``
+  (the page reports link to) and ``refines`` (it refines another method's fit,
+  started from the identifier its ``init`` option names);
 * a constructor that only stores validated settings (``self.settings``), and
 * ``identify(record, model, *, mass=None) -> Estimate``.
 
@@ -264,6 +269,19 @@ class Identifier:
     options: ClassVar[tuple[Option, ...]] = ()
     #: True if the method cannot estimate the mass.
     needs_mass: ClassVar[bool] = False
+    #: Rank as the default method (``nlid discover`` without ``--method``, the start of a refining
+    #: identifier; :func:`nlid.methods.choose_method`): lower first; ``None``: after the ranked ones.
+    preference: ClassVar[int | None] = None
+    #: One line: when to choose this method (``nlid methods``); empty: its :attr:`summary` is shown.
+    advice: ClassVar[str] = ""
+    #: Place of :attr:`advice` in the "Which method?" list of ``nlid methods``: lower first; ``None``: after the
+    #: placed ones. (A decision guide reads "first choice, then by situation", which need not be :attr:`preference`.)
+    advice_order: ClassVar[int | None] = None
+    #: Documentation page that reports link to ("see docs/rfs.md"): a path or a URL; empty: none.
+    docs: ClassVar[str] = ""
+    #: True if the method refines another method's fit (as ``oe`` does); its ``init`` option (a string)
+    #: names the method it starts from. ``nlid discover --refine`` uses the preferred such identifier.
+    refines: ClassVar[bool] = False
 
     def __init__(self, **options: Any) -> None:
         self.settings: dict[str, Any] = resolve_options(self.options, options, where=f"{self.name}: ")

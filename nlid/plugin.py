@@ -9,9 +9,10 @@ reorganise its modules without breaking plugins::
 The toolkit has four axes, which identifiers compose rather than re-implement:
 
 * **the contract**: :class:`Identifier` (settings only in the constructor,
-  work in ``identify(record, model, *, mass=None)``), declared
-  :class:`Option`\\ s, the :class:`Estimate` an identifier returns, the
-  :class:`FigureArray`\\ s it declares for reports
+  work in ``identify(record, model, *, mass=None)``; class attributes that
+  tell the core about it: ``preference``, ``advice``, ``advice_order``,
+  ``docs``, ``refines``), declared :class:`Option`\\ s, the :class:`Estimate`
+  an identifier returns, the :class:`FigureArray`\\ s it declares for reports
   (:meth:`Identifier.figure_arrays`), and the :data:`hookimpl` marker of the
   ``nlid_identifiers`` hook;
 * **data and terms**: :class:`Record`, :class:`Model`, :class:`Term`,
@@ -28,7 +29,7 @@ The toolkit has four axes, which identifiers compose rather than re-implement:
   :func:`predictability_horizon`);
 * **other identifiers**: :func:`identify` (the core's :func:`nlid.identify`,
   e.g. for a method that starts from another method's estimate) and
-  :func:`choose_method` (the preferred installed identifier).
+  :func:`choose_method` (the installed identifier with the best ``preference``).
 
 Errors to raise: :class:`InputError` / :class:`DataError` for what the user
 gave (wrong model for the method, unusable record), :class:`IdentificationError`
@@ -36,6 +37,8 @@ when the method ran but its answer cannot be trusted.
 """
 
 from __future__ import annotations
+
+from typing import TYPE_CHECKING
 
 from . import derivatives
 from .balance import EDGE_PERIODS, REGRESSOR_BAND_FACTOR, RegressionData, regression_data
@@ -52,6 +55,19 @@ from .regression import (
     triangular_factor,
 )
 from .terms import Model, Term, parse_term
+
+if TYPE_CHECKING:  # loaded on first use by __getattr__ below (the simulator compiles with numba)
+    from .methods import choose_method
+    from .pipeline import identify
+    from .scoring import initial_state, predictability_horizon, score
+    from .simulation import (
+        FREE_RUN_OVERSAMPLE,
+        SimulationError,
+        fine_force,
+        free_run,
+        simulate,
+        simulate_segments,
+    )
 
 __all__ = [
     "Identifier",
@@ -115,7 +131,7 @@ def __getattr__(name: str):  # the simulator (numba) and the scores are loaded o
 
         return identify
     if name == "choose_method":
-        from .discovery.loop import choose_method
+        from .methods import choose_method
 
         return choose_method
     raise AttributeError(f"module 'nlid.plugin' has no attribute {name!r}")

@@ -26,7 +26,11 @@ The checks (:data:`CHECKS`):
 
 ``check_attributes``
     ``name``, a one-line ``summary``, ``options`` (a tuple of
-    :class:`~nlid.interface.Option`), ``needs_mass`` (bool), ``identify``.
+    :class:`~nlid.interface.Option`), ``needs_mass`` (bool), ``identify``;
+    and, when set, what the core tells users about the method:
+    ``preference`` and ``advice_order`` (int or None), ``advice`` and
+    ``docs`` (one line), ``refines`` (bool; a refining method declares a
+    string option ``init``, the method it starts from).
 ``check_options_documented``
     Every option has a help text, a unique name and a default that validates.
 ``check_unknown_option_rejected``
@@ -140,8 +144,9 @@ def _check_estimate(estimate: Any, model: Model, who: str) -> Estimate:
         model = estimate.model
     keys = list(estimate.coefficients)
     if keys != list(model.names):
-        raise _fail(f"{who}: coefficients must be keyed by the model's canonical terms in order {list(model.names)}, "
-                    f"got {keys}")
+        raise _fail(
+            f"{who}: coefficients must be keyed by the model's canonical terms in order {list(model.names)}, got {keys}"
+        )
     values = [estimate.coefficients[n] for n in model.names]
     if not all(isinstance(x, (float, int, np.floating, np.integer)) and np.isfinite(x) for x in values):
         raise _fail(f"{who}: every coefficient must be a finite number, got {values}")
@@ -153,7 +158,7 @@ def _check_estimate(estimate: Any, model: Model, who: str) -> Estimate:
 
 # --------------------------------------------------------------------------- the checks
 def check_attributes(s: _Setup) -> None:
-    """``name``, ``summary``, ``options``, ``needs_mass`` and ``identify`` are there and of the right type."""
+    """``name``, ``summary``, ``options``, ``needs_mass``, ``identify`` and the optional ones have the right types."""
     cls = s.cls
     name = getattr(cls, "name", None)
     if not isinstance(name, str) or not name or name != name.strip():
@@ -168,6 +173,24 @@ def check_attributes(s: _Setup) -> None:
         raise _fail(f"{name}: 'needs_mass' must be True or False")
     if not callable(getattr(cls, "identify", None)):
         raise _fail(f"{name}: has no identify() method")
+    _check_core_attributes(cls, name, options)
+
+
+def _check_core_attributes(cls: type, name: str, options: tuple[Option, ...]) -> None:
+    """The optional attributes the core reads instead of naming plugins (:mod:`nlid.methods`)."""
+    for key in ("preference", "advice_order"):
+        value = getattr(cls, key, None)
+        if value is not None and (isinstance(value, bool) or not isinstance(value, int)):
+            raise _fail(f"{name}: {key!r} must be an int (lower first) or None, got {value!r}")
+    for key in ("advice", "docs"):
+        value = getattr(cls, key, "")
+        if not isinstance(value, str) or "\n" in value.strip() or value != value.strip():
+            raise _fail(f"{name}: {key!r} must be one line of text (or empty), got {value!r}")
+    refines = getattr(cls, "refines", False)
+    if not isinstance(refines, bool):
+        raise _fail(f"{name}: 'refines' must be True or False, got {refines!r}")
+    if refines and not any(o.name == "init" and o.type == "str" for o in options):
+        raise _fail(f"{name}: a refining identifier (refines = True) declares a str option 'init' (the start method)")
 
 
 def check_options_documented(s: _Setup) -> None:
@@ -247,8 +270,9 @@ def check_estimated_mass(s: _Setup) -> None:
         raise _fail(f"{s.cls.name}: needs_mass is True but identify(mass=None) did not raise InputError")
     est = _check_estimate(s.run(s.data(), model, None), model, f"{s.cls.name} (mass estimated)")
     if est.mass is None or not (np.isfinite(est.mass) and est.mass > 0):
-        raise _fail(f"{s.cls.name}: needs_mass is False, so identify(mass=None) must return a positive mass, "
-                    f"got {est.mass!r}")
+        raise _fail(
+            f"{s.cls.name}: needs_mass is False, so identify(mass=None) must return a positive mass, got {est.mass!r}"
+        )
 
 
 def check_px_model(s: _Setup) -> None:
@@ -272,8 +296,10 @@ def check_deterministic(s: _Setup) -> None:
     first = _check_estimate(s.run(s.data(), model, mass), model, s.cls.name)
     second = _check_estimate(s.run(s.data(), model, mass), model, s.cls.name)
     if dict(first.coefficients) != dict(second.coefficients):
-        raise _fail(f"{s.cls.name}: identification is not deterministic: {dict(first.coefficients)} then "
-                    f"{dict(second.coefficients)} (seed any randomness from a setting)")
+        raise _fail(
+            f"{s.cls.name}: identification is not deterministic: {dict(first.coefficients)} then "
+            f"{dict(second.coefficients)} (seed any randomness from a setting)"
+        )
 
 
 def check_diagnostics_jsonable(s: _Setup) -> None:
@@ -296,11 +322,15 @@ def check_bad_record(s: _Setup) -> None:
     except (InputError, IdentificationError):
         return
     except NlidError as exc:
-        raise _fail(f"{s.cls.name}: an unusable record must raise DataError, InputError or IdentificationError, "
-                    f"got {type(exc).__name__}") from None
+        raise _fail(
+            f"{s.cls.name}: an unusable record must raise DataError, InputError or IdentificationError, "
+            f"got {type(exc).__name__}"
+        ) from None
     except (Exception, SystemExit) as exc:  # noqa: BLE001 - sys.exit in a plugin is a broken rule too
-        raise _fail(f"{s.cls.name}: an unusable record raised {type(exc).__name__}: {exc} - raise "
-                    "nlid.plugin.DataError (or InputError/IdentificationError) with a clear message") from None
+        raise _fail(
+            f"{s.cls.name}: an unusable record raised {type(exc).__name__}: {exc} - raise "
+            "nlid.plugin.DataError (or InputError/IdentificationError) with a clear message"
+        ) from None
 
 
 def check_core_round_trip(s: _Setup) -> None:
@@ -329,8 +359,10 @@ def check_accuracy(s: _Setup) -> None:
     for name, value in est.coefficients.items():
         rel = abs(value / truth[name] - 1.0)
         if not rel <= s.accuracy:
-            raise _fail(f"{s.cls.name}: {name} = {value:.6g} vs true {truth[name]:.6g} "
-                        f"({100 * rel:.3g} % > {100 * s.accuracy:g} %)")
+            raise _fail(
+                f"{s.cls.name}: {name} = {value:.6g} vs true {truth[name]:.6g} "
+                f"({100 * rel:.3g} % > {100 * s.accuracy:g} %)"
+            )
 
 
 #: The checks in the order they run (``check_accuracy`` runs only with ``accuracy=``).
@@ -431,4 +463,3 @@ def parametrize_with_checks(classes: Iterable[type], **settings: Any) -> Any:
 
     checks = [c for cls in classes for c in identifier_checks(cls, **settings)]
     return pytest.mark.parametrize("check", checks, ids=[repr(c) for c in checks])
-

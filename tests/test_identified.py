@@ -89,7 +89,7 @@ def test_frame_summary_and_repr(fit):
     frame = fit.to_frame()
     assert list(frame.index) == list(fit.terms) and frame.loc["z^3", "unit"] == "N/m^3"
     assert frame.loc["v*|v|", "family"] == "damping" and np.isfinite(frame["std_error"]).all()
-    text = fit.summary()
+    text = str(fit.summary())
     assert text.startswith("method: rfs") and "epsilon (Eq. 26)" in text and "equilibria (m)" in text
     assert max(len(line) for line in text.splitlines()) <= 100
     assert repr(fit).startswith("<IdentifiedModel 'rfs'") and len(repr(fit)) < 120

@@ -79,7 +79,7 @@ def test_posterior_unchanged(record):
     """
     fit = nlid.identify(record, "z^3, z^2, v*|v|", "rfs", mass=0.2)
     post = sample_posterior(record, fit, params="damping", seed=0)
-    new = post.summary()
+    new = post.summary_dict()
     for term, old in PINS["posterior"].items():
         sd = old["sd"]
         assert new[term]["sd"] == pytest.approx(sd, rel=0.05), term

@@ -207,3 +207,37 @@ def test_refusing_without_mass_with_input_error_passes():
             return super().identify(record, model, mass=mass)
 
     _check(Needs, "check_estimated_mass")()
+
+
+# ---------------------------------------------------------------- the attributes the core reads instead of names
+class Refiner(Good):
+    name = "refiner"
+    refines = True
+    options = (*Good.options, Option("init", "str", None, "method whose estimate starts the fit", nullable=True))
+
+
+def _attributes(cls, **attributes):
+    return type(cls.__name__, (cls,), attributes)
+
+
+def test_the_optional_attributes_are_accepted_when_well_typed():
+    ranked = _attributes(Good, preference=5, advice_order=None, advice="when the data are exact", docs="docs/x.md")
+    _check(ranked, "check_attributes")()
+    _check(Refiner, "check_attributes")()
+
+
+@pytest.mark.parametrize(
+    "attributes, message",
+    [
+        ({"preference": "1"}, "'preference' must be an int"),
+        ({"preference": True}, "'preference' must be an int"),
+        ({"advice_order": 1.5}, "'advice_order' must be an int"),
+        ({"advice": "two\nlines"}, "'advice' must be one line"),
+        ({"docs": None}, "'docs' must be one line"),
+        ({"refines": 1}, "'refines' must be True or False"),
+        ({"refines": True}, "declares a str option 'init'"),
+    ],
+)
+def test_each_optional_attribute_is_checked(attributes, message):
+    with pytest.raises(AssertionError, match=message):
+        _check(_attributes(Good, **attributes), "check_attributes")()

@@ -2,25 +2,24 @@
 
 Drawn with matplotlib's object-oriented API through :mod:`nlid.plotting`
 (no pyplot); the corner plot is written here rather than taken from a
-dependency.
+dependency. The functions take the posterior (:class:`~nlid.bayes.Posterior`)
+and its bands (:class:`~nlid.bayes.DampingBand`) by their attributes: this
+module imports nothing of :mod:`nlid.bayes`, which imports it to save figures.
 """
 
 from __future__ import annotations
 
 from collections.abc import Sequence
-from typing import TYPE_CHECKING
+from typing import Any
 
 import numpy as np
 
 from ..plotting import new_figure
 
-if TYPE_CHECKING:  # pragma: no cover
-    from .result import DampingBand, Posterior
-
 __all__ = ["corner_figure", "trace_figure", "damping_figure"]
 
 
-def corner_figure(posterior: Posterior, bins: int = 40, truth: dict[str, float] | None = None):
+def corner_figure(posterior: Any, bins: int = 40, truth: dict[str, float] | None = None):
     """Histograms of each coefficient (diagonal) and 2-D densities of each pair (below).
 
     Dashed lines: the 5 and 95 % quantiles; the orange mark is the
@@ -74,7 +73,7 @@ def corner_figure(posterior: Posterior, bins: int = 40, truth: dict[str, float] 
     return fig
 
 
-def trace_figure(posterior: Posterior, max_walkers: int = 32):
+def trace_figure(posterior: Any, max_walkers: int = 32):
     """Every walker's path for each coefficient; the grey span is the discarded burn-in."""
     chain = posterior.chains.chain
     names = posterior.names
@@ -96,7 +95,7 @@ def trace_figure(posterior: Posterior, max_walkers: int = 32):
     return fig
 
 
-def damping_figure(bands: Sequence[DampingBand], band_hz: float | None = None):
+def damping_figure(bands: Sequence[Any], band_hz: float | None = None):
     """The measured damping force on each slice with the posterior's 5-95 % band (paper Fig. 21 b-d).
 
     Top row: the data and the posterior band of ``D(z0, v)`` (median line,

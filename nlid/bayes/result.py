@@ -15,6 +15,7 @@ from ..balance import RegressionData
 from ..errors import InputError
 from ..interface import to_jsonable
 from ..scoring import damping_slice
+from ..summary import Column, Summary
 from ..terms import Model, parse_term
 from .likelihood import Likelihood
 from .noise import NoiseLevel
@@ -182,8 +183,8 @@ class Posterior:
                 }
         return out
 
-    def summary(self) -> dict[str, dict[str, float]]:
-        """``{term: {"mean", "sd", "q05", "q50", "q95"}}``."""
+    def summary_dict(self) -> dict[str, dict[str, float]]:
+        """``{term: {"mean", "sd", "q05", "q50", "q95"}}`` (what :meth:`summary` returned before it became a table)."""
         s = self.samples
         q = np.quantile(s, QUANTILES, axis=0)
         return {
@@ -210,7 +211,7 @@ class Posterior:
             walkers did not sample one posterior.
         """
         out = []
-        for name, s in self.summary().items():
+        for name, s in self.summary_dict().items():
             if not all(np.isfinite(x) for x in s.values()):
                 out.append(f"the summary of {name} is not finite ({', '.join(f'{k} {x:.4g}' for k, x in s.items())})")
                 continue
@@ -248,7 +249,7 @@ class Posterior:
         mean, cov = self.gaussian_limit
         return to_jsonable(
             {
-                "params": self.summary(),
+                "params": self.summary_dict(),
                 "tau": self.tau,
                 "acceptance": self.chains.acceptance,
                 "n_effective": self.n_effective,
@@ -286,7 +287,7 @@ class Posterior:
 
         rows = []
         ess = self.n_effective
-        for name, s in self.summary().items():
+        for name, s in self.summary_dict().items():
             rows.append(
                 {
                     "term": name,
@@ -300,64 +301,94 @@ class Posterior:
         return pd.DataFrame(rows)
 
     def __repr__(self) -> str:
-        parts = ", ".join(f"{n} {s['mean']:.4g} +/- {s['sd']:.2g}" for n, s in self.summary().items())
+        parts = ", ".join(f"{n} {s['mean']:.4g} +/- {s['sd']:.2g}" for n, s in self.summary_dict().items())
         return f"<Posterior {self.method!r} ({self.others} others): {parts}>"
 
     def _repr_html_(self) -> str:
-        import html
+        return self.summary().as_html()
 
-        return f"<pre>{html.escape(self.format_table())}</pre>"
+    def summary(self) -> Summary:
+        """The table ``nlid posterior`` prints: each sampled coefficient's mean, sd, quantiles, tau and ESS.
 
-    def format_table(self) -> str:
-        """A human-readable summary."""
-        width = max(len(n) for n in self.names)
-        lines = [
-            f"posterior of {len(self.names)} coefficient(s); start: {self.method}, mass {self.mass:.6g} kg",
-            "",
-            f"{'term':<{width}}  {'mean':>11}  {'sd':>9}  {'5 %':>11}  {'50 %':>11}  {'95 %':>11}  "
-            f"{'tau':>6}  {'ESS':>7}  unit",
-        ]
+        A :class:`~nlid.summary.Summary` (``print()`` it, or ``.as_markdown()`` /
+        ``.as_html()``); the numbers as a mapping are :meth:`summary_dict`.
+        """
+        out = Summary(f"posterior of {len(self.names)} coefficient(s); start: {self.method}, mass {self.mass:.6g} kg")
         ess = self.n_effective
-        for name, s in self.summary().items():
-            lines.append(
-                f"{name:<{width}}  {s['mean']:11.5g}  {s['sd']:9.3g}  {s['q05']:11.5g}  {s['q50']:11.5g}  "
-                f"{s['q95']:11.5g}  {self.tau[name]:6.1f}  {ess[name]:7.0f}  {parse_term(name).coefficient_unit}"
-            )
-        if self.not_sampled and self.others == "marginal":
-            lines.append("")
-            lines.append(f"integrated out (not sampled): {', '.join(self.not_sampled)}")
-        elif self.not_sampled:
-            lines.append("")
-            fixed = ", ".join(f"{n} = {x:.6g}" for n, x in self.not_sampled.items())
-            lines.append(f"fixed at the identifier's estimate: {fixed}")
-        info = self.likelihood.info
-        lines.append("")
-        lines.append(
-            f"sampler: {self.chains.walkers} walkers x {self.chains.steps} steps (burn-in {self.chains.burn}, "
-            f"thin {self.chains.thin}), acceptance {self.chains.acceptance:.2f}, "
-            f"chain length {self.chains.steps / max(self.chains.tau):.0f} tau"
+        out.add_table(
+            [
+                Column("term"),
+                Column("mean", "right", 11),
+                Column("sd", "right", 9),
+                Column("5 %", "right", 11),
+                Column("50 %", "right", 11),
+                Column("95 %", "right", 11),
+                Column("tau", "right", 6),
+                Column("ESS", "right", 7),
+                Column("unit"),
+            ],
+            [
+                [
+                    name,
+                    f"{s['mean']:.5g}",
+                    f"{s['sd']:.3g}",
+                    f"{s['q05']:.5g}",
+                    f"{s['q50']:.5g}",
+                    f"{s['q95']:.5g}",
+                    f"{self.tau[name]:.1f}",
+                    f"{ess[name]:.0f}",
+                    parse_term(name).coefficient_unit,
+                ]
+                for name, s in self.summary_dict().items()
+            ],
         )
+        if self.not_sampled and self.others == "marginal":
+            out.add_fields([("integrated out (not sampled)", ", ".join(self.not_sampled))], gap=True)
+        elif self.not_sampled:
+            fixed = ", ".join(f"{n} = {x:.6g}" for n, x in self.not_sampled.items())
+            out.add_fields([("fixed at the identifier's estimate", fixed)], gap=True)
+        info = self.likelihood.info
+        lines = [
+            (
+                "sampler",
+                f"{self.chains.walkers} walkers x {self.chains.steps} steps (burn-in {self.chains.burn}, "
+                f"thin {self.chains.thin}), acceptance {self.chains.acceptance:.2f}, "
+                f"chain length {self.chains.steps / max(self.chains.tau):.0f} tau",
+            )
+        ]
         band = info.get("band_hz")
         where = f" in the band below {band:.4g} Hz" if band else ""
         bias = "no bias correction"
         if info.get("bias_correction"):
             bias = "errors-in-variables bias corrected by simulation"
         lines.append(
-            f"likelihood: equation error over {info['samples']} samples{where}, effective {info['dof']:.0f} "
-            f"(residual correlated over {info['tau_residual_samples']:.1f} samples), {bias}"
+            (
+                "likelihood",
+                f"equation error over {info['samples']} samples{where}, effective {info['dof']:.0f} "
+                f"(residual correlated over {info['tau_residual_samples']:.1f} samples), {bias}",
+            )
         )
         noise = info.get("noise", {})
         if noise:
             levels = ", ".join(NoiseLevel(**level).describe() for level in noise.values())
-            lines.append(f"noise levels simulated by the correction: {levels}")
+            lines.append(("noise levels simulated by the correction", levels))
         for name, c in self.large_corrections.items():
             lines.append(
-                f"note: the bias correction moved {name} by {c['shift_sd']:+.1f} sd (least squares "
-                f"{c['least_squares']:.5g} -> {c['corrected']:.5g}); it is only as right as the noise levels above"
+                (
+                    "note",
+                    f"the bias correction moved {name} by {c['shift_sd']:+.1f} sd (least squares "
+                    f"{c['least_squares']:.5g} -> {c['corrected']:.5g}); it is only as right as the noise levels "
+                    "above",
+                )
             )
-        lines.append(f"time: {self.seconds:.3g} s")
-        lines += [f"warning: {w}" for w in self.warnings]
-        return "\n".join(lines)
+        lines.append(("time", f"{self.seconds:.3g} s"))
+        lines += [("warning", w) for w in self.warnings]
+        out.add_fields(lines, gap=True)
+        return out
+
+    def format_table(self) -> str:
+        """A human-readable summary: the text of :meth:`summary`."""
+        return self.summary().as_text()
 
     # ------------------------------------------------------------------ damping bands
     def damping_bands(
@@ -466,13 +497,13 @@ class Posterior:
         paths.append(path)
         if figures:
             from ..plotting import save_figure
-            from . import plots
+            from .plots import corner_figure, damping_figure, trace_figure
 
-            paths += save_figure(plots.corner_figure(self), out / "posterior_corner", formats=("png",))
-            paths += save_figure(plots.trace_figure(self), out / "posterior_trace", formats=("png",))
+            paths += save_figure(corner_figure(self), out / "posterior_corner", formats=("png",))
+            paths += save_figure(trace_figure(self), out / "posterior_trace", formats=("png",))
             if bands:
                 paths += save_figure(
-                    plots.damping_figure(bands, self.data.filtered_at if self.data is not None else None),
+                    damping_figure(bands, self.data.filtered_at if self.data is not None else None),
                     out / "posterior_damping",
                     formats=("png",),
                 )

@@ -126,7 +126,7 @@ def _holdout(args: argparse.Namespace):
 
 
 def run(args: argparse.Namespace) -> int:
-    from ..discovery import AcceptanceRule, discover, summary_table, write_report
+    from ..discovery import AcceptanceRule, discover, write_report
 
     if args.max_steps < 0:
         raise InputError(f"--max-steps must be >= 0, got {args.max_steps}")
@@ -165,25 +165,27 @@ def run(args: argparse.Namespace) -> int:
     if args.json:
         print_json(result.to_dict())
     else:
-        print(summary_table(result))
+        print(result.summary())
         if result.refined is not None:
             print(_refined_lines(result))
     return 0
 
 
 def _refined_lines(result) -> str:
-    """What the refinement by oe changed: free-run errors before and after, the refined terms."""
+    """What the refinement (by a refining identifier, e.g. oe) changed: free-run errors before and after, terms."""
     unit = result.info.get("units", {}).get("z", "")
     before, after = result.final, result.refined
 
     def fmt(x):
         return "n/a" if x is None else f"{x:.4g} {unit}"
 
-    lines = ["", f"refined with oe (output error on the free run, started from {result.method}):"]
+    refiner = after.identified.method
+    lines = ["", f"refined with {refiner} (output error on the free run, started from {result.method}):"]
     lines.append(f"  free-run RMS error held-out: {fmt(before.sim_rms_holdout)} -> {fmt(after.sim_rms_holdout)}")
     if before.validation is not None:
-        lines.append(f"  free-run RMS error validation: {fmt(before.sim_rms_validation)} -> "
-                     f"{fmt(after.sim_rms_validation)}")
+        lines.append(
+            f"  free-run RMS error validation: {fmt(before.sim_rms_validation)} -> {fmt(after.sim_rms_validation)}"
+        )
     if after.holdout.freerun_note and after.holdout.freerun_note != "not computed":
         lines.append(f"  ({after.holdout.freerun_note})")
     fit = after.identified

@@ -1,4 +1,8 @@
-"""``nlid methods``: which identifier to choose, the installed ones, their options and defaults."""
+"""``nlid methods``: which identifier to choose, the installed ones, their options and defaults.
+
+The advice comes from the identifiers (their ``advice`` and ``advice_order`` attributes,
+:class:`nlid.plugin.Identifier`); docs/methods.md has the table with the measurements.
+"""
 
 from __future__ import annotations
 
@@ -7,22 +11,6 @@ import argparse
 from ..errors import InputError
 from ..formatting import TERMINAL_WIDTH, wrap
 from .common import print_json
-
-#: When to choose each built-in identifier, one line each (docs/methods.md has the table with the measurements).
-WHEN: dict[str, str] = {
-    "rfs": "first choice: least squares on the force balance, any model, estimates the mass, the fastest "
-    "(~1 s per 60 s record); viscous damping biased (+1 to +8 % on paper-numerical) when v is "
-    "differentiated from a noisy z",
-    "sindy": "unsure which terms belong in the model: sparse selection from the model's terms plus a "
-    "polynomial/friction library (--set library=automatic) by cross-validation, reporting what it kept; "
-    "fragile with sign(v) on an estimated velocity",
-    "nsi-ip": "accurate damping ratios and natural frequencies from a noisy z, several wells, an unstable "
-    "linear part (paper Sec. 3.2); 4-10x slower than rfs",
-    "nsi-shift": "the paper's zero-reference shift (Sec. 3.1): one fit per stable well, combined; the slowest",
-    "oe": "the figure that matters is the free-run (simulation) error, or a shape parameter enters "
-    "nonlinearly: refines another method's fit on the free run (multiple shooting when chaotic); removes "
-    "rfs's damping bias; 10-100x slower than rfs; avoid with sign(v) terms and frequent reversals",
-}
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
@@ -41,6 +29,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    from ..methods import advice_of, ranked
     from ..registry import default_registry
 
     reg = default_registry()
@@ -69,9 +58,9 @@ def run(args: argparse.Namespace) -> int:
     detailed = set(args.names) if args.names else set(reg.names()) if args.all else set()
     if not args.names:
         print("Which method? (docs/methods.md has the decision table and the measurements)")
-        for name in [n for n in WHEN if n in reg.identifiers]:
-            if name in WHEN:
-                print(wrap(f"{name}: {WHEN[name]}", TERMINAL_WIDTH, indent="  ", subsequent="      "))
+        # each identifier's own advice (its summary when it gives none), in the order the identifiers ask for
+        for name in ranked(reg.identifiers, "advice_order"):
+            print(wrap(f"{name}: {advice_of(reg.identifiers[name])}", TERMINAL_WIDTH, indent="  ", subsequent="      "))
         print(
             wrap(
                 "any fit: 'nlid posterior' puts intervals on its friction coefficients, 'nlid discover' finds "

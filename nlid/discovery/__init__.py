@@ -6,15 +6,28 @@ passes a stated rule (:mod:`nlid.discovery.evidence`), re-identifies and
 repeats. :func:`write_report` writes the Markdown/HTML report with the
 residual figures (:mod:`nlid.discovery.plots`). The command line is
 ``nlid discover``; the documentation is ``docs/discover.md``.
+
+:func:`discover` is a thin wrapper of :class:`Discovery` (:mod:`nlid.discovery.search`), whose
+:meth:`~Discovery.steps` yields the search's state after each round, with a :class:`CandidateLibrary`
+(the effects it may add) and a :class:`Split` (estimation / hold-out / validation). The result classes
+are in :mod:`nlid.discovery.result`, the fits in :mod:`nlid.discovery.trials`.
 """
 
+from ..methods import choose_method
 from .evidence import AcceptanceRule, Evidence, Scores
+from .inputs import CandidateLibrary, Split
 from .library import LIBRARY, Candidate, Shape, library_names, resolve_candidates
-from .loop import DiscoveryResult, ResidualView, Stage, Step, choose_method, discover
-from .report import summary_table, write_report
+from .report import discovery_summary, summary_table, write_report
+from .result import DiscoveryResult, ResidualView, Stage, Step
+from .search import Discovery, SearchState, discover
 
 __all__ = [
     "discover",
+    "Discovery",
+    "SearchState",
+    "CandidateLibrary",
+    "Split",
+    "discovery_summary",
     "write_report",
     "summary_table",
     "choose_method",

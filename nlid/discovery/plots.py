@@ -1,6 +1,6 @@
 """Where a person looks for a missing effect: the residual against z, v, the (z, v) plane and frequency.
 
-The residual ``r = R_e - R_hat`` of a model (:class:`~nlid.discovery.loop.ResidualView`)
+The residual ``r = R_e - R_hat`` of a model (:class:`~nlid.discovery.result.ResidualView`)
 is summarised by binned means, whose confidence bands use the *effective*
 number of samples in each bin: the residual of a force balance formed in a
 filtered band is correlated over ``tau_int`` samples, so a bin of ``n``
@@ -9,18 +9,20 @@ zero over a range of ``z`` (or ``v``) is a systematic effect the model lacks:
 an odd step at ``v = 0`` is dry friction, an S-shape in ``z`` a missing cubic
 spring, a constant shift an offset.
 
-Figures use :mod:`nlid.plotting` (object-oriented matplotlib, no pyplot).
+Figures use :mod:`nlid.plotting` (object-oriented matplotlib, no pyplot). The
+functions read the views and the result by their attributes: this module
+imports nothing from :mod:`nlid.discovery.result` or the report, which use it.
 """
 
 from __future__ import annotations
 
 from collections.abc import Sequence
+from typing import Any
 
 import numpy as np
 from scipy import signal
 
 from ..plotting import new_figure
-from .loop import DiscoveryResult, ResidualView
 from .probes import Remaining, describe_remaining
 
 __all__ = ["binned_mean", "binned_mean_2d", "residual_figure", "progress_figure", "remaining_figure", "CONFIDENCE_Z"]
@@ -112,7 +114,7 @@ def _binned_band(ax, x, r, tau, color, alpha, label, *, band_label=None, zero=Tr
     return c, m, h
 
 
-def residual_figure(view: ResidualView, units: dict[str, str] | None = None, title: str | None = None):
+def residual_figure(view: Any, units: dict[str, str] | None = None, title: str | None = None):
     """Four panels: ``r`` against ``z`` and ``v`` (binned means, 95 % bands), over the (z, v) plane, and its PSD.
 
     Parameters
@@ -134,8 +136,9 @@ def residual_figure(view: ResidualView, units: dict[str, str] | None = None, tit
     pick = rng.choice(view.r.size, size=min(_SCATTER_POINTS, view.r.size), replace=False)
     for ax, x, name, unit in ((axes[0, 0], view.z, "z", zu), (axes[0, 1], view.v, "v", vu)):
         ax.plot(x[pick], view.r[pick], ".", ms=1.5, color="0.75", rasterized=True, label="samples")
-        c, m, h = _binned_band(ax, x, view.r, view.tau_samples, "C0", 0.3, "binned mean",
-                               band_label="95 % band (effective samples)")
+        c, m, h = _binned_band(
+            ax, x, view.r, view.tau_samples, "C0", 0.3, "binned mean", band_label="95 % band (effective samples)"
+        )
         spread = np.nanmax(np.abs(np.concatenate([m - h, m + h]))) if np.isfinite(m).any() else 1.0
         scatter = np.quantile(np.abs(view.r), 0.99)
         ax.set_ylim(-1.2 * max(spread, scatter), 1.2 * max(spread, scatter))
@@ -170,7 +173,7 @@ def residual_figure(view: ResidualView, units: dict[str, str] | None = None, tit
     return fig
 
 
-def progress_figure(result: DiscoveryResult, labels: Sequence[str] | None = None):
+def progress_figure(result: Any, labels: Sequence[str] | None = None):
     """Epsilon (Eq. 26) and the force residual, estimation and held-out, for each model of the loop."""
     states = result.states
     labels = list(labels) if labels else ["declared"] + [f"+ {s.effect}" for s in result.steps]
@@ -192,7 +195,7 @@ def progress_figure(result: DiscoveryResult, labels: Sequence[str] | None = None
     return fig
 
 
-def remaining_figure(view: ResidualView, remaining: Remaining, units: dict[str, str] | None = None):
+def remaining_figure(view: Any, remaining: Remaining, units: dict[str, str] | None = None):
     """What remains in a model's residual: against z by direction of motion (loops show memory), against v,
     and how much each probe predicts.
 

@@ -1,6 +1,12 @@
 """The report of a discovery run: a terminal table, and Markdown + HTML with figures.
 
-:func:`summary_table` is what ``nlid discover`` prints: one row per model
+The functions read a :class:`~nlid.discovery.result.DiscoveryResult` (and its
+stages) by their attributes and import nothing from :mod:`nlid.discovery.result`,
+which imports them (the result's :meth:`~nlid.discovery.result.DiscoveryResult.summary`
+and ``write_report``): one direction, no import circle.
+
+:func:`discovery_summary` (a :class:`~nlid.summary.Summary`; its text is
+:func:`summary_table`) is what ``nlid discover`` prints: one row per model
 (the declared one, then one per accepted effect) with epsilon (Eq. 26) and
 the force residual on the estimation and held-out records and the free-run
 simulation error on the held-out record, then why the loop stopped and the
@@ -29,14 +35,19 @@ from typing import Any
 
 import pandas as pd
 
-from ..formatting import TERMINAL_WIDTH, text_table, wrap
+from ..formatting import TERMINAL_WIDTH
 from ..plotting import save_figure
+from ..summary import Column, Summary
 from ..terms import parse_term
 from .evidence import Evidence
-from .loop import DiscoveryResult, Stage
 from .probes import describe_remaining
 
-__all__ = ["summary_table", "write_report", "coefficient_unit"]
+__all__ = ["discovery_summary", "summary_table", "write_report", "coefficient_unit"]
+
+#: A discovery result (:class:`~nlid.discovery.result.DiscoveryResult`), read by its attributes.
+Result = Any
+#: One of its stages (:class:`~nlid.discovery.result.Stage`).
+StageLike = Any
 
 
 def coefficient_unit(term: str, units: dict[str, str] | None = None) -> str:
@@ -61,7 +72,7 @@ def _mass_unit(units: dict[str, str]) -> str:
     return "kg" if (fu, zu) == ("N", "m") else f"{fu}*s^2/{zu}"
 
 
-def _labels(result: DiscoveryResult) -> list[str]:
+def _labels(result: Result) -> list[str]:
     return ["declared: " + ", ".join(result.declared)] + [
         f"+ {s.effect}: " + (", ".join(s.terms) or f"m = {s.after.mass:.4g} kg") for s in result.steps
     ]
@@ -87,11 +98,11 @@ def _length(x: float | None, units: dict[str, str]) -> str:
     return f"{x:.3g} {zu}"
 
 
-def _sim(fit: Stage, units: dict[str, str]) -> str:
+def _sim(fit: StageLike, units: dict[str, str]) -> str:
     return _length(fit.sim_rms_holdout, units)
 
 
-def _model_rows(result: DiscoveryResult) -> tuple[list[str], list[list[str]]]:
+def _model_rows(result: Result) -> tuple[list[str], list[list[str]]]:
     units = result.info.get("units", {})
     validation = any(st.validation is not None for st in result.states)
     headers = list(_MODEL_HEADERS) + (["free-run validation"] if validation else [])
@@ -127,12 +138,7 @@ _MODEL_NOTE = (
 )
 
 
-def _format_table(headers: list[str], rows: list[list[str]]) -> str:
-    """Aligned text within the terminal width (:func:`nlid.formatting.text_table`)."""
-    return text_table([str(h) for h in headers], [[str(c) for c in r] for r in rows])
-
-
-def _coefficient_rows(fit: Stage, units: dict[str, str]) -> tuple[list[str], list[list[str]]]:
+def _coefficient_rows(fit: StageLike, units: dict[str, str]) -> tuple[list[str], list[list[str]]]:
     se = fit.identified.standard_errors or {}
     post = fit.identified.diagnostics.get("posterior") if isinstance(fit.identified.diagnostics, dict) else None
     headers = ["term", "coefficient", "std. error", "unit"]
@@ -148,38 +154,55 @@ def _coefficient_rows(fit: Stage, units: dict[str, str]) -> tuple[list[str], lis
     return headers, rows
 
 
-def summary_table(result: DiscoveryResult) -> str:
-    """The before/after table ``nlid discover`` prints."""
+def discovery_summary(result: Result) -> Summary:
+    """The before/after table ``nlid discover`` prints, as a :class:`~nlid.summary.Summary`."""
     units = result.info.get("units", {})
     final = result.final
     how = "estimated" if final.identified.mass_estimated else "given"
-    lines = [
-        f"method: {result.method}   mass: {final.mass:.6g} {_mass_unit(units)} ({how})   "
-        f"held-out: {result.info.get('holdout', '')}",
-        "",
-        _format_table(*_model_rows(result)),
-        wrap(_MODEL_NOTE, TERMINAL_WIDTH, subsequent="  "),
-        "",
-    ]
-    for number, step in enumerate(result.steps, 1):
-        ev = step.evidence
-        text = (
-            f"step {number}: {step.effect} explains {100 * ev.explained_holdout:.3g} % of the held-out residual "  # type: ignore[operator]
-            f"variance, dBIC = {ev.delta_bic:.4g} (N_eff = {ev.n_eff:.4g})"
-        )
-        lines.append(wrap(text, TERMINAL_WIDTH, subsequent="  "))
-    for number, step in enumerate(result.steps, 1):
-        lines += [wrap(f"  note (step {number}): {n}", TERMINAL_WIDTH, subsequent="    ") for n in step.notes]
-    lines.append(wrap(f"stopped: {result.stop_reason}", TERMINAL_WIDTH, subsequent="  "))
-    for ev in result.final_ranking[:3]:
-        if ev.explained_holdout is not None:
-            lines.append(f"  {ev.effect:<28} {_explained(ev)}")
+    out = Summary()
+    out.add_fields(
+        [
+            ("method", result.method),
+            ("mass", f"{final.mass:.6g} {_mass_unit(units)} ({how})"),
+            ("held-out", result.info.get("holdout", "")),
+        ],
+        separator="   ",
+    )
+    _add_table(out, *_model_rows(result))
+    out.add_text(_MODEL_NOTE, width=TERMINAL_WIDTH)
+    out.add_text(
+        *(
+            f"step {number}: {step.effect} explains {100 * step.evidence.explained_holdout:.3g} % of the held-out "
+            f"residual variance, dBIC = {step.evidence.delta_bic:.4g} (N_eff = {step.evidence.n_eff:.4g})"
+            for number, step in enumerate(result.steps, 1)
+        ),
+        width=TERMINAL_WIDTH,
+        gap=True,
+    )
+    out.add_text(
+        *(f"  note (step {number}): {n}" for number, step in enumerate(result.steps, 1) for n in step.notes),
+        width=TERMINAL_WIDTH,
+        subsequent="    ",
+    )
+    out.add_text(f"stopped: {result.stop_reason}", width=TERMINAL_WIDTH)
+    out.add_text(
+        *(f"  {ev.effect:<28} {_explained(ev)}" for ev in result.final_ranking[:3] if ev.explained_holdout is not None)
+    )
     if result.validation_note:
-        lines.append(wrap(f"validation: {result.validation_note}", TERMINAL_WIDTH, subsequent="  "))
-    lines.append("")
-    headers, rows = _coefficient_rows(final, units)
-    lines.append(_format_table(headers, rows))
-    return "\n".join(lines)
+        out.add_text(f"validation: {result.validation_note}", width=TERMINAL_WIDTH)
+    _add_table(out, *_coefficient_rows(final, units))
+    return out
+
+
+def _add_table(out: Summary, headers: list[str], rows: list[list[str]]) -> None:
+    """A table as :func:`nlid.formatting.text_table` lays it out: labels left, figures right, within the width."""
+    columns = [Column(h, "left" if j == 0 else "right") for j, h in enumerate(headers)]
+    out.add_table(columns, rows, rule=True, width=TERMINAL_WIDTH, keep=1)
+
+
+def summary_table(result: Result) -> str:
+    """The before/after table ``nlid discover`` prints (the text of :func:`discovery_summary`)."""
+    return discovery_summary(result).as_text()
 
 
 def _explained(ev: Evidence) -> str:
@@ -292,7 +315,7 @@ class _Doc:
         )
 
 
-def write_report(result: DiscoveryResult, out_dir: str | Path, *, force: bool = False) -> list[Path]:
+def write_report(result: Result, out_dir: str | Path, *, force: bool = False) -> list[Path]:
     """Write the report (see the module docstring) and return the files written.
 
     nlid writes only into folders it created or that were empty; ``force=True``
@@ -304,7 +327,7 @@ def write_report(result: DiscoveryResult, out_dir: str | Path, *, force: bool = 
         return _write_report(result, out)
 
 
-def _write_report(result: DiscoveryResult, out: Path) -> list[Path]:
+def _write_report(result: Result, out: Path) -> list[Path]:
     from .plots import progress_figure, remaining_figure, residual_figure
 
     figures = out / "figures"
@@ -379,7 +402,12 @@ def _write_report(result: DiscoveryResult, out: Path) -> list[Path]:
         doc.table(
             ["probe", "held-out variance predicted", "fitted on held-out, scored on estimation", "structure"],
             [
-                [name, _pct(100 * p.explained_holdout), _pct(100 * p.explained_estimation), "yes" if p.structured else "no"]
+                [
+                    name,
+                    _pct(100 * p.explained_holdout),
+                    _pct(100 * p.explained_estimation),
+                    "yes" if p.structured else "no",
+                ]
                 for name, p in remaining.probes.items()
             ],
         )

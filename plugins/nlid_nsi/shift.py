@@ -134,6 +134,10 @@ class NSIZeroShift(Identifier):
     name = "nsi-shift"
     summary = "nonlinear subspace identification with the zero reference shifted to each stable well (Sec. 3.1)"
     needs_mass = False
+    preference = 40
+    advice = "the paper's zero-reference shift (Sec. 3.1): one fit per stable well, combined; the slowest"
+    advice_order = 40
+    docs = "docs/nsi.md"
     options = (
         Option(
             "equilibria",

@@ -168,6 +168,14 @@ class OutputError(Identifier):
                maximum=0.1),
     )
     needs_mass = False
+    refines = True  # starts from the method its 'init' option names
+    advice = (
+        "the figure that matters is the free-run (simulation) error, or a shape parameter enters "
+        "nonlinearly: refines another method's fit on the free run (multiple shooting when chaotic); removes "
+        "rfs's damping bias; 10-100x slower than rfs; avoid with sign(v) terms and frequent reversals"
+    )
+    advice_order = 50
+    docs = "docs/oe.md"
 
     # ------------------------------------------------------------------ the start
     def _start(self, record: Record, model: Model, mass: float | None) -> tuple[Any, str]:

@@ -268,6 +268,14 @@ class SparseIdentification(Identifier):
         ),
     )
     needs_mass = False
+    preference = 30
+    advice = (
+        "unsure which terms belong in the model: sparse selection from the model's terms plus a "
+        "polynomial/friction library (--set library=automatic) by cross-validation, reporting what it kept; "
+        "fragile with sign(v) on an estimated velocity"
+    )
+    advice_order = 20
+    docs = "docs/sindy.md"
 
     def identify(self, record: Record, model: Model, *, mass: float | None = None) -> Estimate:
         """Fit the sparse model and map its ``v'`` equation to the coefficients of ``R``."""

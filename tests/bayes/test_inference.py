@@ -57,7 +57,7 @@ def test_posterior_samples_the_damping_terms_from_the_estimate(posterior, result
 
 def test_summary_is_ordered_and_matches_the_gaussian_limit(posterior):
     mean, cov = posterior.gaussian_limit
-    for i, (name, s) in enumerate(posterior.summary().items()):
+    for i, (name, s) in enumerate(posterior.summary_dict().items()):
         assert s["q05"] < s["q50"] < s["q95"] and s["sd"] > 0
         sd = np.sqrt(cov[i, i])
         assert s["mean"] == pytest.approx(mean[i], abs=0.15 * sd)
@@ -111,10 +111,10 @@ def test_marginal_carries_the_uncertainty_of_the_other_coefficients(record, resu
     fixed = sample_posterior(record, result, params="damping", seed=3, others="fixed")
     assert fixed.to_dict()["fixed"] == fixed.not_sampled and posterior.to_dict()["fixed"] == {}
     for i, name in enumerate(posterior.names):
-        s = posterior.summary()[name]
+        s = posterior.summary_dict()[name]
         assert s["sd"] == pytest.approx(np.sqrt(cov[i, i]), rel=0.15)
         # holding the stiffness fixed can only narrow the posterior (up to sampling noise)
-        assert fixed.summary()[name]["sd"] <= 1.1 * s["sd"]
+        assert fixed.summary_dict()[name]["sd"] <= 1.1 * s["sd"]
 
 
 def test_all_params_samples_the_stiffness_too(record, result):

@@ -8,7 +8,7 @@ from nlid.presets import get_preset
 
 def test_the_command_line_refines_and_prints_both(cli, monkeypatch, tmp_path, rfs_oe_registry):
     """``nlid discover --refine`` (the registry made in-process: oe may not be installed here)."""
-    monkeypatch.setattr("nlid.discovery.loop.default_registry", rfs_oe_registry)
+    monkeypatch.setattr("nlid.discovery.search.default_registry", rfs_oe_registry)
     preset = get_preset("paper-numerical").with_overrides(duration=6.0)
     record = preset.simulate(1, noise={"z": 0.02}, channels=("z",))
     path = tmp_path / "x.csv"

@@ -29,6 +29,7 @@ from __future__ import annotations
 
 import math
 import re
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -36,18 +37,14 @@ import numpy as np
 import pandas as pd
 
 from ...formatting import column_digits, sig, spread_cell, wrap
+from ...methods import doc_pages
 from .. import columns as col
 from ..columns import COST_DIGITS
 
 __all__ = ["Finding", "Verdict", "build_verdict", "METHOD_DOCS"]
 
-#: Documentation page of each built-in identifier (the "see ..." of the verdict).
-METHOD_DOCS: dict[str, str] = {
-    "rfs": "docs/rfs.md",
-    "sindy": "docs/sindy.md",
-    "nsi-ip": "docs/nsi.md",
-    "nsi-shift": "docs/nsi.md",
-}
+#: Documentation page of each identifier, from its own ``docs`` attribute (the "see ..." of the verdict).
+METHOD_DOCS: Mapping[str, str] = doc_pages
 
 _SAME = 1e-6  # relative difference under which two runs' coefficients are the same number
 

@@ -1,0 +1,597 @@
+"""The search: residual -> missing effect -> add it -> error before and after.
+
+1. Identify the declared model (taken literally: no default terms are added)
+   with the chosen identifier through :func:`nlid.identify`, on the
+   estimation record.
+2. Compute its residual ``r = R_e - R_hat(z, v)`` (``R_e = f - m a``, Eq. 25) and
+   epsilon (Eq. 26) on the estimation and held-out records, in one equation band.
+3. Add each candidate of the library to the current model, identify it with the
+   same identifier and score it on the held-out record (:mod:`nlid.discovery.trials`,
+   :mod:`nlid.discovery.evidence`).
+4. Accept the best candidate if it passes the rule, re-identify (with the
+   ``px(z)`` fixed point of :func:`nlid.identify` when the model uses
+   ``px``), and recompute the residuals.
+5. Repeat until no candidate is accepted or ``max_steps`` effects were added.
+
+The free-run simulation error on the held-out record is reported for the
+declared model and after each step: it is :func:`nlid.scoring.free_run_error`
+(with its chaos check), the same number ``nlid study`` reports for the same
+model and record.
+
+:class:`Discovery` holds the settings (as emcee's ``EnsembleSampler`` does);
+:meth:`Discovery.steps` is a generator that yields a :class:`SearchState`
+after each round, so that the caller shows progress or stops early;
+:meth:`Discovery.finish` turns a state into the
+:class:`~nlid.discovery.result.DiscoveryResult` and :meth:`Discovery.run`
+drains the generator and finishes. Two small objects replace half of the
+keywords of :func:`discover` (:mod:`nlid.discovery.inputs`): a
+:class:`CandidateLibrary` (which effects may be added) and a :class:`Split`
+(estimation / hold-out, and a validation record that informs but never
+decides)::
+
+    search = Discovery("rfs", mass=0.2, split=Split(0.25), library=CandidateLibrary.select("coulomb, viscous"))
+    for state in search.steps(record, "1, z, z^3, v"):
+        print(state.step.effect if state.step else state.stop_reason)
+    result = search.finish(state)
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import time
+from collections.abc import Callable, Iterable, Iterator, Sequence
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from .. import derivatives
+from ..errors import IdentificationError, InputError
+from ..methods import choose_method, choose_refiner
+from ..record import Record
+from ..registry import Registry, default_registry
+from ..terms import Model
+from .evidence import AcceptanceRule, Evidence, judge, rank
+from .inputs import BUILTIN_CANDIDATES, DEFAULT_HOLDOUT, CandidateLibrary, Split
+from .library import Candidate
+from .probes import MIN_STRUCTURE, describe_remaining
+from .result import DiscoveryResult, ResidualView, Stage, Step
+from .trials import (
+    Context,
+    fit_stage,
+    gate,
+    prune,
+    refine_stage,
+    residual_view,
+    root_mean_square,
+    test_candidate,
+    test_dictionary,
+    test_mass,
+    with_free_run,
+    with_probes,
+)
+
+__all__ = [
+    "DEFAULT_HOLDOUT",
+    "DEFAULT_MAX_STEPS",
+    "BUILTIN_CANDIDATES",
+    "Split",
+    "CandidateLibrary",
+    "SearchState",
+    "SearchSetup",
+    "Discovery",
+    "discover",
+]
+
+#: Most effects added by one run.
+DEFAULT_MAX_STEPS = 5
+#: The stop reason of a search that added ``max_steps`` effects.
+MAX_STEPS_REACHED = "maximum number of steps reached"
+
+Progress = Callable[[str], None]
+
+
+def _quiet(_message: str) -> None:
+    return None
+
+
+@dataclass(frozen=True)
+class SearchSetup:
+    """What a search fixed before its first round, shared by its states.
+
+    The records, identifier and band (:class:`~nlid.discovery.trials.Context`), the method and why, the
+    declared model, the candidates, the estimation record's range of ``z`` and the start time.
+    """
+
+    context: Context
+    method: str
+    method_notes: tuple[str, ...]
+    declared: Model
+    held_text: str
+    source: str
+    holdout_source: str
+    units: dict[str, str]
+    library: CandidateLibrary
+    use_mass: bool
+    z_range: tuple[float, float]
+    started: float
+
+
+@dataclass(frozen=True)
+class SearchState:
+    """Where a search stands after a round; each round yields a new one (nothing is changed in place).
+
+    Attributes
+    ----------
+    run
+        What the search fixed before its first round (:class:`SearchSetup`).
+    stages
+        The declared model's stage, then one per accepted step (each carries its own mass,
+        :attr:`~nlid.discovery.result.Stage.given_mass`).
+    steps
+        The accepted effects.
+    views
+        The residual view of each stage (estimation record).
+    ranking
+        The candidates of the round that accepted nothing, with their evidence (empty otherwise).
+    stop_reason
+        Why the search stopped; empty while it goes on.
+    """
+
+    run: SearchSetup = dataclasses.field(repr=False)
+    stages: tuple[Stage, ...]
+    steps: tuple[Step, ...] = ()
+    views: tuple[ResidualView, ...] = ()
+    ranking: tuple[Evidence, ...] = ()
+    stop_reason: str = ""
+
+    @property
+    def stage(self) -> Stage:
+        """The current model."""
+        return self.stages[-1]
+
+    @property
+    def step(self) -> Step | None:
+        """The last accepted effect (``None`` before the first)."""
+        return self.steps[-1] if self.steps else None
+
+    @property
+    def done(self) -> bool:
+        """Whether the search stopped by itself."""
+        return bool(self.stop_reason)
+
+    @property
+    def added(self) -> frozenset[str]:
+        """Effects this search added (not tested again; the dictionary may propose terms again)."""
+        return frozenset(s.effect for s in self.steps if s.effect != "dictionary")
+
+
+class Discovery:
+    """A search for the effects a declared model lacks (see the module docstring).
+
+    The constructor only checks and stores the settings; :meth:`steps` (or :meth:`run`) takes the data.
+
+    Parameters
+    ----------
+    method
+        Identifier name; default :func:`nlid.methods.choose_method` (the preferred installed one).
+    mass
+        Known mass (kg); ``None``: estimated by the identifier.
+    split
+        Estimation / hold-out division and the validation record (default :class:`Split`).
+    library
+        Candidate effects (default :meth:`CandidateLibrary.select`: all of them).
+    rule
+        Acceptance rule (default :class:`~nlid.discovery.evidence.AcceptanceRule`).
+    max_steps
+        Most effects to add.
+    cutoff
+        Equation band (Hz) for estimated channels; default :func:`nlid.derivatives.suggest_cutoff` of
+        the estimation record's displacement, used for both records.
+    structure
+        Cross-fitted held-out fraction of the residual variance a probe must predict to count as
+        remaining structure (:data:`nlid.discovery.probes.MIN_STRUCTURE`).
+    options
+        Identifier options.
+    registry
+        Where to find the identifiers (default: installed plugins).
+    simulate
+        Compute the free-run simulation error on the held-out record.
+    views
+        Keep the residual views for the report.
+    refine
+        Refine the final model with the preferred refining identifier (``refines = True``, e.g. the
+        output-error ``oe``: free-run error, shape parameters included), started from ``method``;
+        :attr:`DiscoveryResult.refined` holds it with the same scores.
+
+    Raises
+    ------
+    InputError
+        Bad method, options, mass or ``max_steps``.
+    """
+
+    def __init__(
+        self,
+        method: str | None = None,
+        *,
+        mass: float | None = None,
+        split: Split | None = None,
+        library: CandidateLibrary | None = None,
+        rule: AcceptanceRule | None = None,
+        max_steps: int = DEFAULT_MAX_STEPS,
+        cutoff: float | None = None,
+        structure: float = MIN_STRUCTURE,
+        options: dict[str, Any] | None = None,
+        registry: Registry | None = None,
+        simulate: bool = True,
+        views: bool = True,
+        refine: bool = False,
+    ) -> None:
+        if int(max_steps) < 0:
+            raise InputError(f"max_steps must be >= 0, got {max_steps}")
+        self.library = library if library is not None else CandidateLibrary.select()
+        self.registry = registry or default_registry()
+        if method is None:
+            method, notes = choose_method(mass, self.registry)
+        else:
+            notes = [f"method {method!r} given"]
+        self.identifier = self.registry.create(method, options)
+        if mass is not None and not (np.isfinite(mass) and mass > 0):
+            raise InputError(f"mass= must be a positive number of kg, got {mass}")
+        if mass is None and getattr(self.identifier, "needs_mass", False):
+            raise InputError(f"method {method!r} cannot estimate the mass: give mass= (in kg)")
+        self.method, self.method_notes, self.mass = method, tuple(notes), mass
+        self.split = split if split is not None else Split()
+        self.rule = rule or AcceptanceRule()
+        self.max_steps = int(max_steps)
+        self.cutoff, self.structure = cutoff, float(structure)
+        self.simulate, self.views, self.refine = simulate, views, refine
+
+    def __repr__(self) -> str:
+        return (
+            f"Discovery({self.method!r}, mass={self.mass!r}, max_steps={self.max_steps}, "
+            f"candidates={len(self.library.candidates)})"
+        )
+
+    # ------------------------------------------------------------------ the search
+    def steps(
+        self, record: Record, declared: str | Iterable[str] | Model, *, progress: Progress | None = None
+    ) -> Iterator[SearchState]:
+        """Identify the declared model, then yield the state after each round.
+
+        A round tests every candidate on the current model and accepts the best one that passes the
+        rule (its state has a new :attr:`SearchState.step`), or accepts none (its state is
+        :attr:`~SearchState.done`, with the ranking and the stop reason). The last state is done: the
+        search stopped by itself, or added ``max_steps`` effects. The data are checked and the declared
+        model identified when this is called; each round runs when the next state is asked for.
+
+        Parameters
+        ----------
+        record
+            The data (estimation record, or the whole record when the split's hold-out is a fraction).
+        declared
+            The complete declared model, taken literally: ``"v, 1"`` is two terms (no default ``1, z,
+            v`` are added).
+        progress
+            Called with one line per stage (e.g. ``print`` to stderr).
+
+        Raises
+        ------
+        InputError
+            Bad terms, hold-out or cutoff.
+        IdentificationError
+            The declared model itself cannot be identified.
+        """
+        say = progress or _quiet
+        state = self._start(record, declared, say)
+        return self._rounds(state, say)
+
+    def run(
+        self, record: Record, declared: str | Iterable[str] | Model, *, progress: Progress | None = None
+    ) -> DiscoveryResult:
+        """The whole search: every round of :meth:`steps`, then :meth:`finish`."""
+        *_, last = self.steps(record, declared, progress=progress)  # steps() yields at least once
+        return self.finish(last, progress=progress)
+
+    def _start(self, record: Record, declared: str | Iterable[str] | Model, say: Progress) -> SearchState:
+        started = time.perf_counter()
+        model0 = declared if isinstance(declared, Model) else Model.from_spec(declared, defaults=False)
+        estimation, held, held_text = self.split.divide(record)
+        cutoff = self.cutoff
+        if cutoff is None:
+            cutoff = derivatives.suggest_cutoff(estimation.z, estimation.fs)
+        elif not (np.isfinite(cutoff) and 0.0 < float(cutoff) < estimation.fs / 2.0):
+            raise InputError(
+                f"cutoff must lie between 0 and the Nyquist frequency {estimation.fs / 2:g} Hz, got {float(cutoff):g}"
+            )
+        ctx = Context(estimation, held, self.identifier, float(cutoff), self.rule, self.structure)
+        run = SearchSetup(
+            context=ctx,
+            method=self.method,
+            method_notes=self.method_notes,
+            declared=model0,
+            held_text=held_text,
+            source=str(record.meta.get("source", "")),
+            holdout_source=str(held.meta.get("source", "")),
+            units={"f": record.units["f"], "z": record.units["z"]},
+            library=self.library,
+            use_mass=self.library.mass and not getattr(self.identifier, "needs_mass", False),
+            z_range=(float(estimation.z.min()), float(estimation.z.max())),
+            started=started,
+        )
+        say(f"identifying the declared model ({model0}) with {self.method}")
+        current = fit_stage(ctx, model0, self.mass)
+        view = residual_view(estimation, current, ctx.cutoff, "declared model")
+        return SearchState(run, (current,), views=(view,))
+
+    def _rounds(self, state: SearchState, say: Progress) -> Iterator[SearchState]:
+        if self.max_steps == 0:
+            yield dataclasses.replace(state, stop_reason=MAX_STEPS_REACHED)
+            return
+        for number in range(1, self.max_steps + 1):
+            state = self._round(state, number, say)
+            if not state.done and number == self.max_steps:
+                state = dataclasses.replace(state, stop_reason=MAX_STEPS_REACHED)
+            yield state
+            if state.done:
+                return
+
+    def _round(self, state: SearchState, number: int, say: Progress) -> SearchState:
+        """One round: test every candidate on the current model, accept the best that passes, or stop."""
+        run, ctx = state.run, state.run.context
+        current = with_probes(ctx, state.stage)
+        stages = (*state.stages[:-1], current)
+        remaining = current.remaining
+        assert remaining is not None
+        view = state.views[-1]
+        rms = {"z": float(np.std(view.z)), "v": root_mean_square(view.v)}
+        pool = run.library.candidates
+        say(
+            f"step {number}: eps {current.scores.eps:.3g} % (held-out {current.scores.eps_holdout:.3g} %); "
+            f"testing {len(pool)} candidates"
+        )
+        tested: list[Evidence] = []
+        fits: dict[str, Stage] = {}
+
+        def consider(evidence: Evidence, fit: Stage | None, bad: str) -> None:
+            if fit is not None:
+                judge(evidence, current.scores, fit.scores, view.n_eff, view.tau_samples, ctx.rule)
+                fits[evidence.effect] = fit
+                evidence.passes["physical"] = not bad
+                if bad:
+                    evidence.status, evidence.reason = "rejected", bad + "; " + evidence.reason
+            tested.append(evidence)
+
+        added = state.added
+        for cand in pool:
+            if cand.name in added:
+                tested.append(Evidence(cand.name, status="not applicable", reason="already added by this run"))
+                continue
+            why = gate(remaining, cand.requires)
+            if why:
+                tested.append(Evidence(cand.name, status="not applicable", reason=why))
+                continue
+            consider(*test_candidate(ctx, current, cand, rms, run.z_range))
+        if run.use_mass and current.given_mass is not None:
+            why = gate(remaining, ("acceleration",))
+            if why:
+                tested.append(Evidence("mass", status="not applicable", reason=why))
+            else:
+                consider(*test_mass(ctx, current))
+        ranking, accepted = rank(tested)
+        if accepted is None and run.library.dictionary and not gate(remaining, ("z", "v", "z,v")):
+            # open world: when nothing named passes, let a sparse regression on the dictionary propose terms
+            say(f"step {number}: no named candidate passes; searching the automatic dictionary")
+            consider(*test_dictionary(ctx, current, run.z_range))
+            ranking, accepted = rank(tested)
+        if accepted is None:
+            best = ranking[0] if ranking and ranking[0].explained_holdout is not None else None
+            stop_reason = "no candidate passes the acceptance rule" + (
+                f" (best: {best.effect}, {best.reason})" if best else ""
+            )
+            say(stop_reason)
+            return dataclasses.replace(state, stages=stages, ranking=tuple(ranking), stop_reason=stop_reason)
+        after = fits[accepted.effect]
+        notes: list[str] = []
+        if accepted.effect == "mass":
+            notes.append(
+                f"the given mass looks wrong: the data say m = {after.mass:.4g} kg (given: {current.mass:.4g} kg); "
+                "the mass is estimated from here on"
+            )
+        if after.model.uses_px:
+            # re-identify with the px(z) fixed point instead of the screening's fixed roots
+            try:
+                after = fit_stage(ctx, after.model.with_px_roots(None), after.given_mass)
+            except IdentificationError as exc:
+                notes.append(f"px(z) fixed point failed ({exc}); kept the roots of the current stiffness")
+        say(f"step {number}: accepted {accepted.effect} ({', '.join(accepted.terms)}): {accepted.reason}")
+        after, pruned = prune(ctx, after, state.steps, accepted.effect)
+        for note in pruned:
+            say(f"step {number}: {note}")
+        step = Step(accepted.effect, list(accepted.terms), current, after, accepted, ranking, notes + pruned)
+        view = residual_view(ctx.estimation, after, ctx.cutoff, f"after step {number}: {accepted.effect}")
+        return dataclasses.replace(
+            state, stages=(*stages, after), steps=(*state.steps, step), views=(*state.views, view)
+        )
+
+    # ------------------------------------------------------------------ the result
+    def finish(self, state: SearchState, *, progress: Progress | None = None) -> DiscoveryResult:
+        """The result of a search that reached ``state``: probes, free runs, validation scores, refinement.
+
+        ``state`` is usually the last one :meth:`steps` yielded; a search the caller stopped early says so
+        in its stop reason.
+        """
+        say = progress or _quiet
+        run, ctx = state.run, state.run.context
+        validation = self.split.validation
+        stop_reason = state.stop_reason or f"stopped by the caller after {len(state.steps)} step(s)"
+        say("remaining-structure probes")
+        states = [stage if stage.remaining is not None else with_probes(ctx, stage) for stage in state.stages]
+        remaining = states[-1].remaining
+        assert remaining is not None
+        clean = "" if remaining.structured else "the final model is "
+        stop_reason = f"{stop_reason}; {clean}" + describe_remaining(remaining)
+        if self.simulate:
+            say("free-run simulation on the held-out record")
+            states = [with_free_run(ctx, stage) for stage in states]
+        if validation is not None:
+            say("scores on the validation record")
+            states = [
+                dataclasses.replace(
+                    st, validation=st.identified.score(validation, cutoff=ctx.cutoff, free_run=self.simulate)
+                )
+                for st in states
+            ]
+        steps = [dataclasses.replace(step, before=states[k], after=states[k + 1]) for k, step in enumerate(state.steps)]
+        refined = None
+        if self.refine:
+            name = choose_refiner(self.registry)
+            say(f"refining the final model with {name} (output error on the free run)")
+            refiner = self.registry.create(name, {"init": run.method})
+            refined = refine_stage(ctx, states[-1], refiner, self.simulate, validation)
+        estimation, held = ctx.estimation, ctx.holdout
+        info = {
+            "samples_estimation": estimation.n,
+            "samples_holdout": held.n,
+            "holdout": run.held_text,
+            "fs_hz": estimation.fs,
+            "band_hz": ctx.cutoff,
+            "units": dict(run.units),
+            "source": run.source,
+            "holdout_source": run.holdout_source,
+            "candidates": run.library.names,
+            "validation": None
+            if validation is None
+            else f"{validation.n} samples, {validation.meta.get('source', 'given')}",
+            "z_range": list(run.z_range),
+            "z_range_validation": None
+            if validation is None
+            else [float(validation.z.min()), float(validation.z.max())],
+            "max_steps": self.max_steps,
+            "seconds": time.perf_counter() - run.started,
+        }
+        return DiscoveryResult(
+            method=run.method,
+            method_notes=list(run.method_notes),
+            declared=list(run.declared.names),
+            states=states,
+            steps=steps,
+            final_ranking=list(state.ranking),
+            stop_reason=stop_reason,
+            rule=ctx.rule,
+            views=list(state.views) if self.views else [],
+            info=info,
+            refined=refined,
+        )
+
+
+def discover(
+    record: Record,
+    declared: str | Iterable[str] | Model,
+    method: str | None = None,
+    *,
+    mass: float | None = None,
+    holdout: float | Record = DEFAULT_HOLDOUT,
+    candidates: str | Iterable[str] | None = None,
+    extra_candidates: Iterable[Candidate | str] = (),
+    plugins: bool | Sequence[Candidate] = True,
+    rule: AcceptanceRule | None = None,
+    max_steps: int = DEFAULT_MAX_STEPS,
+    cutoff: float | None = None,
+    structure: float = MIN_STRUCTURE,
+    validation: Record | None = None,
+    options: dict[str, Any] | None = None,
+    registry: Registry | None = None,
+    simulate: bool = True,
+    views: bool = True,
+    progress: Callable[[str], None] | None = None,
+    refine: bool = False,
+) -> DiscoveryResult:
+    """Find the effects a declared model lacks, one at a time (see the module docstring).
+
+    A thin wrapper: ``Discovery(method, ..., split=Split(holdout, validation),
+    library=CandidateLibrary.select(candidates, extra_candidates, plugins=plugins)).run(record, declared)``.
+
+    Parameters
+    ----------
+    record
+        The data (estimation record, or the whole record when ``holdout`` is
+        a fraction).
+    declared
+        The complete declared model, taken literally: ``"v, 1"`` is two terms
+        (no default ``1, z, v`` are added).
+    method
+        Identifier name; default :func:`nlid.methods.choose_method`.
+    mass
+        Known mass (kg); ``None``: estimated by the identifier.
+    holdout
+        Fraction of ``record`` held out (its last part), or a separate
+        held-out record.
+    candidates
+        Names of candidates to test (default: all): the library's, plugins',
+        and the loop's own ``mass`` (re-estimate a given mass) and
+        ``dictionary`` (sparse regression on an automatic dictionary, tried
+        when no named candidate passes).
+    extra_candidates
+        User candidates (:class:`Candidate` or ``"NAME=TERMS"``).
+    plugins
+        Include candidates from installed plugins.
+    rule
+        Acceptance rule (default :class:`AcceptanceRule`).
+    max_steps
+        Most effects to add.
+    cutoff
+        Equation band (Hz) for estimated channels; default
+        :func:`nlid.derivatives.suggest_cutoff` of the estimation record's
+        displacement, used for both records.
+    structure
+        Cross-fitted held-out fraction of the residual variance a probe must
+        predict to count as remaining structure
+        (:data:`nlid.discovery.probes.MIN_STRUCTURE`).
+    validation
+        A record on which every model is also scored (epsilon, force
+        residual and free-run error) without taking part in any decision:
+        e.g. a benchmark's validation set, whose excitation may differ from
+        the estimation record's.
+    options
+        Identifier options.
+    registry
+        Where to find the identifiers (default: installed plugins).
+    simulate
+        Compute the free-run simulation error on the held-out record.
+    views
+        Keep the residual views for the report.
+    progress
+        Called with one line per stage (e.g. ``print`` to stderr).
+    refine
+        Refine the final model with the refining identifier (``oe``: free-run error, shape parameters
+        included), started from ``method``; :attr:`DiscoveryResult.refined` holds it with the same scores.
+
+    Returns
+    -------
+    DiscoveryResult
+
+    Raises
+    ------
+    InputError
+        Bad terms, candidates, method, options, mass or hold-out.
+    IdentificationError
+        The declared model itself cannot be identified.
+    """
+    library = CandidateLibrary.select(candidates, extra_candidates, plugins=plugins)
+    search = Discovery(
+        method,
+        mass=mass,
+        split=Split(holdout, validation),
+        library=library,
+        rule=rule,
+        max_steps=max_steps,
+        cutoff=cutoff,
+        structure=structure,
+        options=options,
+        registry=registry,
+        simulate=simulate,
+        views=views,
+        refine=refine,
+    )
+    return search.run(record, declared, progress=progress)

@@ -1,0 +1,382 @@
+"""One fit of the search: a model identified on the estimation record and scored on the held-out one.
+
+A :class:`Context` fixes what every fit of a run shares (the two records,
+the identifier, the equation band, the acceptance rule); the mass is not in
+it: each fit is given the mass of the stage it builds on
+(:attr:`~nlid.discovery.result.Stage.given_mass`). The functions test one
+candidate on top of the current model:
+
+* :func:`test_candidate`: a library (or plugin, or user) candidate; a shape
+  parameter is chosen on its grid by the *estimation* residual, among
+  physically admissible fits when there are any, then refined between the
+  grid neighbours; ``px(z)`` terms take their roots from the current
+  stiffness estimate (:func:`nlid.physics.stiffness_roots`);
+* :func:`test_mass`: the current model with the mass estimated instead of the one given;
+* :func:`test_dictionary`: terms of the automatic dictionary chosen by sparse
+  regression on the residual;
+
+and :func:`prune` removes effects a newer one made redundant. Each test
+returns the evidence (judged by the caller, :func:`nlid.discovery.evidence.judge`),
+the fit (``None`` when there is none) and, if the fitted coefficients are not
+the named effect, why.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+from scipy import optimize
+
+from .. import physics
+from ..balance import regression_data
+from ..errors import IdentificationError, InputError, NlidError
+from ..pipeline import identify
+from ..record import Record
+from ..terms import Model
+from .evidence import AcceptanceRule, Evidence, effective_sample_size
+from .library import Candidate, dictionary_terms
+from .probes import MIN_STRUCTURE, Remaining, probe_residual
+from .result import ResidualView, Stage, Step
+
+__all__ = [
+    "Context",
+    "fit_stage",
+    "residual_view",
+    "with_free_run",
+    "with_probes",
+    "prune",
+    "gate",
+    "test_candidate",
+    "test_mass",
+    "test_dictionary",
+    "refine_stage",
+    "DICTIONARY_MAX_TERMS",
+    "SHAPE_REFINE_FITS",
+]
+
+
+@dataclass(frozen=True)
+class Context:
+    """What every fit of one run shares.
+
+    Attributes
+    ----------
+    estimation, holdout
+        The estimation and held-out records.
+    identifier
+        The identifier instance (options resolved).
+    cutoff
+        The equation band (Hz), the same for both records.
+    rule
+        The acceptance rule.
+    structure
+        Share of the held-out residual variance a probe must predict to count as remaining structure.
+    """
+
+    estimation: Record
+    holdout: Record
+    identifier: Any
+    cutoff: float
+    rule: AcceptanceRule
+    structure: float = MIN_STRUCTURE
+
+
+def root_mean_square(x: np.ndarray) -> float:
+    """RMS of an array."""
+    return float(np.sqrt(np.mean(np.square(x))))
+
+
+def fit_stage(ctx: Context, model: Model, mass: float | None) -> Stage:
+    """Identify ``model`` on the estimation record and score it on the held-out record (no free run).
+
+    ``mass`` is the mass given to the identifier (kg), or ``None`` to estimate it.
+    """
+    identified = identify(ctx.estimation, model, ctx.identifier, mass=mass, cutoff=ctx.cutoff)
+    if identified.mass is None or identified.scores is None:
+        raise IdentificationError(f"identifier {identified.method!r} returned no mass: epsilon cannot be computed")
+    return Stage(identified, identified.score(ctx.holdout, cutoff=ctx.cutoff, free_run=False))
+
+
+def residual_view(record: Record, stage: Stage, cutoff: float | None, label: str) -> ResidualView:
+    """The residual ``r = f - m a - G theta`` of a model, with ``z`` and ``v``, in the equation band.
+
+    The residual is :meth:`nlid.IdentifiedModel.residual` (velocity estimated
+    when the model has none, so that residuals of every model can be drawn
+    against the velocity on the same samples).
+    """
+    res = stage.identified.residual(record, cutoff=cutoff)
+    n_eff, tau = effective_sample_size(res.r)
+    return ResidualView(label, res.z, res.v, res.r, res.restoring, record.fs, tau, n_eff, res.band_hz)
+
+
+def with_free_run(ctx: Context, stage: Stage) -> Stage:
+    """The stage with its held-out scores recomputed with the free-run error (:func:`nlid.scoring.score`)."""
+    scores = stage.identified.score(ctx.holdout, cutoff=ctx.cutoff, free_run=True)
+    return dataclasses.replace(stage, holdout=scores)
+
+
+def with_probes(ctx: Context, stage: Stage) -> Stage:
+    """The stage with what the remaining-structure probes find in its residual."""
+    est = stage.identified.residual(ctx.estimation, cutoff=ctx.cutoff)
+    ho = stage.identified.residual(ctx.holdout, cutoff=ctx.cutoff)
+    return dataclasses.replace(stage, remaining=probe_residual(est, ho, ctx.structure))
+
+
+def prune(ctx: Context, current: Stage, earlier: Sequence[Step], newest: str) -> tuple[Stage, list[str]]:
+    """Remove effects an earlier step added that the newest one made redundant.
+
+    An earlier effect is removed when, with the newest effect in the model,
+    it explains less than half the acceptance rule's share of the held-out
+    residual variance (e.g. a gap that stood in for a hysteresis found
+    later). Returns the (possibly smaller) model and a note per removal.
+    """
+    notes: list[str] = []
+    for step in earlier:
+        terms = [t for t in step.terms if t in current.model]
+        if not terms or step.effect == "mass":
+            continue
+        try:
+            without = fit_stage(ctx, current.model.with_terms(remove=terms), current.given_mass)
+        except NlidError:
+            continue
+        share = 1.0 - (current.scores.force_residual_holdout / without.scores.force_residual_holdout) ** 2
+        if share < 0.5 * ctx.rule.min_explained:
+            notes.append(
+                f"removed {step.effect} ({', '.join(terms)}): with {newest} it explains only "
+                f"{100 * max(share, 0.0):.2g} % of the held-out residual variance"
+            )
+            current = without
+    return current, notes
+
+
+def gate(remaining: Remaining, probes: Sequence[str]) -> str:
+    """Why a candidate that needs structure in ``probes`` is not tested ("" when it is)."""
+    if not probes or any(remaining.probes[p].structured for p in probes):
+        return ""
+    shown = ", ".join(f"{p} {100 * max(remaining.probes[p].explained, 0.0):.2g} %" for p in probes)
+    return f"not tested: the probes find no remaining structure of its kind ({shown} of the held-out residual)"
+
+
+def test_mass(ctx: Context, current: Stage) -> tuple[Evidence, Stage | None, str]:
+    """The ``mass`` candidate: the current model with the mass estimated instead of the one given."""
+    evidence = Evidence("mass", extra_parameters=1)
+    try:
+        fit = fit_stage(ctx, current.model, None)
+    except NlidError as exc:
+        evidence.status, evidence.reason = "failed", str(exc)
+        return evidence, None, ""
+    evidence.coefficients = fit.coefficients
+    evidence.mass = fit.mass
+    return evidence, fit, ""
+
+
+#: Most terms the dictionary candidate may add at once.
+DICTIONARY_MAX_TERMS = 4
+
+
+def test_dictionary(ctx: Context, current: Stage, z_range: tuple[float, float]) -> tuple[Evidence, Stage | None, str]:
+    """The ``dictionary`` candidate: terms of the automatic dictionary chosen by sparse regression on the residual.
+
+    The lasso path (scikit-learn's ``lars_path``) of the dictionary's columns
+    (band-limited like the force balance) on the current estimation residual
+    gives a sequence of term sets; the one (of 1 to
+    :data:`DICTIONARY_MAX_TERMS` terms) whose least-squares fit explains the
+    most of the held-out residual is chosen (the smallest within one point of
+    it). The chosen terms are then added to the model and the whole
+    model identified and judged like any candidate (with one more parameter
+    for the choice).
+    """
+    from sklearn.linear_model import lars_path
+
+    evidence = Evidence("dictionary")
+    roots = current.model.px_roots
+    if roots is None:
+        try:
+            roots = physics.stiffness_roots(current.model, current.coefficients, z_range)
+        except InputError:
+            roots = None
+    lib = Model(tuple(dictionary_terms(current.model, px=roots is not None)), roots)
+    est = current.identified.residual(ctx.estimation, cutoff=ctx.cutoff)
+    ho = current.identified.residual(ctx.holdout, cutoff=ctx.cutoff)
+    x_est = regression_data(ctx.estimation, lib, cutoff=ctx.cutoff).G
+    x_ho = regression_data(ctx.holdout, lib, cutoff=ctx.cutoff).G
+    scale = np.std(x_est, axis=0)
+    usable = scale > 0
+    cols = np.flatnonzero(usable)
+    xs = (x_est[:, cols] - x_est[:, cols].mean(axis=0)) / scale[cols]
+    kmax = min(DICTIONARY_MAX_TERMS, cols.size)
+    if kmax == 0:
+        evidence.status, evidence.reason = "not applicable", "the dictionary has no usable term"
+        return evidence, None, ""
+    _, _, coefs = lars_path(xs, est.r - est.r.mean(), method="lasso", max_iter=8 * kmax)
+    supports: list[list[int]] = []
+    for k in range(coefs.shape[1]):
+        support = sorted(int(cols[j]) for j in np.flatnonzero(coefs[:, k]))
+        if support and len(support) <= kmax and support not in supports:
+            supports.append(support)
+    total = float(np.sum((ho.r - ho.r.mean()) ** 2))
+
+    def held_out(support: list[int]) -> float:
+        """Fraction of the held-out residual a least-squares fit of these columns on the estimation one predicts."""
+        a = np.column_stack([np.ones(est.r.size), x_est[:, support]])
+        coef, *_ = np.linalg.lstsq(a, est.r, rcond=None)
+        pred = np.column_stack([np.ones(ho.r.size), x_ho[:, support]]) @ coef
+        return 1.0 - float(np.sum((ho.r - pred) ** 2)) / total if total > 0 else 0.0
+
+    scores = sorted(((held_out(sup), sup) for sup in supports), key=lambda item: len(item[1]))
+    if not scores:
+        evidence.status, evidence.reason = "not applicable", "no dictionary term explains the residual"
+        return evidence, None, ""
+    best = max(x for x, _ in scores)
+    explained, support = next((x, sup) for x, sup in scores if x >= best - 0.01)
+    # the lasso path enters correlated terms on the way to the right one: drop what the held-out data do not need
+    for j in sorted(support, reverse=True):
+        if len(support) > 1:
+            rest = [k for k in support if k != j]
+            if held_out(rest) >= explained - 0.005:
+                support, explained = rest, held_out(rest)
+    terms = [lib.terms[j] for j in support]
+    evidence.terms = [t.name for t in terms]
+    if explained < ctx.rule.min_explained:
+        evidence.status = "not applicable"
+        evidence.reason = (
+            f"its best {len(terms)} term(s) ({', '.join(evidence.terms)}) predict only {100 * explained:.2g} % of the "
+            "held-out residual"
+        )
+        return evidence, None, ""
+    model = current.model.with_terms(add=terms)
+    if roots is not None and model.uses_px:
+        model = model.with_px_roots(roots)
+    try:
+        fit = fit_stage(ctx, model, current.given_mass)
+    except NlidError as exc:
+        evidence.status, evidence.reason = "failed", str(exc)
+        return evidence, None, ""
+    evidence.extra_parameters = len(terms) + 1
+    evidence.coefficients = fit.coefficients
+    return evidence, fit, ""
+
+
+#: Fits spent refining a shape parameter between its grid neighbours.
+SHAPE_REFINE_FITS = 4
+
+
+def _simplex(n: int, size: float) -> np.ndarray:
+    """A right-angled initial simplex of ``n + 1`` points around the origin."""
+    return np.vstack([np.zeros(n), size * np.eye(n)])
+
+
+def test_candidate(
+    ctx: Context, current: Stage, cand: Candidate, rms: dict[str, float], z_range: tuple[float, float]
+) -> tuple[Evidence, Stage | None, str]:
+    """Fit a candidate on top of the current model.
+
+    Returns the evidence (terms, shape, coefficients; figures are filled by
+    :func:`~nlid.discovery.evidence.judge`), the fit (``None`` when the
+    candidate is not applicable or every fit failed) and, if the fitted
+    coefficients are not the named effect, why (see ``Candidate.positive``).
+    A shape parameter is chosen on the grid by the estimation residual, among
+    physically admissible fits when there are any, then refined between the
+    grid neighbours (bounded search in log c, :data:`SHAPE_REFINE_FITS` fits).
+    """
+    evidence = Evidence(cand.name)
+    roots = None
+    if cand.uses_px:
+        try:
+            roots = physics.stiffness_roots(current.model, current.coefficients, z_range)
+        except InputError as exc:
+            evidence.status, evidence.reason = "not applicable", f"px(z) cannot be built: {exc}"
+            return evidence, None, ""
+    variants = cand.variants(current.model, rms)
+    if not variants:
+        evidence.status, evidence.reason = "not applicable", "its terms are already in the model"
+        return evidence, None, ""
+    tried: dict[float | None, tuple[Stage, Any, str]] = {}
+    errors: list[str] = []
+
+    def attempt(variant) -> tuple[Stage, Any, str] | None:
+        if variant.shape in tried:
+            return tried[variant.shape]
+        model = current.model.with_terms(add=variant.terms)
+        if roots is not None:
+            model = model.with_px_roots(roots)
+        try:
+            fit = fit_stage(ctx, model, current.given_mass)
+        except NlidError as exc:
+            errors.append(str(exc))
+            return None
+        tried[variant.shape] = (fit, variant, variant.inadmissible(fit.coefficients))
+        return tried[variant.shape]
+
+    def best() -> tuple[Stage, Any, str] | None:
+        done = list(tried.values())
+        if not done:
+            return None
+        ok = [d for d in done if not d[2]] or done
+        return min(ok, key=lambda d: d[0].scores.force_residual)
+
+    for variant in variants:
+        attempt(variant)
+    chosen = best()
+    if chosen is not None and len(cand.shapes) > 1 and len(variants) > 1:
+        # several shape parameters: a few simplex steps from the best grid point, in units of the grid's spacing
+        start = np.asarray(chosen[1].shape, dtype=float)
+        steps_ = np.array([max(np.ptp(sh.grid(rms)) / max(len(sh.multipliers) - 1, 1), 1e-12) for sh in cand.shapes])
+
+        def objective_n(u: np.ndarray) -> float:
+            try:
+                variant = cand.variant(current.model, tuple(start + u * steps_))
+            except InputError:
+                return np.inf
+            got = attempt(variant) if variant is not None else None
+            if got is None:
+                return np.inf
+            return got[0].scores.force_residual * (2.0 if got[2] else 1.0)
+
+        optimize.minimize(
+            objective_n,
+            np.zeros(len(start)),
+            method="Nelder-Mead",
+            options={"maxfev": SHAPE_REFINE_FITS * 3, "initial_simplex": _simplex(len(start), 0.5)},
+        )
+        chosen = best()
+    if chosen is not None and len(cand.shapes) == 1 and len(variants) > 1:
+        grid = [v.shape for v in variants]
+        i = grid.index(chosen[1].shape)
+        lo, hi = np.log(grid[max(i - 1, 0)]), np.log(grid[min(i + 1, len(grid) - 1)])
+
+        def objective(log_c: float) -> float:
+            variant = cand.variant(current.model, float(np.exp(log_c)))
+            got = attempt(variant) if variant is not None else None
+            if got is None:
+                return np.inf
+            return got[0].scores.force_residual * (2.0 if got[2] else 1.0)
+
+        if hi > lo:
+            optimize.minimize_scalar(
+                objective, bounds=(lo, hi), method="bounded", options={"maxiter": SHAPE_REFINE_FITS, "xatol": 0.02}
+            )
+        chosen = best()
+    if chosen is None:
+        evidence.status, evidence.reason = "failed", "; ".join(dict.fromkeys(errors))
+        evidence.terms = variants[0].names
+        return evidence, None, ""
+    fit, variant, bad = chosen
+    evidence.terms = variant.names
+    evidence.shape = variant.shape
+    evidence.extra_parameters = variant.extra_parameters
+    evidence.coefficients = fit.coefficients
+    return evidence, fit, bad
+
+
+def refine_stage(ctx: Context, final: Stage, refiner: Any, simulate: bool, validation: Record | None) -> Stage:
+    """The final model refined by a refining identifier (its ``init`` set by the caller), scored like the rest."""
+    fit = identify(ctx.estimation, final.model, refiner, mass=final.given_mass, cutoff=ctx.cutoff)
+    stage = Stage(fit, fit.score(ctx.holdout, cutoff=ctx.cutoff, free_run=simulate))
+    if validation is not None:
+        stage = dataclasses.replace(stage, validation=fit.score(validation, cutoff=ctx.cutoff, free_run=simulate))
+    return stage
