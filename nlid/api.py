@@ -47,6 +47,7 @@ def load(
     columns: str | Mapping[str, str] | None = None,
     fs: float | None = None,
     force_hold: str | None = None,
+    units: str | Mapping[str, str] | None = None,
 ) -> Record:
     """Read a record from a file, a bundled benchmark, a DataFrame, an xarray Dataset or a mapping of arrays.
 
@@ -57,8 +58,9 @@ def load(
     Parameters
     ----------
     source
-        A ``.csv`` (header names), ``.npz`` (read without pickle) or MATLAB
-        ``.mat`` file; ``"dataset:NAME[:PART]"`` for a measured benchmark
+        A ``.csv`` (header names), ``.npz`` (read without pickle), MATLAB
+        ``.mat`` (v7.3 too: ``nlid[hdf5]``), HDF5 ``.h5`` (``nlid[hdf5]``)
+        or ``.parquet`` file (``nlid[parquet]``); ``"dataset:NAME[:PART]"`` for a measured benchmark
         read from ``$NLID_DATA_DIR`` (``dataset:emps``, ``dataset:silverbox``,
         ``dataset:silverbox:arrow``; see :mod:`nlid.datasets`); a pandas
         DataFrame (a named index is one more column: an index named ``t``
@@ -69,20 +71,27 @@ def load(
     columns
         Which columns are which channels, with optional scale factors, e.g.
         ``"f=vir*gtau,z=qm"`` or ``{"f": "vir*gtau", "z": "qm"}`` (channels
-        ``t, f, z, v, a``; default: columns named like the channels).
+        ``t, f, z, v, a``; default: columns named like the channels). A
+        channel may carry its unit: ``"z[mm]=disp,a[g]=acc"``.
     fs
         Sampling frequency (Hz) when the file or table has no time column.
     force_hold
         ``"sampled"`` (a sampled continuous force, the default for measured
         data) or ``"zoh"`` (held over each sample); default: what the file's
         ``.meta.json`` says.
+    units
+        The unit of each channel, ``{"z": "mm", "a": "g"}`` or ``"z=mm,a=g"``
+        (the vocabulary is :mod:`nlid.units`); converted to SI on the way in
+        and kept in ``record.meta["input_units"]``. Default SI.
 
     Raises
     ------
     DataError
         An unreadable file, a missing column, a NaN (channel and index named)...
     InputError
-        A source of another type (a list, a bare numpy array...), named in the message.
+        A source of another type (a list, a bare numpy array...), named in the
+        message; a unit outside the vocabulary (channel, unit and the units
+        accepted named).
 
     Examples
     --------
@@ -90,7 +99,7 @@ def load(
     DataFrame ``frame`` exactly as ``nlid.load("rig.csv", columns=...)``
     reads the same columns from a file.
     """
-    return as_record(source, columns=columns, fs=fs, force_hold=force_hold)
+    return as_record(source, columns=columns, fs=fs, force_hold=force_hold, units=units)
 
 
 def simulate(

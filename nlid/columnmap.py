@@ -20,6 +20,29 @@ scalar, a 0-d variable of a Dataset, a scalar of a mapping). It is parsed by a
 small grammar, never evaluated. Channels not in the map are taken from columns
 of the same name when present.
 
+The grammar::
+
+    map      := entry ("," entry)*
+    entry    := channel ["[" unit "]"] "=" expr
+    expr     := ["-"] operand (("*" | "/") operand)*
+    operand  := number | name | quoted
+    name     := a letter or "_", then letters, digits or "_" (any script: weg_µm, 変位)
+    quoted   := "..." or '...' holding any text but its own quote
+
+* **Units.** ``z[mm]=disp`` says that the channel, after the scaling, is in
+  millimetres; it is converted to SI (the vocabulary is :mod:`nlid.units`):
+  ``"t[ms]=time, f[kN]=load, z[µm]=weg_µm, a[g]=acc"``. In a mapping the key
+  carries it: ``{"z[mm]": "disp"}``. ``z=disp_mm*0.001`` (a scale factor, no
+  unit) still works: the result is taken to be in SI.
+* **Any column name.** A name with spaces, brackets or other symbols (a
+  spreadsheet's header ``Weg [mm]``, a number ``0``) is written in quotes:
+  ``z[mm]="Weg [mm]"``. Quoted text is always a name, never a number or an
+  operator, so the grammar stays unambiguous.
+* **Paths.** The datasets of an HDF5 file (and the fields of a MATLAB v7.3
+  struct) are named by their path, ``data/disp``, written in quotes because
+  ``/`` divides: ``z="data/disp"`` (a leading ``/`` is allowed:
+  ``z="/data/disp"``).
+
 The sampling frequency comes from the time column (checked for uniformity, see
 :class:`nlid.record.Record`), else from ``fs=`` given by the caller, else from
 a scalar ``fs`` variable of the table.
@@ -31,28 +54,43 @@ from __future__ import annotations
 
 import re
 from collections.abc import Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Any
 
 import numpy as np
 
 from .errors import DataError, InputError
 
-__all__ = ["ColumnExpr", "parse_columns", "channel_arrays", "frame_table", "dataset_table", "MAP_CHANNELS"]
+__all__ = [
+    "ColumnExpr",
+    "parse_columns",
+    "column_units",
+    "channel_arrays",
+    "frame_table",
+    "dataset_table",
+    "MAP_CHANNELS",
+]
 
 #: Channels a column map can name: the time ``t`` and the channels of a record.
 MAP_CHANNELS = ("t", "f", "z", "v", "a")
-_OPERAND = re.compile(r"\s*([A-Za-z_][A-Za-z_0-9]*|[0-9]*\.?[0-9]+(?:[eE][+-]?[0-9]+)?)\s*")
+#: An operand: a number, a name (letters of any script, digits, ``_``; not starting with a digit) or quoted text.
+_OPERAND = re.compile(
+    r"""\s*(?:(?P<number>[0-9]*\.?[0-9]+(?:[eE][+-]?[0-9]+)?)(?![^\W\d])|(?P<name>[^\W\d]\w*)"""
+    r"""|"(?P<dq>[^"]*)"|'(?P<sq>[^']*)')\s*"""
+)
+#: The left-hand side of an entry: a channel and an optional unit in brackets.
+_KEY = re.compile(r"\s*(?P<channel>[^\s\[\]=]*)\s*(?:\[(?P<unit>[^\]]*)\])?\s*")
 
 
 @dataclass(frozen=True)
 class ColumnExpr:
-    """``sign * column * prod(factors) / prod(divisors)``."""
+    """``sign * column * prod(factors) / prod(divisors)``, in ``unit`` (``None``: SI)."""
 
     column: str
     factors: tuple[str | float, ...] = ()
     divisors: tuple[str | float, ...] = ()
     negate: bool = False
+    unit: str | None = None
 
     def evaluate(self, table: Mapping[str, np.ndarray], source: str) -> np.ndarray:
         """Apply the expression to a table of columns/variables."""
@@ -72,6 +110,8 @@ class ColumnExpr:
 
 
 def _lookup(table: Mapping[str, np.ndarray], name: str, source: str, column: bool) -> np.ndarray:
+    if name not in table and name.startswith("/") and name.lstrip("/") in table:  # an HDF5 path written absolute
+        name = name.lstrip("/")
     if name not in table:
         avail = ", ".join(sorted(table)) or "none"
         what = "column" if column else "variable"
@@ -103,33 +143,87 @@ def _scalar(table: Mapping[str, np.ndarray], item: str | float, source: str) -> 
 
 
 def parse_columns(spec: str | Mapping[str, str] | None) -> dict[str, ColumnExpr]:
-    """Parse a column map such as ``"f=vir*gtau, z=qm"``.
+    """Parse a column map such as ``"f=vir*gtau, z[mm]=qm"`` (the grammar is in the module docstring).
 
     Raises
     ------
     InputError
-        Naming the entry and what is wrong with it.
+        Naming the entry and what is wrong with it; a unit outside the
+        vocabulary of :mod:`nlid.units`.
     """
     if not spec:
         return {}
-    items = list(spec.items()) if isinstance(spec, Mapping) else []
-    if isinstance(spec, str):
-        for entry in spec.split(","):
+    items: list[tuple[str, str]] = []
+    if isinstance(spec, Mapping):
+        items = [(str(k), v) for k, v in spec.items()]
+    elif isinstance(spec, str):
+        for entry in _split_entries(spec):
             if not entry.strip():
                 continue
             if "=" not in entry:
                 raise InputError(f"column map entry {entry.strip()!r} must look like channel=column (e.g. f=vir*35.15)")
             key, expr = entry.split("=", 1)
             items.append((key, expr))
+    else:
+        raise InputError(f"a column map is a string such as 'f=load,z=disp' or a mapping, got {type(spec).__name__}")
     out: dict[str, ColumnExpr] = {}
     for key, expr in items:
-        channel = key.strip()
-        if channel not in MAP_CHANNELS:
-            raise InputError(f"column map: unknown channel {channel!r}; channels are {', '.join(MAP_CHANNELS)}")
+        channel, unit = _parse_key(key)
         if channel in out:
             raise InputError(f"column map gives channel {channel!r} twice")
-        out[channel] = _parse_expr(channel, str(expr))
+        if not isinstance(expr, str):
+            raise InputError(f"column map entry for {channel!r} must be text such as 'disp*0.001', got {expr!r}")
+        parsed = _parse_expr(channel, expr)
+        out[channel] = parsed if unit is None else replace(parsed, unit=unit)
     return out
+
+
+def column_units(spec: str | Mapping[str, str] | None) -> dict[str, str]:
+    """The units a column map declares: ``{"z": "mm"}`` for ``"f=load, z[mm]=disp"``."""
+    return {c: e.unit for c, e in parse_columns(spec).items() if e.unit is not None}
+
+
+def _split_entries(text: str) -> list[str]:
+    """``text`` split at the commas outside quotes."""
+    entries, current, quote = [], [], ""
+    for char in text:
+        if quote:
+            quote = "" if char == quote else quote
+        elif char in "\"'":
+            quote = char
+        elif char == ",":
+            entries.append("".join(current))
+            current = []
+            continue
+        current.append(char)
+    if quote:
+        raise InputError(f"column map {_excerpt(text)}: a quote {quote} is not closed")
+    entries.append("".join(current))
+    return entries
+
+
+def _excerpt(text: str) -> str:
+    text = text.strip()
+    return repr(text if len(text) <= 60 else text[:57] + "...")
+
+
+def _parse_key(key: str) -> tuple[str, str | None]:
+    """``"z[mm]"`` -> ``("z", "mm")``; the unit is checked against the vocabulary."""
+    from .units import unit_of
+
+    m = _KEY.fullmatch(key)
+    channel = m.group("channel") if m else key.strip()
+    if channel not in MAP_CHANNELS:
+        raise InputError(
+            f"column map: unknown channel {_excerpt(channel)}; channels are {', '.join(MAP_CHANNELS)}"
+            + (", each optionally with its unit, e.g. z[mm]" if m is None or "[" in key else "")
+        )
+    if m is None:
+        raise InputError(f"column map: {_excerpt(key)} must be a channel with an optional unit, e.g. z or z[mm]")
+    unit = m.group("unit")
+    if unit is None:
+        return channel, None
+    return channel, unit_of(channel, unit, where="column map").symbol
 
 
 def _parse_expr(channel: str, text: str) -> ColumnExpr:
@@ -137,32 +231,38 @@ def _parse_expr(channel: str, text: str) -> ColumnExpr:
     negate = rest.startswith("-")
     if negate:
         rest = rest[1:]
+    shown = f"column map entry {channel}={_excerpt(text)}"
+    quoted = f'{channel}="{rest.strip()}"' if '"' not in rest and len(rest) <= 60 else f'{channel}="Weg [mm]"'
+    quote_hint = f" (a name with spaces or symbols goes in quotes, e.g. {quoted})"
     operands: list[tuple[str, str | float]] = []
     op = "*"
     pos = 0
     while True:
         m = _OPERAND.match(rest, pos)
-        if m is None or not m.group(1):
-            raise InputError(
-                f"column map entry {channel}={text.strip()!r}: expected a column name or a number "
-                f"at character {pos + 1 + int(negate)}"
-            )
-        token = m.group(1)
-        value: str | float = token if re.match(r"[A-Za-z_]", token) else float(token)
+        if m is None or m.end() == pos:
+            hint = quote_hint if pos < len(rest) and rest[pos] not in "*/-+" else ""
+            raise InputError(f"{shown}: expected a column name or a number at character {pos + 1 + int(negate)}{hint}")
+        number, name = m.group("number"), m.group("name")
+        value: str | float
+        if number is not None:
+            value = float(number)
+        else:
+            value = name if name is not None else (m.group("dq") if m.group("dq") is not None else m.group("sq"))
+            if not value.strip():
+                raise InputError(f"{shown}: an empty name in quotes")
         operands.append((op, value))
         pos = m.end()
         if pos >= len(rest):
             break
         op = rest[pos]
         if op not in "*/":
-            raise InputError(
-                f"column map entry {channel}={text.strip()!r}: unexpected {op!r} (only * and / are allowed)"
-            )
+            hint = quote_hint if op not in "+-^(" else ""
+            raise InputError(f"{shown}: unexpected {op!r} (only * and / are allowed){hint}")
         pos += 1
     # The column is the first name; every other name is a scalar variable.
     names = [i for i, (o, v) in enumerate(operands) if isinstance(v, str) and o == "*"]
     if not names:
-        raise InputError(f"column map entry {channel}={text.strip()!r} names no column")
+        raise InputError(f"{shown} names no column")
     col_index = names[0]
     column = operands[col_index][1]
     factors = tuple(v for i, (o, v) in enumerate(operands) if o == "*" and i != col_index)

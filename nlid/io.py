@@ -1,4 +1,23 @@
-"""Reading and writing records: CSV, NPZ (never with pickle) and MATLAB .mat.
+"""Reading and writing records: CSV, NPZ (never with pickle), MATLAB .mat (v4 to v7.3), HDF5 and Parquet.
+
+File types
+----------
+==========================  ==========================================================================
+``.csv``, ``.txt``          a header row of column names (``.txt``: any delimiter), read with pandas
+``.npz``                    numpy arrays, read without pickle
+``.mat`` (v4 to v7)         MATLAB variables, read with scipy
+``.mat`` (v7.3)             MATLAB's HDF5 format, read with h5py (optional: ``pip install 'nlid[hdf5]'``);
+                            arrays are turned back from HDF5's row-major order to MATLAB's shape, and
+                            a struct's fields are named ``s/field``
+``.h5``, ``.hdf5``          every dataset is a column, named by its path without the leading ``/``
+                            (``disp``, ``data/disp``), read with h5py (``nlid[hdf5]``); only the
+                            datasets a column map uses are read
+``.parquet``, ``.pq``       the columns of a Parquet file, read with pyarrow (``nlid[parquet]``)
+==========================  ==========================================================================
+
+A missing optional package is one :class:`~nlid.errors.DataError` line naming
+the extra to install. Text, cell arrays, structs, sparse and complex arrays
+are refused when a column map uses them, with what they hold.
 
 Column maps
 -----------
@@ -23,9 +42,11 @@ taken).
 
 from __future__ import annotations
 
+import contextlib
+import hashlib
 import json
 import reprlib
-from collections.abc import Mapping
+from collections.abc import Iterator, Mapping
 from pathlib import Path
 from typing import Any
 
@@ -42,6 +63,7 @@ __all__ = [
     "parse_columns",
     "read_record",
     "read_table",
+    "file_sha256",
     "write_csv",
     "write_npz",
     "SUFFIXES",
@@ -50,52 +72,31 @@ __all__ = [
 ]
 
 #: File types understood by :func:`read_record`.
-SUFFIXES = (".csv", ".txt", ".npz", ".mat")
+SUFFIXES = (".csv", ".txt", ".npz", ".mat", ".h5", ".hdf5", ".parquet", ".pq")
+_HDF5 = (".h5", ".hdf5")
+_PARQUET = (".parquet", ".pq")
 
 
 def read_table(path: str | Path) -> dict[str, np.ndarray]:
-    """Read every column/variable of a CSV, NPZ or MAT file into arrays.
+    """Read every column/variable of a CSV, NPZ, MAT, HDF5 or Parquet file into arrays.
 
     Raises
     ------
     DataError
-        If the file is missing, unreadable or of an unknown type.
+        If the file is missing, unreadable or of an unknown type, or needs an
+        optional package that is not installed.
     """
-    path = Path(path)
-    if len(path.name) > 255 or len(str(path)) > 4095:  # longer than file systems allow (is_dir() would raise)
-        raise DataError(f"cannot read {reprlib.repr(str(path))}: not a file name (too long)")
-    if path.is_dir():
-        raise DataError(f"{path} is a folder, not a data file")
-    if not path.is_file():
-        raise DataError(f"file not found: {path}" if not path.exists() else f"{path} is not a regular file")
-    suffix = path.suffix.lower()
+    with _open_table(path) as table:
+        return {name: np.asarray(table[name]) for name in table}
+
+
+@contextlib.contextmanager
+def _open_table(path: str | Path) -> Iterator[Mapping[str, Any]]:
+    """The table of a file; for HDF5 files a lazy one, open while the ``with`` block runs."""
+    path = _check_path(path)
+    handle: Any = None
     try:
-        if suffix in (".csv", ".txt"):
-            import pandas as pd
-
-            frame = pd.read_csv(
-                path, sep=None if suffix == ".txt" else ",", engine="python" if suffix == ".txt" else "c"
-            )
-            return frame_table(frame, str(path))
-        if suffix == ".npz":
-            import zipfile
-
-            if not zipfile.is_zipfile(path):
-                raise DataError(f"cannot read {path}: not an NPZ (zip) archive")
-            with np.load(path, allow_pickle=False) as data:
-                return {k: np.asarray(data[k]) for k in data.files}
-        if suffix == ".mat":
-            from scipy import io as sio
-
-            try:
-                data = sio.loadmat(path)
-            except NotImplementedError:
-                raise DataError(f"{path}: MATLAB v7.3 (HDF5) files are not supported; save with -v7") from None
-            return {
-                k: np.asarray(v).squeeze() if np.asarray(v).ndim > 1 else np.asarray(v)
-                for k, v in data.items()
-                if not k.startswith("__")
-            }
+        handle, table = _read(path)
     except DataError:
         raise
     except ValueError as exc:
@@ -104,7 +105,162 @@ def read_table(path: str | Path) -> dict[str, np.ndarray]:
         raise DataError(f"cannot read {path}: {exc}") from None
     except Exception as exc:  # noqa: BLE001 - any reader failure is a data error
         raise DataError(f"cannot read {path}: {type(exc).__name__}: {exc}") from None
+    try:
+        yield table
+    finally:
+        if handle is not None:
+            handle.close()
+
+
+def _read(path: Path) -> tuple[Any, Mapping[str, Any]]:
+    """``(open file handle or None, table)`` of a file, by its suffix."""
+    suffix = path.suffix.lower()
+    if suffix in (".csv", ".txt"):
+        import pandas as pd
+
+        frame = pd.read_csv(path, sep=None if suffix == ".txt" else ",", engine="python" if suffix == ".txt" else "c")
+        return None, frame_table(frame, str(path))
+    if suffix == ".npz":
+        import zipfile
+
+        if not zipfile.is_zipfile(path):
+            raise DataError(f"cannot read {path}: not an NPZ (zip) archive")
+        with np.load(path, allow_pickle=False) as data:
+            return None, {k: np.asarray(data[k]) for k in data.files}
+    if suffix == ".mat":
+        from scipy import io as sio
+
+        try:
+            data = sio.loadmat(path)
+        except NotImplementedError:  # v7.3: HDF5
+            return _open_hdf5(path, "MATLAB v7.3 (HDF5) .mat files")
+        return None, {
+            k: np.asarray(v).squeeze() if np.asarray(v).ndim > 1 else np.asarray(v)
+            for k, v in data.items()
+            if not k.startswith("__")
+        }
+    if suffix in _HDF5:
+        return _open_hdf5(path, "HDF5 files")
+    if suffix in _PARQUET:
+        try:
+            import pyarrow.parquet as pq
+        except ImportError:
+            raise DataError(
+                f"cannot read {path}: Parquet files need the optional package pyarrow (pip install 'nlid[parquet]')"
+            ) from None
+        return None, frame_table(pq.read_table(path).to_pandas(), str(path))
     raise DataError(f"cannot read {path}: unknown file type {suffix!r} (use {', '.join(SUFFIXES)})")
+
+
+def _open_hdf5(path: Path, what: str) -> tuple[Any, Mapping[str, Any]]:
+    try:
+        import h5py
+    except ImportError:
+        raise DataError(
+            f"cannot read {path}: {what} need the optional package h5py (pip install 'nlid[hdf5]')"
+        ) from None
+    handle = h5py.File(path, "r")
+    try:
+        return handle, _HDF5Table(handle, str(path))
+    except BaseException:
+        handle.close()
+        raise
+
+
+def _check_path(path: str | Path) -> Path:
+    path = Path(path)
+    if len(path.name) > 255 or len(str(path)) > 4095:  # longer than file systems allow (is_dir() would raise)
+        raise DataError(f"cannot read {reprlib.repr(str(path))}: not a file name (too long)")
+    if path.is_dir():
+        raise DataError(f"{path} is a folder, not a data file")
+    if not path.is_file():
+        raise DataError(f"file not found: {path}" if not path.exists() else f"{path} is not a regular file")
+    return path
+
+
+#: Groups of a MATLAB v7.3 file that hold MATLAB's own bookkeeping, not variables.
+_MATLAB_INTERNAL = ("#refs#", "#subsystem#")
+
+
+def _attr(obj: Any, name: str) -> Any:
+    value = obj.attrs.get(name)
+    return value.decode() if isinstance(value, bytes) else value
+
+
+class _HDF5Table(Mapping):
+    """The datasets of an open HDF5 file (a MATLAB v7.3 file among them), read when asked for.
+
+    Keys are paths without the leading ``/``. A dataset with a ``MATLAB_class``
+    attribute is MATLAB's: transposed back to MATLAB's shape, text decoded,
+    and a struct's fields keyed ``struct/field``.
+    """
+
+    def __init__(self, handle: Any, source: str) -> None:
+        import h5py
+
+        self._source = source
+        self._items: dict[str, Any] = {}
+        skip = list(_MATLAB_INTERNAL)  # and the insides of sparse matrices
+
+        def visit(name: str, obj: Any) -> None:
+            if any(name == k or name.startswith(k + "/") for k in skip):
+                return
+            if isinstance(obj, h5py.Dataset):
+                self._items[name] = obj
+            elif _attr(obj, "MATLAB_sparse") is not None:
+                self._items[name] = obj
+                skip.append(name)
+
+        handle.visititems(visit)
+
+    def __getitem__(self, key: str) -> np.ndarray:
+        return _read_dataset(self._items[key], key, self._source)
+
+    def __contains__(self, key: object) -> bool:
+        return key in self._items
+
+    def __iter__(self) -> Iterator[str]:
+        return iter(self._items)
+
+    def __len__(self) -> int:
+        return len(self._items)
+
+
+def _read_dataset(obj: Any, name: str, source: str) -> np.ndarray:
+    """One dataset as an array in the orientation its writer meant (MATLAB's arrays transposed back)."""
+    import h5py
+
+    matlab = _attr(obj, "MATLAB_class")
+    if _attr(obj, "MATLAB_sparse") is not None:
+        raise DataError(f"variable {name!r} in {source} is a sparse matrix; save it with full() first")
+    if not isinstance(obj, h5py.Dataset):
+        raise DataError(f"{name!r} in {source} is not an array")
+    if _attr(obj, "MATLAB_empty"):
+        return np.zeros(0)
+    if h5py.check_dtype(ref=obj.dtype) is not None:
+        return np.empty(obj.shape, dtype=object)  # a cell array (references): refused as objects when used
+    if h5py.check_string_dtype(obj.dtype) is not None:
+        return np.asarray(obj.asstr()[()], dtype=str)
+    data = np.asarray(obj[()])
+    if data.dtype.names and {"real", "imag"} <= set(data.dtype.names):
+        data = data["real"] + 1j * data["imag"]
+    if matlab is None:
+        return data
+    data = data.T  # MATLAB writes column-major arrays: HDF5 holds them transposed
+    if matlab == "char":
+        return np.asarray("".join(map(chr, data.ravel(order="F"))))
+    if matlab == "logical":
+        return data.astype(bool)
+    return data
+
+
+def file_sha256(path: str | Path) -> str:
+    """The SHA-256 of a file's bytes, as hexadecimal (what a model's provenance records for its data file)."""
+    digest = hashlib.sha256()
+    with open(path, "rb") as handle:
+        for block in iter(lambda: handle.read(1 << 20), b""):
+            digest.update(block)
+    return digest.hexdigest()
 
 
 def _read_sidecar(path: Path) -> dict[str, Any]:
@@ -134,7 +290,7 @@ def read_record(
     meta: Mapping[str, Any] | None = None,
     units: Mapping[str, str] | None = None,
 ) -> Record:
-    """Read a record from a CSV, NPZ or MAT file.
+    """Read a record from a CSV, NPZ, MAT (v7.3 included), HDF5 or Parquet file.
 
     Parameters
     ----------
@@ -142,22 +298,34 @@ def read_record(
         The file.
     columns
         Column map (see module docstring); unmapped channels are taken from
-        same-named columns.
+        same-named columns. A channel may carry its unit: ``z[mm]=disp``.
     fs
         Sampling frequency in Hz when the file has no time column.
-    meta, units
+    meta
         Passed to :class:`~nlid.record.Record`.
+    units
+        The unit of each channel, ``{"z": "mm"}`` (:mod:`nlid.units`);
+        converted to SI.
+
+    Returns
+    -------
+    Record
+        With ``meta["loaded"]``: the path, the file's SHA-256, the column map
+        and ``fs=`` as given.
 
     Raises
     ------
     DataError
         For a missing file or column, a non-numeric or non-finite value, a
         non-uniform time axis, or a missing sampling frequency.
+    InputError
+        A malformed column map, or a unit outside the vocabulary.
     """
     path = Path(path)
-    table = read_table(path)
-    meta = {"source": str(path), **_read_sidecar(path), **dict(meta or {})}
-    return Record.from_table(table, columns, fs=fs, meta=meta, units=units, source=path)
+    with _open_table(path) as table:
+        meta = {"source": str(path), **_read_sidecar(path), **dict(meta or {})}
+        meta["loaded"] = {**dict(meta.get("loaded") or {}), "sha256": file_sha256(path)}
+        return Record.from_table(table, columns, fs=fs, meta=meta, units=units, source=path)
 
 
 def write_csv(record: Record, path: str | Path, channels: tuple[str, ...] | None = None) -> Path:

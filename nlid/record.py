@@ -17,11 +17,23 @@ Validation rules
   :data:`TIME_TOLERANCE` (relative), which accepts time stamps written with
   six or more significant digits but rejects dropped or repeated samples.
 
+Units
+-----
+A record holds SI values (N, m, m/s, m/s^2, s). Data in other units are
+declared with ``units=`` (``{"z": "mm", "a": "g"}``; the vocabulary is
+:mod:`nlid.units`) and converted on construction; a unit outside the
+vocabulary is refused. :attr:`Record.units` then holds the SI unit of each
+channel, and ``meta["input_units"]`` what each channel was given in and the
+factor applied (``{"z": {"unit": "mm", "si": "m", "factor": 0.001}}``).
+
 Provenance
 ----------
 ``Record.provenance`` says for each channel whether it was measured or how it
 was estimated (e.g. "zero-phase Butterworth low-pass (order 4, fc=120 Hz) +
 5-point central difference"). Identifiers copy it into their diagnostics.
+A record read from a file or a table (:meth:`Record.from_table`) keeps in
+``meta["loaded"]`` where it came from and how: the source, the column map,
+``fs=`` and, for a file, its SHA-256.
 """
 
 from __future__ import annotations
@@ -36,8 +48,9 @@ import numpy as np
 
 from . import derivatives
 from ._frozen import FrozenDict
-from .columnmap import channel_arrays, dataset_table, frame_table
+from .columnmap import channel_arrays, column_units, dataset_table, frame_table
 from .errors import DataError, InputError
+from .units import Unit, parse_units, unit_of
 
 if TYPE_CHECKING:  # pragma: no cover
     import pandas as pd
@@ -96,6 +109,20 @@ class RecordMeta(FrozenDict):
             return default
 
 
+def _merge_units(given: dict[str, Unit], mapped: Mapping[str, str]) -> dict[str, Unit]:
+    """The units of ``units=`` and those of the column map (``z[mm]=disp``); the same channel twice must agree."""
+    out = dict(given)
+    for channel, text in mapped.items():
+        unit = unit_of(channel, text, where="column map")
+        if channel in out and out[channel] != unit:
+            raise InputError(
+                f"the unit of {channel!r} is given twice: {out[channel].symbol!r} in units= "
+                f"and {unit.symbol!r} in the column map"
+            )
+        out[channel] = unit
+    return out
+
+
 @dataclass(frozen=True, eq=False)
 class Record:
     """A uniformly sampled force/motion record.
@@ -113,7 +140,14 @@ class Record:
     t0
         Time of the first sample in s.
     units
-        Unit of each channel; defaults to SI (:data:`DEFAULT_UNITS`).
+        The unit each channel is given in, e.g. ``{"z": "mm", "a": "g"}``
+        (the vocabulary is :mod:`nlid.units`; a mapping or ``"z=mm,a=g"``);
+        channels not named are SI (:data:`DEFAULT_UNITS`). Values are
+        converted to SI on construction; afterwards this attribute holds the
+        SI unit of each channel (``V``, ``V/s``... for an uncalibrated
+        signal in volts, kept as given) and ``meta["input_units"]`` what
+        each channel was given in. A time unit (``"t"``) applies to a time
+        vector (:meth:`from_time`); ``fs`` is always in Hz.
     meta
         Free metadata. Keys nlid understands: ``mass`` (kg), ``g`` (m/s^2),
         ``source`` (str), ``reference`` (reference values:
@@ -130,6 +164,9 @@ class Record:
     ------
     DataError
         If any validation rule in the module docstring is broken.
+    InputError
+        A unit outside the vocabulary (the channel, the unit and the units
+        accepted are named).
     """
 
     f: np.ndarray
@@ -143,6 +180,13 @@ class Record:
     provenance: Mapping[str, str] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
+        declared = parse_units(self.units)
+        time_unit = declared.get("t")
+        if time_unit is not None and not time_unit.is_si:
+            raise InputError(
+                f"units: t in {time_unit.symbol!r} applies to a time vector (Record.from_time, or a time column); "
+                "fs= is always in Hz"
+            )
         fs = float(self.fs)
         if not np.isfinite(fs) or fs <= 0:
             raise DataError(f"sampling frequency must be a positive number, got {self.fs!r}")
@@ -167,6 +211,9 @@ class Record:
                 n = arr.size
             elif arr.size != n:
                 raise DataError(f"channel {name!r} has {arr.size} samples but 'f' has {n}")
+            unit = declared.get(name)
+            if unit is not None and unit.factor != 1.0:
+                arr *= unit.factor
             arr.setflags(write=False)
             object.__setattr__(self, name, arr)
         assert n is not None
@@ -177,11 +224,16 @@ class Record:
             if np.ptp(arr) == 0.0:
                 raise DataError(f"channel {name!r} is constant ({arr[0]}); nothing can be identified from it")
         units = dict(DEFAULT_UNITS)
-        units.update(self.units or {})
+        units.update({c: u.si for c, u in declared.items()})
         object.__setattr__(self, "units", _freeze(units))
         if self.meta and self.meta.get("force_hold", "sampled") not in ("sampled", "zoh"):
             raise DataError(f"meta['force_hold'] must be 'sampled' or 'zoh', got {self.meta['force_hold']!r}")
-        object.__setattr__(self, "meta", RecordMeta.of(self.meta))
+        converted = {c: u.to_dict() for c, u in declared.items() if not u.is_si}
+        meta = self.meta
+        if converted:
+            meta = dict(meta or {})
+            meta["input_units"] = {**dict(meta.get("input_units") or {}), **converted}
+        object.__setattr__(self, "meta", RecordMeta.of(meta))
         object.__setattr__(self, "provenance", _freeze(self.provenance))
 
     # ------------------------------------------------------------------ construction
@@ -195,9 +247,17 @@ class Record:
             Sample times in s, strictly increasing and uniform within
             :data:`TIME_TOLERANCE`.
         f, z, **kwargs
-            As for :class:`Record` (``fs`` and ``t0`` are taken from ``t``).
+            As for :class:`Record` (``fs`` and ``t0`` are taken from ``t``);
+            ``units={"t": "ms"}`` says that ``t`` is in ms.
         """
+        units = parse_units(kwargs.pop("units", None))
+        time_unit = units.pop("t", None)
         t = np.asarray(t, dtype=float).squeeze()
+        if time_unit is not None and not time_unit.is_si:
+            t = t * time_unit.factor
+            meta = dict(kwargs.pop("meta", None) or {})
+            meta["input_units"] = {**dict(meta.get("input_units") or {}), "t": time_unit.to_dict()}
+            kwargs["meta"] = meta
         if t.ndim != 1 or t.size < 2:
             raise DataError("time vector must be one-dimensional with at least 2 samples")
         bad = ~np.isfinite(t)
@@ -214,7 +274,7 @@ class Record:
                 f"time axis is not uniform: step {i} is {dt[i]:.6g} s but the median step is {step:.6g} s "
                 f"(tolerance {TIME_TOLERANCE:g} relative)"
             )
-        return cls(f=f, z=z, fs=1.0 / step, t0=float(t[0]), **kwargs)
+        return cls(f=f, z=z, fs=1.0 / step, t0=float(t[0]), units=units, **kwargs)
 
     @classmethod
     def from_table(
@@ -243,13 +303,19 @@ class Record:
             Column map, ``"t=time,f=load_N,z=disp_mm*0.001"`` or
             ``{"f": "load_N", "z": "disp_mm*0.001"}`` (see
             :mod:`nlid.columnmap`); default: columns named like the channels
-            ``t, f, z, v, a``.
+            ``t, f, z, v, a``. A channel may carry its unit:
+            ``"z[mm]=disp, a[g]=acc"``.
         fs
             Sampling frequency in Hz when there is no time column.
         force_hold
             ``"sampled"`` (default) or ``"zoh"`` (see :class:`Record`).
-        meta, units
+        meta
             As for :class:`Record`.
+        units
+            The unit of each channel after the column map's scaling, e.g.
+            ``{"z": "mm", "t": "ms"}`` (:mod:`nlid.units`); converted to SI.
+            The same as ``z[mm]=`` in the column map (giving a channel two
+            different units is an error).
         source
             What the table came from, named in error messages: the path of a
             file, or a word such as ``"DataFrame"``.
@@ -260,8 +326,8 @@ class Record:
             A missing or non-numeric column, a non-finite value (channel and
             index named), a non-uniform time axis, or no sampling frequency.
         InputError
-            A malformed column map, both a time column and ``fs=``, or a bad
-            ``force_hold``.
+            A malformed column map, both a time column and ``fs=``, a bad
+            ``force_hold``, or a unit outside the vocabulary.
         """
         if not isinstance(table, Mapping):
             raise InputError(f"a table must map column names to arrays, got {type(table).__name__}")
@@ -269,18 +335,24 @@ class Record:
             label, noun = os.fspath(source), "file"
         else:
             label = noun = str(source)
-        named = {str(k): v for k, v in table.items()}
+        given = _merge_units(parse_units(units), column_units(columns))
+        named = table if all(isinstance(k, str) for k in table) else {str(k): v for k, v in table.items()}
+        given_fs = fs
         arrays, fs = channel_arrays(named, columns, fs=fs, source=label, noun=noun)
         meta = dict(meta or {})
         if force_hold is not None:
             if force_hold not in ("sampled", "zoh"):
                 raise InputError(f"force_hold must be 'sampled' or 'zoh', got {force_hold!r}")
             meta["force_hold"] = force_hold
+        loaded = {**dict(meta.get("loaded") or {}), "source": label}
+        loaded["columns"] = dict(columns) if isinstance(columns, Mapping) else (columns or None)
+        loaded["fs"] = given_fs
+        meta["loaded"] = loaded
         kwargs: dict[str, Any] = {c: arrays[c] for c in CHANNELS if c in arrays}
         try:
             if "t" in arrays:
-                return cls.from_time(arrays["t"], meta=meta, units=units or {}, **kwargs)
-            return cls(fs=fs, meta=meta, units=units or {}, **kwargs)
+                return cls.from_time(arrays["t"], meta=meta, units=given, **kwargs)
+            return cls(fs=fs, meta=meta, units=given, **kwargs)
         except DataError as exc:
             raise DataError(f"{label}: {exc}") from None
 
@@ -313,7 +385,8 @@ class Record:
         frame
             The data.
         columns, fs, force_hold, meta, units
-            As for :meth:`from_table`.
+            As for :meth:`from_table`: ``Record.from_frame(df, "t=time,f=load,z=disp",
+            units={"z": "mm"})`` converts ``disp`` from mm to m.
 
         Raises
         ------

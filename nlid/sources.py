@@ -5,15 +5,18 @@
 :func:`nlid.discover`). It accepts
 
 * a :class:`~nlid.record.Record`, returned as is;
-* a path (``str`` or :class:`pathlib.Path`) to a ``.csv``, ``.txt``, ``.npz``
-  or ``.mat`` file (:func:`nlid.io.read_record`), or ``"dataset:NAME[:PART]"``
+* a path (``str`` or :class:`pathlib.Path`) to a ``.csv``, ``.txt``, ``.npz``,
+  ``.mat`` (v7.3 included), ``.h5``/``.hdf5`` or ``.parquet`` file
+  (:func:`nlid.io.read_record`), or ``"dataset:NAME[:PART]"``
   for a bundled benchmark (:func:`nlid.datasets.load`);
 * a pandas DataFrame (:meth:`Record.from_frame <nlid.record.Record.from_frame>`);
 * an xarray Dataset (:meth:`Record.from_xarray <nlid.record.Record.from_xarray>`);
 * a mapping of arrays such as ``{"t": t, "f": f, "z": z}``, or a numpy
   structured array (:meth:`Record.from_table <nlid.record.Record.from_table>`).
 
-Files and tables share one column map and one set of rules (:mod:`nlid.columnmap`).
+Files and tables share one column map and one set of rules (:mod:`nlid.columnmap`),
+and one way of declaring units (``units={"z": "mm"}`` or ``z[mm]=`` in the
+column map; :mod:`nlid.units`).
 Anything else is an :class:`~nlid.errors.InputError` naming what was given.
 pandas and xarray are never imported here: an object can only be a DataFrame
 or a Dataset if its library is already loaded.
@@ -49,6 +52,7 @@ def as_record(
     columns: str | Mapping[str, str] | None = None,
     fs: float | None = None,
     force_hold: str | None = None,
+    units: str | Mapping[str, str] | None = None,
 ) -> Record:
     """A :class:`~nlid.record.Record` from any accepted source (see the module docstring).
 
@@ -66,6 +70,9 @@ def as_record(
     force_hold
         ``"sampled"`` or ``"zoh"``, set on the record's metadata; default:
         what the source says (a file's ``.meta.json``, a Record's metadata).
+    units
+        The unit of each channel of a file or table, ``{"z": "mm", "a": "g"}``
+        or ``"z=mm,a=g"`` (:mod:`nlid.units`); converted to SI. Default SI.
 
     Returns
     -------
@@ -76,12 +83,12 @@ def as_record(
     ------
     InputError
         A source of another type (its type and a short repr are named),
-        ``columns=``/``fs=`` given with a Record or a bundled dataset, or a
-        bad ``force_hold``.
+        ``columns=``/``fs=``/``units=`` given with a Record or a bundled
+        dataset, a bad ``force_hold``, or a unit outside the vocabulary.
     DataError
         An unreadable file, a missing column, a NaN (channel and index named)...
     """
-    record = _convert(source, columns, fs)
+    record = _convert(source, columns, fs, units)
     if force_hold is not None:
         if force_hold not in ("sampled", "zoh"):
             raise InputError(f"force_hold must be 'sampled' or 'zoh', got {force_hold!r}")
@@ -89,42 +96,48 @@ def as_record(
     return record
 
 
-def _convert(source: Any, columns: str | Mapping[str, str] | None, fs: float | None) -> Record:
+def _convert(source: Any, columns: str | Mapping[str, str] | None, fs: float | None, units: Any) -> Record:
     if isinstance(source, Record):
-        if columns or fs is not None:
-            raise InputError("columns= and fs= apply to files and tables, not to a Record")
+        if columns or fs is not None or units:
+            raise InputError(
+                "columns=, fs= and units= apply to files and tables, not to a Record "
+                "(its values are SI already: Record(..., units=) converted them)"
+            )
         return source
     if isinstance(source, (str, os.PathLike)):
-        return _from_path(source, columns, fs)
+        return _from_path(source, columns, fs, units)
     pandas = sys.modules.get("pandas")
     if pandas is not None and isinstance(source, pandas.DataFrame):
-        return Record.from_frame(source, columns, fs=fs)
+        return Record.from_frame(source, columns, fs=fs, units=units)
     xarray = sys.modules.get("xarray")
     if xarray is not None and isinstance(source, xarray.Dataset):  # before Mapping: a Dataset is one
-        return Record.from_xarray(source, columns, fs=fs)
+        return Record.from_xarray(source, columns, fs=fs, units=units)
     if isinstance(source, np.ndarray) and source.dtype.names:
         table = {name: source[name] for name in source.dtype.names}
-        return Record.from_table(table, columns, fs=fs, source="structured array")
+        return Record.from_table(table, columns, fs=fs, units=units, source="structured array")
     if isinstance(source, Mapping):
-        return Record.from_table(source, columns, fs=fs, source="mapping")
+        return Record.from_table(source, columns, fs=fs, units=units, source="mapping")
     raise InputError(f"cannot make a record from {_describe(source)}; give {ACCEPTED}")
 
 
-def _from_path(source: str | os.PathLike[str], columns: str | Mapping[str, str] | None, fs: float | None) -> Record:
+def _from_path(
+    source: str | os.PathLike[str], columns: str | Mapping[str, str] | None, fs: float | None, units: Any
+) -> Record:
     text = os.fspath(source)
     if isinstance(text, bytes):
         raise InputError(f"cannot make a record from a bytes path {reprlib.repr(text)}; give the path as str")
     if text.startswith("dataset:"):
-        if columns or fs:
-            raise InputError("columns= and fs= do not apply to bundled datasets")
+        if columns or fs or units:
+            raise InputError("columns=, fs= and units= do not apply to bundled datasets")
         parts = text.split(":")
-        return datasets.load(parts[1] if len(parts) > 1 else "", part=parts[2] if len(parts) > 2 else "all")
+        record = datasets.load(parts[1] if len(parts) > 1 else "", part=parts[2] if len(parts) > 2 else "all")
+        return record.with_meta(loaded={"source": text})
     if "\n" in text:
         raise InputError(
             f"cannot make a record from the text {_short(text)}: a file path has no line breaks "
             "(CSV text is read with pandas.read_csv(io.StringIO(text)))"
         )
-    return read_record(text, columns, fs=fs)
+    return read_record(text, columns, fs=fs, units=units)
 
 
 def _describe(source: Any) -> str:

@@ -119,7 +119,7 @@ def _holdout(args: argparse.Namespace):
     try:
         fraction = float(text)
     except ValueError:
-        return load_data(argparse.Namespace(data=text, columns=args.columns, fs=args.fs))
+        return load_data(argparse.Namespace(data=text, columns=args.columns, fs=args.fs, units=args.units))
     if not 0.0 < fraction < 1.0:
         raise InputError(f"--holdout: a fraction must lie between 0 and 1, got {text}")
     return fraction
@@ -145,7 +145,7 @@ def run(args: argparse.Namespace) -> int:
         holdout=_holdout(args),
         validation=None
         if not args.validation
-        else load_data(argparse.Namespace(data=args.validation, columns=args.columns, fs=args.fs)),
+        else load_data(argparse.Namespace(data=args.validation, columns=args.columns, fs=args.fs, units=args.units)),
         candidates=args.candidates,
         extra_candidates=args.candidate or (),
         rule=rule,

@@ -37,6 +37,7 @@ FLAGS: dict[str, str] = {
     "bias_correction=False": "--no-bias-correction",
     "noise": "--noise-level",
     "columns": "--columns",
+    "units": "--units",
     "fs": "--fs",
     "force_hold": "--force-hold",
     "px_roots": "--px-roots",
@@ -50,13 +51,15 @@ FLAGS: dict[str, str] = {
     "force=True": "--force",
     "timeout": "--timeout",
 }
-_PARAM = re.compile(r"(?<![\w.-])(" + "|".join(sorted(map(re.escape, FLAGS), key=len, reverse=True)) + r")=(?=[\s),;:]|$)")
+_PARAM = re.compile(
+    r"(?<![\w.-])(" + "|".join(sorted(map(re.escape, FLAGS), key=len, reverse=True)) + r")=(?=[\s),;:]|$)"
+)
 _PARAM_VALUE = re.compile(
     r"(?<![\w.-])(" + "|".join(sorted(map(re.escape, FLAGS), key=len, reverse=True)) + r")=(?:'([^']*)'|([\w.+-]+))"
 )
 
 DATA_HELP = (
-    "data file (.csv, .npz, .mat) or a bundled benchmark as dataset:NAME "
+    "data file (.csv, .npz, .mat, .h5, .parquet) or a bundled benchmark as dataset:NAME "
     "(dataset:emps, dataset:silverbox, dataset:silverbox:arrow; read from $NLID_DATA_DIR)"
 )
 
@@ -72,7 +75,9 @@ def to_cli(message: str) -> str:
     """A library message with its Python parameters (``mass=``) replaced by the flags that set them (``--mass``)."""
     message = message.replace("bias_correction=False", FLAGS["bias_correction=False"])
     message = message.replace("force=True", FLAGS["force=True"])
-    message = _PARAM_VALUE.sub(lambda m: f"{FLAGS[m.group(1)]} {m.group(2) if m.group(2) is not None else m.group(3)}", message)
+    message = _PARAM_VALUE.sub(
+        lambda m: f"{FLAGS[m.group(1)]} {m.group(2) if m.group(2) is not None else m.group(3)}", message
+    )
     message = _PARAM.sub(lambda m: FLAGS[m.group(1)], message)
     return message
 
@@ -134,6 +139,12 @@ def add_data_arguments(parser: argparse.ArgumentParser) -> None:
         help="which file columns are which channels, with optional scale factors, "
         "e.g. 'f=vir*gtau,z=qm' (channels t, f, z, v, a; default: columns named like the channels)",
     )
+    parser.add_argument(
+        "--units",
+        metavar="CH=UNIT,...",
+        help="units the channels are in, converted to SI, e.g. 'z=mm,a=g,f=kN' (t: s ms; f: N kN mN; "
+        "z: m cm mm um; v: m/s mm/s...; a: m/s^2 mm/s^2 g; default SI); also z[mm]=COLUMN in --columns",
+    )
     parser.add_argument("--fs", type=float, metavar="HZ", help="sampling frequency when the file has no time column")
     parser.add_argument(
         "--force-hold",
@@ -148,9 +159,10 @@ def load_data(args: argparse.Namespace) -> Record:
     """Read the record named by ``args.data`` (:func:`nlid.api.load`)."""
     from ..api import load
 
-    if str(args.data).startswith("dataset:") and (args.columns or args.fs):
-        raise InputError("--columns and --fs do not apply to bundled datasets")
-    return load(args.data, columns=args.columns, fs=args.fs, force_hold=getattr(args, "force_hold", None))
+    units = getattr(args, "units", None)
+    if str(args.data).startswith("dataset:") and (args.columns or args.fs or units):
+        raise InputError("--columns, --fs and --units do not apply to bundled datasets")
+    return load(args.data, columns=args.columns, fs=args.fs, force_hold=getattr(args, "force_hold", None), units=units)
 
 
 def print_json(obj: Any) -> None:
