@@ -39,6 +39,7 @@ from .record import Record
 from .scoring import Residual, Scores
 from .summary import Column, Summary
 from .terms import Model, parse_term
+from .units import Unit, coefficient_conversion, display_units
 from .validate import check_mass
 
 if TYPE_CHECKING:  # pragma: no cover
@@ -94,6 +95,12 @@ class IdentifiedModel:
         ``(min, max)`` of the estimation record's displacement (m).
     arrays
         Large numeric outputs of the method (not in :meth:`to_dict`).
+    provenance
+        Where the model came from, enough to identify it again from its JSON
+        alone: the nlid version, the data's source and SHA-256, the column
+        map and units it was read with, and the call (terms, method, options,
+        mass). :func:`nlid.identify` fills it (layout and how to repeat it:
+        :mod:`nlid.provenance`); empty for a model made another way.
     """
 
     model: Model
@@ -112,6 +119,7 @@ class IdentifiedModel:
     seconds: float | None = None
     z_range: tuple[float, float] | None = None
     arrays: Mapping[str, np.ndarray] = field(default_factory=FrozenDict, repr=False)
+    provenance: Mapping[str, Any] = field(default_factory=FrozenDict, repr=False)
 
     def __post_init__(self) -> None:
         if not isinstance(self.model, Model):
@@ -133,6 +141,7 @@ class IdentifiedModel:
         set_(self, "diagnostics", freeze(dict(self.diagnostics)))
         set_(self, "warnings", tuple(str(w) for w in self.warnings))
         set_(self, "arrays", FrozenDict(self.arrays))
+        set_(self, "provenance", freeze(dict(self.provenance or {})))
         if self.z_range is not None:
             set_(self, "z_range", (float(min(self.z_range)), float(max(self.z_range))))
 
@@ -199,9 +208,7 @@ class IdentifiedModel:
         problems = draft.problems()
         if problems:
             why = f" (numpy: {numerics.describe_warnings(found)}){numerics.overflow_hint(found)}" if found else ""
-            raise IdentificationError(
-                f"the identification by {method!r} cannot be trusted: {'; '.join(problems)}{why}"
-            )
+            raise IdentificationError(f"the identification by {method!r} cannot be trusted: {'; '.join(problems)}{why}")
         if found:
             note = f"numerical warnings while identifying (the figures are finite): {numerics.describe_warnings(found)}"
             draft = dataclasses.replace(draft, warnings=(*draft.warnings, note))
@@ -438,6 +445,7 @@ class IdentifiedModel:
                 "warnings": list(self.warnings),
                 "seconds": self.seconds,
                 "z_range": None if self.z_range is None else list(self.z_range),
+                "provenance": dict(self.provenance) or None,
             }
         )
 
@@ -486,62 +494,113 @@ class IdentifiedModel:
             warnings=tuple(data.get("warnings") or ()),
             seconds=data.get("seconds"),
             z_range=data.get("z_range"),
+            provenance=data.get("provenance") or {},
         )
 
-    def to_frame(self) -> pd.DataFrame:
-        """One row per term: ``coefficient``, ``std_error``, ``unit``, ``family`` (index: the term)."""
+    def to_frame(self, units: str | Mapping[str, str] | None = None) -> pd.DataFrame:
+        """One row per term: ``coefficient``, ``std_error``, ``unit``, ``family`` (index: the term).
+
+        Parameters
+        ----------
+        units
+            ``None`` (SI, the default), ``"input"`` (the units the data were
+            given in, from :attr:`provenance`) or the units to show, e.g.
+            ``{"z": "mm", "f": "kN"}`` (channels ``f``, ``z``, ``v``; a
+            velocity not named is the displacement's per second). Each
+            coefficient is converted by its term's powers of displacement and
+            velocity (:func:`nlid.units.coefficient_conversion`).
+        """
         import pandas as pd
 
         se = self.standard_errors or {}
-        rows = [
-            {
-                "term": n,
-                "coefficient": self.coefficients[n],
-                "std_error": se.get(n, float("nan")),
-                "unit": t.coefficient_unit,
-                "family": t.family,
-            }
-            for n, t in zip(self.terms, self.model.terms, strict=True)
-        ]
+        shown = self._shown_units(units)
+        rows = []
+        for n, t in zip(self.terms, self.model.terms, strict=True):
+            factor, unit = (1.0, t.coefficient_unit) if shown is None else coefficient_conversion(t, shown)
+            value, error = self.coefficients[n], se.get(n, float("nan"))
+            if shown is not None:
+                value, error = value * factor, error * factor
+            rows.append({"term": n, "coefficient": value, "std_error": error, "unit": unit, "family": t.family})
         return pd.DataFrame(rows).set_index("term")
 
+    def _shown_units(self, units: str | Mapping[str, str] | None) -> dict[str, Unit] | None:
+        """The units coefficients are shown in; ``None`` for SI as computed."""
+        if units is None:
+            return None
+        if isinstance(units, str) and units.strip().lower() == "input":
+            data = self.provenance.get("data") if self.provenance else None
+            if not data or "units" not in data:
+                raise InputError(
+                    "units='input': this model does not record the units of its data (it was not made by "
+                    "nlid.identify); name them, e.g. units={'z': 'mm'}"
+                )
+            return display_units("input", data["units"])
+        return display_units(units)
+
     # ------------------------------------------------------------------ text and HTML
-    def summary(self) -> Summary:
+    def summary(self, units: str | Mapping[str, str] | None = None) -> Summary:
         """The table ``nlid identify`` prints: coefficients, equilibria, modes, residuals.
 
         A :class:`~nlid.summary.Summary`: ``print()`` it (or ``str()``) for the
         text, ``.as_markdown()`` / ``.as_html()`` for the other media.
+
+        Parameters
+        ----------
+        units
+            ``None`` (SI, the default), ``"input"`` (the units the data were
+            given in) or e.g. ``{"z": "mm", "f": "kN"}``: coefficients,
+            standard errors, the ``px(z)`` roots and the equilibria are shown
+            in them (as :meth:`to_frame`); the mass stays in kg.
         """
+        shown = self._shown_units(units)
+        zu = "m" if shown is None else shown["z"].symbol
+        zf = 1.0 if shown is None else shown["z"].factor  # the SI value of one displayed length unit
         out = Summary()
         head = [("method", self.method)]
         if self.mass is not None:
             how = "estimated" if self.mass_estimated else "given"
             se = f" +/- {self.mass_standard_error:.3g}" if self.mass_standard_error else ""
             head.append(("mass", f"{self.mass:.6g}{se} kg ({how})"))
+        if shown is not None:
+            head.append(("units", ", ".join(f"{c} in {shown[c].symbol}" for c in ("f", "z", "v"))))
         out.add_fields(head)
         se = self.standard_errors or {}
+        rows = []
+        for name, term in zip(self.terms, self.model.terms, strict=True):
+            factor, unit = (1.0, term.coefficient_unit) if shown is None else coefficient_conversion(term, shown)
+            error = se.get(name)
+            rows.append(
+                [
+                    name,
+                    f"{self.coefficients[name] * factor:.6g}",
+                    "" if error is None else f"{error * factor:.3g}",
+                    unit,
+                ]
+            )
         out.add_table(
             [Column("term"), Column("coefficient", "right", 14), Column("std. error", "right", 11), Column("unit")],
-            [
-                [name, f"{self.coefficients[name]:.6g}", "" if se.get(name) is None else f"{se[name]:.3g}",
-                 term.coefficient_unit]
-                for name, term in zip(self.terms, self.model.terms, strict=True)
-            ],
+            rows,
         )
         if self.px_roots:
-            out.add_fields([("px(z) roots", f"z- = {self.px_roots[0]:.6g} m, z+ = {self.px_roots[1]:.6g} m")])
+            zm, zp = self.px_roots[0] / zf, self.px_roots[1] / zf
+            out.add_fields([("px(z) roots", f"z- = {zm:.6g} {zu}, z+ = {zp:.6g} {zu}")])
         if self.equilibria is not None:
-            st = ", ".join(f"{z:.6g}" for z in self.equilibria.stable) or "none"
-            un = ", ".join(f"{z:.6g}" for z in self.equilibria.unstable) or "none"
-            out.add_fields([("equilibria (m)", f"stable {st}; unstable {un}")], gap=True)
+            st = ", ".join(f"{z / zf:.6g}" for z in self.equilibria.stable) or "none"
+            un = ", ".join(f"{z / zf:.6g}" for z in self.equilibria.unstable) or "none"
+            out.add_fields([(f"equilibria ({zu})", f"stable {st}; unstable {un}")], gap=True)
         out.add_text(
-            *(f"at z* = {m.equilibrium:.6g} m: fn = {m.fn_hz:.4g} Hz, zeta = {100 * m.zeta:.3g} %" for m in self.modal),
+            *(
+                f"at z* = {m.equilibrium / zf:.6g} {zu}: fn = {m.fn_hz:.4g} Hz, zeta = {100 * m.zeta:.3g} %"
+                for m in self.modal
+            ),
             indent="  ",
         )
         scores = []
         if self.scores is not None:
-            scores = [("epsilon (Eq. 26)", f"{self.scores.eps_percent:.3g} %"),
-                      ("force residual", f"{self.scores.force_residual_percent:.3g} %")]
+            scores = [
+                ("epsilon (Eq. 26)", f"{self.scores.eps_percent:.3g} %"),
+                ("force residual", f"{self.scores.force_residual_percent:.3g} %"),
+            ]
         out.add_fields(scores, separator="   ", gap=True)  # the blank line stays when there are no scores
         tail = [] if self.seconds is None else [("time", f"{self.seconds:.3g} s")]
         out.add_fields(tail + [("warning", w) for w in self.warnings])

@@ -20,6 +20,7 @@ not shrunk over four iterations (not contracting: diverging), or after
 
 from __future__ import annotations
 
+import dataclasses
 import time
 from collections.abc import Iterable, Mapping, Sequence
 from typing import Any
@@ -31,6 +32,7 @@ from .errors import PASS_THROUGH, IdentificationError, InputError, NlidError, Pl
 from .identified import IdentifiedModel
 from .interface import Estimate, refined_terms
 from .physics import Modal
+from .provenance import identify_provenance
 from .record import Record
 from .registry import Registry, registry_for
 from .sources import as_record
@@ -306,18 +308,30 @@ def identify(
     if model.terms != given.terms:  # the identifier refined shape parameters: say which terms became which
         pairs = refined_terms(given.with_px_roots(model.px_roots), model)
         extra["refined_terms"] = {old: new for old, new in pairs.items() if old != new}
-    return IdentifiedModel.from_estimate(
+    settings = dict(getattr(identifier, "settings", None) or {})
+    result = IdentifiedModel.from_estimate(
         estimate,
         model=model,
         record=record,
         method=_name(identifier),
         mass=mass,
-        options=dict(getattr(identifier, "settings", None) or {}),
+        options=settings,
         seconds=seconds,
         cutoff=cutoff,
         diagnostics=extra,
         numerical=numerical,
     )
+    provenance = identify_provenance(
+        record,
+        given,
+        method=_name(identifier),
+        mass=mass,
+        options=settings,
+        px_tol=px_tol,
+        px_max_iter=px_max_iter,
+        cutoff=cutoff,
+    )
+    return dataclasses.replace(result, provenance=provenance)
 
 
 # --------------------------------------------------------------------------- isolated

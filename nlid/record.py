@@ -351,10 +351,14 @@ class Record:
         kwargs: dict[str, Any] = {c: arrays[c] for c in CHANNELS if c in arrays}
         try:
             if "t" in arrays:
-                return cls.from_time(arrays["t"], meta=meta, units=given, **kwargs)
-            return cls(fs=fs, meta=meta, units=given, **kwargs)
+                record = cls.from_time(arrays["t"], meta=meta, units=given, **kwargs)
+            else:
+                record = cls(fs=fs, meta=meta, units=given, **kwargs)
         except DataError as exc:
             raise DataError(f"{label}: {exc}") from None
+        from .provenance import record_sha256  # provenance builds on records
+
+        return record.with_meta(loaded={**loaded, "record_sha256": record_sha256(record)})
 
     @classmethod
     def from_frame(

@@ -35,6 +35,7 @@ import numpy as np
 from . import datasets
 from .errors import InputError
 from .io import read_record
+from .provenance import record_sha256
 from .record import Record
 
 __all__ = ["as_record", "ACCEPTED"]
@@ -131,7 +132,7 @@ def _from_path(
             raise InputError("columns=, fs= and units= do not apply to bundled datasets")
         parts = text.split(":")
         record = datasets.load(parts[1] if len(parts) > 1 else "", part=parts[2] if len(parts) > 2 else "all")
-        return record.with_meta(loaded={"source": text})
+        return record.with_meta(loaded={"source": text, "record_sha256": record_sha256(record)})
     if "\n" in text:
         raise InputError(
             f"cannot make a record from the text {_short(text)}: a file path has no line breaks "

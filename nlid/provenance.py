@@ -1,0 +1,282 @@
+"""Where an identified model came from: enough to identify it again from its JSON alone.
+
+:func:`nlid.identify` stores a provenance in the model
+(:attr:`IdentifiedModel.provenance <nlid.identified.IdentifiedModel.provenance>`,
+the ``"provenance"`` key of :meth:`~nlid.identified.IdentifiedModel.to_dict`)::
+
+    {
+      "nlid_version": "0.1.0",
+      "data": {
+        "source": "rig.csv",              # a path, "dataset:emps", "DataFrame", "mapping" or meta["source"]
+        "sha256": "9f2c...",              # of the file when read from one, else of the record's samples
+        "sha256_of": "file",              # "file" or "record"
+        "record_sha256": "51ab...",       # of the samples identified (record_sha256 below), always
+        "as_loaded": true,                # the samples the file gave (false: sliced, resampled... after loading)
+        "columns": "t=time,f=load,z[mm]=disp",   # the column map as given (or null)
+        "fs_given": null,                 # fs= as given to the loader (null: from the time column)
+        "units": {"z": {"unit": "mm", "si": "m", "factor": 0.001}, "f": {"unit": "N", ...}, ...},
+        "samples": 20480, "fs": 2048.0, "t0": 0.0, "channels": ["f", "z"],
+        "force_hold": "sampled", "channel_sources": {"f": "measured", "z": "measured"}
+      },
+      "identify": {
+        "method": "rfs", "terms": ["z^2", "z^3", "v*|v|"], "without": [], "mass": 0.2,
+        "options": {...}, "px_roots": null, "px_tol": 0.0001, "px_max_iter": 30, "cutoff": null
+      },
+      "command": "nlid identify rig.csv --columns 't=time,f=load,z[mm]=disp' --terms 'z^2,z^3,v*|v|' ..."
+    }
+
+Identifying again
+-----------------
+From a file (or ``dataset:NAME``): run ``command`` (given when the data came
+from one), or in Python ``nlid.identify(nlid.load(source, columns=columns,
+fs=fs_given, units=...), terms, method, mass=mass, options=options,
+without=without, px_roots=px_roots, px_tol=px_tol, px_max_iter=px_max_iter,
+cutoff=cutoff)`` with the recorded values (:func:`identify_again` does
+exactly this). ``sha256`` says whether the file is the same; ``as_loaded``
+false warns that the record was changed after loading (a slice, a decimation,
+estimated channels: ``samples``, ``t0`` and ``channel_sources`` say which),
+so the file alone does not give the same samples. The result has the same
+coefficients, to the last bits a different CPU's BLAS may change.
+
+The record's SHA-256
+--------------------
+:func:`record_sha256` hashes a record's samples in a canonical byte order,
+so that any language can recompute it: the ASCII text ``nlid.Record/1`` and a
+newline; ``fs`` and ``t0`` as two little-endian IEEE-754 float64; then for
+each channel present, in the order ``f, z, v, a``, its name in ASCII, a zero
+byte, and its samples as little-endian float64 (SI units, after any
+conversion). In numpy::
+
+    h = hashlib.sha256(b"nlid.Record/1\\n" + np.array([fs, t0], "<f8").tobytes())
+    for name in ("f", "z", "v", "a"):        # those present
+        h.update(name.encode() + b"\\0" + np.asarray(x[name], "<f8").tobytes())
+"""
+
+from __future__ import annotations
+
+import hashlib
+import shlex
+from collections.abc import Mapping
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from .columnmap import column_units
+from .record import CHANNELS, Record
+from .terms import DEFAULT_TERMS, Model
+from .units import SI, VOCABULARY
+
+if TYPE_CHECKING:  # pragma: no cover
+    from .identified import IdentifiedModel
+
+__all__ = ["record_sha256", "data_provenance", "identify_provenance", "identify_again", "RECORD_HASH_PREFIX"]
+
+#: The first bytes hashed by :func:`record_sha256` (names the byte layout).
+RECORD_HASH_PREFIX = b"nlid.Record/1\n"
+
+
+def record_sha256(record: Record) -> str:
+    """SHA-256 of a record's samples in the canonical byte order of the module docstring (hexadecimal)."""
+    digest = hashlib.sha256(RECORD_HASH_PREFIX)
+    digest.update(np.array([record.fs, record.t0], dtype="<f8").tobytes())
+    for name in CHANNELS:
+        values = getattr(record, name)
+        if values is not None:
+            digest.update(name.encode("ascii") + b"\0")
+            digest.update(np.ascontiguousarray(values, dtype="<f8").tobytes())
+    return digest.hexdigest()
+
+
+def _units(record: Record) -> dict[str, dict[str, Any]]:
+    """Every channel's unit as given, what it became, and the factor applied."""
+    given = dict(record.meta.get("input_units") or {})
+    out = {}
+    for channel in ("t", *CHANNELS):
+        if channel in given:
+            out[channel] = dict(given[channel])
+        else:
+            label = record.units.get(channel, SI[channel])
+            known = {u.symbol for u in VOCABULARY[channel]}
+            out[channel] = {"unit": label if label in known else SI[channel], "si": label, "factor": 1.0}
+    return out
+
+
+def data_provenance(record: Record) -> dict[str, Any]:
+    """What identifies a record and how it was read (the ``"data"`` part of a provenance)."""
+    loaded = dict(record.meta.get("loaded") or {})
+    digest = record_sha256(record)
+    file_hash = loaded.get("sha256")
+    at_load = loaded.get("record_sha256")
+    return {
+        "source": loaded.get("source") or record.meta.get("source"),
+        "sha256": file_hash or digest,
+        "sha256_of": "file" if file_hash else "record",
+        "record_sha256": digest,
+        "as_loaded": None if at_load is None else at_load == digest,
+        "columns": loaded.get("columns"),
+        "fs_given": loaded.get("fs"),
+        "units": _units(record),
+        "samples": record.n,
+        "fs": record.fs,
+        "t0": record.t0,
+        "channels": list(record.channels),
+        "force_hold": record.force_hold,
+        "channel_sources": {c: record.source_of(c) for c in record.channels},
+    }
+
+
+def _version() -> str:
+    from . import __version__
+
+    return str(__version__)
+
+
+def identify_provenance(
+    record: Record,
+    given: Model,
+    *,
+    method: str,
+    mass: float | None,
+    options: Mapping[str, Any],
+    px_tol: float,
+    px_max_iter: int,
+    cutoff: float | None,
+) -> dict[str, Any]:
+    """The provenance :func:`nlid.identify` stores: the data, the call, and a command that repeats it.
+
+    Parameters
+    ----------
+    record
+        The record identified.
+    given
+        The model as given (before ``px(z)`` iteration or shape refinement).
+    method, mass, options, px_tol, px_max_iter, cutoff
+        As passed to :func:`nlid.identify` (``options``: the identifier's
+        resolved settings).
+    """
+    names = list(given.names)
+    call = {
+        "method": method,
+        "terms": [n for n in names if n not in DEFAULT_TERMS],
+        "without": [d for d in DEFAULT_TERMS if d not in names],
+        "mass": mass,
+        "options": dict(options),
+        "px_roots": None if given.px_roots is None else list(given.px_roots),
+        "px_tol": px_tol,
+        "px_max_iter": px_max_iter,
+        "cutoff": cutoff,
+    }
+    data = data_provenance(record)
+    out: dict[str, Any] = {"nlid_version": _version(), "data": data, "identify": call}
+    command = _command(data, call)
+    if command is not None:
+        out["command"] = command
+    return out
+
+
+def _cli_value(value: Any) -> str | None:
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    if isinstance(value, (int, float, str)):
+        return str(value)
+    return None
+
+
+def _command(data: Mapping[str, Any], call: Mapping[str, Any]) -> str | None:
+    """``nlid identify ...`` that reads the same data and repeats the call, or ``None`` when none can."""
+    source = data.get("source")
+    loaded_from_file = data.get("sha256_of") == "file" or str(source or "").startswith("dataset:")
+    if not source or not loaded_from_file or data.get("as_loaded") is False or isinstance(data.get("columns"), Mapping):
+        return None
+    words = ["nlid", "identify", str(source)]
+    if data.get("columns"):
+        words += ["--columns", str(data["columns"])]
+    in_map = column_units(data.get("columns"))
+    declared = [
+        f"{c}={u['unit']}" for c, u in data.get("units", {}).items() if u.get("factor") != 1.0 and c not in in_map
+    ]
+    if declared:
+        words += ["--units", ",".join(declared)]
+    if data.get("fs_given") is not None:
+        words += ["--fs", repr(float(data["fs_given"]))]
+    words += ["--method", str(call["method"]), "--terms", ",".join(call["terms"])]
+    if call["without"]:
+        words += ["--without", ",".join(call["without"])]
+    if call["mass"] is not None:
+        words += ["--mass", repr(float(call["mass"]))]
+    if call["px_roots"] is not None:
+        words += ["--px-roots", ",".join(repr(float(x)) for x in call["px_roots"])]
+    for key, value in call["options"].items():
+        text = _cli_value(value)
+        if value is None:
+            continue
+        if text is None:
+            return None  # an option the command line cannot spell
+        words += ["--set", f"{key}={text}"]
+    if call["px_max_iter"] != 30:
+        words += ["--set", f"px_max_iter={call['px_max_iter']}"]
+    if call["px_tol"] != 1e-4 or call["cutoff"] is not None:
+        return None  # not settable from `nlid identify`
+    return " ".join(shlex.quote(w) for w in words)
+
+
+def identify_again(provenance: Mapping[str, Any], source: Any = None) -> IdentifiedModel:
+    """Identify again from a provenance (:attr:`IdentifiedModel.provenance`), reading the data it names.
+
+    Parameters
+    ----------
+    provenance
+        A model's provenance, e.g. ``IdentifiedModel.from_dict(json.load(f)).provenance``.
+    source
+        The data, when the recorded source is not a file (a DataFrame, a
+        mapping of arrays); default: the recorded source.
+
+    Returns
+    -------
+    IdentifiedModel
+        The model identified with the recorded column map, units, terms,
+        method, options and mass.
+
+    Raises
+    ------
+    InputError
+        A provenance without the data's source, or data whose SHA-256 is not
+        the recorded one (another file, or a record changed after loading).
+    """
+    from .api import load
+    from .errors import InputError
+    from .io import file_sha256
+    from .pipeline import identify
+
+    data, call = dict(provenance.get("data") or {}), dict(provenance.get("identify") or {})
+    if not data or not call:
+        raise InputError("the provenance lacks its 'data' or 'identify' part: it was not written by nlid.identify")
+    declared = {c: u["unit"] for c, u in (data.get("units") or {}).items() if u.get("factor") != 1.0}
+    if source is None:
+        source = data.get("source")
+        if not source or (data.get("sha256_of") != "file" and not str(source).startswith("dataset:")):
+            raise InputError(f"the data came from {source or 'Python'}, not a file: give it as source=")
+        if data.get("sha256_of") == "file" and file_sha256(source) != data["sha256"]:
+            raise InputError(f"{source} has changed since the model was identified (its SHA-256 differs)")
+    if str(source).startswith("dataset:"):
+        record = load(source)
+    else:
+        record = load(source, columns=data.get("columns"), fs=data.get("fs_given"), units=declared or None)
+    record = record.with_meta(force_hold=data.get("force_hold", record.force_hold))
+    if record_sha256(record) != data.get("record_sha256"):
+        raise InputError(
+            "the data read do not give the samples identified (SHA-256 differs)"
+            + ("; the record was changed after loading" if data.get("as_loaded") is False else "")
+        )
+    return identify(
+        record,
+        list(call.get("terms") or ()),
+        call.get("method", "rfs"),
+        mass=call.get("mass"),
+        options=call.get("options") or None,
+        without=list(call.get("without") or ()),
+        px_roots=call.get("px_roots"),
+        px_tol=float(call.get("px_tol", 1e-4)),
+        px_max_iter=int(call.get("px_max_iter", 30)),
+        cutoff=call.get("cutoff"),
+    )
