@@ -525,7 +525,7 @@ class IdentifiedModel:
 
     def _shown_units(self, units: str | Mapping[str, str] | None) -> dict[str, Unit] | None:
         """The units coefficients are shown in; ``None`` for SI as computed."""
-        if units is None:
+        if units is None or (isinstance(units, str) and units.strip().lower() == "si"):
             return None
         if isinstance(units, str) and units.strip().lower() == "input":
             data = self.provenance.get("data") if self.provenance else None

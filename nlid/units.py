@@ -307,7 +307,8 @@ def display_units(units: str | Mapping[str, Any] | None, given: Mapping[str, Any
         chosen: dict[str, Unit] = {}
     elif isinstance(units, str) and units.strip().lower() == "input":
         raw = {c: (u["unit"] if isinstance(u, Mapping) else u) for c, u in dict(given or {}).items()}
-        chosen = parse_units({c: u for c, u in raw.items() if c in ("f", "z", "v")}, where="input units")
+        # the channels given in other units than SI (a velocity given in SI follows the displacement's unit)
+        chosen = parse_units({c: u for c, u in raw.items() if c in ("f", "z", "v") and u != SI[c]}, where="input units")
     else:
         if isinstance(units, str) and "=" not in units:
             raise InputError(f"units= must be 'SI', 'input' or a mapping such as {{'z': 'mm'}}, got {units!r}")

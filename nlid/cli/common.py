@@ -159,7 +159,9 @@ def load_data(args: argparse.Namespace) -> Record:
     """Read the record named by ``args.data`` (:func:`nlid.api.load`)."""
     from ..api import load
 
-    units = getattr(args, "units", None)
+    from ..units import parse_units
+
+    units = parse_units(getattr(args, "units", None), where="--units") or None
     if str(args.data).startswith("dataset:") and (args.columns or args.fs or units):
         raise InputError("--columns, --fs and --units do not apply to bundled datasets")
     return load(args.data, columns=args.columns, fs=args.fs, force_hold=getattr(args, "force_hold", None), units=units)
