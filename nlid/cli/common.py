@@ -158,7 +158,6 @@ def add_data_arguments(parser: argparse.ArgumentParser) -> None:
 def load_data(args: argparse.Namespace) -> Record:
     """Read the record named by ``args.data`` (:func:`nlid.api.load`)."""
     from ..api import load
-
     from ..units import parse_units
 
     units = parse_units(getattr(args, "units", None), where="--units") or None
