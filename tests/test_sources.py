@@ -93,7 +93,10 @@ def test_identify_on_a_frame_equals_identify_on_the_record(simulated):
     by_frame = nlid.identify(frame, "z^3, z^2, v*|v|", "rfs", mass=0.2).to_dict()
     by_record = nlid.identify(plain, "z^3, z^2, v*|v|", "rfs", mass=0.2).to_dict()
     by_frame.pop("seconds"), by_record.pop("seconds")
+    frame_data, record_data = by_frame.pop("provenance")["data"], by_record.pop("provenance")["data"]
     assert by_frame == by_record
+    assert frame_data["record_sha256"] == record_data["record_sha256"]  # the same samples; the sources differ
+    assert (frame_data["source"], record_data["source"]) == ("DataFrame", None)
 
 
 def test_a_record_is_returned_as_is(simulated):
