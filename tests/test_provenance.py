@@ -10,7 +10,6 @@ import json
 import shlex
 import struct
 
-import numpy as np
 import pandas as pd
 import pytest
 
