@@ -21,21 +21,22 @@ the ``"provenance"`` key of :meth:`~nlid.identified.IdentifiedModel.to_dict`)::
       "identify": {
         "method": "rfs", "terms": ["z^2", "z^3", "v*|v|"], "without": [], "mass": 0.2,
         "options": {...}, "px_roots": null, "px_tol": 0.0001, "px_max_iter": 30, "cutoff": null
-      },
-      "command": "nlid identify rig.csv --columns 't=time,f=load,z[mm]=disp' --terms 'z^2,z^3,v*|v|' ..."
+      }
     }
 
 Identifying again
 -----------------
-From a file (or ``dataset:NAME``): run ``command`` (given when the data came
-from one), or in Python ``nlid.identify(nlid.load(source, columns=columns,
-fs=fs_given, units=...), terms, method, mass=mass, options=options,
-without=without, px_roots=px_roots, px_tol=px_tol, px_max_iter=px_max_iter,
-cutoff=cutoff)`` with the recorded values (:func:`identify_again` does
-exactly this). ``sha256`` says whether the file is the same; ``as_loaded``
-false warns that the record was changed after loading (a slice, a decimation,
-estimated channels: ``samples``, ``t0`` and ``channel_sources`` say which),
-so the file alone does not give the same samples. The result has the same
+From a file (or ``dataset:NAME``): in Python ``nlid.identify(nlid.load(source,
+columns=columns, fs=fs_given, units=...), terms, method, mass=mass,
+options=options, without=without, px_roots=px_roots, px_tol=px_tol,
+px_max_iter=px_max_iter, cutoff=cutoff)`` with the recorded values
+(:func:`identify_again` does exactly this, after checking the hashes); on the
+command line ``nlid identify`` with the same values
+(:func:`nlid.cli.common.identify_command` writes that command). ``sha256``
+says whether the file is the same; ``as_loaded`` false warns that the record
+was changed after loading (a slice, a decimation, estimated channels:
+``samples``, ``t0`` and ``channel_sources`` say which), so the file alone
+does not give the same samples. The result has the same
 coefficients, to the last bits a different CPU's BLAS may change.
 
 The record's SHA-256
@@ -55,13 +56,11 @@ conversion). In numpy::
 from __future__ import annotations
 
 import hashlib
-import shlex
 from collections.abc import Mapping
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from .columnmap import column_units
 from .record import CHANNELS, Record
 from .terms import DEFAULT_TERMS, Model
 from .units import SI, VOCABULARY
@@ -142,7 +141,7 @@ def identify_provenance(
     px_max_iter: int,
     cutoff: float | None,
 ) -> dict[str, Any]:
-    """The provenance :func:`nlid.identify` stores: the data, the call, and a command that repeats it.
+    """The provenance :func:`nlid.identify` stores: the nlid version, the data and the call.
 
     Parameters
     ----------
@@ -166,58 +165,7 @@ def identify_provenance(
         "px_max_iter": px_max_iter,
         "cutoff": cutoff,
     }
-    data = data_provenance(record)
-    out: dict[str, Any] = {"nlid_version": _version(), "data": data, "identify": call}
-    command = _command(data, call)
-    if command is not None:
-        out["command"] = command
-    return out
-
-
-def _cli_value(value: Any) -> str | None:
-    if isinstance(value, bool):
-        return "true" if value else "false"
-    if isinstance(value, (int, float, str)):
-        return str(value)
-    return None
-
-
-def _command(data: Mapping[str, Any], call: Mapping[str, Any]) -> str | None:
-    """``nlid identify ...`` that reads the same data and repeats the call, or ``None`` when none can."""
-    source = data.get("source")
-    loaded_from_file = data.get("sha256_of") == "file" or str(source or "").startswith("dataset:")
-    if not source or not loaded_from_file or data.get("as_loaded") is False or isinstance(data.get("columns"), Mapping):
-        return None
-    words = ["nlid", "identify", str(source)]
-    if data.get("columns"):
-        words += ["--columns", str(data["columns"])]
-    in_map = column_units(data.get("columns"))
-    declared = [
-        f"{c}={u['unit']}" for c, u in data.get("units", {}).items() if u.get("factor") != 1.0 and c not in in_map
-    ]
-    if declared:
-        words += ["--units", ",".join(declared)]
-    if data.get("fs_given") is not None:
-        words += ["--fs", repr(float(data["fs_given"]))]
-    words += ["--method", str(call["method"]), "--terms", ",".join(call["terms"])]
-    if call["without"]:
-        words += ["--without", ",".join(call["without"])]
-    if call["mass"] is not None:
-        words += ["--mass", repr(float(call["mass"]))]
-    if call["px_roots"] is not None:
-        words += ["--px-roots", ",".join(repr(float(x)) for x in call["px_roots"])]
-    for key, value in call["options"].items():
-        text = _cli_value(value)
-        if value is None:
-            continue
-        if text is None:
-            return None  # an option the command line cannot spell
-        words += ["--set", f"{key}={text}"]
-    if call["px_max_iter"] != 30:
-        words += ["--set", f"px_max_iter={call['px_max_iter']}"]
-    if call["px_tol"] != 1e-4 or call["cutoff"] is not None:
-        return None  # not settable from `nlid identify`
-    return " ".join(shlex.quote(w) for w in words)
+    return {"nlid_version": _version(), "data": data_provenance(record), "identify": call}
 
 
 def identify_again(provenance: Mapping[str, Any], source: Any = None) -> IdentifiedModel:

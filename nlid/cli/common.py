@@ -24,6 +24,7 @@ __all__ = [
     "DATA_HELP",
     "to_cli",
     "FLAGS",
+    "identify_command",
 ]
 
 #: Python parameter names in library messages -> the command-line flag that sets them.
@@ -172,3 +173,72 @@ def print_json(obj: Any) -> None:
 
     json.dump(to_jsonable(obj), sys.stdout, allow_nan=False)
     sys.stdout.write("\n")
+
+
+def _setting(value: Any) -> str | None:
+    """An option's value as ``--set`` spells it, or ``None`` when it cannot."""
+    if value is None:
+        return "auto"
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    if isinstance(value, (int, float, str)):
+        return str(value)
+    if isinstance(value, (list, tuple)) and all(isinstance(x, (int, float)) and not isinstance(x, bool) for x in value):
+        return ",".join(str(x) for x in value)
+    return None
+
+
+def identify_command(provenance: Any) -> str | None:
+    """The ``nlid identify`` command that repeats a fit, from its provenance (:mod:`nlid.provenance`).
+
+    Parameters
+    ----------
+    provenance
+        ``IdentifiedModel.provenance``, or the ``"provenance"`` object of
+        ``nlid identify --json``.
+
+    Returns
+    -------
+    str or None
+        A shell command (``nlid identify rig.csv --columns ... --units ...
+        --method ... --terms ... --mass ...``), or ``None`` when the data did
+        not come from a file or a bundled dataset, were changed after loading,
+        or a setting has no flag (``px_tol``, ``cutoff``, a column map given
+        as a mapping).
+    """
+    import shlex
+
+    from ..columnmap import column_units
+
+    data, call = dict(provenance.get("data") or {}), dict(provenance.get("identify") or {})
+    source = str(data.get("source") or "")
+    from_file = data.get("sha256_of") == "file" or source.startswith("dataset:")
+    columns = data.get("columns")
+    if not call or not from_file or data.get("as_loaded") is False or not isinstance(columns, (str, type(None))):
+        return None
+    if call.get("px_tol", 1e-4) != 1e-4 or call.get("px_max_iter", 30) != 30 or call.get("cutoff") is not None:
+        return None  # no flag of `nlid identify` sets them
+    words = ["nlid", "identify", source]
+    if columns:
+        words += ["--columns", columns]
+    in_map = column_units(columns)
+    units = [
+        f"{c}={u['unit']}" for c, u in (data.get("units") or {}).items() if u.get("factor") != 1.0 and c not in in_map
+    ]
+    if units:
+        words += ["--units", ",".join(units)]
+    if data.get("fs_given") is not None:
+        words += ["--fs", str(float(data["fs_given"]))]
+    words += ["--method", str(call["method"]), "--terms", ",".join(call.get("terms") or ())]
+    if call.get("without"):
+        words += ["--without", ",".join(call["without"])]
+    if call.get("mass") is not None:
+        words += ["--mass", str(float(call["mass"]))]
+    if call.get("px_roots") is not None:
+        words += ["--px-roots", ",".join(str(float(x)) for x in call["px_roots"])]
+    for key, value in dict(call.get("options") or {}).items():
+        text = _setting(value)
+        if text is None:
+            return None
+        words += ["--set", f"{key}={text}"]
+    return " ".join(shlex.quote(w) for w in words)
