@@ -247,8 +247,11 @@ def _parse_expr(channel: str, text: str) -> ColumnExpr:
         if number is not None:
             value = float(number)
         else:
-            value = name if name is not None else (m.group("dq") if m.group("dq") is not None else m.group("sq"))
-            if not value.strip():
+            # quoted text is a name as it is, but for the spaces around it (table names are stripped of them)
+            value = (
+                name if name is not None else (m.group("dq") if m.group("dq") is not None else m.group("sq")).strip()
+            )
+            if not value:
                 raise InputError(f"{shown}: an empty name in quotes")
         operands.append((op, value))
         pos = m.end()

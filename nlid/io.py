@@ -80,14 +80,24 @@ _PARQUET = (".parquet", ".pq")
 def read_table(path: str | Path) -> dict[str, np.ndarray]:
     """Read every column/variable of a CSV, NPZ, MAT, HDF5 or Parquet file into arrays.
 
+    Variables of an HDF5 or MATLAB v7.3 file that are not arrays (sparse
+    matrices, MATLAB objects) are left out; :func:`read_record` names them
+    when a column map uses them.
+
     Raises
     ------
     DataError
         If the file is missing, unreadable or of an unknown type, or needs an
         optional package that is not installed.
     """
+    out = {}
     with _open_table(path) as table:
-        return {name: np.asarray(table[name]) for name in table}
+        for name in table:
+            try:
+                out[name] = np.asarray(table[name])
+            except DataError:
+                continue
+    return out
 
 
 @contextlib.contextmanager
@@ -178,6 +188,10 @@ def _check_path(path: str | Path) -> Path:
     return path
 
 
+#: MATLAB classes whose values are numbers (``char`` is text, ``cell`` references; others are objects).
+_MATLAB_NUMERIC = frozenset(
+    ("double", "single", "logical", "int8", "uint8", "int16", "uint16", "int32", "uint32", "int64", "uint64")
+)
 #: Groups of a MATLAB v7.3 file that hold MATLAB's own bookkeeping, not variables.
 _MATLAB_INTERNAL = ("#refs#", "#subsystem#")
 
@@ -241,6 +255,8 @@ def _read_dataset(obj: Any, name: str, source: str) -> np.ndarray:
         return np.empty(obj.shape, dtype=object)  # a cell array (references): refused as objects when used
     if h5py.check_string_dtype(obj.dtype) is not None:
         return np.asarray(obj.asstr()[()], dtype=str)
+    if matlab is not None and matlab not in _MATLAB_NUMERIC and matlab != "char":
+        raise DataError(f"variable {name!r} in {source} is a MATLAB {matlab}, not an array of numbers")
     data = np.asarray(obj[()])
     if data.dtype.names and {"real", "imag"} <= set(data.dtype.names):
         data = data["real"] + 1j * data["imag"]

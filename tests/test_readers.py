@@ -165,6 +165,15 @@ def test_v73_variables_that_are_not_numbers_are_named(tmp_path, data, columns, s
     with pytest.raises(DataError, match=says):
         read_record(path, columns)
     read_record(path, "f=vir, z=vir*2")  # unused odd variables are never read
+    assert sorted(read_table(path)) == ["cplx", "label", "notes", "t", "vir"]  # the sparse matrix is left out
+
+
+def test_v73_objects_are_not_numbers(tmp_path, data):
+    path = write_mat73(tmp_path / "obj.mat", {"t": data["t"], "vir": data["vir"]})
+    with h5py.File(path, "a") as f:
+        f.create_dataset("s", data=np.arange(6, dtype=np.uint32)[None, :]).attrs["MATLAB_class"] = np.bytes_("string")
+    with pytest.raises(DataError, match="variable 's' in .* is a MATLAB string, not an array of numbers"):
+        read_record(path, "f=vir, z=s")
 
 
 # --------------------------------------------------------------------------- HDF5

@@ -238,6 +238,7 @@ def test_column_map_mistakes_are_named(spec, says):
 def test_column_units_lists_the_declared_units():
     assert column_units("t[ms]=time, f=load, z [ µm ] = weg_µm") == {"t": "ms", "z": "µm"}
     assert column_units(None) == {}
+    assert parse_columns('z="  Weg [mm] "')["z"].column == "Weg [mm]"  # as the table's names, stripped
 
 
 # --------------------------------------------------------------------------- coefficients in other units
