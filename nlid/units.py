@@ -36,7 +36,7 @@ record's units say so.
 
 After conversion, :attr:`Record.units <nlid.record.Record.units>` holds the
 SI unit of each channel and ``record.meta["input_units"]`` what each channel
-was given in and the factor applied (:func:`provenance_entry`); an
+was given in and the factor applied (:meth:`Unit.to_dict`); an
 identified model keeps both in its provenance, so its coefficients can be
 shown in the units of the data (:func:`coefficient_conversion`,
 ``fit.summary(units="input")``).
@@ -79,7 +79,6 @@ __all__ = [
     "unit_of",
     "parse_units",
     "accepted",
-    "provenance_entry",
     "display_units",
     "coefficient_conversion",
 ]
@@ -277,11 +276,6 @@ def parse_units(spec: str | Mapping[str, Any] | None, *, where: str = "units") -
         else:
             out[channel] = unit_of(channel, value, where=where)
     return out
-
-
-def provenance_entry(unit: Unit) -> dict[str, Any]:
-    """What ``record.meta["input_units"]`` keeps for a channel: ``{"unit": "mm", "si": "m", "factor": 0.001}``."""
-    return unit.to_dict()
 
 
 def display_units(units: str | Mapping[str, Any] | None, given: Mapping[str, Any] | None = None) -> dict[str, Unit]:
