@@ -21,6 +21,7 @@ from ...frozen import FrozenDict
 from ...interface import resolve_options
 from ...pipeline import as_model
 from ...registry import Registry, default_registry
+from ...terms import Model
 from ...validate import CUTOFF, SEED
 from ..values import (
     MAX_MASS,
@@ -89,9 +90,10 @@ def _name(where: Where, value: Any) -> str:
 
 
 def _roots(where: Where, value: Any) -> tuple[float, float] | None:
+    """Two positions ``[z-, z+]`` (a list from the file, or the tuple of a term set a method override inherits)."""
     if value is None:
         return None
-    if not isinstance(value, list) or len(value) != 2:
+    if not isinstance(value, (list, tuple)) or len(value) != 2:
         raise where.error(f"expected two numbers [z-, z+], got {brief(value)}")
     low, high = (
         float((where / f"[{i}]").number(x, minimum=-MAX_POSITION, maximum=MAX_POSITION)) for i, x in enumerate(value)
@@ -378,6 +380,17 @@ def _dataset(where: Where, entry: dict[str, Any], base: Path, reps: int, timeout
     )
 
 
+def _term_name(where: Where, text: str) -> str:
+    """The canonical name of the one term ``text`` (``"|v|*v"`` -> ``"v*|v|"``; ``v``, ``z`` and ``1`` too)."""
+    try:
+        names = Model.from_spec(text, defaults=False).names
+    except NlidError as exc:
+        raise where.error(str(exc)) from None
+    if len(names) != 1:
+        raise where.error(f"{text!r}: give one term per key")
+    return names[0]
+
+
 def _reference(where: Where, value: Any) -> dict[str, Any]:
     reference = where.table(value)
     where.keys(reference, _REFERENCE_KEYS)
@@ -385,11 +398,7 @@ def _reference(where: Where, value: Any) -> dict[str, Any]:
         coeffs = (where / "coefficients").table(reference["coefficients"])
         for term, x in coeffs.items():
             (where / f"coefficients.{term}").number(x)
-            try:
-                as_model(term, without="1,z,v")
-            except NlidError as exc:
-                raise (where / "coefficients").error(str(exc)) from None
-        reference["coefficients"] = {as_model(t, without="1,z,v").names[0]: float(x) for t, x in coeffs.items()}
+        reference["coefficients"] = {_term_name(where / "coefficients", t): float(x) for t, x in coeffs.items()}
     if "mass" in reference:
         reference["mass"] = float((where / "mass").number(reference["mass"], positive=True, maximum=MAX_MASS))
     if "equilibria" in reference:
