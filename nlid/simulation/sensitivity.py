@@ -18,6 +18,7 @@ import numpy as np
 from ..errors import InputError
 from ..terms import Model
 from ..terms._memory_kernels import bouc_wen_step_d, dahl_step_d
+from ..validate import MASS
 from .encode import encode_memory, encode_model
 from .excitation import fine_force
 from .kernels import FREE_RUN_OVERSAMPLE, SimulationError, _plan, _sign
@@ -480,8 +481,7 @@ def simulate_segments(
     SimulationError
         If a segment's state becomes non-finite.
     """
-    if not mass > 0:
-        raise InputError(f"mass must be positive, got {mass}")
+    mass = MASS.check(mass, "mass=")
     q = int(oversample)
     if q < 1:
         raise InputError(f"oversample must be a positive integer, got {oversample}")
