@@ -16,7 +16,7 @@ import numpy as np
 
 from ..errors import InputError, NlidError
 from ..terms import Model
-from ..terms._memory_kernels import bouc_wen_step
+from ..terms.memory_kernels import bouc_wen_step
 from ..validate import MASS
 from .encode import encode_memory, encode_model
 from .excitation import fine_force

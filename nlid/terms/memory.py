@@ -38,7 +38,7 @@ KINDS: dict[str, tuple[tuple[str, ...], str]] = {
 
 def bouc_wen_path(z: np.ndarray, a: float, b: float, w0: float = 0.0) -> np.ndarray:
     """The Bouc-Wen state ``w`` (m) along the displacement samples ``z`` (module docstring)."""
-    from ._memory_kernels import bouc_wen_loop
+    from .memory_kernels import bouc_wen_loop
 
     z = np.ascontiguousarray(z, dtype=float)
     out = np.empty_like(z)
@@ -49,7 +49,7 @@ def bouc_wen_path(z: np.ndarray, a: float, b: float, w0: float = 0.0) -> np.ndar
 
 def dahl_path(z: np.ndarray, rho: float, w0: float = 0.0) -> np.ndarray:
     """The Dahl state ``w`` (-1 to 1) along the displacement samples ``z`` (module docstring)."""
-    from ._memory_kernels import dahl_loop
+    from .memory_kernels import dahl_loop
 
     z = np.ascontiguousarray(z, dtype=float)
     out = np.empty_like(z)
