@@ -78,7 +78,7 @@ def path(kind: str, params: tuple[float, ...], z: np.ndarray, oversample: int = 
         w = dahl_path(fine, *params)
     else:
         raise ValueError(f"unknown memory law {kind!r}")
-    return w[:: oversample] if fine is not z else w
+    return w[::oversample] if fine is not z else w
 
 
 def initial_slope(kind: str, params: tuple[float, ...]) -> float:
