@@ -5,7 +5,8 @@ The Python API is a handful of verbs (:mod:`nlid.api`)::
     import nlid
 
     record = nlid.simulate("paper-numerical", seed=0, noise=0.02, channels="z,a")
-    fit = nlid.identify(record, "z^3, z^2, v*|v|", method="rfs", mass=0.2)
+    fit = nlid.identify(record, "z^3, z^2, v*|v|", mass=0.2)   # method: the preferred installed one
+    print(fit.summary())                                       # a nlid.Summary (text, Markdown, HTML)
     table = nlid.compare(record, "z^3, z^2, v*|v|", ["rfs", "nsi-ip"], mass=0.2)
     post = nlid.posterior(record, fit, seed=0)
     found = nlid.discover(nlid.load("dataset:emps"), "v, 1")
@@ -43,6 +44,7 @@ _LAZY: dict[str, str] = {
     "run_study": "nlid.api",
     "identify": "nlid.pipeline",
     "IdentifiedModel": "nlid.identified",
+    "Summary": "nlid.summary",
     "Record": "nlid.record",
     "Model": "nlid.terms",
     "parse_term": "nlid.terms",
@@ -61,6 +63,7 @@ __all__ = [
     "discover",
     "run_study",
     "IdentifiedModel",
+    "Summary",
     "Record",
     "Model",
     "parse_term",

@@ -33,7 +33,6 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
-from difflib import get_close_matches
 from typing import Any, ClassVar
 
 import numpy as np
@@ -41,6 +40,7 @@ import numpy as np
 from .errors import OptionError
 from .record import Record
 from .terms import Model
+from .validate import did_you_mean
 
 __all__ = [
     "Option",
@@ -183,13 +183,8 @@ def resolve_options(declared: tuple[Option, ...], given: Mapping[str, Any], wher
     by_name = {o.name: o for o in declared}
     for key in given:
         if key not in by_name:
-            hint = get_close_matches(key, list(by_name), n=1)
             known = ", ".join(by_name) or "none"
-            raise OptionError(
-                f"{where}unknown option {key!r}"
-                + (f" (did you mean {hint[0]!r}?)" if hint else "")
-                + f"; known options: {known}"
-            )
+            raise OptionError(f"{where}unknown option {key!r}{did_you_mean(key, by_name)}; known options: {known}")
     return {o.name: (o.parse(given[o.name], where) if o.name in given else o.default) for o in declared}
 
 

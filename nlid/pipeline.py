@@ -31,6 +31,7 @@ from . import numerics, physics
 from .errors import PASS_THROUGH, IdentificationError, InputError, NlidError, PluginError, describe_exception
 from .identified import IdentifiedModel
 from .interface import Estimate, refined_terms
+from .methods import choose_method
 from .physics import Modal
 from .provenance import identify_provenance
 from .record import Record
@@ -194,7 +195,7 @@ def _px_fixed_point(
 def identify(
     record: Record,
     terms: str | Iterable[str | Term] | Model,
-    method: str | Any = "rfs",
+    method: str | Any | None = None,
     *,
     mass: float | None = None,
     options: Mapping[str, Any] | None = None,
@@ -219,7 +220,10 @@ def identify(
         The user's terms (``"z^3, z^2, v*|v|"``); ``1``, ``z`` and ``v`` are
         added unless listed in ``without``. A :class:`Model` is used as is.
     method
-        Identifier name (entry-point name) or an identifier instance.
+        Identifier name (entry-point name) or an identifier instance;
+        default: the installed identifier with the best ``preference``
+        (:func:`nlid.methods.choose_method`: ``"rfs"`` with nlid's own
+        plugins).
     mass
         Known mass in kg; ``None`` asks the method to estimate it.
     options
@@ -259,6 +263,8 @@ def identify(
         finish within ``timeout``.
     """
     record = as_record(record)
+    if method is None:
+        method = choose_method(mass, registry)[0]
     if timeout is not None:
         return _identify_isolated(
             timeout,

@@ -18,7 +18,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         epilog="example: nlid identify x.csv --method rfs --terms 'z^3,z^2,v*|v|' --mass 0.2",
     )
     add_data_arguments(p)
-    add_model_arguments(p, "identifier to use (default rfs; see nlid methods)")
+    add_model_arguments(p, "identifier to use (default: the installed one with the best preference; see nlid methods)")
     p.add_argument(
         "--timeout",
         type=float,

@@ -47,7 +47,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     add_data_arguments(p)
-    add_model_arguments(p, "identifier giving the starting point (default rfs)")
+    add_model_arguments(p, "identifier giving the starting point (default: the preferred installed one)")
     p.add_argument(
         "--params",
         default="damping",

@@ -106,7 +106,7 @@ def parse_settings(items: Sequence[str] | None) -> dict[str, str]:
 
 def add_model_arguments(parser: argparse.ArgumentParser, method_help: str) -> None:
     """The model and identifier options: --method, --terms, --without, --mass, --px-roots, --set."""
-    parser.add_argument("--method", default="rfs", metavar="NAME", help=method_help)
+    parser.add_argument("--method", metavar="NAME", help=method_help)  # default: nlid.methods.choose_method
     parser.add_argument(
         "--terms", default="", metavar="TERMS", help="comma-separated terms besides 1, z, v, e.g. 'z^3,z^2,v*|v|'"
     )

@@ -156,7 +156,7 @@ def _legendre(x: np.ndarray, degrees: range) -> np.ndarray:
 
 def _play(z: np.ndarray, width: float) -> np.ndarray:
     """The play (backlash) operator of width ``width`` minus its input: a hysteretic feature in ``[-w, w]``."""
-    from ..terms._memory_kernels import play_loop
+    from ..terms.memory_kernels import play_loop
 
     z = np.ascontiguousarray(z, dtype=float)
     out = np.empty_like(z)
@@ -189,7 +189,9 @@ class _Scaler:
         v_basis = np.column_stack([_legendre(xv, range(1, 8)), sv])
         zp = _legendre(xz, range(0, 5))
         vp = np.column_stack([_legendre(xv, range(1, 5)), sv])
-        zv = np.column_stack([zp[:, i] * vp[:, j] for i in range(zp.shape[1]) for j in range(vp.shape[1])] + [zp[:, 1:]])
+        zv = np.column_stack(
+            [zp[:, i] * vp[:, j] for i in range(zp.shape[1]) for j in range(vp.shape[1])] + [zp[:, 1:]]
+        )
         history = [_play(res.z, w * self.z_std) / self.z_std for w in PLAY_WIDTHS]
         n = res.z.size
         for periods in LAG_PERIODS:
@@ -330,8 +332,7 @@ def describe_remaining(remaining: Remaining) -> str:
         best = max(remaining.probes.values(), key=lambda p: p.explained, default=None)
         tail = "" if best is None else f" (largest: {best.name}, {100 * max(best.explained, 0.0):.2g} %)"
         return (
-            f"clean: no probe predicts {100 * remaining.threshold:g} % or more of the held-out residual "
-            f"variance{tail}"
+            f"clean: no probe predicts {100 * remaining.threshold:g} % or more of the held-out residual variance{tail}"
         )
     d = remaining.dominant
     share = remaining.probes[d].explained
@@ -339,6 +340,5 @@ def describe_remaining(remaining: Remaining) -> str:
     if np.isfinite(remaining.residual_of_force):
         scale = f" (about {100 * np.sqrt(share) * remaining.residual_of_force:.2g} % of the force's RMS)"
     return (
-        f"{100 * share:.2g} % of the held-out residual variance{scale} remains predictable from {_WHERE[d]}; "
-        f"{_TRY[d]}"
+        f"{100 * share:.2g} % of the held-out residual variance{scale} remains predictable from {_WHERE[d]}; {_TRY[d]}"
     )

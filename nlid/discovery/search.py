@@ -51,6 +51,7 @@ from ..methods import choose_method, choose_refiner
 from ..record import Record
 from ..registry import Registry, default_registry
 from ..terms import Model
+from ..validate import check_cutoff, check_mass
 from .evidence import AcceptanceRule, Evidence, judge, rank
 from .inputs import BUILTIN_CANDIDATES, DEFAULT_HOLDOUT, CandidateLibrary, Split
 from .library import Candidate
@@ -236,8 +237,7 @@ class Discovery:
         else:
             notes = [f"method {method!r} given"]
         self.identifier = self.registry.create(method, options)
-        if mass is not None and not (np.isfinite(mass) and mass > 0):
-            raise InputError(f"mass= must be a positive number of kg, got {mass}")
+        mass = check_mass(mass)
         if mass is None and getattr(self.identifier, "needs_mass", False):
             raise InputError(f"method {method!r} cannot estimate the mass: give mass= (in kg)")
         self.method, self.method_notes, self.mass = method, tuple(notes), mass
@@ -300,10 +300,8 @@ class Discovery:
         cutoff = self.cutoff
         if cutoff is None:
             cutoff = derivatives.suggest_cutoff(estimation.z, estimation.fs)
-        elif not (np.isfinite(cutoff) and 0.0 < float(cutoff) < estimation.fs / 2.0):
-            raise InputError(
-                f"cutoff must lie between 0 and the Nyquist frequency {estimation.fs / 2:g} Hz, got {float(cutoff):g}"
-            )
+        else:
+            cutoff = check_cutoff(cutoff, estimation.fs)
         ctx = Context(estimation, held, self.identifier, float(cutoff), self.rule, self.structure)
         run = SearchSetup(
             context=ctx,

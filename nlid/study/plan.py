@@ -27,7 +27,7 @@ from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import Any
 
-from .._frozen import FrozenDict, freeze
+from ..frozen import FrozenDict, freeze
 from ..interface import to_jsonable
 from .config import DatasetConfig, StudyConfig
 
