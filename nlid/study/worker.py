@@ -17,7 +17,7 @@ nlid.study.child``. A child still running at the time limit is killed and the
 run is recorded as timed out; a child that dies is recorded as failed with
 its exit code or signal. Children die with their parent
 (:func:`nlid.isolation.die_with_parent`). A spec of another kind than a
-study's :class:`RunSpec` (``nlid bench``'s :class:`nlid.bench.jobs.BenchJob`)
+study's :class:`RunSpec` (``nlid bench``'s :class:`nlid.benchmarking.jobs.BenchJob`)
 runs itself through the same isolation: it has ``run_id``, ``timeout``,
 ``execute()``, ``failure(status, error)`` and ``to_dict()``. The child gets the parent's
 ``sys.path`` and environment, so plugins visible to the parent are visible to
@@ -73,7 +73,7 @@ def _base_row(spec: RunSpec) -> dict[str, Any]:
 
 def failure_payload(spec: RunSpec, status: str, error: str) -> dict[str, Any]:
     """The payload of a run that produced no result."""
-    if not isinstance(spec, RunSpec):  # a job of another kind (nlid.bench) says what its failure looks like
+    if not isinstance(spec, RunSpec):  # a job of another kind (nlid.benchmarking) says what its failure looks like
         return spec.failure(status, error)
     row = _base_row(spec)
     row[col.STATUS.key()] = status
@@ -97,7 +97,7 @@ def execute_run(spec: RunSpec) -> dict[str, Any]:
         metrics row, the :class:`~nlid.identified.IdentifiedModel` as a
         dictionary, the reference values and the result's arrays.
     """
-    if not isinstance(spec, RunSpec):  # a job of another kind (nlid.bench.jobs.BenchJob) runs itself, never raising
+    if not isinstance(spec, RunSpec):  # a job of another kind (nlid.benchmarking.jobs.BenchJob) runs itself, never raising
         return spec.execute()
     try:
         return _execute(spec)
@@ -247,7 +247,7 @@ def subprocess_main(folder: str) -> int:
     path = Path(folder)
     data = json.loads((path / "spec.json").read_text())
     if data.get("kind") == "bench":
-        from ..bench.jobs import BenchJob
+        from ..benchmarking.jobs import BenchJob
 
         spec: Any = BenchJob.from_dict(data)
     else:

@@ -7,7 +7,7 @@ the time limit, and :class:`nlid.study.store.ResultStore` persists its payload a
 finishes (its digest tells whether a stored result still belongs to the job).
 
 :meth:`BenchJob.execute` loads the estimation part, fits every pipeline on it
-(:func:`nlid.bench.pipelines.fit_pipelines`), and only then loads each test set and scores each
+(:func:`nlid.benchmarking.pipelines.fit_pipelines`), and only then loads each test set and scores each
 fitted model on it under the test set's rule: the test sets are read after every decision is
 made, and the decisions are recorded (``choices``) so a test can show they do not depend on them.
 """
@@ -115,7 +115,7 @@ class BenchJob:
     pipelines
         The pipelines, fitted together (``discover`` and ``discover --refine`` share a discovery).
     source
-        ``"auto"``, ``"local"`` or ``"package"`` (:mod:`nlid.bench.data`).
+        ``"auto"``, ``"local"`` or ``"package"`` (:mod:`nlid.benchmarking.data`).
     files
         ``{"benchmark:test": path}`` of user-supplied sets.
     checksums

@@ -1,6 +1,6 @@
 """Benchmarks declared as data: the protocol of each measured benchmark, read from a TOML file.
 
-A benchmark file (the built-in ones are ``nlid/bench/protocols/*.toml``, shipped as package data)
+A benchmark file (the built-in ones are ``nlid/benchmarking/protocols/*.toml``, shipped as package data)
 says, for one benchmark:
 
 ``[benchmark]``
@@ -177,7 +177,7 @@ class TestSet:
 
 @dataclass(frozen=True)
 class PeerSettings:
-    """The pysindy peer's settings on this benchmark (:mod:`nlid.bench.peer`)."""
+    """The pysindy peer's settings on this benchmark (:mod:`nlid.benchmarking.peer`)."""
 
     degree: int = 3
     friction: bool = True
@@ -630,7 +630,7 @@ def parse_protocol(text: str, source: str = "<text>") -> Protocol:
 
 # --------------------------------------------------------------------------- built-ins
 #: Folder of the built-in benchmark files, inside the package.
-BUILTIN_PACKAGE_DIR = "bench/protocols"
+BUILTIN_PACKAGE_DIR = "benchmarking/protocols"
 
 
 def builtin_benchmarks() -> dict[str, Path]:
