@@ -1,4 +1,4 @@
-"""The records of a benchmark: from ``$NLID_DATA_DIR`` (checksummed), the ``nonlinear-benchmarks`` package, or a user file.
+"""A benchmark's records: from ``$NLID_DATA_DIR`` (checksummed), the ``nonlinear-benchmarks`` package, or a user file.
 
 Where each part comes from (``source=``):
 
@@ -100,7 +100,9 @@ def _package_function(name: str) -> Any:
     try:
         module: Any = importlib.import_module("nonlinear_benchmarks")
     except ImportError:
-        raise DataError("the nonlinear-benchmarks package is not installed (pip install nonlinear-benchmarks)") from None
+        raise DataError(
+            "the nonlinear-benchmarks package is not installed (pip install nonlinear-benchmarks)"
+        ) from None
     obj = module
     for attr in name.split("."):
         obj = getattr(obj, attr, None)
@@ -196,7 +198,9 @@ def read_user_file(protocol: Protocol, spec: UserFile | None, path: str | os.Pat
     else:
         table = read_table(p)
         columns, where = None, str(p)
-    has_time = ("t" in table and np.asarray(table["t"]).size > 1) or (columns is not None and "t=" in columns.replace(" ", ""))
+    has_time = ("t" in table and np.asarray(table["t"]).size > 1) or (
+        columns is not None and "t=" in columns.replace(" ", "")
+    )
     has_fs = "fs" in table and np.asarray(table["fs"]).size == 1
     record = Record.from_table(
         table,
@@ -206,7 +210,9 @@ def read_user_file(protocol: Protocol, spec: UserFile | None, path: str | os.Pat
         source=where,
     )
     if abs(record.fs / protocol.fs - 1.0) > FS_RTOL:
-        raise DataError(f"{where}: sampled at {record.fs:.6g} Hz; the {protocol.name} benchmark's is {protocol.fs:.6g} Hz")
+        raise DataError(
+            f"{where}: sampled at {record.fs:.6g} Hz; the {protocol.name} benchmark's is {protocol.fs:.6g} Hz"
+        )
     return record
 
 
@@ -253,8 +259,9 @@ def load_estimation(
         record = read_user_file(protocol, protocol.estimation_file, path)
     else:
         record = _read(protocol, protocol.estimation, _check_source(source), what)
-    record = _check_samples(_slice(record, protocol.estimation, protocol) if path is not None else record,
-                            protocol.estimation, what)
+    record = _check_samples(
+        _slice(record, protocol.estimation, protocol) if path is not None else record, protocol.estimation, what
+    )
     offsets = Offsets(float(record.f.mean()), float(record.z.mean())) if protocol.remove_means else Offsets()
     record = offsets.apply(record).with_meta(
         part="estimation", benchmark=protocol.name, force_hold=record.meta.get("force_hold", protocol.force_hold)
@@ -364,7 +371,9 @@ def check_user_files(protocols: Mapping[str, Protocol], files: Mapping[str, str]
                 f"test file {key!r}: name it BENCHMARK:TEST with a chosen benchmark ({', '.join(protocols)})"
             )
         protocol = protocols[bench]
-        declared = protocol.estimation_file is not None if test == "estimation" else protocol.test(test).file is not None
+        declared = (
+            protocol.estimation_file is not None if test == "estimation" else protocol.test(test).file is not None
+        )
         if not declared:
             user = [t.name for t in protocol.tests if t.file is not None]
             user += ["estimation"] if protocol.estimation_file is not None else []

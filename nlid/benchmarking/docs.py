@@ -60,7 +60,7 @@ def replace_block(text: str, name: str, body: str, page: str = "") -> str:
 def _command(info: Mapping[str, Any]) -> str:
     return info.get("command") or (
         f"nlid bench --benchmark {','.join(info.get('benchmarks', []))} "
-        f"--pipeline \"{', '.join(info.get('pipelines', []))}\""
+        f'--pipeline "{", ".join(info.get("pipelines", []))}"'
     )
 
 
@@ -97,14 +97,15 @@ def _coefficients(fit: Mapping[str, Any]) -> str:
     return ", ".join(parts)
 
 
-def _results_block(protocols: Mapping[str, Protocol], rows: Sequence[Mapping[str, Any]], info: Mapping[str, Any]) -> str:
+def _results_block(
+    protocols: Mapping[str, Protocol], rows: Sequence[Mapping[str, Any]], info: Mapping[str, Any]
+) -> str:
     lines = [
-        "Every figure below is generated from `docs/_data/leaderboard.csv` and `docs/_data/bench.json`, "
-        "the output of:",
+        "Every figure below is generated from `docs/_data/leaderboard.csv` and `docs/_data/bench.json`, the output of:",
         "",
         "```bash",
         _command(info) + " --out out/bench",
-        "nlid bench --render-docs --from out/bench     # copies the two files to docs/_data and regenerates these pages",
+        "nlid bench --render-docs --from out/bench   # copies the two files to docs/_data, regenerates these pages",
         "```",
         "",
     ]
@@ -144,15 +145,20 @@ def _results_block(protocols: Mapping[str, Protocol], rows: Sequence[Mapping[str
         for fit in fits:
             if fit.get("kind") == "peer":
                 eqs = (fit.get("details") or {}).get("equations") or []
-                lines.append(f"- peer, {fit.get('method')}: `z' = {eqs[0].strip()}`, `v' = {eqs[1].strip()}`"
-                             if len(eqs) == 2 else f"- peer, {fit.get('method')}")
+                lines.append(
+                    f"- peer, {fit.get('method')}: `z' = {eqs[0].strip()}`, `v' = {eqs[1].strip()}`"
+                    if len(eqs) == 2
+                    else f"- peer, {fit.get('method')}"
+                )
             else:
                 lines.append(f"- `{fit['pipeline']}` ({fit.get('method')}): {_coefficients(fit)}")
         lines.append("")
     return "\n".join(lines)
 
 
-def _discover_block(protocols: Mapping[str, Protocol], rows: Sequence[Mapping[str, Any]], info: Mapping[str, Any]) -> str:
+def _discover_block(
+    protocols: Mapping[str, Protocol], rows: Sequence[Mapping[str, Any]], info: Mapping[str, Any]
+) -> str:
     lines: list[str] = []
     for name, p in protocols.items():
         fits = {f["pipeline"]: f for f in _fits(info, name) if f.get("kind") == "nlid"}
@@ -162,7 +168,7 @@ def _discover_block(protocols: Mapping[str, Protocol], rows: Sequence[Mapping[st
         d = found.get("details") or {}
         unit, scale = p.unit, p.scale
         lines += [f"#### {p.title}", ""]
-        lines += ["```bash", f"nlid bench --benchmark {name} --pipeline \"discover, discover --refine\"", "```", ""]
+        lines += ["```bash", f'nlid bench --benchmark {name} --pipeline "discover, discover --refine"', "```", ""]
         holdout = d.get("estimation_samples", 0) - d.get("selection_samples", 0)
         lines += [
             f"Declared: `{', '.join(d.get('declared', []))}`; {p.pipelines.note}. Estimation part: "
@@ -189,18 +195,23 @@ def _discover_block(protocols: Mapping[str, Protocol], rows: Sequence[Mapping[st
                 f"`{r['test']}` {_num(r['rmse'])} {unit}" + ("" if r.get("same_rule") else " (other rule)")
                 for r in scored
             )
-            lines += [f"`{pipe}` ({fit.get('method')}, {fit.get('parameters')} parameters): {_coefficients(fit)}. "
-                      f"Free-run RMSE on the test sets: {tests or 'not scored'}.", ""]
+            lines += [
+                f"`{pipe}` ({fit.get('method')}, {fit.get('parameters')} parameters): {_coefficients(fit)}. "
+                f"Free-run RMSE on the test sets: {tests or 'not scored'}.",
+                "",
+            ]
     if not lines:
         lines = ["(no `discover` run in docs/_data)"]
-    lines += [f"The leaderboards with every pipeline, the peer and the published figures: [Results](results.md)."]
+    lines += ["The leaderboards with every pipeline, the peer and the published figures: [Results](results.md)."]
     return "\n".join(lines)
 
 
 def _load(data: Path) -> tuple[dict[str, Protocol], list[dict[str, Any]], dict[str, Any]]:
     missing = [f for f in DATA_FILES if not (data / f).is_file()]
     if missing:
-        raise InputError(f"{data} lacks {', '.join(missing)} (an nlid bench output: nlid bench --render-docs --from DIR)")
+        raise InputError(
+            f"{data} lacks {', '.join(missing)} (an nlid bench output: nlid bench --render-docs --from DIR)"
+        )
     info = json.loads((data / "bench.json").read_text())
     rows = read_leaderboard(data / "leaderboard.csv")
     protocols = {name: load_protocol(name) for name in info.get("benchmarks", [])}

@@ -146,8 +146,16 @@ class BenchJob:
         """A job for one benchmark; ``files`` are the user files of *this* benchmark."""
         mine = {k: v for k, v in (files or {}).items() if k.split(":", 1)[0] == protocol.name}
         run_id = f"{protocol.name}/{'+'.join(p.name.replace(' ', '') for p in pipelines)}"
-        return cls(run_id, protocol.name, protocol.text, pipelines, source, dict(mine),
-                   {k: _sha256(v) for k, v in mine.items()}, float(timeout))
+        return cls(
+            run_id,
+            protocol.name,
+            protocol.text,
+            pipelines,
+            source,
+            dict(mine),
+            {k: _sha256(v) for k, v in mine.items()},
+            float(timeout),
+        )
 
     # -- the JSON a child process reads (nlid.study.worker) and the digest
     def to_dict(self) -> dict[str, Any]:
@@ -185,8 +193,13 @@ class BenchJob:
     def failure(self, status: str, error: str) -> dict[str, Any]:
         """The payload of a job that produced nothing (its rows say why)."""
         row = {"run_id": self.run_id, "benchmark": self.benchmark, "status": status, "error": error}
-        return {"run_id": self.run_id, "row": row, "result": {"rows": [], "fits": [], "noise_floors": {}},
-                "reference": None, "arrays": {}}
+        return {
+            "run_id": self.run_id,
+            "row": row,
+            "result": {"rows": [], "fits": [], "noise_floors": {}},
+            "reference": None,
+            "arrays": {},
+        }
 
     def execute(self) -> dict[str, Any]:
         """Fit the pipelines on the estimation part, then score them on every test set (never raises)."""
@@ -213,7 +226,9 @@ class BenchJob:
             if test.noise_floor is not None:
                 floors[test.name] = noise_floor(estimation, test.noise_floor)
             try:
-                record = load_test(protocol, test, offsets, source=self.source, path=self.files.get(f"{protocol.name}:{test.name}"))
+                record = load_test(
+                    protocol, test, offsets, source=self.source, path=self.files.get(f"{protocol.name}:{test.name}")
+                )
             except DataError as exc:
                 rows += [self._row(protocol, test, f, None, "not run", str(exc)) for f in fits]
                 continue
@@ -233,8 +248,13 @@ class BenchJob:
             "estimation": {"samples": estimation.n, "source": estimation.meta.get("source", "")},
             "offsets": {"f": offsets.f, "z": offsets.z},
         }
-        row = {"run_id": self.run_id, "benchmark": self.benchmark, "status": "ok", "error": "",
-               "seconds": time.perf_counter() - start}
+        row = {
+            "run_id": self.run_id,
+            "benchmark": self.benchmark,
+            "status": "ok",
+            "error": "",
+            "seconds": time.perf_counter() - start,
+        }
         return {"run_id": self.run_id, "row": row, "result": to_jsonable(result), "reference": None, "arrays": {}}
 
     def _row(

@@ -148,11 +148,20 @@ class PeerModel:
         return int(np.count_nonzero(self.coefficients))
 
     def simulate(self, f: np.ndarray, fs: float, x0: tuple[float, float], *, limit: float, f_next: float | None = None):
-        """The free run's ``z`` over ``f`` from ``x0``; the force after the last sample is ``f_next`` (held if ``None``)."""
+        """The free run's ``z`` over ``f`` from ``x0``; the force after the last sample is ``f_next`` (else held)."""
         f = np.asarray(f, dtype=float)
         ext = np.append(f, f[-1] if f_next is None else f_next)
-        return _simulate(self.coefficients, self.powers, self.friction, ext, 1.0 / fs, float(x0[0]), float(x0[1]),
-                         SUBSTEPS, float(limit))
+        return _simulate(
+            self.coefficients,
+            self.powers,
+            self.friction,
+            ext,
+            1.0 / fs,
+            float(x0[0]),
+            float(x0[1]),
+            SUBSTEPS,
+            float(limit),
+        )
 
     def free_run(self, record: Record, rule: str) -> PeerScore:
         """Scores on ``record`` under ``rule`` (``first-sample``, ``window:N``, ``periodic[:N]``)."""
@@ -251,8 +260,10 @@ def _sign_name(x):
 def _library(settings: PeerSettings):
     import pysindy as ps
 
-    libraries = [ps.PolynomialLibrary(degree=settings.degree, include_bias=True),
-                 ps.PolynomialLibrary(degree=1, include_bias=False)]
+    libraries = [
+        ps.PolynomialLibrary(degree=settings.degree, include_bias=True),
+        ps.PolynomialLibrary(degree=1, include_bias=False),
+    ]
     inputs = [[0, 1], [2]]
     if settings.friction:
         libraries.append(ps.CustomLibrary(library_functions=[_sign], function_names=[_sign_name]))
@@ -268,15 +279,24 @@ def _fit(record: Record, settings: PeerSettings, threshold: float, method: str) 
     z = record.z
     v = _differentiate(z, record.fs, method)
     lib = _library(settings)
-    model = ps.SINDy(feature_library=lib, optimizer=ps.STLSQ(threshold=threshold), differentiation_method=_differentiator(method))
+    model = ps.SINDy(
+        feature_library=lib, optimizer=ps.STLSQ(threshold=threshold), differentiation_method=_differentiator(method)
+    )
     with warnings.catch_warnings():
         warnings.filterwarnings("ignore", message="Sparsity parameter is too big", category=UserWarning)
         model.fit(np.column_stack([z, v]), t=1.0 / record.fs, u=record.f, feature_names=["z", "v", "u"])
     coef = np.asarray(model.coefficients(), dtype=float)
     poly = lib.libraries[0] if hasattr(lib, "libraries") else lib.libraries_[0]
     powers = np.asarray(_powers(poly), dtype=np.int64)
-    peer = PeerModel(coef, list(model.get_feature_names()), powers, settings.friction, threshold, method,
-                     [str(e) for e in model.equations()])
+    peer = PeerModel(
+        coef,
+        list(model.get_feature_names()),
+        powers,
+        settings.friction,
+        threshold,
+        method,
+        [str(e) for e in model.equations()],
+    )
     _check_features(peer, model, z[:50], v[:50], record.f[:50])
     return peer
 

@@ -206,18 +206,34 @@ def _discover(record: Record, settings: PipelineSettings, specs: Sequence[Pipeli
     for spec in specs:
         if not spec.refine:
             out.append(
-                Fitted(DISCOVER, "nlid", f"discover ({method}), refit on the estimation part", refit,
-                       _parameters(refit, chosen_shapes), discover_seconds, choices, details)
+                Fitted(
+                    DISCOVER,
+                    "nlid",
+                    f"discover ({method}), refit on the estimation part",
+                    refit,
+                    _parameters(refit, chosen_shapes),
+                    discover_seconds,
+                    choices,
+                    details,
+                )
             )
             continue
         refiner = choose_refiner()
         t0 = time.perf_counter()
-        refined = identify(record, final.model, refiner, mass=final.given_mass, options={"init": method})
+        options = {**dict(settings.options.get(refiner, {})), "init": method}
+        refined = identify(record, final.model, refiner, mass=final.given_mass, options=options)
         seconds = discover_seconds + time.perf_counter() - t0
         out.append(
-            Fitted(REFINE, "nlid", f"discover ({method}) + {refiner} on the estimation part", refined,
-                   _parameters(refined, chosen_shapes), seconds,
-                   {**choices, "refined": _identified_choices(refined), "refiner": refiner}, details)
+            Fitted(
+                REFINE,
+                "nlid",
+                f"discover ({method}) + {refiner} on the estimation part",
+                refined,
+                _parameters(refined, chosen_shapes),
+                seconds,
+                {**choices, "refined": _identified_choices(refined), "refiner": refiner},
+                details,
+            )
         )
     return out
 

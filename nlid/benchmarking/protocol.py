@@ -332,8 +332,10 @@ class Protocol:
             if t.name == name:
                 return t
         names = [t.name for t in self.tests]
-        raise InputError(f"benchmark {self.name!r} has no test set {name!r}{did_you_mean(name, names)}; "
-                         f"its test sets: {', '.join(names)}")
+        raise InputError(
+            f"benchmark {self.name!r} has no test set {name!r}{did_you_mean(name, names)}; "
+            f"its test sets: {', '.join(names)}"
+        )
 
     def published_on(self, test: str) -> list[Published]:
         """The published figures on one test set."""
@@ -414,7 +416,11 @@ def _range(t: _Table) -> tuple[int, int] | None:
     value = t._get("range", None, False)
     if value is None:
         return None
-    ok = isinstance(value, list) and len(value) == 2 and all(isinstance(v, int) and not isinstance(v, bool) for v in value)
+    ok = (
+        isinstance(value, list)
+        and len(value) == 2
+        and all(isinstance(v, int) and not isinstance(v, bool) for v in value)
+    )
     if not ok or not 0 <= value[0] < value[1]:
         raise t.error("range", f"must be [start, stop] with 0 <= start < stop, got {value!r}")
     return int(value[0]), int(value[1])
@@ -422,11 +428,13 @@ def _range(t: _Table) -> tuple[int, int] | None:
 
 def _part(t: _Table, *, user_file: bool) -> Part:
     part = t.string("part", None)
-    if part is None and not user_file:
-        raise t.error("part", "is required (a part of the dataset), or give a [file] the user supplies")
     package = t.string("package", None)
     if package is not None and not _PACKAGE_PART.match(package):
         raise t.error("package", f"must be train, test, test:K or all:K, got {package!r}")
+    if part is None and package is None and not user_file:
+        raise t.error(
+            "part", "is required (a part of the dataset), or a package location, or a [file] the user supplies"
+        )
     return Part(part, _range(t), package, t.integer("samples"), t.string("description"))
 
 
@@ -455,7 +463,9 @@ def _published(t: _Table, tests: list[str]) -> Published:
         raise t.error("test", f"names no test set of this benchmark{did_you_mean(test, tests)}: {', '.join(tests)}")
     status = t.string("status", required=True)
     if status not in STATUSES:
-        raise t.error("status", f"must be one of {', '.join(STATUSES)} (unverified figures are not shown), got {status!r}")
+        raise t.error(
+            "status", f"must be one of {', '.join(STATUSES)} (unverified figures are not shown), got {status!r}"
+        )
     unit = t.string("unit", required=True)
     if unit not in UNITS:
         raise t.error("unit", f"must be one of {', '.join(UNITS)}, got {unit!r}")
@@ -514,7 +524,9 @@ def parse_protocol(text: str, source: str = "<text>") -> Protocol:
     if pkg is not None:
         function = pkg.string("function", required=True)
         if not _FUNCTION.match(function):
-            raise pkg.error("function", f"must be a function of nonlinear_benchmarks (Name or module.Name), got {function!r}")
+            raise pkg.error(
+                "function", f"must be a function of nonlinear_benchmarks (Name or module.Name), got {function!r}"
+            )
         force_scale = pkg.number("force_scale", 1.0, positive=True)
         output_scale = pkg.number("output_scale", 1.0, positive=True)
         pkg.done()
@@ -540,8 +552,10 @@ def parse_protocol(text: str, source: str = "<text>") -> Protocol:
         floor = None
         if nf is not None:
             periods = nf._get("periods", [], False)
-            if not isinstance(periods, list) or len(periods) < 2 or not all(
-                isinstance(p, int) and not isinstance(p, bool) and p >= 1 for p in periods
+            if (
+                not isinstance(periods, list)
+                or len(periods) < 2
+                or not all(isinstance(p, int) and not isinstance(p, bool) and p >= 1 for p in periods)
             ):
                 raise nf.error("periods", "must list at least two periods (1-based) of the estimation part")
             period = nf.integer("period", required=True)
@@ -561,7 +575,12 @@ def parse_protocol(text: str, source: str = "<text>") -> Protocol:
     mass_raw = p._get("mass", "estimate", False)
     if mass_raw == "estimate":
         mass = None
-    elif isinstance(mass_raw, (int, float)) and not isinstance(mass_raw, bool) and math.isfinite(mass_raw) and mass_raw > 0:
+    elif (
+        isinstance(mass_raw, (int, float))
+        and not isinstance(mass_raw, bool)
+        and math.isfinite(mass_raw)
+        and mass_raw > 0
+    ):
         mass = float(mass_raw)
     else:
         raise p.error("mass", f'must be "estimate" or a positive number (kg), got {mass_raw!r}')
@@ -575,8 +594,10 @@ def parse_protocol(text: str, source: str = "<text>") -> Protocol:
     peer = PeerSettings()
     if peer_t is not None:
         thresholds = peer_t._get("thresholds", list(peer.thresholds), False)
-        if not isinstance(thresholds, list) or not thresholds or not all(
-            isinstance(x, (int, float)) and not isinstance(x, bool) and x >= 0 for x in thresholds
+        if (
+            not isinstance(thresholds, list)
+            or not thresholds
+            or not all(isinstance(x, (int, float)) and not isinstance(x, bool) and x >= 0 for x in thresholds)
         ):
             raise peer_t.error("thresholds", "must be a non-empty list of non-negative numbers")
         degree = peer_t.integer("degree", peer.degree)

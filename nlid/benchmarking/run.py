@@ -1,4 +1,4 @@
-"""``nlid.bench()``: run pipelines on benchmarks under their protocols, persist as they finish, write the leaderboard."""
+"""``nlid.bench()``: pipelines on benchmarks under their protocols, persisted as they finish, and the leaderboard."""
 
 from __future__ import annotations
 
@@ -118,12 +118,16 @@ def plan_bench(
     """
     runs: list[tuple[int, BenchRun]] = []
     for p in protocols.values():
-        groups = [tuple(s for s in pipelines if s.kind == "discover")] + [(s,) for s in pipelines if s.kind != "discover"]
+        groups = [tuple(s for s in pipelines if s.kind == "discover")] + [
+            (s,) for s in pipelines if s.kind != "discover"
+        ]
         for group in groups:
             if not group:
                 continue
             job = BenchJob.make(p, group, source=source, files=files, timeout=timeout)
-            runs.append((-sum(_COST[s.kind] for s in group) - (2 if any(s.refine for s in group) else 0), BenchRun.of(job)))
+            runs.append(
+                (-sum(_COST[s.kind] for s in group) - (2 if any(s.refine for s in group) else 0), BenchRun.of(job))
+            )
     runs.sort(key=lambda item: item[0])  # stable: benchmark order within a cost
     return [r for _, r in runs]
 
@@ -250,8 +254,15 @@ def bench(
                 "cores": _cores(),
                 "load_average": [load_start, _load_average()],
             },
-            "jobs": [{"run_id": r["run_id"], **{k: v for k, v in (r.get("result") or {}).items() if k != "rows"},
-                      "status": r["row"].get("status"), "error": r["row"].get("error", "")} for r in records],
+            "jobs": [
+                {
+                    "run_id": r["run_id"],
+                    **{k: v for k, v in (r.get("result") or {}).items() if k != "rows"},
+                    "status": r["row"].get("status"),
+                    "error": r["row"].get("error", ""),
+                }
+                for r in records
+            ],
         }
         path = folder / "bench.json"
         path.write_text(json.dumps(to_jsonable(details), indent=1, allow_nan=False) + "\n")

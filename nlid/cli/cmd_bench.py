@@ -77,7 +77,9 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--timeout", type=float, default=1800.0, metavar="S", help="seconds before a job is stopped")
     p.add_argument("--rerun", action="store_true", help="run every job again, even those already saved")
     p.add_argument(
-        "--force", action="store_true", help="write into a folder that holds files nlid did not write (never replacing them)"
+        "--force",
+        action="store_true",
+        help="write into a folder that holds files nlid did not write (never replacing them)",
     )
     p.add_argument("--json", action="store_true", help="print the leaderboard rows as JSON")
     p.add_argument("--no-progress", action="store_true", help="no progress line (it only shows on a terminal)")

@@ -97,7 +97,7 @@ def execute_run(spec: RunSpec) -> dict[str, Any]:
         metrics row, the :class:`~nlid.identified.IdentifiedModel` as a
         dictionary, the reference values and the result's arrays.
     """
-    if not isinstance(spec, RunSpec):  # a job of another kind (nlid.benchmarking.jobs.BenchJob) runs itself, never raising
+    if not isinstance(spec, RunSpec):  # another kind of job (nlid.benchmarking.jobs.BenchJob) runs itself
         return spec.execute()
     try:
         return _execute(spec)
