@@ -18,10 +18,10 @@ What the peer does (and nothing of nlid's identification):
   force simulated until the state at a period start settles).
 
 pysindy's own ``SINDy.simulate`` (``solve_ivp``/LSODA at tolerances of 1e-12, the force
-interpolated linearly) takes minutes on these records; the peer integrates the same equations
-with the same linear interpolation of the force by fixed-step RK4 (:data:`SUBSTEPS` per sample,
-compiled with numba). ``tests/bench/test_peer.py`` checks the two agree, and that the peer's
-feature evaluation equals pysindy's library on the fitted model.
+interpolated by a cubic ``interp1d``) takes minutes on a few hundred samples; the peer
+integrates the same equations with the same cubic interpolation of the force by fixed-step RK4
+(:data:`SUBSTEPS` per sample, compiled with numba). ``tests/bench/test_peer.py`` checks that the
+two agree; every fit checks that the peer's features equal pysindy's library.
 """
 
 from __future__ import annotations
@@ -69,23 +69,18 @@ def _rhs(z, v, u, coef, powers, friction, buf):  # pragma: no cover - compiled
 
 
 @numba.njit(cache=True)
-def _simulate(coef, powers, friction, f, dt, z0, v0, substeps, limit):  # pragma: no cover - compiled
-    """z at every sample; the force linear between samples (f holds one sample more than the output)."""
-    n = f.size - 1
+def _simulate(coef, powers, friction, uf, dt, z0, v0, substeps, limit):  # pragma: no cover - compiled
+    """z at every sample; ``uf`` is the force at every half sub-step (``2 substeps n + 1`` values)."""
+    n = (uf.size - 1) // (2 * substeps)
     out = np.empty(n)
-    state = np.empty(2)
     buf = np.empty(coef.shape[1])
     z, v = z0, v0
     h = dt / substeps
     for k in range(n):
         out[k] = z
         for s in range(substeps):
-            a = s / substeps
-            b = (s + 0.5) / substeps
-            c = (s + 1.0) / substeps
-            ua = f[k] + a * (f[k + 1] - f[k])
-            ub = f[k] + b * (f[k + 1] - f[k])
-            uc = f[k] + c * (f[k + 1] - f[k])
+            j = 2 * (k * substeps + s)
+            ua, ub, uc = uf[j], uf[j + 1], uf[j + 2]
             k1z, k1v = _rhs(z, v, ua, coef, powers, friction, buf)
             k2z, k2v = _rhs(z + 0.5 * h * k1z, v + 0.5 * h * k1v, ub, coef, powers, friction, buf)
             k3z, k3v = _rhs(z + 0.5 * h * k2z, v + 0.5 * h * k2v, ub, coef, powers, friction, buf)
@@ -95,9 +90,19 @@ def _simulate(coef, powers, friction, f, dt, z0, v0, substeps, limit):  # pragma
         if not (abs(z) < limit) or not np.isfinite(v):
             out[k + 1 :] = np.nan
             return out, z, v, False
-    state[0] = z
-    state[1] = v
     return out, z, v, True
+
+
+def _force_grid(f: np.ndarray, f_next: float, substeps: int) -> np.ndarray:
+    """The force at every half sub-step, interpolated as pysindy's ``simulate`` does (a cubic ``interp1d``)."""
+    from scipy.interpolate import interp1d
+
+    ext = np.append(np.asarray(f, dtype=float), f_next)
+    n = ext.size - 1
+    if n < 3:
+        return np.interp(np.arange(2 * substeps * n + 1) / (2 * substeps), np.arange(n + 1), ext)
+    fine = np.arange(2 * substeps * n + 1) / (2 * substeps)
+    return interp1d(np.arange(n + 1), ext, kind="cubic")(fine)
 
 
 @dataclass(frozen=True)
@@ -150,12 +155,12 @@ class PeerModel:
     def simulate(self, f: np.ndarray, fs: float, x0: tuple[float, float], *, limit: float, f_next: float | None = None):
         """The free run's ``z`` over ``f`` from ``x0``; the force after the last sample is ``f_next`` (else held)."""
         f = np.asarray(f, dtype=float)
-        ext = np.append(f, f[-1] if f_next is None else f_next)
+        uf = _force_grid(f, float(f[-1] if f_next is None else f_next), SUBSTEPS)
         return _simulate(
             self.coefficients,
             self.powers,
             self.friction,
-            ext,
+            uf,
             1.0 / fs,
             float(x0[0]),
             float(x0[1]),
