@@ -89,11 +89,12 @@ def _fits(info: Mapping[str, Any], benchmark: str) -> list[dict[str, Any]]:
     return out
 
 
-def _coefficients(fit: Mapping[str, Any]) -> str:
+def _coefficients(fit: Mapping[str, Any], mass_unit: str = "kg") -> str:
     coef = fit.get("coefficients") or {}
     parts = [f"`{k}` {_num(v, 5)}" for k, v in coef.items()]
     if fit.get("mass") is not None:
-        parts.append(f"mass {_num(fit['mass'], 5)} kg" + (" (estimated)" if fit.get("mass_estimated") else " (given)"))
+        how = "estimated" if fit.get("mass_estimated") else "given"
+        parts.append(f"mass {_num(fit['mass'], 5)} {mass_unit} ({how})")
     return ", ".join(parts)
 
 
@@ -151,7 +152,7 @@ def _results_block(
                     else f"- peer, {fit.get('method')}"
                 )
             else:
-                lines.append(f"- `{fit['pipeline']}` ({fit.get('method')}): {_coefficients(fit)}")
+                lines.append(f"- `{fit['pipeline']}` ({fit.get('method')}): {_coefficients(fit, p.mass_unit)}")
         lines.append("")
     return "\n".join(lines)
 
@@ -181,8 +182,9 @@ def _discover_block(
         ]
         for step in d.get("steps", []):
             sim = step.get("sim_rms_holdout")
+            terms = ", ".join(step["terms"]).replace("|", "\\|")
             lines.append(
-                f"| {step['model']}: `{', '.join(step['terms'])}` | {_num(step.get('eps_holdout'))} % | "
+                f"| {step['model']}: `{terms}` | {_num(step.get('eps_holdout'))} % | "
                 f"{_num(step.get('force_residual_holdout'))} % | {_num(None if sim is None else sim * scale)} |"
             )
         lines += ["", f"Stop: {d.get('stop_reason', '')}", ""]
@@ -192,11 +194,14 @@ def _discover_block(
                 continue
             scored = [r for r in rows if r["benchmark"] == name and r["kind"] == "nlid" and r["pipeline"] == pipe]
             tests = "; ".join(
-                f"`{r['test']}` {_num(r['rmse'])} {unit}" + ("" if r.get("same_rule") else " (other rule)")
+                f"`{r['test']}` not scored (its data could not be read: see Results)"
+                if r.get("status") == "not run"
+                else f"`{r['test']}` {_num(r['rmse'])} {unit}" + ("" if r.get("same_rule") else " (other rule)")
                 for r in scored
             )
             lines += [
-                f"`{pipe}` ({fit.get('method')}, {fit.get('parameters')} parameters): {_coefficients(fit)}. "
+                f"`{pipe}` ({fit.get('method')}, {fit.get('parameters')} parameters): "
+                f"{_coefficients(fit, p.mass_unit)}. "
                 f"Free-run RMSE on the test sets: {tests or 'not scored'}.",
                 "",
             ]

@@ -60,7 +60,8 @@ def _score(fit: Any, record: Record, rule: str) -> tuple[Any, str, str, int]:
         text = getattr(scores, "freerun_rule", "") or rule
         samples = getattr(scores, "freerun_scored_samples", None)
         return scores, text, rule, int(samples) if samples else record.n
-    return fit.score(record), FALLBACK_RULE, "first-sample", record.n
+    text = "from the record's first sample" if rule == "first-sample" else FALLBACK_RULE
+    return fit.score(record), text, "first-sample", record.n
 
 
 def score_model(fitted: Fitted, record: Record, rule: str) -> dict[str, Any]:
@@ -159,6 +160,7 @@ class BenchJob:
 
     # -- the JSON a child process reads (nlid.study.worker) and the digest
     def to_dict(self) -> dict[str, Any]:
+        """Plain JSON-able values (what a child process started as ``python -m nlid.study.child`` reads)."""
         return {
             "kind": KIND,
             "run_id": self.run_id,
@@ -173,6 +175,7 @@ class BenchJob:
 
     @classmethod
     def from_dict(cls, data: Mapping[str, Any]) -> BenchJob:
+        """Inverse of :meth:`to_dict`."""
         return cls(
             data["run_id"],
             data["benchmark"],
@@ -274,7 +277,7 @@ class BenchJob:
             "kind": fitted.kind,
             "pipeline": fitted.pipeline,
             "method": fitted.method,
-            "model": _model_text(fitted),
+            "model": _model_text(fitted, protocol.mass_unit),
             "rmse": s.get("rmse", np.nan),
             "nrmse_percent": s.get("nrmse_percent", np.nan),
             "fit_percent": s.get("fit_percent", np.nan),
@@ -290,11 +293,12 @@ class BenchJob:
         }
 
 
-def _model_text(fitted: Fitted) -> str:
+def _model_text(fitted: Fitted, mass_unit: str = "kg") -> str:
     if fitted.kind == "peer":
         return f"{fitted.parameters} non-zero coefficients in (z', v')"
     fit = fitted.model
-    mass = f"m = {fit.mass:.4g} kg ({'estimated' if fit.mass_estimated else 'given'})" if fit.mass is not None else ""
+    how = "estimated" if fit.mass_estimated else "given"
+    mass = f"m = {fit.mass:.4g} {mass_unit} ({how})" if fit.mass is not None else ""
     return ", ".join(fit.terms) + (f"; {mass}" if mass else "")
 
 
@@ -329,4 +333,5 @@ class BenchRun:
 
     @classmethod
     def of(cls, job: BenchJob) -> BenchRun:
+        """The run of a job (its digest computed once)."""
         return cls(job.run_id, job, job.digest())

@@ -370,4 +370,5 @@ class SindyPeer:
         self.settings, self.holdout = settings, holdout
 
     def fit(self, record: Record) -> PeerModel:
+        """The peer fitted on the estimation record (:func:`fit_peer`)."""
         return fit_peer(record, self.settings, holdout=self.holdout)

@@ -42,10 +42,12 @@ class PipelineSpec:
     refine: bool = False
 
     def to_dict(self) -> dict[str, Any]:
+        """Plain JSON-able values."""
         return {"name": self.name, "kind": self.kind, "method": self.method, "refine": self.refine}
 
     @classmethod
     def from_dict(cls, data: dict[str, Any]) -> PipelineSpec:
+        """Inverse of :meth:`to_dict`."""
         return cls(data["name"], data["kind"], data.get("method"), bool(data.get("refine", False)))
 
 

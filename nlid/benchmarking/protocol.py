@@ -326,6 +326,11 @@ class Protocol:
     not_comparable: tuple[NotComparable, ...]
     text: str
 
+    @property
+    def mass_unit(self) -> str:
+        """The unit of the mass: kg for a displacement in m (and N of force), else s^2 (force and output in V)."""
+        return "kg" if self.unit in ("m", "mm", "um") else "s^2"
+
     def test(self, name: str) -> TestSet:
         """The test set called ``name``."""
         for t in self.tests:
