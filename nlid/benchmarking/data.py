@@ -253,8 +253,7 @@ def load_estimation(
     if protocol.estimation_file is not None:
         if path is None:
             raise DataError(
-                f"{what} is a file the user supplies: give it (--test-file {protocol.name}:estimation=PATH, "
-                f"Python files={{'{protocol.name}:estimation': PATH}})"
+                f"{what} is a file the user supplies: give it in files= with the key '{protocol.name}:estimation'"
             )
         record = read_user_file(protocol, protocol.estimation_file, path)
     else:
@@ -293,8 +292,7 @@ def load_test(
     elif test.file is not None and (source == "local" or test.source.package is None):
         hint = f" ({test.file.hint})" if test.file.hint else ""
         raise DataError(
-            f"{what} is not in $NLID_DATA_DIR: give it as a file (--test-file {protocol.name}:{test.name}=PATH, "
-            f"Python files={{'{protocol.name}:{test.name}': PATH}}){hint}"
+            f"{what} is not in $NLID_DATA_DIR: give its file in files= with the key '{protocol.name}:{test.name}'{hint}"
         )
     else:
         try:
@@ -303,7 +301,7 @@ def load_test(
             if test.file is None:
                 raise
             raise DataError(
-                f"{exc}; give it as a file (--test-file {protocol.name}:{test.name}=PATH)"
+                f"{exc}; give its file in files= with the key '{protocol.name}:{test.name}'"
                 + (f" ({test.file.hint})" if test.file.hint else "")
             ) from None
     record = _check_samples(record, test.source, what)

@@ -5,15 +5,17 @@ the test sets take no part in any decision. ``discover`` selects the structure w
 hold-out taken from the end of the estimation part (the benchmark file's ``holdout``; no
 ``validation=`` record is given), then the final model is **refitted on the whole estimation
 part** with the same identifier; ``discover --refine`` refines that structure with the refining
-identifier (``oe``) on the whole estimation part, started from the same identifier. The pysindy
+identifier (``oe``) on the whole estimation part, started from the same identifier (``discover-refine``). The pysindy
 peer chooses its hyper-parameters on the end of the estimation part and refits on all of it.
 
-Pipeline names (``--pipeline``): any installed identifier (``rfs``, ``sindy``, ``oe``...),
-``discover``, ``discover --refine`` (or ``discover-refine``), and ``pysindy`` (the peer).
+Pipeline names: any installed identifier (``rfs``, ``sindy``, ``oe``...), ``discover``,
+``discover-refine`` (``discover`` then its refinement; spelled ``discover --refine`` too), and
+``pysindy`` (the peer).
 """
 
 from __future__ import annotations
 
+import re
 import time
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field
@@ -27,9 +29,10 @@ from .protocol import PipelineSettings
 __all__ = ["PipelineSpec", "Fitted", "parse_pipelines", "fit_pipelines", "PEER", "DISCOVER", "REFINE"]
 
 DISCOVER = "discover"
-REFINE = "discover --refine"
+REFINE = "discover-refine"
 PEER = "pysindy"
-_ALIASES = {"discover-refine": REFINE, "discover --refine": REFINE, "discover:refine": REFINE, "peer": PEER}
+_ALIASES = {"peer": PEER}
+_OPTION = re.compile(r"\s+-{1,2}")  # "discover --refine" -> "discover-refine"
 
 
 @dataclass(frozen=True)
@@ -52,7 +55,7 @@ class PipelineSpec:
 
 
 def parse_pipelines(names: str | Iterable[str], identifiers: Sequence[str] | None = None) -> list[PipelineSpec]:
-    """Pipeline specs from names (``"rfs, discover, discover --refine, pysindy"``).
+    """Pipeline specs from names (``"rfs, discover, discover-refine, pysindy"``).
 
     Parameters
     ----------
@@ -69,14 +72,14 @@ def parse_pipelines(names: str | Iterable[str], identifiers: Sequence[str] | Non
     items = [n.strip() for n in (names.split(",") if isinstance(names, str) else names)]
     items = [n for n in items if n]
     if not items:
-        raise InputError("pipelines= names no pipeline; e.g. 'rfs, discover, discover --refine, pysindy'")
+        raise InputError("pipelines= names no pipeline; e.g. 'rfs, discover, discover-refine, pysindy'")
     if identifiers is None:
         from ..registry import load_registry
 
         identifiers = load_registry().names()
     out: list[PipelineSpec] = []
     for raw in items:
-        name = _ALIASES.get(" ".join(raw.split()), raw)
+        name = _ALIASES.get(_OPTION.sub("-", raw), _OPTION.sub("-", raw))
         if name == DISCOVER:
             spec = PipelineSpec(DISCOVER, "discover")
         elif name == REFINE:

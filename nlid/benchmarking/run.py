@@ -26,7 +26,7 @@ BENCH_OUTPUTS = ("runs", "arrays", "bench.json", "leaderboard.csv", "leaderboard
 #: The benchmarks run when none is named (those whose data ``nlid data`` lists, with their local test sets).
 DEFAULT_BENCHMARKS = ("emps-internal", "silverbox", "bouc-wen")
 #: The pipelines run when none is named.
-DEFAULT_PIPELINES = ("rfs", "discover", "discover --refine", "pysindy")
+DEFAULT_PIPELINES = ("rfs", "discover", "discover-refine", "pysindy")
 #: Expected relative cost of a job (longest first: the executors start jobs in order).
 _COST = {"discover": 3, "peer": 1, "identify": 1}
 
@@ -77,26 +77,6 @@ def _cores() -> int:
     from ..study.execute import default_jobs
 
     return default_jobs()
-
-
-def _command(
-    protocols: Mapping[str, Protocol],
-    specs: list[PipelineSpec],
-    jobs: int | None,
-    executor: str,
-    source: str,
-    files: Mapping[str, str],
-) -> str:
-    """The ``nlid bench`` command line equivalent to a call (recorded in ``bench.json``)."""
-    parts = ["nlid bench", f"--benchmark {','.join(protocols)}", f'--pipeline "{", ".join(s.name for s in specs)}"']
-    if jobs:
-        parts.append(f"--jobs {jobs}")
-    if executor != "local":
-        parts.append(f"--executor {executor}")
-    if source != "auto":
-        parts.append(f"--source {source}")
-    parts += [f"--test-file {key}={Path(path).name}" for key, path in files.items()]
-    return " ".join(parts)
 
 
 def _names(value: str | Iterable[str]) -> list[str]:
@@ -163,7 +143,7 @@ def bench(
         Built-in names (``emps``, ``emps-internal``, ``silverbox``, ``bouc-wen``) or paths of
         benchmark files (:mod:`nlid.benchmarking.protocol`).
     pipelines
-        Installed identifiers by name, ``"discover"``, ``"discover --refine"``, ``"pysindy"``.
+        Installed identifiers by name, ``"discover"``, ``"discover-refine"``, ``"pysindy"``.
     out
         Output folder (:data:`BENCH_OUTPUTS`; created; nlid writes only into folders it owns).
     jobs
@@ -245,7 +225,12 @@ def bench(
             "benchmarks": list(protocols),
             "pipelines": [s.name for s in specs],
             "source": source,
-            "command": _command(protocols, specs, jobs, executor, source, checked),
+            "arguments": {
+                "jobs": jobs,
+                "executor": executor,
+                "source": source,
+                "files": {key: Path(path).name for key, path in checked.items()},
+            },
             "run": {
                 "seconds": time.perf_counter() - start,
                 "executed": len(todo),

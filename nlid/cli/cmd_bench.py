@@ -7,7 +7,7 @@ import signal
 import sys
 
 from ..errors import InputError
-from .common import print_json
+from .common import print_json, to_cli
 
 DESCRIPTION = """\
 Run nlid's pipelines on the measured benchmarks under each benchmark's declared
@@ -23,14 +23,14 @@ each row's rule, parameters and time) and bench.json.
 
 EPILOG = """\
 pipelines (--pipeline, comma-separated): any installed identifier (rfs, sindy, oe...),
-  discover, "discover --refine" (or discover-refine), pysindy (the peer).
+  discover, discover-refine (discover, then refined by oe: "discover --refine" works too), pysindy (the peer).
 
 benchmarks (--benchmark, comma-separated): emps, emps-internal, silverbox, bouc-wen, or a
   .toml benchmark file; 'nlid bench --list' shows their test sets and rules.
 
 examples:
   nlid bench                                        # emps-internal, silverbox, bouc-wen; rfs, discover, refine, peer
-  nlid bench --benchmark silverbox --pipeline "rfs, discover --refine" --jobs 2 --out out/sb
+  nlid bench --benchmark silverbox --pipeline "rfs, discover-refine" --jobs 2 --out out/sb
   nlid bench --benchmark bouc-wen --test-file bouc-wen:multisine=uval_multisine.mat
   nlid bench --benchmark emps --test-file emps:pulses=DATA_EMPS_PULSES.mat
   nlid bench --render-docs --from out/bench         # docs/_data <- out/bench, regenerate the docs pages
@@ -55,7 +55,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         "--pipeline",
         action="append",
         metavar="NAMES",
-        help='pipelines (comma-separated or repeated; default "rfs, discover, discover --refine, pysindy")',
+        help='pipelines (comma-separated or repeated; default "rfs, discover, discover-refine, pysindy")',
     )
     p.add_argument("--out", metavar="DIR", default="nlid-bench", help="output folder (default: nlid-bench)")
     p.add_argument("--jobs", type=int, metavar="N", help="jobs at the same time (default: every core)")
@@ -126,7 +126,7 @@ def _list() -> int:
 
 
 def _render(args: argparse.Namespace) -> int:
-    from ..benchmarking.docs import copy_data, render_docs
+    from .bench_docs import copy_data, render_docs
 
     if args.source_dir:
         copied = copy_data(args.source_dir, args.docs)
@@ -178,7 +178,7 @@ def run(args: argparse.Namespace) -> int:
         from ..benchmarking import load_protocol
 
         protocols = {name: load_protocol(name) for name in dict.fromkeys(r["benchmark"] for r in outcome.rows)}
-        print("\n".join(markdown_tables(protocols, outcome.rows, level=2)).rstrip())
+        print(to_cli("\n".join(markdown_tables(protocols, outcome.rows, level=2)).rstrip()))
     print(
         f"nlid bench: {outcome.executed} job(s) run, {outcome.skipped} reused, {outcome.seconds:.0f} s; "
         f"leaderboard: {outcome.folder / 'leaderboard.md'} (.csv, .html)",

@@ -49,8 +49,11 @@ FLAGS: dict[str, str] = {
     "options": "--set",
     "force=True": "--force",
     "timeout": "--timeout",
+    "files": "--test-file",
 }
-_PARAM = re.compile(r"(?<![\w.-])(" + "|".join(sorted(map(re.escape, FLAGS), key=len, reverse=True)) + r")=(?=[\s),;:]|$)")
+_PARAM = re.compile(
+    r"(?<![\w.-])(" + "|".join(sorted(map(re.escape, FLAGS), key=len, reverse=True)) + r")=(?=[\s),;:]|$)"
+)
 _PARAM_VALUE = re.compile(
     r"(?<![\w.-])(" + "|".join(sorted(map(re.escape, FLAGS), key=len, reverse=True)) + r")=(?:'([^']*)'|([\w.+-]+))"
 )
@@ -72,7 +75,9 @@ def to_cli(message: str) -> str:
     """A library message with its Python parameters (``mass=``) replaced by the flags that set them (``--mass``)."""
     message = message.replace("bias_correction=False", FLAGS["bias_correction=False"])
     message = message.replace("force=True", FLAGS["force=True"])
-    message = _PARAM_VALUE.sub(lambda m: f"{FLAGS[m.group(1)]} {m.group(2) if m.group(2) is not None else m.group(3)}", message)
+    message = _PARAM_VALUE.sub(
+        lambda m: f"{FLAGS[m.group(1)]} {m.group(2) if m.group(2) is not None else m.group(3)}", message
+    )
     message = _PARAM.sub(lambda m: FLAGS[m.group(1)], message)
     return message
 

@@ -33,7 +33,9 @@ def test_bench_writes_the_leaderboard_and_resumes(toy, tmp_path, capsys):
     assert "Rule: `window:20`" in md and "**other rule**: from rest" in md
     assert "<table>" in (out / "leaderboard.html").read_text()
     info = json.loads((out / "bench.json").read_text())
-    assert info["command"].startswith('nlid bench --benchmark toy --pipeline "rfs, pysindy" --jobs 2')
+    from nlid.cli.bench_docs import command
+
+    assert command(info).startswith('nlid bench --benchmark toy --pipeline "rfs, pysindy" --jobs 2 --test-file')
     assert [j["status"] for j in info["jobs"]] == ["ok", "ok"]
     again = nlid.bench([str(folder / "toy.toml")], ["rfs", "pysindy"], out=out, jobs=2, files=files, progress=False)
     assert again.executed == 0 and again.skipped == 2
@@ -151,6 +153,6 @@ def test_a_job_runs_in_a_fresh_interpreter_as_a_dask_worker_would(toy):
 
 def test_pipelines_are_parsed_once(monkeypatch):
     specs = parse_pipelines("rfs, discover, discover-refine, discover --refine, pysindy", identifiers=["rfs", "oe"])
-    assert [s.name for s in specs] == ["rfs", "discover", "discover --refine", "pysindy"]
+    assert [s.name for s in specs] == ["rfs", "discover", "discover-refine", "pysindy"]
     with pytest.raises(InputError, match="names no pipeline"):
         parse_pipelines(" , ", identifiers=["rfs"])

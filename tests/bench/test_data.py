@@ -51,9 +51,9 @@ def test_user_files_in_the_benchmarks_format_and_as_nlid_records(tmp_path):
 def test_a_missing_user_test_set_says_how_to_give_it(monkeypatch):
     monkeypatch.setitem(sys.modules, "nonlinear_benchmarks", None)  # not installed
     emps = load_protocol("emps")
-    with pytest.raises(DataError, match=r"--test-file emps:pulses=PATH"):
+    with pytest.raises(DataError, match="give its file in files= with the key 'emps:pulses'"):
         load_test(emps, emps.test("pulses"), bench_data.Offsets(), source="local")
-    with pytest.raises(DataError, match="nonlinear-benchmarks package is not installed.*--test-file emps:pulses"):
+    with pytest.raises(DataError, match="package is not installed.*files= with the key 'emps:pulses'"):
         load_test(emps, emps.test("pulses"), bench_data.Offsets())
 
 

@@ -7,7 +7,7 @@ from pathlib import Path
 import pytest
 
 from nlid import InputError
-from nlid.benchmarking.docs import render_docs, replace_block
+from nlid.cli.bench_docs import render_docs, replace_block
 
 DOCS = Path(__file__).resolve().parents[2] / "docs"
 

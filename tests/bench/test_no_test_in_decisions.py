@@ -26,7 +26,7 @@ def test_changing_the_test_output_changes_no_choice_only_the_scores(toy, perturb
     first = _run(protocol, {"toy:estimation": str(est), "toy:independent": str(test)}, pipelines)
     second = _run(protocol, {"toy:estimation": str(est), "toy:independent": str(other)}, pipelines)
 
-    assert [f["pipeline"] for f in first["fits"]] == ["rfs", "discover", "discover --refine", "pysindy"]
+    assert [f["pipeline"] for f in first["fits"]] == ["rfs", "discover", "discover-refine", "pysindy"]
     for a, b in zip(first["fits"], second["fits"], strict=True):
         # every decision (terms, discovery steps, coefficients to the last bit, peer hyper-parameters) is the same
         assert json.dumps(a["choices"], sort_keys=True) == json.dumps(b["choices"], sort_keys=True), a["pipeline"]
@@ -38,7 +38,7 @@ def test_changing_the_test_output_changes_no_choice_only_the_scores(toy, perturb
     # and only the scores moved
     rmse_a = {r["pipeline"]: r["rmse"] for r in first["rows"]}
     rmse_b = {r["pipeline"]: r["rmse"] for r in second["rows"]}
-    assert set(rmse_a) == {"rfs", "discover", "discover --refine", "pysindy"}
+    assert set(rmse_a) == {"rfs", "discover", "discover-refine", "pysindy"}
     for name in rmse_a:
         assert np.isfinite(rmse_a[name]) and np.isfinite(rmse_b[name])
         assert abs(rmse_b[name] - rmse_a[name]) > 0.05 * rmse_a[name], name

@@ -1,4 +1,4 @@
-"""The benchmark sections of the documentation, generated from a committed ``nlid bench`` output.
+"""``nlid bench --render-docs``: the benchmark sections of the docs, generated from a committed ``nlid bench`` output.
 
 ``docs/_data/leaderboard.csv`` and ``docs/_data/bench.json`` (copied from an ``nlid bench``
 output folder by ``nlid bench --render-docs --from DIR``) are the only source of the figures in
@@ -18,12 +18,13 @@ from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
+from ..benchmarking.leaderboard import markdown_tables, read_leaderboard
+from ..benchmarking.protocol import Protocol, load_protocol
 from ..errors import InputError
 from ..formatting import sig
-from .leaderboard import markdown_tables, read_leaderboard
-from .protocol import Protocol, load_protocol
+from .common import to_cli
 
-__all__ = ["render_docs", "BLOCKS", "DATA_FILES", "replace_block", "copy_data"]
+__all__ = ["render_docs", "BLOCKS", "DATA_FILES", "replace_block", "copy_data", "command"]
 
 #: The files of ``docs/_data`` the pages are generated from.
 DATA_FILES = ("leaderboard.csv", "bench.json")
@@ -57,11 +58,19 @@ def replace_block(text: str, name: str, body: str, page: str = "") -> str:
     return pattern.sub(lambda _: f"{begin}\n{body.rstrip()}\n{end}", text, count=1)
 
 
-def _command(info: Mapping[str, Any]) -> str:
-    return info.get("command") or (
-        f"nlid bench --benchmark {','.join(info.get('benchmarks', []))} "
-        f'--pipeline "{", ".join(info.get("pipelines", []))}"'
-    )
+def command(info: Mapping[str, Any]) -> str:
+    """The ``nlid bench`` command line of a run, from the arguments ``bench.json`` records."""
+    args = info.get("arguments") or {}
+    parts = ["nlid bench", f"--benchmark {','.join(info.get('benchmarks', []))}"]
+    parts.append(f'--pipeline "{", ".join(info.get("pipelines", []))}"')
+    if args.get("jobs"):
+        parts.append(f"--jobs {args['jobs']}")
+    if args.get("executor", "local") != "local":
+        parts.append(f"--executor {args['executor']}")
+    if args.get("source", "auto") != "auto":
+        parts.append(f"--source {args['source']}")
+    parts += [f"--test-file {key}={name}" for key, name in (args.get("files") or {}).items()]
+    return " ".join(parts)
 
 
 def _run_line(info: Mapping[str, Any]) -> str:
@@ -105,7 +114,7 @@ def _results_block(
         "Every figure below is generated from `docs/_data/leaderboard.csv` and `docs/_data/bench.json`, the output of:",
         "",
         "```bash",
-        _command(info) + " --out out/bench",
+        command(info) + " --out out/bench",
         "nlid bench --render-docs --from out/bench   # copies the two files to docs/_data, regenerates these pages",
         "```",
         "",
@@ -120,7 +129,7 @@ def _results_block(
         "**fit %** = 100 (1 − ‖z − ẑ‖ / ‖z − mean z‖), MATLAB `compare`'s; **parameters**: coefficients, the "
         "mass when estimated and shape parameters chosen from the data; **time**: wall time of the pipeline's fit. "
         "Every pipeline sees only the estimation part: `discover` takes its hold-out from the end of it and the "
-        "final model is refitted on all of it; `discover --refine` then refines that structure with `oe` on all "
+        "final model is refitted on all of it; `discover-refine` then refines that structure with `oe` on all "
         "of it; the peer (plain pysindy SINDy, `nlid.benchmarking.peer`) chooses its differentiation and "
         "threshold on the end of it. Each test set is scored under its declared rule; a row scored under "
         "another rule says so (**other rule**). Published rows are only those whose source was checked "
@@ -136,7 +145,7 @@ def _results_block(
             "rules.",
             "",
         ]
-    lines += markdown_tables(protocols, rows, level=3)
+    lines += [to_cli(line) for line in markdown_tables(protocols, rows, level=3)]
     lines += ["### The models behind the rows", ""]
     for name, p in protocols.items():
         fits = _fits(info, name)
@@ -163,13 +172,13 @@ def _discover_block(
     lines: list[str] = []
     for name, p in protocols.items():
         fits = {f["pipeline"]: f for f in _fits(info, name) if f.get("kind") == "nlid"}
-        found = fits.get("discover") or fits.get("discover --refine")
+        found = fits.get("discover") or fits.get("discover-refine")
         if found is None:
             continue
         d = found.get("details") or {}
         unit, scale = p.unit, p.scale
         lines += [f"#### {p.title}", ""]
-        lines += ["```bash", f'nlid bench --benchmark {name} --pipeline "discover, discover --refine"', "```", ""]
+        lines += ["```bash", f'nlid bench --benchmark {name} --pipeline "discover, discover-refine"', "```", ""]
         holdout = d.get("estimation_samples", 0) - d.get("selection_samples", 0)
         lines += [
             f"Declared: `{', '.join(d.get('declared', []))}`; {p.pipelines.note}. Estimation part: "
@@ -188,7 +197,7 @@ def _discover_block(
                 f"{_num(step.get('force_residual_holdout'))} % | {_num(None if sim is None else sim * scale)} |"
             )
         lines += ["", f"Stop: {d.get('stop_reason', '')}", ""]
-        for pipe in ("discover", "discover --refine"):
+        for pipe in ("discover", "discover-refine"):
             fit = fits.get(pipe)
             if fit is None:
                 continue
