@@ -240,7 +240,7 @@ class BenchJob:
                     scores = score_model(fitted, record, test.rule)
                     status = "ok" if np.isfinite(scores["rmse"]) else "no figure"
                     rows.append(
-                        self._row(protocol, test, fitted, scores, status, scores["note"], record.meta.get("source", ""))
+                        self._row(protocol, test, fitted, scores, status, scores["note"], _where(record))
                     )
                 except NlidError as exc:
                     rows.append(self._row(protocol, test, fitted, None, "failed", str(exc)))
@@ -291,6 +291,19 @@ class BenchJob:
             "note": note,
             "data": data_source,
         }
+
+
+def _where(record: Record) -> str:
+    """Where a record was read from, with the data folder written as ``$NLID_DATA_DIR`` (no machine's path)."""
+    import os
+
+    source = str(record.meta.get("source", ""))
+    folder = os.environ.get("NLID_DATA_DIR")
+    if folder:
+        root = str(Path(folder).expanduser().resolve())
+        if source.startswith(root + os.sep):
+            return "$NLID_DATA_DIR" + source[len(root) :]
+    return source if not Path(source).is_absolute() else Path(source).name
 
 
 def _model_text(fitted: Fitted, mass_unit: str = "kg") -> str:
