@@ -20,7 +20,7 @@ acceptance: candidates are ranked by the fraction of the held-out residual varia
 
 examples:
   nlid discover dataset:emps --declared "v, 1"
-  nlid discover dataset:silverbox:multisine --declared "1, z, v" --holdout dataset:silverbox:arrow
+  nlid discover dataset:silverbox:estimation --declared "1, z, v"
   nlid discover x.csv --declared "1, z, z^3, v" --mass 0.2 --out report/ --json
   nlid discover dataset:bouc-wen --declared "z, v" --validation dataset:bouc-wen:sinesweep
 

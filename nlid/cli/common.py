@@ -51,6 +51,7 @@ FLAGS: dict[str, str] = {
     "options": "--set",
     "force=True": "--force",
     "timeout": "--timeout",
+    "files": "--test-file",
 }
 _PARAM = re.compile(
     r"(?<![\w.-])(" + "|".join(sorted(map(re.escape, FLAGS), key=len, reverse=True)) + r")=(?=[\s),;:]|$)"

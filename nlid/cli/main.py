@@ -17,6 +17,7 @@ from collections.abc import Sequence
 from .. import __version__
 from ..errors import IdentificationError, NlidError
 from . import (
+    cmd_bench,
     cmd_data,
     cmd_discover,
     cmd_identify,
@@ -33,6 +34,7 @@ __all__ = ["main", "build_parser", "COMMANDS"]
 #: Subcommand modules, in the order ``nlid --help`` lists them.
 COMMANDS = (
     cmd_study,
+    cmd_bench,
     cmd_identify,
     cmd_discover,
     cmd_posterior,

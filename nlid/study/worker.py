@@ -16,7 +16,10 @@ server (:func:`nlid.isolation.run_in_child`, shared with ``nlid identify
 nlid.study.child``. A child still running at the time limit is killed and the
 run is recorded as timed out; a child that dies is recorded as failed with
 its exit code or signal. Children die with their parent
-(:func:`nlid.isolation.die_with_parent`). The child gets the parent's
+(:func:`nlid.isolation.die_with_parent`). A spec of another kind than a
+study's :class:`RunSpec` (``nlid bench``'s :class:`nlid.benchmarking.jobs.BenchJob`)
+runs itself through the same isolation: it has ``run_id``, ``timeout``,
+``execute()``, ``failure(status, error)`` and ``to_dict()``. The child gets the parent's
 ``sys.path`` and environment, so plugins visible to the parent are visible to
 it.
 """
@@ -70,6 +73,8 @@ def _base_row(spec: RunSpec) -> dict[str, Any]:
 
 def failure_payload(spec: RunSpec, status: str, error: str) -> dict[str, Any]:
     """The payload of a run that produced no result."""
+    if not isinstance(spec, RunSpec):  # a job of another kind (nlid.benchmarking) says what its failure looks like
+        return spec.failure(status, error)
     row = _base_row(spec)
     row[col.STATUS.key()] = status
     row[col.ERROR.key()] = error
@@ -92,6 +97,8 @@ def execute_run(spec: RunSpec) -> dict[str, Any]:
         metrics row, the :class:`~nlid.identified.IdentifiedModel` as a
         dictionary, the reference values and the result's arrays.
     """
+    if not isinstance(spec, RunSpec):  # another kind of job (nlid.benchmarking.jobs.BenchJob) runs itself
+        return spec.execute()
     try:
         return _execute(spec)
     except NlidError as exc:
@@ -238,7 +245,13 @@ def subprocess_main(folder: str) -> int:
     parent = os.environ.get(isolation.PARENT_ENV)
     isolation.die_with_parent(int(parent) if parent else None)
     path = Path(folder)
-    spec = RunSpec.from_dict(json.loads((path / "spec.json").read_text()))
+    data = json.loads((path / "spec.json").read_text())
+    if data.get("kind") == "bench":
+        from ..benchmarking.jobs import BenchJob
+
+        spec: Any = BenchJob.from_dict(data)
+    else:
+        spec = RunSpec.from_dict(data)
     payload = execute_run(spec)
     arrays = payload.pop("arrays", {})
     if arrays:
