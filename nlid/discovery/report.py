@@ -165,6 +165,7 @@ def discovery_summary(result: Result) -> Summary:
             ("method", result.method),
             ("mass", f"{final.mass:.6g} {_mass_unit(units)} ({how})"),
             ("held-out", result.info.get("holdout", "")),
+            *([("free run", result.info["freerun_rule"])] if result.info.get("freerun_rule") else []),
         ],
         separator="   ",
     )

@@ -235,13 +235,13 @@ def _response_repeats(z: np.ndarray, period: int) -> bool:
     return bool(moves[0] <= 2.0 * moves[-1] + 1e-12 * scale)
 
 
-def record_period(record: Record) -> tuple[int | None, str]:
+def record_period(record: Record, *, response: bool = True) -> tuple[int | None, str]:
     """The period of a record in periodic steady state, and how it is known (``"declared"``, ``"detected..."``).
 
     ``record.meta["periodic"]`` declares it (``True``: the record is whole periods of its own length; an
     integer: the period in samples; ``False``: not periodic). Otherwise a force that repeats at least twice
-    (:func:`detect_period`) whose response repeats too (:data:`RESPONSE_REPEAT`) is periodic. ``(None, "")``
-    when the record is not periodic.
+    (:func:`detect_period`) whose response repeats too (:data:`RESPONSE_REPEAT`; not checked with
+    ``response=False``) is periodic. ``(None, "")`` when the record is not periodic.
     """
     declared = record.meta.get("periodic")
     if declared is True:
@@ -251,7 +251,7 @@ def record_period(record: Record) -> tuple[int | None, str]:
     if declared is False:
         return None, ""
     period = detect_period(record.f)
-    if period is not None and _response_repeats(record.z, period):
+    if period is not None and (not response or _response_repeats(record.z, period)):
         return period, "detected from the force"
     return None, ""
 
@@ -442,13 +442,12 @@ def _periodic_start(fit: Any, record: Record, rule: PeriodicSteadyState, q: int,
 
     n = record.n
     if rule.period is None:
-        period = detect_period(record.f)
+        period, how = record_period(record, response=False)
         if period is None:
             raise InputError(
                 "periodic steady state: the force does not repeat twice within the record; declare the period "
                 "(period=, or the record's meta['periodic'])"
             )
-        how = "detected from the force"
     else:
         period, how = rule.period, "declared"
     if period > n:

@@ -25,6 +25,8 @@ A study is datasets x models x identifiers x repetitions. The file::
     holdout = "independent"        # held-out data: "independent" (presets: another record),
                                    # a fraction at the end (0.25), a part name ("arrow"), or "none"
     freerun = true                 # free-run NRMSE on the held-out data (sensitivity-tested)
+    freerun_rule = "window:50"     # its transient rule: first-sample, window:N, periodic, periodic:P
+                                   # (default: the held-out record's own, nlid.scoring.default_rule)
     slices = [-0.02, 0.0, 0.02]    # positions (m) of damping-force slices (paper Fig. 21 b-d)
 
     [datasets.models]              # alternative term sets identified on the same data
@@ -72,6 +74,7 @@ from ..io import parse_columns
 from ..pipeline import as_model
 from ..presets import RESPONSE_CHANNELS
 from ..registry import Registry, default_registry
+from ..scoring import rule_from_spec
 from ..validate import CUTOFF, NOISE_FRACTION, SEED, check_noise, did_you_mean
 from .values import (
     MAX_MASS,
@@ -138,6 +141,7 @@ _DATASET_KEYS = (
     "mass",
     "holdout",
     "freerun",
+    "freerun_rule",
     "slices",
     "repetitions",
     "timeout",
@@ -185,6 +189,9 @@ class DatasetConfig:
         ``NoHoldout``, ``IndependentHoldout``, ``FractionHoldout`` or ``PartHoldout``.
     freerun, slices, repetitions, timeout, methods, reference
         As in the file (``methods``: per-identifier overrides).
+    freerun_rule
+        The held-out free run's transient rule as spelled in the file (``"window:50"``; empty: the held-out
+        record's own, :func:`nlid.scoring.default_rule`).
     """
 
     name: str
@@ -199,6 +206,7 @@ class DatasetConfig:
     timeout: float = DEFAULT_TIMEOUT
     methods: Mapping[str, Mapping[str, Any]] = field(default_factory=FrozenDict)
     reference: Mapping[str, Any] | None = None
+    freerun_rule: str = ""
 
     @property
     def kind(self) -> str:
@@ -235,6 +243,7 @@ class DatasetConfig:
             "timeout": self.timeout,
             "methods": {k: dict(v) for k, v in self.methods.items()},
             "reference": None if self.reference is None else dict(self.reference),
+            **({"freerun_rule": self.freerun_rule} if self.freerun_rule else {}),  # absent: digests as before
         }
 
     @classmethod
@@ -274,6 +283,7 @@ class DatasetConfig:
             timeout=float(data.get("timeout", DEFAULT_TIMEOUT)),
             methods=FrozenDict({k: FrozenDict(v) for k, v in (data.get("methods") or {}).items()}),
             reference=data.get("reference"),
+            freerun_rule=str(data.get("freerun_rule") or ""),
         )
 
 
@@ -747,6 +757,12 @@ def _dataset(where: Where, entry: dict[str, Any], base: Path, reps: int, timeout
     freerun = entry.get("freerun", True)
     if not isinstance(freerun, bool):
         raise (where / "freerun").error(f"expected true or false, got {brief(freerun)}")
+    freerun_rule = (where / "freerun_rule").string(entry.get("freerun_rule", "")).strip()
+    if freerun_rule:
+        try:
+            rule_from_spec(freerun_rule)
+        except InputError as exc:
+            raise (where / "freerun_rule").error(str(exc)) from None
     slices = entry.get("slices", [])
     if not isinstance(slices, list):
         raise (where / "slices").error(f"expected a list of positions in m, got {brief(slices)}")
@@ -772,6 +788,7 @@ def _dataset(where: Where, entry: dict[str, Any], base: Path, reps: int, timeout
         timeout=float((where / "timeout").number(entry.get("timeout", timeout), positive=True, maximum=MAX_TIMEOUT)),
         methods=FrozenDict(methods),
         reference=reference,
+        freerun_rule=freerun_rule,
     )
 
 
