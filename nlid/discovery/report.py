@@ -165,10 +165,11 @@ def discovery_summary(result: Result) -> Summary:
             ("method", result.method),
             ("mass", f"{final.mass:.6g} {_mass_unit(units)} ({how})"),
             ("held-out", result.info.get("holdout", "")),
-            *([("free run", result.info["freerun_rule"])] if result.info.get("freerun_rule") else []),
         ],
         separator="   ",
     )
+    if result.info.get("freerun_rule"):
+        out.add_text(f"free run: {result.info['freerun_rule']}", width=TERMINAL_WIDTH)
     _add_table(out, *_model_rows(result))
     out.add_text(_MODEL_NOTE, width=TERMINAL_WIDTH)
     out.add_text(
