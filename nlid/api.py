@@ -28,6 +28,7 @@ from .pipeline import as_model, identify
 from .record import Record
 from .reference import FRAME_COLUMNS, Reference
 from .reference import compare as compare_fit
+from .scoring import TransientRule, rule_from_spec
 from .sources import as_record
 
 if TYPE_CHECKING:  # pragma: no cover
@@ -155,6 +156,7 @@ def compare(
     without: str | Iterable[str] = (),
     px_roots: Sequence[float] | None = None,
     errors: str = "record",
+    rule: TransientRule | str | Mapping[str, Any] | None = None,
 ) -> pd.DataFrame:
     """Identify one model with several methods on one record; one tidy table of the results.
 
@@ -188,6 +190,12 @@ def compare(
     errors
         ``"record"`` (a failing method gets one row with ``quantity = "failed"``
         and the message in ``note``) or ``"raise"``.
+    rule
+        The transient rule of the free run on ``holdout`` (:mod:`nlid.scoring.rules`:
+        ``"first-sample"``, ``"window:50"``, ``"periodic"``, ``"periodic:8192"``
+        or a rule); default: the held-out record's own
+        (:func:`nlid.scoring.default_rule`). The ``freerun_rmse`` row's
+        ``note`` names the rule when it is not the first-sample one.
 
     Returns
     -------
@@ -213,6 +221,7 @@ def compare(
     if not names:
         raise InputError("no method to compare: none is installed and methods= is empty")
     ref = Reference.of(record, reference)
+    rule = None if rule is None else rule_from_spec(rule)
     rows: list[dict[str, Any]] = []
     fits: dict[str, IdentifiedModel] = {}
     for name in names:
@@ -224,7 +233,7 @@ def compare(
             rows.append({"method": name, "quantity": "failed", "name": "", "value": math.nan, "note": str(exc)})
             continue
         fits[name] = fit
-        rows += [{**r, "note": ""} for r in compare_fit(fit, ref, holdout).records()]
+        rows += [{"note": "", **r} for r in compare_fit(fit, ref, holdout, rule).records()]
     frame = pd.DataFrame(rows, columns=FRAME_COLUMNS)
     frame.attrs["models"] = fits
     return frame

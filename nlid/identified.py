@@ -36,7 +36,7 @@ from .errors import IdentificationError, InputError, NlidError
 from .interface import Estimate, to_jsonable
 from .physics import Equilibria, Modal
 from .record import Record
-from .scoring import Residual, Scores
+from .scoring import Prediction, Residual, Scores, TransientRule
 from .summary import Column, Summary
 from .terms import Model, parse_term
 from .units import Unit, coefficient_conversion, display_units
@@ -360,13 +360,51 @@ class IdentifiedModel:
         """The residual ``f - m a - R(z, v)`` on a record (:func:`nlid.scoring.residual`)."""
         return scoring.residual(self, record, cutoff=cutoff)
 
-    def score(self, record: Record, *, cutoff: float | None = None, free_run: bool = True) -> Scores:
+    def score(
+        self,
+        record: Record,
+        *,
+        cutoff: float | None = None,
+        free_run: bool = True,
+        rule: TransientRule | str | Mapping[str, Any] | None = None,
+        horizon: int | None = None,
+    ) -> Scores:
         """Epsilon (Eq. 26), force residual and free-run error on a record (:func:`nlid.scoring.score`).
 
         The same function scores models in ``nlid study``, ``nlid discover``
         and the posterior, so one model on one record gets one number.
+
+        Parameters
+        ----------
+        record
+            The data.
+        cutoff
+            Equation band (Hz) for estimated channels.
+        free_run
+            Also compute the free-run error.
+        rule
+            The free run's transient rule (:mod:`nlid.scoring.rules`): ``"first-sample"``,
+            ``"window:50"``, ``"periodic"``, ``"periodic:8192"`` or a rule object; default: the record's
+            (:func:`nlid.scoring.default_rule`). ``Scores.freerun_rule`` says which was applied.
+        horizon
+            Also compute the ``horizon``-step-ahead prediction error (:meth:`predict`).
         """
-        return scoring.score(self, record, cutoff=cutoff, free_run=free_run)
+        return scoring.score(self, record, cutoff=cutoff, free_run=free_run, rule=rule, horizon=horizon)
+
+    def predict(
+        self, record: Record, horizon: int, *, rule: TransientRule | str | Mapping[str, Any] | None = None
+    ) -> Prediction:
+        """The ``horizon``-step-ahead prediction of the displacement (:func:`nlid.scoring.predict`).
+
+        Every sample from ``horizon`` on is simulated over ``horizon`` samples from the measured state before
+        it; a chaotic record, whose free run means nothing, gets a finite error this way.
+
+        Returns
+        -------
+        nlid.scoring.Prediction
+            ``z`` (NaN where not predicted), ``rmse``, ``nrmse_percent``, ``fit_percent``, ``horizon``, ``rule``.
+        """
+        return scoring.predict(self, record, horizon, rule=rule)
 
     def simulate(
         self,
@@ -473,7 +511,8 @@ class IdentifiedModel:
         scores = None
         if raw_scores:
             known = {f.name for f in dataclasses.fields(Scores)}
-            values = {k: (float("nan") if v is None and k != "band_hz" else v) for k, v in raw_scores.items()}
+            kept = ("band_hz", "predict_horizon")  # None there means "none", not a missing number
+            values = {k: (float("nan") if v is None and k not in kept else v) for k, v in raw_scores.items()}
             scores = Scores(**{k: v for k, v in values.items() if k in known})
         elif data.get("eps_percent") is not None:
             scores = Scores(float(data["eps_percent"]), float(data.get("force_residual_percent") or float("nan")))

@@ -81,7 +81,19 @@ POSTERIOR_OUTPUTS = (
 #: Entries :func:`nlid.discovery.write_report` writes.
 DISCOVERY_OUTPUTS = ("figures", "report.md", "report.html", "result.json", "models.csv")
 #: Metadata keys written to and read from the ``.meta.json`` sidecar of a data file (:mod:`nlid.io`).
-META_KEYS = ("source", "force_hold", "mass", "g", "excitation", "preset", "seed", "noise", "reference", "truth")
+META_KEYS = (
+    "source",
+    "force_hold",
+    "mass",
+    "g",
+    "excitation",
+    "preset",
+    "seed",
+    "noise",
+    "reference",
+    "truth",
+    "periodic",
+)
 
 _OWN = (MARKER, LOCK)
 

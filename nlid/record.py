@@ -38,6 +38,7 @@ A record read from a file or a table (:meth:`Record.from_table`) keeps in
 
 from __future__ import annotations
 
+import numbers
 import os
 from collections.abc import Mapping
 from dataclasses import dataclass, field, replace
@@ -150,7 +151,9 @@ class Record:
         vector (:meth:`from_time`); ``fs`` is always in Hz.
     meta
         Free metadata. Keys nlid understands: ``mass`` (kg), ``g`` (m/s^2),
-        ``source`` (str), ``reference`` (reference values:
+        ``source`` (str), ``periodic`` (the record is in periodic steady state: ``True``, whole periods of
+        its own length, or the period in samples; ``False``: not periodic; kept by slicing while a part
+        holds a whole period), ``reference`` (reference values:
         :meth:`nlid.reference.Reference.from_meta`; a simulation's truth, a
         benchmark's published values; ``truth``, its earlier name, still
         reads), ``force_hold`` (``"sampled"``, the default: the
@@ -228,6 +231,10 @@ class Record:
         object.__setattr__(self, "units", _freeze(units))
         if self.meta and self.meta.get("force_hold", "sampled") not in ("sampled", "zoh"):
             raise DataError(f"meta['force_hold'] must be 'sampled' or 'zoh', got {self.meta['force_hold']!r}")
+        periodic = self.meta.get("periodic") if self.meta else None
+        if periodic is not None and not isinstance(periodic, bool):
+            if not isinstance(periodic, numbers.Integral) or not 2 <= periodic <= n:
+                raise DataError(f"meta['periodic'] must be true, false or a period of 2 to {n} samples, not {periodic}")
         converted = {c: u.to_dict() for c, u in declared.items() if not u.is_si}
         meta = self.meta
         if converted:
@@ -514,7 +521,27 @@ class Record:
             raise TypeError("records are sliced with a slice, e.g. record[100:2000]")
         start, _, step = item.indices(self.n)
         arrays = {c: getattr(self, c)[item] for c in self.channels}
-        return replace(self, fs=self.fs / step, t0=self.t0 + start / self.fs, **arrays)
+        meta = self._periodic_meta(arrays["z"].size, 1, step)
+        return replace(self, fs=self.fs / step, t0=self.t0 + start / self.fs, meta=meta, **arrays)
+
+    def _periodic_meta(self, n: int, up: int = 1, down: int = 1) -> Mapping[str, Any]:
+        """The metadata of a part of ``n`` samples at ``up / down`` times the rate: ``meta["periodic"]`` there.
+
+        A declared period (``True``: the record's length) stays the part's period (in its own samples) while
+        the part holds a whole period of a whole number of samples, so that a held-out part of a periodic
+        record is scored periodic; otherwise the key is dropped.
+        """
+        periodic = self.meta.get("periodic")
+        if periodic is None or periodic is False:
+            return self.meta
+        period = self.n if periodic is True else int(periodic)
+        meta = dict(self.meta)
+        new, rest = divmod(period * up, down)
+        if rest == 0 and 2 <= new <= n:
+            meta["periodic"] = True if new == n else new
+        else:
+            del meta["periodic"]
+        return meta
 
     def time_slice(self, start: float | None = None, stop: float | None = None) -> Record:
         """The samples with ``start <= t < stop`` (times in s)."""
@@ -554,7 +581,8 @@ class Record:
         cutoff = 0.8 * self.fs / (2 * q)
         arrays = {c: derivatives.lowpass(getattr(self, c), self.fs, cutoff, order=8)[::q] for c in self.channels}
         prov = {c: self._join(c, f"decimated by {q}") for c in self.channels}
-        return replace(self, fs=self.fs / q, provenance=prov, **arrays)
+        meta = self._periodic_meta(arrays["z"].size, 1, q)
+        return replace(self, fs=self.fs / q, provenance=prov, meta=meta, **arrays)
 
     def resample(self, fs: float) -> Record:
         """Resample to a new sampling frequency (polyphase, anti-aliased).
@@ -572,7 +600,8 @@ class Record:
         arrays = {c: signal.resample_poly(getattr(self, c), ratio.numerator, ratio.denominator) for c in self.channels}
         new_fs = self.fs * ratio.numerator / ratio.denominator
         prov = {c: self._join(c, f"resampled to {new_fs:g} Hz") for c in self.channels}
-        return replace(self, fs=new_fs, provenance=prov, **arrays)
+        meta = self._periodic_meta(arrays["z"].size, ratio.numerator, ratio.denominator)
+        return replace(self, fs=new_fs, provenance=prov, meta=meta, **arrays)
 
     def _join(self, channel: str, step: str) -> str:
         return f"{self.source_of(channel)}; {step}"

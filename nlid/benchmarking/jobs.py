@@ -15,7 +15,6 @@ made, and the decisions are recorded (``choices``) so a test can show they do no
 from __future__ import annotations
 
 import hashlib
-import inspect
 import json
 import time
 import traceback
@@ -27,41 +26,27 @@ from typing import Any
 import numpy as np
 
 from ..errors import DataError, NlidError
+from .. import scoring
 from ..interface import to_jsonable
 from ..record import Record
 from .data import load_estimation, load_test, noise_floor
 from .pipelines import Fitted, PipelineSpec, fit_pipelines
 from .protocol import Protocol, TestSet, parse_protocol
 
-__all__ = ["BenchJob", "BenchRun", "score_model", "FALLBACK_RULE"]
+__all__ = ["BenchJob", "BenchRun", "score_model"]
 
-#: What a row says when :mod:`nlid.scoring` has no transient rules yet (it then scores from the first sample).
-FALLBACK_RULE = "from the record's first sample (nlid.scoring without transient rules: fallback)"
 #: Job kind in a spec's JSON (:func:`nlid.study.worker.subprocess_main`).
 KIND = "bench"
-
-
-def _rules_available() -> bool:
-    from .. import scoring
-
-    return hasattr(scoring, "rule_from_spec") and "rule" in inspect.signature(scoring.score).parameters
 
 
 def _score(fit: Any, record: Record, rule: str) -> tuple[Any, str, str, int]:
     """``(scores, rule applied in words, rule applied as a spec, scored samples)`` of an nlid model.
 
-    The one adapter to :func:`nlid.scoring.score` with a transient rule; while ``nlid.scoring``
-    has no rules, it falls back to :meth:`IdentifiedModel.score` (from the first sample) and says so.
+    The one call of :func:`nlid.scoring.score` with the protocol's transient rule.
     """
-    from .. import scoring
-
-    if _rules_available():
-        scores = scoring.score(fit, record, rule=scoring.rule_from_spec(rule))  # type: ignore[call-arg,attr-defined]
-        text = getattr(scores, "freerun_rule", "") or rule
-        samples = getattr(scores, "freerun_scored_samples", None)
-        return scores, text, rule, int(samples) if samples else record.n
-    text = "from the record's first sample" if rule == "first-sample" else FALLBACK_RULE
-    return fit.score(record), text, "first-sample", record.n
+    scores = scoring.score(fit, record, rule=scoring.rule_from_spec(rule))
+    samples = scores.freerun_scored_samples
+    return scores, scores.freerun_rule or rule, rule, int(samples) if samples else record.n
 
 
 def score_model(fitted: Fitted, record: Record, rule: str) -> dict[str, Any]:
@@ -82,7 +67,7 @@ def score_model(fitted: Fitted, record: Record, rule: str) -> dict[str, Any]:
     return {
         "rmse": float(scores.freerun_rmse),
         "nrmse_percent": float(scores.freerun_nrmse_percent),
-        "fit_percent": float(getattr(scores, "freerun_fit_percent", np.nan)),
+        "fit_percent": float(scores.freerun_fit_percent),
         "rule": text,
         "rule_applied": applied,
         "scored_samples": samples,

@@ -67,6 +67,13 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         "decision, e.g. a benchmark's validation set (file or dataset:NAME, read like DATA)",
     )
     p.add_argument(
+        "--rule",
+        metavar="RULE",
+        help="transient rule of the free runs on the held-out and validation records: first-sample, window:N "
+        "(N samples fit the initial state and are not scored), periodic or periodic:P (periodic steady state); "
+        "default: each record's own (periodic when declared or when its force repeats, else first-sample)",
+    )
+    p.add_argument(
         "--candidates",
         metavar="NAMES",
         help="comma-separated candidate effects to test (default: all of the library and of installed plugins, "
@@ -155,6 +162,7 @@ def run(args: argparse.Namespace) -> int:
         progress=progress,
         views=bool(args.out),
         refine=args.refine,
+        freerun_rule=args.rule,
     )
     if args.out:
         try:
@@ -181,6 +189,8 @@ def _refined_lines(result) -> str:
 
     refiner = after.identified.method
     lines = ["", f"refined with {refiner} (output error on the free run, started from {result.method}):"]
+    if result.info.get("refined_on"):
+        lines.append(f"  fitted on {result.info['refined_on']}")
     lines.append(f"  free-run RMS error held-out: {fmt(before.sim_rms_holdout)} -> {fmt(after.sim_rms_holdout)}")
     if before.validation is not None:
         lines.append(

@@ -134,7 +134,7 @@ def _execute(spec: RunSpec) -> dict[str, Any]:
     row[col.FORCE_RESIDUAL.key()] = result.force_residual_percent
     row[col.WARNINGS.key()] = " | ".join(result.warnings)
     try:
-        row.update(metrics.holdout_metrics(data.heldout, result, spec.dataset.freerun))
+        row.update(metrics.holdout_metrics(data.heldout, result, spec.dataset.freerun, spec.dataset.freerun_rule))
     except NlidError as exc:
         row.update(metrics.holdout_metrics(None, result, False))
         _add_warning(row, f"held-out scores: {exc}")

@@ -5,6 +5,7 @@ from __future__ import annotations
 import json
 import math
 
+import numpy as np
 import pytest
 
 import nlid
@@ -90,9 +91,8 @@ def test_cli_bench_errors_are_one_line(argv, message, capsys, tmp_path):
     assert message in err and "Traceback" not in err
 
 
-def test_the_scoring_adapter_uses_the_rules_when_nlid_scoring_has_them(toy, monkeypatch):
-    """Today's nlid.scoring has no rules: the adapter falls back and says so; with rules it passes them on."""
-    from nlid import scoring
+def test_the_scoring_adapter_applies_the_protocols_transient_rule(toy):
+    """A window rule scores fewer samples than the first-sample rule, and says which rule it applied."""
     from nlid.benchmarking.data import load_estimation, load_test
     from nlid.pipeline import identify
 
@@ -101,34 +101,12 @@ def test_the_scoring_adapter_uses_the_rules_when_nlid_scoring_has_them(toy, monk
     record, offsets = load_estimation(protocol, path=est)
     fit = identify(record, "z^3", "rfs", mass=0.2)
     rec = load_test(protocol, protocol.test("independent"), offsets, path=test)
-    if not bench_jobs._rules_available():
-        _, text_rule, applied, n = bench_jobs._score(fit, rec, "window:20")
-        assert applied == "first-sample" and "fallback" in text_rule and n == rec.n
-    seen = {}
-    original = scoring.score
-
-    def rule_from_spec(spec):
-        seen["spec"] = spec
-        return ("rule", spec)
-
-    def score(fit, record, *, cutoff=None, free_run=True, rule=None, data=None):
-        seen["rule"] = rule
-        s = original(fit, record)
-        return type(
-            "S",
-            (),
-            {
-                **s.to_dict(),
-                "freerun_rule": "initialisation window of 20 samples (...)",
-                "freerun_scored_samples": record.n - 20,
-            },
-        )()
-
-    monkeypatch.setattr(scoring, "rule_from_spec", rule_from_spec, raising=False)
-    monkeypatch.setattr(scoring, "score", score)
-    _, text_rule, applied, n = bench_jobs._score(fit, rec, "window:20")
-    assert seen == {"spec": "window:20", "rule": ("rule", "window:20")}
-    assert applied == "window:20" and text_rule.startswith("initialisation window") and n == rec.n - 20
+    _, first_text, first, n_first = bench_jobs._score(fit, rec, "first-sample")
+    scores, text_rule, applied, n = bench_jobs._score(fit, rec, "window:20")
+    assert first == "first-sample" and n_first == rec.n
+    assert applied == "window:20" and n == rec.n - 20
+    assert text_rule != first_text and "20" in text_rule
+    assert np.isfinite(scores.freerun_rmse)
 
 
 def test_a_job_runs_in_a_fresh_interpreter_as_a_dask_worker_would(toy):

@@ -25,6 +25,8 @@ A study is datasets x models x identifiers x repetitions. The file::
     holdout = "independent"        # held-out data: "independent" (presets: another record),
                                    # a fraction at the end (0.25), a part name ("arrow"), or "none"
     freerun = true                 # free-run NRMSE on the held-out data (sensitivity-tested)
+    freerun_rule = "window:50"     # its transient rule: first-sample, window:N, periodic, periodic:P
+                                   # (default: the held-out record's own, nlid.scoring.default_rule)
     slices = [-0.02, 0.0, 0.02]    # positions (m) of damping-force slices (paper Fig. 21 b-d)
 
     [datasets.models]              # alternative term sets identified on the same data

@@ -16,11 +16,12 @@ from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
-from ...errors import NlidError, brief
+from ...errors import InputError, NlidError, brief
 from ...frozen import FrozenDict
 from ...interface import resolve_options
 from ...pipeline import as_model
 from ...registry import Registry, default_registry
+from ...scoring import rule_from_spec
 from ...terms import Model
 from ...validate import CUTOFF, SEED
 from ..values import (
@@ -69,6 +70,7 @@ _DATASET_KEYS = (
     "mass",
     "holdout",
     "freerun",
+    "freerun_rule",
     "slices",
     "repetitions",
     "timeout",
@@ -352,6 +354,12 @@ def _dataset(where: Where, entry: dict[str, Any], base: Path, reps: int, timeout
     freerun = entry.get("freerun", True)
     if not isinstance(freerun, bool):
         raise (where / "freerun").error(f"expected true or false, got {brief(freerun)}")
+    freerun_rule = (where / "freerun_rule").string(entry.get("freerun_rule", "")).strip()
+    if freerun_rule:
+        try:
+            rule_from_spec(freerun_rule)
+        except InputError as exc:
+            raise (where / "freerun_rule").error(str(exc)) from None
     slices = entry.get("slices", [])
     if not isinstance(slices, list):
         raise (where / "slices").error(f"expected a list of positions in m, got {brief(slices)}")
@@ -377,6 +385,7 @@ def _dataset(where: Where, entry: dict[str, Any], base: Path, reps: int, timeout
         timeout=float((where / "timeout").number(entry.get("timeout", timeout), positive=True, maximum=MAX_TIMEOUT)),
         methods=FrozenDict(methods),
         reference=reference,
+        freerun_rule=freerun_rule,
     )
 
 

@@ -94,6 +94,9 @@ class DatasetConfig:
         ``NoHoldout``, ``IndependentHoldout``, ``FractionHoldout`` or ``PartHoldout``.
     freerun, slices, repetitions, timeout, methods, reference
         As in the file (``methods``: per-identifier overrides).
+    freerun_rule
+        The held-out free run's transient rule as spelled in the file (``"window:50"``; empty: the held-out
+        record's own, :func:`nlid.scoring.default_rule`).
     """
 
     name: str
@@ -108,6 +111,7 @@ class DatasetConfig:
     timeout: float = DEFAULT_TIMEOUT
     methods: Mapping[str, Mapping[str, Any]] = field(default_factory=FrozenDict)
     reference: Mapping[str, Any] | None = None
+    freerun_rule: str = ""
 
     @property
     def kind(self) -> str:
@@ -142,6 +146,7 @@ class DatasetConfig:
             "timeout": self.timeout,
             "methods": {k: dict(v) for k, v in self.methods.items()},
             "reference": None if self.reference is None else dict(self.reference),
+            **({"freerun_rule": self.freerun_rule} if self.freerun_rule else {}),  # absent: digests as before
         }
 
     @classmethod
@@ -167,6 +172,7 @@ class DatasetConfig:
             timeout=float(data.get("timeout", DEFAULT_TIMEOUT)),
             methods=FrozenDict({k: FrozenDict(v) for k, v in (data.get("methods") or {}).items()}),
             reference=data.get("reference"),
+            freerun_rule=str(data.get("freerun_rule") or ""),
         )
 
     def to_toml(self) -> dict[str, Any]:
@@ -184,6 +190,8 @@ class DatasetConfig:
             models={m.name: m.to_toml() for m in others},
             methods=plain(self.methods),
         )
+        if self.freerun_rule:
+            out["freerun_rule"] = self.freerun_rule
         if self.reference is not None:
             out["reference"] = plain(self.reference)
         return out
