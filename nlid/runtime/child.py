@@ -121,9 +121,7 @@ def _summarise(caught: list[Any]) -> list[dict[str, Any]]:
             continue
         if len(seen) == MAX_WARNINGS:
             continue
-        base = next(
-            (c.__name__ for c in w.category.__mro__ if getattr(builtins, c.__name__, None) is c), "UserWarning"
-        )
+        base = next((c.__name__ for c in w.category.__mro__ if getattr(builtins, c.__name__, None) is c), "UserWarning")
         seen[key] = {
             "category": w.category.__name__,
             "base": base if base != "Warning" else "UserWarning",

@@ -178,6 +178,8 @@ class ChildResult:
     threads
         Names of the threads still running when the call returned (ended
         with the child).
+    pid
+        The child's process id, which is also its process group's id (POSIX).
     """
 
     status: str
@@ -189,6 +191,7 @@ class ChildResult:
     traceback: str = ""
     warnings: tuple[ChildWarning, ...] = field(default=())
     threads: tuple[str, ...] = field(default=())
+    pid: int | None = None
 
     def describe(self, label: str, timeout: float | None = None) -> str:
         """One line saying what went wrong, starting with ``label`` (e.g. ``"identifier 'x'"``)."""
@@ -207,7 +210,8 @@ class ChildResult:
         """One line per warning issued in the child, and one for threads left running."""
         lines = [w.line(label) for w in self.warnings]
         if self.threads:
-            shown = ", ".join(self.threads[:3]) + (f" and {len(self.threads) - 3} more" if len(self.threads) > 3 else "")
+            more = len(self.threads) - 3
+            shown = ", ".join(self.threads[:3]) + (f" and {more} more" if more > 0 else "")
             lines.append(f"{label} left {len(self.threads)} thread(s) running ({shown}); they ended with its process")
         return lines
 
@@ -505,15 +509,16 @@ def _request(target: Callable[..., Any], args: tuple, pinned: bool) -> bytes:
         raise IsolationError(f"cannot send the work to a child process: {type(exc).__name__}: {exc}") from None
 
 
-def _result(reply: bytes | None, exitcode: int | None, seconds: float, timed_out: bool) -> ChildResult:
+def _result(reply: bytes | None, exitcode: int | None, seconds: float, timed_out: bool, pid: int) -> ChildResult:
     if timed_out:
-        return ChildResult("timeout", exitcode=exitcode, seconds=seconds)
+        return ChildResult("timeout", exitcode=exitcode, seconds=seconds, pid=pid)
     if reply is None:
-        return ChildResult("died", exitcode=exitcode, seconds=seconds)
+        return ChildResult("died", exitcode=exitcode, seconds=seconds, pid=pid)
     try:
         data = pickle.loads(reply)
     except Exception as exc:  # noqa: BLE001 - e.g. a class the child could import and this process cannot
-        return ChildResult("unsent", exitcode=exitcode, seconds=seconds, error=f"{type(exc).__name__}: {exc}")
+        why = f"{type(exc).__name__}: {exc}"
+        return ChildResult("unsent", exitcode=exitcode, seconds=seconds, error=why, pid=pid)
     if data["status"] == "setup":
         raise IsolationError(f"a child process could not receive its work: {data['error']}")
     return ChildResult(
@@ -526,11 +531,12 @@ def _result(reply: bytes | None, exitcode: int | None, seconds: float, timed_out
         traceback=data.get("traceback", ""),
         warnings=tuple(ChildWarning(**w) for w in data.get("warnings", ())),
         threads=tuple(data.get("threads", ())),
+        pid=pid,
     )
 
 
 def _run_forked(payload: bytes, timeout: float | None, pinned: bool) -> ChildResult:
-    for attempt in range(3):
+    for _attempt in range(3):
         server = _server(pinned)
         try:
             pid, status, data = server.fork()
@@ -584,7 +590,7 @@ def _run_forked(payload: bytes, timeout: float | None, pinned: bool) -> ChildRes
             _LIVE.pop(pid, None)
         status.close()
         data.close()
-    return _result(reply, exitcode, time.perf_counter() - start, timed_out)
+    return _result(reply, exitcode, time.perf_counter() - start, timed_out, pid)
 
 
 def _read_reply(data: socket.socket, remaining: float | None) -> bytes | None:
@@ -663,11 +669,16 @@ def _run_spawned(payload: bytes, timeout: float | None, pinned: bool) -> ChildRe
         size = int.from_bytes(raw[:8], "big")
         if len(raw) >= 8 + size:
             reply = raw[8 : 8 + size]
-    return _result(reply, proc.returncode, time.perf_counter() - start, timed_out)
+    return _result(reply, proc.returncode, time.perf_counter() - start, timed_out, proc.pid)
 
 
 def run_in_child(
-    target: Callable[..., Any], args: tuple = (), *, timeout: float | None = None, pin_threads: bool = False
+    target: Callable[..., Any],
+    args: tuple = (),
+    *,
+    timeout: float | None = None,
+    pin_threads: bool = False,
+    method: str | None = None,
 ) -> ChildResult:
     """Call ``target(*args)`` in a child process, killed at the time limit.
 
@@ -686,6 +697,8 @@ def run_in_child(
         Seconds (``None`` or ``math.inf``: no limit).
     pin_threads
         One thread per numerical library in the child (studies: one child per core).
+    method
+        ``"forkserver"`` or ``"spawn"``; default :func:`start_method`.
 
     Returns
     -------
@@ -702,8 +715,13 @@ def run_in_child(
         raise InputError(f"timeout= must be a positive number of seconds, got {timeout!r}")
     if timeout is not None and math.isinf(timeout):
         timeout = None
+    if method not in (None, "forkserver", "spawn"):
+        raise InputError(f"method= must be 'forkserver' or 'spawn', got {method!r}")
+    chosen = method or start_method()
+    if chosen == "forkserver" and not _fork_server_possible():
+        raise InputError("method='forkserver' needs POSIX; use 'spawn' on this platform")
     payload = _request(target, args, bool(pin_threads))
-    if start_method() == "forkserver":
+    if chosen == "forkserver":
         return _run_forked(payload, timeout, bool(pin_threads))
     return _run_spawned(payload, timeout, bool(pin_threads))
 
