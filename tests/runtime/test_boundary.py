@@ -15,6 +15,7 @@ import threading
 import time
 import warnings
 
+import psutil
 import pytest
 from runtime_helpers import descendants_except_servers, marked_env, nlid_cli, wait_until_gone
 
@@ -74,12 +75,24 @@ def _returns_a_lambda():
     return lambda: 0
 
 
-def _group_gone(pid: int) -> bool:
-    try:
-        os.killpg(pid, 0)
-    except ProcessLookupError:
-        return True
-    return False
+def _group_members(pgid: int) -> list[int]:
+    """Live (not zombie) processes in process group ``pgid``."""
+    found = []
+    for proc in psutil.process_iter(["status"]):
+        try:
+            if proc.info["status"] != psutil.STATUS_ZOMBIE and os.getpgid(proc.pid) == pgid:
+                found.append(proc.pid)
+        except (psutil.Error, OSError):
+            continue
+    return found
+
+
+def _group_gone(pgid: int, seconds: float = 10.0) -> bool:
+    """No live process left in the group (killed processes take a moment to die)."""
+    deadline = time.monotonic() + seconds
+    while _group_members(pgid) and time.monotonic() < deadline:
+        time.sleep(0.05)
+    return not _group_members(pgid)
 
 
 def _settle(seconds: float = 10.0) -> list[str]:
