@@ -13,6 +13,7 @@ import pandas as pd
 import pytest
 from runtime_helpers import descendants_except_servers, marked_env, marked_processes, nlid_cli, wait_until_gone
 
+from nlid.runtime.isolation import start_method
 from nlid.study import LocalExecutor, parse_study, run_study
 from nlid.study.worker import failure_payload, json_problem
 
@@ -47,16 +48,17 @@ def _long_folder(base: Path, name: str, length: int = 200) -> Path:
 @pytest.mark.slow
 def test_a_crashing_a_hanging_and_a_non_json_plugin_do_not_sink_the_study(hostile_path, tmp_path):
     # the limit must leave rfs time on a loaded 2-core machine; rt-hang never finishes
-    text = STUDY.format(timeout=15, identifiers='["rfs", "rt-segv", "rt-hang", "rt-nonjson", "rt-grandchild"]')
-    config = parse_study(text)
+    names = ["rfs", "rt-segv", "rt-hang", "rt-nonjson", "rt-grandchild", "rt-kbint"]
+    config = parse_study(STUDY.format(timeout=15, identifiers=json.dumps(names)))
     outcome = run_study(config, tmp_path / "out", executor=LocalExecutor(jobs=2), progress=False)
     frame = pd.read_csv(tmp_path / "out" / "results.csv").set_index("method")
-    assert sorted(frame.index) == sorted(["rfs", "rt-segv", "rt-hang", "rt-nonjson", "rt-grandchild"])
+    assert sorted(frame.index) == sorted(names)
     assert frame.loc["rfs", "status"] == "ok" and frame.loc["rt-grandchild", "status"] == "ok"
     assert frame.loc["rt-segv", "status"] == "failed"
     assert frame.loc["rt-segv", "error"] == "identifier 'rt-segv' crashed: segmentation fault (SIGSEGV)"
     assert frame.loc["rt-hang", "status"] == "timeout"
     assert frame.loc["rt-hang", "error"] == "stopped after the time limit of 15 s"
+    assert frame.loc["rt-kbint", "error"] == "identifier 'rt-kbint' raised KeyboardInterrupt"
     # the core may instead drop an unusable diagnostic with a warning (issue 25 group 4); either way the run
     # is recorded with a reason naming it and the study goes on
     nonjson = frame.loc["rt-nonjson"]
@@ -120,7 +122,8 @@ def test_a_sigkill_right_at_the_start_leaves_no_process_and_nothing_in_the_tempo
     tmp.mkdir()
     (tmp_path / "s.toml").write_text(STUDY.format(timeout=600, identifiers='["rt-hang"]'))
     env, mark = marked_env(hostile_path, TMPDIR=str(tmp))
-    for wait_for in (1, 3):  # at once (the fork server starting), and once a run is going
+    # at once (while it starts), and once a run is going (with its fork server, unless spawned)
+    for wait_for in (1, 2 if start_method() == "spawn" else 3):
         cmd = [sys.executable, "-m", "nlid.cli.main", "study", "run", "s.toml", "--out", f"out{wait_for}"]
         proc = subprocess.Popen(cmd, env=env, cwd=tmp_path, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
         deadline = time.monotonic() + 120
