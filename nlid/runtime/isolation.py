@@ -59,7 +59,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from ..errors import InputError, NlidError
-from .child import frame, read_message
+from .child import HEADER, frame
 from .forkserver import PIN_ENV, PRELOAD_ENV, PRELOAD_LIMIT, die_with, pin_threads
 
 __all__ = [
@@ -593,12 +593,24 @@ def _run_forked(payload: bytes, timeout: float | None, pinned: bool) -> ChildRes
     return _result(reply, exitcode, time.perf_counter() - start, timed_out, pid)
 
 
+def _recv_exact(sock: socket.socket, size: int) -> bytes | None:
+    buf = bytearray(size)
+    view, got = memoryview(buf), 0
+    while got < size:
+        n = sock.recv_into(view[got:], min(size - got, 1 << 20))
+        if not n:
+            return None
+        got += n
+    return bytes(buf)
+
+
 def _read_reply(data: socket.socket, remaining: float | None) -> bytes | None:
-    """The child's reply (``None``: it ended without one)."""
+    """The child's reply (``None``: it ended without one, or stopped sending it for longer than the limit)."""
     data.settimeout(None if remaining is None else max(END_LIMIT, remaining))
     try:
-        return read_message(data.fileno())
-    except (OSError, TimeoutError):
+        head = _recv_exact(data, HEADER.size)
+        return None if head is None else _recv_exact(data, HEADER.unpack(head)[0])
+    except OSError:  # socket.timeout included
         return None
 
 

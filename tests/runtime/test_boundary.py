@@ -71,6 +71,10 @@ def _interrupts():
     raise KeyboardInterrupt
 
 
+def _big(size):
+    return b"x" * size
+
+
 def _returns_a_lambda():
     return lambda: 0
 
@@ -169,6 +173,14 @@ def test_a_value_that_cannot_come_back_is_reported():
     outcome = run_in_child(_returns_a_lambda, timeout=120)
     assert outcome.status == "unsent"
     assert outcome.describe("identifier 'x'").startswith("identifier 'x' returned a result that cannot be sent back")
+
+
+def test_large_work_and_large_replies_cross_whole():
+    """Both ways through the socket in many pieces (a discovery's result is megabytes)."""
+    size = 20_000_000
+    outcome = run_in_child(_big, (size,), timeout=120)
+    assert outcome.status == "ok" and len(outcome.value) == size
+    assert run_in_child(len, (b"y" * size,), timeout=120).value == size
 
 
 def test_work_that_cannot_be_sent_raises_isolation_error():
