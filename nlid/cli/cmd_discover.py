@@ -7,7 +7,7 @@ import sys
 
 from ..errors import InputError, NlidError
 from .common import add_data_arguments, load_data, parse_settings, print_json
-from .isolated import DISCOVER_TIMEOUT, add_timeout_argument, plugin_warnings
+from .isolated import DISCOVER_TIMEOUT, add_timeout_argument, parse_timeout, plugin_warnings
 
 EPILOG = """\
 candidate effects (--candidates): coulomb, viscous, quadratic-damping, cubic-damping,
@@ -168,6 +168,7 @@ def run(args: argparse.Namespace) -> int:
 
     if args.max_steps < 0:
         raise InputError(f"--max-steps must be >= 0, got {args.max_steps}")
+    timeout = parse_timeout(args.timeout)
     start_fork_server(pin_threads=False)  # it loads the pipeline while this process reads the data
     record = load_data(args)
     rule = AcceptanceRule(min_explained=args.min_explained, max_delta_bic=args.max_delta_bic)
@@ -193,7 +194,7 @@ def run(args: argparse.Namespace) -> int:
         refine=args.refine,
     )
     with plugin_warnings("discover"):
-        result = _discover_isolated(args.timeout, record, args.declared, args.method, settings)
+        result = _discover_isolated(timeout, record, args.declared, args.method, settings)
     if args.out:
         try:
             paths = write_report(result, args.out, force=args.force)

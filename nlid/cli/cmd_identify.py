@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 
 from .common import add_data_arguments, add_model_arguments, load_data, parse_px_roots, parse_settings, print_json
-from .isolated import IDENTIFY_TIMEOUT, add_timeout_argument, plugin_warnings
+from .isolated import IDENTIFY_TIMEOUT, add_timeout_argument, parse_timeout, plugin_warnings
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
@@ -28,6 +28,8 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
 def run(args: argparse.Namespace) -> int:
     from ..runtime.isolation import start_fork_server
 
+    timeout = parse_timeout(args.timeout)
+
     start_fork_server(pin_threads=False)  # it loads the pipeline while this process reads the data
     from ..pipeline import identify
 
@@ -41,7 +43,7 @@ def run(args: argparse.Namespace) -> int:
             options=parse_settings(args.set),
             without=args.without,
             px_roots=parse_px_roots(args.px_roots),
-            timeout=args.timeout,
+            timeout=timeout,
         )
     if args.json:
         print_json(result.to_dict())

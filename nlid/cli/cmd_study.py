@@ -68,7 +68,6 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     )
     run.add_argument(
         "--timeout",
-        type=parse_timeout,
         metavar="SECONDS",
         help="time limit of each run, which runs in a separate process and is recorded as timed out past it "
         "(default: the study's 'timeout', 600 s unless it sets one; 0 or 'none': no limit)",
@@ -109,7 +108,7 @@ def run_command(args: argparse.Namespace) -> int:
             rerun=args.rerun,
             progress=False if args.no_progress else None,
             force=args.force,
-            timeout=args.timeout,
+            timeout=parse_timeout(args.timeout),
         )
     finally:
         signal.signal(signal.SIGTERM, previous)

@@ -25,18 +25,28 @@ DISCOVER_TIMEOUT = 1800.0
 MAX_TIMEOUT = 7 * 24 * 3600.0
 
 
-def parse_timeout(text: str) -> float:
-    """``--timeout``: seconds, or ``0``/``none`` for no time limit (``math.inf``)."""
+def parse_timeout(text: str | float | None) -> float | None:
+    """``--timeout``: seconds, or ``0``/``none`` for no time limit (``math.inf``); ``None`` stays ``None``.
+
+    Raises
+    ------
+    InputError
+        Not a number of seconds in (0, a week], nor ``0``/``none``.
+    """
+    from ..errors import InputError
+
+    if text is None or isinstance(text, float):
+        return text
     value = str(text).strip().lower()
     if value in ("none", "off", "0", "0.0", "inf"):
         return math.inf
     try:
         seconds = float(value)
     except ValueError:
-        raise argparse.ArgumentTypeError(f"expected seconds or 'none', got {text!r}") from None
+        seconds = float("nan")
     if not (0 < seconds <= MAX_TIMEOUT):
-        raise argparse.ArgumentTypeError(
-            f"expected seconds between 0 and {MAX_TIMEOUT:g} (0 or 'none': no limit), got {text!r}"
+        raise InputError(
+            f"--timeout must be a number of seconds between 0 and {MAX_TIMEOUT:g} (0 or 'none': no limit), got {text!r}"
         )
     return seconds
 
@@ -45,7 +55,6 @@ def add_timeout_argument(parser: argparse.ArgumentParser, default: float, what: 
     """Add ``--timeout SECONDS`` (default ``default``) to a command that runs ``what`` in a child process."""
     parser.add_argument(
         "--timeout",
-        type=parse_timeout,
         default=default,
         metavar="SECONDS",
         help=f"{what} runs in a separate process, stopped after SECONDS (default {default:g}; 0 or 'none': no "

@@ -296,6 +296,7 @@ def test_discover_has_a_time_limit(hostile_path, record_csv):
 
 
 def test_the_default_time_limits_are_stated_in_the_help():
+    from nlid.cli.isolated import parse_timeout
     from nlid.cli.main import build_parser
 
     parser = build_parser()
@@ -303,6 +304,9 @@ def test_the_default_time_limits_are_stated_in_the_help():
     for command, default in (("identify", "600"), ("discover", "1800")):
         text = " ".join(sub[command].format_help().split())
         assert f"(default {default}; 0 or 'none': no limit)" in text, command
-    assert sub["identify"].parse_args(["x", "--timeout", "none"]).timeout == float("inf")
-    assert sub["identify"].parse_args(["x", "--timeout", "0"]).timeout == float("inf")
-    assert sub["identify"].parse_args(["x"]).timeout == 600
+    assert parse_timeout(sub["identify"].parse_args(["x", "--timeout", "none"]).timeout) == float("inf")
+    assert parse_timeout(sub["identify"].parse_args(["x", "--timeout", "0"]).timeout) == float("inf")
+    assert parse_timeout(sub["identify"].parse_args(["x", "--timeout", "2.5"]).timeout) == 2.5
+    assert parse_timeout(sub["identify"].parse_args(["x"]).timeout) == 600
+    with pytest.raises(InputError, match="--timeout must be a number of seconds"):
+        parse_timeout("-1")
