@@ -240,10 +240,16 @@ def identify(
     registry
         Where to find ``method``; default: the installed plugins.
     timeout
-        Run the identifier in a child process (:func:`nlid.isolation.run_in_child`,
-        as studies do) and stop it after this many seconds: a hanging or
-        crashing identifier becomes one error instead of a hang or a dead
-        process. ``None`` (default) runs it in this process.
+        Run the identifier in a child process (:func:`nlid.runtime.isolation.run_in_child`,
+        as studies and ``nlid identify`` do) and stop it after this many
+        seconds (``math.inf``: in a child, without a time limit): a hanging
+        or crashing identifier becomes one error instead of a hang or a dead
+        process, what it prints goes to stderr, its warnings come back as
+        :class:`~nlid.runtime.isolation.PluginWarning` naming it, and nothing
+        it started outlives it. ``None`` (default) runs it in this process:
+        fastest, and a debugger can step into it. The identifier (a name, or
+        an instance of a class defined in a module) and the record are sent
+        to the child pickled.
 
     Returns
     -------
@@ -261,6 +267,9 @@ def identify(
     IdentificationError
         The identification ran but its answer cannot be trusted, or did not
         finish within ``timeout``.
+    IsolationError
+        With ``timeout``: no child process could be started
+        (:class:`nlid.runtime.isolation.IsolationError`).
     """
     record = as_record(record)
     if method is None:
@@ -341,20 +350,25 @@ def identify(
 
 
 # --------------------------------------------------------------------------- isolated
-#: Longest time limit of an isolated identification (s): a week.
+#: Longest finite time limit of an isolated identification (s): a week (``math.inf``: no limit).
 MAX_TIMEOUT = 7 * 24 * 3600.0
 
 
 def _identify_in_child(record: Record, terms: Any, method: Any, kwargs: dict[str, Any]) -> tuple:
-    """The child's side of :func:`_identify_isolated`: the result, or the error's class names and message."""
+    """The child's side of :func:`_identify_isolated`: the result, or the error's class names, message and traceback.
+
+    A ``KeyboardInterrupt`` here can only come from the plugin (the child does
+    not hear the terminal's Ctrl-C), so it is the plugin's failure like any other.
+    """
+    import traceback
+
     try:
         return ("ok", identify(record, terms, method, **kwargs))
-    except PASS_THROUGH:
-        raise
     except NlidError as exc:
-        return ("error", [c.__name__ for c in type(exc).__mro__], str(exc))
+        return ("error", [c.__name__ for c in type(exc).__mro__], str(exc), traceback.format_exc())
     except BaseException as exc:  # noqa: BLE001 - reported in the parent as one line
-        return ("error", ["PluginError"], f"identification failed in its child process: {describe_exception(exc)}")
+        name = method if isinstance(method, str) else _name(method)
+        return ("error", ["PluginError"], f"identifier {name!r} {describe_exception(exc)}", traceback.format_exc())
 
 
 def _rebuild_error(names: Sequence[str], message: str) -> NlidError:
@@ -367,26 +381,54 @@ def _rebuild_error(names: Sequence[str], message: str) -> NlidError:
     return NlidError(message)
 
 
+def check_timeout(timeout: Any) -> float:
+    """A time limit in seconds: a number in (0, :data:`MAX_TIMEOUT`], or ``math.inf`` for none.
+
+    Raises
+    ------
+    InputError
+        Anything else (``0``, negative, NaN, a string, a bool).
+    """
+    bad = isinstance(timeout, bool) or not isinstance(timeout, (int, float, np.integer, np.floating))
+    if not bad and float(timeout) == float("inf"):
+        return float("inf")
+    if bad or not numerics.is_finite(timeout) or not 0 < float(timeout) <= MAX_TIMEOUT:
+        raise InputError(
+            f"timeout= must be a number of seconds between 0 and {MAX_TIMEOUT:g} (math.inf: no limit), got {timeout!r}"
+        )
+    return float(timeout)
+
+
+def _defined_in_main(method: Any) -> bool:
+    return not isinstance(method, str) and getattr(type(method), "__module__", "") == "__main__"
+
+
 def _identify_isolated(
     timeout: float, record: Record, terms: Any, method: Any, kwargs: dict[str, Any]
 ) -> IdentifiedModel:
-    from .isolation import describe_exit, run_in_child
+    from .runtime.isolation import IsolationError, run_in_child
 
-    if isinstance(timeout, bool) or not numerics.is_finite(timeout) or not 0 < float(timeout) <= MAX_TIMEOUT:
-        raise InputError(f"timeout= must be a number of seconds between 0 and {MAX_TIMEOUT:g}, got {timeout!r}")
+    timeout = check_timeout(timeout)
     name = method if isinstance(method, str) else _name(method)
-    try:
-        outcome = run_in_child(_identify_in_child, (record, terms, method, kwargs), timeout=float(timeout))
-    except RuntimeError as exc:
-        raise InputError(f"cannot isolate the identification (timeout=): {exc}") from None
-    if outcome.status == "timeout":
-        raise IdentificationError(
-            f"identifier {name!r} did not finish within the time limit of {float(timeout):g} s and was stopped "
-            "(raise timeout=)"
+    if _defined_in_main(method):
+        raise InputError(
+            f"identifier {name!r} is a class of your script (__main__), which a child process cannot import: "
+            "give timeout=None to run it in this process, or move it to a module (or a plugin)"
         )
-    if outcome.status == "died":
-        raise PluginError(f"identifier {name!r} crashed: its process ended with {describe_exit(outcome.exitcode)}")
+    label = f"identifier {name!r}"
+    try:
+        outcome = run_in_child(_identify_in_child, (record, terms, method, kwargs), timeout=timeout)
+    except IsolationError as exc:
+        raise IsolationError(f"cannot isolate {label} (timeout=): {exc}") from None
+    outcome.reissue_warnings(label, stacklevel=4)
+    if outcome.status == "timeout":
+        raise IdentificationError(f"{outcome.describe(label, timeout)} (raise timeout=)")
+    if outcome.status != "ok":
+        raise PluginError(outcome.describe(label, timeout))
     kind, *rest = outcome.value
     if kind == "ok":
         return rest[0]
-    raise _rebuild_error(rest[0], rest[1])
+    error = _rebuild_error(rest[0], rest[1])
+    if hasattr(error, "add_note") and rest[2:]:
+        error.add_note(f"traceback in the child process:\n{rest[2]}")
+    raise error

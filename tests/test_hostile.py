@@ -215,7 +215,7 @@ G3_ISOLATION = [  # a plugin that exits, hangs or crashes is reported by name
     (["identify", "x.csv", "--method", "exit-at-import", "--terms", "z^3"], 2, "called sys.exit(3)"),
     (["identify", "x.csv", "--method", "hang-forever", "--terms", "z^3", "--timeout", "2"], 1,
      "did not finish within the time limit of 2 s"),
-    (["identify", "x.csv", "--method", "segv", "--terms", "z^3", "--timeout", "60"], 2, "signal 11 (SIGSEGV)"),
+    (["identify", "x.csv", "--method", "segv", "--terms", "z^3", "--timeout", "60"], 2, "segmentation fault (SIGSEGV)"),
     (["identify", "x.csv", "--method", "exit-identify", "--terms", "z^3", "--timeout", "60"], 2, "sys.exit(4)"),
     (["identify", "x.csv", "--terms", "z^3,q", "--timeout", "60"], 2, "unknown name 'q'"),
     (["identify", "big.csv", "--terms", TERMS, "--mass", "0.2", "--timeout", "60"], 1, "cannot be trusted"),

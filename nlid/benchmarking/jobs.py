@@ -35,7 +35,7 @@ from .protocol import Protocol, TestSet, parse_protocol
 
 __all__ = ["BenchJob", "BenchRun", "score_model"]
 
-#: Job kind in a spec's JSON (:func:`nlid.study.worker.subprocess_main`).
+#: Job kind in a spec's JSON (:meth:`BenchJob.to_dict`).
 KIND = "bench"
 
 
@@ -145,7 +145,7 @@ class BenchJob:
 
     # -- the JSON a child process reads (nlid.study.worker) and the digest
     def to_dict(self) -> dict[str, Any]:
-        """Plain JSON-able values (what a child process started as ``python -m nlid.study.child`` reads)."""
+        """Plain JSON-able values (what a spawned child and the result store read back)."""
         return {
             "kind": KIND,
             "run_id": self.run_id,

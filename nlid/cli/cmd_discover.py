@@ -5,8 +5,9 @@ from __future__ import annotations
 import argparse
 import sys
 
-from ..errors import InputError
+from ..errors import InputError, NlidError
 from .common import add_data_arguments, load_data, parse_settings, print_json
+from .isolated import DISCOVER_TIMEOUT, add_timeout_argument, parse_timeout, plugin_warnings
 
 EPILOG = """\
 candidate effects (--candidates): coulomb, viscous, quadratic-damping, cubic-damping,
@@ -109,9 +110,12 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument(
         "--force",
         action="store_true",
-        help="with --out, write into a folder that holds files nlid did not write (it never replaces them)",
+        help="with --out, write into a folder that holds files nlid did not write; nlid never replaces them: if "
+        "one has the name of an output (figures, report.md, report.html, result.json, models.csv), it stops "
+        "before writing anything, naming it",
     )
     p.add_argument("--quiet", action="store_true", help="no progress lines on stderr")
+    add_timeout_argument(p, DISCOVER_TIMEOUT, "the search (every identification of it)")
     p.add_argument(
         "--refine",
         action="store_true",
@@ -132,22 +136,55 @@ def _holdout(args: argparse.Namespace):
     return fraction
 
 
+def _progress_line(message: str) -> None:
+    print(f"nlid discover: {message}", file=sys.stderr, flush=True)
+
+
+def _discover_in_child(record, declared, method, settings) -> tuple:
+    """The child's side of ``nlid discover``: the result, or the error's class names and message."""
+    from ..discovery import discover
+
+    try:
+        return ("ok", discover(record, declared, method, **settings))
+    except NlidError as exc:
+        return ("error", [c.__name__ for c in type(exc).__mro__], str(exc))
+
+
+def _discover_isolated(timeout: float, record, declared, method, settings):
+    """:func:`nlid.discovery.discover` in a child process stopped after ``timeout`` seconds."""
+    from ..errors import IdentificationError, PluginError
+    from ..pipeline import _rebuild_error
+    from ..runtime.isolation import run_in_child
+
+    label = "the search" if method is None else f"the search with identifier {method!r}"
+    outcome = run_in_child(_discover_in_child, (record, declared, method, settings), timeout=timeout)
+    outcome.reissue_warnings(label)
+    if outcome.status == "timeout":
+        raise IdentificationError(f"{outcome.describe(label, timeout)} (raise --timeout)")
+    if outcome.status != "ok":
+        raise PluginError(outcome.describe(label, timeout))
+    kind, *rest = outcome.value
+    if kind == "ok":
+        return rest[0]
+    raise _rebuild_error(rest[0], rest[1])
+
+
 def run(args: argparse.Namespace) -> int:
-    from ..discovery import AcceptanceRule, discover, write_report
+    from ..discovery import AcceptanceRule, write_report
+    from ..runtime.isolation import start_fork_server
 
     if args.max_steps < 0:
         raise InputError(f"--max-steps must be >= 0, got {args.max_steps}")
+    timeout = parse_timeout(args.timeout)
+    start_fork_server(pin_threads=False)  # it loads the pipeline while this process reads the data
     record = load_data(args)
     rule = AcceptanceRule(min_explained=args.min_explained, max_delta_bic=args.max_delta_bic)
 
     def progress(message: str) -> None:
         if not args.quiet:
-            print(f"nlid discover: {message}", file=sys.stderr)
+            _progress_line(message)
 
-    result = discover(
-        record,
-        args.declared,
-        args.method,
+    settings = dict(
         mass=args.mass,
         holdout=_holdout(args),
         validation=None
@@ -159,11 +196,13 @@ def run(args: argparse.Namespace) -> int:
         max_steps=args.max_steps,
         cutoff=args.cutoff,
         options=parse_settings(args.set),
-        progress=progress,
+        progress=None if args.quiet else _progress_line,
         views=bool(args.out),
         refine=args.refine,
         freerun_rule=args.rule,
     )
+    with plugin_warnings("discover"):
+        result = _discover_isolated(timeout, record, args.declared, args.method, settings)
     if args.out:
         try:
             paths = write_report(result, args.out, force=args.force)

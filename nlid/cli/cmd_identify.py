@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 
 from .common import add_data_arguments, add_model_arguments, load_data, parse_px_roots, parse_settings, print_json
+from .isolated import IDENTIFY_TIMEOUT, add_timeout_argument, parse_timeout, plugin_warnings
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
@@ -19,31 +20,31 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     )
     add_data_arguments(p)
     add_model_arguments(p, "identifier to use (default: the installed one with the best preference; see nlid methods)")
-    p.add_argument(
-        "--timeout",
-        type=float,
-        metavar="SECONDS",
-        help="run the identifier in a separate process and stop it after SECONDS (a hanging or crashing "
-        "plugin then gives one error line)",
-    )
+    add_timeout_argument(p, IDENTIFY_TIMEOUT, "the identifier")
     p.add_argument("--json", action="store_true", help="print one JSON object instead of a table")
     p.set_defaults(func=run)
 
 
 def run(args: argparse.Namespace) -> int:
+    from ..runtime.isolation import start_fork_server
+
+    timeout = parse_timeout(args.timeout)
+
+    start_fork_server(pin_threads=False)  # it loads the pipeline while this process reads the data
     from ..pipeline import identify
 
     record = load_data(args)
-    result = identify(
-        record,
-        args.terms,
-        args.method,
-        mass=args.mass,
-        options=parse_settings(args.set),
-        without=args.without,
-        px_roots=parse_px_roots(args.px_roots),
-        timeout=args.timeout,
-    )
+    with plugin_warnings("identify"):
+        result = identify(
+            record,
+            args.terms,
+            args.method,
+            mass=args.mass,
+            options=parse_settings(args.set),
+            without=args.without,
+            px_roots=parse_px_roots(args.px_roots),
+            timeout=timeout,
+        )
     if args.json:
         print_json(result.to_dict())
     else:

@@ -7,6 +7,8 @@ import signal
 import sys
 from pathlib import Path
 
+from .isolated import parse_timeout
+
 DESCRIPTION = """\
 Run a benchmark study: every identifier of the study on the same data
 (datasets x models x identifiers x repetitions), in parallel, with each
@@ -60,7 +62,15 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     run.add_argument(
         "--force",
         action="store_true",
-        help="write into a folder that holds files nlid did not write (it never replaces them)",
+        help="write into a folder that holds files nlid did not write; nlid never replaces them: if one has the "
+        "name of an output (study.toml, runs, arrays, results.csv, summary.md, summary.txt, summary.csv, "
+        "report.html, figures), it stops before writing anything, naming it",
+    )
+    run.add_argument(
+        "--timeout",
+        metavar="SECONDS",
+        help="time limit of each run, which runs in a separate process and is recorded as timed out past it "
+        "(default: the study's 'timeout', 600 s unless it sets one; 0 or 'none': no limit)",
     )
     run.add_argument("--no-progress", action="store_true", help="no progress line (it only shows on a terminal)")
     run.set_defaults(func=run_command)
@@ -83,9 +93,9 @@ def run_command(args: argparse.Namespace) -> int:
     from ..study.report import TEXT_SUMMARY
 
     if args.executor == "local":
-        from ..isolation import start_fork_server
+        from ..runtime.isolation import start_fork_server
 
-        start_fork_server()  # it loads the plugins while this process reads the study (nlid._preload)
+        start_fork_server(pin_threads=True)  # it loads the plugins while this process reads the study
     config = load_study(args.study)
     executor = make_executor(args.executor, jobs=args.jobs, scheduler=args.scheduler)
     out = Path(args.out) if args.out else Path("nlid-studies") / config.name
@@ -98,6 +108,7 @@ def run_command(args: argparse.Namespace) -> int:
             rerun=args.rerun,
             progress=False if args.no_progress else None,
             force=args.force,
+            timeout=parse_timeout(args.timeout),
         )
     finally:
         signal.signal(signal.SIGTERM, previous)

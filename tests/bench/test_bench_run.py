@@ -110,7 +110,7 @@ def test_the_scoring_adapter_applies_the_protocols_transient_rule(toy):
 
 
 def test_a_job_runs_in_a_fresh_interpreter_as_a_dask_worker_would(toy):
-    """The study worker's ``python -m nlid.study.child`` path: the job crosses as JSON and comes back."""
+    """The spawn path (a fresh interpreter, as on Windows or in a daemonic Dask worker): the job comes back."""
     from nlid.study.worker import run_isolated
 
     text, est, test, _ = toy

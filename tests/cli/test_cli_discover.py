@@ -69,9 +69,9 @@ def test_bad_input_is_one_line_with_status_2(csv_noisy, cli, extra, message):
     assert message in err and len(err.strip().splitlines()) == 1 and "Traceback" not in err
 
 
-def test_bad_declared_term_and_missing_declared(csv_noisy, cli, capsys):
+def test_bad_declared_term_and_missing_declared(csv_noisy, cli, capfd):
     status, _, err = cli("discover", str(csv_noisy), "--declared", "z^3, w")
     assert status == 2 and "unknown" in err and len(err.strip().splitlines()) == 1
     with pytest.raises(SystemExit) as exit_info:
         main(["discover", str(csv_noisy)])
-    assert exit_info.value.code == 2 and "--declared" in capsys.readouterr().err
+    assert exit_info.value.code == 2 and "--declared" in capfd.readouterr().err
