@@ -38,7 +38,7 @@ from typing import Any, ClassVar
 
 import numpy as np
 
-from .errors import OptionError
+from .errors import OptionError, brief
 from .record import Record
 from .terms import Model
 
@@ -111,9 +111,9 @@ class Option:
         try:
             out = self._convert(value)
         except (TypeError, ValueError):
-            raise OptionError(f"{prefix} expects {self._expects()}, got {value!r}") from None
+            raise OptionError(f"{prefix} expects {self._expects()}, got {brief(value)}") from None
         if self.choices is not None and out not in self.choices:
-            raise OptionError(f"{prefix} must be one of {', '.join(map(str, self.choices))}; got {out!r}")
+            raise OptionError(f"{prefix} must be one of {', '.join(map(str, self.choices))}; got {brief(out)}")
         values = out if isinstance(out, tuple) else (out,)
         if self.type in ("int", "float", "floats"):
             for x in values:
@@ -186,7 +186,7 @@ def resolve_options(declared: tuple[Option, ...], given: Mapping[str, Any], wher
             hint = get_close_matches(key, list(by_name), n=1)
             known = ", ".join(by_name) or "none"
             raise OptionError(
-                f"{where}unknown option {key!r}"
+                f"{where}unknown option {brief(key)}"
                 + (f" (did you mean {hint[0]!r}?)" if hint else "")
                 + f"; known options: {known}"
             )

@@ -22,7 +22,7 @@ from typing import Any
 import pluggy
 
 from . import hookspecs
-from .errors import PASS_THROUGH, InputError, NlidError, PluginError, describe_exception
+from .errors import PASS_THROUGH, InputError, NlidError, PluginError, brief, describe_exception, listing
 from .interface import Option
 from .validate import did_you_mean
 
@@ -127,7 +127,8 @@ class Registry:
         if name in self.failures:
             raise PluginError(f"identifier plugin {name!r} is installed but unusable: {self.failures[name]}")
         raise InputError(
-            f"unknown method {name!r}{did_you_mean(name, self.names())}; installed: {', '.join(self.names()) or 'none'}"
+            f"unknown method {brief(name)}{did_you_mean(name, self.names())}; "
+            f"installed: {listing(self.names(), limit=40) or 'none'}"
         )
 
     def create(self, name: str, options: Mapping[str, Any] | None = None) -> Any:

@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import argparse
 
-from ..errors import InputError
+from ..errors import InputError, brief
 from ..formatting import TERMINAL_WIDTH, wrap
 from .common import print_json
 
@@ -52,7 +52,7 @@ def run(args: argparse.Namespace) -> int:
     unknown = [n for n in args.names if n not in reg.identifiers]
     if unknown:
         reg.get(unknown[0])  # raises the registry's error, with a suggestion
-        raise InputError(f"unknown identifier {unknown[0]!r}")
+        raise InputError(f"unknown identifier {brief(unknown[0])}")
     if not reg.identifiers:
         print("no identifiers installed")
     detailed = set(args.names) if args.names else set(reg.names()) if args.all else set()

@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 import sys
 
-from ..errors import DataError, InputError
+from ..errors import DataError, InputError, brief
 from ..validate import NOISE_SD
 from .common import add_data_arguments, add_model_arguments, load_data, parse_px_roots, parse_settings, print_json
 
@@ -115,7 +115,7 @@ def _floats(text: str | None, what: str) -> list[float] | None:
     try:
         return [float(x) for x in text.split(",") if x.strip()]
     except ValueError:
-        raise InputError(f"{what} expects comma-separated numbers, got {text!r}") from None
+        raise InputError(f"{what} expects comma-separated numbers, got {brief(text)}") from None
 
 
 def parse_noise_levels(items: list[str] | None, noise_z: float | None = None) -> dict[str, float] | None:
@@ -128,12 +128,12 @@ def parse_noise_levels(items: list[str] | None, noise_z: float | None = None) ->
         channel = channel.strip()
         if not sep or channel not in ("z", "v"):
             raise InputError(
-                f"--noise-level expects CHANNEL=SD with CHANNEL z or v (noise on a needs no level), got {item!r}"
+                f"--noise-level expects CHANNEL=SD with CHANNEL z or v (noise on a needs no level), got {brief(item)}"
             )
         try:
             level = float(value)
         except ValueError:
-            raise InputError(f"--noise-level {channel}= expects a number, got {value.strip()!r}") from None
+            raise InputError(f"--noise-level {channel}= expects a number, got {brief(value.strip())}") from None
         NOISE_SD[channel].check(level, f"--noise-level {channel}=")
         if channel in levels:
             raise InputError(f"--noise-level gives the level of {channel} twice")
