@@ -360,9 +360,10 @@ class Estimate:
     Attributes
     ----------
     coefficients
-        ``{canonical term: coefficient}`` for every term of the model, in
-        model order; each is the coefficient of its term in
-        ``R(z, v) = f - m z''`` (SI units).
+        ``{canonical term: coefficient}`` for every term of the model (in
+        any order: the core puts them in model order); each a real number,
+        the coefficient of its term in ``R(z, v) = f - m z''`` (SI units).
+        The core checks every field before using it (:func:`check_estimate`).
     mass
         The mass in kg when the method estimated it; ``None`` when the mass
         was given (``identify(..., mass=m)``).
@@ -378,7 +379,8 @@ class Estimate:
         ``source`` and further figures); ``None`` lets the core compute them
         from the identified ``K`` and ``D`` (Eq. 8, 22).
     diagnostics
-        Method-specific, JSON-serialisable details.
+        Method-specific, JSON-serialisable details (an entry that does not
+        serialise is dropped, with a warning saying so).
     warnings
         Things the user should know (collinear terms, extrapolation...).
     arrays
