@@ -36,7 +36,7 @@ from typing import Any
 
 import numpy as np
 
-from .errors import DataError, InputError
+from .errors import DataError, InputError, brief, listing
 
 __all__ = ["ColumnExpr", "parse_columns", "channel_arrays", "frame_table", "dataset_table", "MAP_CHANNELS"]
 
@@ -73,9 +73,9 @@ class ColumnExpr:
 
 def _lookup(table: Mapping[str, np.ndarray], name: str, source: str, column: bool) -> np.ndarray:
     if name not in table:
-        avail = ", ".join(sorted(table)) or "none"
+        avail = listing(sorted(table)) or "none"
         what = "column" if column else "variable"
-        raise DataError(f"{what} {name!r} not found in {source}; it has: {avail}")
+        raise DataError(f"{what} {brief(name, 60)} not found in {source}; it has: {avail}")
     return np.asarray(table[name])
 
 
@@ -118,14 +118,18 @@ def parse_columns(spec: str | Mapping[str, str] | None) -> dict[str, ColumnExpr]
             if not entry.strip():
                 continue
             if "=" not in entry:
-                raise InputError(f"column map entry {entry.strip()!r} must look like channel=column (e.g. f=vir*35.15)")
+                raise InputError(
+                    f"column map entry {brief(entry.strip(), 60)} must look like channel=column (e.g. f=vir*35.15)"
+                )
             key, expr = entry.split("=", 1)
             items.append((key, expr))
     out: dict[str, ColumnExpr] = {}
     for key, expr in items:
         channel = key.strip()
         if channel not in MAP_CHANNELS:
-            raise InputError(f"column map: unknown channel {channel!r}; channels are {', '.join(MAP_CHANNELS)}")
+            raise InputError(
+                f"column map: unknown channel {brief(channel, 40)}; channels are {', '.join(MAP_CHANNELS)}"
+            )
         if channel in out:
             raise InputError(f"column map gives channel {channel!r} twice")
         out[channel] = _parse_expr(channel, str(expr))
@@ -144,7 +148,7 @@ def _parse_expr(channel: str, text: str) -> ColumnExpr:
         m = _OPERAND.match(rest, pos)
         if m is None or not m.group(1):
             raise InputError(
-                f"column map entry {channel}={text.strip()!r}: expected a column name or a number "
+                f"column map entry {channel}={brief(text.strip(), 60)}: expected a column name or a number "
                 f"at character {pos + 1 + int(negate)}"
             )
         token = m.group(1)
@@ -156,13 +160,14 @@ def _parse_expr(channel: str, text: str) -> ColumnExpr:
         op = rest[pos]
         if op not in "*/":
             raise InputError(
-                f"column map entry {channel}={text.strip()!r}: unexpected {op!r} (only * and / are allowed)"
+                f"column map entry {channel}={brief(text.strip(), 60)}: unexpected {brief(op, 20)} "
+                "(only * and / are allowed)"
             )
         pos += 1
     # The column is the first name; every other name is a scalar variable.
     names = [i for i, (o, v) in enumerate(operands) if isinstance(v, str) and o == "*"]
     if not names:
-        raise InputError(f"column map entry {channel}={text.strip()!r} names no column")
+        raise InputError(f"column map entry {channel}={brief(text.strip(), 60)} names no column")
     col_index = names[0]
     column = operands[col_index][1]
     factors = tuple(v for i, (o, v) in enumerate(operands) if o == "*" and i != col_index)
@@ -218,7 +223,7 @@ def channel_arrays(
         if required not in exprs:
             raise DataError(
                 f"{source}: no column for channel {required!r}; map one with columns= "
-                f"(e.g. {required}=NAME); the {noun} has: {', '.join(sorted(table))}"
+                f"(e.g. {required}=NAME); the {noun} has: {listing(sorted(table))}"
             )
     arrays = {c: e.evaluate(table, source).ravel() for c, e in exprs.items()}
     if "t" in arrays:

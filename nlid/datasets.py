@@ -34,7 +34,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .errors import DataError, InputError
+from .errors import DataError, InputError, brief
 from .io import read_table
 from .record import Record
 from .validate import did_you_mean
@@ -356,4 +356,4 @@ def load(name: str, *, part: str = "all") -> Record:
         if part == "multisine":
             return record[SILVERBOX_ARROW:]
         raise InputError(f"unknown silverbox part {part!r}; use all, arrow or multisine")
-    raise InputError(f"unknown dataset {name!r}{did_you_mean(name, DATASETS)}; available: {', '.join(DATASETS)}")
+    raise InputError(f"unknown dataset {brief(name)}{did_you_mean(name, DATASETS)}; available: {', '.join(DATASETS)}")

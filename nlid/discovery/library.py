@@ -62,7 +62,7 @@ from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
 from difflib import get_close_matches
 
-from ..errors import PASS_THROUGH, InputError, NlidError, describe_exception
+from ..errors import PASS_THROUGH, InputError, NlidError, brief, describe_exception
 from ..terms import Model, Term, parse_term, split_terms
 
 __all__ = [
@@ -536,7 +536,7 @@ def resolve_candidates(
             if n not in by_name:
                 hint = get_close_matches(n, list(by_name), n=1)
                 raise InputError(
-                    f"unknown candidate {n!r}"
+                    f"unknown candidate {brief(n)}"
                     + (f" (did you mean {hint[0]!r}?)" if hint else "")
                     + f"; known: {', '.join(by_name)} (add your own with NAME=TERMS)"
                 )
