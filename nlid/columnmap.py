@@ -85,7 +85,9 @@ def _real(value: Any, name: str, source: str, what: str) -> np.ndarray:
     kind = array.dtype.kind
     if kind == "c":
         raise DataError(f"{what} {name!r} in {source} holds complex numbers; nlid needs real ones (take .real or abs)")
-    if kind not in "biuf":
+    if kind == "b":
+        raise DataError(f"{what} {name!r} in {source} holds booleans (True/False), not numbers")
+    if kind not in "iuf":
         described = {"U": "text", "S": "text", "O": "objects (a cell array or strings)", "V": "a struct"}.get(
             kind, f"values of type {array.dtype}"
         )
@@ -262,8 +264,11 @@ def _frame_column(column: Any, name: object, source: str) -> np.ndarray:
     seconds = _seconds(column, name, source)
     if seconds is not None:
         return seconds
-    if getattr(column.dtype, "kind", "") == "c":
+    kind = getattr(column.dtype, "kind", "")
+    if kind == "c":
         _real(column.to_numpy(), str(name), source, "column")  # raises: complex numbers
+    if kind == "b" or str(column.dtype) == "boolean":
+        raise DataError(f"column {name!r} in {source} holds booleans (True/False), not numbers")
     try:
         numeric = pd.to_numeric(column, errors="coerce")
     except (TypeError, ValueError):

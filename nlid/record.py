@@ -96,6 +96,32 @@ class RecordMeta(FrozenDict):
             return default
 
 
+def _real_array(name: str, raw: Any) -> np.ndarray:
+    """A channel as a new float array; complex, boolean, text and other non-numbers are refused, not cast."""
+    arr = np.asarray(raw)
+    kind = arr.dtype.kind
+    if kind == "c":
+        raise DataError(f"channel {name!r} holds complex numbers; nlid needs real ones (take .real or abs)")
+    if kind == "b":
+        raise DataError(
+            f"channel {name!r} holds booleans (True/False), not numbers: a measured signal cannot be boolean"
+        )
+    try:
+        return np.array(arr, dtype=float) if kind in "iuf" else _objects_as_floats(arr)
+    except (TypeError, ValueError):
+        what = "text" if kind in "US" else f"values of type {arr.dtype}"
+        raise DataError(f"channel {name!r} holds {what}, not numbers") from None
+
+
+def _objects_as_floats(arr: np.ndarray) -> np.ndarray:
+    """Numbers held as objects (``Decimal``, ``Fraction``...) as floats; anything else raises TypeError/ValueError."""
+    if arr.dtype.kind != "O" or any(
+        isinstance(x, (bool, np.bool_, complex, np.complexfloating, str, bytes)) for x in arr.flat
+    ):
+        raise TypeError(arr.dtype)
+    return np.array(arr, dtype=float)
+
+
 @dataclass(frozen=True, eq=False)
 class Record:
     """A uniformly sampled force/motion record.
@@ -154,7 +180,7 @@ class Record:
                 if name in ("f", "z"):
                     raise DataError(f"channel {name!r} is required")
                 continue
-            arr = np.array(raw, dtype=float)  # a private copy
+            arr = _real_array(name, raw)  # a private copy
             if arr.ndim != 1:
                 arr = arr.squeeze()
                 if arr.ndim != 1:
@@ -197,7 +223,7 @@ class Record:
         f, z, **kwargs
             As for :class:`Record` (``fs`` and ``t0`` are taken from ``t``).
         """
-        t = np.asarray(t, dtype=float).squeeze()
+        t = _real_array("t", t).squeeze()
         if t.ndim != 1 or t.size < 2:
             raise DataError("time vector must be one-dimensional with at least 2 samples")
         bad = ~np.isfinite(t)

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import math
 import sys
 
 from ..errors import DataError, InputError, brief
@@ -113,9 +114,12 @@ def _floats(text: str | None, what: str) -> list[float] | None:
     if not text:
         return None
     try:
-        return [float(x) for x in text.split(",") if x.strip()]
+        values = [float(x) for x in text.split(",") if x.strip()]
     except ValueError:
         raise InputError(f"{what} expects comma-separated numbers, got {brief(text)}") from None
+    if not all(math.isfinite(x) for x in values):
+        raise InputError(f"{what} expects finite numbers, got {brief(text)}")
+    return values
 
 
 def parse_noise_levels(items: list[str] | None, noise_z: float | None = None) -> dict[str, float] | None:
@@ -152,6 +156,8 @@ def run(args: argparse.Namespace) -> int:
         NOISE_SD["z"].check(args.noise_z, "--noise-z")
     noise = parse_noise_levels(args.noise_level, args.noise_z)
     slices = _floats(args.slices, "--slices")
+    if slices is not None and not args.out:
+        raise InputError("--slices sets the damping-force slices of the figures written with --out; give --out DIR")
     # read priors and parameter names before the (slower) identification, so typos fail at once
     parse_prior_assignments(args.prior)
     if args.params.strip().lower() not in ("damping", "friction", "all"):
