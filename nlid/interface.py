@@ -508,8 +508,9 @@ def check_estimate(estimate: Any, model: Model, name: str, mass: float | None = 
       finite. Their order is free: the result is in model order;
     * the mass: ``None`` or the given mass when ``mass`` is given, otherwise ``None`` (not estimated)
       or a finite positive number (kg);
-    * standard errors: ``None`` or, per term of the model, ``None`` or a finite number >= 0; the same
-      for the mass's standard error;
+    * standard errors: ``None`` or, per term of the model, ``None`` or a number; the same for the mass's
+      standard error (one that is not finite, or negative, is refused with every other figure that
+      is not, by :meth:`nlid.identified.IdentifiedModel.problems`);
     * ``modal``: ``None`` or modal parameters (:class:`~nlid.physics.Modal` or mappings);
     * ``warnings``: a list or tuple of strings (each cut to :data:`MAX_WARNING` characters, one line);
     * ``diagnostics`` and ``arrays``: an entry that does not serialise to JSON, or an array that does not
@@ -540,8 +541,8 @@ def check_estimate(estimate: Any, model: Model, name: str, mass: float | None = 
         malformed standard errors, modal parameters or warnings. One line naming the identifier and the
         term.
     IdentificationError
-        The numbers are of the right kind but cannot be trusted: a coefficient, mass or standard error
-        that is not finite, a mass that is not positive, a negative standard error.
+        The numbers are of the right kind but cannot be trusted: a coefficient or mass that is not
+        finite, a mass that is not positive.
     """
     from .errors import IdentificationError, InputError, PluginError, one_line
 
@@ -598,12 +599,7 @@ def check_estimate(estimate: Any, model: Model, name: str, mass: float | None = 
         se = _real(value)
         if se is None:
             raise PluginError(f"{who} returned {_kind(value)} as the standard error of {what}, not a number")
-        if not (math.isfinite(se) and se >= 0):
-            raise IdentificationError(
-                f"the identification by {brief(name, 60)} cannot be trusted: "
-                f"the standard error of {what} is {se} (a finite number >= 0 expected)"
-            )
-        return se
+        return se  # a NaN or negative one is refused with every other figure (IdentifiedModel.problems)
 
     errors: dict[str, float] | None = None
     if estimate.standard_errors is not None:
@@ -615,14 +611,6 @@ def check_estimate(estimate: Any, model: Model, name: str, mass: float | None = 
                 f"{who} returned standard errors for terms not in the model: {listing(unknown, quote=True)}"
             )
         raw = {n: estimate.standard_errors[n] for n in names if n in estimate.standard_errors}
-        nan = [n for n, v in raw.items() if _real(v) is not None and not math.isfinite(_real(v))]  # type: ignore[arg-type]
-        if nan:  # the wording of IdentifiedModel.problems: "standard errors of 1, z are nan"
-            from .numerics import nonfinite
-
-            raise IdentificationError(
-                f"the identification by {brief(name, 60)} cannot be trusted: "
-                f"{nonfinite('standard errors', {n: _real(raw[n]) for n in nan})}"
-            )
         errors = {n: se for n, v in raw.items() if (se := standard_error(v, n)) is not None}
     mass_se = standard_error(estimate.mass_standard_error, "the mass") if est_mass is not None else None
 
