@@ -244,6 +244,9 @@ class IdentifiedModel:
         except NlidError as exc:
             eq = None
             warnings.append(f"equilibria not computed: {exc}")
+        except np.linalg.LinAlgError as exc:  # e.g. a subnormal leading coefficient of K(z)
+            eq = None
+            warnings.append(f"equilibria not computed: the roots of K(z) could not be computed ({exc})")
         if estimate.modal is not None:
             modal: tuple[Modal, ...] = tuple(Modal.from_dict(m) for m in estimate.modal)
         elif eq is not None and used is not None:

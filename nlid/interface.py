@@ -465,6 +465,8 @@ def _kind(value: Any) -> str:
         return f"a {type(value).__name__} {brief(value, 40)}"
     if value is None:
         return "None"
+    if isinstance(value, numbers.Number):
+        return f"a number ({brief(value, 40)})"
     return f"an object of type {type(value).__name__}"
 
 
@@ -478,7 +480,7 @@ def _real(value: Any) -> float | None:
     try:
         return float(value)
     except OverflowError:
-        return math.copysign(math.inf, value)  # type: ignore[arg-type]
+        return math.inf if value > 0 else -math.inf
     except Exception:  # noqa: BLE001 - a hostile number type whose __float__ raises is not a number
         return None
 

@@ -7,8 +7,9 @@ plugin) and for a file or folder that cannot be read or written, 1 when an
 identification ran but cannot be trusted. numpy's runtime warnings become one
 warning line. Every such line is one line whatever the message holds: line breaks
 are escaped and a runaway message is cut (:func:`nlid.errors.one_line`) - the last
-resort behind the capped values of the messages themselves. ``--debug`` shows the
-traceback and the raw warnings instead.
+resort behind the capped values of the messages themselves. An error nlid did not
+foresee (a bug) is one line too, ``internal error: ...``, with exit status 1 (as
+Python's own). ``--debug`` shows the traceback and the raw warnings instead.
 """
 
 from __future__ import annotations
@@ -18,7 +19,7 @@ import sys
 from collections.abc import Sequence
 
 from .. import __version__
-from ..errors import IdentificationError, NlidError, one_line
+from ..errors import IdentificationError, NlidError, describe_exception, one_line
 from . import (
     cmd_data,
     cmd_discover,
@@ -101,6 +102,13 @@ def main(argv: Sequence[str] | None = None) -> int:
     except KeyboardInterrupt:
         print("nlid: interrupted", file=sys.stderr)
         return 130
+    except Exception as exc:  # noqa: BLE001 - the last resort: an error nlid did not foresee is a bug, still one line
+        what = one_line(describe_exception(exc))
+        print(
+            f"nlid {args.command}: internal error: {what} (a bug: rerun with --debug for the traceback, and report it)",
+            file=sys.stderr,
+        )
+        return 1
     if numerical:
         print(
             f"nlid {args.command}: warning: {one_line(f'numerical warnings: {describe_warnings(numerical)}')}",
