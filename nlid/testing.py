@@ -40,8 +40,8 @@ The checks (:data:`CHECKS`):
 ``check_known_mass``
     With the mass given: an :class:`~nlid.interface.Estimate` that passes the
     core's own check (:func:`nlid.interface.check_estimate`: one finite real
-    coefficient per term, no competing mass, standard errors finite and not
-    negative...).
+    coefficient per term in any order, no competing mass, standard errors,
+    modal parameters and warnings of the right kind...).
 ``check_estimated_mass``
     Without the mass: a positive finite estimate, or
     :class:`~nlid.errors.InputError` when ``needs_mass`` is set.
