@@ -39,7 +39,17 @@ from typing import Any, ClassVar
 
 import numpy as np
 
-from .errors import OptionError, brief, listing
+from .errors import (
+    IdentificationError,
+    InputError,
+    NlidError,
+    OptionError,
+    PluginError,
+    brief,
+    describe_exception,
+    listing,
+    one_line,
+)
 from .record import Record
 from .terms import Model
 
@@ -546,8 +556,17 @@ def check_estimate(estimate: Any, model: Model, name: str, mass: float | None = 
         The numbers are of the right kind but cannot be trusted: a coefficient or mass that is not
         finite, a mass that is not positive.
     """
-    from .errors import IdentificationError, InputError, PluginError, one_line
+    try:
+        return _check_estimate(estimate, model, name, mass)
+    except NlidError:
+        raise
+    except Exception as exc:  # noqa: BLE001 - a mapping or number type that breaks when read is a broken plugin too
+        raise PluginError(
+            f"identifier {brief(name, 60)} returned an estimate that cannot be read: {describe_exception(exc)}"
+        ) from None
 
+
+def _check_estimate(estimate: Any, model: Model, name: str, mass: float | None) -> Estimate:
     who = f"identifier {brief(name, 60)}"
     if not isinstance(estimate, Estimate):
         raise PluginError(
@@ -565,16 +584,16 @@ def check_estimate(estimate: Any, model: Model, name: str, mass: float | None = 
     given = estimate.coefficients
     if not isinstance(given, Mapping):
         raise PluginError(f"{who} returned coefficients as {_kind(given)}, not a mapping {{term: value}}")
-    keys = list(given)
-    if sorted(map(str, keys)) != sorted(names) or len(keys) != len(names):
+    by_name = {str(k): v for k, v in given.items()}
+    if sorted(by_name) != sorted(names) or len(given) != len(names):
         raise PluginError(
-            f"{who} returned coefficients for {listing(sorted(map(str, keys)), quote=True)} but the model is {names}"
+            f"{who} returned coefficients for {listing(sorted(by_name), quote=True)} but the model is {names}"
         )
     coefficients: dict[str, float] = {}
     for term in names:
-        value = _real(given[term])
+        value = _real(by_name[term])
         if value is None:
-            raise PluginError(f"{who} returned {_kind(given[term])} as the coefficient of {term}, not a real number")
+            raise PluginError(f"{who} returned {_kind(by_name[term])} as the coefficient of {term}, not a real number")
         coefficients[term] = value
     bad = [n for n, x in coefficients.items() if not math.isfinite(x)]
     if bad:
