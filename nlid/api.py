@@ -22,7 +22,7 @@ from collections.abc import Iterable, Mapping, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from .errors import InputError, NlidError
+from .errors import InputError, NlidError, brief
 from .identified import IdentifiedModel
 from .pipeline import as_model, identify
 from .record import Record
@@ -167,7 +167,8 @@ def compare(
     terms
         The model (as for :func:`nlid.identify`).
     methods
-        Identifier names (default: every installed identifier).
+        Identifier names, as a list or one comma-separated string (default:
+        every installed identifier).
     mass
         Known mass (kg); ``None`` lets each method estimate it (methods that
         cannot are reported as failed).
@@ -196,6 +197,8 @@ def compare(
         or a rule); default: the held-out record's own
         (:func:`nlid.scoring.default_rule`). The ``freerun_rmse`` row's
         ``note`` names the rule when it is not the first-sample one.
+        An unknown method name is refused before anything runs
+        (:class:`~nlid.errors.InputError`, with a suggestion), whatever ``errors``.
 
     Returns
     -------
@@ -217,9 +220,20 @@ def compare(
     if errors not in ("record", "raise"):
         raise InputError(f"errors must be 'record' or 'raise', got {errors!r}")
     model = as_model(terms, without=without, px_roots=px_roots)
-    names = list(methods) if methods is not None else default_registry().names()
+    if isinstance(methods, str):
+        methods = [m.strip() for m in methods.split(",") if m.strip()]
+    registry = default_registry()
+    names = list(methods) if methods is not None else registry.names()
     if not names:
         raise InputError("no method to compare: none is installed and methods= is empty")
+    for name in names:  # a misspelt name is the user's error, found before anything runs
+        if not isinstance(name, str):
+            raise InputError(f"methods= holds identifier names, got {type(name).__name__} {brief(name)}")
+        if name not in registry.identifiers and name not in registry.failures:
+            registry.get(name)  # raises InputError: unknown method, with a suggestion
+    stray = [k for k in (options or {}) if k not in names]
+    if stray:
+        raise InputError(f"options= are given for {brief(stray[0])}, which is not among the methods compared ({names})")
     ref = Reference.of(record, reference)
     rule = None if rule is None else rule_from_spec(rule)
     rows: list[dict[str, Any]] = []

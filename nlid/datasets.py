@@ -46,7 +46,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .errors import DataError, InputError
+from .errors import DataError, InputError, brief
 from .io import read_table
 from .record import Record
 from .validate import did_you_mean
@@ -393,7 +393,7 @@ def load(name: str, *, part: str = "all") -> Record:
                 "use part 'estimation'"
             )
         raise InputError(
-            f"unknown silverbox part {part!r}{did_you_mean(part, [*SILVERBOX_PARTS, 'all', 'arrow', 'multisine'])}; "
+            f"unknown silverbox part {brief(part)}{did_you_mean(part, [*SILVERBOX_PARTS, 'all', 'arrow', 'multisine'])}; "
             f"use {', '.join(SILVERBOX_PARTS)} (the benchmark's split), or all, arrow, multisine (deprecated)"
         )
-    raise InputError(f"unknown dataset {name!r}{did_you_mean(name, DATASETS)}; available: {', '.join(DATASETS)}")
+    raise InputError(f"unknown dataset {brief(name)}{did_you_mean(name, DATASETS)}; available: {', '.join(DATASETS)}")

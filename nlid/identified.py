@@ -24,6 +24,8 @@ Example::
 from __future__ import annotations
 
 import dataclasses
+import math
+import numbers
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
@@ -32,7 +34,7 @@ import numpy as np
 
 from . import modelplots, numerics, physics, scoring
 from ._frozen import FrozenDict, freeze
-from .errors import IdentificationError, InputError, NlidError
+from .errors import IdentificationError, InputError, NlidError, brief
 from .interface import Estimate, to_jsonable
 from .physics import Equilibria, Modal
 from .record import Record
@@ -49,6 +51,16 @@ __all__ = ["IdentifiedModel", "SCHEMA"]
 
 #: Identifies the JSON layout of :meth:`IdentifiedModel.to_dict`.
 SCHEMA = "nlid.IdentifiedModel/1"
+
+
+def _finite_number(value: Any) -> bool:
+    """True for a real number (not a bool, a string or an array) that is finite."""
+    if isinstance(value, (bool, np.bool_)) or not isinstance(value, numbers.Real):
+        return False
+    try:
+        return math.isfinite(float(value))
+    except OverflowError:
+        return False
 
 
 @dataclass(frozen=True, eq=False)
@@ -241,6 +253,9 @@ class IdentifiedModel:
         except NlidError as exc:
             eq = None
             warnings.append(f"equilibria not computed: {exc}")
+        except np.linalg.LinAlgError as exc:  # e.g. a subnormal leading coefficient of K(z)
+            eq = None
+            warnings.append(f"equilibria not computed: the roots of K(z) could not be computed ({exc})")
         if estimate.modal is not None:
             modal: tuple[Modal, ...] = tuple(Modal.from_dict(m) for m in estimate.modal)
         elif eq is not None and used is not None:
@@ -340,7 +355,14 @@ class IdentifiedModel:
 
     # ------------------------------------------------------------------ the physics of the model
     def restoring_force(self, z: np.ndarray, v: np.ndarray) -> np.ndarray:
-        """``R(z, v) = K(z) + D(z, v)`` (N), Eq. 25."""
+        """``R(z, v) = K(z) + D(z, v)`` (N), Eq. 25.
+
+        Evaluated element-wise like a numpy function: a NaN (or an infinity) in ``z`` or ``v`` gives
+        NaN (or what the terms make of the infinity) at that element, without an error or a warning,
+        so that arrays with gaps can be evaluated. The same holds for :meth:`elastic`,
+        :meth:`damping` and :meth:`potential`; test the inputs with :func:`numpy.isfinite` where a gap
+        must not pass.
+        """
         return physics.restoring(self.model, self.theta, z, v)
 
     def elastic(self, z: np.ndarray) -> np.ndarray:
@@ -494,7 +516,8 @@ class IdentifiedModel:
         Raises
         ------
         InputError
-            If the dictionary lacks the terms or coefficients, or they do not match.
+            If the dictionary lacks the terms or coefficients, they do not match, or a coefficient
+            is not a finite number (NaN, infinity, a string...).
         """
         if not isinstance(data, Mapping):
             raise InputError(f"expected a dictionary from IdentifiedModel.to_dict(), got {type(data).__name__}")
@@ -507,6 +530,11 @@ class IdentifiedModel:
         except (KeyError, TypeError):
             raise InputError("an identified model needs 'terms' and 'coefficients'") from None
         model = Model.from_spec(terms, defaults=False, px_roots=data.get("px_roots"))
+        for name, value in coefficients.items():  # a model with a NaN, a string or a list for a coefficient is no model
+            if not _finite_number(value):
+                raise InputError(
+                    f"the coefficient of {brief(str(name), 60)} is {brief(value, 60)}, not a finite number"
+                )
         raw_scores = data.get("scores")
         scores = None
         if raw_scores:

@@ -31,13 +31,24 @@ from the plugin) and the wall time.
 from __future__ import annotations
 
 import math
+import numbers
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any, ClassVar
 
 import numpy as np
 
-from .errors import OptionError
+from .errors import (
+    IdentificationError,
+    InputError,
+    NlidError,
+    OptionError,
+    PluginError,
+    brief,
+    describe_exception,
+    listing,
+    one_line,
+)
 from .record import Record
 from .terms import Model
 from .validate import did_you_mean
@@ -52,6 +63,7 @@ __all__ = [
     "resolve_options",
     "to_jsonable",
     "refined_terms",
+    "check_estimate",
 ]
 
 _TYPES = ("int", "float", "bool", "str", "floats")
@@ -111,9 +123,9 @@ class Option:
         try:
             out = self._convert(value)
         except (TypeError, ValueError):
-            raise OptionError(f"{prefix} expects {self._expects()}, got {value!r}") from None
+            raise OptionError(f"{prefix} expects {self._expects()}, got {brief(value)}") from None
         if self.choices is not None and out not in self.choices:
-            raise OptionError(f"{prefix} must be one of {', '.join(map(str, self.choices))}; got {out!r}")
+            raise OptionError(f"{prefix} must be one of {', '.join(map(str, self.choices))}; got {brief(out)}")
         values = out if isinstance(out, tuple) else (out,)
         if self.type in ("int", "float", "floats"):
             for x in values:
@@ -184,7 +196,7 @@ def resolve_options(declared: tuple[Option, ...], given: Mapping[str, Any], wher
     for key in given:
         if key not in by_name:
             known = ", ".join(by_name) or "none"
-            raise OptionError(f"{where}unknown option {key!r}{did_you_mean(key, by_name)}; known options: {known}")
+            raise OptionError(f"{where}unknown option {brief(key)}{did_you_mean(key, by_name)}; known options: {known}")
     return {o.name: (o.parse(given[o.name], where) if o.name in given else o.default) for o in declared}
 
 
@@ -353,9 +365,10 @@ class Estimate:
     Attributes
     ----------
     coefficients
-        ``{canonical term: coefficient}`` for every term of the model, in
-        model order; each is the coefficient of its term in
-        ``R(z, v) = f - m z''`` (SI units).
+        ``{canonical term: coefficient}`` for every term of the model (in
+        any order: the core puts them in model order); each a real number,
+        the coefficient of its term in ``R(z, v) = f - m z''`` (SI units).
+        The core checks every field before using it (:func:`check_estimate`).
     mass
         The mass in kg when the method estimated it; ``None`` when the mass
         was given (``identify(..., mass=m)``).
@@ -371,7 +384,8 @@ class Estimate:
         ``source`` and further figures); ``None`` lets the core compute them
         from the identified ``K`` and ``D`` (Eq. 8, 22).
     diagnostics
-        Method-specific, JSON-serialisable details.
+        Method-specific, JSON-serialisable details (an entry that does not
+        serialise is dropped, with a warning saying so).
     warnings
         Things the user should know (collinear terms, extrapolation...).
     arrays
@@ -435,3 +449,255 @@ def refined_terms(given: Model, refined: Model) -> dict[str, str]:
         left.remove(match)
         pairs[term.name] = match.name
     return pairs
+
+
+# --------------------------------------------------------------------------- the check of what a plugin returns
+#: Longest warning the core keeps from a plugin (characters): a runaway message is cut (:func:`nlid.errors.one_line`).
+MAX_WARNING = 2000
+
+
+def _kind(value: Any) -> str:
+    """What a value is, in a few words, for a message: ``"a string 'abc'"``, ``"an array of shape (3,)"``."""
+    if isinstance(value, (bool, np.bool_)):
+        return f"a bool ({value})"
+    if isinstance(value, (str, bytes)):
+        return f"a {'string' if isinstance(value, str) else 'bytes value'} {brief(value, 40)}"
+    if isinstance(value, np.ndarray):
+        return f"an array of shape {value.shape}"
+    if isinstance(value, complex | np.complexfloating):
+        return f"a complex number {brief(value, 40)}"
+    if isinstance(value, (list, tuple, dict, set)):
+        return f"a {type(value).__name__} {brief(value, 40)}"
+    if value is None:
+        return "None"
+    if isinstance(value, numbers.Number):
+        return f"a number ({brief(value, 40)})"
+    return f"an object of type {type(value).__name__}"
+
+
+def _real(value: Any) -> float | None:
+    """``value`` as a float if it is a real number (not a bool, an array, a string...), else ``None``.
+
+    A number too large for a float (``10**400``) comes back as ``inf``.
+    """
+    if isinstance(value, (bool, np.bool_)) or not isinstance(value, numbers.Real):
+        return None
+    try:
+        return float(value)
+    except OverflowError:
+        return math.inf if value > 0 else -math.inf
+    except Exception:  # noqa: BLE001 - a hostile number type whose __float__ raises is not a number
+        return None
+
+
+def _jsonable(value: Any) -> str | None:
+    """``None`` when ``value`` serialises to JSON (after :func:`to_jsonable`), else why not."""
+    import json
+
+    try:
+        json.dumps(to_jsonable(value), allow_nan=False)
+    except RecursionError:
+        return "nested too deeply (or refers to itself)"
+    except Exception as exc:  # noqa: BLE001 - TypeError, ValueError, or a hostile __str__/__iter__
+        return f"{type(exc).__name__}: {brief(str(exc), 60)}" if str(exc) else type(exc).__name__
+    return None
+
+
+def check_estimate(estimate: Any, model: Model, name: str, mass: float | None = None) -> Estimate:
+    """Check what an identifier returned, before anything uses it; the estimate as the core uses it.
+
+    The one check of the contract, used by :func:`nlid.identify` (and studies, discovery and
+    posteriors through it) and by the compliance checks of :mod:`nlid.testing`:
+
+    * an :class:`Estimate`, whose :attr:`~Estimate.model`, when set, is ``model`` with refined shape
+      parameters (:func:`refined_terms`);
+    * one coefficient per term of the model, each a real number (not a bool, an array, a string...),
+      finite. Their order is free: the result is in model order;
+    * the mass: ``None`` or the given mass when ``mass`` is given, otherwise ``None`` (not estimated)
+      or a finite positive number (kg);
+    * standard errors: ``None`` or, per term of the model, ``None`` or a number; the same for the mass's
+      standard error (one that is not finite, or negative, is refused with every other figure that
+      is not, by :meth:`nlid.identified.IdentifiedModel.problems`);
+    * ``modal``: ``None`` or modal parameters (:class:`~nlid.physics.Modal` or mappings);
+    * ``warnings``: a list or tuple of strings (each cut to :data:`MAX_WARNING` characters, one line);
+    * ``diagnostics`` and ``arrays``: an entry that does not serialise to JSON, or an array that does not
+      hold numbers, is dropped, and a warning in the result says which and why.
+
+    Parameters
+    ----------
+    estimate
+        What ``identify()`` returned.
+    model
+        The model the identifier was given.
+    name
+        The identifier's name (messages say ``identifier 'rfs' ...``).
+    mass
+        The mass given to the identifier (kg), ``None`` when it was asked to estimate it.
+
+    Returns
+    -------
+    Estimate
+        The same content, normalised: coefficients, standard errors and masses as floats (in model
+        order), diagnostics and arrays without the dropped entries, warnings with the notes of what was
+        dropped.
+
+    Raises
+    ------
+    PluginError
+        A broken contract: not an Estimate, other terms, a coefficient or mass that is not a number,
+        malformed standard errors, modal parameters or warnings. One line naming the identifier and the
+        term.
+    IdentificationError
+        The numbers are of the right kind but cannot be trusted: a coefficient or mass that is not
+        finite, a mass that is not positive.
+    """
+    try:
+        return _check_estimate(estimate, model, name, mass)
+    except NlidError:
+        raise
+    except Exception as exc:  # noqa: BLE001 - a mapping or number type that breaks when read is a broken plugin too
+        raise PluginError(
+            f"identifier {brief(name, 60)} returned an estimate that cannot be read: {describe_exception(exc)}"
+        ) from None
+
+
+def _check_estimate(estimate: Any, model: Model, name: str, mass: float | None) -> Estimate:
+    who = f"identifier {brief(name, 60)}"
+    if not isinstance(estimate, Estimate):
+        raise PluginError(
+            f"{who} returned {type(estimate).__name__}, not nlid.Estimate (identify() must return nlid.plugin.Estimate)"
+        )
+    if estimate.model is not None:
+        if not isinstance(estimate.model, Model):
+            raise PluginError(f"{who} returned a refined model (Estimate.model) that is not an nlid Model")
+        try:
+            refined_terms(model, estimate.model)
+        except ValueError as exc:
+            raise PluginError(f"{who}: {exc}") from None
+        model = estimate.model
+    names = list(model.names)
+    given = estimate.coefficients
+    if not isinstance(given, Mapping):
+        raise PluginError(f"{who} returned coefficients as {_kind(given)}, not a mapping {{term: value}}")
+    by_name = {str(k): v for k, v in given.items()}
+    if sorted(by_name) != sorted(names) or len(given) != len(names):
+        raise PluginError(
+            f"{who} returned coefficients for {listing(sorted(by_name), quote=True)} but the model is {names}"
+        )
+    coefficients: dict[str, float] = {}
+    for term in names:
+        value = _real(by_name[term])
+        if value is None:
+            raise PluginError(f"{who} returned {_kind(by_name[term])} as the coefficient of {term}, not a real number")
+        coefficients[term] = value
+    bad = [n for n, x in coefficients.items() if not math.isfinite(x)]
+    if bad:
+        shown = ", ".join(f"{n} ({coefficients[n]})" for n in bad)
+        raise IdentificationError(f"{who} produced non-finite coefficients for {shown}")
+
+    est_mass = estimate.mass
+    if est_mass is not None:
+        value = _real(est_mass)
+        if value is None:
+            raise PluginError(f"{who} returned {_kind(est_mass)} as the mass, not a number of kg")
+        if mass is not None and not math.isclose(value, mass, rel_tol=1e-12):
+            raise PluginError(
+                f"{who} returned a mass of {value:g} kg although the mass was given ({mass:g} kg): "
+                "Estimate.mass is for an estimated mass only"
+            )
+        if not (math.isfinite(value) and value > 0):
+            raise IdentificationError(f"{who} estimated a mass that is not positive ({value} kg)")
+        est_mass = None if mass is not None else value
+
+    def standard_error(value: Any, what: str) -> float | None:
+        if value is None:
+            return None
+        se = _real(value)
+        if se is None:
+            raise PluginError(f"{who} returned {_kind(value)} as the standard error of {what}, not a number")
+        return se  # a NaN or negative one is refused with every other figure (IdentifiedModel.problems)
+
+    errors: dict[str, float] | None = None
+    if estimate.standard_errors is not None:
+        if not isinstance(estimate.standard_errors, Mapping):
+            raise PluginError(f"{who} returned standard errors as {_kind(estimate.standard_errors)}, not a mapping")
+        unknown = [k for k in estimate.standard_errors if k not in names]
+        if unknown:
+            raise PluginError(
+                f"{who} returned standard errors for terms not in the model: {listing(unknown, quote=True)}"
+            )
+        raw = {n: estimate.standard_errors[n] for n in names if n in estimate.standard_errors}
+        errors = {n: se for n, v in raw.items() if (se := standard_error(v, n)) is not None}
+    mass_se = standard_error(estimate.mass_standard_error, "the mass") if est_mass is not None else None
+
+    modal = estimate.modal
+    if modal is not None:
+        from .physics import Modal
+
+        if isinstance(modal, (str, bytes, Mapping)) or not isinstance(modal, Sequence):
+            raise PluginError(f"{who} returned modal parameters as {_kind(modal)}, not a list")
+        checked = []
+        for entry in modal:
+            try:
+                if not isinstance(entry, (Modal, Mapping)):
+                    raise InputError(f"expected a mapping, got {_kind(entry)}")
+                item = Modal.from_dict(entry)
+                why = _jsonable(item.to_dict())
+                if why:
+                    raise InputError(f"they do not serialise to JSON ({why})")
+            except InputError as exc:
+                raise PluginError(f"{who} returned malformed modal parameters: {brief(str(exc), 200)[1:-1]}") from None
+            checked.append(item)
+        modal = tuple(checked)
+
+    warnings = estimate.warnings
+    if isinstance(warnings, (str, bytes)) or not isinstance(warnings, (list, tuple)):
+        raise PluginError(f"{who} returned warnings as {_kind(warnings)}, not a list of strings")
+    odd = next((w for w in warnings if not isinstance(w, str)), None)
+    if odd is not None:
+        raise PluginError(f"{who} returned {_kind(odd)} among its warnings, not a string")
+    notes = [one_line(w, MAX_WARNING) for w in warnings]
+
+    diagnostics: dict[str, Any] = {}
+    if isinstance(estimate.diagnostics, Mapping):
+        dropped = []
+        for key, value in estimate.diagnostics.items():
+            why = _jsonable({key: value})
+            if why is None:
+                diagnostics[str(key)] = value
+            else:
+                dropped.append(f"{brief(str(key), 40)} ({why})")
+        if dropped:
+            notes.append(f"diagnostics dropped (they do not serialise to JSON): {listing(dropped, width=120)}")
+    elif estimate.diagnostics is not None:
+        notes.append(f"diagnostics dropped: {_kind(estimate.diagnostics)}, not a mapping")
+
+    arrays: dict[str, np.ndarray] = {}
+    if isinstance(estimate.arrays, Mapping):
+        dropped = []
+        for key, value in estimate.arrays.items():
+            try:
+                array = np.asarray(value)
+                ok = isinstance(key, str) and array.dtype.kind in "biufc"
+            except Exception:  # noqa: BLE001 - an object numpy cannot read is dropped like the others
+                ok = False
+            if ok:
+                arrays[key] = array
+            else:
+                dropped.append(brief(key, 40))
+        if dropped:
+            notes.append(f"arrays dropped (not arrays of numbers under a string key): {listing(dropped)}")
+    elif estimate.arrays is not None:
+        notes.append(f"arrays dropped: {_kind(estimate.arrays)}, not a mapping")
+
+    return Estimate(
+        coefficients=coefficients,
+        mass=est_mass,
+        standard_errors=errors,
+        mass_standard_error=mass_se,
+        modal=modal,
+        diagnostics=diagnostics,
+        warnings=tuple(notes),
+        arrays=arrays,
+        model=estimate.model,
+    )

@@ -30,9 +30,8 @@ import numpy as np
 from . import numerics, physics
 from .errors import PASS_THROUGH, IdentificationError, InputError, NlidError, PluginError, describe_exception
 from .identified import IdentifiedModel
-from .interface import Estimate, refined_terms
+from .interface import Estimate, check_estimate, refined_terms
 from .methods import choose_method
-from .physics import Modal
 from .provenance import identify_provenance
 from .record import Record
 from .registry import Registry, registry_for
@@ -78,7 +77,10 @@ def _name(identifier: Any) -> str:
 
 
 def _run(identifier: Any, record: Record, model: Model, mass: float | None) -> tuple[Estimate, float]:
-    """Call the plugin, time it, and check what it returned (never modified afterwards).
+    """Call the plugin, time it, and check what it returned (:func:`~nlid.interface.check_estimate`).
+
+    The estimate returned is the checked one (numbers as floats, unusable diagnostics dropped with a
+    warning); nothing modifies it afterwards.
 
     When the estimate carries a model with refined shape parameters (:attr:`Estimate.model`), it is
     checked against ``model`` and the coefficients against its names; use :func:`_estimated_model`.
@@ -92,51 +94,7 @@ def _run(identifier: Any, record: Record, model: Model, mass: float | None) -> t
     except BaseException as exc:  # noqa: BLE001 - a plugin bug (sys.exit too) is reported by name
         raise PluginError(f"identifier {name!r} {describe_exception(exc)}") from exc
     elapsed = time.perf_counter() - start
-    check_estimate(estimate, model, name, mass)
-    return estimate, elapsed
-
-
-def check_estimate(estimate: Any, model: Model, name: str, mass: float | None) -> None:
-    """Check an identifier's return value against the contract.
-
-    Raises
-    ------
-    PluginError
-        Not an :class:`~nlid.interface.Estimate`, or its coefficients are not
-        exactly the model's terms.
-    IdentificationError
-        Non-finite coefficients, or a non-positive estimated mass.
-    """
-    if not isinstance(estimate, Estimate):
-        raise PluginError(f"identifier {name!r} returned {type(estimate).__name__}, not nlid.Estimate")
-    if estimate.model is not None:
-        if not isinstance(estimate.model, Model):
-            raise PluginError(f"identifier {name!r} returned a refined model that is not an nlid Model")
-        try:
-            refined_terms(model, estimate.model)
-        except ValueError as exc:
-            raise PluginError(f"identifier {name!r}: {exc}") from None
-        model = estimate.model
-    keys = list(estimate.coefficients)
-    missing = [n for n in model.names if n not in estimate.coefficients]
-    extra = [n for n in keys if n not in model.names]
-    if missing or extra:
-        raise PluginError(
-            f"identifier {name!r} returned coefficients for {sorted(keys)} but the model is {list(model.names)}"
-        )
-    bad = [n for n in model.names if not np.isfinite(float(estimate.coefficients[n]))]
-    if bad:
-        raise IdentificationError(f"identifier {name!r} produced non-finite coefficients for {', '.join(bad)}")
-    if mass is None and estimate.mass is not None and not (np.isfinite(estimate.mass) and estimate.mass > 0):
-        raise IdentificationError(f"identifier {name!r} estimated a mass that is not positive ({estimate.mass})")
-    unknown = [k for k in (estimate.standard_errors or {}) if k not in model.names]
-    if unknown:
-        raise PluginError(f"identifier {name!r} returned standard errors for terms not in the model: {unknown}")
-    for entry in estimate.modal or ():
-        try:
-            Modal.from_dict(entry)
-        except InputError as exc:
-            raise PluginError(f"identifier {name!r} returned malformed modal parameters: {exc}") from None
+    return check_estimate(estimate, model, name, mass), elapsed
 
 
 def _px_fixed_point(

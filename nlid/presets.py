@@ -177,7 +177,9 @@ class Preset:
         if unknown:
             bad = sorted(unknown)[0]
             known = sorted(allowed)
-            raise InputError(f"unknown preset parameter {bad!r}{did_you_mean(bad, known)}; known: {', '.join(known)}")
+            raise InputError(
+                f"unknown preset parameter {brief(bad)}{did_you_mean(bad, known)}; known: {', '.join(known)}"
+            )
         coeffs = dict(self.coefficients)
         new = dict(overrides)
         if "coefficients" in new:
@@ -189,7 +191,7 @@ class Preset:
                     name = model.terms[model.index(key)].name
                 except TermError:
                     raise InputError(
-                        f"{key!r} is neither a preset parameter{did_you_mean(key, sorted(allowed))}"
+                        f"{brief(key)} is neither a preset parameter{did_you_mean(key, sorted(allowed))}"
                         f" ({', '.join(sorted(allowed - {'coefficients'}))}) nor a term of the model ({model})"
                     ) from None
                 if isinstance(value, bool) or not isinstance(value, numbers.Real):
@@ -243,7 +245,7 @@ class Preset:
         channels = tuple(dict.fromkeys(("z", *channels)))
         for c in channels:
             if c not in RESPONSE_CHANNELS:
-                raise InputError(f"unknown channel {c!r}; response channels are z, v, a")
+                raise InputError(f"unknown channel {brief(c)}; response channels are z, v, a")
         levels = check_noise(noise, channels)
         model = self.model()
         streams = np.random.SeedSequence(seed).spawn(4)
@@ -330,4 +332,4 @@ def get_preset(name: str) -> Preset:
         return PRESETS[name]
     except KeyError:
         hint = did_you_mean(name, PRESETS)
-        raise InputError(f"unknown preset {name!r}{hint}; available: {', '.join(PRESETS)}") from None
+        raise InputError(f"unknown preset {brief(name)}{hint}; available: {', '.join(PRESETS)}") from None

@@ -124,6 +124,32 @@ def _merge_units(given: dict[str, Unit], mapped: Mapping[str, str]) -> dict[str,
     return out
 
 
+def _real_array(name: str, raw: Any) -> np.ndarray:
+    """A channel as a new float array; complex, boolean, text and other non-numbers are refused, not cast."""
+    arr = np.asarray(raw)
+    kind = arr.dtype.kind
+    if kind == "c":
+        raise DataError(f"channel {name!r} holds complex numbers; nlid needs real ones (take .real or abs)")
+    if kind == "b":
+        raise DataError(
+            f"channel {name!r} holds booleans (True/False), not numbers: a measured signal cannot be boolean"
+        )
+    try:
+        return np.array(arr, dtype=float) if kind in "iuf" else _objects_as_floats(arr)
+    except (TypeError, ValueError):
+        what = "text" if kind in "US" else f"values of type {arr.dtype}"
+        raise DataError(f"channel {name!r} holds {what}, not numbers") from None
+
+
+def _objects_as_floats(arr: np.ndarray) -> np.ndarray:
+    """Numbers held as objects (``Decimal``, ``Fraction``...) as floats; anything else raises TypeError/ValueError."""
+    if arr.dtype.kind != "O" or any(
+        isinstance(x, (bool, np.bool_, complex, np.complexfloating, str, bytes)) for x in arr.flat
+    ):
+        raise TypeError(arr.dtype)
+    return np.array(arr, dtype=float)
+
+
 @dataclass(frozen=True, eq=False)
 class Record:
     """A uniformly sampled force/motion record.
@@ -201,7 +227,7 @@ class Record:
                 if name in ("f", "z"):
                     raise DataError(f"channel {name!r} is required")
                 continue
-            arr = np.array(raw, dtype=float)  # a private copy
+            arr = _real_array(name, raw)  # a private copy
             if arr.ndim != 1:
                 arr = arr.squeeze()
                 if arr.ndim != 1:
@@ -259,7 +285,7 @@ class Record:
         """
         units = parse_units(kwargs.pop("units", None))
         time_unit = units.pop("t", None)
-        t = np.asarray(t, dtype=float).squeeze()
+        t = _real_array("t", t).squeeze()
         if time_unit is not None and not time_unit.is_si:
             t = t * time_unit.factor
             meta = dict(kwargs.pop("meta", None) or {})

@@ -242,6 +242,11 @@ class PosteriorSampler:
         model = fit.model
         if fit.mass is None:
             raise InputError("the posterior needs the mass: give mass= (in kg) or use a method that estimates it")
+        # each known noise level against its channel, whether or not the bias correction uses it
+        scales = {
+            c: float(np.std(getattr(record, c))) for c in (self.noise or {}) if getattr(record, c, None) is not None
+        }
+        check_noise_sd(self.noise, scales=scales)
         idx = select_params(model, self.params)
         names = tuple(model.names[i] for i in idx)
         theta0 = fit.theta.copy()

@@ -193,6 +193,11 @@ def run_until_converged(
                 thin=thin,
             )
         previous = worst
+    if not np.any(np.isfinite(tau)):  # a few steps: no autocorrelation time can be estimated yet
+        raise ConvergenceError(
+            f"the chains did not converge in {max_steps} steps: too few steps to estimate the autocorrelation "
+            f"time; raise max_steps= (e.g. max_steps={max(1000, 10 * max_steps)})"
+        )
     worst = float(np.nanmax(tau))
     slowest = names[int(np.nanargmax(tau))]
     need = int(np.ceil(tau_multiple * worst * 1.2 / 1000.0) * 1000)

@@ -25,8 +25,8 @@ from typing import Any
 
 import numpy as np
 
-from ..errors import DataError, NlidError
 from .. import scoring
+from ..errors import DataError, NlidError
 from ..interface import to_jsonable
 from ..record import Record
 from .data import load_estimation, load_test, noise_floor

@@ -3,9 +3,10 @@
 from __future__ import annotations
 
 import argparse
+import math
 import sys
 
-from ..errors import DataError, InputError
+from ..errors import DataError, InputError, brief
 from ..validate import NOISE_SD
 from .common import add_data_arguments, add_model_arguments, load_data, parse_px_roots, parse_settings, print_json
 
@@ -113,9 +114,12 @@ def _floats(text: str | None, what: str) -> list[float] | None:
     if not text:
         return None
     try:
-        return [float(x) for x in text.split(",") if x.strip()]
+        values = [float(x) for x in text.split(",") if x.strip()]
     except ValueError:
-        raise InputError(f"{what} expects comma-separated numbers, got {text!r}") from None
+        raise InputError(f"{what} expects comma-separated numbers, got {brief(text)}") from None
+    if not all(math.isfinite(x) for x in values):
+        raise InputError(f"{what} expects finite numbers, got {brief(text)}")
+    return values
 
 
 def parse_noise_levels(items: list[str] | None, noise_z: float | None = None) -> dict[str, float] | None:
@@ -128,12 +132,12 @@ def parse_noise_levels(items: list[str] | None, noise_z: float | None = None) ->
         channel = channel.strip()
         if not sep or channel not in ("z", "v"):
             raise InputError(
-                f"--noise-level expects CHANNEL=SD with CHANNEL z or v (noise on a needs no level), got {item!r}"
+                f"--noise-level expects CHANNEL=SD with CHANNEL z or v (noise on a needs no level), got {brief(item)}"
             )
         try:
             level = float(value)
         except ValueError:
-            raise InputError(f"--noise-level {channel}= expects a number, got {value.strip()!r}") from None
+            raise InputError(f"--noise-level {channel}= expects a number, got {brief(value.strip())}") from None
         NOISE_SD[channel].check(level, f"--noise-level {channel}=")
         if channel in levels:
             raise InputError(f"--noise-level gives the level of {channel} twice")
@@ -152,6 +156,8 @@ def run(args: argparse.Namespace) -> int:
         NOISE_SD["z"].check(args.noise_z, "--noise-z")
     noise = parse_noise_levels(args.noise_level, args.noise_z)
     slices = _floats(args.slices, "--slices")
+    if slices is not None and not args.out:
+        raise InputError("--slices sets the damping-force slices of the figures written with --out; give --out DIR")
     # read priors and parameter names before the (slower) identification, so typos fail at once
     parse_prior_assignments(args.prior)
     if args.params.strip().lower() not in ("damping", "friction", "all"):

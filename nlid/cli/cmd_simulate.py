@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 import sys
 
-from ..errors import InputError
+from ..errors import InputError, brief
 from ..outputs import check_new_file
 from ..presets import PRESETS, get_preset
 from ..validate import DURATION, NOISE_FRACTION
@@ -70,7 +70,7 @@ def run(args: argparse.Namespace) -> int:
     extra = tuple(c.strip() for c in args.channels.split(",") if c.strip())
     for c in extra:
         if c not in ("v", "a"):
-            raise InputError(f"--channels: unknown channel {c!r}; choose from v, a")
+            raise InputError(f"--channels: unknown channel {brief(c)}; choose from v, a")
     NOISE_FRACTION.check(args.noise, "--noise")
     out = args.out
     if not out.lower().endswith((".csv", ".npz")):

@@ -9,7 +9,7 @@ import sys
 from collections.abc import Sequence
 from typing import TYPE_CHECKING, Any
 
-from ..errors import InputError
+from ..errors import InputError, brief, one_line
 
 if TYPE_CHECKING:
     from ..record import Record
@@ -70,7 +70,7 @@ class Parser(argparse.ArgumentParser):
     """ArgumentParser whose usage errors are one line and exit with status 2."""
 
     def error(self, message: str) -> None:  # type: ignore[override]
-        self.exit(2, f"{self.prog}: error: {message} (see {self.prog} --help)\n")
+        self.exit(2, f"{self.prog}: error: {one_line(message)} (see {self.prog} --help)\n")
 
 
 def to_cli(message: str) -> str:
@@ -87,7 +87,7 @@ def to_cli(message: str) -> str:
 def describe_os_error(exc: OSError) -> str:
     """One line for an operating-system error: what failed and on which path."""
     what = exc.strerror or str(exc) or type(exc).__name__
-    paths = [str(p) for p in (exc.filename, exc.filename2) if p is not None]
+    paths = [one_line(str(p), 200) for p in (exc.filename, exc.filename2) if p is not None]
     return f"{what}: {' -> '.join(paths)}" if paths else what
 
 
@@ -96,11 +96,11 @@ def parse_settings(items: Sequence[str] | None) -> dict[str, str]:
     out: dict[str, str] = {}
     for item in items or ():
         if "=" not in item:
-            raise InputError(f"--set expects key=value, got {item!r}")
+            raise InputError(f"--set expects key=value, got {brief(item)}")
         key, value = item.split("=", 1)
         key = key.strip()
         if not key:
-            raise InputError(f"--set expects key=value, got {item!r}")
+            raise InputError(f"--set expects key=value, got {brief(item)}")
         out[key] = value.strip()
     return out
 
@@ -128,7 +128,7 @@ def parse_px_roots(text: str | None) -> tuple[float, float] | None:
     try:
         a, b = (float(x) for x in text.split(","))
     except ValueError:
-        raise InputError(f"--px-roots expects two numbers 'zminus,zplus', got {text!r}") from None
+        raise InputError(f"--px-roots expects two numbers 'zminus,zplus', got {brief(text)}") from None
     return a, b
 
 

@@ -61,7 +61,7 @@ import re
 from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
 
-from ..errors import PASS_THROUGH, InputError, NlidError, describe_exception
+from ..errors import PASS_THROUGH, InputError, NlidError, brief, describe_exception
 from ..terms import Model, Term, parse_term, split_terms
 from ..validate import did_you_mean
 
@@ -535,7 +535,7 @@ def resolve_candidates(
         for n in items:
             if n not in by_name:
                 raise InputError(
-                    f"unknown candidate {n!r}{did_you_mean(n, by_name)}; known: {', '.join(by_name)} "
+                    f"unknown candidate {brief(n)}{did_you_mean(n, by_name)}; known: {', '.join(by_name)} "
                     "(add your own with NAME=TERMS)"
                 )
             chosen.append(by_name[n])

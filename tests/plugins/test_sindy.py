@@ -8,7 +8,7 @@ from nlid import IdentificationError, InputError, identify
 from nlid.cli.main import main
 from nlid.datasets import EMPS_REFERENCE, load
 from nlid.terms import Model
-from nlid_sindy import SparseIdentification, TermLibrary, auto_candidates
+from nlid_sindy import TermLibrary, auto_candidates
 from nlid_sindy.threshold import choose_threshold
 
 TERMS = "z^3, z^2, v*|v|"
