@@ -18,7 +18,8 @@ The toolkit has four axes, which identifiers compose rather than re-implement:
 * **data and terms**: :class:`Record`, :class:`Model`, :class:`Term`,
   :func:`parse_term`;
 * **the force balance and derivatives**: :func:`regression_data` (the
-  filtered design matrix of Eq. 25, shared by every method),
+  filtered design matrix of Eq. 25, shared by every method) and its default
+  band :func:`suggested_cutoff` (computed once per record),
   :mod:`derivatives` (the zero-phase differentiating filter), the least-squares
   helpers of :mod:`nlid.regression`;
 * **physics and simulation**: equilibria and modal parameters
@@ -41,7 +42,7 @@ from __future__ import annotations
 from typing import TYPE_CHECKING
 
 from . import derivatives
-from .balance import EDGE_PERIODS, REGRESSOR_BAND_FACTOR, RegressionData, regression_data
+from .balance import EDGE_PERIODS, REGRESSOR_BAND_FACTOR, RegressionData, regression_data, suggested_cutoff
 from .errors import DataError, IdentificationError, InputError, NlidError, OptionError, TermError
 from .hookspecs import hookimpl
 from .interface import FIGURE_KINDS, Estimate, FigureArray, Identifier, Option, standard_figure_arrays, to_jsonable
@@ -83,6 +84,7 @@ __all__ = [
     "parse_term",
     "regression_data",
     "RegressionData",
+    "suggested_cutoff",
     "EDGE_PERIODS",
     "REGRESSOR_BAND_FACTOR",
     "derivatives",
