@@ -392,8 +392,9 @@ def load(name: str, *, part: str = "all") -> Record:
                 note="deprecated for estimation: samples [40000:) hold the end of the arrow head (a test set); "
                 "use part 'estimation'"
             )
+        hint = did_you_mean(part, [*SILVERBOX_PARTS, "all", "arrow", "multisine"])
         raise InputError(
-            f"unknown silverbox part {brief(part)}{did_you_mean(part, [*SILVERBOX_PARTS, 'all', 'arrow', 'multisine'])}; "
+            f"unknown silverbox part {brief(part)}{hint}; "
             f"use {', '.join(SILVERBOX_PARTS)} (the benchmark's split), or all, arrow, multisine (deprecated)"
         )
     raise InputError(f"unknown dataset {brief(name)}{did_you_mean(name, DATASETS)}; available: {', '.join(DATASETS)}")

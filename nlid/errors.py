@@ -12,9 +12,10 @@ catch ``ValueError`` or ``RuntimeError`` keep working.
 
 from __future__ import annotations
 
-from collections.abc import Iterable
+from collections.abc import Iterable, Sequence
 
 __all__ = [
+    "rebuild_error",
     "NlidError",
     "InputError",
     "DataError",
@@ -162,3 +163,13 @@ class IdentificationError(NlidError, RuntimeError):
     Examples: the underlying-linear system identified by NSI has real
     eigenvalues, or a regression matrix is rank deficient.
     """
+
+
+def rebuild_error(names: Sequence[str], message: str) -> NlidError:
+    """The error a child process reported, rebuilt in the parent: the first of ``names`` (the error's class
+    and its bases, most derived first) that is an nlid error class, else :class:`NlidError`, with ``message``."""
+    for name in names:
+        cls = globals().get(name)
+        if isinstance(cls, type) and issubclass(cls, NlidError) and cls is not TermError:
+            return cls(message)
+    return NlidError(message)

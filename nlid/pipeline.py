@@ -28,7 +28,15 @@ from typing import Any
 import numpy as np
 
 from . import numerics, physics
-from .errors import PASS_THROUGH, IdentificationError, InputError, NlidError, PluginError, describe_exception
+from .errors import (
+    PASS_THROUGH,
+    IdentificationError,
+    InputError,
+    NlidError,
+    PluginError,
+    describe_exception,
+    rebuild_error,
+)
 from .identified import IdentifiedModel
 from .interface import Estimate, check_estimate, refined_terms
 from .methods import choose_method
@@ -329,16 +337,6 @@ def _identify_in_child(record: Record, terms: Any, method: Any, kwargs: dict[str
         return ("error", ["PluginError"], f"identifier {name!r} {describe_exception(exc)}", traceback.format_exc())
 
 
-def _rebuild_error(names: Sequence[str], message: str) -> NlidError:
-    from . import errors
-
-    for name in names:
-        cls = getattr(errors, name, None)
-        if isinstance(cls, type) and issubclass(cls, NlidError) and cls not in (errors.TermError,):
-            return cls(message)
-    return NlidError(message)
-
-
 def check_timeout(timeout: Any) -> float:
     """A time limit in seconds: a number in (0, :data:`MAX_TIMEOUT`], or ``math.inf`` for none.
 
@@ -386,7 +384,7 @@ def _identify_isolated(
     kind, *rest = outcome.value
     if kind == "ok":
         return rest[0]
-    error = _rebuild_error(rest[0], rest[1])
+    error = rebuild_error(rest[0], rest[1])
     if hasattr(error, "add_note") and rest[2:]:
         error.add_note(f"traceback in the child process:\n{rest[2]}")
     raise error

@@ -50,6 +50,7 @@ import numpy as np
 from . import derivatives
 from ._frozen import FrozenDict
 from .columnmap import channel_arrays, column_units, dataset_table, frame_table
+from .digest import record_sha256
 from .errors import DataError, InputError
 from .units import Unit, parse_units, unit_of
 
@@ -389,8 +390,6 @@ class Record:
                 record = cls(fs=fs, meta=meta, units=given, **kwargs)
         except DataError as exc:
             raise DataError(f"{label}: {exc}") from None
-        from .provenance import record_sha256  # provenance builds on records
-
         return record.with_meta(loaded={**loaded, "record_sha256": record_sha256(record)})
 
     @classmethod

@@ -33,9 +33,9 @@ from typing import Any
 import numpy as np
 
 from . import datasets
+from .digest import record_sha256
 from .errors import InputError
 from .io import read_record
-from .provenance import record_sha256
 from .record import Record
 
 __all__ = ["as_record", "ACCEPTED"]

@@ -24,7 +24,7 @@ from .jobs import BenchJob, BenchRun
 from .leaderboard import COLUMNS, leaderboard_rows, write_leaderboard
 from .pipelines import PipelineSpec, fit_pipelines, parse_pipelines
 from .protocol import Protocol, Published, TestSet, builtin_benchmarks, load_protocol, parse_protocol
-from .run import BENCH_OUTPUTS, DEFAULT_BENCHMARKS, DEFAULT_PIPELINES, BenchOutcome, bench
+from .run import BENCH_OUTPUTS, DEFAULT_BENCHMARKS, DEFAULT_PIPELINES, BenchOutcome, bench, default_pipelines
 
 __all__ = [
     "bench",
@@ -32,6 +32,7 @@ __all__ = [
     "BENCH_OUTPUTS",
     "DEFAULT_BENCHMARKS",
     "DEFAULT_PIPELINES",
+    "default_pipelines",
     "Protocol",
     "TestSet",
     "Published",

@@ -19,14 +19,33 @@ from .leaderboard import leaderboard_rows, write_leaderboard
 from .pipelines import PipelineSpec, parse_pipelines
 from .protocol import Protocol, load_protocol
 
-__all__ = ["bench", "BenchOutcome", "BENCH_OUTPUTS", "DEFAULT_BENCHMARKS", "DEFAULT_PIPELINES", "plan_bench"]
+__all__ = [
+    "bench",
+    "BenchOutcome",
+    "BENCH_OUTPUTS",
+    "DEFAULT_BENCHMARKS",
+    "DEFAULT_PIPELINES",
+    "default_pipelines",
+    "plan_bench",
+]
 
 #: Entries ``nlid bench`` writes at the top of its output folder (:func:`nlid.outputs.output_folder`).
 BENCH_OUTPUTS = ("runs", "arrays", "bench.json", "leaderboard.csv", "leaderboard.md", "leaderboard.html")
 #: The benchmarks run when none is named (those whose data ``nlid data`` lists, with their local test sets).
 DEFAULT_BENCHMARKS = ("emps-internal", "silverbox", "bouc-wen")
-#: The pipelines run when none is named.
-DEFAULT_PIPELINES = ("rfs", "discover", "discover-refine", "pysindy")
+#: The pipelines run when none is named, after the default identifier (:func:`default_pipelines`).
+DEFAULT_PIPELINES = ("discover", "discover-refine", "pysindy")
+
+
+def default_pipelines() -> tuple[str, ...]:
+    """The pipelines run when none is named: the default identifier (:func:`nlid.methods.choose_method`;
+    ``rfs`` with the built-in plugins) and :data:`DEFAULT_PIPELINES`."""
+    from ..methods import choose_method
+
+    name, _ = choose_method(None)
+    return (name, *DEFAULT_PIPELINES)
+
+
 #: Expected relative cost of a job (longest first: the executors start jobs in order).
 _COST = {"discover": 3, "peer": 1, "identify": 1}
 
@@ -114,7 +133,7 @@ def plan_bench(
 
 def bench(
     benchmarks: str | Iterable[str] = DEFAULT_BENCHMARKS,
-    pipelines: str | Iterable[str] = DEFAULT_PIPELINES,
+    pipelines: str | Iterable[str] | None = None,
     *,
     out: str | Path = "bench",
     jobs: int | None = None,
@@ -143,7 +162,8 @@ def bench(
         Built-in names (``emps``, ``emps-internal``, ``silverbox``, ``bouc-wen``) or paths of
         benchmark files (:mod:`nlid.benchmarking.protocol`).
     pipelines
-        Installed identifiers by name, ``"discover"``, ``"discover-refine"``, ``"pysindy"``.
+        Installed identifiers by name, ``"discover"``, ``"discover-refine"``, ``"pysindy"``
+        (default :func:`default_pipelines`).
     out
         Output folder (:data:`BENCH_OUTPUTS`; created; nlid writes only into folders it owns).
     jobs
@@ -192,7 +212,7 @@ def bench(
         protocols[p.name] = p
     if not protocols:
         raise InputError("benchmarks= names no benchmark")
-    specs = parse_pipelines(pipelines)
+    specs = parse_pipelines(default_pipelines() if pipelines is None else pipelines)
     checked = check_user_files(protocols, dict(files or {}))
     runs = plan_bench(protocols, specs, source=source, files=checked, timeout=timeout)
     runner = make_executor(executor, jobs=jobs, scheduler=scheduler)

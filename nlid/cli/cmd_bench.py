@@ -55,7 +55,8 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         "--pipeline",
         action="append",
         metavar="NAMES",
-        help='pipelines (comma-separated or repeated; default "rfs, discover, discover-refine, pysindy")',
+        help="pipelines (comma-separated or repeated; default: the default identifier of nlid methods, "
+        "rfs with the built-in plugins, then discover, discover-refine, pysindy)",
     )
     p.add_argument("--out", metavar="DIR", default="nlid-bench", help="output folder (default: nlid-bench)")
     p.add_argument("--jobs", type=int, metavar="N", help="jobs at the same time (default: every core)")
@@ -147,7 +148,7 @@ def run(args: argparse.Namespace) -> int:
         return _render(args)
     if args.source_dir:
         raise InputError("--from applies to --render-docs")
-    from ..benchmarking import DEFAULT_BENCHMARKS, DEFAULT_PIPELINES, bench
+    from ..benchmarking import DEFAULT_BENCHMARKS, bench
     from ..benchmarking.leaderboard import markdown_tables
 
     if args.executor == "local":
@@ -158,7 +159,7 @@ def run(args: argparse.Namespace) -> int:
     try:
         outcome = bench(
             _split(args.benchmark) or DEFAULT_BENCHMARKS,
-            _split(args.pipeline) or DEFAULT_PIPELINES,
+            _split(args.pipeline) or None,
             out=args.out,
             jobs=args.jobs,
             executor=args.executor,

@@ -152,8 +152,7 @@ def _discover_in_child(record, declared, method, settings) -> tuple:
 
 def _discover_isolated(timeout: float, record, declared, method, settings):
     """:func:`nlid.discovery.discover` in a child process stopped after ``timeout`` seconds."""
-    from ..errors import IdentificationError, PluginError
-    from ..pipeline import _rebuild_error
+    from ..errors import IdentificationError, PluginError, rebuild_error
     from ..runtime.isolation import run_in_child
 
     label = "the search" if method is None else f"the search with identifier {method!r}"
@@ -166,7 +165,7 @@ def _discover_isolated(timeout: float, record, declared, method, settings):
     kind, *rest = outcome.value
     if kind == "ok":
         return rest[0]
-    raise _rebuild_error(rest[0], rest[1])
+    raise rebuild_error(rest[0], rest[1])
 
 
 def run(args: argparse.Namespace) -> int:

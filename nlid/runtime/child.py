@@ -94,7 +94,7 @@ def _apply(request: dict[str, Any]) -> None:
         os.environ.clear()
         os.environ.update(env)
     if request.get("pin_threads"):
-        from .forkserver import pin_threads
+        from .process import pin_threads
 
         pin_threads(os.environ)
     tempfile.tempdir = None  # honour the parent's TMPDIR
@@ -226,7 +226,7 @@ def serve(channel: Any = None, *, stderr_fd: int | None = None) -> None:
 
 def main() -> None:
     """``python -m nlid.runtime.child``: a spawned child (die with the parent where the platform allows)."""
-    from .forkserver import die_with
+    from .process import die_with
 
     parent = os.environ.get("NLID_ISOLATION_PARENT")
     if parent and parent.isdigit():

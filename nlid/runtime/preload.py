@@ -14,6 +14,8 @@ time limit; a failure only means each run loads what it needs itself.
 
 from __future__ import annotations
 
+import importlib
+
 __all__ = ["warm_up"]
 
 
@@ -28,19 +30,16 @@ def warm_up(kind: str = "full") -> None:
         ``"full"``: also every plugin and the simulator's kernels (studies).
     """
     import numpy as np
-    import scipy.fft  # noqa: F401 - derivatives
-    import scipy.signal  # noqa: F401 - resampling, filters, Welch
 
-    from .. import pipeline, scoring  # noqa: F401
-
+    # by name: the runtime sits below the pipeline and the study, which call it (no import circle)
+    for name in ("scipy.fft", "scipy.signal", "nlid.pipeline", "nlid.scoring"):
+        importlib.import_module(name)
     if kind != "full":
         return
-    from ..registry import load_registry
-
-    load_registry()
-    from ..simulation import simulate
-    from ..study import worker  # noqa: F401
-    from ..terms import Model
+    importlib.import_module("nlid.registry").load_registry()
+    importlib.import_module("nlid.study.worker")
+    simulate = importlib.import_module("nlid.simulation").simulate
+    Model = importlib.import_module("nlid.terms").Model
 
     model = Model.from_spec("z^3, sign(v)*|px(z)|").with_px_roots((-1.0, 1.0))
     force = np.zeros(64)
