@@ -167,7 +167,8 @@ def _play(z: np.ndarray, width: float) -> np.ndarray:
 class _Scaler:
     """Maps z and v onto the range of the record a probe is fitted on (applied to both records)."""
 
-    def __init__(self, est: Residual):
+    def __init__(self, est: Residual, shortest: int):
+        self.shortest = shortest  # the shorter record's length: both records get the same lagged features
         self.z_mid = 0.5 * (float(est.z.max()) + float(est.z.min()))
         self.z_half = max(0.5 * float(np.ptp(est.z)), 1e-300)
         self.v_half = max(float(np.max(np.abs(est.v))), 1e-300)
@@ -193,10 +194,9 @@ class _Scaler:
             [zp[:, i] * vp[:, j] for i in range(zp.shape[1]) for j in range(vp.shape[1])] + [zp[:, 1:]]
         )
         history = [_play(res.z, w * self.z_std) / self.z_std for w in PLAY_WIDTHS]
-        n = res.z.size
         for periods in LAG_PERIODS:
             lag = int(round(periods * self.fs / self.band))
-            if 0 < lag < n // 4:
+            if 0 < lag < self.shortest // 4:
                 for x in (xz, xv):
                     shifted = np.empty_like(x)
                     shifted[lag:] = x[:-lag]
@@ -258,7 +258,8 @@ def probe_residual(estimation: Residual, holdout: Residual, threshold: float = M
     """
     # each direction scales (and clips) both records to the range of the record it fits on, so that no
     # polynomial is asked to extrapolate beyond the data it was fitted to
-    fit_est, fit_ho = _Scaler(estimation), _Scaler(holdout)
+    shortest = min(estimation.z.size, holdout.z.size)
+    fit_est, fit_ho = _Scaler(estimation, shortest), _Scaler(holdout, shortest)
     pe_e, ph_e = fit_est.parts(estimation), fit_est.parts(holdout)
     ph_h, pe_h = fit_ho.parts(holdout), fit_ho.parts(estimation)
     # the history features need a warm-up: leave out the longest lag at the start of each record
