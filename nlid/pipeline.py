@@ -320,16 +320,22 @@ def identify(
 MAX_TIMEOUT = 7 * 24 * 3600.0
 
 
-def _identify_in_child(record: Record, terms: Any, method: Any, kwargs: dict[str, Any]) -> tuple:
+def _identify_in_child(
+    record: Record, terms: Any, method: Any, kwargs: dict[str, Any], progress: bool = False
+) -> tuple:
     """The child's side of :func:`_identify_isolated`: the result, or the error's class names, message and traceback.
 
-    A ``KeyboardInterrupt`` here can only come from the plugin (the child does
+    ``progress``: the caller's :func:`nlid.progress.active` (a long identifier then shows its progress
+    line on a terminal). A ``KeyboardInterrupt`` here can only come from the plugin (the child does
     not hear the terminal's Ctrl-C), so it is the plugin's failure like any other.
     """
     import traceback
 
+    from .progress import showing
+
     try:
-        return ("ok", identify(record, terms, method, **kwargs))
+        with showing(progress):
+            return ("ok", identify(record, terms, method, **kwargs))
     except NlidError as exc:
         return ("error", [c.__name__ for c in type(exc).__mro__], str(exc), traceback.format_exc())
     except BaseException as exc:  # noqa: BLE001 - reported in the parent as one line
@@ -362,6 +368,7 @@ def _defined_in_main(method: Any) -> bool:
 def _identify_isolated(
     timeout: float, record: Record, terms: Any, method: Any, kwargs: dict[str, Any]
 ) -> IdentifiedModel:
+    from .progress import active
     from .runtime.isolation import IsolationError, run_in_child
 
     timeout = check_timeout(timeout)
@@ -373,7 +380,7 @@ def _identify_isolated(
         )
     label = f"identifier {name!r}"
     try:
-        outcome = run_in_child(_identify_in_child, (record, terms, method, kwargs), timeout=timeout)
+        outcome = run_in_child(_identify_in_child, (record, terms, method, kwargs, active()), timeout=timeout)
     except IsolationError as exc:
         raise IsolationError(f"cannot isolate {label} (timeout=): {exc}") from None
     outcome.reissue_warnings(label, stacklevel=4)

@@ -47,6 +47,7 @@ from .errors import DataError, IdentificationError, InputError, NlidError, Optio
 from .hookspecs import hookimpl
 from .interface import FIGURE_KINDS, Estimate, FigureArray, Identifier, Option, standard_figure_arrays, to_jsonable
 from .physics import Equilibria, Modal, equilibria, modal, stiffness_roots
+from .progress import ProgressLine, progress_line
 from .record import Record
 from .regression import (
     collinearity_warnings,
@@ -110,6 +111,8 @@ __all__ = [
     "identify",
     "choose_method",
     "to_jsonable",
+    "progress_line",
+    "ProgressLine",
     "NlidError",
     "InputError",
     "DataError",
