@@ -151,7 +151,7 @@ def compare(
     *,
     mass: float | None = None,
     reference: Mapping[str, Any] | IdentifiedModel | Reference | None = None,
-    holdout: Record | None = None,
+    holdout: Record | str | Path | float | None = None,
     options: Mapping[str, Mapping[str, Any]] | None = None,
     without: str | Iterable[str] = (),
     px_roots: Sequence[float] | None = None,
@@ -182,8 +182,12 @@ def compare(
         equilibria and modes of the reference are computed from its
         coefficients when not given.
     holdout
-        A held-out record: adds epsilon, the force residual and the free-run
-        error on it (:meth:`nlid.IdentifiedModel.score`).
+        A held-out record (or what :func:`load` reads: a file, ``"dataset:..."``),
+        or the fraction of ``record`` to hold out (``0.25``: its last quarter,
+        whole periods of a periodic record, as :class:`nlid.discovery.Split`
+        divides it; the methods are then identified on the rest): adds epsilon,
+        the force residual and the free-run error on it
+        (:meth:`nlid.IdentifiedModel.score`).
     options
         ``{method: {option: value}}``.
     without, px_roots
@@ -236,6 +240,15 @@ def compare(
         raise InputError(f"options= are given for {brief(stray[0])}, which is not among the methods compared ({names})")
     ref = Reference.of(record, reference)
     rule = None if rule is None else rule_from_spec(rule)
+    if holdout is not None and not isinstance(holdout, Record):
+        if isinstance(holdout, (str, Path)):
+            holdout = as_record(holdout)
+        else:
+            from .discovery.inputs import Split
+            from .validate import HOLDOUT_FRACTION
+
+            HOLDOUT_FRACTION.check(holdout, "holdout")
+            record, holdout, _ = Split(holdout=float(holdout)).divide(record)
     rows: list[dict[str, Any]] = []
     fits: dict[str, IdentifiedModel] = {}
     for name in names:

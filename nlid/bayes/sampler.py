@@ -181,14 +181,13 @@ def run_until_converged(
     with progress_line("posterior", total=max_steps, unit="steps") as line:
         while steps < max_steps and not converged:
             n = min(chunk, max_steps - steps)
-            for current in sampler.sample(state, iterations=n, skip_initial_state_check=True):
-                steps += 1  # emcee's run_mcmc drains the same generator
+            for state in sampler.sample(state, iterations=n, skip_initial_state_check=True):  # noqa: B007, B020
+                steps += 1  # the generator emcee's run_mcmc drains: the same chains, step by step
                 line.update(steps)
-            state = current
             tau = sampler.get_autocorr_time(tol=0, quiet=True)
             worst = float(np.max(tau))
             if np.isfinite(worst):
-                line.update(steps, note=f"autocorrelation time {worst:.0f} (run needs {tau_multiple * worst:.0f} steps)")
+                line.update(steps, note=f"autocorrelation time {worst:.0f}, run needs {tau_multiple * worst:.0f}")
             converged = steps >= tau_multiple * worst and abs(worst - previous) <= TAU_STABILITY * worst
             previous = worst
     if converged:

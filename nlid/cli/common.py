@@ -45,6 +45,8 @@ FLAGS: dict[str, str] = {
     "px_max_iter": "--set px_max_iter",
     "cutoff": "--cutoff",
     "holdout": "--holdout",
+    "methods": "--methods",
+    "reference": "--reference",
     "jobs": "--jobs",
     "scheduler": "--scheduler",
     "executor": "--executor",

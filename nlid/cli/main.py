@@ -22,6 +22,7 @@ from .. import __version__
 from ..errors import IdentificationError, NlidError, describe_exception, one_line
 from . import (
     cmd_bench,
+    cmd_compare,
     cmd_data,
     cmd_discover,
     cmd_identify,
@@ -40,6 +41,7 @@ COMMANDS = (
     cmd_study,
     cmd_bench,
     cmd_identify,
+    cmd_compare,
     cmd_discover,
     cmd_posterior,
     cmd_simulate,
@@ -60,6 +62,7 @@ examples:
   nlid simulate --preset paper-numerical --seed 0 --channels v,a --out x.csv
   nlid identify x.csv --method rfs --terms "z^3,z^2,v*|v|" --mass 0.2
   nlid identify dataset:emps --method rfs --terms "sign(v)" --without z
+  nlid compare x.csv --methods rfs,sindy --terms "z^3,z^2,v*|v|" --mass 0.2
   nlid discover dataset:emps --declared "v, 1"
   nlid posterior x.csv --terms "z^3,z^2,v*|v|" --mass 0.2 --params damping
   nlid data                       # the measured benchmarks: where to get them, which files are here
