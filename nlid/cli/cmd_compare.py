@@ -212,7 +212,9 @@ def format_frame(frame: Any) -> str:
     numeric = {3, 4, 6, 7}
 
     def line(cells: list[str]) -> str:
-        text = "  ".join(c.rjust(w) if i in numeric else c.ljust(w) for i, (c, w) in enumerate(zip(cells, widths)))
+        text = "  ".join(
+            c.rjust(w) if i in numeric else c.ljust(w) for i, (c, w) in enumerate(zip(cells, widths, strict=True))
+        )
         return text.rstrip()
 
     out = [line(header)]
