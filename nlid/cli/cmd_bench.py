@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import io
 import signal
 import sys
 
@@ -84,7 +85,10 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     )
     p.add_argument("--json", action="store_true", help="print the leaderboard rows as JSON")
     p.add_argument("--no-progress", action="store_true", help="no progress line (it only shows on a terminal)")
-    p.add_argument("--list", action="store_true", help="list the built-in benchmarks, their test sets and rules")
+    p.add_argument("--quiet", action="store_true", help="no progress line and no status lines on stderr")
+    p.add_argument(
+        "--list", action="store_true", help="list the built-in benchmarks, their test sets and rules (with --json too)"
+    )
     p.add_argument(
         "--render-docs",
         action="store_true",
@@ -112,17 +116,38 @@ def _files(items: list[str] | None) -> dict[str, str]:
     return out
 
 
-def _list() -> int:
+def benchmark_list() -> dict[str, dict]:
+    """The built-in benchmarks, their estimation parts, test sets and rules (``nlid bench --list [--json]``)."""
     from ..benchmarking import builtin_benchmarks, load_protocol
 
+    out = {}
     for name in builtin_benchmarks():
         p = load_protocol(name)
-        kind = "official split" if p.official else "nlid's protocol"
-        print(f"{name}: {p.title} ({kind}; RMSE in {p.unit})")
-        print(f"  estimation: {p.estimation.description}")
-        for t in p.tests:
-            where = "user file" if t.file is not None else "local"
-            print(f"  test {t.name}: rule {t.rule}; {where}; {t.source.description}")
+        out[name] = {
+            "title": p.title,
+            "official": bool(p.official),
+            "unit": p.unit,
+            "estimation": p.estimation.description,
+            "tests": [
+                {"name": t.name, "rule": t.rule, "user_file": t.file is not None, "source": t.source.description}
+                for t in p.tests
+            ],
+        }
+    return out
+
+
+def _list(as_json: bool) -> int:
+    benchmarks = benchmark_list()
+    if as_json:
+        print_json({"benchmarks": benchmarks})
+        return 0
+    for name, b in benchmarks.items():
+        kind = "official split" if b["official"] else "nlid's protocol"
+        print(f"{name}: {b['title']} ({kind}; RMSE in {b['unit']})")
+        print(f"  estimation: {b['estimation']}")
+        for t in b["tests"]:
+            where = "user file" if t["user_file"] else "local"
+            print(f"  test {t['name']}: rule {t['rule']}; {where}; {t['source']}")
     return 0
 
 
@@ -143,7 +168,7 @@ def _terminate(signum: int, frame: object) -> None:
 
 def run(args: argparse.Namespace) -> int:
     if args.list:
-        return _list()
+        return _list(args.json)
     if args.render_docs:
         return _render(args)
     if args.source_dir:
@@ -168,7 +193,8 @@ def run(args: argparse.Namespace) -> int:
             files=_files(args.test_file),
             timeout=args.timeout,
             rerun=args.rerun,
-            progress=False if args.no_progress else None,
+            progress=False if args.no_progress or args.quiet or args.json else None,
+            log=io.StringIO() if args.quiet else None,
             force=args.force,
         )
     finally:
@@ -180,9 +206,10 @@ def run(args: argparse.Namespace) -> int:
 
         protocols = {name: load_protocol(name) for name in dict.fromkeys(r["benchmark"] for r in outcome.rows)}
         print(to_cli("\n".join(markdown_tables(protocols, outcome.rows, level=2)).rstrip()))
-    print(
-        f"nlid bench: {outcome.executed} job(s) run, {outcome.skipped} reused, {outcome.seconds:.0f} s; "
-        f"leaderboard: {outcome.folder / 'leaderboard.md'} (.csv, .html)",
-        file=sys.stderr,
-    )
+    if not args.quiet:
+        print(
+            f"nlid bench: {outcome.executed} job(s) run, {outcome.skipped} reused, {outcome.seconds:.0f} s; "
+            f"leaderboard: {outcome.folder / 'leaderboard.md'} (.csv, .html)",
+            file=sys.stderr,
+        )
     return 0

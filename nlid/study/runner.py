@@ -83,6 +83,28 @@ class StudyOutcome:
     skipped: int
     summary: str
     report: Path | None
+    name: str = ""
+
+    def to_dict(self) -> dict[str, Any]:
+        """What ``nlid study run --json`` prints: the study, where its outputs are, and one row per run.
+
+        ``results`` holds the stored row of every run of the study (the rows of ``results.csv``, in plan
+        order; a run without a stored result is left out).
+        """
+        from ..interface import to_jsonable
+
+        rows = [record["row"] for record in ResultStore(self.folder).records(self.runs)]
+        return to_jsonable(
+            {
+                "study": self.name,
+                "folder": str(self.folder),
+                "report": None if self.report is None else str(self.report),
+                "runs": len(self.runs),
+                "executed": self.executed,
+                "skipped": self.skipped,
+                "results": rows,
+            }
+        )
 
 
 def run_study(
@@ -190,4 +212,4 @@ def _run_study(
         from .report import write_report
 
         summary_text, report_path = write_report(config, runs, store)
-    return StudyOutcome(store.folder, runs, len(todo), skipped, summary_text, report_path)
+    return StudyOutcome(store.folder, runs, len(todo), skipped, summary_text, report_path, config.name)
