@@ -8,6 +8,7 @@ import math
 from typing import Any
 
 from ..errors import DataError, InputError, brief
+from ..progress import showing
 from .common import add_data_arguments, load_data, parse_px_roots, parse_settings, print_json
 
 DESCRIPTION = """\
@@ -84,6 +85,9 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         help="a failing method: one row saying why (record, default) or stop with its error (raise)",
     )
     p.add_argument("--json", action="store_true", help="print the table as JSON records instead of text")
+    p.add_argument(
+        "--quiet", action="store_true", help="no progress on stderr (it is shown only on a terminal, never with --json)"
+    )
     p.add_argument("--out", metavar="FILE.csv", help="also write the table to a CSV file (not replaced unless --force)")
     p.add_argument("--force", action="store_true", help="replace the --out file if it exists")
     p.set_defaults(func=run)
@@ -164,19 +168,20 @@ def run(args: argparse.Namespace) -> int:
         check_new_file(args.out, force=args.force)
     reference = _reference(args.reference)
     record = load_data(args)
-    frame = compare(
-        record,
-        args.terms,
-        methods,
-        mass=args.mass,
-        reference=reference,
-        holdout=_holdout(args),
-        options=options or None,
-        without=args.without,
-        px_roots=parse_px_roots(args.px_roots),
-        errors=args.errors,
-        rule=args.rule,
-    )
+    with showing(not (args.quiet or args.json)):  # a long identifier (oe) shows its progress on a terminal
+        frame = compare(
+            record,
+            args.terms,
+            methods,
+            mass=args.mass,
+            reference=reference,
+            holdout=_holdout(args),
+            options=options or None,
+            without=args.without,
+            px_roots=parse_px_roots(args.px_roots),
+            errors=args.errors,
+            rule=args.rule,
+        )
     if args.out:
         frame.to_csv(args.out, index=False)
     if args.json:

@@ -6,6 +6,7 @@ import argparse
 import sys
 
 from ..errors import InputError, NlidError
+from ..progress import stderr_is_terminal
 from .common import add_data_arguments, load_data, parse_settings, print_json
 from .isolated import DISCOVER_TIMEOUT, add_timeout_argument, parse_timeout, plugin_warnings
 
@@ -114,7 +115,9 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         "one has the name of an output (figures, report.md, report.html, result.json, models.csv), it stops "
         "before writing anything, naming it",
     )
-    p.add_argument("--quiet", action="store_true", help="no progress lines on stderr")
+    p.add_argument(
+        "--quiet", action="store_true", help="no progress on stderr (it is shown only on a terminal, never with --json)"
+    )
     add_timeout_argument(p, DISCOVER_TIMEOUT, "the search (every identification of it)")
     p.add_argument(
         "--refine",
@@ -136,27 +139,46 @@ def _holdout(args: argparse.Namespace):
     return fraction
 
 
-def _progress_line(message: str) -> None:
-    print(f"nlid discover: {message}", file=sys.stderr, flush=True)
+class _SearchProgress:
+    """The search's stages on one terminal line, redrawn in place; each accepted effect kept as a line of its own."""
+
+    def __init__(self, show: bool) -> None:
+        from ..progress import ProgressLine
+
+        self.line = ProgressLine("nlid discover", enabled=show)  # the parent looked at its terminal
+
+    def __call__(self, message: str) -> None:
+        if ": accepted " in message:
+            self.line.keep(f"nlid discover: {message}")
+        else:
+            self.line.update(note=message)
 
 
-def _discover_in_child(record, declared, method, settings) -> tuple:
-    """The child's side of ``nlid discover``: the result, or the error's class names and message."""
+def _discover_in_child(record, declared, method, settings, show: bool = False) -> tuple:
+    """The child's side of ``nlid discover``: the result, or the error's class names and message.
+
+    ``show``: the parent asked for progress (on a terminal, not ``--quiet`` nor ``--json``); the search's
+    stages, and the progress of a long identifier (``oe`` with ``--refine``), are then drawn on stderr.
+    """
     from ..discovery import discover
+    from ..progress import showing
 
-    try:
-        return ("ok", discover(record, declared, method, **settings))
-    except NlidError as exc:
-        return ("error", [c.__name__ for c in type(exc).__mro__], str(exc))
+    with showing(show):
+        progress = _SearchProgress(show)
+        try:
+            with progress.line:
+                return ("ok", discover(record, declared, method, progress=progress, **settings))
+        except NlidError as exc:
+            return ("error", [c.__name__ for c in type(exc).__mro__], str(exc))
 
 
-def _discover_isolated(timeout: float, record, declared, method, settings):
+def _discover_isolated(timeout: float, record, declared, method, settings, show: bool = False):
     """:func:`nlid.discovery.discover` in a child process stopped after ``timeout`` seconds."""
     from ..errors import IdentificationError, PluginError, rebuild_error
     from ..runtime.isolation import run_in_child
 
     label = "the search" if method is None else f"the search with identifier {method!r}"
-    outcome = run_in_child(_discover_in_child, (record, declared, method, settings), timeout=timeout)
+    outcome = run_in_child(_discover_in_child, (record, declared, method, settings, show), timeout=timeout)
     outcome.reissue_warnings(label)
     if outcome.status == "timeout":
         raise IdentificationError(f"{outcome.describe(label, timeout)} (raise --timeout)")
@@ -179,9 +201,9 @@ def run(args: argparse.Namespace) -> int:
     record = load_data(args)
     rule = AcceptanceRule(min_explained=args.min_explained, max_delta_bic=args.max_delta_bic)
 
-    def progress(message: str) -> None:
+    def status(message: str) -> None:
         if not args.quiet:
-            _progress_line(message)
+            print(f"nlid discover: {message}", file=sys.stderr, flush=True)
 
     settings = dict(
         mass=args.mass,
@@ -195,19 +217,20 @@ def run(args: argparse.Namespace) -> int:
         max_steps=args.max_steps,
         cutoff=args.cutoff,
         options=parse_settings(args.set),
-        progress=None if args.quiet else _progress_line,
         views=bool(args.out),
         refine=args.refine,
         freerun_rule=args.rule,
     )
     with plugin_warnings("discover"):
-        result = _discover_isolated(timeout, record, args.declared, args.method, settings)
+        # progress only on a terminal (never when piped, under --quiet or with --json)
+        show = not (args.quiet or args.json) and stderr_is_terminal()
+        result = _discover_isolated(timeout, record, args.declared, args.method, settings, show)
     if args.out:
         try:
             paths = write_report(result, args.out, force=args.force)
         except OSError as exc:
             raise InputError(f"cannot write the report to {args.out}: {exc.strerror or exc}") from None
-        progress(f"report written to {paths[1]} (and {paths[0].name})")
+        status(f"report written to {paths[1]} (and {paths[0].name})")
     if args.json:
         print_json(result.to_dict())
     else:

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 
+from ..progress import showing
 from .common import add_data_arguments, add_model_arguments, load_data, parse_px_roots, parse_settings, print_json
 from .isolated import IDENTIFY_TIMEOUT, add_timeout_argument, parse_timeout, plugin_warnings
 
@@ -22,6 +23,9 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     add_model_arguments(p, "identifier to use (default: the installed one with the best preference; see nlid methods)")
     add_timeout_argument(p, IDENTIFY_TIMEOUT, "the identifier")
     p.add_argument("--json", action="store_true", help="print one JSON object instead of a table")
+    p.add_argument(
+        "--quiet", action="store_true", help="no progress on stderr (it is shown only on a terminal, never with --json)"
+    )
     p.set_defaults(func=run)
 
 
@@ -34,7 +38,8 @@ def run(args: argparse.Namespace) -> int:
     from ..pipeline import identify
 
     record = load_data(args)
-    with plugin_warnings("identify"):
+    # a long identifier (oe) shows its progress on a terminal, never under --quiet or --json
+    with plugin_warnings("identify"), showing(not (args.quiet or args.json)):
         result = identify(
             record,
             args.terms,

@@ -7,6 +7,7 @@ import math
 import sys
 
 from ..errors import DataError, InputError, brief
+from ..progress import showing
 from ..validate import NOISE_SD
 from .common import add_data_arguments, add_model_arguments, load_data, parse_px_roots, parse_settings, print_json
 
@@ -100,6 +101,9 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         help="positions (m) of the damping-force slices (default: the equilibria, as in the paper's Fig. 21)",
     )
     p.add_argument("--json", action="store_true", help="print one JSON object instead of a table")
+    p.add_argument(
+        "--quiet", action="store_true", help="no progress on stderr (it is shown only on a terminal, never with --json)"
+    )
     p.add_argument("--out", metavar="DIR", help="write the table (CSV), JSON, samples (NPZ) and figures (PNG) to DIR")
     p.add_argument("--no-figures", action="store_true", help="with --out, skip the PNG figures")
     p.add_argument(
@@ -177,9 +181,12 @@ def run(args: argparse.Namespace) -> int:
     )
     record = load_data(args)
     model = as_model(args.terms, without=args.without, px_roots=parse_px_roots(args.px_roots))
-    result = identify(record, model, args.method, mass=args.mass, options=parse_settings(args.set))
+    show = not (args.quiet or args.json)  # the sampler's progress, on a terminal only
+    with showing(show):
+        result = identify(record, model, args.method, mass=args.mass, options=parse_settings(args.set))
     try:
-        posterior = sampler.run(record, result)
+        with showing(show):
+            posterior = sampler.run(record, result)
     except UnknownNoiseError as exc:
         wanted = " ".join(f"{c}=SD" for c in exc.channels)
         units = ", ".join(f"{c} in {UNITS[c]}" for c in exc.channels)
