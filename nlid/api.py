@@ -247,7 +247,7 @@ def compare(
             from .discovery.inputs import Split
             from .validate import HOLDOUT_FRACTION
 
-            HOLDOUT_FRACTION.check(holdout, "holdout")
+            HOLDOUT_FRACTION.check(holdout, "holdout=")
             record, holdout, _ = Split(holdout=float(holdout)).divide(record)
     rows: list[dict[str, Any]] = []
     fits: dict[str, IdentifiedModel] = {}

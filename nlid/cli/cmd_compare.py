@@ -107,6 +107,10 @@ def parse_method_options(items: list[str] | None, methods: list[str] | None) -> 
             method, option = methods[0], key
         if not method.strip() or not option.strip():
             raise InputError(f"--set expects METHOD.KEY=VALUE, got {brief(key)}")
+        if methods is not None and method.strip() not in methods:
+            raise InputError(
+                f"--set {brief(key)}: {brief(method.strip())} is not among the methods compared ({', '.join(methods)})"
+            )
         out.setdefault(method.strip(), {})[option.strip()] = value
     return out
 
