@@ -19,13 +19,14 @@ Example::
     print(fit.summary())      # the table `nlid identify` prints
     fit.score(other_record)   # epsilon, force residual, free-run error
     fit.to_dict()             # JSON (what `nlid identify --json` prints)
+
+Its plain-data layout is in :mod:`nlid.modeldict`, its tables in
+:mod:`nlid.modeltables` and its figures in :mod:`nlid.modelplots`.
 """
 
 from __future__ import annotations
 
 import dataclasses
-import math
-import numbers
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
@@ -34,33 +35,21 @@ import numpy as np
 
 from . import modelplots, numerics, physics, scoring
 from ._frozen import FrozenDict, freeze
-from .errors import IdentificationError, InputError, NlidError, brief
-from .interface import Estimate, to_jsonable
+from .errors import IdentificationError, InputError, NlidError
+from .interface import Estimate
+from .modeldict import SCHEMA, model_from_dict, model_to_dict
+from .modeltables import coefficient_frame, model_summary
 from .physics import Equilibria, Modal
 from .record import Record
 from .scoring import Prediction, Residual, Scores, TransientRule
-from .summary import Column, Summary
-from .terms import Model, parse_term
-from .units import Unit, coefficient_conversion, display_units
+from .summary import Summary
+from .terms import Model
 from .validate import check_mass
 
 if TYPE_CHECKING:  # pragma: no cover
     import pandas as pd
 
 __all__ = ["IdentifiedModel", "SCHEMA"]
-
-#: Identifies the JSON layout of :meth:`IdentifiedModel.to_dict`.
-SCHEMA = "nlid.IdentifiedModel/1"
-
-
-def _finite_number(value: Any) -> bool:
-    """True for a real number (not a bool, a string or an array) that is finite."""
-    if isinstance(value, (bool, np.bool_)) or not isinstance(value, numbers.Real):
-        return False
-    try:
-        return math.isfinite(float(value))
-    except OverflowError:
-        return False
 
 
 @dataclass(frozen=True, eq=False)
@@ -481,33 +470,7 @@ class IdentifiedModel:
     # ------------------------------------------------------------------ plain data
     def to_dict(self) -> dict[str, Any]:
         """JSON-serialisable dictionary (without :attr:`arrays`); :meth:`from_dict` reverses it."""
-        return to_jsonable(
-            {
-                "schema": SCHEMA,
-                "method": self.method,
-                "terms": list(self.terms),
-                "coefficients": dict(self.coefficients),
-                "standard_errors": None
-                if self.standard_errors is None
-                else {n: self.standard_errors.get(n) for n in self.terms},
-                "units": {n: parse_term(n).coefficient_unit for n in self.terms},
-                "mass": self.mass,
-                "mass_estimated": self.mass_estimated,
-                "mass_standard_error": self.mass_standard_error,
-                "px_roots": None if self.px_roots is None else list(self.px_roots),
-                "equilibria": None if self.equilibria is None else self.equilibria.to_dict(),
-                "modal": [m.to_dict() for m in self.modal],
-                "eps_percent": self.eps_percent,
-                "force_residual_percent": self.force_residual_percent,
-                "scores": None if self.scores is None else self.scores.to_dict(),
-                "options": dict(self.options),
-                "diagnostics": dict(self.diagnostics),
-                "warnings": list(self.warnings),
-                "seconds": self.seconds,
-                "z_range": None if self.z_range is None else list(self.z_range),
-                "provenance": dict(self.provenance) or None,
-            }
-        )
+        return model_to_dict(self)
 
     @classmethod
     def from_dict(cls, data: Mapping[str, Any]) -> IdentifiedModel:
@@ -519,50 +482,7 @@ class IdentifiedModel:
             If the dictionary lacks the terms or coefficients, they do not match, or a coefficient
             is not a finite number (NaN, infinity, a string...).
         """
-        if not isinstance(data, Mapping):
-            raise InputError(f"expected a dictionary from IdentifiedModel.to_dict(), got {type(data).__name__}")
-        schema = data.get("schema", SCHEMA)
-        if schema != SCHEMA:
-            raise InputError(f"unknown identified-model layout {schema!r}; this nlid reads {SCHEMA!r}")
-        try:
-            terms = list(data["terms"])
-            coefficients = dict(data["coefficients"])
-        except (KeyError, TypeError):
-            raise InputError("an identified model needs 'terms' and 'coefficients'") from None
-        model = Model.from_spec(terms, defaults=False, px_roots=data.get("px_roots"))
-        for name, value in coefficients.items():  # a model with a NaN, a string or a list for a coefficient is no model
-            if not _finite_number(value):
-                raise InputError(
-                    f"the coefficient of {brief(str(name), 60)} is {brief(value, 60)}, not a finite number"
-                )
-        raw_scores = data.get("scores")
-        scores = None
-        if raw_scores:
-            known = {f.name for f in dataclasses.fields(Scores)}
-            kept = ("band_hz", "predict_horizon")  # None there means "none", not a missing number
-            values = {k: (float("nan") if v is None and k not in kept else v) for k, v in raw_scores.items()}
-            scores = Scores(**{k: v for k, v in values.items() if k in known})
-        elif data.get("eps_percent") is not None:
-            scores = Scores(float(data["eps_percent"]), float(data.get("force_residual_percent") or float("nan")))
-        eq = data.get("equilibria")
-        return cls(
-            model=model,
-            coefficients=coefficients,
-            mass=data.get("mass"),
-            method=str(data.get("method", "")),
-            mass_estimated=bool(data.get("mass_estimated", False)),
-            standard_errors=data.get("standard_errors"),
-            mass_standard_error=data.get("mass_standard_error"),
-            equilibria=None if eq is None else Equilibria.from_dict(eq),
-            modal=tuple(data.get("modal") or ()),
-            scores=scores,
-            options=data.get("options") or {},
-            diagnostics=data.get("diagnostics") or {},
-            warnings=tuple(data.get("warnings") or ()),
-            seconds=data.get("seconds"),
-            z_range=data.get("z_range"),
-            provenance=data.get("provenance") or {},
-        )
+        return model_from_dict(cls, data)
 
     def to_frame(self, units: str | Mapping[str, str] | None = None) -> pd.DataFrame:
         """One row per term: ``coefficient``, ``std_error``, ``unit``, ``family`` (index: the term).
@@ -577,32 +497,7 @@ class IdentifiedModel:
             coefficient is converted by its term's powers of displacement and
             velocity (:func:`nlid.units.coefficient_conversion`).
         """
-        import pandas as pd
-
-        se = self.standard_errors or {}
-        shown = self._shown_units(units)
-        rows = []
-        for n, t in zip(self.terms, self.model.terms, strict=True):
-            factor, unit = (1.0, t.coefficient_unit) if shown is None else coefficient_conversion(t, shown)
-            value, error = self.coefficients[n], se.get(n, float("nan"))
-            if shown is not None:
-                value, error = value * factor, error * factor
-            rows.append({"term": n, "coefficient": value, "std_error": error, "unit": unit, "family": t.family})
-        return pd.DataFrame(rows).set_index("term")
-
-    def _shown_units(self, units: str | Mapping[str, str] | None) -> dict[str, Unit] | None:
-        """The units coefficients are shown in; ``None`` for SI as computed."""
-        if units is None or (isinstance(units, str) and units.strip().lower() == "si"):
-            return None
-        if isinstance(units, str) and units.strip().lower() == "input":
-            data = self.provenance.get("data") if self.provenance else None
-            if not data or "units" not in data:
-                raise InputError(
-                    "units='input': this model does not record the units of its data (it was not made by "
-                    "nlid.identify); name them, e.g. units={'z': 'mm'}"
-                )
-            return display_units("input", data["units"])
-        return display_units(units)
+        return coefficient_frame(self, units)
 
     # ------------------------------------------------------------------ text and HTML
     def summary(self, units: str | Mapping[str, str] | None = None) -> Summary:
@@ -619,59 +514,7 @@ class IdentifiedModel:
             standard errors, the ``px(z)`` roots and the equilibria are shown
             in them (as :meth:`to_frame`); the mass stays in kg.
         """
-        shown = self._shown_units(units)
-        zu = "m" if shown is None else shown["z"].symbol
-        zf = 1.0 if shown is None else shown["z"].factor  # the SI value of one displayed length unit
-        out = Summary()
-        head = [("method", self.method)]
-        if self.mass is not None:
-            how = "estimated" if self.mass_estimated else "given"
-            se = f" +/- {self.mass_standard_error:.3g}" if self.mass_standard_error else ""
-            head.append(("mass", f"{self.mass:.6g}{se} kg ({how})"))
-        if shown is not None:
-            head.append(("units", ", ".join(f"{c} in {shown[c].symbol}" for c in ("f", "z", "v"))))
-        out.add_fields(head)
-        se = self.standard_errors or {}
-        rows = []
-        for name, term in zip(self.terms, self.model.terms, strict=True):
-            factor, unit = (1.0, term.coefficient_unit) if shown is None else coefficient_conversion(term, shown)
-            error = se.get(name)
-            rows.append(
-                [
-                    name,
-                    f"{self.coefficients[name] * factor:.6g}",
-                    "" if error is None else f"{error * factor:.3g}",
-                    unit,
-                ]
-            )
-        out.add_table(
-            [Column("term"), Column("coefficient", "right", 14), Column("std. error", "right", 11), Column("unit")],
-            rows,
-        )
-        if self.px_roots:
-            zm, zp = self.px_roots[0] / zf, self.px_roots[1] / zf
-            out.add_fields([("px(z) roots", f"z- = {zm:.6g} {zu}, z+ = {zp:.6g} {zu}")])
-        if self.equilibria is not None:
-            st = ", ".join(f"{z / zf:.6g}" for z in self.equilibria.stable) or "none"
-            un = ", ".join(f"{z / zf:.6g}" for z in self.equilibria.unstable) or "none"
-            out.add_fields([(f"equilibria ({zu})", f"stable {st}; unstable {un}")], gap=True)
-        out.add_text(
-            *(
-                f"at z* = {m.equilibrium / zf:.6g} {zu}: fn = {m.fn_hz:.4g} Hz, zeta = {100 * m.zeta:.3g} %"
-                for m in self.modal
-            ),
-            indent="  ",
-        )
-        scores = []
-        if self.scores is not None:
-            scores = [
-                ("epsilon (Eq. 26)", f"{self.scores.eps_percent:.3g} %"),
-                ("force residual", f"{self.scores.force_residual_percent:.3g} %"),
-            ]
-        out.add_fields(scores, separator="   ", gap=True)  # the blank line stays when there are no scores
-        tail = [] if self.seconds is None else [("time", f"{self.seconds:.3g} s")]
-        out.add_fields(tail + [("warning", w) for w in self.warnings])
-        return out
+        return model_summary(self, units)
 
     def __repr__(self) -> str:
         mass = "mass unknown" if self.mass is None else f"mass={self.mass:.4g} kg"

@@ -224,9 +224,7 @@ class BenchJob:
                 try:
                     scores = score_model(fitted, record, test.rule)
                     status = "ok" if np.isfinite(scores["rmse"]) else "no figure"
-                    rows.append(
-                        self._row(protocol, test, fitted, scores, status, scores["note"], _where(record))
-                    )
+                    rows.append(self._row(protocol, test, fitted, scores, status, scores["note"], _where(record)))
                 except NlidError as exc:
                     rows.append(self._row(protocol, test, fitted, None, "failed", str(exc)))
         result = {

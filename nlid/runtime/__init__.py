@@ -5,6 +5,9 @@
     process that is killed at its time limit, cannot take nlid down, and
     never outlives it; the start methods (``NLID_START_METHOD``: fork server
     or spawn).
+:mod:`nlid.runtime.outcome`
+    what became of a call in a child: :class:`~nlid.runtime.outcome.ChildResult`,
+    the warnings it issued, :class:`~nlid.runtime.outcome.IsolationError`.
 :mod:`nlid.runtime.forkserver`
     nlid's fork server (``python -m nlid.runtime.forkserver``): forks warm
     children on request over an anonymous socket pair.
