@@ -549,8 +549,8 @@ class IdentifiedModel:
 
         return plot_freerun(self, record, rule=rule, ax=ax)
 
-    def plot_frf(self, *, ax: Any = None, **options: Any) -> Any:
-        """The receptance linearised at each stable equilibrium (and the method's own FRF); ``freq=``, ``phase=``."""
+    def plot_frf(self, *, ax: Any = None, freq: Any = None, phase: bool = True, identified: bool = True) -> Any:
+        """The receptance linearised at each stable equilibrium, and the method's own FRF (``identified=``)."""
         from .responseplots import plot_frf
 
-        return plot_frf(self, ax=ax, **options)
+        return plot_frf(self, ax=ax, freq=freq, phase=phase, identified=identified)

@@ -32,11 +32,10 @@ import numpy as np
 import pandas as pd
 
 from ... import physics
-from ...errors import NlidError
 from ...formatting import sig
-from ...interface import FigureArray, standard_figure_arrays
+from ...interface import FigureArray
 from ...plotting import new_figure, save_figure
-from ...registry import registry_for
+from ...responseplots import declared_arrays
 from ...terms import Model
 from .. import columns as col
 from .section import Section
@@ -343,18 +342,8 @@ def _slices_figure(section: Section, method: str, tag: str, arrays: dict, folder
 
 
 def figure_arrays(method: str, arrays: dict) -> tuple[FigureArray, ...]:
-    """The arrays of a run that the method declares for figures (:meth:`nlid.plugin.Identifier.figure_arrays`).
-
-    A method no longer installed is read with the keys :class:`nlid.plugin.Estimate` documents. Only
-    declared arrays present with their frequency axis are returned.
-    """
-    try:
-        cls = registry_for(method).get(method)
-    except NlidError:
-        cls = None
-    declare = getattr(cls, "figure_arrays", None)
-    declared = declare(arrays) if callable(declare) else standard_figure_arrays(arrays)
-    return tuple(a for a in declared if a.values in arrays and a.frequency in arrays)
+    """The arrays of a run that the method declares for figures (:func:`nlid.responseplots.declared_arrays`)."""
+    return declared_arrays(method, arrays)
 
 
 def _curve(arrays: dict, declared: FigureArray) -> tuple[np.ndarray, np.ndarray]:
