@@ -55,6 +55,17 @@ def test_summary_draws_one_bar_per_method_with_its_own_time():
     assert legend == ["rfs", "sindy (= rfs)"]
 
 
+def test_summary_panel_titles_are_not_clipped():
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+
+    fig = draw_summary(_tied_section())
+    FigureCanvasAgg(fig).draw()
+    box = fig.bbox
+    for ax in fig.axes:
+        title = ax.title.get_window_extent()
+        assert box.x0 <= title.x0 and title.x1 <= box.x1, ax.get_title()
+
+
 def test_a_tie_is_called_a_tie_in_the_verdict():
     v = build_verdict(_tied_section())
     text = v.text()

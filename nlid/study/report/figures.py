@@ -25,6 +25,7 @@ Every figure has units on its axes, a legend and a one-line caption.
 from __future__ import annotations
 
 import re
+import textwrap
 from pathlib import Path
 from typing import Any
 
@@ -254,13 +255,16 @@ def draw_summary(section: Section) -> Any:
         1,
         len(panels),
         width=min(16.0, sum(widths) + 1.5),
-        height=4.2,
+        height=4.4,
         squeeze=False,
         gridspec_kw={"width_ratios": widths},
     )
-    for ax, (columns, title) in zip(axes[0], panels, strict=True):
+    width = min(16.0, sum(widths) + 1.5)
+    for ax, (columns, title), w in zip(axes[0], panels, widths, strict=True):
         _grouped_bars(ax, frame, columns, methods)
-        ax.set_title(title, fontsize=9)
+        # a title wider than its panel is cut at the figure's edge: wrapped to the panel (9 pt, 0.6 em a glyph)
+        chars = max(10, int((width - 1.5) * w / sum(widths) * 72 / (0.6 * 9)))
+        ax.set_title("\n".join(textwrap.wrap(title, chars)), fontsize=9)
     axes[0, 0].set_ylabel("median (whiskers: min-max)")
     handles, _ = axes[0, 0].get_legend_handles_labels()
     # identical methods keep their own bars (equal on the accuracy panels, their own times); the legend says so
