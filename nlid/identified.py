@@ -542,3 +542,15 @@ class IdentifiedModel:
     def plot_residual(self, record: Record, against: str = "z", ax: Any = None, *, cutoff: float | None = None) -> Any:
         """The residual ``f - m a - R`` against ``"z"`` or ``"v"`` (binned mean drawn over the points)."""
         return modelplots.plot_residual(self, record, against=against, ax=ax, cutoff=cutoff)
+
+    def plot_freerun(self, record: Record, *, rule: Any = None, ax: Any = None) -> Any:
+        """Measured ``z`` against the free run on the record's force, the error and the transient rule (``rule=``)."""
+        from .responseplots import plot_freerun
+
+        return plot_freerun(self, record, rule=rule, ax=ax)
+
+    def plot_frf(self, *, ax: Any = None, freq: Any = None, phase: bool = True, identified: bool = True) -> Any:
+        """The receptance linearised at each stable equilibrium, and the method's own FRF (``identified=``)."""
+        from .responseplots import plot_frf
+
+        return plot_frf(self, ax=ax, freq=freq, phase=phase, identified=identified)

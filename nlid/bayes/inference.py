@@ -13,6 +13,7 @@ from ..balance import regression_data
 from ..errors import IdentificationError, InputError
 from ..identified import IdentifiedModel
 from ..record import Record
+from ..reference import Reference
 from ..terms import Model, parse_term
 from ..validate import Interval, Options, check_cutoff, check_noise_sd, check_seed
 from .likelihood import build_likelihood, check_identifiable
@@ -334,6 +335,7 @@ class PosteriorSampler:
             others=self.others,
             gaussian=(mean, cov),
             data=data,
+            reference=dict(Reference.from_meta(record.meta).coefficients or {}),
         ), prior_sd
 
 

@@ -25,6 +25,8 @@ __all__ = [
     "score",
     "residual",
     "free_run_error",
+    "free_run_response",
+    "FreeRunResponse",
     "predictability_horizon",
     "HORIZON_STARTS",
     "initial_state",
@@ -119,6 +121,29 @@ class FreeRun:
     def computed(self) -> bool:
         """True when the error was computed."""
         return not self.note
+
+
+@dataclass(frozen=True)
+class FreeRunResponse:
+    """The free run itself, as :func:`free_run_error` scores it (:func:`free_run_response`; for figures).
+
+    Attributes
+    ----------
+    z
+        The measured displacement (the whole record).
+    z_sim
+        The simulated displacement at every sample of the record (the initialisation window included), or
+        ``None`` when the run diverged or was not made.
+    first
+        The first scored sample (``InitWindow``: the window's length; 0 otherwise).
+    error
+        The figures and the rule as applied (:class:`FreeRun`).
+    """
+
+    z: np.ndarray
+    z_sim: np.ndarray | None
+    first: int
+    error: FreeRun
 
 
 @dataclass(frozen=True)
@@ -277,9 +302,17 @@ def free_run_error(
     InputError
         A rule that does not fit the record (a window longer than it, a period it cannot show).
     """
+    return free_run_response(fit, record, rule).error
+
+
+def free_run_response(
+    fit: ModelFit, record: Record, rule: TransientRule | str | Mapping[str, Any] | None = None
+) -> FreeRunResponse:
+    """The free run :func:`free_run_error` scores, with the simulated displacement (same arguments)."""
     rule = resolve_rule(rule, record)
+    z = np.asarray(record.z)
     if fit.mass is None:
-        return FreeRun(note="skipped: the mass is unknown")
+        return FreeRunResponse(z, None, 0, FreeRun(note="skipped: the mass is unknown"))
     if isinstance(rule, FromFirstSample):
         return _free_run_first_sample(fit, record, rule.describe())
     from ..simulation import FREE_RUN_OVERSAMPLE, simulate_segments
@@ -288,8 +321,7 @@ def free_run_error(
     try:
         begin = rule_start(fit, record, rule, q)
         shifted = begin.state.copy()
-        z = record.z[begin.first :]
-        scale = float(np.std(z))
+        scale = float(np.std(z[begin.first :]))
         shifted[0] += SENSITIVITY_DELTA * scale
         runs = [
             simulate_segments(
@@ -303,14 +335,16 @@ def free_run_error(
                 oversample=q,
                 fine=begin.fine,
                 sensitivities=False,
-            ).z[begin.first :]
+            ).z
             for x in (begin.state, shifted)
         ]
     except InputError:
         raise
     except NlidError as exc:
-        return FreeRun(note=f"free run diverged: {exc}", rule=rule.describe())
-    return _judged(z, runs[0], runs[1], scale, begin.description)
+        return FreeRunResponse(z, None, 0, FreeRun(note=f"free run diverged: {exc}", rule=rule.describe()))
+    k = begin.first
+    error = _judged(z[k:], runs[0][k:], runs[1][k:], scale, begin.description)
+    return FreeRunResponse(z, runs[0], k, error)
 
 
 def _judged(z: np.ndarray, z1: np.ndarray, z2: np.ndarray, scale: float, rule: str) -> FreeRun:
@@ -327,11 +361,11 @@ def _judged(z: np.ndarray, z1: np.ndarray, z2: np.ndarray, scale: float, rule: s
     return FreeRun(rmse, nrmse, "", fit, rule, int(z.size))
 
 
-def _free_run_first_sample(fit: ModelFit, record: Record, rule: str) -> FreeRun:
+def _free_run_first_sample(fit: ModelFit, record: Record, rule: str) -> FreeRunResponse:
     """The free run from the record's first sample (:func:`nlid.simulation.free_run`, nlid's path before the rules)."""
     from ..simulation import free_run
 
-    z = record.z
+    z = np.asarray(record.z)
     scale = float(np.std(z))
     x0 = initial_state(record)
     args = (fit.model, fit.theta, float(fit.mass), record.f, record.fs)
@@ -339,8 +373,8 @@ def _free_run_first_sample(fit: ModelFit, record: Record, rule: str) -> FreeRun:
         z1, _, _ = free_run(*args, force_hold=record.force_hold, x0=x0)
         z2, _, _ = free_run(*args, force_hold=record.force_hold, x0=(x0[0] + SENSITIVITY_DELTA * scale, x0[1]))
     except NlidError as exc:
-        return FreeRun(note=f"free run diverged: {exc}", rule=rule)
-    return _judged(z, z1, z2, scale, rule)
+        return FreeRunResponse(z, None, 0, FreeRun(note=f"free run diverged: {exc}", rule=rule))
+    return FreeRunResponse(z, z1, 0, _judged(z, z1, z2, scale, rule))
 
 
 def predictability_horizon(
