@@ -35,7 +35,6 @@ from .errors import (
     NlidError,
     PluginError,
     describe_exception,
-    rebuild_error,
 )
 from .identified import IdentifiedModel
 from .interface import Estimate, check_estimate, refined_terms
@@ -384,14 +383,4 @@ def _identify_isolated(
     except IsolationError as exc:
         raise IsolationError(f"cannot isolate {label} (timeout=): {exc}") from None
     outcome.reissue_warnings(label, stacklevel=4)
-    if outcome.status == "timeout":
-        raise IdentificationError(f"{outcome.describe(label, timeout)} (raise timeout=)")
-    if outcome.status != "ok":
-        raise PluginError(outcome.describe(label, timeout))
-    kind, *rest = outcome.value
-    if kind == "ok":
-        return rest[0]
-    error = rebuild_error(rest[0], rest[1])
-    if hasattr(error, "add_note") and rest[2:]:
-        error.add_note(f"traceback in the child process:\n{rest[2]}")
-    raise error
+    return outcome.answer(label, timeout, "raise timeout=")

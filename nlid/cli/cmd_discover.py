@@ -174,20 +174,12 @@ def _discover_in_child(record, declared, method, settings, show: bool = False) -
 
 def _discover_isolated(timeout: float, record, declared, method, settings, show: bool = False):
     """:func:`nlid.discovery.discover` in a child process stopped after ``timeout`` seconds."""
-    from ..errors import IdentificationError, PluginError, rebuild_error
     from ..runtime.isolation import run_in_child
 
     label = "the search" if method is None else f"the search with identifier {method!r}"
     outcome = run_in_child(_discover_in_child, (record, declared, method, settings, show), timeout=timeout)
     outcome.reissue_warnings(label)
-    if outcome.status == "timeout":
-        raise IdentificationError(f"{outcome.describe(label, timeout)} (raise --timeout)")
-    if outcome.status != "ok":
-        raise PluginError(outcome.describe(label, timeout))
-    kind, *rest = outcome.value
-    if kind == "ok":
-        return rest[0]
-    raise rebuild_error(rest[0], rest[1])
+    return outcome.answer(label, timeout, "raise --timeout")
 
 
 def run(args: argparse.Namespace) -> int:

@@ -21,7 +21,7 @@ import warnings
 from dataclasses import dataclass, field
 from typing import Any
 
-from ..errors import NlidError
+from ..errors import IdentificationError, NlidError, PluginError, rebuild_error
 
 __all__ = [
     "ChildResult",
@@ -140,6 +140,26 @@ class ChildResult:
         if self.status == "unsent":
             return f"{label} returned a result that cannot be sent back to nlid ({self.error})"
         return f"{label} {self.error}"
+
+    def answer(self, label: str, timeout: float | None, hint: str) -> Any:
+        """The value of a call that returned ``("ok", value)`` or ``("error", class names, message[, traceback])``.
+
+        Raises the nlid error the child raised (:func:`nlid.errors.rebuild_error`; its traceback in the
+        child as a note), :class:`~nlid.errors.IdentificationError` at the time limit (with ``hint``, e.g.
+        ``"raise --timeout"``), :class:`~nlid.errors.PluginError` when the child crashed or its answer
+        could not come back.
+        """
+        if self.status == "timeout":
+            raise IdentificationError(f"{self.describe(label, timeout)} ({hint})")
+        if self.status != "ok":
+            raise PluginError(self.describe(label, timeout))
+        kind, *rest = self.value
+        if kind == "ok":
+            return rest[0]
+        error = rebuild_error(rest[0], rest[1])
+        if rest[2:] and hasattr(error, "add_note"):  # Python 3.11+
+            error.add_note(f"traceback in the child process:\n{rest[2]}")
+        raise error
 
     def warning_lines(self, label: str) -> list[str]:
         """One line per warning issued in the child, and one for threads left running."""
