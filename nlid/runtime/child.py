@@ -31,6 +31,8 @@ import struct
 import sys
 from typing import Any
 
+from .process import descendants_of
+
 __all__ = ["serve", "read_message", "write_message", "HEADER"]
 
 #: The frame header: the length of the pickled message.
@@ -181,6 +183,11 @@ def _end() -> None:
         try:
             stream.flush()
         except (OSError, ValueError, AttributeError):
+            pass
+    for pid in descendants_of(os.getpid()):  # also those a plugin started in a session of their own
+        try:
+            os.kill(pid, signal.SIGKILL)
+        except OSError:
             pass
     if hasattr(os, "killpg") and os.getpgid(0) == os.getpid():
         os.killpg(0, signal.SIGKILL)

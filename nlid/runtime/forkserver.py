@@ -44,7 +44,7 @@ import socket
 import struct
 import sys
 
-from .process import _PR_SET_CHILD_SUBREAPER, THREAD_ENV, _prctl, die_with, pin_threads
+from .process import _PR_SET_CHILD_SUBREAPER, THREAD_ENV, _prctl, children_of, die_with, pin_threads
 
 __all__ = ["THREAD_ENV", "PIN_ENV", "PRELOAD_ENV", "PRELOAD_LIMIT", "main", "die_with", "pin_threads"]
 
@@ -206,22 +206,10 @@ class _Server:
 
     def kill_strays(self) -> None:
         """Kill children of the server that are not runs: grandchildren that escaped their run's group (Linux)."""
-        for pid in _children_of(os.getpid()):
+        for pid in children_of(os.getpid()):
             if pid not in self.runs:
                 with contextlib.suppress(OSError):
                     os.kill(pid, signal.SIGKILL)
-
-
-def _children_of(pid: int) -> list[int]:
-    """Direct children of ``pid`` (Linux ``/proc``; elsewhere none)."""
-    found: list[int] = []
-    try:
-        for task in os.listdir(f"/proc/{pid}/task"):
-            with open(f"/proc/{pid}/task/{task}/children") as fh:
-                found += [int(p) for p in fh.read().split()]
-    except OSError:
-        return found
-    return found
 
 
 def main(fd: int) -> None:

@@ -486,6 +486,9 @@ def _run_spawned(payload: bytes, timeout: float | None, pinned: bool) -> ChildRe
             with contextlib.suppress(subprocess.TimeoutExpired):
                 proc.wait(END_LIMIT)
         untrack(proc)
+    if hasattr(os, "killpg"):  # what the child left in its process group (a grandchild holding the reply pipe)
+        with contextlib.suppress(OSError):
+            os.killpg(proc.pid, signal.SIGKILL)
     for t in threads:
         t.join(END_LIMIT)
     with contextlib.suppress(OSError):

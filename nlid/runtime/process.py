@@ -10,7 +10,7 @@ import os
 import signal
 import sys
 
-__all__ = ["THREAD_ENV", "pin_threads", "die_with"]
+__all__ = ["THREAD_ENV", "pin_threads", "die_with", "children_of", "descendants_of"]
 
 #: Thread-pool sizes of the numerical libraries, read when they load (one thread per run process).
 THREAD_ENV = (
@@ -52,3 +52,26 @@ def die_with(parent: int, sig: int = signal.SIGKILL) -> bool:
     if os.getppid() != parent:
         os._exit(1)
     return ok
+
+
+def children_of(pid: int) -> list[int]:
+    """Direct children of ``pid`` (Linux ``/proc``; elsewhere none)."""
+    found: list[int] = []
+    try:
+        for task in os.listdir(f"/proc/{pid}/task"):
+            with open(f"/proc/{pid}/task/{task}/children") as fh:
+                found += [int(p) for p in fh.read().split()]
+    except OSError:
+        return found
+    return found
+
+
+def descendants_of(pid: int) -> list[int]:
+    """Every living descendant of ``pid``, whatever session or process group it moved to (Linux; elsewhere none)."""
+    out: list[int] = []
+    todo = children_of(pid)
+    while todo:
+        child = todo.pop()
+        out.append(child)
+        todo += children_of(child)
+    return out
