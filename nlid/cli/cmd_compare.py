@@ -9,7 +9,7 @@ from typing import Any
 
 from ..errors import DataError, InputError, brief
 from ..progress import showing
-from .common import add_data_arguments, load_data, parse_px_roots, parse_settings, print_json
+from .common import add_data_arguments, add_term_arguments, load_data, parse_px_roots, parse_settings, print_json
 
 DESCRIPTION = """\
 Identify one model with several methods on one record and print one table:
@@ -42,16 +42,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument(
         "--methods", metavar="NAMES", help="comma-separated identifiers (default: every installed one; nlid methods)"
     )
-    p.add_argument(
-        "--terms", default="", metavar="TERMS", help="comma-separated terms besides 1, z, v, e.g. 'z^3,z^2,v*|v|'"
-    )
-    p.add_argument("--without", default="", metavar="TERMS", help="default terms to leave out, e.g. '1' or 'z'")
-    p.add_argument("--mass", type=float, metavar="KG", help="known mass in kg (default: estimated by each method)")
-    p.add_argument(
-        "--px-roots",
-        metavar="ZMINUS,ZPLUS",
-        help="roots of px(z) in m (default: taken from the identified stiffness, iterated)",
-    )
+    add_term_arguments(p, "known mass in kg (default: estimated by each method)")
     p.add_argument(
         "--set",
         action="append",

@@ -110,17 +110,22 @@ def parse_settings(items: Sequence[str] | None) -> dict[str, str]:
 def add_model_arguments(parser: argparse.ArgumentParser, method_help: str) -> None:
     """The model and identifier options: --method, --terms, --without, --mass, --px-roots, --set."""
     parser.add_argument("--method", metavar="NAME", help=method_help)  # default: nlid.methods.choose_method
+    add_term_arguments(parser, "known mass in kg (default: estimated by the method)")
+    parser.add_argument("--set", action="append", metavar="KEY=VALUE", help="identifier option (repeatable)")
+
+
+def add_term_arguments(parser: argparse.ArgumentParser, mass_help: str) -> None:
+    """The model's options: --terms, --without, --mass, --px-roots."""
     parser.add_argument(
         "--terms", default="", metavar="TERMS", help="comma-separated terms besides 1, z, v, e.g. 'z^3,z^2,v*|v|'"
     )
     parser.add_argument("--without", default="", metavar="TERMS", help="default terms to leave out, e.g. '1' or 'z'")
-    parser.add_argument("--mass", type=float, metavar="KG", help="known mass in kg (default: estimated by the method)")
+    parser.add_argument("--mass", type=float, metavar="KG", help=mass_help)
     parser.add_argument(
         "--px-roots",
         metavar="ZMINUS,ZPLUS",
         help="roots of px(z) in m (default: taken from the identified stiffness, iterated)",
     )
-    parser.add_argument("--set", action="append", metavar="KEY=VALUE", help="identifier option (repeatable)")
 
 
 def parse_px_roots(text: str | None) -> tuple[float, float] | None:
