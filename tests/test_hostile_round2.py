@@ -25,13 +25,13 @@ import io
 import json
 import math
 import sys
-import textwrap
 
 import numpy as np
 import pandas as pd
 import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
+from plugin_dist import write_distribution
 
 import nlid
 from nlid import registry as registry_module
@@ -226,13 +226,7 @@ def files(tmp_path_factory):
     (d / "bad\nname.toml").write_text("[[datasets]\n")
     plugins = d / "plugins"
     plugins.mkdir()
-    for module, source in PLUGIN_MODULES.items():
-        (plugins / f"{module}.py").write_text(textwrap.dedent(source))
-    info = plugins / "nlid_hostile2-0.1.dist-info"
-    info.mkdir()
-    (info / "METADATA").write_text("Metadata-Version: 2.1\nName: nlid-hostile2\nVersion: 0.1\n")
-    lines = "".join(f"{name} = {module}\n" for name, module in ENTRY_POINTS.items())
-    (info / "entry_points.txt").write_text("[nlid.identifiers]\n" + lines)
+    write_distribution(plugins, "nlid-hostile2", PLUGIN_MODULES, ENTRY_POINTS)
     with pytest.MonkeyPatch.context() as mp:
         mp.syspath_prepend(str(plugins))
         _forget_plugin_modules()

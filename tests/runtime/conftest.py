@@ -10,10 +10,10 @@ still alive) identifies like ``rfs``.
 
 from __future__ import annotations
 
-import textwrap
 from pathlib import Path
 
 import pytest
+from plugin_dist import write_distribution
 
 PLUGINS = """
 import ctypes
@@ -130,11 +130,12 @@ HOSTILE = ("rt-segv", "rt-abort", "rt-hang", "rt-threads", "rt-grandchild", "rt-
 def hostile_path(tmp_path_factory):
     """A folder holding the hostile plugins as an installed distribution, on sys.path."""
     folder = tmp_path_factory.mktemp("hostile-plugins")
-    (folder / "nlid_runtime_test_plugins.py").write_text(textwrap.dedent(PLUGINS))
-    info = folder / "nlid_runtime_test_plugins-0.1.dist-info"
-    info.mkdir()
-    (info / "METADATA").write_text("Metadata-Version: 2.1\nName: nlid-runtime-test-plugins\nVersion: 0.1\n")
-    (info / "entry_points.txt").write_text("[nlid.identifiers]\nruntime-test = nlid_runtime_test_plugins\n")
+    write_distribution(
+        folder,
+        "nlid-runtime-test-plugins",
+        {"nlid_runtime_test_plugins": PLUGINS},
+        {"runtime-test": "nlid_runtime_test_plugins"},
+    )
     from nlid.registry import default_registry, registry_for
 
     def fresh() -> None:  # registries built before (or with) the plugins on the path are stale
