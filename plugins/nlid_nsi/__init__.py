@@ -25,10 +25,23 @@ Modules: :mod:`~nlid_nsi.gram` (block-Hankel Gram by FFT and recursion),
 extended inputs), :mod:`~nlid_nsi.fit` (one identification),
 :mod:`~nlid_nsi.ip` and :mod:`~nlid_nsi.shift` (the identifiers). Design
 decisions and measurements: ``docs/nsi.md``.
+
+The identifiers' modules import scipy only when they identify: loading the entry points
+(``nlid methods``, the registry) costs numpy and ``nlid.plugin`` alone.
 """
 
-from .fit import UnstableULSError
+from typing import Any
+
 from .ip import NSIInputPerturbation
 from .shift import NSIZeroShift
 
 __all__ = ["NSIInputPerturbation", "NSIZeroShift", "UnstableULSError"]
+
+
+def __getattr__(name: str) -> Any:
+    """``UnstableULSError`` on first use: its module imports scipy, which loading the entry points must not."""
+    if name == "UnstableULSError":
+        from .fit import UnstableULSError
+
+        return UnstableULSError
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

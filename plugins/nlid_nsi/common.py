@@ -5,14 +5,15 @@ from __future__ import annotations
 import contextlib
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from nlid.plugin import DataError, FigureArray, InputError, Option, Record, derivatives, suggested_cutoff
 
-from .fit import NSIFit, format_eigenvalues
-from .reconstruction import Reconstruction, fuse_motion, reconstruct_motion
+if TYPE_CHECKING:
+    from .fit import NSIFit
+    from .reconstruction import Reconstruction
 
 __all__ = [
     "COMMON_OPTIONS",
@@ -278,6 +279,8 @@ def eigen_list(lc: np.ndarray | None) -> list[list[float]] | None:
 
 def fit_summary(fit: NSIFit) -> dict[str, Any]:
     """JSON-friendly summary of one fit."""
+    from .fit import format_eigenvalues
+
     return {
         "order": int(fit.order),
         "singular_values": [float(x) for x in fit.singular_values[:20]],
@@ -348,6 +351,8 @@ def reconstruction(
     otherwise the force-driven completion and de-noising of
     :func:`nlid_nsi.reconstruction.reconstruct_motion`.
     """
+    from .reconstruction import fuse_motion, reconstruct_motion
+
     z = np.asarray(record.z, dtype=float)
     if record.a is not None and vel.differentiate is not None and opt["acceleration"] == "fuse":
         # a crossover outside (0, fs/2) is refused by nlid.derivatives.complementary, naming the option

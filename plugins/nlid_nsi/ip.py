@@ -84,14 +84,12 @@ from __future__ import annotations
 
 import time
 from collections.abc import Mapping
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from nlid.plugin import Estimate, FigureArray, Identifier, Model, Option, Record, equilibria, modal
 
-from .basis import split_model
-from .channels import Channels, perturbation_map, perturbation_subspace, prepare_channels, static_constant
 from .common import (
     COMMON_OPTIONS,
     HOLD_ASSUMED,
@@ -106,12 +104,14 @@ from .common import (
     reconstruction_diagnostics,
     velocity_estimate,
 )
-from .continuous import continuous_eigenvalues, uls_ok
-from .fit import NSIFit, UnstableULSError, fit_extended, format_eigenvalues
-from .gram import block_hankel_gram, clip_indefinite, sub_gram, transform_gram
-from .intersample import force_interval_mean
-from .noise import subtract_noise
-from .subspace import PerturbedMOESP, po_moesp
+
+if TYPE_CHECKING:
+    from .channels import Channels
+    from .fit import NSIFit
+    from .subspace import PerturbedMOESP
+
+# The numerical modules (scipy) are imported where they are used, not here: loading the plugin's entry point
+# (the registry, `nlid methods`) costs no scipy import.
 
 __all__ = ["NSIInputPerturbation", "search_k_tilde", "ensemble_values", "combine_fits"]
 
@@ -144,6 +144,12 @@ def search_k_tilde(
     UnstableULSError
         If no value up to ``k_max`` passes.
     """
+    from .channels import perturbation_map
+    from .continuous import continuous_eigenvalues, uls_ok
+    from .fit import UnstableULSError
+    from .gram import transform_gram
+    from .subspace import po_moesp
+
     k = float(start)
     rows = gram.shape[0] // 2
     while k <= k_max:
@@ -295,6 +301,13 @@ class NSIInputPerturbation(Identifier):
             return self._identify(record, model, mass)
 
     def _identify(self, record: Record, model: Model, mass: float | None) -> Estimate:
+        from .basis import split_model
+        from .channels import perturbation_map, perturbation_subspace, prepare_channels, static_constant
+        from .fit import UnstableULSError, fit_extended
+        from .gram import block_hankel_gram, clip_indefinite, sub_gram
+        from .intersample import force_interval_mean
+        from .noise import subtract_noise
+
         opt = self.settings
         t0 = time.perf_counter()
         timings: dict[str, float] = {}
@@ -533,6 +546,8 @@ class NSIInputPerturbation(Identifier):
         subspace: PerturbedMOESP | None = None,
     ) -> str:
         """The message for an explicit k~1 that fails, with the value the search would accept."""
+        from .fit import UnstableULSError, format_eigenvalues
+
         opt = self.settings
         msg = (
             f"nsi-ip: k~1 = {k:g} N/m gives an underlying-linear system with eigenvalues "

@@ -52,14 +52,12 @@ from __future__ import annotations
 import math
 import time
 from collections.abc import Mapping
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from nlid.plugin import Estimate, FigureArray, IdentificationError, Identifier, Model, Option, Record, equilibria
 
-from .basis import Basis, shifted_basis, split_model
-from .channels import prepare_channels, static_constant
 from .common import (
     COMMON_OPTIONS,
     HOLD_ASSUMED,
@@ -74,11 +72,13 @@ from .common import (
     velocity_estimate,
     well_suffix,
 )
-from .fit import NSIFit, UnstableULSError, fit_extended
-from .gram import block_hankel_gram, clip_indefinite
-from .intersample import force_interval_mean
-from .noise import subtract_noise
-from .reconstruction import Reconstruction
+
+if TYPE_CHECKING:
+    from .basis import Basis
+    from .fit import NSIFit
+    from .reconstruction import Reconstruction
+
+# The numerical modules (scipy) are imported where they are used: loading the entry point imports no scipy.
 
 __all__ = ["NSIZeroShift", "histogram_modes", "taylor_shift"]
 
@@ -168,6 +168,13 @@ class NSIZeroShift(Identifier):
             return self._identify(record, model, mass)
 
     def _identify(self, record: Record, model: Model, mass: float | None) -> Estimate:
+        from .basis import shifted_basis, split_model
+        from .channels import prepare_channels
+        from .fit import UnstableULSError, fit_extended
+        from .gram import block_hankel_gram, clip_indefinite
+        from .intersample import force_interval_mean
+        from .noise import subtract_noise
+
         opt = self.settings
         t0 = time.perf_counter()
         dt = record.dt
@@ -329,6 +336,8 @@ class NSIZeroShift(Identifier):
         dt: float,
     ) -> tuple[dict[str, float], dict[str, float]]:
         """Coefficients in ``z`` (all powers, 1, z, v, other terms) and in ``x``."""
+        from .channels import static_constant
+
         cx = dict(fit.coefficients)
         cx["x"] = fit.uls.k
         cx["v"] = fit.uls.c

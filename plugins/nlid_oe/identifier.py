@@ -43,10 +43,9 @@ Shapes
 from __future__ import annotations
 
 import time
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
-from scipy import optimize
 
 from nlid.plugin import (
     FREE_RUN_OVERSAMPLE,
@@ -68,7 +67,8 @@ from nlid.plugin import (
     progress_line,
 )
 
-from .problem import Parameter, Problem
+if TYPE_CHECKING:
+    from .problem import Parameter, Problem
 
 #: Segment length as a fraction of the predictability horizon (over a third of the horizon an initial
 #: error grows by about (SENSITIVITY_LIMIT / SENSITIVITY_DELTA)^(1/3) = 10).
@@ -190,6 +190,8 @@ class OutputError(Identifier):
     # ------------------------------------------------------------------ identify
     def identify(self, record: Record, model: Model, *, mass: float | None = None) -> Estimate:
         """Fit the free run (module docstring) and return the coefficients keyed by the (refined) model."""
+        from .problem import Parameter, Problem  # scipy.sparse: not at import (loading the entry points)
+
         clock = time.perf_counter()
         if record.n < MIN_SAMPLES:
             raise DataError(f"oe: the record has {record.n} samples; at least {MIN_SAMPLES} are needed")
@@ -404,6 +406,8 @@ class OutputError(Identifier):
     # ------------------------------------------------------------------ the optimiser
     def _solve(self, problem: Problem, method: str) -> Any:
         """:func:`scipy.optimize.least_squares` (trust-region reflective) on one problem; raises when it fails."""
+        from scipy import optimize
+
         u0 = problem.start()
         if not np.all(np.isfinite(problem.residual(u0))) or problem.diverged:
             raise IdentificationError(f"oe: the start model ({method}) diverges in a free run of the record")

@@ -50,9 +50,9 @@ import warnings
 from collections.abc import Iterator
 from contextlib import contextmanager
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
-import pysindy as ps
 
 from nlid.plugin import (
     EDGE_PERIODS,
@@ -71,8 +71,13 @@ from nlid.plugin import (
     regression_data,
 )
 
-from .library import TermLibrary, auto_candidates
-from .threshold import choose_threshold, stlsq
+if TYPE_CHECKING:
+    import pysindy as ps
+
+    from .library import TermLibrary
+
+# pysindy (and scikit-learn, which it imports) is imported where it is used, never at import: loading the
+# entry points (the registry, ``nlid methods``) must not pay its ~1-5 s.
 
 __all__ = ["SparseIdentification", "SindyProblem", "build_problem"]
 
@@ -158,6 +163,10 @@ def build_problem(
         ``"nlid"`` (shared filters, :func:`nlid.physics.regression_data`) or
         ``"pysindy"`` (``pysindy.SmoothedFiniteDifference``).
     """
+    import pysindy as ps
+
+    from .library import TermLibrary
+
     fs = record.fs
     if differentiation == "nlid":
         # the force balance without the model's columns (the library evaluates those): the state
@@ -208,11 +217,17 @@ def _pysindy_errors() -> Iterator[None]:
     except NlidError:
         raise
     except Exception as exc:  # noqa: BLE001 - whatever pysindy raises is reported as the plugin's
+        import pysindy as ps
+
         raise IdentificationError(f"sindy: pysindy {ps.__version__} failed: {type(exc).__name__}: {exc}") from exc
 
 
 def fit_sindy(problem: SindyProblem, threshold: float) -> tuple[ps.SINDy, list[str]]:
     """Fit pysindy's SINDy (STLSQ, relative ``threshold``) on a problem; return it and its warnings."""
+    import pysindy as ps
+
+    from .threshold import stlsq
+
     with warnings.catch_warnings(record=True) as seen:
         warnings.simplefilter("always")
         fitted = ps.SINDy(optimizer=stlsq(threshold, problem.rows.size), feature_library=problem.library)
@@ -279,6 +294,9 @@ class SparseIdentification(Identifier):
 
     def identify(self, record: Record, model: Model, *, mass: float | None = None) -> Estimate:
         """Fit the sparse model and map its ``v'`` equation to the coefficients of ``R``."""
+        from .library import auto_candidates
+        from .threshold import choose_threshold
+
         s = self.settings
         library_model = model
         if s["library"] == "automatic":
@@ -309,6 +327,8 @@ class SparseIdentification(Identifier):
         return self._result(model, library_model, mass, problem, fitted, theta, threshold, choice, caught)
 
     def _result(self, model, library_model, mass, problem, fitted, theta, threshold, choice, caught):
+        import pysindy as ps
+
         coef = np.asarray(fitted.coefficients(), dtype=float) * problem.scale[:, None]
         xi = coef[1]
         p = len(library_model)
