@@ -16,7 +16,6 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy import special
 
 from .basis import Basis
 from .intersample import BLOCK, interval_means, trapezoid_mean
@@ -200,6 +199,8 @@ def _calibrated(func, sigma_v: float):
     scale = 1.0 / (np.sqrt(2.0) * sigma_v)
 
     def calibrated(z: np.ndarray, v: np.ndarray) -> np.ndarray:
+        from scipy import special
+
         return func(z, v) * np.sign(v) * special.erf(v * scale)
 
     return calibrated
