@@ -141,13 +141,9 @@ def _lowpass_columns(values: np.ndarray, fs: float, fc: float) -> np.ndarray:
     gives the same numbers to the bit and saves one FFT filtering of the
     record's length. ``values`` (a new array) is filtered in place.
     """
-    constant = [j for j in range(values.shape[1]) if not np.any(values[:, j] != values[0, j])]
-    if not constant:
-        return derivatives.lowpass(values, fs, fc)
-    for j in range(values.shape[1]):  # what lowpass does with a matrix: one column at a time
-        if j not in constant:
-            values[:, j] = derivatives.lowpass(values[:, j], fs, fc)
-    return values
+    varying = [j for j in range(values.shape[1]) if np.any(values[:, j] != values[0, j])]
+    # what lowpass does with a matrix (one column at a time), in place, the filter's response computed once
+    return derivatives.lowpass_columns(values, fs, fc, varying)
 
 
 def _columns(cache: dict, model: Model, z: np.ndarray, v: np.ndarray | None, fs: float, fc: float, wide: float):
@@ -169,6 +165,8 @@ def _columns(cache: dict, model: Model, z: np.ndarray, v: np.ndarray | None, fs:
             column = np.ascontiguousarray(values[:, j])
             column.setflags(write=False)
             cache[keys[model.terms.index(term)]] = column
+        if len(missing) == len(keys):  # every column new, in the model's order: values is the matrix (no copy)
+            return values
     return np.column_stack([cache[k] for k in keys]) if keys else np.empty((z.size, 0))
 
 

@@ -50,6 +50,7 @@ Integration (:func:`integrate`)
 
 from __future__ import annotations
 
+from collections.abc import Iterable
 from dataclasses import dataclass
 
 import numpy as np
@@ -63,6 +64,7 @@ __all__ = [
     "differentiate",
     "integrate",
     "lowpass",
+    "lowpass_columns",
     "noise_sd",
     "suggest_cutoff",
     "zoh_equivalent",
@@ -207,6 +209,51 @@ def _extend(x: np.ndarray, pad: int) -> tuple[np.ndarray, np.ndarray, np.ndarray
     return np.concatenate([left, d, right], axis=0), offset, slope
 
 
+def _extend_into(x: np.ndarray, pad: int, buf: np.ndarray) -> tuple[float, float]:
+    """:func:`_extend` of the 1-D ``x`` written into the zeroed ``buf`` (the FFT's zero padding follows it).
+
+    The same operations on the same numbers as :func:`_extend` (the same
+    values to the bit), without its temporaries and the concatenation;
+    returns the line's offset and slope.
+    """
+    n = x.shape[0]
+    offset = x[0]
+    slope = (x[-1] - x[0]) / (n - 1)
+    line = slope * np.arange(n)
+    line += offset
+    d = buf[pad : pad + n]
+    np.subtract(x, line, out=d)  # zero at both ends
+    del line
+    taper = 0.5 - 0.5 * np.cos(np.pi * np.arange(pad) / pad)
+    np.multiply(d[pad:0:-1], taper, out=buf[:pad])  # -(a t) == (-a) t to the bit
+    np.negative(buf[:pad], out=buf[:pad])
+    right = buf[pad + n : 2 * pad + n]
+    np.multiply(d[-2 : -pad - 2 : -1], taper[::-1], out=right)
+    np.negative(right, out=right)
+    return offset, slope
+
+
+def _response(
+    size: int, fs: float, cutoff: float | None, order: int, derivative: int, hold: bool, complement: bool
+) -> np.ndarray:
+    """The shared zero-phase response at the ``rfft`` frequencies of ``size`` samples (see module docstring)."""
+    from scipy import fft as sp_fft
+
+    freqs = sp_fft.rfftfreq(size, d=1.0 / fs)
+    response = np.ones(freqs.size, dtype=complex)
+    if cutoff is not None:
+        low = 1.0 / (1.0 + (freqs / cutoff) ** (2 * order))
+        response *= 1.0 - low if complement else low
+    if derivative > 0:
+        response *= (2j * np.pi * freqs) ** derivative
+    elif derivative < 0:
+        response[0] = 0.0
+        response[1:] *= (2j * np.pi * freqs[1:]) ** derivative
+    if hold:
+        response *= np.sinc(freqs / fs) * np.exp(-1j * np.pi * freqs / fs)
+    return response
+
+
 def _apply(
     x: np.ndarray,
     fs: float,
@@ -223,36 +270,83 @@ def _apply(
     ``derivative`` may then be negative (integration, zero at ``f = 0``).
     """
     x = np.asarray(x, dtype=float)
-    n = x.shape[0]
     if cutoff is not None:
         check_cutoff(cutoff, fs)
-    if x.ndim == 2 and x.shape[1] > 1:
+    if x.ndim == 2:
         # one column at a time: the padded spectra of a whole regressor matrix would set the peak memory
         # of a long record (10^6 samples x 6 terms: ~0.3 GB of temporaries); the result is the same
         out = np.empty_like(x)
-        for j in range(x.shape[1]):
-            out[:, j] = _apply(
-                x[:, j], fs, cutoff, order=order, derivative=derivative, hold=hold, complement=complement
-            )
+        _filter_columns(x, out, range(x.shape[1]), fs, cutoff, order, derivative, hold, complement)
         return out
-    pad = _pad_length(n, fs, cutoff)
-    ext, offset, slope = _extend(x, pad)
+    if x.ndim != 1:
+        return _apply_nd(x, fs, cutoff, order, derivative, hold, complement)
+    out = np.empty_like(x)
+    _filter_columns(x[:, None], out[:, None], (0,), fs, cutoff, order, derivative, hold, complement)
+    return out
+
+
+def _filter_columns(
+    x: np.ndarray,
+    out: np.ndarray,
+    columns: Iterable[int],
+    fs: float,
+    cutoff: float | None,
+    order: int,
+    derivative: int,
+    hold: bool,
+    complement: bool,
+) -> None:
+    """``out[:, j] =`` the shared response applied to ``x[:, j]`` for each ``j`` in ``columns`` (``out`` may be ``x``).
+
+    The response is computed once for all the columns, and each column is
+    extended straight into the FFT's zero-padded input (:func:`_extend_into`):
+    the same numbers as filtering each column on its own, to the bit.
+    """
     from scipy import fft as sp_fft
 
+    n = x.shape[0]
+    pad = _pad_length(n, fs, cutoff)
+    size = sp_fft.next_fast_len(n + 2 * pad, real=True)
+    response = _response(size, fs, cutoff, order, derivative, hold, complement)
+    k = None
+    for j in columns:
+        buf = np.zeros(size)
+        offset, slope = _extend_into(x[:, j], pad, buf)
+        spectrum = sp_fft.rfft(buf)
+        del buf
+        spectrum *= response
+        col = sp_fft.irfft(spectrum, size)[pad : pad + n]
+        del spectrum
+        # the removed line passes the low-pass unchanged (1 - L removes it entirely); a hold delays it by half a
+        # sample
+        if not complement and derivative in (0, 1):
+            if derivative == 0:
+                if k is None:
+                    k = np.arange(n) - (0.5 if hold else 0.0)
+                col += offset + slope * k
+            else:
+                col += slope * fs
+        out[:, j] = col
+
+
+def _apply_nd(
+    x: np.ndarray,
+    fs: float,
+    cutoff: float | None,
+    order: int,
+    derivative: int,
+    hold: bool,
+    complement: bool,
+) -> np.ndarray:
+    """:func:`_apply` along axis 0 of an array of three or more dimensions (all at once)."""
+    from scipy import fft as sp_fft
+
+    n = x.shape[0]
+    pad = _pad_length(n, fs, cutoff)
+    ext, offset, slope = _extend(x, pad)
     size = sp_fft.next_fast_len(ext.shape[0], real=True)
     spectrum = sp_fft.rfft(ext, size, axis=0)
-    freqs = sp_fft.rfftfreq(size, d=1.0 / fs)
-    response = np.ones(freqs.size, dtype=complex)
-    if cutoff is not None:
-        low = 1.0 / (1.0 + (freqs / cutoff) ** (2 * order))
-        response *= 1.0 - low if complement else low
-    if derivative > 0:
-        response *= (2j * np.pi * freqs) ** derivative
-    elif derivative < 0:
-        response[0] = 0.0
-        response[1:] *= (2j * np.pi * freqs[1:]) ** derivative
-    if hold:
-        response *= np.sinc(freqs / fs) * np.exp(-1j * np.pi * freqs / fs)
+    response = _response(size, fs, cutoff, order, derivative, hold, complement)
     shape = (-1,) + (1,) * (x.ndim - 1)
     out = sp_fft.irfft(spectrum * response.reshape(shape), size, axis=0)[pad : pad + n]
     if complement:  # 1 - L removes the line (and its integrals) entirely
@@ -264,6 +358,18 @@ def _apply(
     elif derivative == 1:
         out += slope * fs
     return out
+
+
+def lowpass_columns(values: np.ndarray, fs: float, cutoff: float, columns: Iterable[int]) -> np.ndarray:
+    """:func:`lowpass` of the given columns of the 2-D ``values``, in place (the other columns untouched).
+
+    The same numbers as ``values[:, j] = lowpass(values[:, j], fs, cutoff)``
+    for each ``j``, with the filter's response computed once for all of
+    them. Returns ``values``.
+    """
+    check_cutoff(cutoff, fs)
+    _filter_columns(values, values, columns, fs, float(cutoff), FILTER_ORDER, 0, False, False)
+    return values
 
 
 def lowpass(x: np.ndarray, fs: float, cutoff: float, order: int = FILTER_ORDER) -> np.ndarray:
