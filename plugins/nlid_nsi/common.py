@@ -257,9 +257,25 @@ def blas_threads(n: int | None) -> contextlib.AbstractContextManager:
     """
     if n is None:
         return contextlib.nullcontext()
-    from threadpoolctl import threadpool_limits
+    return _controller().limit(limits=int(n), user_api="blas")
 
-    return threadpool_limits(limits=int(n), user_api="blas")
+
+_CONTROLLER: list[Any] = []
+
+
+def _controller() -> Any:
+    """One ``threadpoolctl.ThreadpoolController`` per process (listing the loaded libraries costs ~2 ms a call).
+
+    ``scipy.linalg`` is imported first: scipy's BLAS is a library of its own,
+    next to numpy's, and the identifiers' numerical modules are imported only
+    inside the call, so a limit taken before would miss it.
+    """
+    if not _CONTROLLER:
+        import scipy.linalg  # noqa: F401 - loads scipy's BLAS before the libraries are listed
+        from threadpoolctl import ThreadpoolController
+
+        _CONTROLLER.append(ThreadpoolController())
+    return _CONTROLLER[0]
 
 
 def check_length(n: int, block_rows: int, channels: int) -> None:
