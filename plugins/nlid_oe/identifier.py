@@ -340,8 +340,7 @@ class OutputError(Identifier):
         run, refined, order = problem.run_at(u)
         _, theta, mass_fit, states, _ = problem.unpack(u)
         residual = problem.residual(u)
-        J = problem.jacobian(u)
-        se_u, se_iid_u, corr, batches = self._standard_errors(problem, J, residual, u)
+        se_u, se_iid_u, corr, batches = self._standard_errors(problem, residual, u)
         x = u * problem.scale
         se = se_u * problem.scale[: problem.G]
         se_iid = se_iid_u * problem.scale[: problem.G]
@@ -415,7 +414,7 @@ class OutputError(Identifier):
         stage = f"{problem.K} segment(s)"
 
         def residual(u: np.ndarray) -> np.ndarray:
-            r = problem.residual(u)
+            r = problem.reduced_residual(u)
             line.update(line.done + 1, note=f"{stage}, cost {float(r @ r):.4g}")
             return r
 
@@ -424,7 +423,7 @@ class OutputError(Identifier):
                 res = optimize.least_squares(
                     residual,
                     u0,
-                    jac=problem.jacobian,
+                    jac=problem.reduced_jacobian,
                     bounds=(lower, upper),
                     method="trf",
                     x_scale=1.0 if self._solver(problem) == "exact" else "jac",
@@ -452,8 +451,8 @@ class OutputError(Identifier):
 
     @staticmethod
     def _solver(problem: Problem) -> str:
-        """``"exact"`` (dense Jacobian, SVD) while the Jacobian is small, else ``"lsmr"`` (sparse)."""
-        return "exact" if problem.rows * problem.size <= DENSE_LIMIT else "lsmr"
+        """``"exact"`` (dense Jacobian, SVD) while the reduced Jacobian is small, else ``"lsmr"`` (sparse)."""
+        return "exact" if problem.reduced_rows * problem.size <= DENSE_LIMIT else "lsmr"
 
     @staticmethod
     def _short_length(start: Any, record: Record) -> int:
@@ -476,20 +475,19 @@ class OutputError(Identifier):
 
     # ------------------------------------------------------------------ uncertainty
     @staticmethod
-    def _standard_errors(problem: Problem, J: Any, residual: np.ndarray, u: np.ndarray):
+    def _standard_errors(problem: Problem, residual: np.ndarray, u: np.ndarray):
         """Batch-means sandwich standard errors of the global parameters (scaled), segments profiled out."""
         import emcee
 
-        G, L = problem.G, problem.L
+        G = problem.G
         rows = problem.rows_data
-        dense = J[:rows].toarray() if hasattr(J, "toarray") else np.asarray(J[:rows])
-        Xg = dense[:, :G].copy()
-        seg = np.repeat(problem.segment_of, problem.C)
+        Jg, Jl, _ = problem.blocks(u)
+        Xg = Jg.copy()
+        edges = np.append(problem.starts, problem.record.n) * problem.C
         for k in range(problem.K):
-            idx = np.flatnonzero(seg == k)
-            Xl = dense[idx][:, G + k * L : G + (k + 1) * L]
-            coef, *_ = np.linalg.lstsq(Xl, Xg[idx], rcond=None)
-            Xg[idx] -= Xl @ coef
+            a, b = edges[k], edges[k + 1]
+            coef, *_ = np.linalg.lstsq(Jl[a:b], Xg[a:b], rcond=None)
+            Xg[a:b] -= Jl[a:b] @ coef
         r = residual[:rows]
         try:
             tau = float(emcee.autocorr.integrated_time(r, tol=0, quiet=True)[0])
