@@ -420,57 +420,71 @@ class Problem:
 
         The states taken from the data (a noisy displacement, a band-limited velocity estimate) can be far
         from any trajectory of the model: starting the joint fit there, the optimiser wanders. Here every
-        segment's state alone is fitted to the segment's samples by Levenberg-Marquardt steps (the segments
-        are independent when the global parameters are held and the continuity rows left out), all segments
-        in one simulation per iteration.
+        segment's state alone is fitted to the first ``window`` samples of the segment (``None``: all) by
+        Levenberg-Marquardt steps (the segments are independent when the global parameters are held and the
+        continuity rows left out), all segments in one simulation per iteration. Only the windows are
+        simulated (the windows of all segments joined into one shorter record of segments: the samples, their
+        force and sub-step force are those of the record), and a step is kept or refused segment by segment
+        without simulating again (a segment's run depends on its own state only).
         """
         u = np.array(u, dtype=float, copy=True)
-        G, L, K, C = self.G, self.L, self.K, self.C
-        seg = np.repeat(self.segment_of, C)
-        mask = np.ones(self.rows_data)
-        if window is not None:
-            offset = np.arange(self.record.n) - self.starts[self.segment_of]
-            mask = np.repeat((offset < window).astype(float), C)
-
-        def evaluate(x):
-            try:
-                r, (run, model, order) = self._evaluate(x)
-            except SimulationError:
-                return None, None
-            data = r[: self.rows_data] * mask
-            return np.bincount(seg, data**2, minlength=K), (data, run, model, order)
-
-        cost, state = evaluate(u)
-        if cost is None:
-            return u
-        lam = np.full(K, 1e-3)
+        G, L, K, C, q = self.G, self.L, self.K, self.C, self.q
+        lengths = np.diff(np.append(self.starts, self.record.n))
+        width = lengths if window is None else np.minimum(int(window), lengths)
+        idx = np.concatenate([np.arange(s, s + w) for s, w in zip(self.starts, width, strict=True)])
+        starts = np.append(0, np.cumsum(width)[:-1])
+        fine = self.fine[(idx[:, None] * q + np.arange(q)[None, :]).ravel()]
+        force = self.record.f[idx]
+        measured = self.measured[idx]
+        edges = np.append(starts, idx.size) * C  # first data row of each segment's window
+        seg = np.repeat(np.arange(K), width * C)
         which = {"z": 0, "v": 1, "a": 2}
         chan = [which[c] for c in self.channels]
-        for _ in range(iterations):
-            data, run, model, order = state
+        lscale = self.scale[G : G + L]
+
+        def evaluate(x):
+            """Cost per segment, data residual and the states' Jacobian rows of the windows; ``None`` if diverged."""
+            model, theta, mass, states, order = self.unpack(x)
+            if not mass > 0:
+                return None
+            try:
+                run = simulate_segments(model, theta, mass, force, self.record.fs, starts, states,
+                                        force_hold=self.record.force_hold, oversample=q, fine=fine)
+            except SimulationError:
+                return None
+            sim = np.column_stack([getattr(run, c) for c in self.channels])
+            data = ((sim - measured) / self.channel_scale).ravel()
             lcols = self._local_columns(list(run.columns), model, order)
-            lscale = self.scale[G : G + L]
             Jl = (run.sensitivities[chan][:, :, lcols].transpose(1, 0, 2)
-                  * (lscale[None, :] / self.channel_scale[:, None])[None]).reshape(-1, L) * mask[:, None]
-            A = np.zeros((K, L, L))
-            g = np.zeros((K, L))
-            np.add.at(A, seg, Jl[:, :, None] * Jl[:, None, :])
-            np.add.at(g, seg, Jl * data[:, None])
+                  * (lscale[None, :] / self.channel_scale[:, None])[None]).reshape(-1, L)
+            return np.bincount(seg, data**2, minlength=K), data, Jl
+
+        state = evaluate(u)
+        if state is None:
+            return u
+        cost, data, Jl = state
+        lam = np.full(K, 1e-3)
+        for _ in range(iterations):
+            A = np.add.reduceat(Jl[:, :, None] * Jl[:, None, :], edges[:-1], axis=0)
+            g = np.add.reduceat(Jl * data[:, None], edges[:-1], axis=0)
             diag = np.einsum("kii->ki", A)
             A_damped = A + lam[:, None, None] * np.einsum("ki,ij->kij", np.maximum(diag, 1e-300), np.eye(L))
             step = -np.linalg.solve(A_damped, g[:, :, None])[:, :, 0]
             trial = u.copy()
             trial[G:] += step.ravel()
-            new_cost, new_state = evaluate(trial)
-            if new_cost is None:
+            new = evaluate(trial)
+            if new is None:
                 lam *= 10.0
                 continue
+            new_cost, new_data, new_Jl = new
             better = new_cost < cost
-            keep = np.repeat(better, L)
-            u[G:] = np.where(keep, trial[G:], u[G:])
+            u[G:] = np.where(np.repeat(better, L), trial[G:], u[G:])
             lam = np.where(better, lam / 3.0, lam * 4.0)
             gain = float(np.sum(cost - np.where(better, new_cost, cost)))
-            cost, state = evaluate(u)
+            rows = better[seg]
+            cost = np.where(better, new_cost, cost)
+            data = np.where(rows, new_data, data)
+            Jl = np.where(rows[:, None], new_Jl, Jl)
             if gain <= rtol * float(np.sum(cost)):
                 break
         return u
