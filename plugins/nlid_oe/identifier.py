@@ -83,8 +83,12 @@ MIN_SAMPLES = 64
 DIRECT_LIMIT = 0.02
 #: Most segments of the short-segment stage (longer segments on long records keep its Jacobian dense).
 MAX_SHORT_SEGMENTS = 40
-#: Largest Jacobian (rows x columns) handled densely (trust-region steps by SVD); beyond it, sparse (LSMR).
+#: Largest Jacobian (rows x columns) built dense.
 DENSE_LIMIT = 16_000_000
+#: Largest reduced problem (rows x columns^2 of :meth:`Problem.reduced`, the SVD's cost) whose trust-region
+#: steps are exact (an SVD per Jacobian: about a second on one core at the limit); beyond it, LSMR on the
+#: sparse reduced Jacobian (hundreds of segments: the SVD of a 8000 x 1200 matrix took 30 s).
+EXACT_LIMIT = 2e9
 #: Length of the short segments, in periods of the start model's highest natural frequency.
 SHORT_PERIODS = 5.0
 #: Quantile of the predictability times (from :data:`nlid.scoring.HORIZON_STARTS` starts) taken as the
@@ -275,7 +279,7 @@ class OutputError(Identifier):
                            q, fine, np.asarray(scales), state_scales, self.settings["continuity_weight"])
             if global_values is not None:
                 prob.set_globals(global_values)
-            prob.dense_limit = DENSE_LIMIT
+            prob.dense_limit = DENSE_LIMIT if self._solver(prob) == "exact" else 0  # LSMR: the sparse one
             prob.refine_start()
             return prob
 
@@ -462,8 +466,9 @@ class OutputError(Identifier):
 
     @staticmethod
     def _solver(problem: Problem) -> str:
-        """``"exact"`` (dense Jacobian, SVD) while the reduced Jacobian is small, else ``"lsmr"`` (sparse)."""
-        return "exact" if problem.reduced_rows * problem.size <= DENSE_LIMIT else "lsmr"
+        """``"exact"`` (dense Jacobian, SVD) while the reduced problem is small (:data:`EXACT_LIMIT`), else
+        ``"lsmr"`` (sparse)."""
+        return "exact" if problem.reduced_rows * problem.size**2 <= EXACT_LIMIT else "lsmr"
 
     @staticmethod
     def _short_length(start: Any, record: Record) -> int:
