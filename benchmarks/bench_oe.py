@@ -125,7 +125,9 @@ def main() -> None:
     trees = [str(Path(t).resolve()) for t in args.trees.split(",")]
     times: dict[str, list[float]] = {t: [] for t in trees}
     loads: dict[str, list[float]] = {t: [] for t in trees}
-    print(f"{os.cpu_count()} cores; load average {os.getloadavg()[0]:.2f}; NLID_WORKERS={os.environ.get('NLID_WORKERS')}")
+    print(
+        f"{os.cpu_count()} cores; load average {os.getloadavg()[0]:.2f}; NLID_WORKERS={os.environ.get('NLID_WORKERS')}"
+    )
     for _ in range(args.repeat):
         for seed in seeds:
             for tree in trees:

@@ -153,25 +153,55 @@ class OutputError(Identifier):
     """Output-error least squares on the free-run simulation (multiple shooting when chaotic)."""
 
     name = "oe"
-    summary = "output error: fit the free-run simulation (coefficients, mass, shapes, initial state) from another method's start"
+    summary = (
+        "output error: fit the free-run simulation (coefficients, mass, shapes, initial state) from another "
+        "method's start"
+    )
     options = (
-        Option("init", "str", None, "identifier whose estimate starts the fit (default: the preferred installed one)",
-               nullable=True),
-        Option("shapes", "str", "all", "shape parameters to fit: all, none, or a comma-separated list of terms",
-               nullable=True),
-        Option("outputs", "str", "z", "measured channels whose free-run error is minimised",
-               choices=("z", "z,v", "z,a", "z,v,a")),
-        Option("segment_seconds", "float", None,
-               "multiple-shooting segment length in s (default: a third of the predictability horizon when "
-               "chaotic, short segments for a model with several stable equilibria, else one segment; "
-               "0: one segment)", nullable=True, minimum=0.0),
-        Option("continuity_weight", "float", 1.0, "weight of the continuity defects between segments",
-               minimum=1e-6),
-        Option("oversample", "int", FREE_RUN_OVERSAMPLE, "RK4 sub-steps per sample of the fitted free run",
-               minimum=1, maximum=64),
+        Option(
+            "init",
+            "str",
+            None,
+            "identifier whose estimate starts the fit (default: the preferred installed one)",
+            nullable=True,
+        ),
+        Option(
+            "shapes",
+            "str",
+            "all",
+            "shape parameters to fit: all, none, or a comma-separated list of terms",
+            nullable=True,
+        ),
+        Option(
+            "outputs",
+            "str",
+            "z",
+            "measured channels whose free-run error is minimised",
+            choices=("z", "z,v", "z,a", "z,v,a"),
+        ),
+        Option(
+            "segment_seconds",
+            "float",
+            None,
+            "multiple-shooting segment length in s (default: a third of the predictability horizon when "
+            "chaotic, short segments for a model with several stable equilibria, else one segment; "
+            "0: one segment)",
+            nullable=True,
+            minimum=0.0,
+        ),
+        Option("continuity_weight", "float", 1.0, "weight of the continuity defects between segments", minimum=1e-6),
+        Option(
+            "oversample",
+            "int",
+            FREE_RUN_OVERSAMPLE,
+            "RK4 sub-steps per sample of the fitted free run",
+            minimum=1,
+            maximum=64,
+        ),
         Option("max_nfev", "int", 100, "most evaluations of the free run by the optimiser", minimum=1),
-        Option("tol", "float", 1e-8, "relative tolerance of the optimiser (ftol, xtol, gtol)", minimum=1e-15,
-               maximum=0.1),
+        Option(
+            "tol", "float", 1e-8, "relative tolerance of the optimiser (ftol, xtol, gtol)", minimum=1e-15, maximum=0.1
+        ),
     )
     needs_mass = False
     refines = True  # starts from the method its 'init' option names
@@ -212,8 +242,16 @@ class OutputError(Identifier):
         estimate.diagnostics["seconds"] = time.perf_counter() - clock
         return estimate
 
-    def _fit(self, record: Record, model: Model, mass: float | None, start: Any, method: str,
-             channels: tuple[str, ...], shaped: list[int]) -> Estimate:
+    def _fit(
+        self,
+        record: Record,
+        model: Model,
+        mass: float | None,
+        start: Any,
+        method: str,
+        channels: tuple[str, ...],
+        shaped: list[int],
+    ) -> Estimate:
         """The fit from the start estimate (:meth:`identify`)."""
         theta0 = model.vector(dict(start.coefficients))
         m0 = float(start.mass)  # type: ignore[arg-type]
@@ -235,9 +273,11 @@ class OutputError(Identifier):
             rule = f"a third of the start model's predictability horizon ({horizon:.4g} s)"
         elif len(start.equilibria.stable) > 1:
             length = self._short_length(start, record)
-            rule = (f"multiple shooting on {length / record.fs:.3g}-s segments: the start model has "
-                    f"{len(start.equilibria.stable)} stable equilibria, and a single free run over wells it may "
-                    "cross differently has local minima far from the truth")
+            rule = (
+                f"multiple shooting on {length / record.fs:.3g}-s segments: the start model has "
+                f"{len(start.equilibria.stable)} stable equilibria, and a single free run over wells it may "
+                "cross differently has local minima far from the truth"
+            )
         else:
             length, rule = record.n, "one segment: the start model's free run stays predictable over the record"
 
@@ -275,8 +315,21 @@ class OutputError(Identifier):
             state0 = states[starts].copy()
             if first_state is not None:
                 state0[0] = first_state
-            prob = Problem(model, record, params, theta0, m0 if mass is None else mass, starts, state0, channels,
-                           q, fine, np.asarray(scales), state_scales, self.settings["continuity_weight"])
+            prob = Problem(
+                model,
+                record,
+                params,
+                theta0,
+                m0 if mass is None else mass,
+                starts,
+                state0,
+                channels,
+                q,
+                fine,
+                np.asarray(scales),
+                state_scales,
+                self.settings["continuity_weight"],
+            )
             if global_values is not None:
                 prob.set_globals(global_values)
             prob.dense_limit = DENSE_LIMIT if self._solver(prob) == "exact" else 0  # LSMR: the sparse one
@@ -300,22 +353,30 @@ class OutputError(Identifier):
                     pre = setup(short, None, None)
                     res = self._solve(pre, method)
                     short_fit = (pre, res)
-                    stages.append(self._stage_info(pre, res, "short segments first: the start model's free run "
-                                                   f"misses by {100 * miss:.3g} % of std(z)"))
+                    stages.append(
+                        self._stage_info(
+                            pre,
+                            res,
+                            f"short segments first: the start model's free run misses by {100 * miss:.3g} % of std(z)",
+                        )
+                    )
                     globals_, first = pre.globals_of(res.x), pre.states_of(res.x)[0]
                     # the start model may have been more predictable than the fitted one (a damping biased
                     # high): measure the horizon again before fitting the whole record in one free run
                     fitted, theta1, mass1, _, _ = pre.unpack(res.x)
                     try:
-                        again = predictability_horizon(fitted, theta1, mass1, record, oversample=q,
-                                                       quantile=HORIZON_QUANTILE)
+                        again = predictability_horizon(
+                            fitted, theta1, mass1, record, oversample=q, quantile=HORIZON_QUANTILE
+                        )
                     except SimulationError:
                         again = None
                     if again is not None:
                         horizon = again
                         length = int(round(SEGMENT_FRACTION * horizon * record.fs))
-                        rule = (f"a third of the predictability horizon ({horizon:.4g} s) of the model fitted on "
-                                "short segments")
+                        rule = (
+                            f"a third of the predictability horizon ({horizon:.4g} s) of the model fitted on "
+                            "short segments"
+                        )
                     problem = setup(length, globals_, first)
         res = self._solve(problem, method)
         stages.append(self._stage_info(problem, res, rule))
@@ -323,16 +384,29 @@ class OutputError(Identifier):
             miss_short, miss_whole = _data_rms(*short_fit), _data_rms(problem, res)
             if miss_whole > WHOLE_RECORD_RATIO * miss_short:
                 problem, res = short_fit
-                rule = (f"short segments: the longer free run misses the data by {100 * miss_whole:.3g} % of std(z) "
-                        f"against {100 * miss_short:.3g} % on the short segments (a local minimum), so the short "
-                        "segments' answer is kept")
+                rule = (
+                    f"short segments: the longer free run misses the data by {100 * miss_whole:.3g} % of std(z) "
+                    f"against {100 * miss_short:.3g} % on the short segments (a local minimum), so the short "
+                    "segments' answer is kept"
+                )
                 stages.append({"segments": int(problem.K), "rule": rule})
         if seconds is None and problem.K > 1:
             # multiple shooting that stays far above the measurement noise has segments whose states are
             # stuck in a wrong well: shorter segments, from the current answer, until it reaches the noise
-            floor = float(np.sqrt(np.mean([
-                (derivatives.noise_sd(getattr(record, c), record.fs) / max(float(np.std(getattr(record, c))), 1e-300))
-                ** 2 for c in channels])))
+            floor = float(
+                np.sqrt(
+                    np.mean(
+                        [
+                            (
+                                derivatives.noise_sd(getattr(record, c), record.fs)
+                                / max(float(np.std(getattr(record, c))), 1e-300)
+                            )
+                            ** 2
+                            for c in channels
+                        ]
+                    )
+                )
+            )
             for _ in range(MAX_HALVINGS):
                 miss = _data_rms(problem, res)
                 length = int(np.diff(np.append(problem.starts, record.n)).min()) // 2
@@ -340,17 +414,34 @@ class OutputError(Identifier):
                     break
                 halved = setup(length, problem.globals_of(res.x), None)
                 res_h = self._solve(halved, method)
-                info = self._stage_info(halved, res_h, f"segments halved to {length / record.fs:.3g} s: the fit "
-                                        f"missed the data by {100 * miss:.3g} % of std against a noise floor of "
-                                        f"{100 * floor:.3g} %")
+                info = self._stage_info(
+                    halved,
+                    res_h,
+                    f"segments halved to {length / record.fs:.3g} s: the fit "
+                    f"missed the data by {100 * miss:.3g} % of std against a noise floor of "
+                    f"{100 * floor:.3g} %",
+                )
                 stages.append(info)
                 if _data_rms(halved, res_h) >= miss:  # no better with shorter segments: keep the answer we had
                     info["rule"] += "; not kept (no closer to the data)"
                     break
                 problem, res, rule = halved, res_h, info["rule"]
         # the start model on the final segments, from the data's states: the "before" figure
-        before = Problem(model, record, params, theta0, m0 if mass is None else mass, problem.starts,
-                         states[problem.starts], channels, q, fine, np.asarray(scales), state_scales, 1.0)
+        before = Problem(
+            model,
+            record,
+            params,
+            theta0,
+            m0 if mass is None else mass,
+            problem.starts,
+            states[problem.starts],
+            channels,
+            q,
+            fine,
+            np.asarray(scales),
+            state_scales,
+            1.0,
+        )
         r0 = before.residual(None)
         u = res.x
         run, refined, order = problem.run_at(u)
@@ -381,7 +472,9 @@ class OutputError(Identifier):
         defect = residual[problem.rows_data :]
         warnings = []
         if refined.terms != model.terms:
-            changed = ", ".join(f"{model.names[i]} -> {names[i]}" for i in range(len(names)) if model.names[i] != names[i])
+            changed = ", ".join(
+                f"{model.names[i]} -> {names[i]}" for i in range(len(names)) if model.names[i] != names[i]
+            )
             warnings.append(f"oe refined shape parameters: {changed} (the coefficients are those of the refined terms)")
         diagnostics = {
             "init": method,

@@ -64,8 +64,22 @@ class Problem:
         Multiplies the defect rows.
     """
 
-    def __init__(self, model, record, params, fixed_theta, fixed_mass, starts, state0, channels, oversample,
-                 fine, scales, state_scales, continuity_weight):
+    def __init__(
+        self,
+        model,
+        record,
+        params,
+        fixed_theta,
+        fixed_mass,
+        starts,
+        state0,
+        channels,
+        oversample,
+        fine,
+        scales,
+        state_scales,
+        continuity_weight,
+    ):
         self.model = model
         self.record = record
         self.params = list(params)
@@ -201,14 +215,26 @@ class Problem:
         model, theta, mass, states, order = self.unpack(u)
         if not mass > 0:
             raise SimulationError("the mass is not positive")
-        run = simulate_segments(model, theta, mass, self.record.f, self.record.fs, self.starts, states,
-                                force_hold=self.record.force_hold, oversample=self.q, fine=self.fine)
+        run = simulate_segments(
+            model,
+            theta,
+            mass,
+            self.record.f,
+            self.record.fs,
+            self.starts,
+            states,
+            force_hold=self.record.force_hold,
+            oversample=self.q,
+            fine=self.fine,
+        )
         sim = np.column_stack([getattr(run, c) for c in self.channels])
         r = np.empty(self.rows)
         r[: self.rows_data] = ((sim - self.measured) / self.channel_scale).ravel()
         if self.K > 1:
             x0 = np.asarray(u[self.G :] * self.scale[self.G :]).reshape(self.K, self.L)
-            defect = (run.end_state[:-1] - self._given_state_order(x0[1:], model, order)) / self._state_scale(model, order)
+            defect = (run.end_state[:-1] - self._given_state_order(x0[1:], model, order)) / self._state_scale(
+                model, order
+            )
             r[self.rows_data :] = self.weight * defect.ravel()
         self._cache = (np.array(u, copy=True), r, (run, model, order))
         return r, (run, model, order)
@@ -279,7 +305,8 @@ class Problem:
         Sc = S[chan]
         Jg = (Sc[:, :, gcols].transpose(1, 0, 2) * (gscale / self.channel_scale[:, None])[None]).reshape(n * self.C, -1)
         Jl = (Sc[:, :, lcols].transpose(1, 0, 2) * (lscale[None, :] / self.channel_scale[:, None])[None]).reshape(
-            n * self.C, -1)
+            n * self.C, -1
+        )
         if self.K == 1:
             return Jg, Jl, None
         # defect rows: boundary b (end of segment b vs start of b + 1), one per state component
@@ -300,19 +327,24 @@ class Problem:
         rows_d = Jg.shape[0]
         seg = np.repeat(np.arange(K), heights)
         data_idx = np.concatenate(
-            [np.broadcast_to(np.arange(G), (rows_d, G)), G + seg[:, None] * L + np.arange(L)[None, :]], axis=1)
+            [np.broadcast_to(np.arange(G), (rows_d, G)), G + seg[:, None] * L + np.arange(L)[None, :]], axis=1
+        )
         data_val = np.concatenate([Jg, Jl], axis=1)
         dg, dl, nxt = defect
         b = np.arange(K - 1)
         def_idx = np.concatenate(
-            [np.broadcast_to(np.arange(G), (K - 1, L, G)),
-             np.broadcast_to((G + b * L)[:, None, None] + np.arange(L)[None, None, :], (K - 1, L, L)),
-             np.broadcast_to((G + (b + 1) * L)[:, None, None] + np.arange(L)[None, None, :], (K - 1, L, L))],
-            axis=2).reshape(-1, G + 2 * L)
+            [
+                np.broadcast_to(np.arange(G), (K - 1, L, G)),
+                np.broadcast_to((G + b * L)[:, None, None] + np.arange(L)[None, None, :], (K - 1, L, L)),
+                np.broadcast_to((G + (b + 1) * L)[:, None, None] + np.arange(L)[None, None, :], (K - 1, L, L)),
+            ],
+            axis=2,
+        ).reshape(-1, G + 2 * L)
         def_val = np.concatenate([dg, dl, nxt], axis=2).reshape(-1, G + 2 * L)
         width_d, width_e = G + L, G + 2 * L
-        indptr = np.concatenate([np.arange(rows_d + 1) * width_d,
-                                 rows_d * width_d + np.arange(1, def_idx.shape[0] + 1) * width_e])
+        indptr = np.concatenate(
+            [np.arange(rows_d + 1) * width_d, rows_d * width_d + np.arange(1, def_idx.shape[0] + 1) * width_e]
+        )
         indices = np.concatenate([data_idx.ravel(), def_idx.ravel()])
         values = np.concatenate([data_val.ravel(), def_val.ravel()])
         return sparse.csr_matrix((values, indices, indptr), shape=(rows_d + def_idx.shape[0], self.size))
@@ -361,8 +393,9 @@ class Problem:
         if K == 1:
             J = R[0, :, :-1]
         else:
-            J = self._assemble(R[:, :, :G].reshape(K * W, G), R[:, :, G : G + L].reshape(K * W, L), defect,
-                               np.full(K, W))
+            J = self._assemble(
+                R[:, :, :G].reshape(K * W, G), R[:, :, G : G + L].reshape(K * W, L), defect, np.full(K, W)
+            )
             if self.reduced_rows * self.size <= self.dense_limit:
                 J = J.toarray()
         self._reduced = (np.array(u, copy=True), f, J)
@@ -448,15 +481,27 @@ class Problem:
             if not mass > 0:
                 return None
             try:
-                run = simulate_segments(model, theta, mass, force, self.record.fs, starts, states,
-                                        force_hold=self.record.force_hold, oversample=q, fine=fine)
+                run = simulate_segments(
+                    model,
+                    theta,
+                    mass,
+                    force,
+                    self.record.fs,
+                    starts,
+                    states,
+                    force_hold=self.record.force_hold,
+                    oversample=q,
+                    fine=fine,
+                )
             except SimulationError:
                 return None
             sim = np.column_stack([getattr(run, c) for c in self.channels])
             data = ((sim - measured) / self.channel_scale).ravel()
             lcols = self._local_columns(list(run.columns), model, order)
-            Jl = (run.sensitivities[chan][:, :, lcols].transpose(1, 0, 2)
-                  * (lscale[None, :] / self.channel_scale[:, None])[None]).reshape(-1, L)
+            Jl = (
+                run.sensitivities[chan][:, :, lcols].transpose(1, 0, 2)
+                * (lscale[None, :] / self.channel_scale[:, None])[None]
+            ).reshape(-1, L)
             return np.bincount(seg, data**2, minlength=K), data, Jl
 
         state = evaluate(u)
