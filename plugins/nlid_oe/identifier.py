@@ -64,12 +64,12 @@ from nlid.plugin import (
     fine_force,
     identify,
     kernel_threads,
-    least_squares,
     predictability_horizon,
     progress_line,
 )
 
 from .problem import Parameter, Problem
+from .uncertainty import standard_errors as profiled_standard_errors
 
 #: Segment length as a fraction of the predictability horizon (over a third of the horizon an initial
 #: error grows by about (SENSITIVITY_LIMIT / SENSITIVITY_DELTA)^(1/3) = 10).
@@ -447,7 +447,7 @@ class OutputError(Identifier):
         run, refined, order = problem.run_at(u)
         _, theta, mass_fit, states, _ = problem.unpack(u)
         residual = problem.residual(u)
-        se_u, se_iid_u, corr, batches = self._standard_errors(problem, residual, u)
+        se_u, se_iid_u, corr, batches = profiled_standard_errors(problem, residual, u)
         x = u * problem.scale
         se = se_u * problem.scale[: problem.G]
         se_iid = se_iid_u * problem.scale[: problem.G]
@@ -581,35 +581,3 @@ class OutputError(Identifier):
             "cost": float(2 * res.cost),
             "message": str(res.message),
         }
-
-    # ------------------------------------------------------------------ uncertainty
-    @staticmethod
-    def _standard_errors(problem: Problem, residual: np.ndarray, u: np.ndarray):
-        """Batch-means sandwich standard errors of the global parameters (scaled), segments profiled out."""
-        import emcee
-
-        G = problem.G
-        rows = problem.rows_data
-        Jg, Jl, _ = problem.blocks(u)
-        Xg = Jg.copy()
-        edges = np.append(problem.starts, problem.record.n) * problem.C
-        for k in range(problem.K):
-            a, b = edges[k], edges[k + 1]
-            coef, *_ = np.linalg.lstsq(Jl[a:b], Xg[a:b], rcond=None)
-            Xg[a:b] -= Jl[a:b] @ coef
-        r = residual[:rows]
-        try:
-            tau = float(emcee.autocorr.integrated_time(r, tol=0, quiet=True)[0])
-        except Exception:  # noqa: BLE001 - a residual too short for the estimate: independent errors
-            tau = 1.0
-        tau = max(tau, 1.0)
-        ug = u[:G]
-        names = [p.name for p in problem.params]
-        try:
-            fit = least_squares(Xg, Xg @ ug - r, names, correlation_length=tau, coefficients=ug, context="oe: ")
-        except IdentificationError as exc:
-            raise IdentificationError(
-                f"{exc}: the Gauss-Newton Hessian of the free-run error is singular, so some parameters are not "
-                "determined by this record (fix them: fewer shape parameters, the mass given, or fewer terms)"
-            ) from None
-        return fit.standard_errors, fit.standard_errors_iid, tau, fit.batches
