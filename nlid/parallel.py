@@ -1,23 +1,27 @@
-"""One budget for nlid's parallel work: the cores this process may use, less the machine's load.
+"""One pool for nlid's parallel work: its size, and the rule that keeps BLAS out of the kernels' cores.
 
 nlid runs parallel work in three places: the compiled kernels that run segments in parallel
 (:func:`nlid.simulation.simulate_segments`, numba threads: ``oe`` and the scores), the numerical
-libraries' own thread pools (BLAS, OpenMP), and the study and bench executors (one process per run,
-each pinned to one thread by :func:`nlid.runtime.process.pin_threads`). On a shared machine these
-fight: an OpenBLAS thread pool of two on a loaded 2-core machine made a 3000 x 9 QR 150 times slower
-than one thread (measured: 1.8 s against 12 ms at a load of 8), and numba threads wait at every
-parallel loop's end for the one the scheduler left out.
+libraries' own thread pools (BLAS, OpenMP), and the study and bench executors (``--jobs`` processes,
+each pinned to one thread by :func:`nlid.runtime.process.pin_threads`). On a shared machine the first two
+fight: an OpenBLAS pool of two on a loaded 2-core machine made a 3000 x 9 QR 150 times slower than one
+thread (measured: 1.8 s against 12 ms at a load of 8): its threads spin between calls.
 
-:func:`workers` is the one pool size every parallel path uses: the usable cores less the load the
-other processes put on them, at least one; ``NLID_WORKERS`` overrides it. :func:`kernel_threads`
-runs a block with the compiled kernels on that many threads and BLAS and OpenMP on one (the matrices
-between two kernel calls are small; a BLAS pool spinning after its call would take the kernels'
-cores), so the threads of one process never exceed the pool.
+:func:`workers` is the one pool size. :func:`kernel_threads` runs a block with the compiled kernels on
+that many threads and BLAS and OpenMP on one (the matrices between two kernel calls are small), so the
+threads of one process never exceed the pool; inside a pinned run process the kernels get one thread.
+
+By default the pool is every usable core, whatever the load: measured on the shared 2-core machine at a
+load of 13-16, ``oe`` on a paper-numerical record took 37-42 s on two kernel threads and 50-58 s on one
+(BLAS on one thread in both): the scheduler shares the cores between runnable threads, so a process with
+fewer threads gets less of them. What made ``oe`` slow under load was the BLAS pool, not the kernels'
+threads. ``workers(load=...)`` gives the load-aware size (the cores less the other processes' load) to a
+caller that wants to leave room to others; ``NLID_WORKERS`` fixes the size.
 
 Examples
 --------
 >>> from nlid.parallel import kernel_threads, workers
->>> n = workers()                         # e.g. 2 on a quiet 2-core machine, 1 at a load of 2
+>>> n = workers()                         # every core, or NLID_WORKERS
 >>> with kernel_threads() as n:           # doctest: +SKIP
 ...     run = simulate_segments(...)      # numba on n threads, BLAS on one
 """
@@ -43,20 +47,21 @@ def cores() -> int:
 
 
 def workers(load: float | None = None, *, own: float = 1.0) -> int:
-    """The pool size now: the usable cores less the other processes' load, between 1 and :func:`cores`.
+    """The pool size: ``NLID_WORKERS`` when set, else every usable core, or fewer when ``load`` is given.
 
     Parameters
     ----------
     load
-        The machine's load (runnable processes); default: the 1-minute load average.
+        The machine's load (runnable processes, e.g. ``os.getloadavg()[0]``) to leave room for; default:
+        none (every core, the measured fastest: see the module docstring).
     own
         The part of ``load`` that is this process's own (its main thread, running now).
 
     Returns
     -------
     int
-        ``NLID_WORKERS`` when set, else ``round(cores - max(load - own, 0))`` clipped to ``[1, cores]``:
-        2 on a quiet 2-core machine, 1 when two other processes keep its cores busy.
+        ``NLID_WORKERS`` when set; else :func:`cores`, or with ``load`` ``round(cores - max(load - own, 0))``
+        clipped to ``[1, cores]`` (1 when two other processes keep a 2-core machine busy).
 
     Raises
     ------
@@ -74,10 +79,7 @@ def workers(load: float | None = None, *, own: float = 1.0) -> int:
             raise ValueError(f"{WORKERS_ENV} must be a positive integer, got {fixed!r}")
         return value
     if load is None:
-        try:
-            load = os.getloadavg()[0]
-        except OSError:  # pragma: no cover - no load average on this platform
-            load = 0.0
+        return n
     others = max(float(load) - float(own), 0.0)
     return int(min(n, max(1, round(n - others))))
 

@@ -28,8 +28,8 @@ The toolkit has four axes, which identifiers compose rather than re-implement:
   runs of segments with their sensitivities, for output-error methods) and
   the scores (:func:`score`, :func:`initial_state`,
   :func:`predictability_horizon`), and :func:`kernel_threads` (the shared
-  pool of :mod:`nlid.parallel`: the compiled kernels on as many threads as
-  the cores and the load allow, BLAS on one);
+  pool of :mod:`nlid.parallel`: the compiled kernels on the pool's threads, BLAS
+  on one);
 * **other identifiers**: :func:`identify` (the core's :func:`nlid.identify`,
   e.g. for a method that starts from another method's estimate) and
   :func:`choose_method` (the installed identifier with the best ``preference``).

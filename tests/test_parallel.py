@@ -9,9 +9,10 @@ from threadpoolctl import threadpool_info
 from nlid import parallel
 
 
-def test_workers_are_the_cores_less_the_other_processes_load(monkeypatch):
+def test_workers_are_every_core_or_the_cores_less_the_other_processes_load(monkeypatch):
     monkeypatch.delenv(parallel.WORKERS_ENV, raising=False)
     monkeypatch.setattr(parallel, "cores", lambda: 4)
+    assert parallel.workers() == 4
     assert parallel.workers(load=0.0) == 4
     assert parallel.workers(load=1.0) == 4  # this process's own thread
     assert parallel.workers(load=3.0) == 2  # two other processes keep two cores busy

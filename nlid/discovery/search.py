@@ -290,7 +290,7 @@ class Discovery:
         self, record: Record, declared: str | Iterable[str] | Model, *, progress: Progress | None = None
     ) -> DiscoveryResult:
         """The whole search: every round of :meth:`steps`, then :meth:`finish`, on the shared pool (the kernels on
-        the cores the load leaves, BLAS on one: a BLAS pool spinning between the fits takes the kernels' cores)."""
+        :func:`nlid.parallel.workers` threads, BLAS on one: a spinning BLAS pool takes the kernels' cores)."""
         with kernel_threads():
             *_, last = self.steps(record, declared, progress=progress)  # steps() yields at least once
             return self.finish(last, progress=progress)

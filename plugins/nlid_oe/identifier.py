@@ -234,7 +234,7 @@ class OutputError(Identifier):
                 raise InputError(f"oe: option 'outputs' asks for {c!r}, which the record does not measure")
         shaped = _shape_selection(self.settings["shapes"], model)
         start, method = self._start(record, model, mass)
-        # the segments' kernels on the shared pool (cores less the load), BLAS on one thread: the matrices
+        # the segments' kernels on the shared pool (nlid.parallel.workers), BLAS on one thread: the matrices
         # between two free runs are small, and a BLAS pool spinning after its call takes the kernels' cores
         with kernel_threads() as threads:
             estimate = self._fit(record, model, mass, start, method, channels, shaped)
