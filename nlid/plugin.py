@@ -27,7 +27,9 @@ The toolkit has four axes, which identifiers compose rather than re-implement:
   (:func:`simulate`, :func:`free_run`, and :func:`simulate_segments`: free
   runs of segments with their sensitivities, for output-error methods) and
   the scores (:func:`score`, :func:`initial_state`,
-  :func:`predictability_horizon`);
+  :func:`predictability_horizon`), and :func:`kernel_threads` (the shared
+  pool of :mod:`nlid.parallel`: the compiled kernels on the pool's threads, BLAS
+  on one);
 * **other identifiers**: :func:`identify` (the core's :func:`nlid.identify`,
   e.g. for a method that starts from another method's estimate) and
   :func:`choose_method` (the installed identifier with the best ``preference``).
@@ -46,6 +48,7 @@ from .balance import EDGE_PERIODS, REGRESSOR_BAND_FACTOR, RegressionData, regres
 from .errors import DataError, IdentificationError, InputError, NlidError, OptionError, TermError
 from .hookspecs import hookimpl
 from .interface import FIGURE_KINDS, Estimate, FigureArray, Identifier, Option, standard_figure_arrays, to_jsonable
+from .parallel import kernel_threads
 from .physics import Equilibria, Modal, equilibria, modal, stiffness_roots
 from .progress import ProgressLine, progress_line
 from .record import Record
@@ -108,6 +111,7 @@ __all__ = [
     "score",
     "initial_state",
     "predictability_horizon",
+    "kernel_threads",
     "identify",
     "choose_method",
     "to_jsonable",

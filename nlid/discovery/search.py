@@ -1,22 +1,18 @@
 """The search: residual -> missing effect -> add it -> error before and after.
 
-1. Identify the declared model (taken literally: no default terms are added)
-   with the chosen identifier through :func:`nlid.identify`, on the
-   estimation record.
+1. Identify the declared model (taken literally: no default terms are added) with the chosen identifier
+   through :func:`nlid.identify`, on the estimation record.
 2. Compute its residual ``r = R_e - R_hat(z, v)`` (``R_e = f - m a``, Eq. 25) and
    epsilon (Eq. 26) on the estimation and held-out records, in one equation band.
-3. Add each candidate of the library to the current model, identify it with the
-   same identifier and score it on the held-out record (:mod:`nlid.discovery.trials`,
-   :mod:`nlid.discovery.evidence`).
-4. Accept the best candidate if it passes the rule, re-identify (with the
-   ``px(z)`` fixed point of :func:`nlid.identify` when the model uses
-   ``px``), and recompute the residuals.
+3. Add each candidate of the library to the current model, identify it with the same identifier and score it
+   on the held-out record (:mod:`nlid.discovery.trials`, :mod:`nlid.discovery.evidence`).
+4. Accept the best candidate if it passes the rule, re-identify (with the ``px(z)`` fixed point of
+   :func:`nlid.identify` when the model uses ``px``), and recompute the residuals.
 5. Repeat until no candidate is accepted or ``max_steps`` effects were added.
 
-The free-run simulation error on the held-out record is reported for the
-declared model and after each step: it is :func:`nlid.scoring.free_run_error`
-(with its chaos check), the same number ``nlid study`` reports for the same
-model and record.
+The free-run simulation error on the held-out record is reported for the declared model and after each step:
+it is :func:`nlid.scoring.free_run_error` (with its chaos check), the same number ``nlid study`` reports for
+the same model and record. :meth:`Discovery.run` runs on the shared pool (:func:`nlid.parallel.kernel_threads`).
 
 :class:`Discovery` holds the settings (as emcee's ``EnsembleSampler`` does);
 :meth:`Discovery.steps` is a generator that yields a :class:`SearchState`
@@ -48,6 +44,7 @@ import numpy as np
 from .. import derivatives
 from ..errors import IdentificationError, InputError
 from ..methods import choose_method, choose_refiner
+from ..parallel import kernel_threads
 from ..record import Record
 from ..registry import Registry, default_registry
 from ..scoring import TransientRule
@@ -292,9 +289,11 @@ class Discovery:
     def run(
         self, record: Record, declared: str | Iterable[str] | Model, *, progress: Progress | None = None
     ) -> DiscoveryResult:
-        """The whole search: every round of :meth:`steps`, then :meth:`finish`."""
-        *_, last = self.steps(record, declared, progress=progress)  # steps() yields at least once
-        return self.finish(last, progress=progress)
+        """The whole search: every round of :meth:`steps`, then :meth:`finish`, on the shared pool (the kernels on
+        :func:`nlid.parallel.workers` threads, BLAS on one: a spinning BLAS pool takes the kernels' cores)."""
+        with kernel_threads():
+            *_, last = self.steps(record, declared, progress=progress)  # steps() yields at least once
+            return self.finish(last, progress=progress)
 
     def _start(self, record: Record, declared: str | Iterable[str] | Model, say: Progress) -> SearchState:
         started = time.perf_counter()

@@ -436,9 +436,12 @@ def predictability_horizon(
     memory = sum(t.is_memory for t in model.terms)
     state = np.zeros((1, 2 + memory))
     state[0, :2] = initial_state(record)
+    # the reference run moved on from start to start (one run through the first half), then every pair over
+    # half the record at once: the 2 x len(points) runs are the segments of one call (run in parallel), over
+    # the windows of the force joined end to end
+    states = np.empty((points.size, 2 + memory))
     here = 0
-    times = []
-    for start in points:
+    for i, start in enumerate(points):
         if start > here:  # move the reference run on to this start
             run = simulate_segments(
                 model,
@@ -454,25 +457,26 @@ def predictability_horizon(
             )
             state = run.end_state.copy()
             here = start
-        pair = np.vstack([state, state])
-        pair[1, 0] += SENSITIVITY_DELTA * scale
-        stop = start + half
-        runs = [
-            simulate_segments(
-                model,
-                theta,
-                mass,
-                record.f[start:stop],
-                record.fs,
-                [0],
-                pair[i : i + 1],
-                oversample=q,
-                sensitivities=False,
-                fine=fine[start * q : stop * q],
-            ).z
-            for i in range(2)
-        ]
-        apart = np.flatnonzero(np.abs(runs[0] - runs[1]) > SENSITIVITY_LIMIT * scale)
+        states[i] = state[0]
+    pairs = np.repeat(states, 2, axis=0)
+    pairs[1::2, 0] += SENSITIVITY_DELTA * scale
+    windows = np.repeat(points, 2)
+    samples = (windows[:, None] + np.arange(half)[None, :]).ravel()
+    runs = simulate_segments(
+        model,
+        theta,
+        mass,
+        record.f[samples],
+        record.fs,
+        np.arange(windows.size) * half,
+        pairs,
+        oversample=q,
+        sensitivities=False,
+        fine=fine[(samples[:, None] * q + np.arange(q)[None, :]).ravel()],
+    ).z.reshape(points.size, 2, half)
+    times = []
+    for first, second in runs:
+        apart = np.flatnonzero(np.abs(first - second) > SENSITIVITY_LIMIT * scale)
         times.append(apart[0] / record.fs if apart.size else np.inf)
     horizon = float(np.median(times)) if quantile == 0.5 else float(np.quantile(times, quantile, method="lower"))
     return horizon if np.isfinite(horizon) else None

@@ -62,7 +62,7 @@ from nlid.plugin import (
     derivatives,
     fine_force,
     identify,
-    least_squares,
+    kernel_threads,
     predictability_horizon,
     progress_line,
 )
@@ -82,8 +82,12 @@ MIN_SAMPLES = 64
 DIRECT_LIMIT = 0.02
 #: Most segments of the short-segment stage (longer segments on long records keep its Jacobian dense).
 MAX_SHORT_SEGMENTS = 40
-#: Largest Jacobian (rows x columns) handled densely (trust-region steps by SVD); beyond it, sparse (LSMR).
+#: Largest Jacobian (rows x columns) built dense.
 DENSE_LIMIT = 16_000_000
+#: Largest reduced problem (rows x columns^2 of :meth:`Problem.reduced`, the SVD's cost) whose trust-region
+#: steps are exact (an SVD per Jacobian: about a second on one core at the limit); beyond it, LSMR on the
+#: sparse reduced Jacobian (hundreds of segments: the SVD of a 8000 x 1200 matrix took 30 s).
+EXACT_LIMIT = 2e9
 #: Length of the short segments, in periods of the start model's highest natural frequency.
 SHORT_PERIODS = 5.0
 #: Quantile of the predictability times (from :data:`nlid.scoring.HORIZON_STARTS` starts) taken as the
@@ -148,25 +152,55 @@ class OutputError(Identifier):
     """Output-error least squares on the free-run simulation (multiple shooting when chaotic)."""
 
     name = "oe"
-    summary = "output error: fit the free-run simulation (coefficients, mass, shapes, initial state) from another method's start"
+    summary = (
+        "output error: fit the free-run simulation (coefficients, mass, shapes, initial state) from another "
+        "method's start"
+    )
     options = (
-        Option("init", "str", None, "identifier whose estimate starts the fit (default: the preferred installed one)",
-               nullable=True),
-        Option("shapes", "str", "all", "shape parameters to fit: all, none, or a comma-separated list of terms",
-               nullable=True),
-        Option("outputs", "str", "z", "measured channels whose free-run error is minimised",
-               choices=("z", "z,v", "z,a", "z,v,a")),
-        Option("segment_seconds", "float", None,
-               "multiple-shooting segment length in s (default: a third of the predictability horizon when "
-               "chaotic, short segments for a model with several stable equilibria, else one segment; "
-               "0: one segment)", nullable=True, minimum=0.0),
-        Option("continuity_weight", "float", 1.0, "weight of the continuity defects between segments",
-               minimum=1e-6),
-        Option("oversample", "int", FREE_RUN_OVERSAMPLE, "RK4 sub-steps per sample of the fitted free run",
-               minimum=1, maximum=64),
+        Option(
+            "init",
+            "str",
+            None,
+            "identifier whose estimate starts the fit (default: the preferred installed one)",
+            nullable=True,
+        ),
+        Option(
+            "shapes",
+            "str",
+            "all",
+            "shape parameters to fit: all, none, or a comma-separated list of terms",
+            nullable=True,
+        ),
+        Option(
+            "outputs",
+            "str",
+            "z",
+            "measured channels whose free-run error is minimised",
+            choices=("z", "z,v", "z,a", "z,v,a"),
+        ),
+        Option(
+            "segment_seconds",
+            "float",
+            None,
+            "multiple-shooting segment length in s (default: a third of the predictability horizon when "
+            "chaotic, short segments for a model with several stable equilibria, else one segment; "
+            "0: one segment)",
+            nullable=True,
+            minimum=0.0,
+        ),
+        Option("continuity_weight", "float", 1.0, "weight of the continuity defects between segments", minimum=1e-6),
+        Option(
+            "oversample",
+            "int",
+            FREE_RUN_OVERSAMPLE,
+            "RK4 sub-steps per sample of the fitted free run",
+            minimum=1,
+            maximum=64,
+        ),
         Option("max_nfev", "int", 100, "most evaluations of the free run by the optimiser", minimum=1),
-        Option("tol", "float", 1e-8, "relative tolerance of the optimiser (ftol, xtol, gtol)", minimum=1e-15,
-               maximum=0.1),
+        Option(
+            "tol", "float", 1e-8, "relative tolerance of the optimiser (ftol, xtol, gtol)", minimum=1e-15, maximum=0.1
+        ),
     )
     needs_mass = False
     refines = True  # starts from the method its 'init' option names
@@ -190,7 +224,6 @@ class OutputError(Identifier):
     # ------------------------------------------------------------------ identify
     def identify(self, record: Record, model: Model, *, mass: float | None = None) -> Estimate:
         """Fit the free run (module docstring) and return the coefficients keyed by the (refined) model."""
-        from .problem import Parameter, Problem  # scipy.sparse: not at import (loading the entry points)
 
         clock = time.perf_counter()
         if record.n < MIN_SAMPLES:
@@ -201,6 +234,28 @@ class OutputError(Identifier):
                 raise InputError(f"oe: option 'outputs' asks for {c!r}, which the record does not measure")
         shaped = _shape_selection(self.settings["shapes"], model)
         start, method = self._start(record, model, mass)
+        # the segments' kernels on the shared pool (nlid.parallel.workers), BLAS on one thread: the matrices
+        # between two free runs are small, and a BLAS pool spinning after its call takes the kernels' cores
+        with kernel_threads() as threads:
+            estimate = self._fit(record, model, mass, start, method, channels, shaped)
+        estimate.diagnostics["threads"] = threads
+        estimate.diagnostics["seconds"] = time.perf_counter() - clock
+        return estimate
+
+    def _fit(
+        self,
+        record: Record,
+        model: Model,
+        mass: float | None,
+        start: Any,
+        method: str,
+        channels: tuple[str, ...],
+        shaped: list[int],
+    ) -> Estimate:
+        """The fit from the start estimate (:meth:`identify`)."""
+        from .problem import Parameter, Problem  # scipy.sparse: not at import (loading the entry points)
+        from .uncertainty import standard_errors as profiled_standard_errors
+
         theta0 = model.vector(dict(start.coefficients))
         m0 = float(start.mass)  # type: ignore[arg-type]
         q = int(self.settings["oversample"])
@@ -221,9 +276,11 @@ class OutputError(Identifier):
             rule = f"a third of the start model's predictability horizon ({horizon:.4g} s)"
         elif len(start.equilibria.stable) > 1:
             length = self._short_length(start, record)
-            rule = (f"multiple shooting on {length / record.fs:.3g}-s segments: the start model has "
-                    f"{len(start.equilibria.stable)} stable equilibria, and a single free run over wells it may "
-                    "cross differently has local minima far from the truth")
+            rule = (
+                f"multiple shooting on {length / record.fs:.3g}-s segments: the start model has "
+                f"{len(start.equilibria.stable)} stable equilibria, and a single free run over wells it may "
+                "cross differently has local minima far from the truth"
+            )
         else:
             length, rule = record.n, "one segment: the start model's free run stays predictable over the record"
 
@@ -261,11 +318,24 @@ class OutputError(Identifier):
             state0 = states[starts].copy()
             if first_state is not None:
                 state0[0] = first_state
-            prob = Problem(model, record, params, theta0, m0 if mass is None else mass, starts, state0, channels,
-                           q, fine, np.asarray(scales), state_scales, self.settings["continuity_weight"])
+            prob = Problem(
+                model,
+                record,
+                params,
+                theta0,
+                m0 if mass is None else mass,
+                starts,
+                state0,
+                channels,
+                q,
+                fine,
+                np.asarray(scales),
+                state_scales,
+                self.settings["continuity_weight"],
+            )
             if global_values is not None:
                 prob.set_globals(global_values)
-            prob.dense_limit = DENSE_LIMIT
+            prob.dense_limit = DENSE_LIMIT if self._solver(prob) == "exact" else 0  # LSMR: the sparse one
             prob.refine_start()
             return prob
 
@@ -286,22 +356,30 @@ class OutputError(Identifier):
                     pre = setup(short, None, None)
                     res = self._solve(pre, method)
                     short_fit = (pre, res)
-                    stages.append(self._stage_info(pre, res, "short segments first: the start model's free run "
-                                                   f"misses by {100 * miss:.3g} % of std(z)"))
+                    stages.append(
+                        self._stage_info(
+                            pre,
+                            res,
+                            f"short segments first: the start model's free run misses by {100 * miss:.3g} % of std(z)",
+                        )
+                    )
                     globals_, first = pre.globals_of(res.x), pre.states_of(res.x)[0]
                     # the start model may have been more predictable than the fitted one (a damping biased
                     # high): measure the horizon again before fitting the whole record in one free run
                     fitted, theta1, mass1, _, _ = pre.unpack(res.x)
                     try:
-                        again = predictability_horizon(fitted, theta1, mass1, record, oversample=q,
-                                                       quantile=HORIZON_QUANTILE)
+                        again = predictability_horizon(
+                            fitted, theta1, mass1, record, oversample=q, quantile=HORIZON_QUANTILE
+                        )
                     except SimulationError:
                         again = None
                     if again is not None:
                         horizon = again
                         length = int(round(SEGMENT_FRACTION * horizon * record.fs))
-                        rule = (f"a third of the predictability horizon ({horizon:.4g} s) of the model fitted on "
-                                "short segments")
+                        rule = (
+                            f"a third of the predictability horizon ({horizon:.4g} s) of the model fitted on "
+                            "short segments"
+                        )
                     problem = setup(length, globals_, first)
         res = self._solve(problem, method)
         stages.append(self._stage_info(problem, res, rule))
@@ -309,16 +387,29 @@ class OutputError(Identifier):
             miss_short, miss_whole = _data_rms(*short_fit), _data_rms(problem, res)
             if miss_whole > WHOLE_RECORD_RATIO * miss_short:
                 problem, res = short_fit
-                rule = (f"short segments: the longer free run misses the data by {100 * miss_whole:.3g} % of std(z) "
-                        f"against {100 * miss_short:.3g} % on the short segments (a local minimum), so the short "
-                        "segments' answer is kept")
+                rule = (
+                    f"short segments: the longer free run misses the data by {100 * miss_whole:.3g} % of std(z) "
+                    f"against {100 * miss_short:.3g} % on the short segments (a local minimum), so the short "
+                    "segments' answer is kept"
+                )
                 stages.append({"segments": int(problem.K), "rule": rule})
         if seconds is None and problem.K > 1:
             # multiple shooting that stays far above the measurement noise has segments whose states are
             # stuck in a wrong well: shorter segments, from the current answer, until it reaches the noise
-            floor = float(np.sqrt(np.mean([
-                (derivatives.noise_sd(getattr(record, c), record.fs) / max(float(np.std(getattr(record, c))), 1e-300))
-                ** 2 for c in channels])))
+            floor = float(
+                np.sqrt(
+                    np.mean(
+                        [
+                            (
+                                derivatives.noise_sd(getattr(record, c), record.fs)
+                                / max(float(np.std(getattr(record, c))), 1e-300)
+                            )
+                            ** 2
+                            for c in channels
+                        ]
+                    )
+                )
+            )
             for _ in range(MAX_HALVINGS):
                 miss = _data_rms(problem, res)
                 length = int(np.diff(np.append(problem.starts, record.n)).min()) // 2
@@ -326,24 +417,40 @@ class OutputError(Identifier):
                     break
                 halved = setup(length, problem.globals_of(res.x), None)
                 res_h = self._solve(halved, method)
-                info = self._stage_info(halved, res_h, f"segments halved to {length / record.fs:.3g} s: the fit "
-                                        f"missed the data by {100 * miss:.3g} % of std against a noise floor of "
-                                        f"{100 * floor:.3g} %")
+                info = self._stage_info(
+                    halved,
+                    res_h,
+                    f"segments halved to {length / record.fs:.3g} s: the fit "
+                    f"missed the data by {100 * miss:.3g} % of std against a noise floor of "
+                    f"{100 * floor:.3g} %",
+                )
                 stages.append(info)
                 if _data_rms(halved, res_h) >= miss:  # no better with shorter segments: keep the answer we had
                     info["rule"] += "; not kept (no closer to the data)"
                     break
                 problem, res, rule = halved, res_h, info["rule"]
         # the start model on the final segments, from the data's states: the "before" figure
-        before = Problem(model, record, params, theta0, m0 if mass is None else mass, problem.starts,
-                         states[problem.starts], channels, q, fine, np.asarray(scales), state_scales, 1.0)
+        before = Problem(
+            model,
+            record,
+            params,
+            theta0,
+            m0 if mass is None else mass,
+            problem.starts,
+            states[problem.starts],
+            channels,
+            q,
+            fine,
+            np.asarray(scales),
+            state_scales,
+            1.0,
+        )
         r0 = before.residual(None)
         u = res.x
         run, refined, order = problem.run_at(u)
         _, theta, mass_fit, states, _ = problem.unpack(u)
         residual = problem.residual(u)
-        J = problem.jacobian(u)
-        se_u, se_iid_u, corr, batches = self._standard_errors(problem, J, residual, u)
+        se_u, se_iid_u, corr, batches = profiled_standard_errors(problem, residual, u)
         x = u * problem.scale
         se = se_u * problem.scale[: problem.G]
         se_iid = se_iid_u * problem.scale[: problem.G]
@@ -368,7 +475,9 @@ class OutputError(Identifier):
         defect = residual[problem.rows_data :]
         warnings = []
         if refined.terms != model.terms:
-            changed = ", ".join(f"{model.names[i]} -> {names[i]}" for i in range(len(names)) if model.names[i] != names[i])
+            changed = ", ".join(
+                f"{model.names[i]} -> {names[i]}" for i in range(len(names)) if model.names[i] != names[i]
+            )
             warnings.append(f"oe refined shape parameters: {changed} (the coefficients are those of the refined terms)")
         diagnostics = {
             "init": method,
@@ -391,7 +500,6 @@ class OutputError(Identifier):
             "standard_error_batches": batches,
             "standard_errors_iid": {names[p.term]: float(se_iid[k]) for k, p in enumerate(params) if p.kind == "theta"},
             "mass_standard_error": mass_se,
-            "seconds": time.perf_counter() - clock,
         }
         return Estimate(
             coefficients=coefficients,
@@ -419,7 +527,7 @@ class OutputError(Identifier):
         stage = f"{problem.K} segment(s)"
 
         def residual(u: np.ndarray) -> np.ndarray:
-            r = problem.residual(u)
+            r = problem.reduced_residual(u)
             line.update(line.done + 1, note=f"{stage}, cost {float(r @ r):.4g}")
             return r
 
@@ -428,7 +536,7 @@ class OutputError(Identifier):
                 res = optimize.least_squares(
                     residual,
                     u0,
-                    jac=problem.jacobian,
+                    jac=problem.reduced_jacobian,
                     bounds=(lower, upper),
                     method="trf",
                     x_scale=1.0 if self._solver(problem) == "exact" else "jac",
@@ -456,8 +564,9 @@ class OutputError(Identifier):
 
     @staticmethod
     def _solver(problem: Problem) -> str:
-        """``"exact"`` (dense Jacobian, SVD) while the Jacobian is small, else ``"lsmr"`` (sparse)."""
-        return "exact" if problem.rows * problem.size <= DENSE_LIMIT else "lsmr"
+        """``"exact"`` (dense Jacobian, SVD) while the reduced problem is small (:data:`EXACT_LIMIT`), else
+        ``"lsmr"`` (sparse)."""
+        return "exact" if problem.reduced_rows * problem.size**2 <= EXACT_LIMIT else "lsmr"
 
     @staticmethod
     def _short_length(start: Any, record: Record) -> int:
@@ -477,36 +586,3 @@ class OutputError(Identifier):
             "cost": float(2 * res.cost),
             "message": str(res.message),
         }
-
-    # ------------------------------------------------------------------ uncertainty
-    @staticmethod
-    def _standard_errors(problem: Problem, J: Any, residual: np.ndarray, u: np.ndarray):
-        """Batch-means sandwich standard errors of the global parameters (scaled), segments profiled out."""
-        import emcee
-
-        G, L = problem.G, problem.L
-        rows = problem.rows_data
-        dense = J[:rows].toarray() if hasattr(J, "toarray") else np.asarray(J[:rows])
-        Xg = dense[:, :G].copy()
-        seg = np.repeat(problem.segment_of, problem.C)
-        for k in range(problem.K):
-            idx = np.flatnonzero(seg == k)
-            Xl = dense[idx][:, G + k * L : G + (k + 1) * L]
-            coef, *_ = np.linalg.lstsq(Xl, Xg[idx], rcond=None)
-            Xg[idx] -= Xl @ coef
-        r = residual[:rows]
-        try:
-            tau = float(emcee.autocorr.integrated_time(r, tol=0, quiet=True)[0])
-        except Exception:  # noqa: BLE001 - a residual too short for the estimate: independent errors
-            tau = 1.0
-        tau = max(tau, 1.0)
-        ug = u[:G]
-        names = [p.name for p in problem.params]
-        try:
-            fit = least_squares(Xg, Xg @ ug - r, names, correlation_length=tau, coefficients=ug, context="oe: ")
-        except IdentificationError as exc:
-            raise IdentificationError(
-                f"{exc}: the Gauss-Newton Hessian of the free-run error is singular, so some parameters are not "
-                "determined by this record (fix them: fewer shape parameters, the mass given, or fewer terms)"
-            ) from None
-        return fit.standard_errors, fit.standard_errors_iid, tau, fit.batches

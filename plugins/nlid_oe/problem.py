@@ -64,8 +64,22 @@ class Problem:
         Multiplies the defect rows.
     """
 
-    def __init__(self, model, record, params, fixed_theta, fixed_mass, starts, state0, channels, oversample,
-                 fine, scales, state_scales, continuity_weight):
+    def __init__(
+        self,
+        model,
+        record,
+        params,
+        fixed_theta,
+        fixed_mass,
+        starts,
+        state0,
+        channels,
+        oversample,
+        fine,
+        scales,
+        state_scales,
+        continuity_weight,
+    ):
         self.model = model
         self.record = record
         self.params = list(params)
@@ -93,6 +107,7 @@ class Problem:
         self.rows_data = n * self.C
         self.rows = self.rows_data + (self.K - 1) * self.L
         self._cache: tuple[np.ndarray, np.ndarray, object] | None = None
+        self._reduced: tuple[np.ndarray, np.ndarray, object] | None = None
         self.evaluations = 0
         self.diverged = False
         self._start: np.ndarray | None = None
@@ -200,14 +215,26 @@ class Problem:
         model, theta, mass, states, order = self.unpack(u)
         if not mass > 0:
             raise SimulationError("the mass is not positive")
-        run = simulate_segments(model, theta, mass, self.record.f, self.record.fs, self.starts, states,
-                                force_hold=self.record.force_hold, oversample=self.q, fine=self.fine)
+        run = simulate_segments(
+            model,
+            theta,
+            mass,
+            self.record.f,
+            self.record.fs,
+            self.starts,
+            states,
+            force_hold=self.record.force_hold,
+            oversample=self.q,
+            fine=self.fine,
+        )
         sim = np.column_stack([getattr(run, c) for c in self.channels])
         r = np.empty(self.rows)
         r[: self.rows_data] = ((sim - self.measured) / self.channel_scale).ravel()
         if self.K > 1:
             x0 = np.asarray(u[self.G :] * self.scale[self.G :]).reshape(self.K, self.L)
-            defect = (run.end_state[:-1] - self._given_state_order(x0[1:], model, order)) / self._state_scale(model, order)
+            defect = (run.end_state[:-1] - self._given_state_order(x0[1:], model, order)) / self._state_scale(
+                model, order
+            )
             r[self.rows_data :] = self.weight * defect.ravel()
         self._cache = (np.array(u, copy=True), r, (run, model, order))
         return r, (run, model, order)
@@ -242,6 +269,20 @@ class Problem:
 
     def jacobian(self, u: np.ndarray):
         """The Jacobian of :meth:`residual` with respect to ``u`` (dense for one segment, else sparse CSR)."""
+        Jg, Jl, defect = self.blocks(u)
+        if self.K == 1:
+            return np.concatenate([Jg, Jl], axis=1)
+        J = self._assemble(Jg, Jl, defect, self.C * np.diff(np.append(self.starts, self.record.n)))
+        return J.toarray() if self.rows * self.size <= self.dense_limit else J
+
+    def blocks(self, u: np.ndarray):
+        """The Jacobian's non-zero blocks at ``u``.
+
+        Returns ``Jg`` (data rows x global parameters), ``Jl`` (data rows x the state of the row's own
+        segment) and the defect rows' blocks ``(dg, dl, nxt)``: each boundary's derivatives with respect to
+        the global parameters, the ending segment's state and the next segment's state, shapes
+        ``(K - 1, L, G)``, ``(K - 1, L, L)``, ``(K - 1, L, L)``.
+        """
         _, (run, model, order) = self._evaluate(u)
         S = run.sensitivities  # (3, N, ncol), columns of sensitivity_columns(model)
         cols = list(run.columns)
@@ -261,50 +302,118 @@ class Problem:
         gscale = self.scale[: self.G]
         lscale = self.scale[self.G : self.G + self.L]
         # data rows, time-major: (n, C, G) and (n, C, L)
-        Jg = S[chan][:, :, gcols].transpose(1, 0, 2) * (gscale / self.channel_scale[:, None])[None]
-        Jl = S[chan][:, :, lcols].transpose(1, 0, 2) * (lscale[None, :] / self.channel_scale[:, None])[None]
+        Sc = S[chan]
+        Jg = (Sc[:, :, gcols].transpose(1, 0, 2) * (gscale / self.channel_scale[:, None])[None]).reshape(n * self.C, -1)
+        Jl = (Sc[:, :, lcols].transpose(1, 0, 2) * (lscale[None, :] / self.channel_scale[:, None])[None]).reshape(
+            n * self.C, -1
+        )
         if self.K == 1:
-            return np.concatenate([Jg.reshape(n * self.C, self.G), Jl.reshape(n * self.C, self.L)], axis=1)
-        if self.rows * self.size <= self.dense_limit:
-            return self._sparse(Jg, Jl, run, model, order, gcols, lcols).toarray()
-        return self._sparse(Jg, Jl, run, model, order, gcols, lcols)
-
-    def _sparse(self, Jg, Jl, run, model, order, gcols, lcols):
-        """The multiple-shooting Jacobian as a CSR matrix."""
-        gscale = self.scale[: self.G]
-        lscale = self.scale[self.G : self.G + self.L]
-        rows_g = Jg.reshape(-1, self.G)
-        rows_l = Jl.reshape(-1, self.L)
-        seg = np.repeat(self.segment_of, self.C)
-        data_idx = np.concatenate(
-            [np.broadcast_to(np.arange(self.G), (rows_g.shape[0], self.G)),
-             self.G + seg[:, None] * self.L + np.arange(self.L)[None, :]], axis=1)
-        data_val = np.concatenate([rows_g, rows_l], axis=1)
+            return Jg, Jl, None
         # defect rows: boundary b (end of segment b vs start of b + 1), one per state component
         sx = self._state_scale(model, order)
         E = run.end_sensitivities[:-1]  # (K-1, L, ncol)
         wsc = self.weight / sx
         dg = E[:, :, gcols] * gscale[None, None, :] * wsc[None, :, None]
         dl = E[:, :, lcols] * lscale[None, None, :] * wsc[None, :, None]
-        b = np.arange(self.K - 1)
         perm = self._local_permutation(model, order)
         # the next segment's initial state enters with -1 (in the given model's memory order)
         nxt = np.zeros((self.K - 1, self.L, self.L))
         nxt[:, np.arange(self.L), perm] = -(lscale[perm] * wsc)[None, :]
+        return Jg, Jl, (dg, dl, nxt)
+
+    def _assemble(self, Jg, Jl, defect, heights):
+        """The multiple-shooting Jacobian as a CSR matrix from its blocks; ``heights``: data rows per segment."""
+        G, L, K = self.G, self.L, self.K
+        rows_d = Jg.shape[0]
+        seg = np.repeat(np.arange(K), heights)
+        data_idx = np.concatenate(
+            [np.broadcast_to(np.arange(G), (rows_d, G)), G + seg[:, None] * L + np.arange(L)[None, :]], axis=1
+        )
+        data_val = np.concatenate([Jg, Jl], axis=1)
+        dg, dl, nxt = defect
+        b = np.arange(K - 1)
         def_idx = np.concatenate(
-            [np.broadcast_to(np.arange(self.G), (self.K - 1, self.L, self.G)),
-             np.broadcast_to((self.G + b * self.L)[:, None, None] + np.arange(self.L)[None, None, :],
-                             (self.K - 1, self.L, self.L)),
-             np.broadcast_to((self.G + (b + 1) * self.L)[:, None, None] + np.arange(self.L)[None, None, :],
-                             (self.K - 1, self.L, self.L))], axis=2).reshape(-1, self.G + 2 * self.L)
-        def_val = np.concatenate([dg, dl, nxt], axis=2).reshape(-1, self.G + 2 * self.L)
-        width_d = self.G + self.L
-        width_e = self.G + 2 * self.L
-        indptr = np.concatenate([np.arange(rows_g.shape[0] + 1) * width_d,
-                                 rows_g.shape[0] * width_d + np.arange(1, def_idx.shape[0] + 1) * width_e])
+            [
+                np.broadcast_to(np.arange(G), (K - 1, L, G)),
+                np.broadcast_to((G + b * L)[:, None, None] + np.arange(L)[None, None, :], (K - 1, L, L)),
+                np.broadcast_to((G + (b + 1) * L)[:, None, None] + np.arange(L)[None, None, :], (K - 1, L, L)),
+            ],
+            axis=2,
+        ).reshape(-1, G + 2 * L)
+        def_val = np.concatenate([dg, dl, nxt], axis=2).reshape(-1, G + 2 * L)
+        width_d, width_e = G + L, G + 2 * L
+        indptr = np.concatenate(
+            [np.arange(rows_d + 1) * width_d, rows_d * width_d + np.arange(1, def_idx.shape[0] + 1) * width_e]
+        )
         indices = np.concatenate([data_idx.ravel(), def_idx.ravel()])
         values = np.concatenate([data_val.ravel(), def_val.ravel()])
-        return sparse.csr_matrix((values, indices, indptr), shape=(self.rows, self.size))
+        return sparse.csr_matrix((values, indices, indptr), shape=(rows_d + def_idx.shape[0], self.size))
+
+    # ------------------------------------------------------------------ the reduced problem
+    @property
+    def reduced_rows(self) -> int:
+        """Rows of the reduced problem (:meth:`reduced`): ``G + L + 1`` per segment and the defect rows."""
+        return self.K * (self.G + self.L + 1) + (self.K - 1) * self.L
+
+    def reduced(self, u: np.ndarray) -> tuple[np.ndarray, object]:
+        """The residual and Jacobian of an equivalent small least-squares problem at ``u``.
+
+        Each segment's data rows ``[J_k | r_k]`` (global and own-state columns, residual) are replaced by the
+        triangular factor of their QR decomposition, ``G + L + 1`` rows: ``J_k = Q_k R_k`` and
+        ``r_k = Q_k t_k`` exactly, so ``|J p + r|`` is the same for every step ``p`` (and ``|r|`` the same
+        cost) as in the full problem of :meth:`residual` and :meth:`jacobian` (up to rounding): the
+        trust-region steps are the full problem's, computed on ``K (G + L + 1) + (K - 1) L`` rows instead of
+        ``N C + (K - 1) L``. The defect rows are kept as they are. Raises :class:`SimulationError` where the
+        free run diverges.
+
+        Returns
+        -------
+        residual, jacobian
+            Dense Jacobian while ``reduced_rows x size`` is at most :attr:`dense_limit`, else CSR.
+        """
+        if self._reduced is not None and np.array_equal(self._reduced[0], u):
+            return self._reduced[1], self._reduced[2]
+        r = self._evaluate(u)[0]
+        Jg, Jl, defect = self.blocks(u)
+        G, L, K, C = self.G, self.L, self.K, self.C
+        W = G + L + 1
+        heights = C * np.diff(np.append(self.starts, self.record.n))
+        A = np.concatenate([Jg, Jl, r[: self.rows_data, None]], axis=1)
+        R = np.zeros((K, W, W))
+        h = int(heights[0])
+        equal = int(np.argmin(heights == h)) if np.any(heights != h) else K  # leading segments of h rows
+        # segments of equal length (all but possibly the last) in one batched QR
+        Rb = np.linalg.qr(A[: equal * h].reshape(equal, h, W), mode="r")
+        R[:equal, : Rb.shape[1]] = Rb
+        edges = np.append(0, np.cumsum(heights))
+        for k in range(equal, K):
+            Rk = np.linalg.qr(A[edges[k] : edges[k + 1]], mode="r")
+            R[k, : Rk.shape[0]] = Rk
+        f = np.concatenate([R[:, :, -1].ravel(), r[self.rows_data :]])
+        if K == 1:
+            J = R[0, :, :-1]
+        else:
+            J = self._assemble(
+                R[:, :, :G].reshape(K * W, G), R[:, :, G : G + L].reshape(K * W, L), defect, np.full(K, W)
+            )
+            if self.reduced_rows * self.size <= self.dense_limit:
+                J = J.toarray()
+        self._reduced = (np.array(u, copy=True), f, J)
+        return f, J
+
+    def reduced_residual(self, u: np.ndarray) -> np.ndarray:
+        """The residual of :meth:`reduced` (a large constant where the free run diverges, as in :meth:`residual`)."""
+        try:
+            out = self.reduced(u)[0]
+            self.diverged = False
+            return out
+        except SimulationError:
+            self.diverged = True
+            return np.full(self.reduced_rows, 1e3 * np.sqrt(self.rows / self.reduced_rows))
+
+    def reduced_jacobian(self, u: np.ndarray, *_: object):
+        """The Jacobian of :meth:`reduced` (at a point :meth:`reduced_residual` was evaluated at)."""
+        return self.reduced(u)[1]
 
     def _local_permutation(self, model: Model, order: list[int]) -> np.ndarray:
         """``perm[l]``: the given-order local column that state component ``l`` of ``model`` comes from."""
@@ -344,57 +453,83 @@ class Problem:
 
         The states taken from the data (a noisy displacement, a band-limited velocity estimate) can be far
         from any trajectory of the model: starting the joint fit there, the optimiser wanders. Here every
-        segment's state alone is fitted to the segment's samples by Levenberg-Marquardt steps (the segments
-        are independent when the global parameters are held and the continuity rows left out), all segments
-        in one simulation per iteration.
+        segment's state alone is fitted to the first ``window`` samples of the segment (``None``: all) by
+        Levenberg-Marquardt steps (the segments are independent when the global parameters are held and the
+        continuity rows left out), all segments in one simulation per iteration. Only the windows are
+        simulated (the windows of all segments joined into one shorter record of segments: the samples, their
+        force and sub-step force are those of the record), and a step is kept or refused segment by segment
+        without simulating again (a segment's run depends on its own state only).
         """
         u = np.array(u, dtype=float, copy=True)
-        G, L, K, C = self.G, self.L, self.K, self.C
-        seg = np.repeat(self.segment_of, C)
-        mask = np.ones(self.rows_data)
-        if window is not None:
-            offset = np.arange(self.record.n) - self.starts[self.segment_of]
-            mask = np.repeat((offset < window).astype(float), C)
-
-        def evaluate(x):
-            try:
-                r, (run, model, order) = self._evaluate(x)
-            except SimulationError:
-                return None, None
-            data = r[: self.rows_data] * mask
-            return np.bincount(seg, data**2, minlength=K), (data, run, model, order)
-
-        cost, state = evaluate(u)
-        if cost is None:
-            return u
-        lam = np.full(K, 1e-3)
+        G, L, K, C, q = self.G, self.L, self.K, self.C, self.q
+        lengths = np.diff(np.append(self.starts, self.record.n))
+        width = lengths if window is None else np.minimum(int(window), lengths)
+        idx = np.concatenate([np.arange(s, s + w) for s, w in zip(self.starts, width, strict=True)])
+        starts = np.append(0, np.cumsum(width)[:-1])
+        fine = self.fine[(idx[:, None] * q + np.arange(q)[None, :]).ravel()]
+        force = self.record.f[idx]
+        measured = self.measured[idx]
+        edges = np.append(starts, idx.size) * C  # first data row of each segment's window
+        seg = np.repeat(np.arange(K), width * C)
         which = {"z": 0, "v": 1, "a": 2}
         chan = [which[c] for c in self.channels]
-        for _ in range(iterations):
-            data, run, model, order = state
+        lscale = self.scale[G : G + L]
+
+        def evaluate(x):
+            """Cost per segment, data residual and the states' Jacobian rows of the windows; ``None`` if diverged."""
+            model, theta, mass, states, order = self.unpack(x)
+            if not mass > 0:
+                return None
+            try:
+                run = simulate_segments(
+                    model,
+                    theta,
+                    mass,
+                    force,
+                    self.record.fs,
+                    starts,
+                    states,
+                    force_hold=self.record.force_hold,
+                    oversample=q,
+                    fine=fine,
+                )
+            except SimulationError:
+                return None
+            sim = np.column_stack([getattr(run, c) for c in self.channels])
+            data = ((sim - measured) / self.channel_scale).ravel()
             lcols = self._local_columns(list(run.columns), model, order)
-            lscale = self.scale[G : G + L]
-            Jl = (run.sensitivities[chan][:, :, lcols].transpose(1, 0, 2)
-                  * (lscale[None, :] / self.channel_scale[:, None])[None]).reshape(-1, L) * mask[:, None]
-            A = np.zeros((K, L, L))
-            g = np.zeros((K, L))
-            np.add.at(A, seg, Jl[:, :, None] * Jl[:, None, :])
-            np.add.at(g, seg, Jl * data[:, None])
+            Jl = (
+                run.sensitivities[chan][:, :, lcols].transpose(1, 0, 2)
+                * (lscale[None, :] / self.channel_scale[:, None])[None]
+            ).reshape(-1, L)
+            return np.bincount(seg, data**2, minlength=K), data, Jl
+
+        state = evaluate(u)
+        if state is None:
+            return u
+        cost, data, Jl = state
+        lam = np.full(K, 1e-3)
+        for _ in range(iterations):
+            A = np.add.reduceat(Jl[:, :, None] * Jl[:, None, :], edges[:-1], axis=0)
+            g = np.add.reduceat(Jl * data[:, None], edges[:-1], axis=0)
             diag = np.einsum("kii->ki", A)
             A_damped = A + lam[:, None, None] * np.einsum("ki,ij->kij", np.maximum(diag, 1e-300), np.eye(L))
             step = -np.linalg.solve(A_damped, g[:, :, None])[:, :, 0]
             trial = u.copy()
             trial[G:] += step.ravel()
-            new_cost, new_state = evaluate(trial)
-            if new_cost is None:
+            new = evaluate(trial)
+            if new is None:
                 lam *= 10.0
                 continue
+            new_cost, new_data, new_Jl = new
             better = new_cost < cost
-            keep = np.repeat(better, L)
-            u[G:] = np.where(keep, trial[G:], u[G:])
+            u[G:] = np.where(np.repeat(better, L), trial[G:], u[G:])
             lam = np.where(better, lam / 3.0, lam * 4.0)
             gain = float(np.sum(cost - np.where(better, new_cost, cost)))
-            cost, state = evaluate(u)
+            rows = better[seg]
+            cost = np.where(better, new_cost, cost)
+            data = np.where(rows, new_data, data)
+            Jl = np.where(rows[:, None], new_Jl, Jl)
             if gain <= rtol * float(np.sum(cost)):
                 break
         return u
