@@ -41,6 +41,10 @@ HEADER = struct.Struct("!Q")
 MAX_WARNINGS = 20
 #: Longest warning message sent back (characters).
 MAX_MESSAGE = 400
+#: The byte a spawned child writes once it has loaded and read its request (the parent's time limit starts
+#: then, as a forked child's starts when the fork server, already loaded, forks it). A reply's frame header
+#: starts with a zero byte, so the two never mix.
+READY = b"\x01"
 
 
 def read_exact(fd: int, size: int) -> bytes | None:
@@ -194,7 +198,7 @@ def _end() -> None:
     os._exit(0)
 
 
-def serve(channel: Any = None, *, stderr_fd: int | None = None) -> None:
+def serve(channel: Any = None, *, stderr_fd: int | None = None, ready: bool = False) -> None:
     """Run one request and end the process (never returns).
 
     Parameters
@@ -205,6 +209,9 @@ def serve(channel: Any = None, *, stderr_fd: int | None = None) -> None:
     stderr_fd
         The parent's stderr (forked child), where the child's stdout and
         stderr go.
+    ready
+        Write :data:`READY` once the request is read and applied, before
+        the call (a spawned child: the parent starts its time limit then).
     """
     try:
         if channel is None:
@@ -226,6 +233,11 @@ def serve(channel: Any = None, *, stderr_fd: int | None = None) -> None:
         except BaseException as exc:  # noqa: BLE001 - reported to the parent, which raises
             _send(out_fd, {"status": "setup", "error": f"{type(exc).__name__}: {exc}", "warnings": [], "threads": []})
             _end()
+        if ready:
+            try:
+                os.write(out_fd, READY)
+            except OSError:
+                _end()  # the parent gave up
         _send(out_fd, _call(request))
     finally:
         _end()
@@ -238,7 +250,11 @@ def main() -> None:
     parent = os.environ.get("NLID_ISOLATION_PARENT")
     if parent and parent.isdigit():
         die_with(int(parent))
-    serve()
+    # load what a fork server would have loaded before forking, so the time limit (from READY) covers the same
+    from .forkserver import PRELOAD_ENV, preload
+
+    preload(os.environ.get(PRELOAD_ENV, "none"))
+    serve(ready=True)
 
 
 if __name__ == "__main__":

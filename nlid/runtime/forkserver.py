@@ -46,7 +46,7 @@ import sys
 
 from .process import _PR_SET_CHILD_SUBREAPER, THREAD_ENV, _prctl, children_of, die_with, pin_threads
 
-__all__ = ["THREAD_ENV", "PIN_ENV", "PRELOAD_ENV", "PRELOAD_LIMIT", "main", "die_with", "pin_threads"]
+__all__ = ["THREAD_ENV", "PIN_ENV", "PRELOAD_ENV", "PRELOAD_LIMIT", "main", "die_with", "pin_threads", "preload"]
 
 #: ``"1"``: pin the numerical libraries to one thread per run (studies).
 PIN_ENV = "NLID_PIN_THREADS"
@@ -65,7 +65,7 @@ def _alarm(signum: int, frame: object) -> None:
     raise _PreloadTimeout
 
 
-def _preload(kind: str) -> None:
+def preload(kind: str) -> None:
     """Import what every run needs, silently and within :data:`PRELOAD_LIMIT` seconds."""
     if kind == "none":
         return
@@ -226,7 +226,7 @@ def main(fd: int) -> None:
 
     # the server forks by design: its only other threads are idle pools of the numerical libraries
     warnings.filterwarnings("ignore", message=r".*use of fork\(\) may lead to deadlocks", category=DeprecationWarning)
-    _preload(os.environ.get(PRELOAD_ENV, "full"))
+    preload(os.environ.get(PRELOAD_ENV, "full"))
     server.serve()
 
 

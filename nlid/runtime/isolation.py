@@ -17,7 +17,10 @@ Start methods (:func:`start_method`)
     no ``AF_UNIX path too long`` and no ``pymp-*`` folder, whatever the
     temporary or working folder. ``spawn`` (Windows, or
     ``NLID_START_METHOD=spawn``): each child is a fresh ``python -m
-    nlid.runtime.child``, killed at its time limit just the same. Neither
+    nlid.runtime.child``, killed at its time limit just the same; it loads
+    what the fork server would have loaded and then says it is ready, and
+    the time limit counts from then, as it does from a fork (so a limit
+    bounds the work, not the interpreter's start-up). Neither
     imports the user's ``__main__`` again, so scripts need no ``if __name__
     == "__main__"`` guard, and a script read from stdin works.
 
@@ -57,7 +60,7 @@ from collections.abc import Callable
 from typing import Any
 
 from ..errors import InputError
-from .child import HEADER, frame
+from .child import HEADER, READY, frame
 from .forkserver import PIN_ENV, PRELOAD_ENV, PRELOAD_LIMIT, die_with, pin_threads
 from .outcome import (
     _CATEGORIES,
@@ -441,6 +444,8 @@ def _run_spawned(payload: bytes, timeout: float | None, pinned: bool) -> ChildRe
     env = _child_env(pinned)
     if pinned:
         pin_threads(env)
+    # the child loads what the fork server would have loaded, then says READY: the time limit starts there
+    env[PRELOAD_ENV] = "none" if pinned in _PRELOAD_FAILED else ("full" if pinned else "core")
     options: dict[str, Any] = {}
     if sys.platform == "win32":  # pragma: no cover - Windows
         options["creationflags"] = subprocess.CREATE_NEW_PROCESS_GROUP
@@ -459,6 +464,7 @@ def _run_spawned(payload: bytes, timeout: float | None, pinned: bool) -> ChildRe
     track(proc)
     start = time.perf_counter()
     out: list[bytes] = []
+    loaded = threading.Event()
 
     def write() -> None:
         with contextlib.suppress(OSError, ValueError):
@@ -466,8 +472,18 @@ def _run_spawned(payload: bytes, timeout: float | None, pinned: bool) -> ChildRe
             proc.stdin.close()
 
     def read() -> None:
-        with contextlib.suppress(OSError, ValueError):
-            out.append(proc.stdout.read())
+        try:
+            with contextlib.suppress(OSError, ValueError):
+                first = proc.stdout.read(1)
+                if first == READY:
+                    start_work[0] = time.perf_counter()
+                    loaded.set()
+                    first = b""
+                out.append(first + proc.stdout.read())
+        finally:
+            loaded.set()  # ended (or replied without calling: a failed setup)
+
+    start_work = [start]
 
     threads = [threading.Thread(target=f, daemon=True, name=f"nlid-child-{f.__name__}") for f in (write, read)]
     for t in threads:
@@ -475,7 +491,9 @@ def _run_spawned(payload: bytes, timeout: float | None, pinned: bool) -> ChildRe
     timed_out = False
     try:
         try:
-            proc.wait(timeout)
+            if not loaded.wait(START_LIMIT):
+                raise subprocess.TimeoutExpired(proc.args, START_LIMIT)
+            proc.wait(None if timeout is None else max(0.0, start_work[0] + timeout - time.perf_counter()))
         except subprocess.TimeoutExpired:
             timed_out = True
             _kill(proc.pid, proc)
@@ -499,7 +517,7 @@ def _run_spawned(payload: bytes, timeout: float | None, pinned: bool) -> ChildRe
         size = int.from_bytes(raw[:8], "big")
         if len(raw) >= 8 + size:
             reply = raw[8 : 8 + size]
-    return result_from_reply(reply, proc.returncode, time.perf_counter() - start, timed_out, proc.pid)
+    return result_from_reply(reply, proc.returncode, time.perf_counter() - start_work[0], timed_out, proc.pid)
 
 
 def run_in_child(
