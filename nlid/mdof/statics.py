@@ -214,6 +214,7 @@ def equilibria(model: StructuralModel, z_range: Any = None) -> StructureEquilibr
             with np.errstate(all="ignore"):
                 step = np.linalg.solve(_jacobians(model, Z, theta, stiff), _forces(model, Z, theta, stiff)[..., None])
             Z = np.where(np.isfinite(step[..., 0]), Z - step[..., 0], Z)
+    Z = np.where(np.abs(Z) <= 1e-12 * width, 0.0, Z)  # a rest position at the origin reads 0, not 1e-37
     inside = np.all((Z >= ranges[:, 0] - 0.5 * width) & (Z <= ranges[:, 1] + 0.5 * width), axis=1)
     Z = Z[inside]
     unique: list[np.ndarray] = []
