@@ -358,7 +358,9 @@ def channel_arrays(
     return arrays, _sampling(arrays, table, fs, source)
 
 
-def _sampling(arrays: Mapping[str, np.ndarray], table: Mapping[str, Any], fs: float | None, source: str) -> float | None:
+def _sampling(
+    arrays: Mapping[str, np.ndarray], table: Mapping[str, Any], fs: float | None, source: str
+) -> float | None:
     """The sampling frequency: ``None`` with a time column, else ``fs=``, else the table's scalar ``fs``."""
     if "t" in arrays:
         if fs is not None:

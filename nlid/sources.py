@@ -35,10 +35,10 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from . import datasets
+from .columnmap import dataset_table, frame_table, uses_indexed
 from .errors import InputError
 from .io import read_record
 from .provenance import record_sha256
-from .columnmap import dataset_table, frame_table, uses_indexed
 from .record import Record
 
 if TYPE_CHECKING:  # pragma: no cover

@@ -253,7 +253,9 @@ def unit_of(channel: str, text: Any, *, where: str = "units", indexed: bool = Fa
     )
 
 
-def parse_units(spec: str | Mapping[str, Any] | None, *, where: str = "units", indexed: bool = False) -> dict[str, Unit]:
+def parse_units(
+    spec: str | Mapping[str, Any] | None, *, where: str = "units", indexed: bool = False
+) -> dict[str, Unit]:
     """``{channel: Unit}`` from ``{"z": "mm"}`` or the command line's ``"z=mm,a=g"``.
 
     With ``indexed``, the channels of a structure's DOFs (``z2``) are accepted too (:func:`unit_of`).

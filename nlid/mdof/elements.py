@@ -180,7 +180,9 @@ class Element:
         x = z[..., self.i - 1]
         return x - z[..., self.j - 1] if self.j else x.copy()
 
-    def evaluate(self, x: np.ndarray, xd: np.ndarray | None = None, px_roots: Sequence[float] | None = None) -> np.ndarray:
+    def evaluate(
+        self, x: np.ndarray, xd: np.ndarray | None = None, px_roots: Sequence[float] | None = None
+    ) -> np.ndarray:
         """``g(x, x')`` on samples of the relative coordinate (a memory term is integrated along ``x`` from 0).
 
         Parameters
@@ -593,4 +595,6 @@ class ElementSet:
         for key, pair in dict(data.get("px_roots") or {}).items():
             i, _, j = str(key).partition("-")
             roots[(int(i), int(j))] = tuple(pair)
-        return cls.from_spec(list(data.get("elements") or ()), int(data["n_dofs"]), static=bool(data.get("static", True)), px_roots=roots)
+        return cls.from_spec(
+            list(data.get("elements") or ()), int(data["n_dofs"]), static=bool(data.get("static", True)), px_roots=roots
+        )

@@ -116,11 +116,15 @@ def check_structure_estimate(estimate: Any, elements: ElementSet, name: str, mas
             )
         )
         if not same:
-            raise PluginError(f"identifier {name!r} returned elements ({refined}) that are not those given ({elements})")
+            raise PluginError(
+                f"identifier {name!r} returned elements ({refined}) that are not those given ({elements})"
+            )
         used = refined
     keys = list(estimate.coefficients)
     if sorted(keys) != sorted(used.names):
-        raise PluginError(f"identifier {name!r} returned coefficients for {sorted(keys)} but the elements are {list(used.names)}")
+        raise PluginError(
+            f"identifier {name!r} returned coefficients for {sorted(keys)} but the elements are {list(used.names)}"
+        )
     bad = [k for k in used.names if not np.isfinite(float(estimate.coefficients[k]))]
     if bad:
         raise IdentificationError(f"identifier {name!r} produced non-finite coefficients for {', '.join(bad)}")
@@ -138,7 +142,9 @@ def check_structure_estimate(estimate: Any, elements: ElementSet, name: str, mas
         try:
             np.linalg.cholesky(0.5 * (M + M.T))
         except np.linalg.LinAlgError:
-            raise IdentificationError(f"identifier {name!r} estimated a mass matrix that is not positive definite") from None
+            raise IdentificationError(
+                f"identifier {name!r} estimated a mass matrix that is not positive definite"
+            ) from None
     unknown = [k for k in (estimate.standard_errors or {}) if k not in used.names]
     if unknown:
         raise PluginError(f"identifier {name!r} returned standard errors for elements not in the model: {unknown}")

@@ -165,7 +165,9 @@ class IdentifiedStructure:
                 )
             static = estimate.static if elements.static else None
             structure = StructuralModel(M, estimate.C, estimate.K, elements, dict(estimate.coefficients), static)
-            z_range = tuple((float(lo), float(hi)) for lo, hi in zip(record.z.min(axis=0), record.z.max(axis=0)))
+            z_range = tuple(
+                (float(lo), float(hi)) for lo, hi in zip(record.z.min(axis=0), record.z.max(axis=0), strict=True)
+            )
             try:
                 eq: StructureEquilibria | None = structure.equilibria(z_range)
             except NlidError as exc:
@@ -189,7 +191,11 @@ class IdentifiedStructure:
                 eps_percent=fit.eps_percent,
                 force_residual_percent=fit.force_residual_percent,
                 options=options or {},
-                diagnostics={**dict(estimate.diagnostics), **dict(diagnostics or {}), "balance_cutoff_hz": fit.data.cutoff},
+                diagnostics={
+                    **dict(estimate.diagnostics),
+                    **dict(diagnostics or {}),
+                    "balance_cutoff_hz": fit.data.cutoff,
+                },
                 warnings=tuple(warnings),
                 seconds=seconds,
                 z_range=z_range,
@@ -200,7 +206,9 @@ class IdentifiedStructure:
             why = f" (numpy: {numerics.describe_warnings(caught)})" if caught else ""
             raise IdentificationError(f"the identification by {method!r} cannot be trusted: {'; '.join(problems)}{why}")
         if caught:
-            note = f"numerical warnings while identifying (the figures are finite): {numerics.describe_warnings(caught)}"
+            note = (
+                f"numerical warnings while identifying (the figures are finite): {numerics.describe_warnings(caught)}"
+            )
             draft = dataclasses.replace(draft, warnings=(*draft.warnings, note))
         return draft
 
@@ -211,7 +219,9 @@ class IdentifiedStructure:
         out += [found] if found else []
         for m in (*self.modes, *([self.linear_modes] if self.linear_modes is not None else [])):
             if not (np.all(np.isfinite(m.fn_hz)) and np.all(m.fn_hz > 0) and np.all(np.isfinite(m.zeta))):
-                out.append(f"the modes at z* = {m.equilibrium} have fn = {m.fn_hz.tolist()} Hz, zeta = {m.zeta.tolist()}")
+                out.append(
+                    f"the modes at z* = {m.equilibrium} have fn = {m.fn_hz.tolist()} Hz, zeta = {m.zeta.tolist()}"
+                )
         eps = [x for x in (self.eps_percent or ()) if not np.isfinite(x)]
         if eps:
             out.append("epsilon is not finite")
@@ -307,7 +317,9 @@ class IdentifiedStructure:
                 "modes": [m.to_dict() for m in self.modes],
                 "linear_modes": None if self.linear_modes is None else self.linear_modes.to_dict(),
                 "eps_percent": None if self.eps_percent is None else list(self.eps_percent),
-                "force_residual_percent": None if self.force_residual_percent is None else list(self.force_residual_percent),
+                "force_residual_percent": None
+                if self.force_residual_percent is None
+                else list(self.force_residual_percent),
                 "options": dict(self.options),
                 "diagnostics": dict(self.diagnostics),
                 "warnings": list(self.warnings),
@@ -353,7 +365,7 @@ class IdentifiedStructure:
         )
 
     def to_frame(self) -> pd.DataFrame:
-        """One row per element: ``connection``, ``coefficient``, ``std_error``, ``unit``, ``family`` (index: the element)."""
+        """One row per element (the index): ``connection``, ``coefficient``, ``std_error``, ``unit``, ``family``."""
         import pandas as pd
 
         se = self.standard_errors or {}
@@ -381,7 +393,14 @@ class IdentifiedStructure:
         rows = []
         for e in self.elements:
             error = se.get(e.name)
-            rows.append([e.name, f"{self.coefficients[e.name]:.6g}", "" if error is None else f"{error:.3g}", e.coefficient_unit])
+            rows.append(
+                [
+                    e.name,
+                    f"{self.coefficients[e.name]:.6g}",
+                    "" if error is None else f"{error:.3g}",
+                    e.coefficient_unit,
+                ]
+            )
         out.add_table(
             [Column("element"), Column("coefficient", "right", 14), Column("std. error", "right", 11), Column("unit")],
             rows,
@@ -425,7 +444,9 @@ class IdentifiedStructure:
 
         return plot_elements(self.structure, record, ax=ax, z_range=self.z_range)
 
-    def plot_frf(self, ax: Any = None, *, at: Sequence[float] | None = None, frequency_hz: Sequence[float] | None = None) -> Any:
+    def plot_frf(
+        self, ax: Any = None, *, at: Sequence[float] | None = None, frequency_hz: Sequence[float] | None = None
+    ) -> Any:
         """Magnitude of the receptance matrix of the linear(ised) system (:func:`nlid.mdof.plots.plot_frf`)."""
         from .plots import plot_frf
 

@@ -109,7 +109,9 @@ def _element_special(e, x, xd, theta, special, pxc, plan, tops):
 
 
 @numba.njit(cache=True, inline="always")
-def _accel(element, z, v, w, fk, Minv, K, C, static, theta, plain, memory, special, pxc, plan, tops, ci, cj, kpos, cpos, R, out):
+def _accel(
+    element, z, v, w, fk, Minv, K, C, static, theta, plain, memory, special, pxc, plan, tops, ci, cj, kpos, cpos, R, out
+):
     """``out = M^-1 (f - R(z, v, w))``; ``R`` is scratch."""
     n = z.size
     for i in range(n):

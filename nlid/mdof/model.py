@@ -140,7 +140,9 @@ class StructuralModel:
 
     # ------------------------------------------------------------------ construction
     @classmethod
-    def from_oscillator(cls, model: Model, coefficients: Mapping[str, float] | np.ndarray, mass: float) -> StructuralModel:
+    def from_oscillator(
+        cls, model: Model, coefficients: Mapping[str, float] | np.ndarray, mass: float
+    ) -> StructuralModel:
         """The one-DOF oscillator ``m z'' + R(z, z') = f`` as a structure of one DOF.
 
         The terms ``z``, ``v`` and ``1`` become ``K``, ``C`` and the static
@@ -253,7 +255,7 @@ class StructuralModel:
         return out
 
     def elastic(self, z: np.ndarray) -> np.ndarray:
-        """The static restoring force ``K z + s + sum_e b_e theta_e k_e(x_e)`` (stiffness-family elements): ``(N, n)``."""
+        """The static restoring force ``K z + s + sum_e b_e theta_e k_e(x_e)`` (stiffness elements), ``(N, n)``."""
         zz, _ = self._states(z, None)
         out = zz @ self.K.T + self.static
         keep = [k for k, e in enumerate(self.elements) if e.family == "stiffness"]
@@ -267,7 +269,7 @@ class StructuralModel:
         return out
 
     def tangent_stiffness(self, z0: Sequence[float]) -> np.ndarray:
-        """``dR/dz`` at rest at ``z0``: ``K + sum_e b_e b_e^T theta_e k_e'(x_e)`` (memory elements: their initial slope)."""
+        """``dR/dz`` at rest at ``z0``: ``K + sum_e b_e b_e^T theta_e k_e'(x_e)`` (memory: the initial slope)."""
         z0 = np.asarray(z0, dtype=float).reshape(self.n_dofs)
         out = np.array(self.K, dtype=float)
         theta = self.theta

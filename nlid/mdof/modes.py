@@ -141,7 +141,9 @@ def _largest_positive(columns: np.ndarray) -> np.ndarray:
     return columns * (np.abs(lead) / np.where(lead == 0, 1.0, lead))
 
 
-def linear_modes(M: np.ndarray, C: np.ndarray, K: np.ndarray, equilibrium: Sequence[float], source: str = "") -> StructureModes:
+def linear_modes(
+    M: np.ndarray, C: np.ndarray, K: np.ndarray, equilibrium: Sequence[float], source: str = ""
+) -> StructureModes:
     """The modes of ``M x'' + C x' + K x = 0`` (module docstring), reported at ``equilibrium``."""
     from scipy.linalg import eig, eigh
 

@@ -159,7 +159,9 @@ class StructurePreset:
         if not _finite(self.force_rms) or self.force_rms < 0:
             raise InputError(f"preset {self.name!r}: force_rms must be a non-negative number, got {self.force_rms!r}")
         if isinstance(self.oversample, bool) or not isinstance(self.oversample, int) or not 1 <= self.oversample <= 64:
-            raise InputError(f"preset {self.name!r}: oversample must be an integer from 1 to 64, got {self.oversample!r}")
+            raise InputError(
+                f"preset {self.name!r}: oversample must be an integer from 1 to 64, got {self.oversample!r}"
+            )
         if (self.M is None) == (not self.linear):
             raise InputError(f"preset {self.name!r}: give the matrices M, C, K or a builder (linear=), one of them")
         if self.linear and self.linear not in _BUILDERS:
@@ -400,7 +402,7 @@ STRUCTURE_PRESETS: dict[str, StructurePreset] = {
             duration=60.0,
             oversample=8,
             z_range=(-0.01, 0.01),
-            reference="Marchesiello & Garibaldi 2008, MSSP 22, 81-101 (ref. [29]); values chosen, see nlid.mdof.presets",
+            reference="Marchesiello & Garibaldi 2008, MSSP 22, 81-101 (ref. [29]); values chosen (nlid.mdof.presets)",
         ),
         StructurePreset(
             name="2dof-double-well",

@@ -181,7 +181,9 @@ class StructureRecord:
             if raw is not None:
                 arrays[name] = _columns(raw, name, N)
                 if arrays[name].shape[1] != n:
-                    raise DataError(f"channel group {name!r} has {arrays[name].shape[1]} columns but there are {n} DOFs")
+                    raise DataError(
+                        f"channel group {name!r} has {arrays[name].shape[1]} columns but there are {n} DOFs"
+                    )
         if N < MIN_SAMPLES:
             raise DataError(f"record has {N} samples; at least {MIN_SAMPLES} are needed")
         for name, arr in arrays.items():
@@ -192,7 +194,9 @@ class StructureRecord:
                 if unit is not None and unit.factor != 1.0:
                     arr[:, k] *= unit.factor
                 if np.ptp(arr[:, k]) == 0.0:
-                    raise DataError(f"channel {name}{k + 1} is constant ({arr[0, k]}); nothing can be identified from it")
+                    raise DataError(
+                        f"channel {name}{k + 1} is constant ({arr[0, k]}); nothing can be identified from it"
+                    )
             arr.setflags(write=False)
             set_(self, name, arr)
         units = {"t": "s"}
@@ -293,7 +297,9 @@ class StructureRecord:
         return record_from_table(cls, table, columns, fs, force_hold, meta, units, source)
 
     @classmethod
-    def from_frame(cls, frame: pd.DataFrame, columns: str | Mapping[str, str] | None = None, **kwargs: Any) -> StructureRecord:
+    def from_frame(
+        cls, frame: pd.DataFrame, columns: str | Mapping[str, str] | None = None, **kwargs: Any
+    ) -> StructureRecord:
         """Build a record from a pandas DataFrame with the column map files use (as :meth:`Record.from_frame`)."""
         import pandas as pd
 
@@ -384,7 +390,8 @@ class StructureRecord:
     def __repr__(self) -> str:
         src = self.meta.get("source", "")
         return (
-            f"StructureRecord(n={self.n}, fs={self.fs:g} Hz, dofs={self.n_dofs}, forces={','.join(channel_names('f', self.force_dofs))}"
+            f"StructureRecord(n={self.n}, fs={self.fs:g} Hz, dofs={self.n_dofs}, "
+            f"forces={','.join(channel_names('f', self.force_dofs))}"
             f", channels={','.join(self.groups)}{', source=' + str(src) if src else ''})"
         )
 
@@ -490,7 +497,7 @@ class StructureRecord:
         return replace(self, fs=new_fs, provenance=self._steps(f"resampled to {new_fs:g} Hz"), **arrays)
 
     def suggest_cutoff(self) -> float:
-        """One differentiating cut-off (Hz) for every DOF: the highest :func:`nlid.derivatives.suggest_cutoff` of the z's.
+        """One cut-off (Hz) for all DOFs: the highest :func:`nlid.derivatives.suggest_cutoff` of the displacements.
 
         One filter for all DOFs keeps their estimated channels in phase with each other.
         """

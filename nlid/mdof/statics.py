@@ -83,7 +83,9 @@ def as_ranges(z_range: Any, n: int) -> np.ndarray:
     elif arr.shape == (2, n) and n != 2:
         arr = arr.T
     if arr.shape != (n, 2) or not np.all(np.isfinite(arr)):
-        raise InputError(f"z_range must be (min, max), one (min, max) per DOF or samples (N, {n}); got shape {arr.shape}")
+        raise InputError(
+            f"z_range must be (min, max), one (min, max) per DOF or samples (N, {n}); got shape {arr.shape}"
+        )
     arr = np.sort(arr, axis=1)
     if np.any(arr[:, 1] <= arr[:, 0]):
         raise InputError("z_range is empty for a DOF: (min, max) must differ")
@@ -228,8 +230,11 @@ def equilibria(model: StructuralModel, z_range: Any = None) -> StructureEquilibr
 
 def _classify(model: StructuralModel, Z: np.ndarray, theta: np.ndarray, stiff: list[int]) -> StructureEquilibria:
     J = _jacobians(model, Z, theta, stiff)
-    J = J + sum(theta[k] * e.term.memory_slope * np.outer(e.b(model.n_dofs), e.b(model.n_dofs))
-                for k, e in enumerate(model.elements) if e.family == "memory")
+    J = J + sum(
+        theta[k] * e.term.memory_slope * np.outer(e.b(model.n_dofs), e.b(model.n_dofs))
+        for k, e in enumerate(model.elements)
+        if e.family == "memory"
+    )
     stable, unstable = [], []
     for z, j in zip(Z, J, strict=True):
         eig = np.linalg.eigvalsh(0.5 * (j + j.T))

@@ -80,7 +80,7 @@ def record_from_table(
     units: Mapping[str, str] | None,
     source: str | os.PathLike[str],
 ) -> Any:
-    """A structure record from a table (see :meth:`StructureRecord.from_table <nlid.mdof.StructureRecord.from_table>`)."""
+    """A structure record from a table (:meth:`StructureRecord.from_table <nlid.mdof.StructureRecord.from_table>`)."""
     if not isinstance(table, Mapping):
         raise InputError(f"a table must map column names to arrays, got {type(table).__name__}")
     if isinstance(source, os.PathLike):
