@@ -16,6 +16,7 @@ from ..terms import Term, parse_term
 
 __all__ = ["rewrite", "render", "canonical", "coordinate", "Connection", "MAX_LENGTH"]
 
+#: ``(i, j)``: DOF ``i`` and DOF ``j`` (1-based), ``j = 0`` the ground; canonical: ``i < j`` or ``j = 0``.
 Connection = tuple[int, int]
 
 #: Longest element text parsed (the one-DOF grammar has its own limits on what it is given).
@@ -169,18 +170,6 @@ def rewrite(text: str) -> tuple[Term, Connection, float]:
             "(static loads are the model's static force per DOF)",
             text,
         )
-    pairs = {canonical(i, j) for _, i, j, _ in found}
-    if len(pairs) > 1:
-        shown = " and ".join(coordinate("z", p) for p in sorted(pairs))
-        raise TermError(f"one term acts on one connection, this one mixes {shown}", text, found[-1][3])
-    connection = pairs.pop()
-    flips: dict[str, set[bool]] = {}
-    for letter, i, j, pos in found:
-        flips.setdefault(letter, set()).add((i, j) != connection)
-        if len(flips[letter]) > 1:
-            raise TermError(
-                f"write every {letter} of one term in the same order ({coordinate(letter, connection)})", text, pos
-            )
     memory = _MEMORY.search(rewritten)
     if memory is not None:
         arg = _MEMORY_ARG.match(rewritten, memory.start())
@@ -203,5 +192,17 @@ def rewrite(text: str) -> tuple[Term, Connection, float]:
         raise TermError(exc.reason, text, pos) from None
     if term.is_constant:
         raise TermError(f"{text.strip()!r} is the constant 1, not a term on a connection", text)
+    pairs = {canonical(i, j) for _, i, j, _ in found}
+    if len(pairs) > 1:
+        shown = " and ".join(coordinate("z", p) for p in sorted(pairs))
+        raise TermError(f"one term acts on one connection, this one mixes {shown}", text, found[-1][3])
+    connection = pairs.pop()
+    flips: dict[str, set[bool]] = {}
+    for letter, i, j, pos in found:
+        flips.setdefault(letter, set()).add((i, j) != connection)
+        if len(flips[letter]) > 1:
+            raise TermError(
+                f"write every {letter} of one term in the same order ({coordinate(letter, connection)})", text, pos
+            )
     term, sign = _flip(term, True in flips.get("z", ()), True in flips.get("v", ()), text)
     return term, connection, sign
