@@ -5,7 +5,8 @@ The Python API is a handful of verbs (:mod:`nlid.api`)::
     import nlid
 
     record = nlid.simulate("paper-numerical", seed=0, noise=0.02, channels="z,a")
-    fit = nlid.identify(record, "z^3, z^2, v*|v|", method="rfs", mass=0.2)
+    fit = nlid.identify(record, "z^3, z^2, v*|v|", mass=0.2)   # method: the preferred installed one
+    print(fit.summary())                                       # a nlid.Summary (text, Markdown, HTML)
     table = nlid.compare(record, "z^3, z^2, v*|v|", ["rfs", "nsi-ip"], mass=0.2)
     post = nlid.posterior(record, fit, seed=0)
     found = nlid.discover(nlid.load("dataset:emps"), "v, 1")
@@ -41,8 +42,10 @@ _LAZY: dict[str, str] = {
     "posterior": "nlid.api",
     "discover": "nlid.api",
     "run_study": "nlid.api",
+    "bench": "nlid.benchmarking",
     "identify": "nlid.pipeline",
     "IdentifiedModel": "nlid.identified",
+    "Summary": "nlid.summary",
     "Record": "nlid.record",
     "Model": "nlid.terms",
     "parse_term": "nlid.terms",
@@ -60,7 +63,9 @@ __all__ = [
     "posterior",
     "discover",
     "run_study",
+    "bench",
     "IdentifiedModel",
+    "Summary",
     "Record",
     "Model",
     "parse_term",

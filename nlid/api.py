@@ -22,12 +22,13 @@ from collections.abc import Iterable, Mapping, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from .errors import InputError, NlidError
+from .errors import InputError, NlidError, brief
 from .identified import IdentifiedModel
 from .pipeline import as_model, identify
 from .record import Record
 from .reference import FRAME_COLUMNS, Reference
 from .reference import compare as compare_fit
+from .scoring import TransientRule, rule_from_spec
 from .sources import as_record
 
 if TYPE_CHECKING:  # pragma: no cover
@@ -150,11 +151,12 @@ def compare(
     *,
     mass: float | None = None,
     reference: Mapping[str, Any] | IdentifiedModel | Reference | None = None,
-    holdout: Record | None = None,
+    holdout: Record | str | Path | float | None = None,
     options: Mapping[str, Mapping[str, Any]] | None = None,
     without: str | Iterable[str] = (),
     px_roots: Sequence[float] | None = None,
     errors: str = "record",
+    rule: TransientRule | str | Mapping[str, Any] | None = None,
 ) -> pd.DataFrame:
     """Identify one model with several methods on one record; one tidy table of the results.
 
@@ -165,7 +167,8 @@ def compare(
     terms
         The model (as for :func:`nlid.identify`).
     methods
-        Identifier names (default: every installed identifier).
+        Identifier names, as a list or one comma-separated string (default:
+        every installed identifier).
     mass
         Known mass (kg); ``None`` lets each method estimate it (methods that
         cannot are reported as failed).
@@ -179,8 +182,12 @@ def compare(
         equilibria and modes of the reference are computed from its
         coefficients when not given.
     holdout
-        A held-out record: adds epsilon, the force residual and the free-run
-        error on it (:meth:`nlid.IdentifiedModel.score`).
+        A held-out record (or what :func:`load` reads: a file, ``"dataset:..."``),
+        or the fraction of ``record`` to hold out (``0.25``: its last quarter,
+        whole periods of a periodic record, as :class:`nlid.discovery.Split`
+        divides it; the methods are then identified on the rest): adds epsilon,
+        the force residual and the free-run error on it
+        (:meth:`nlid.IdentifiedModel.score`).
     options
         ``{method: {option: value}}``.
     without, px_roots
@@ -188,6 +195,14 @@ def compare(
     errors
         ``"record"`` (a failing method gets one row with ``quantity = "failed"``
         and the message in ``note``) or ``"raise"``.
+    rule
+        The transient rule of the free run on ``holdout`` (:mod:`nlid.scoring.rules`:
+        ``"first-sample"``, ``"window:50"``, ``"periodic"``, ``"periodic:8192"``
+        or a rule); default: the held-out record's own
+        (:func:`nlid.scoring.default_rule`). The ``freerun_rmse`` row's
+        ``note`` names the rule when it is not the first-sample one.
+        An unknown method name is refused before anything runs
+        (:class:`~nlid.errors.InputError`, with a suggestion), whatever ``errors``.
 
     Returns
     -------
@@ -209,10 +224,31 @@ def compare(
     if errors not in ("record", "raise"):
         raise InputError(f"errors must be 'record' or 'raise', got {errors!r}")
     model = as_model(terms, without=without, px_roots=px_roots)
-    names = list(methods) if methods is not None else default_registry().names()
+    if isinstance(methods, str):
+        methods = [m.strip() for m in methods.split(",") if m.strip()]
+    registry = default_registry()
+    names = list(methods) if methods is not None else registry.names()
     if not names:
         raise InputError("no method to compare: none is installed and methods= is empty")
+    for name in names:  # a misspelt name is the user's error, found before anything runs
+        if not isinstance(name, str):
+            raise InputError(f"methods= holds identifier names, got {type(name).__name__} {brief(name)}")
+        if name not in registry.identifiers and name not in registry.failures:
+            registry.get(name)  # raises InputError: unknown method, with a suggestion
+    stray = [k for k in (options or {}) if k not in names]
+    if stray:
+        raise InputError(f"options= are given for {brief(stray[0])}, which is not among the methods compared ({names})")
     ref = Reference.of(record, reference)
+    rule = None if rule is None else rule_from_spec(rule)
+    if holdout is not None and not isinstance(holdout, Record):
+        if isinstance(holdout, (str, Path)):
+            holdout = as_record(holdout)
+        else:
+            from .discovery.inputs import Split
+            from .validate import HOLDOUT_FRACTION
+
+            HOLDOUT_FRACTION.check(holdout, "holdout=")
+            record, holdout, _ = Split(holdout=float(holdout)).divide(record)
     rows: list[dict[str, Any]] = []
     fits: dict[str, IdentifiedModel] = {}
     for name in names:
@@ -224,7 +260,7 @@ def compare(
             rows.append({"method": name, "quantity": "failed", "name": "", "value": math.nan, "note": str(exc)})
             continue
         fits[name] = fit
-        rows += [{**r, "note": ""} for r in compare_fit(fit, ref, holdout).records()]
+        rows += [{"note": "", **r} for r in compare_fit(fit, ref, holdout, rule).records()]
     frame = pd.DataFrame(rows, columns=FRAME_COLUMNS)
     frame.attrs["models"] = fits
     return frame

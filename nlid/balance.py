@@ -24,7 +24,7 @@ from .record import Record
 from .terms import Model
 from .validate import check_cutoff
 
-__all__ = ["RegressionData", "regression_data", "REGRESSOR_BAND_FACTOR", "EDGE_PERIODS"]
+__all__ = ["RegressionData", "regression_data", "suggested_cutoff", "REGRESSOR_BAND_FACTOR", "EDGE_PERIODS"]
 
 
 #: The regressors are evaluated on z and v kept to this multiple of the
@@ -119,6 +119,37 @@ def _cached(cache: dict, key: tuple, compute):
     return cache[key]
 
 
+def suggested_cutoff(record: Record) -> float:
+    """:func:`nlid.derivatives.suggest_cutoff` of the record's ``z`` (Hz), computed once per record.
+
+    The default equation band of :func:`regression_data`; an identifier that
+    derives its own filters from the same rule (nsi-ip) asks here, so the
+    Welch spectrum of a long record is not computed twice in one
+    identification.
+    """
+    cache = _record_cache(record)
+    if "cutoff" not in cache:
+        cache["cutoff"] = derivatives.suggest_cutoff(record.z, record.fs)
+    return float(cache["cutoff"])
+
+
+def _lowpass_columns(values: np.ndarray, fs: float, fc: float) -> np.ndarray:
+    """:func:`nlid.derivatives.lowpass` of each column; a constant column (the term ``1``) is its own low-pass.
+
+    The filter removes the line through a column's end samples and passes it
+    unchanged, so a constant comes out exactly as it went in: skipping it
+    gives the same numbers to the bit and saves one FFT filtering of the
+    record's length. ``values`` (a new array) is filtered in place.
+    """
+    constant = [j for j in range(values.shape[1]) if not np.any(values[:, j] != values[0, j])]
+    if not constant:
+        return derivatives.lowpass(values, fs, fc)
+    for j in range(values.shape[1]):  # what lowpass does with a matrix: one column at a time
+        if j not in constant:
+            values[:, j] = derivatives.lowpass(values[:, j], fs, fc)
+    return values
+
+
 def _columns(cache: dict, model: Model, z: np.ndarray, v: np.ndarray | None, fs: float, fc: float, wide: float):
     """The model's regressors evaluated on the wide-band ``z``, ``v`` and low-passed at ``fc``, column by column.
 
@@ -130,7 +161,7 @@ def _columns(cache: dict, model: Model, z: np.ndarray, v: np.ndarray | None, fs:
     missing = [i for i, k in enumerate(keys) if k not in cache]
     if missing:
         sub = Model(tuple(model.terms[i] for i in missing), model.px_roots)
-        values = derivatives.lowpass(sub.evaluate(z, v), fs, fc)
+        values = _lowpass_columns(np.asarray(sub.evaluate(z, v), dtype=float), fs, fc)
         if sum(1 for k in cache if k[0] == "col") + len(missing) > MAX_CACHED_COLUMNS:
             for k in [k for k in cache if k[0] == "col"]:
                 del cache[k]
@@ -176,12 +207,7 @@ def regression_data(
         return RegressionData(record.f, record.a, G, record.z, v, None, prov)
     fs = record.fs
     cache = _record_cache(record)
-    if cutoff is None:
-        if "cutoff" not in cache:
-            cache["cutoff"] = derivatives.suggest_cutoff(record.z, fs)
-        fc = float(cache["cutoff"])
-    else:
-        fc = float(cutoff)
+    fc = suggested_cutoff(record) if cutoff is None else float(cutoff)
     wide = min(REGRESSOR_BAND_FACTOR * fc, derivatives.CUTOFF_MAX_FRACTION * fs)
     z = _cached(cache, ("z", wide), lambda: derivatives.lowpass(record.z, fs, wide))
     v = None

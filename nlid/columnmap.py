@@ -71,7 +71,8 @@ from typing import Any
 
 import numpy as np
 
-from .errors import DataError, InputError
+from .errors import DataError, InputError, brief, listing
+from .units import INDEXED
 
 __all__ = [
     "ColumnExpr",
@@ -89,8 +90,6 @@ __all__ = [
 
 #: Channels a column map can name: the time ``t`` and the channels of a record.
 MAP_CHANNELS = ("t", "f", "z", "v", "a")
-#: An indexed channel of a structure: ``f``, ``z``, ``v`` or ``a`` and a DOF number from 1 (``z1``, ``f12``).
-INDEXED = re.compile(r"([fzva])([1-9][0-9]*)")
 #: An operand: a number, a name (letters of any script, digits, ``_``; not starting with a digit) or quoted text.
 _OPERAND = re.compile(
     r"""\s*(?:(?P<number>[0-9]*\.?[0-9]+(?:[eE][+-]?[0-9]+)?)(?![^\W\d])|(?P<name>[^\W\d]\w*)"""
@@ -131,9 +130,9 @@ def _lookup(table: Mapping[str, np.ndarray], name: str, source: str, column: boo
     if name not in table and name.startswith("/") and name.lstrip("/") in table:  # an HDF5 path written absolute
         name = name.lstrip("/")
     if name not in table:
-        avail = ", ".join(sorted(table)) or "none"
+        avail = listing(sorted(table)) or "none"
         what = "column" if column else "variable"
-        raise DataError(f"{what} {name!r} not found in {source}; it has: {avail}")
+        raise DataError(f"{what} {brief(name, 60)} not found in {source}; it has: {avail}")
     return np.asarray(table[name])
 
 
@@ -143,7 +142,9 @@ def _real(value: Any, name: str, source: str, what: str) -> np.ndarray:
     kind = array.dtype.kind
     if kind == "c":
         raise DataError(f"{what} {name!r} in {source} holds complex numbers; nlid needs real ones (take .real or abs)")
-    if kind not in "biuf":
+    if kind == "b":
+        raise DataError(f"{what} {name!r} in {source} holds booleans (True/False), not numbers")
+    if kind not in "iuf":
         described = {"U": "text", "S": "text", "O": "objects (a cell array or strings)", "V": "a struct"}.get(
             kind, f"values of type {array.dtype}"
         )
@@ -179,7 +180,9 @@ def parse_columns(spec: str | Mapping[str, str] | None) -> dict[str, ColumnExpr]
             if not entry.strip():
                 continue
             if "=" not in entry:
-                raise InputError(f"column map entry {entry.strip()!r} must look like channel=column (e.g. f=vir*35.15)")
+                raise InputError(
+                    f"column map entry {brief(entry.strip(), 60)} must look like channel=column (e.g. f=vir*35.15)"
+                )
             key, expr = entry.split("=", 1)
             items.append((key, expr))
     else:
@@ -352,7 +355,7 @@ def channel_arrays(
         if required not in exprs:
             raise DataError(
                 f"{source}: no column for channel {required!r}; map one with columns= "
-                f"(e.g. {required}=NAME); the {noun} has: {', '.join(sorted(table))}"
+                f"(e.g. {required}=NAME); the {noun} has: {listing(sorted(table))}"
             )
     arrays = {c: e.evaluate(table, source).ravel() for c, e in exprs.items()}
     return arrays, _sampling(arrays, table, fs, source)
@@ -474,8 +477,13 @@ def _frame_column(column: Any, name: object, source: str) -> np.ndarray:
     seconds = _seconds(column, name, source)
     if seconds is not None:
         return seconds
-    if getattr(column.dtype, "kind", "") == "c":
+    kind = getattr(column.dtype, "kind", "")
+    if isinstance(column.dtype, np.dtype) and kind in "iuf":  # plain numbers: no parsing (a 100 000-column file)
+        return column.to_numpy(dtype=float)
+    if kind == "c":
         _real(column.to_numpy(), str(name), source, "column")  # raises: complex numbers
+    if kind == "b" or str(column.dtype) == "boolean":
+        raise DataError(f"column {name!r} in {source} holds booleans (True/False), not numbers")
     try:
         numeric = pd.to_numeric(column, errors="coerce")
     except (TypeError, ValueError):

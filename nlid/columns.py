@@ -60,6 +60,8 @@ __all__ = [
     "FREERUN_FIT",
     "FREERUN_RMSE",
     "FREERUN_NOTE",
+    "FREERUN_RULE",
+    "FREERUN_SCORED",
     "SECONDS",
     "PEAK_MEMORY",
     "COEF",
@@ -231,6 +233,10 @@ FREERUN_NRMSE = _scalar(
 FREERUN_FIT = _scalar("freerun_fit_pct", unit="%", title="free-run fit", section=SECTION_RESIDUALS)
 FREERUN_RMSE = _scalar("freerun_rmse", unit="m", title="free-run RMSE")
 FREERUN_NOTE = _scalar("freerun_note")
+#: The transient rule the held-out free run was scored under, as applied (:attr:`nlid.scoring.Scores.freerun_rule`).
+FREERUN_RULE = _scalar("freerun_rule")
+#: Samples the held-out free run is scored over (an initialisation window is not).
+FREERUN_SCORED = _scalar("freerun_scored_samples", title="free-run samples scored")
 SECONDS = _scalar(
     "seconds", unit="s", title="time", digits=COST_DIGITS, section=SECTION_RESIDUALS, lower_better=True, always=True
 )

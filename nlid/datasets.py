@@ -19,10 +19,22 @@ them.
     outside the scope of ``R(z, v)`` models).
 ``silverbox`` (Wigren & Schoukens 2013)
     Electronic Duffing oscillator ``m y'' + d y' + (a + b y^2) y = u``;
-    ``f = V1``, ``z = V2`` in volts (means removed, as the benchmark notes
-    prescribe), fs = 10^7 / 2^14 = 610.35 Hz, 131 072 samples. The first
-    40 000 samples are the "arrow head" (Gaussian noise of growing amplitude,
-    customarily the test set); the rest are odd random-phase multisines.
+    ``f = V1``, ``z = V2`` in volts, fs = 10^7 / 2^14 = 610.35 Hz, 131 072
+    samples. The record holds the "arrow head" (Gaussian noise of growing
+    amplitude, samples ~100 to ~40 486), about 100 zeros, then ten odd
+    random-phase multisine blocks. The benchmark's parts
+    (:data:`SILVERBOX_PARTS`, the split of the ``nonlinear-benchmarks``
+    package): ``estimation`` ``[40650:105712)``, and the test sets
+    ``arrow-full`` ``[100:40575)``, ``arrow-no-extrapolation``
+    ``[100:32100)`` and ``multisine-test`` ``[105712:127400)``; these parts
+    have the means of the estimation part removed (a statistic of the
+    estimation data only). The older parts ``all``, ``arrow`` (``[0:40000)``)
+    and ``multisine`` (``[40000:]``) have the whole record's means removed.
+    **``multisine`` is deprecated for estimation**: it starts at sample
+    40 000, before the arrow head ends, so it holds the last ~486 samples of
+    the test arrow, the largest amplitudes of the record (0.241 V, above the
+    0.216 V of the estimation part): a model estimated on it has seen the
+    test set's extrapolation region. Use ``estimation``.
 """
 
 from __future__ import annotations
@@ -34,7 +46,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .errors import DataError, InputError
+from .errors import DataError, InputError, brief
 from .io import read_table
 from .record import Record
 from .validate import did_you_mean
@@ -52,6 +64,7 @@ __all__ = [
     "sha256",
     "SILVERBOX_FS",
     "SILVERBOX_ARROW",
+    "SILVERBOX_PARTS",
     "BOUC_WEN_REFERENCE",
     "EMPS_REFERENCE",
 ]
@@ -60,8 +73,17 @@ __all__ = [
 DATA_ENV = "NLID_DATA_DIR"
 #: Silverbox sampling frequency (Hz).
 SILVERBOX_FS = 1e7 / 2**14
-#: Number of samples of the Silverbox "arrow head" (test) section.
+#: Number of samples of nlid's older Silverbox ``arrow`` part (``[0:40000)``; the benchmark's is ``arrow-full``).
 SILVERBOX_ARROW = 40_000
+#: The Silverbox parts of the benchmark protocol (``nonlinear-benchmarks``' ``Silverbox()`` split):
+#: ``[start, stop)`` sample indices into ``SNLS80mV.mat``. Each is returned with the means of the
+#: ``estimation`` part removed from the force and the output.
+SILVERBOX_PARTS = {
+    "estimation": (40_650, 105_712),
+    "arrow-full": (100, 40_575),
+    "arrow-no-extrapolation": (100, 32_100),
+    "multisine-test": (105_712, 127_400),
+}
 
 #: The Bouc-Wen benchmark's own model (Noel & Schoukens 2016), ``m y'' + c y' + k y + w = u``,
 #: ``w' = alpha y' - beta (gamma |y'| w + delta y' |w|)`` with m = 2 kg, c = 10 N s/m,
@@ -277,9 +299,13 @@ def load(name: str, *, part: str = "all") -> Record:
     name
         ``"emps"``, ``"silverbox"`` or ``"bouc-wen"``.
     part
-        For ``silverbox``: ``"all"``, ``"arrow"`` (first 40 000 samples, the
-        customary test set) or ``"multisine"`` (the rest, the customary
-        estimation set). For ``bouc-wen``: ``"train"`` (= ``"all"``, the
+        For ``silverbox``: the benchmark's ``"estimation"`` part or one of
+        its test sets ``"arrow-full"``, ``"arrow-no-extrapolation"``,
+        ``"multisine-test"`` (:data:`SILVERBOX_PARTS`; means of the
+        estimation part removed); or the older ``"all"``, ``"arrow"`` (first
+        40 000 samples) and ``"multisine"`` (the rest; deprecated for
+        estimation: it holds the end of the arrow head, see the module
+        docstring). For ``bouc-wen``: ``"train"`` (= ``"all"``, the
         5-period multisine, 40 960 samples) or ``"sinesweep"`` (the
         validation set, 153 000 samples). Only ``"all"`` for ``emps``.
 
@@ -337,9 +363,14 @@ def load(name: str, *, part: str = "all") -> Record:
         table = read_table(path)
         u = np.asarray(table["V1"], dtype=float).ravel()
         y = np.asarray(table["V2"], dtype=float).ravel()
+        if part in SILVERBOX_PARTS:
+            start, stop = SILVERBOX_PARTS["estimation"]
+            u0, y0 = u[start:stop].mean(), y[start:stop].mean()  # the estimation part's means, for every part
+        else:
+            u0, y0 = u.mean(), y.mean()
         record = Record(
-            f=u - u.mean(),
-            z=y - y.mean(),
+            f=u - u0,
+            z=y - y0,
             fs=SILVERBOX_FS,
             units={"f": "V", "z": "V", "v": "V/s", "a": "V/s^2"},
             meta={
@@ -349,11 +380,21 @@ def load(name: str, *, part: str = "all") -> Record:
                 "arrow_samples": SILVERBOX_ARROW,
             },
         )
+        if part in SILVERBOX_PARTS:
+            start, stop = SILVERBOX_PARTS[part]
+            return record[start:stop].with_meta(part=part, indices=[start, stop])
         if part == "all":
             return record
         if part == "arrow":
             return record[:SILVERBOX_ARROW]
         if part == "multisine":
-            return record[SILVERBOX_ARROW:]
-        raise InputError(f"unknown silverbox part {part!r}; use all, arrow or multisine")
-    raise InputError(f"unknown dataset {name!r}{did_you_mean(name, DATASETS)}; available: {', '.join(DATASETS)}")
+            return record[SILVERBOX_ARROW:].with_meta(
+                note="deprecated for estimation: samples [40000:) hold the end of the arrow head (a test set); "
+                "use part 'estimation'"
+            )
+        hint = did_you_mean(part, [*SILVERBOX_PARTS, "all", "arrow", "multisine"])
+        raise InputError(
+            f"unknown silverbox part {brief(part)}{hint}; "
+            f"use {', '.join(SILVERBOX_PARTS)} (the benchmark's split), or all, arrow, multisine (deprecated)"
+        )
+    raise InputError(f"unknown dataset {brief(name)}{did_you_mean(name, DATASETS)}; available: {', '.join(DATASETS)}")

@@ -12,7 +12,10 @@ catch ``ValueError`` or ``RuntimeError`` keep working.
 
 from __future__ import annotations
 
+from collections.abc import Iterable, Sequence
+
 __all__ = [
+    "rebuild_error",
     "NlidError",
     "InputError",
     "DataError",
@@ -23,6 +26,9 @@ __all__ = [
     "describe_exception",
     "excerpt",
     "brief",
+    "listing",
+    "one_line",
+    "MAX_LINE",
     "PASS_THROUGH",
 ]
 
@@ -50,9 +56,63 @@ def excerpt(text: str, position: int | None = None, width: int = 60) -> str:
 
 
 def brief(value: object, width: int = 80) -> str:
-    """``repr(value)``, cut to about ``width`` characters (a huge value stays one readable line)."""
-    text = repr(value)
-    return text if len(text) <= width else f"{text[: width - 20]}... ({len(text)} characters)"
+    """``repr(value)``, cut to about ``width`` characters (a huge value stays one readable line).
+
+    The one helper for echoing a value in a message: a 100 000-character term or option value comes
+    back as ``'xxxx...'... (100002 characters)``, and line breaks stay escaped (``repr``).
+    """
+    try:
+        text = repr(value)
+    except Exception:  # noqa: BLE001 - a hostile object's __repr__ must not replace the message
+        text = f"<{type(value).__name__} object>"
+    if len(text) <= width:
+        return text
+    return (
+        f"{text[: max(width - 20, 10)]}... ({_count(len(value) if isinstance(value, str) else len(text))} characters)"
+    )
+
+
+def _count(n: int) -> str:
+    """``99990`` as ``"99 990"`` (a thin grouping, readable in any locale)."""
+    return f"{n:,}".replace(",", " ")
+
+
+def listing(items: Iterable[object], limit: int = 10, width: int = 40, quote: bool = False) -> str:
+    """Items joined by ``", "``, at most ``limit`` of them, each cut by :func:`brief` to ``width``.
+
+    ``listing(f"c{i}" for i in range(100000))`` is ``"c0, c1, ..., c9 ... and 99 990 more"``: the
+    way every message lists names the user gave or a file holds. ``quote`` shows each item as its
+    ``repr``; otherwise strings are shown as they are (still cut, line breaks escaped).
+    """
+    items = list(items)
+    shown = [
+        brief(item, width) if quote or not isinstance(item, str) else one_line(item, width) for item in items[:limit]
+    ]
+    more = len(items) - len(shown)
+    return ", ".join(shown) + (f" ... and {_count(more)} more" if more > 0 else "")
+
+
+#: Longest line the command line prints for one error or warning (characters).
+MAX_LINE = 1000
+
+
+def one_line(text: str, width: int = MAX_LINE) -> str:
+    """``text`` as one line of at most about ``width`` characters, whatever it holds.
+
+    The command line's last resort: line breaks and other control characters are escaped
+    (``\\n``), and a longer text keeps its start and its end (what went wrong, and the hint that
+    usually closes the message) around ``... (N characters in all) ...``.
+    """
+    text = str(text)
+    if not text.isprintable():
+        text = "".join(ch if ch.isprintable() else repr(ch)[1:-1] for ch in text)
+    if len(text) <= width:
+        return text
+    if width < 200:  # a short value: its start is enough
+        return f"{text[: max(width - 20, 10)]}... ({_count(len(text))} characters)"
+    tail = width // 4
+    head = width - tail - 40
+    return f"{text[:head]} ... ({_count(len(text))} characters in all) ... {text[-tail:]}"
 
 
 class NlidError(Exception):
@@ -103,3 +163,13 @@ class IdentificationError(NlidError, RuntimeError):
     Examples: the underlying-linear system identified by NSI has real
     eigenvalues, or a regression matrix is rank deficient.
     """
+
+
+def rebuild_error(names: Sequence[str], message: str) -> NlidError:
+    """The error a child process reported, rebuilt in the parent: the first of ``names`` (the error's class
+    and its bases, most derived first) that is an nlid error class, else :class:`NlidError`, with ``message``."""
+    for name in names:
+        cls = globals().get(name)
+        if isinstance(cls, type) and issubclass(cls, NlidError) and cls is not TermError:
+            return cls(message)
+    return NlidError(message)

@@ -19,6 +19,9 @@ Example::
     print(fit.summary())      # the table `nlid identify` prints
     fit.score(other_record)   # epsilon, force residual, free-run error
     fit.to_dict()             # JSON (what `nlid identify --json` prints)
+
+Its plain-data layout is in :mod:`nlid.modeldict`, its tables in
+:mod:`nlid.modeltables` and its figures in :mod:`nlid.modelplots`.
 """
 
 from __future__ import annotations
@@ -33,22 +36,20 @@ import numpy as np
 from . import modelplots, numerics, physics, scoring
 from ._frozen import FrozenDict, freeze
 from .errors import IdentificationError, InputError, NlidError
-from .interface import Estimate, to_jsonable
+from .interface import Estimate
+from .modeldict import SCHEMA, model_from_dict, model_to_dict
+from .modeltables import coefficient_frame, model_summary
 from .physics import Equilibria, Modal
 from .record import Record
-from .scoring import Residual, Scores
-from .summary import Column, Summary
-from .terms import Model, parse_term
-from .units import Unit, coefficient_conversion, display_units
+from .scoring import Prediction, Residual, Scores, TransientRule
+from .summary import Summary
+from .terms import Model
 from .validate import check_mass
 
 if TYPE_CHECKING:  # pragma: no cover
     import pandas as pd
 
 __all__ = ["IdentifiedModel", "SCHEMA"]
-
-#: Identifies the JSON layout of :meth:`IdentifiedModel.to_dict`.
-SCHEMA = "nlid.IdentifiedModel/1"
 
 
 @dataclass(frozen=True, eq=False)
@@ -241,6 +242,9 @@ class IdentifiedModel:
         except NlidError as exc:
             eq = None
             warnings.append(f"equilibria not computed: {exc}")
+        except np.linalg.LinAlgError as exc:  # e.g. a subnormal leading coefficient of K(z)
+            eq = None
+            warnings.append(f"equilibria not computed: the roots of K(z) could not be computed ({exc})")
         if estimate.modal is not None:
             modal: tuple[Modal, ...] = tuple(Modal.from_dict(m) for m in estimate.modal)
         elif eq is not None and used is not None:
@@ -340,7 +344,14 @@ class IdentifiedModel:
 
     # ------------------------------------------------------------------ the physics of the model
     def restoring_force(self, z: np.ndarray, v: np.ndarray) -> np.ndarray:
-        """``R(z, v) = K(z) + D(z, v)`` (N), Eq. 25."""
+        """``R(z, v) = K(z) + D(z, v)`` (N), Eq. 25.
+
+        Evaluated element-wise like a numpy function: a NaN (or an infinity) in ``z`` or ``v`` gives
+        NaN (or what the terms make of the infinity) at that element, without an error or a warning,
+        so that arrays with gaps can be evaluated. The same holds for :meth:`elastic`,
+        :meth:`damping` and :meth:`potential`; test the inputs with :func:`numpy.isfinite` where a gap
+        must not pass.
+        """
         return physics.restoring(self.model, self.theta, z, v)
 
     def elastic(self, z: np.ndarray) -> np.ndarray:
@@ -360,13 +371,51 @@ class IdentifiedModel:
         """The residual ``f - m a - R(z, v)`` on a record (:func:`nlid.scoring.residual`)."""
         return scoring.residual(self, record, cutoff=cutoff)
 
-    def score(self, record: Record, *, cutoff: float | None = None, free_run: bool = True) -> Scores:
+    def score(
+        self,
+        record: Record,
+        *,
+        cutoff: float | None = None,
+        free_run: bool = True,
+        rule: TransientRule | str | Mapping[str, Any] | None = None,
+        horizon: int | None = None,
+    ) -> Scores:
         """Epsilon (Eq. 26), force residual and free-run error on a record (:func:`nlid.scoring.score`).
 
         The same function scores models in ``nlid study``, ``nlid discover``
         and the posterior, so one model on one record gets one number.
+
+        Parameters
+        ----------
+        record
+            The data.
+        cutoff
+            Equation band (Hz) for estimated channels.
+        free_run
+            Also compute the free-run error.
+        rule
+            The free run's transient rule (:mod:`nlid.scoring.rules`): ``"first-sample"``,
+            ``"window:50"``, ``"periodic"``, ``"periodic:8192"`` or a rule object; default: the record's
+            (:func:`nlid.scoring.default_rule`). ``Scores.freerun_rule`` says which was applied.
+        horizon
+            Also compute the ``horizon``-step-ahead prediction error (:meth:`predict`).
         """
-        return scoring.score(self, record, cutoff=cutoff, free_run=free_run)
+        return scoring.score(self, record, cutoff=cutoff, free_run=free_run, rule=rule, horizon=horizon)
+
+    def predict(
+        self, record: Record, horizon: int, *, rule: TransientRule | str | Mapping[str, Any] | None = None
+    ) -> Prediction:
+        """The ``horizon``-step-ahead prediction of the displacement (:func:`nlid.scoring.predict`).
+
+        Every sample from ``horizon`` on is simulated over ``horizon`` samples from the measured state before
+        it; a chaotic record, whose free run means nothing, gets a finite error this way.
+
+        Returns
+        -------
+        nlid.scoring.Prediction
+            ``z`` (NaN where not predicted), ``rmse``, ``nrmse_percent``, ``fit_percent``, ``horizon``, ``rule``.
+        """
+        return scoring.predict(self, record, horizon, rule=rule)
 
     def simulate(
         self,
@@ -421,33 +470,7 @@ class IdentifiedModel:
     # ------------------------------------------------------------------ plain data
     def to_dict(self) -> dict[str, Any]:
         """JSON-serialisable dictionary (without :attr:`arrays`); :meth:`from_dict` reverses it."""
-        return to_jsonable(
-            {
-                "schema": SCHEMA,
-                "method": self.method,
-                "terms": list(self.terms),
-                "coefficients": dict(self.coefficients),
-                "standard_errors": None
-                if self.standard_errors is None
-                else {n: self.standard_errors.get(n) for n in self.terms},
-                "units": {n: parse_term(n).coefficient_unit for n in self.terms},
-                "mass": self.mass,
-                "mass_estimated": self.mass_estimated,
-                "mass_standard_error": self.mass_standard_error,
-                "px_roots": None if self.px_roots is None else list(self.px_roots),
-                "equilibria": None if self.equilibria is None else self.equilibria.to_dict(),
-                "modal": [m.to_dict() for m in self.modal],
-                "eps_percent": self.eps_percent,
-                "force_residual_percent": self.force_residual_percent,
-                "scores": None if self.scores is None else self.scores.to_dict(),
-                "options": dict(self.options),
-                "diagnostics": dict(self.diagnostics),
-                "warnings": list(self.warnings),
-                "seconds": self.seconds,
-                "z_range": None if self.z_range is None else list(self.z_range),
-                "provenance": dict(self.provenance) or None,
-            }
-        )
+        return model_to_dict(self)
 
     @classmethod
     def from_dict(cls, data: Mapping[str, Any]) -> IdentifiedModel:
@@ -456,46 +479,10 @@ class IdentifiedModel:
         Raises
         ------
         InputError
-            If the dictionary lacks the terms or coefficients, or they do not match.
+            If the dictionary lacks the terms or coefficients, they do not match, or a coefficient
+            is not a finite number (NaN, infinity, a string...).
         """
-        if not isinstance(data, Mapping):
-            raise InputError(f"expected a dictionary from IdentifiedModel.to_dict(), got {type(data).__name__}")
-        schema = data.get("schema", SCHEMA)
-        if schema != SCHEMA:
-            raise InputError(f"unknown identified-model layout {schema!r}; this nlid reads {SCHEMA!r}")
-        try:
-            terms = list(data["terms"])
-            coefficients = dict(data["coefficients"])
-        except (KeyError, TypeError):
-            raise InputError("an identified model needs 'terms' and 'coefficients'") from None
-        model = Model.from_spec(terms, defaults=False, px_roots=data.get("px_roots"))
-        raw_scores = data.get("scores")
-        scores = None
-        if raw_scores:
-            known = {f.name for f in dataclasses.fields(Scores)}
-            values = {k: (float("nan") if v is None and k != "band_hz" else v) for k, v in raw_scores.items()}
-            scores = Scores(**{k: v for k, v in values.items() if k in known})
-        elif data.get("eps_percent") is not None:
-            scores = Scores(float(data["eps_percent"]), float(data.get("force_residual_percent") or float("nan")))
-        eq = data.get("equilibria")
-        return cls(
-            model=model,
-            coefficients=coefficients,
-            mass=data.get("mass"),
-            method=str(data.get("method", "")),
-            mass_estimated=bool(data.get("mass_estimated", False)),
-            standard_errors=data.get("standard_errors"),
-            mass_standard_error=data.get("mass_standard_error"),
-            equilibria=None if eq is None else Equilibria.from_dict(eq),
-            modal=tuple(data.get("modal") or ()),
-            scores=scores,
-            options=data.get("options") or {},
-            diagnostics=data.get("diagnostics") or {},
-            warnings=tuple(data.get("warnings") or ()),
-            seconds=data.get("seconds"),
-            z_range=data.get("z_range"),
-            provenance=data.get("provenance") or {},
-        )
+        return model_from_dict(cls, data)
 
     def to_frame(self, units: str | Mapping[str, str] | None = None) -> pd.DataFrame:
         """One row per term: ``coefficient``, ``std_error``, ``unit``, ``family`` (index: the term).
@@ -510,32 +497,7 @@ class IdentifiedModel:
             coefficient is converted by its term's powers of displacement and
             velocity (:func:`nlid.units.coefficient_conversion`).
         """
-        import pandas as pd
-
-        se = self.standard_errors or {}
-        shown = self._shown_units(units)
-        rows = []
-        for n, t in zip(self.terms, self.model.terms, strict=True):
-            factor, unit = (1.0, t.coefficient_unit) if shown is None else coefficient_conversion(t, shown)
-            value, error = self.coefficients[n], se.get(n, float("nan"))
-            if shown is not None:
-                value, error = value * factor, error * factor
-            rows.append({"term": n, "coefficient": value, "std_error": error, "unit": unit, "family": t.family})
-        return pd.DataFrame(rows).set_index("term")
-
-    def _shown_units(self, units: str | Mapping[str, str] | None) -> dict[str, Unit] | None:
-        """The units coefficients are shown in; ``None`` for SI as computed."""
-        if units is None or (isinstance(units, str) and units.strip().lower() == "si"):
-            return None
-        if isinstance(units, str) and units.strip().lower() == "input":
-            data = self.provenance.get("data") if self.provenance else None
-            if not data or "units" not in data:
-                raise InputError(
-                    "units='input': this model does not record the units of its data (it was not made by "
-                    "nlid.identify); name them, e.g. units={'z': 'mm'}"
-                )
-            return display_units("input", data["units"])
-        return display_units(units)
+        return coefficient_frame(self, units)
 
     # ------------------------------------------------------------------ text and HTML
     def summary(self, units: str | Mapping[str, str] | None = None) -> Summary:
@@ -552,59 +514,7 @@ class IdentifiedModel:
             standard errors, the ``px(z)`` roots and the equilibria are shown
             in them (as :meth:`to_frame`); the mass stays in kg.
         """
-        shown = self._shown_units(units)
-        zu = "m" if shown is None else shown["z"].symbol
-        zf = 1.0 if shown is None else shown["z"].factor  # the SI value of one displayed length unit
-        out = Summary()
-        head = [("method", self.method)]
-        if self.mass is not None:
-            how = "estimated" if self.mass_estimated else "given"
-            se = f" +/- {self.mass_standard_error:.3g}" if self.mass_standard_error else ""
-            head.append(("mass", f"{self.mass:.6g}{se} kg ({how})"))
-        if shown is not None:
-            head.append(("units", ", ".join(f"{c} in {shown[c].symbol}" for c in ("f", "z", "v"))))
-        out.add_fields(head)
-        se = self.standard_errors or {}
-        rows = []
-        for name, term in zip(self.terms, self.model.terms, strict=True):
-            factor, unit = (1.0, term.coefficient_unit) if shown is None else coefficient_conversion(term, shown)
-            error = se.get(name)
-            rows.append(
-                [
-                    name,
-                    f"{self.coefficients[name] * factor:.6g}",
-                    "" if error is None else f"{error * factor:.3g}",
-                    unit,
-                ]
-            )
-        out.add_table(
-            [Column("term"), Column("coefficient", "right", 14), Column("std. error", "right", 11), Column("unit")],
-            rows,
-        )
-        if self.px_roots:
-            zm, zp = self.px_roots[0] / zf, self.px_roots[1] / zf
-            out.add_fields([("px(z) roots", f"z- = {zm:.6g} {zu}, z+ = {zp:.6g} {zu}")])
-        if self.equilibria is not None:
-            st = ", ".join(f"{z / zf:.6g}" for z in self.equilibria.stable) or "none"
-            un = ", ".join(f"{z / zf:.6g}" for z in self.equilibria.unstable) or "none"
-            out.add_fields([(f"equilibria ({zu})", f"stable {st}; unstable {un}")], gap=True)
-        out.add_text(
-            *(
-                f"at z* = {m.equilibrium / zf:.6g} {zu}: fn = {m.fn_hz:.4g} Hz, zeta = {100 * m.zeta:.3g} %"
-                for m in self.modal
-            ),
-            indent="  ",
-        )
-        scores = []
-        if self.scores is not None:
-            scores = [
-                ("epsilon (Eq. 26)", f"{self.scores.eps_percent:.3g} %"),
-                ("force residual", f"{self.scores.force_residual_percent:.3g} %"),
-            ]
-        out.add_fields(scores, separator="   ", gap=True)  # the blank line stays when there are no scores
-        tail = [] if self.seconds is None else [("time", f"{self.seconds:.3g} s")]
-        out.add_fields(tail + [("warning", w) for w in self.warnings])
-        return out
+        return model_summary(self, units)
 
     def __repr__(self) -> str:
         mass = "mass unknown" if self.mass is None else f"mass={self.mass:.4g} kg"
@@ -632,3 +542,15 @@ class IdentifiedModel:
     def plot_residual(self, record: Record, against: str = "z", ax: Any = None, *, cutoff: float | None = None) -> Any:
         """The residual ``f - m a - R`` against ``"z"`` or ``"v"`` (binned mean drawn over the points)."""
         return modelplots.plot_residual(self, record, against=against, ax=ax, cutoff=cutoff)
+
+    def plot_freerun(self, record: Record, *, rule: Any = None, ax: Any = None) -> Any:
+        """Measured ``z`` against the free run on the record's force, the error and the transient rule (``rule=``)."""
+        from .responseplots import plot_freerun
+
+        return plot_freerun(self, record, rule=rule, ax=ax)
+
+    def plot_frf(self, *, ax: Any = None, freq: Any = None, phase: bool = True, identified: bool = True) -> Any:
+        """The receptance linearised at each stable equilibrium, and the method's own FRF (``identified=``)."""
+        from .responseplots import plot_frf
+
+        return plot_frf(self, ax=ax, freq=freq, phase=phase, identified=identified)

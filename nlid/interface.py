@@ -32,21 +32,23 @@ the mass if it estimated it, standard errors and its diagnostics. The core
 for every method: equilibria, modal parameters (unless the method measured
 them itself), the residuals (always recomputed from the data, never trusted
 from the plugin) and the wall time.
+
+:class:`Estimate` and its check (:func:`check_estimate`) are defined in
+:mod:`nlid.estimate`; this module re-exports them.
 """
 
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping, Sequence
-from dataclasses import dataclass, field
-from difflib import get_close_matches
+from collections.abc import Mapping
+from dataclasses import dataclass
 from typing import Any, ClassVar
 
-import numpy as np
-
-from .errors import OptionError
+from .errors import OptionError, brief
+from .estimate import MAX_WARNING, Estimate, check_estimate, refined_terms, to_jsonable
 from .record import Record
 from .terms import Model
+from .validate import did_you_mean
 
 __all__ = [
     "Option",
@@ -58,6 +60,8 @@ __all__ = [
     "resolve_options",
     "to_jsonable",
     "refined_terms",
+    "check_estimate",
+    "MAX_WARNING",
 ]
 
 _TYPES = ("int", "float", "bool", "str", "floats")
@@ -117,9 +121,9 @@ class Option:
         try:
             out = self._convert(value)
         except (TypeError, ValueError):
-            raise OptionError(f"{prefix} expects {self._expects()}, got {value!r}") from None
+            raise OptionError(f"{prefix} expects {self._expects()}, got {brief(value)}") from None
         if self.choices is not None and out not in self.choices:
-            raise OptionError(f"{prefix} must be one of {', '.join(map(str, self.choices))}; got {out!r}")
+            raise OptionError(f"{prefix} must be one of {', '.join(map(str, self.choices))}; got {brief(out)}")
         values = out if isinstance(out, tuple) else (out,)
         if self.type in ("int", "float", "floats"):
             for x in values:
@@ -189,13 +193,8 @@ def resolve_options(declared: tuple[Option, ...], given: Mapping[str, Any], wher
     by_name = {o.name: o for o in declared}
     for key in given:
         if key not in by_name:
-            hint = get_close_matches(key, list(by_name), n=1)
             known = ", ".join(by_name) or "none"
-            raise OptionError(
-                f"{where}unknown option {key!r}"
-                + (f" (did you mean {hint[0]!r}?)" if hint else "")
-                + f"; known options: {known}"
-            )
+            raise OptionError(f"{where}unknown option {brief(key)}{did_you_mean(key, by_name)}; known options: {known}")
     return {o.name: (o.parse(given[o.name], where) if o.name in given else o.default) for o in declared}
 
 
@@ -332,121 +331,3 @@ class Identifier:
     def __repr__(self) -> str:
         args = ", ".join(f"{k}={v!r}" for k, v in self.settings.items())
         return f"{type(self).__name__}({args})"
-
-
-def to_jsonable(value: Any) -> Any:
-    """Convert numpy types, tuples and non-finite floats to plain JSON values."""
-    if isinstance(value, Mapping):
-        return {str(k): to_jsonable(v) for k, v in value.items()}
-    if isinstance(value, (list, tuple)):
-        return [to_jsonable(v) for v in value]
-    if isinstance(value, np.ndarray):
-        return to_jsonable(value.tolist())
-    if isinstance(value, (np.bool_, bool)):
-        return bool(value)
-    if isinstance(value, (np.integer,)):
-        return int(value)
-    if isinstance(value, (float, np.floating)):
-        x = float(value)
-        return x if math.isfinite(x) else None
-    if isinstance(value, complex):
-        return {"re": to_jsonable(value.real), "im": to_jsonable(value.imag)}
-    return value
-
-
-@dataclass(frozen=True)
-class Estimate:
-    """What an identifier returns: its own estimates, nothing the core computes.
-
-    The core (:func:`nlid.identify`) checks it and builds the
-    :class:`~nlid.identified.IdentifiedModel` from it: equilibria, modal
-    parameters (unless the method measured them), the residuals (always from
-    the data), the wall time and the options are the core's job, done the
-    same way for every method. Nothing mutates an estimate after the plugin
-    returned it.
-
-    Attributes
-    ----------
-    coefficients
-        ``{canonical term: coefficient}`` for every term of the model, in
-        model order; each is the coefficient of its term in
-        ``R(z, v) = f - m z''`` (SI units).
-    mass
-        The mass in kg when the method estimated it; ``None`` when the mass
-        was given (``identify(..., mass=m)``).
-    standard_errors
-        Standard error of each coefficient, when the method provides them.
-    mass_standard_error
-        Standard error of an estimated mass.
-    modal
-        Modal parameters the method measured itself (e.g. from the
-        eigenvalues of an identified linear system), as
-        :class:`~nlid.physics.Modal` or dictionaries with ``equilibrium``,
-        ``fn_hz``, ``zeta`` (and optionally ``stiffness``, ``damping``,
-        ``source`` and further figures); ``None`` lets the core compute them
-        from the identified ``K`` and ``D`` (Eq. 8, 22).
-    diagnostics
-        Method-specific, JSON-serialisable details.
-    warnings
-        Things the user should know (collinear terms, extrapolation...).
-    arrays
-        Large numeric outputs for plots, kept out of JSON and saved as
-        ``.npz``. Keys that reports understand: ``singular_values``
-        (subspace methods), ``frf_frequency_hz`` and ``frf`` (complex
-        underlying-linear receptance, m/N), ``coef_frequency_hz`` and
-        ``coef_spectrum:<term>`` (complex frequency-dependent coefficient
-        estimates, NSI Eq. 20); an identifier that keeps such arrays under
-        other keys declares them with :meth:`Identifier.figure_arrays`.
-    model
-        The model with the shape parameters the method refined (the same
-        terms, in the same number, each differing from the given model's at
-        most in its shape parameters, :attr:`nlid.terms.Term.shapes`; the
-        ``px(z)`` roots unchanged), when it fitted them; the coefficients
-        and standard errors are then keyed by its canonical names. ``None``:
-        the model given.
-    """
-
-    coefficients: Mapping[str, float]
-    mass: float | None = None
-    standard_errors: Mapping[str, float] | None = None
-    mass_standard_error: float | None = None
-    modal: Sequence[Any] | None = None
-    diagnostics: Mapping[str, Any] = field(default_factory=dict)
-    warnings: Sequence[str] = ()
-    arrays: Mapping[str, np.ndarray] = field(default_factory=dict, repr=False)
-    model: Model | None = None
-
-
-def refined_terms(given: Model, refined: Model) -> dict[str, str]:
-    """Pair each term of ``given`` with the term of ``refined`` it became by changing its shape parameters.
-
-    Returns
-    -------
-    dict
-        ``{given canonical name: refined canonical name}`` for every term (equal names when unchanged).
-
-    Raises
-    ------
-    ValueError
-        If ``refined`` is not ``given`` with (at most) other shape parameters: a term added, removed or
-        changed otherwise, or other ``px(z)`` roots.
-    """
-    if len(refined.terms) != len(given.terms) or refined.px_roots != given.px_roots:
-        raise ValueError(f"the refined model ({refined}) does not have the terms of the model ({given})")
-    pairs: dict[str, str] = {}
-    left = list(refined.terms)
-    for term in given.terms:
-        match = next((t for t in left if t == term), None)
-        if match is None:
-            match = next(
-                (t for t in left if len(t.shapes) == len(term.shapes) and t.shapes and term.with_shapes(t.shapes) == t),
-                None,
-            )
-        if match is None:
-            raise ValueError(
-                f"term {term.name!r} has no counterpart in the refined model ({refined}) that differs "
-                "only in its shape parameters"
-            )
-        left.remove(match)
-        pairs[term.name] = match.name
-    return pairs

@@ -7,13 +7,17 @@ Folders (:func:`output_folder`)
     them with :data:`MARKER`, a small JSON manifest of the entries (files
     and sub-folders) it wrote there. A folder that holds anything else is
     refused unless ``force=True``, and even then nlid never replaces an
-    entry it did not write: each writer declares its entries up front
-    (:data:`STUDY_OUTPUTS`, :data:`POSTERIOR_OUTPUTS`,
-    :data:`DISCOVERY_OUTPUTS`) and an existing one missing from the manifest
-    stops it before anything is written. While a writer works, the folder
-    is locked (an advisory ``flock`` on :data:`LOCK`, released by the
-    kernel even when the process is killed): a second writer is refused at
-    once, naming the process that holds the folder.
+    entry it did not write: each writer declares every entry it writes up
+    front (:data:`STUDY_OUTPUTS`, :data:`POSTERIOR_OUTPUTS`,
+    :data:`DISCOVERY_OUTPUTS`), and an existing one missing from the
+    manifest stops it, naming the file, before anything is written (it is
+    not written beside under another name: the report's links and the
+    user's scripts expect the declared names). While a writer works, the
+    folder is locked (``filelock``: ``flock`` on POSIX, ``msvcrt`` locking on
+    Windows, released by the operating system even when the process is
+    killed) on :data:`LOCK`; the writer names itself in :data:`WRITER`,
+    which it removes when done. A second writer is refused at once, naming
+    the process that holds the folder.
 
 Files (:func:`check_new_file`)
     A file the user named (``simulate --out x.csv``) is replaced only with
@@ -35,14 +39,10 @@ from pathlib import Path
 
 from .errors import InputError
 
-try:  # POSIX
-    import fcntl
-except ImportError:  # pragma: no cover - Windows: no advisory lock
-    fcntl = None  # type: ignore[assignment]
-
 __all__ = [
     "MARKER",
     "LOCK",
+    "WRITER",
     "STUDY_OUTPUTS",
     "POSTERIOR_OUTPUTS",
     "DISCOVERY_OUTPUTS",
@@ -56,15 +56,18 @@ __all__ = [
 
 #: The manifest nlid writes into every folder it owns.
 MARKER = ".nlid-output.json"
-#: The lock file of a folder being written.
+#: The lock file of a folder (empty; locked while a writer works in the folder).
 LOCK = ".nlid-lock"
-#: Entries a study writes at the top of its folder.
+#: Names the process writing into the folder (removed when it is done).
+WRITER = ".nlid-writer"
+#: Entries a study writes at the top of its folder (every one: tests/runtime/test_promises.py checks).
 STUDY_OUTPUTS = (
     "study.toml",
     "runs",
     "arrays",
     "results.csv",
     "summary.md",
+    "summary.txt",
     "summary.csv",
     "report.html",
     "figures",
@@ -81,9 +84,21 @@ POSTERIOR_OUTPUTS = (
 #: Entries :func:`nlid.discovery.write_report` writes.
 DISCOVERY_OUTPUTS = ("figures", "report.md", "report.html", "result.json", "models.csv")
 #: Metadata keys written to and read from the ``.meta.json`` sidecar of a data file (:mod:`nlid.io`).
-META_KEYS = ("source", "force_hold", "mass", "g", "excitation", "preset", "seed", "noise", "reference", "truth")
+META_KEYS = (
+    "source",
+    "force_hold",
+    "mass",
+    "g",
+    "excitation",
+    "preset",
+    "seed",
+    "noise",
+    "reference",
+    "truth",
+    "periodic",
+)
 
-_OWN = (MARKER, LOCK)
+_OWN = (MARKER, LOCK, WRITER)
 
 
 class FolderBusyError(InputError):
@@ -165,31 +180,41 @@ def _record(folder: Path, entries: set[str]) -> None:
 
 @contextmanager
 def _lock(folder: Path) -> Iterator[None]:
-    if fcntl is None:  # pragma: no cover - Windows
-        yield
-        return
-    path = folder / LOCK
+    """Hold the folder's lock for the block, naming this process in :data:`WRITER`."""
+    import socket
+
+    from filelock import FileLock, Timeout
+
+    lock = FileLock(str(folder / LOCK), timeout=0)
     try:
-        handle = open(path, "a+", encoding="utf-8")  # noqa: SIM115 - held for the whole block
+        lock.acquire()
+    except Timeout:
+        try:
+            holder = (folder / WRITER).read_text(encoding="utf-8").strip()
+        except (OSError, UnicodeDecodeError):
+            holder = ""
+        raise FolderBusyError(
+            f"the output folder {folder} is being written by {holder or 'another process'}; wait for it to finish "
+            "or choose another folder"
+        ) from None
     except OSError as exc:
         raise InputError(f"cannot write into the output folder {folder}: {exc.strerror or exc}") from None
+    writer = folder / WRITER
     try:
         try:
-            fcntl.flock(handle.fileno(), fcntl.LOCK_EX | fcntl.LOCK_NB)
-        except BlockingIOError:
-            handle.seek(0)
-            holder = handle.read().strip() or "another process"
-            raise FolderBusyError(
-                f"the output folder {folder} is being written by {holder}; wait for it to finish or choose "
-                "another folder"
-            ) from None
-        handle.seek(0)
-        handle.truncate()
-        handle.write(f"nlid process {os.getpid()}")
-        handle.flush()
+            writer.write_text(
+                f"nlid process {os.getpid()} on {socket.gethostname()} since {time.strftime('%Y-%m-%d %H:%M:%S')}\n",
+                encoding="utf-8",
+            )
+        except OSError as exc:
+            raise InputError(f"cannot write into the output folder {folder}: {exc.strerror or exc}") from None
         yield
     finally:
-        handle.close()  # releases the lock
+        try:
+            writer.unlink(missing_ok=True)
+        except OSError:
+            pass
+        lock.release()
 
 
 @contextmanager
@@ -203,8 +228,9 @@ def output_folder(folder: str | os.PathLike[str], outputs: Sequence[str], *, for
     outputs
         The top-level files and sub-folders the writer will create or replace.
     force
-        Write into a folder that holds files nlid did not write (never
-        replacing them).
+        Write into a folder that holds files nlid did not write. nlid never
+        replaces them: if one has the name of an entry in ``outputs``, it
+        stops before writing anything, naming it.
 
     Yields
     ------

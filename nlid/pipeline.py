@@ -28,10 +28,17 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from . import numerics, physics
-from .errors import PASS_THROUGH, IdentificationError, InputError, NlidError, PluginError, describe_exception
+from .errors import (
+    PASS_THROUGH,
+    IdentificationError,
+    InputError,
+    NlidError,
+    PluginError,
+    describe_exception,
+)
 from .identified import IdentifiedModel
-from .interface import Estimate, refined_terms
-from .physics import Modal
+from .interface import Estimate, check_estimate, refined_terms
+from .methods import choose_method
 from .provenance import identify_provenance
 from .record import Record
 from .registry import Registry, registry_for
@@ -80,7 +87,10 @@ def _name(identifier: Any) -> str:
 
 
 def _run(identifier: Any, record: Record, model: Model, mass: float | None) -> tuple[Estimate, float]:
-    """Call the plugin, time it, and check what it returned (never modified afterwards).
+    """Call the plugin, time it, and check what it returned (:func:`~nlid.interface.check_estimate`).
+
+    The estimate returned is the checked one (numbers as floats, unusable diagnostics dropped with a
+    warning); nothing modifies it afterwards.
 
     When the estimate carries a model with refined shape parameters (:attr:`Estimate.model`), it is
     checked against ``model`` and the coefficients against its names; use :func:`_estimated_model`.
@@ -94,51 +104,7 @@ def _run(identifier: Any, record: Record, model: Model, mass: float | None) -> t
     except BaseException as exc:  # noqa: BLE001 - a plugin bug (sys.exit too) is reported by name
         raise PluginError(f"identifier {name!r} {describe_exception(exc)}") from exc
     elapsed = time.perf_counter() - start
-    check_estimate(estimate, model, name, mass)
-    return estimate, elapsed
-
-
-def check_estimate(estimate: Any, model: Model, name: str, mass: float | None) -> None:
-    """Check an identifier's return value against the contract.
-
-    Raises
-    ------
-    PluginError
-        Not an :class:`~nlid.interface.Estimate`, or its coefficients are not
-        exactly the model's terms.
-    IdentificationError
-        Non-finite coefficients, or a non-positive estimated mass.
-    """
-    if not isinstance(estimate, Estimate):
-        raise PluginError(f"identifier {name!r} returned {type(estimate).__name__}, not nlid.Estimate")
-    if estimate.model is not None:
-        if not isinstance(estimate.model, Model):
-            raise PluginError(f"identifier {name!r} returned a refined model that is not an nlid Model")
-        try:
-            refined_terms(model, estimate.model)
-        except ValueError as exc:
-            raise PluginError(f"identifier {name!r}: {exc}") from None
-        model = estimate.model
-    keys = list(estimate.coefficients)
-    missing = [n for n in model.names if n not in estimate.coefficients]
-    extra = [n for n in keys if n not in model.names]
-    if missing or extra:
-        raise PluginError(
-            f"identifier {name!r} returned coefficients for {sorted(keys)} but the model is {list(model.names)}"
-        )
-    bad = [n for n in model.names if not np.isfinite(float(estimate.coefficients[n]))]
-    if bad:
-        raise IdentificationError(f"identifier {name!r} produced non-finite coefficients for {', '.join(bad)}")
-    if mass is None and estimate.mass is not None and not (np.isfinite(estimate.mass) and estimate.mass > 0):
-        raise IdentificationError(f"identifier {name!r} estimated a mass that is not positive ({estimate.mass})")
-    unknown = [k for k in (estimate.standard_errors or {}) if k not in model.names]
-    if unknown:
-        raise PluginError(f"identifier {name!r} returned standard errors for terms not in the model: {unknown}")
-    for entry in estimate.modal or ():
-        try:
-            Modal.from_dict(entry)
-        except InputError as exc:
-            raise PluginError(f"identifier {name!r} returned malformed modal parameters: {exc}") from None
+    return check_estimate(estimate, model, name, mass), elapsed
 
 
 def _px_fixed_point(
@@ -197,7 +163,7 @@ def _px_fixed_point(
 def identify(
     record: Record,
     terms: str | Iterable[str | Term] | Model,
-    method: str | Any = "rfs",
+    method: str | Any | None = None,
     *,
     mass: float | None = None,
     options: Mapping[str, Any] | None = None,
@@ -228,7 +194,10 @@ def identify(
         The user's terms (``"z^3, z^2, v*|v|"``); ``1``, ``z`` and ``v`` are
         added unless listed in ``without``. A :class:`Model` is used as is.
     method
-        Identifier name (entry-point name) or an identifier instance.
+        Identifier name (entry-point name) or an identifier instance;
+        default: the installed identifier with the best ``preference``
+        (:func:`nlid.methods.choose_method`: ``"rfs"`` with nlid's own
+        plugins).
     mass
         Known mass in kg; ``None`` asks the method to estimate it.
     options
@@ -245,10 +214,16 @@ def identify(
     registry
         Where to find ``method``; default: the installed plugins.
     timeout
-        Run the identifier in a child process (:func:`nlid.isolation.run_in_child`,
-        as studies do) and stop it after this many seconds: a hanging or
-        crashing identifier becomes one error instead of a hang or a dead
-        process. ``None`` (default) runs it in this process.
+        Run the identifier in a child process (:func:`nlid.runtime.isolation.run_in_child`,
+        as studies and ``nlid identify`` do) and stop it after this many
+        seconds (``math.inf``: in a child, without a time limit): a hanging
+        or crashing identifier becomes one error instead of a hang or a dead
+        process, what it prints goes to stderr, its warnings come back as
+        :class:`~nlid.runtime.isolation.PluginWarning` naming it, and nothing
+        it started outlives it. ``None`` (default) runs it in this process:
+        fastest, and a debugger can step into it. The identifier (a name, or
+        an instance of a class defined in a module) and the record are sent
+        to the child pickled.
 
     Returns
     -------
@@ -266,8 +241,13 @@ def identify(
     IdentificationError
         The identification ran but its answer cannot be trusted, or did not
         finish within ``timeout``.
+    IsolationError
+        With ``timeout``: no child process could be started
+        (:class:`nlid.runtime.isolation.IsolationError`).
     """
     record = as_record(record)
+    if method is None:
+        method = choose_method(mass, registry)[0]
     if timeout is not None:
         return _identify_isolated(
             timeout,
@@ -351,52 +331,72 @@ def identify(
 
 
 # --------------------------------------------------------------------------- isolated
-#: Longest time limit of an isolated identification (s): a week.
+#: Longest finite time limit of an isolated identification (s): a week (``math.inf``: no limit).
 MAX_TIMEOUT = 7 * 24 * 3600.0
 
 
-def _identify_in_child(record: Record, terms: Any, method: Any, kwargs: dict[str, Any]) -> tuple:
-    """The child's side of :func:`_identify_isolated`: the result, or the error's class names and message."""
+def _identify_in_child(
+    record: Record, terms: Any, method: Any, kwargs: dict[str, Any], progress: bool = False
+) -> tuple:
+    """The child's side of :func:`_identify_isolated`: the result, or the error's class names, message and traceback.
+
+    ``progress``: the caller's :func:`nlid.progress.active` (a long identifier then shows its progress
+    line on a terminal). A ``KeyboardInterrupt`` here can only come from the plugin (the child does
+    not hear the terminal's Ctrl-C), so it is the plugin's failure like any other.
+    """
+    import traceback
+
+    from .progress import showing
+
     try:
-        return ("ok", identify(record, terms, method, **kwargs))
-    except PASS_THROUGH:
-        raise
+        with showing(progress):
+            return ("ok", identify(record, terms, method, **kwargs))
     except NlidError as exc:
-        return ("error", [c.__name__ for c in type(exc).__mro__], str(exc))
+        return ("error", [c.__name__ for c in type(exc).__mro__], str(exc), traceback.format_exc())
     except BaseException as exc:  # noqa: BLE001 - reported in the parent as one line
-        return ("error", ["PluginError"], f"identification failed in its child process: {describe_exception(exc)}")
+        name = method if isinstance(method, str) else _name(method)
+        return ("error", ["PluginError"], f"identifier {name!r} {describe_exception(exc)}", traceback.format_exc())
 
 
-def _rebuild_error(names: Sequence[str], message: str) -> NlidError:
-    from . import errors
+def check_timeout(timeout: Any) -> float:
+    """A time limit in seconds: a number in (0, :data:`MAX_TIMEOUT`], or ``math.inf`` for none.
 
-    for name in names:
-        cls = getattr(errors, name, None)
-        if isinstance(cls, type) and issubclass(cls, NlidError) and cls not in (errors.TermError,):
-            return cls(message)
-    return NlidError(message)
+    Raises
+    ------
+    InputError
+        Anything else (``0``, negative, NaN, a string, a bool).
+    """
+    bad = isinstance(timeout, bool) or not isinstance(timeout, (int, float, np.integer, np.floating))
+    if not bad and float(timeout) == float("inf"):
+        return float("inf")
+    if bad or not numerics.is_finite(timeout) or not 0 < float(timeout) <= MAX_TIMEOUT:
+        raise InputError(
+            f"timeout= must be a number of seconds between 0 and {MAX_TIMEOUT:g} (math.inf: no limit), got {timeout!r}"
+        )
+    return float(timeout)
+
+
+def _defined_in_main(method: Any) -> bool:
+    return not isinstance(method, str) and getattr(type(method), "__module__", "") == "__main__"
 
 
 def _identify_isolated(
     timeout: float, record: Record, terms: Any, method: Any, kwargs: dict[str, Any]
 ) -> IdentifiedModel:
-    from .isolation import describe_exit, run_in_child
+    from .progress import active
+    from .runtime.isolation import IsolationError, run_in_child
 
-    if isinstance(timeout, bool) or not numerics.is_finite(timeout) or not 0 < float(timeout) <= MAX_TIMEOUT:
-        raise InputError(f"timeout= must be a number of seconds between 0 and {MAX_TIMEOUT:g}, got {timeout!r}")
+    timeout = check_timeout(timeout)
     name = method if isinstance(method, str) else _name(method)
-    try:
-        outcome = run_in_child(_identify_in_child, (record, terms, method, kwargs), timeout=float(timeout))
-    except RuntimeError as exc:
-        raise InputError(f"cannot isolate the identification (timeout=): {exc}") from None
-    if outcome.status == "timeout":
-        raise IdentificationError(
-            f"identifier {name!r} did not finish within the time limit of {float(timeout):g} s and was stopped "
-            "(raise timeout=)"
+    if _defined_in_main(method):
+        raise InputError(
+            f"identifier {name!r} is a class of your script (__main__), which a child process cannot import: "
+            "give timeout=None to run it in this process, or move it to a module (or a plugin)"
         )
-    if outcome.status == "died":
-        raise PluginError(f"identifier {name!r} crashed: its process ended with {describe_exit(outcome.exitcode)}")
-    kind, *rest = outcome.value
-    if kind == "ok":
-        return rest[0]
-    raise _rebuild_error(rest[0], rest[1])
+    label = f"identifier {name!r}"
+    try:
+        outcome = run_in_child(_identify_in_child, (record, terms, method, kwargs, active()), timeout=timeout)
+    except IsolationError as exc:
+        raise IsolationError(f"cannot isolate {label} (timeout=): {exc}") from None
+    outcome.reissue_warnings(label, stacklevel=4)
+    return outcome.answer(label, timeout, "raise timeout=")

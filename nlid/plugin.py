@@ -22,7 +22,8 @@ The toolkit has four axes, which identifiers compose rather than re-implement:
   :class:`StructureModes`, :func:`linear_modes` and the
   :class:`StructureEstimate` it returns;
 * **the force balance and derivatives**: :func:`regression_data` (the
-  filtered design matrix of Eq. 25, shared by every method),
+  filtered design matrix of Eq. 25, shared by every method) and its default
+  band :func:`suggested_cutoff` (computed once per record),
   :mod:`derivatives` (the zero-phase differentiating filter), the least-squares
   helpers of :mod:`nlid.regression`;
 * **physics and simulation**: equilibria and modal parameters
@@ -45,7 +46,7 @@ from __future__ import annotations
 from typing import TYPE_CHECKING
 
 from . import derivatives
-from .balance import EDGE_PERIODS, REGRESSOR_BAND_FACTOR, RegressionData, regression_data
+from .balance import EDGE_PERIODS, REGRESSOR_BAND_FACTOR, RegressionData, regression_data, suggested_cutoff
 from .errors import DataError, IdentificationError, InputError, NlidError, OptionError, TermError
 from .hookspecs import hookimpl
 from .interface import FIGURE_KINDS, Estimate, FigureArray, Identifier, Option, standard_figure_arrays, to_jsonable
@@ -55,6 +56,7 @@ from .mdof.model import StructuralModel
 from .mdof.modes import StructureModes, linear_modes
 from .mdof.record import StructureRecord
 from .physics import Equilibria, Modal, equilibria, modal, stiffness_roots
+from .progress import ProgressLine, progress_line
 from .record import Record
 from .regression import (
     collinearity_warnings,
@@ -99,6 +101,7 @@ __all__ = [
     "StructureEstimate",
     "regression_data",
     "RegressionData",
+    "suggested_cutoff",
     "EDGE_PERIODS",
     "REGRESSOR_BAND_FACTOR",
     "derivatives",
@@ -124,6 +127,8 @@ __all__ = [
     "identify",
     "choose_method",
     "to_jsonable",
+    "progress_line",
+    "ProgressLine",
     "NlidError",
     "InputError",
     "DataError",

@@ -178,7 +178,9 @@ class Preset:
         if unknown:
             bad = sorted(unknown)[0]
             known = sorted(allowed)
-            raise InputError(f"unknown preset parameter {bad!r}{did_you_mean(bad, known)}; known: {', '.join(known)}")
+            raise InputError(
+                f"unknown preset parameter {brief(bad)}{did_you_mean(bad, known)}; known: {', '.join(known)}"
+            )
         coeffs = dict(self.coefficients)
         new = dict(overrides)
         if "coefficients" in new:
@@ -190,7 +192,7 @@ class Preset:
                     name = model.terms[model.index(key)].name
                 except TermError:
                     raise InputError(
-                        f"{key!r} is neither a preset parameter{did_you_mean(key, sorted(allowed))}"
+                        f"{brief(key)} is neither a preset parameter{did_you_mean(key, sorted(allowed))}"
                         f" ({', '.join(sorted(allowed - {'coefficients'}))}) nor a term of the model ({model})"
                     ) from None
                 if isinstance(value, bool) or not isinstance(value, numbers.Real):
@@ -244,7 +246,7 @@ class Preset:
         channels = tuple(dict.fromkeys(("z", *channels)))
         for c in channels:
             if c not in RESPONSE_CHANNELS:
-                raise InputError(f"unknown channel {c!r}; response channels are z, v, a")
+                raise InputError(f"unknown channel {brief(c)}; response channels are z, v, a")
         levels = check_noise(noise, channels)
         model = self.model()
         streams = np.random.SeedSequence(seed).spawn(4)
@@ -331,7 +333,7 @@ def get_preset(name: str) -> Preset | StructurePreset:
         return PRESETS[name]
     except KeyError:
         hint = did_you_mean(name, PRESETS)
-        raise InputError(f"unknown preset {name!r}{hint}; available: {', '.join(PRESETS)}") from None
+        raise InputError(f"unknown preset {brief(name)}{hint}; available: {', '.join(PRESETS)}") from None
 
 
 # Structures with several degrees of freedom (nlid.mdof.presets): one table, so that get_preset, nlid.simulate

@@ -30,7 +30,7 @@ From a file (or ``dataset:NAME``): in Python ``nlid.identify(nlid.load(source,
 columns=columns, fs=fs_given, units=...), terms, method, mass=mass,
 options=options, without=without, px_roots=px_roots, px_tol=px_tol,
 px_max_iter=px_max_iter, cutoff=cutoff)`` with the recorded values
-(:func:`identify_again` does exactly this, after checking the hashes); on the
+(:func:`nlid.replay.identify_again` does exactly this, after checking the hashes); on the
 command line ``nlid identify`` with the same values
 (:func:`nlid.cli.common.identify_command` writes that command). ``sha256``
 says whether the file is the same; ``as_loaded`` false warns that the record
@@ -41,7 +41,7 @@ coefficients, to the last bits a different CPU's BLAS may change.
 
 The record's SHA-256
 --------------------
-:func:`record_sha256` hashes a record's samples in a canonical byte order,
+The SHA-256 of a record (:func:`nlid.digest.record_sha256`) hashes a record's samples in a canonical byte order,
 so that any language can recompute it: the ASCII text ``nlid.Record/1`` and a
 newline; ``fs`` and ``t0`` as two little-endian IEEE-754 float64; then for
 each channel present, in the order ``f, z, v, a``, its name in ASCII, a zero
@@ -55,35 +55,16 @@ conversion). In numpy::
 
 from __future__ import annotations
 
-import hashlib
+import sys
 from collections.abc import Mapping
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
-import numpy as np
-
+from .digest import RECORD_HASH_PREFIX, record_sha256
 from .record import CHANNELS, Record
 from .terms import DEFAULT_TERMS, Model
 from .units import SI, VOCABULARY
 
-if TYPE_CHECKING:  # pragma: no cover
-    from .identified import IdentifiedModel
-
-__all__ = ["record_sha256", "data_provenance", "identify_provenance", "identify_again", "RECORD_HASH_PREFIX"]
-
-#: The first bytes hashed by :func:`record_sha256` (names the byte layout).
-RECORD_HASH_PREFIX = b"nlid.Record/1\n"
-
-
-def record_sha256(record: Record) -> str:
-    """SHA-256 of a record's samples in the canonical byte order of the module docstring (hexadecimal)."""
-    digest = hashlib.sha256(RECORD_HASH_PREFIX)
-    digest.update(np.array([record.fs, record.t0], dtype="<f8").tobytes())
-    for name in CHANNELS:
-        values = getattr(record, name)
-        if values is not None:
-            digest.update(name.encode("ascii") + b"\0")
-            digest.update(np.ascontiguousarray(values, dtype="<f8").tobytes())
-    return digest.hexdigest()
+__all__ = ["record_sha256", "data_provenance", "identify_provenance", "RECORD_HASH_PREFIX"]
 
 
 def _units(record: Record) -> dict[str, dict[str, Any]]:
@@ -125,9 +106,7 @@ def data_provenance(record: Record) -> dict[str, Any]:
 
 
 def _version() -> str:
-    from . import __version__
-
-    return str(__version__)
+    return str(sys.modules["nlid"].__version__)  # the package has initialised before any of its modules runs
 
 
 def identify_provenance(
@@ -166,65 +145,3 @@ def identify_provenance(
         "cutoff": cutoff,
     }
     return {"nlid_version": _version(), "data": data_provenance(record), "identify": call}
-
-
-def identify_again(provenance: Mapping[str, Any], source: Any = None) -> IdentifiedModel:
-    """Identify again from a provenance (:attr:`IdentifiedModel.provenance`), reading the data it names.
-
-    Parameters
-    ----------
-    provenance
-        A model's provenance, e.g. ``IdentifiedModel.from_dict(json.load(f)).provenance``.
-    source
-        The data, when the recorded source is not a file (a DataFrame, a
-        mapping of arrays); default: the recorded source.
-
-    Returns
-    -------
-    IdentifiedModel
-        The model identified with the recorded column map, units, terms,
-        method, options and mass.
-
-    Raises
-    ------
-    InputError
-        A provenance without the data's source, or data whose SHA-256 is not
-        the recorded one (another file, or a record changed after loading).
-    """
-    from .api import load
-    from .errors import InputError
-    from .io import file_sha256
-    from .pipeline import identify
-
-    data, call = dict(provenance.get("data") or {}), dict(provenance.get("identify") or {})
-    if not data or not call:
-        raise InputError("the provenance lacks its 'data' or 'identify' part: it was not written by nlid.identify")
-    declared = {c: u["unit"] for c, u in (data.get("units") or {}).items() if u.get("factor") != 1.0}
-    if source is None:
-        source = data.get("source")
-        if not source or (data.get("sha256_of") != "file" and not str(source).startswith("dataset:")):
-            raise InputError(f"the data came from {source or 'Python'}, not a file: give it as source=")
-        if data.get("sha256_of") == "file" and file_sha256(source) != data["sha256"]:
-            raise InputError(f"{source} has changed since the model was identified (its SHA-256 differs)")
-    if str(source).startswith("dataset:"):
-        record = load(source)
-    else:
-        record = load(source, columns=data.get("columns"), fs=data.get("fs_given"), units=declared or None)
-    record = record.with_meta(force_hold=data.get("force_hold", record.force_hold))
-    if record_sha256(record) != data.get("record_sha256"):
-        raise InputError(
-            "the data read do not give the samples identified (SHA-256 differs)"
-            + ("; the record was changed after loading" if data.get("as_loaded") is False else "")
-        )
-    return identify(
-        record,
-        list(call.get("terms") or ()),
-        call.get("method", "rfs"),
-        mass=call.get("mass"),
-        options=call.get("options") or None,
-        without=list(call.get("without") or ()),
-        px_roots=call.get("px_roots"),
-        px_tol=float(call.get("px_tol", 1e-4)),
-        px_max_iter=int(call.get("px_max_iter", 30)),
-        cutoff=call.get("cutoff"),
-    )

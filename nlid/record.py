@@ -17,6 +17,8 @@ Validation rules
   :data:`TIME_TOLERANCE` (relative), which accepts time stamps written with
   six or more significant digits but rejects dropped or repeated samples.
 
+The checks, and the names above, are in :mod:`nlid.recordchecks`.
+
 Units
 -----
 A record holds SI values (N, m, m/s, m/s^2, s). Data in other units are
@@ -41,86 +43,34 @@ from __future__ import annotations
 import os
 from collections.abc import Mapping
 from dataclasses import dataclass, field, replace
-from types import MappingProxyType
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from . import derivatives
-from ._frozen import FrozenDict
 from .columnmap import channel_arrays, column_units, dataset_table, frame_table
+from .digest import record_sha256
 from .errors import DataError, InputError
-from .units import Unit, parse_units, unit_of
+from .recordchecks import (
+    CHANNELS,
+    DEFAULT_UNITS,
+    META_ALIASES,
+    MIN_SAMPLES,
+    TIME_TOLERANCE,
+    RecordMeta,
+    checked_fields,
+    merge_units,
+    real_array,
+    uniform_step,
+)
+from .units import parse_units
 
 if TYPE_CHECKING:  # pragma: no cover
     import pandas as pd
     import xarray as xr
 
-__all__ = ["Record", "CHANNELS", "MIN_SAMPLES", "TIME_TOLERANCE", "DEFAULT_UNITS"]
-
-#: Channel names, in the order they are written to files.
-CHANNELS = ("f", "z", "v", "a")
-#: Smallest number of samples a record may have.
-MIN_SAMPLES = 32
-#: Largest relative deviation of a time step from the median step.
-TIME_TOLERANCE = 1e-3
-#: SI units of the channels.
-DEFAULT_UNITS: Mapping[str, str] = MappingProxyType({"f": "N", "z": "m", "v": "m/s", "a": "m/s^2", "t": "s"})
-
-
-def _freeze(mapping: Mapping[str, Any] | None) -> Mapping[str, Any]:
-    """A read-only copy that pickles (records cross process boundaries: studies, ``identify(timeout=)``)."""
-    return FrozenDict(dict(mapping or {}))
-
-
-#: Earlier names of metadata keys: ``{old: current}``. A record stores the current name; the old one still reads.
-META_ALIASES: Mapping[str, str] = MappingProxyType({"truth": "reference"})
-
-
-class RecordMeta(FrozenDict):
-    """A record's metadata: read-only, each entry under one name; an earlier name (:data:`META_ALIASES`) still reads.
-
-    ``meta["truth"]`` and ``meta.get("truth")`` give ``meta["reference"]`` (simulated records carried their
-    truth under ``"truth"`` before); the old name is not a key (``"truth" in meta`` is false).
-    """
-
-    __slots__ = ()
-
-    @classmethod
-    def of(cls, mapping: Mapping[str, Any] | None) -> RecordMeta:
-        """The metadata of ``mapping`` with entries under an earlier name moved to the current one."""
-        items = dict(mapping or {})
-        for old, new in META_ALIASES.items():
-            if old in items and new not in items:
-                items[new] = items.pop(old)
-        return cls(items)
-
-    def __missing__(self, key: str) -> Any:
-        new = META_ALIASES.get(key)
-        if new is not None and dict.__contains__(self, new):
-            return dict.__getitem__(self, new)
-        raise KeyError(key)
-
-    def get(self, key: str, default: Any = None) -> Any:
-        """``meta[key]`` (an earlier name included), else ``default``."""
-        try:
-            return self[key]
-        except KeyError:
-            return default
-
-
-def _merge_units(given: dict[str, Unit], mapped: Mapping[str, str]) -> dict[str, Unit]:
-    """The units of ``units=`` and those of the column map (``z[mm]=disp``); the same channel twice must agree."""
-    out = dict(given)
-    for channel, text in mapped.items():
-        unit = unit_of(channel, text, where="column map")
-        if channel in out and out[channel] != unit:
-            raise InputError(
-                f"the unit of {channel!r} is given twice: {out[channel].symbol!r} in units= "
-                f"and {unit.symbol!r} in the column map"
-            )
-        out[channel] = unit
-    return out
+# CHANNELS ... RecordMeta are defined in nlid.recordchecks (the rules a record obeys) and importable from here.
+__all__ = ["Record", "CHANNELS", "MIN_SAMPLES", "TIME_TOLERANCE", "DEFAULT_UNITS", "META_ALIASES", "RecordMeta"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -150,7 +100,9 @@ class Record:
         vector (:meth:`from_time`); ``fs`` is always in Hz.
     meta
         Free metadata. Keys nlid understands: ``mass`` (kg), ``g`` (m/s^2),
-        ``source`` (str), ``reference`` (reference values:
+        ``source`` (str), ``periodic`` (the record is in periodic steady state: ``True``, whole periods of
+        its own length, or the period in samples; ``False``: not periodic; kept by slicing while a part
+        holds a whole period), ``reference`` (reference values:
         :meth:`nlid.reference.Reference.from_meta`; a simulation's truth, a
         benchmark's published values; ``truth``, its earlier name, still
         reads), ``force_hold`` (``"sampled"``, the default: the
@@ -180,61 +132,9 @@ class Record:
     provenance: Mapping[str, str] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
-        declared = parse_units(self.units)
-        time_unit = declared.get("t")
-        if time_unit is not None and not time_unit.is_si:
-            raise InputError(
-                f"units: t in {time_unit.symbol!r} applies to a time vector (Record.from_time, or a time column); "
-                "fs= is always in Hz"
-            )
-        fs = float(self.fs)
-        if not np.isfinite(fs) or fs <= 0:
-            raise DataError(f"sampling frequency must be a positive number, got {self.fs!r}")
-        object.__setattr__(self, "fs", fs)
-        n = None
-        for name in CHANNELS:
-            raw = getattr(self, name)
-            if raw is None:
-                if name in ("f", "z"):
-                    raise DataError(f"channel {name!r} is required")
-                continue
-            arr = np.array(raw, dtype=float)  # a private copy
-            if arr.ndim != 1:
-                arr = arr.squeeze()
-                if arr.ndim != 1:
-                    raise DataError(f"channel {name!r} must be one-dimensional, got shape {np.shape(raw)}")
-            bad = ~np.isfinite(arr)
-            if bad.any():
-                i = int(np.argmax(bad))
-                raise DataError(f"channel {name!r} has a non-finite value ({arr[i]}) at index {i}")
-            if n is None:
-                n = arr.size
-            elif arr.size != n:
-                raise DataError(f"channel {name!r} has {arr.size} samples but 'f' has {n}")
-            unit = declared.get(name)
-            if unit is not None and unit.factor != 1.0:
-                arr *= unit.factor
-            arr.setflags(write=False)
-            object.__setattr__(self, name, arr)
-        assert n is not None
-        if n < MIN_SAMPLES:
-            raise DataError(f"record has {n} samples; at least {MIN_SAMPLES} are needed")
-        for name in self.channels:
-            arr = getattr(self, name)
-            if np.ptp(arr) == 0.0:
-                raise DataError(f"channel {name!r} is constant ({arr[0]}); nothing can be identified from it")
-        units = dict(DEFAULT_UNITS)
-        units.update({c: u.si for c, u in declared.items()})
-        object.__setattr__(self, "units", _freeze(units))
-        if self.meta and self.meta.get("force_hold", "sampled") not in ("sampled", "zoh"):
-            raise DataError(f"meta['force_hold'] must be 'sampled' or 'zoh', got {self.meta['force_hold']!r}")
-        converted = {c: u.to_dict() for c, u in declared.items() if not u.is_si}
-        meta = self.meta
-        if converted:
-            meta = dict(meta or {})
-            meta["input_units"] = {**dict(meta.get("input_units") or {}), **converted}
-        object.__setattr__(self, "meta", RecordMeta.of(meta))
-        object.__setattr__(self, "provenance", _freeze(self.provenance))
+        channels = {name: getattr(self, name) for name in CHANNELS}
+        for name, value in checked_fields(self.fs, channels, self.units, self.meta, self.provenance).items():
+            object.__setattr__(self, name, value)
 
     # ------------------------------------------------------------------ construction
     @classmethod
@@ -252,28 +152,13 @@ class Record:
         """
         units = parse_units(kwargs.pop("units", None))
         time_unit = units.pop("t", None)
-        t = np.asarray(t, dtype=float).squeeze()
+        t = real_array("t", t).squeeze()
         if time_unit is not None and not time_unit.is_si:
             t = t * time_unit.factor
             meta = dict(kwargs.pop("meta", None) or {})
             meta["input_units"] = {**dict(meta.get("input_units") or {}), "t": time_unit.to_dict()}
             kwargs["meta"] = meta
-        if t.ndim != 1 or t.size < 2:
-            raise DataError("time vector must be one-dimensional with at least 2 samples")
-        bad = ~np.isfinite(t)
-        if bad.any():
-            raise DataError(f"channel 't' has a non-finite value at index {int(np.argmax(bad))}")
-        dt = np.diff(t)
-        step = float(np.median(dt))
-        if step <= 0:
-            raise DataError("time vector is not increasing")
-        dev = np.abs(dt - step) / step
-        if dev.max() > TIME_TOLERANCE:
-            i = int(np.argmax(dev))
-            raise DataError(
-                f"time axis is not uniform: step {i} is {dt[i]:.6g} s but the median step is {step:.6g} s "
-                f"(tolerance {TIME_TOLERANCE:g} relative)"
-            )
+        step = uniform_step(t)
         return cls(f=f, z=z, fs=1.0 / step, t0=float(t[0]), units=units, **kwargs)
 
     @classmethod
@@ -335,7 +220,7 @@ class Record:
             label, noun = os.fspath(source), "file"
         else:
             label = noun = str(source)
-        given = _merge_units(parse_units(units), column_units(columns))
+        given = merge_units(parse_units(units), column_units(columns))
         named = table if all(isinstance(k, str) for k in table) else {str(k): v for k, v in table.items()}
         given_fs = fs
         arrays, fs = channel_arrays(named, columns, fs=fs, source=label, noun=noun)
@@ -356,8 +241,6 @@ class Record:
                 record = cls(fs=fs, meta=meta, units=given, **kwargs)
         except DataError as exc:
             raise DataError(f"{label}: {exc}") from None
-        from .provenance import record_sha256  # provenance builds on records
-
         return record.with_meta(loaded={**loaded, "record_sha256": record_sha256(record)})
 
     @classmethod
@@ -514,7 +397,27 @@ class Record:
             raise TypeError("records are sliced with a slice, e.g. record[100:2000]")
         start, _, step = item.indices(self.n)
         arrays = {c: getattr(self, c)[item] for c in self.channels}
-        return replace(self, fs=self.fs / step, t0=self.t0 + start / self.fs, **arrays)
+        meta = self._periodic_meta(arrays["z"].size, 1, step)
+        return replace(self, fs=self.fs / step, t0=self.t0 + start / self.fs, meta=meta, **arrays)
+
+    def _periodic_meta(self, n: int, up: int = 1, down: int = 1) -> Mapping[str, Any]:
+        """The metadata of a part of ``n`` samples at ``up / down`` times the rate: ``meta["periodic"]`` there.
+
+        A declared period (``True``: the record's length) stays the part's period (in its own samples) while
+        the part holds a whole period of a whole number of samples, so that a held-out part of a periodic
+        record is scored periodic; otherwise the key is dropped.
+        """
+        periodic = self.meta.get("periodic")
+        if periodic is None or periodic is False:
+            return self.meta
+        period = self.n if periodic is True else int(periodic)
+        meta = dict(self.meta)
+        new, rest = divmod(period * up, down)
+        if rest == 0 and 2 <= new <= n:
+            meta["periodic"] = True if new == n else new
+        else:
+            del meta["periodic"]
+        return meta
 
     def time_slice(self, start: float | None = None, stop: float | None = None) -> Record:
         """The samples with ``start <= t < stop`` (times in s)."""
@@ -554,7 +457,8 @@ class Record:
         cutoff = 0.8 * self.fs / (2 * q)
         arrays = {c: derivatives.lowpass(getattr(self, c), self.fs, cutoff, order=8)[::q] for c in self.channels}
         prov = {c: self._join(c, f"decimated by {q}") for c in self.channels}
-        return replace(self, fs=self.fs / q, provenance=prov, **arrays)
+        meta = self._periodic_meta(arrays["z"].size, 1, q)
+        return replace(self, fs=self.fs / q, provenance=prov, meta=meta, **arrays)
 
     def resample(self, fs: float) -> Record:
         """Resample to a new sampling frequency (polyphase, anti-aliased).
@@ -572,7 +476,8 @@ class Record:
         arrays = {c: signal.resample_poly(getattr(self, c), ratio.numerator, ratio.denominator) for c in self.channels}
         new_fs = self.fs * ratio.numerator / ratio.denominator
         prov = {c: self._join(c, f"resampled to {new_fs:g} Hz") for c in self.channels}
-        return replace(self, fs=new_fs, provenance=prov, **arrays)
+        meta = self._periodic_meta(arrays["z"].size, ratio.numerator, ratio.denominator)
+        return replace(self, fs=new_fs, provenance=prov, meta=meta, **arrays)
 
     def _join(self, channel: str, step: str) -> str:
         return f"{self.source_of(channel)}; {step}"

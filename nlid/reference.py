@@ -49,6 +49,7 @@ from ._frozen import FrozenDict
 from .errors import InputError, NlidError
 from .identified import IdentifiedModel
 from .record import Record
+from .scoring import FromFirstSample
 from .terms import Model
 
 if TYPE_CHECKING:  # pragma: no cover
@@ -352,6 +353,7 @@ class Comparison:
     fit: IdentifiedModel
     reference: Reference
     holdout: Record | None = None
+    rule: Any = None  # the held-out free run's transient rule (nlid.scoring.rule_from_spec); None: the record's
 
     # ------------------------------------------------------------------ the study row
     def coefficient_row(self) -> dict[str, float]:
@@ -463,10 +465,12 @@ class Comparison:
             add("eps_percent", "estimation", fit.scores.eps_percent, "%")
             add("force_residual_percent", "estimation", fit.scores.force_residual_percent, "%")
         if self.holdout is not None and fit.mass is not None:
-            held = fit.score(self.holdout)
+            held = fit.score(self.holdout, rule=self.rule)
             add("eps_percent", "holdout", held.eps_percent, "%")
             add("force_residual_percent", "holdout", held.force_residual_percent, "%")
             add("freerun_rmse", "holdout", held.freerun_rmse, self.holdout.units.get("z", "m"))
+            if held.freerun_rule not in ("", FromFirstSample().describe()):  # the first-sample rule goes unsaid
+                rows[-1]["note"] = f"free run: {held.freerun_rule}"
         if fit.seconds is not None:
             add("seconds", "identification", fit.seconds, "s")
         return rows
@@ -475,15 +479,19 @@ class Comparison:
         """One tidy row per quantity (the columns of :data:`FRAME_COLUMNS`), as :func:`nlid.compare` gives them."""
         import pandas as pd
 
-        return pd.DataFrame([{**r, "note": ""} for r in self.records()], columns=FRAME_COLUMNS)
+        return pd.DataFrame([{"note": "", **r} for r in self.records()], columns=FRAME_COLUMNS)
 
 
 def compare(
     fit: IdentifiedModel,
     reference: Reference | Mapping[str, Any] | IdentifiedModel | None,
     holdout: Record | None = None,
+    rule: Any = None,
 ) -> Comparison:
     """An identified model against a reference (:meth:`Reference.of`; ``None``: nothing known).
+
+    ``rule`` is the held-out free run's transient rule (:func:`nlid.scoring.rule_from_spec`; ``None``: the
+    held-out record's own).
 
     Returns
     -------
@@ -492,4 +500,4 @@ def compare(
     """
     if not isinstance(fit, IdentifiedModel):
         raise InputError(f"compare needs an IdentifiedModel, got {type(fit).__name__}")
-    return Comparison(fit, Reference.of(None, reference), holdout)
+    return Comparison(fit, Reference.of(None, reference), holdout, rule)

@@ -36,9 +36,9 @@ import numpy as np
 
 from . import datasets
 from .columnmap import dataset_table, frame_table, uses_indexed
+from .digest import record_sha256
 from .errors import InputError
 from .io import read_record
-from .provenance import record_sha256
 from .record import Record
 
 if TYPE_CHECKING:  # pragma: no cover

@@ -38,8 +38,10 @@ The checks (:data:`CHECKS`):
 ``check_bad_option_value_rejected``
     ... and a value of the wrong type or outside the allowed choices.
 ``check_known_mass``
-    With the mass given: an :class:`~nlid.interface.Estimate` with one finite
-    coefficient per term, in model order, and no competing mass.
+    With the mass given: an :class:`~nlid.interface.Estimate` that passes the
+    core's own check (:func:`nlid.interface.check_estimate`: one finite real
+    coefficient per term in any order, no competing mass, standard errors,
+    modal parameters and warnings of the right kind...).
 ``check_estimated_mass``
     Without the mass: a positive finite estimate, or
     :class:`~nlid.errors.InputError` when ``needs_mass`` is set.
@@ -72,7 +74,7 @@ from typing import Any
 import numpy as np
 
 from .errors import IdentificationError, InputError, NlidError, OptionError, PluginError, describe_exception
-from .interface import Estimate, Option, refined_terms, to_jsonable
+from .interface import Estimate, Option, check_estimate, to_jsonable
 from .record import Record
 from .terms import Model
 
@@ -133,27 +135,12 @@ def _fail(message: str) -> AssertionError:
     return AssertionError(message)
 
 
-def _check_estimate(estimate: Any, model: Model, who: str) -> Estimate:
-    if not isinstance(estimate, Estimate):
-        raise _fail(f"{who}: identify() must return nlid.plugin.Estimate, got {type(estimate).__name__}")
-    if estimate.model is not None:  # shape parameters refined: the coefficients are keyed by the refined model
-        try:
-            refined_terms(model, estimate.model)
-        except (ValueError, AttributeError) as exc:
-            raise _fail(f"{who}: Estimate.model must be the model with refined shape parameters: {exc}") from None
-        model = estimate.model
-    keys = list(estimate.coefficients)
-    if keys != list(model.names):
-        raise _fail(
-            f"{who}: coefficients must be keyed by the model's canonical terms in order {list(model.names)}, got {keys}"
-        )
-    values = [estimate.coefficients[n] for n in model.names]
-    if not all(isinstance(x, (float, int, np.floating, np.integer)) and np.isfinite(x) for x in values):
-        raise _fail(f"{who}: every coefficient must be a finite number, got {values}")
-    unknown = [k for k in (estimate.standard_errors or {}) if k not in model.names]
-    if unknown:
-        raise _fail(f"{who}: standard errors are given for terms not in the model: {unknown}")
-    return estimate
+def _check_estimate(estimate: Any, model: Model, who: str, mass: float | None = None) -> Estimate:
+    """The core's own check (:func:`nlid.interface.check_estimate`), its refusal as the failed rule."""
+    try:
+        return check_estimate(estimate, model, who, mass)
+    except (PluginError, IdentificationError) as exc:
+        raise _fail(str(exc)) from None
 
 
 # --------------------------------------------------------------------------- the checks
@@ -249,9 +236,7 @@ def check_bad_option_value_rejected(s: _Setup) -> None:
 def check_known_mass(s: _Setup) -> None:
     """With the mass given: an Estimate with finite coefficients in model order and no competing mass."""
     model, mass = s.model(), s.mass()
-    est = _check_estimate(s.run(s.data(), model, mass), model, f"{s.cls.name} (mass given)")
-    if est.mass is not None and not np.isclose(est.mass, mass, rtol=1e-12):
-        raise _fail(f"{s.cls.name}: with mass={mass} given, Estimate.mass must be None (it was {est.mass})")
+    _check_estimate(s.run(s.data(), model, mass), model, f"{s.cls.name} (mass given)", mass)
 
 
 def check_estimated_mass(s: _Setup) -> None:
@@ -287,14 +272,14 @@ def check_px_model(s: _Setup) -> None:
     if roots is None:
         raise _fail("the check record has no true coefficients to take the px(z) roots from")
     model = base.with_terms(add=["sign(v)*|px(z)|"]).with_px_roots(roots)
-    _check_estimate(s.run(record, model, s.mass()), model, f"{s.cls.name} (px model)")
+    _check_estimate(s.run(record, model, s.mass()), model, f"{s.cls.name} (px model)", s.mass())
 
 
 def check_deterministic(s: _Setup) -> None:
     """Two runs with the same settings give the same coefficients."""
     model, mass = s.model(), s.mass()
-    first = _check_estimate(s.run(s.data(), model, mass), model, s.cls.name)
-    second = _check_estimate(s.run(s.data(), model, mass), model, s.cls.name)
+    first = _check_estimate(s.run(s.data(), model, mass), model, s.cls.name, mass)
+    second = _check_estimate(s.run(s.data(), model, mass), model, s.cls.name, mass)
     if dict(first.coefficients) != dict(second.coefficients):
         raise _fail(
             f"{s.cls.name}: identification is not deterministic: {dict(first.coefficients)} then "
@@ -305,7 +290,8 @@ def check_deterministic(s: _Setup) -> None:
 def check_diagnostics_jsonable(s: _Setup) -> None:
     """``diagnostics`` and ``warnings`` serialise to JSON (after :func:`nlid.interface.to_jsonable`)."""
     model, mass = s.model(), s.mass()
-    est = _check_estimate(s.run(s.data(), model, mass), model, s.cls.name)
+    est = s.run(s.data(), model, mass)
+    _check_estimate(est, model, s.cls.name, mass)
     try:
         json.dumps(to_jsonable(dict(est.diagnostics)), allow_nan=False)
     except (TypeError, ValueError) as exc:
@@ -355,7 +341,7 @@ def check_accuracy(s: _Setup) -> None:
     truth = (record.meta.get("truth") or {}).get("coefficients")
     if not truth:
         raise _fail("the check record has no true coefficients")
-    est = _check_estimate(s.run(record, model, s.mass()), model, s.cls.name)
+    est = _check_estimate(s.run(record, model, s.mass()), model, s.cls.name, s.mass())
     for name, value in est.coefficients.items():
         rel = abs(value / truth[name] - 1.0)
         if not rel <= s.accuracy:

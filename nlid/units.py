@@ -59,6 +59,7 @@ they are part of the term's name.
 
 from __future__ import annotations
 
+import re
 from collections.abc import Mapping
 from dataclasses import dataclass
 from types import MappingProxyType
@@ -81,6 +82,7 @@ __all__ = [
     "accepted",
     "display_units",
     "coefficient_conversion",
+    "INDEXED",
 ]
 
 #: Standard gravity g_n in m/s^2 (exact, by definition): the acceleration unit ``g``.
@@ -90,6 +92,8 @@ STANDARD_GRAVITY = 9.80665
 QUANTITIES: Mapping[str, str] = MappingProxyType(
     {"t": "time", "f": "force", "z": "displacement", "v": "velocity", "a": "acceleration"}
 )
+#: An indexed channel of a structure: ``f``, ``z``, ``v`` or ``a`` and a DOF number from 1 (``z1``, ``f12``).
+INDEXED = re.compile(r"([fzva])([1-9][0-9]*)")
 #: The SI unit of each channel.
 SI: Mapping[str, str] = MappingProxyType({"t": "s", "f": "N", "z": "m", "v": "m/s", "a": "m/s^2"})
 
@@ -218,10 +222,8 @@ def unit_of(channel: str, text: Any, *, where: str = "units", indexed: bool = Fa
     """
     group = channel
     if indexed and channel not in QUANTITIES:
-        from .columnmap import split_indexed
-
-        parts = split_indexed(channel) if isinstance(channel, str) else None
-        group = parts[0] if parts else channel
+        m = INDEXED.fullmatch(channel) if isinstance(channel, str) else None
+        group = m.group(1) if m else channel
     if group not in QUANTITIES:
         extra = " (f1, z1, v1, a1... for the DOFs of a structure)" if indexed else ""
         raise InputError(f"{where}: unknown channel {channel!r}; channels are {', '.join(QUANTITIES)}{extra}")

@@ -70,6 +70,7 @@ __all__ = [
     "DURATION",
     "NOISE_FRACTION",
     "NOISE_SD",
+    "HOLDOUT_FRACTION",
     "MAX_FS",
     "MAX_SAMPLES",
     "MIN_SAMPLES",
@@ -195,6 +196,8 @@ class Options:
 # --------------------------------------------------------------------------- the declared rules
 #: A known mass.
 MASS = Interval(0.0, None, "neither", "a positive number of kg")
+#: The fraction of a record held out (its last part).
+HOLDOUT_FRACTION = Interval(0.0, 1.0, "neither", "a fraction between 0 and 1 (0.25: the last quarter)")
 #: A random seed.
 SEED = Interval(0, MAX_SEED, "both", "an integer from 0 to 2**63 - 1", integer=True)
 #: A filter frequency when no record says what its Nyquist frequency is (:func:`check_cutoff`).

@@ -114,3 +114,26 @@ def test_licence_and_citation():
     citation = (ROOT / "CITATION.cff").read_text()
     assert "cff-version: 1.2.0" in citation and f"version: {nlid.__version__}" in citation
     assert "license: MIT" in citation
+
+
+def test_the_gallery_shows_every_figure_with_its_code():
+    """docs/gallery.md: every marker it includes is in docs/make_gallery.py, every image it shows is committed,
+    and every ``plot_*`` method of the identified model and every figure function of the posterior is shown."""
+    from nlid.bayes import plots as posterior_plots
+    from nlid.identified import IdentifiedModel
+
+    page = (DOCS / "gallery.md").read_text()
+    script = (DOCS / "make_gallery.py").read_text()
+    markers = re.findall(r':start-after: "# \[([^\]]+)\]"', page)
+    assert len(markers) > 10
+    for name in markers:
+        assert f"# [{name}]" in script and f"# [/{name}]" in script, name
+    images = re.findall(r"\]\((_static/gallery/[^)]+\.png)\)", page)
+    assert images and all((DOCS / image).is_file() for image in images), images
+    shown = "\n".join(
+        script[script.index(f"# [{n}]") : script.index(f"# [/{n}]")] for n in markers if f"# [{n}]" in script
+    )
+    methods = [name for name in vars(IdentifiedModel) if name.startswith("plot_")]
+    assert len(methods) >= 6
+    for name in [*methods, *posterior_plots.__all__]:
+        assert f"{name}(" in shown, name

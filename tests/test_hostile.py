@@ -15,11 +15,11 @@ written (a file used as a folder).
 from __future__ import annotations
 
 import json
-import textwrap
 
 import numpy as np
 import pandas as pd
 import pytest
+from plugin_dist import write_distribution
 from scipy import io as sio
 
 from nlid.cli.main import main
@@ -166,13 +166,11 @@ def files(tmp_path_factory):
     (d / "deep.csv.meta.json").write_text("[" * 100000 + "]" * 100000)
     plugins = d / "plugins"
     plugins.mkdir()
-    (plugins / "nlid_hostile_plugins.py").write_text(textwrap.dedent(HOSTILE_PLUGINS))
-    (plugins / "nlid_exit_at_import.py").write_text("import sys\nsys.exit(3)\n")
-    info = plugins / "nlid_hostile-0.1.dist-info"
-    info.mkdir()
-    (info / "METADATA").write_text("Metadata-Version: 2.1\nName: nlid-hostile\nVersion: 0.1\n")
-    (info / "entry_points.txt").write_text(
-        "[nlid.identifiers]\nhostile = nlid_hostile_plugins\nexit-at-import = nlid_exit_at_import\n"
+    write_distribution(
+        plugins,
+        "nlid-hostile",
+        {"nlid_hostile_plugins": HOSTILE_PLUGINS, "nlid_exit_at_import": "import sys\nsys.exit(3)\n"},
+        {"hostile": "nlid_hostile_plugins", "exit-at-import": "nlid_exit_at_import"},
     )
     with pytest.MonkeyPatch.context() as mp:
         mp.syspath_prepend(str(plugins))
@@ -215,7 +213,7 @@ G3_ISOLATION = [  # a plugin that exits, hangs or crashes is reported by name
     (["identify", "x.csv", "--method", "exit-at-import", "--terms", "z^3"], 2, "called sys.exit(3)"),
     (["identify", "x.csv", "--method", "hang-forever", "--terms", "z^3", "--timeout", "2"], 1,
      "did not finish within the time limit of 2 s"),
-    (["identify", "x.csv", "--method", "segv", "--terms", "z^3", "--timeout", "60"], 2, "signal 11 (SIGSEGV)"),
+    (["identify", "x.csv", "--method", "segv", "--terms", "z^3", "--timeout", "60"], 2, "segmentation fault (SIGSEGV)"),
     (["identify", "x.csv", "--method", "exit-identify", "--terms", "z^3", "--timeout", "60"], 2, "sys.exit(4)"),
     (["identify", "x.csv", "--terms", "z^3,q", "--timeout", "60"], 2, "unknown name 'q'"),
     (["identify", "big.csv", "--terms", TERMS, "--mass", "0.2", "--timeout", "60"], 1, "cannot be trusted"),

@@ -9,7 +9,8 @@ refactor. It holds, for the records built below:
   and with the paper's ``|px(z)|`` terms;
 * ``compare``: :func:`nlid.compare` frames as CSV text (the reference taken
   from the record's truth, from a fitted model, and from a bare mapping; a
-  failing method; a held-out record);
+  held-out record; an unknown method is refused since issue 25, so its pinned
+  "failed" row is left out of the comparison);
 * ``study``: every column of every row of a small study (three identifiers,
   a posterior, an independent held-out record).
 
@@ -116,7 +117,7 @@ def collect_compare() -> dict[str, str]:
     record, other, _ = _records()
     out = {}
     out["truth_holdout"] = _frame_text(
-        nlid.compare(record, TERMS, ["rfs", "sindy", "nsi-ip", "no-such-method"], mass=0.2, holdout=other)
+        nlid.compare(record, TERMS, ["rfs", "sindy", "nsi-ip"], mass=0.2, holdout=other)
     )
     out["estimated_mass"] = _frame_text(nlid.compare(record, TERMS, ["rfs"]))
     fit = nlid.identify(other, TERMS, method="rfs", mass=0.2)
@@ -205,6 +206,9 @@ def test_identify_json_unchanged(pins):
 def test_compare_frames_unchanged(pins):
     new = collect_compare()
     for name, old in pins["compare"].items():
+        # issue 25 changed one thing on purpose: an unknown method name is now refused before anything runs
+        # (tests/test_hostile_round2.py), where it used to give a "failed" row; the pinned row is left out
+        old = "".join(line for line in old.splitlines(keepends=True) if not line.startswith("no-such-method,"))
         _csv_close(new[name], old, f"compare.{name}")
 
 

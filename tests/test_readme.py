@@ -127,3 +127,52 @@ def test_cli_block_prints_what_the_readme_shows(index, tmp_path):
         assert proc.returncode == 0, f"{command}: {proc.stderr[-2000:]}"
         problems += _compare(command, expected, proc.stdout.rstrip("\n").splitlines() if proc.stdout.strip() else [])
     assert not problems, "\n".join(problems)
+
+
+# --------------------------------------------------------------------------- numbers the README states
+def _test_section() -> str:
+    start = README.index("Install the test dependencies")
+    return README[start : README.index("\n## ", start)]
+
+
+@pytest.mark.slow
+def test_the_stated_number_of_tests_is_the_collected_one():
+    """The README's "N tests" is within 10 % of what ``pytest --collect-only`` finds (docs that cannot go stale)."""
+    import subprocess
+    import sys
+
+    stated = [int(n) for n in re.findall(r"\b(\d+) tests\b", _test_section())]
+    assert len(stated) == 1, f"the README's test section states {stated} test counts; one is checked"
+    root = Path(__file__).resolve().parents[1]
+    proc = subprocess.run(
+        [sys.executable, "-m", "pytest", "--collect-only", "-q", "-n", "0", "-p", "no:cacheprovider", "tests"],
+        cwd=root,
+        capture_output=True,
+        text=True,
+        timeout=600,
+    )
+    found = re.search(r"^(\d+) tests? collected", proc.stdout, re.M)
+    assert found, proc.stdout[-2000:] + proc.stderr[-2000:]
+    collected = int(found.group(1))
+    assert abs(stated[0] - collected) <= 0.1 * collected, (
+        f"the README says {stated[0]} tests, pytest collects {collected}: update README.md"
+    )
+
+
+def test_dataset_lines_say_what_nlid_data_says():
+    """Each benchmark's layout line names its files, and says "no loader yet" exactly when ``nlid data`` does."""
+    from nlid.datasets import BENCHMARKS
+
+    section = _section("Measured data")
+    layout = re.search(r"```\n(\$NLID_DATA_DIR/.*?)```", section, flags=re.S)
+    assert layout, "the layout block of the Measured data section"
+    lines = {line.split("/")[1]: line for line in layout.group(1).splitlines() if line.strip()}
+    for name, bench in BENCHMARKS.items():
+        folders = {f.path.split("/")[0] for f in bench.files}
+        assert len(folders) == 1, name
+        folder = folders.pop()
+        assert folder in lines, f"README lists no $NLID_DATA_DIR/{folder}/ line for {name}"
+        line = lines[folder]
+        for f in bench.files:
+            assert f.path.split("/", 1)[1] in line, f"README's {folder} line lacks {f.path}"
+        assert ("no loader yet" in line) is (not bench.loader), f"README's {folder} line: {line!r}"

@@ -6,9 +6,8 @@ each test writes a module and a ``*.dist-info`` folder with an
 exactly what an installed distribution looks like to ``importlib.metadata``.
 """
 
-import textwrap
-
 import pytest
+from plugin_dist import write_distribution
 
 from nlid import InputError, PluginError, identify
 from nlid.registry import load_registry
@@ -42,11 +41,7 @@ def make_plugin(tmp_path, monkeypatch):
     monkeypatch.syspath_prepend(str(tmp_path))
 
     def make(dist: str, entry: str, module: str, source: str) -> None:
-        (tmp_path / f"{module}.py").write_text(textwrap.dedent(source))
-        info = tmp_path / f"{dist}-0.1.dist-info"
-        info.mkdir()
-        (info / "METADATA").write_text(f"Metadata-Version: 2.1\nName: {dist}\nVersion: 0.1\n")
-        (info / "entry_points.txt").write_text(f"[nlid.identifiers]\n{entry} = {module}\n")
+        write_distribution(tmp_path, dist, {module: source}, {entry: module})
 
     return make
 

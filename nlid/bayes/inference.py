@@ -13,6 +13,7 @@ from ..balance import regression_data
 from ..errors import IdentificationError, InputError
 from ..identified import IdentifiedModel
 from ..record import Record
+from ..reference import Reference
 from ..terms import Model, parse_term
 from ..validate import Interval, Options, check_cutoff, check_noise_sd, check_seed
 from .likelihood import build_likelihood, check_identifiable
@@ -242,6 +243,11 @@ class PosteriorSampler:
         model = fit.model
         if fit.mass is None:
             raise InputError("the posterior needs the mass: give mass= (in kg) or use a method that estimates it")
+        # each known noise level against its channel, whether or not the bias correction uses it
+        scales = {
+            c: float(np.std(getattr(record, c))) for c in (self.noise or {}) if getattr(record, c, None) is not None
+        }
+        check_noise_sd(self.noise, scales=scales)
         idx = select_params(model, self.params)
         names = tuple(model.names[i] for i in idx)
         theta0 = fit.theta.copy()
@@ -329,6 +335,7 @@ class PosteriorSampler:
             others=self.others,
             gaussian=(mean, cov),
             data=data,
+            reference=dict(Reference.from_meta(record.meta).coefficients or {}),
         ), prior_sd
 
 

@@ -23,14 +23,23 @@ def corner_figure(posterior: Any, bins: int = 40, truth: dict[str, float] | None
     """Histograms of each coefficient (diagonal) and 2-D densities of each pair (below).
 
     Dashed lines: the 5 and 95 % quantiles; the orange mark is the
-    identifier's estimate and, when given, black lines the truth.
+    identifier's estimate and black lines the truth: ``truth`` when given,
+    else the reference values the record carried (``posterior.reference``,
+    ``record.meta["reference"]``); ``truth={}`` draws none.
     """
     samples = posterior.samples
     names = posterior.names
+    if truth is None:
+        truth = dict(getattr(posterior, "reference", None) or {})
+    truth = {n: float(truth[n]) for n in names if n in truth and np.isfinite(truth[n])}
     d = len(names)
     size = max(3.0, 2.2 * d)
     fig, axes = new_figure(d, d, width=size, height=size, squeeze=False)
     lo, hi = np.quantile(samples, [0.001, 0.999], axis=0)
+    # the truth stays in view, however far it is from the samples
+    for i, name in enumerate(names):
+        if name in truth:
+            lo[i], hi[i] = min(lo[i], truth[name]), max(hi[i], truth[name])
     span = hi - lo
     lo, hi = lo - 0.05 * span, hi + 0.05 * span
     for i in range(d):
@@ -46,8 +55,8 @@ def corner_figure(posterior: Any, bins: int = 40, truth: dict[str, float] | None
                 for q in np.quantile(samples[:, i], [0.05, 0.95]):
                     ax.axvline(q, color="tab:blue", ls="--", lw=1)
                 ax.axvline(posterior.start[names[i]], color="tab:orange", lw=1.5)
-                if truth and names[i] in truth:
-                    ax.axvline(truth[names[i]], color="k", lw=1.2)
+                if names[i] in truth:
+                    ax.axvline(truth[names[i]], color="k", lw=1.2, gid="truth")
                 ax.set_yticks([])
                 ax.set_xlim(lo[i], hi[i])
             else:
@@ -55,9 +64,9 @@ def corner_figure(posterior: Any, bins: int = 40, truth: dict[str, float] | None
                 h, xe, ye = np.histogram2d(samples[:, j], samples[:, i], bins=bins, range=extent)
                 ax.pcolormesh(xe, ye, h.T, cmap="Blues", shading="flat")
                 ax.plot(posterior.start[names[j]], posterior.start[names[i]], "o", color="tab:orange", ms=4)
-                if truth and names[i] in truth and names[j] in truth:
-                    ax.axvline(truth[names[j]], color="k", lw=0.8)
-                    ax.axhline(truth[names[i]], color="k", lw=0.8)
+                if names[i] in truth and names[j] in truth:
+                    ax.axvline(truth[names[j]], color="k", lw=0.8, gid="truth")
+                    ax.axhline(truth[names[i]], color="k", lw=0.8, gid="truth")
                 ax.set_xlim(lo[j], hi[j])
                 ax.set_ylim(lo[i], hi[i])
             if i == d - 1:
@@ -69,8 +78,21 @@ def corner_figure(posterior: Any, bins: int = 40, truth: dict[str, float] | None
                 ax.set_ylabel(names[i])
             elif j > 0:
                 ax.set_yticklabels([])
-    fig.suptitle("posterior (orange: identifier's estimate; dashed: 5 / 95 %)")
+    title = "posterior (orange: identifier's estimate; dashed: 5 / 95 %" + ("; black: truth)" if truth else ")")
+    fig.suptitle(_wrapped(title, size, FONT_PT), fontsize=FONT_PT)
     return fig
+
+
+#: Font size of the figure titles (points).
+FONT_PT = 10.0
+
+
+def _wrapped(text: str, width_in: float, font_pt: float) -> str:
+    """``text`` broken into lines that fit ``width_in`` inches at ``font_pt`` (a wide glyph: 0.6 em)."""
+    import textwrap
+
+    chars = max(12, int(0.9 * width_in * 72.0 / (0.6 * font_pt)))
+    return "\n".join(textwrap.wrap(text, chars))
 
 
 def trace_figure(posterior: Any, max_walkers: int = 32):

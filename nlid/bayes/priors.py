@@ -23,7 +23,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..errors import IdentificationError, InputError
+from ..errors import IdentificationError, InputError, brief
 from ..terms import parse_term
 from .likelihood import SufficientStatistics
 
@@ -148,7 +148,7 @@ def parse_prior(text: str) -> Prior:
         return Flat()
     match = _CALL.match(text)
     if not match:
-        raise PriorError(f"cannot read the prior {text!r}: write normal(MEAN, SD), uniform(LOW, HIGH) or flat")
+        raise PriorError(f"cannot read the prior {brief(text)}: write normal(MEAN, SD), uniform(LOW, HIGH) or flat")
     kind, a, b = match.group(1).lower(), float(match.group(2)), float(match.group(3))
     return Normal(a, b) if kind == "normal" else Uniform(a, b)
 
@@ -166,7 +166,7 @@ def parse_prior_assignments(items: Sequence[str] | Mapping[str, str | Prior] | N
     else:
         for item in items:
             if "=" not in item:
-                raise PriorError(f"a prior is given as TERM=SPEC, e.g. 'v*|v|=normal(5, 1)'; got {item!r}")
+                raise PriorError(f"a prior is given as TERM=SPEC, e.g. 'v*|v|=normal(5, 1)'; got {brief(item)}")
             term, spec = item.split("=", 1)
             pairs.append((term, spec))
     out: dict[str, Prior] = {}
@@ -219,9 +219,7 @@ def joint_logpdf(priors: Sequence[Prior]) -> Callable[[np.ndarray], np.ndarray]:
     return logpdf
 
 
-def prior_conflicts(
-    names: Sequence[str], priors: Mapping[str, Prior], mean: np.ndarray, cov: np.ndarray
-) -> list[str]:
+def prior_conflicts(names: Sequence[str], priors: Mapping[str, Prior], mean: np.ndarray, cov: np.ndarray) -> list[str]:
     """The sampled terms whose prior conflicts with the likelihood's Gaussian limit (see :data:`PRIOR_CONFLICT_SIGMAS`).
 
     Parameters

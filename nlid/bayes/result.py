@@ -92,6 +92,9 @@ class Posterior:
         The force balance (for damping slices); not serialised.
     warnings
         Things the user should know (e.g. numerical warnings while sampling).
+    reference
+        The record's reference coefficients (``record.meta["reference"]``, :mod:`nlid.reference`), by
+        term; empty when the record carries none. Drawn as the truth in the corner plot; not serialised.
     """
 
     model: Model
@@ -107,6 +110,7 @@ class Posterior:
     gaussian: tuple[np.ndarray, np.ndarray] | None = field(default=None, repr=False)
     data: RegressionData | None = field(default=None, repr=False)
     warnings: tuple[str, ...] = ()
+    reference: dict[str, float] = field(default_factory=dict, repr=False)
 
     # ------------------------------------------------------------------ numbers
     @property

@@ -31,6 +31,7 @@ import emcee
 import numpy as np
 
 from ..errors import IdentificationError, InputError
+from ..progress import progress_line
 
 __all__ = ["Chains", "ConvergenceError", "run_until_converged", "TAU_MULTIPLE", "MOVES"]
 
@@ -175,24 +176,36 @@ def run_until_converged(
     previous = np.inf
     tau = np.full(ndim, np.nan)
     steps = 0
-    while steps < max_steps:
-        n = min(chunk, max_steps - steps)
-        state = sampler.run_mcmc(state, n, progress=False, skip_initial_state_check=True)
-        steps += n
-        tau = sampler.get_autocorr_time(tol=0, quiet=True)
-        worst = float(np.max(tau))
-        if steps >= tau_multiple * worst and abs(worst - previous) <= TAU_STABILITY * worst:
-            burn = int(np.ceil(BURN_TAUS * worst))
-            thin = max(1, int(0.5 * float(np.min(tau))))
-            return Chains(
-                chain=sampler.get_chain(),
-                log_prob=sampler.get_log_prob(),
-                tau=np.asarray(tau, dtype=float),
-                acceptance=float(np.mean(sampler.acceptance_fraction)),
-                burn=burn,
-                thin=thin,
-            )
-        previous = worst
+    converged = False
+    # a terminal-only line when the caller asked for progress (nlid.progress; emcee's own bar needs tqdm)
+    with progress_line("posterior", total=max_steps, unit="steps") as line:
+        while steps < max_steps and not converged:
+            n = min(chunk, max_steps - steps)
+            for state in sampler.sample(state, iterations=n, skip_initial_state_check=True):  # noqa: B007, B020
+                steps += 1  # the generator emcee's run_mcmc drains: the same chains, step by step
+                line.update(steps)
+            tau = sampler.get_autocorr_time(tol=0, quiet=True)
+            worst = float(np.max(tau))
+            if np.isfinite(worst):
+                line.update(steps, note=f"autocorrelation time {worst:.0f}, run needs {tau_multiple * worst:.0f}")
+            converged = steps >= tau_multiple * worst and abs(worst - previous) <= TAU_STABILITY * worst
+            previous = worst
+    if converged:
+        burn = int(np.ceil(BURN_TAUS * worst))
+        thin = max(1, int(0.5 * float(np.min(tau))))
+        return Chains(
+            chain=sampler.get_chain(),
+            log_prob=sampler.get_log_prob(),
+            tau=np.asarray(tau, dtype=float),
+            acceptance=float(np.mean(sampler.acceptance_fraction)),
+            burn=burn,
+            thin=thin,
+        )
+    if not np.any(np.isfinite(tau)):  # a few steps: no autocorrelation time can be estimated yet
+        raise ConvergenceError(
+            f"the chains did not converge in {max_steps} steps: too few steps to estimate the autocorrelation "
+            f"time; raise max_steps= (e.g. max_steps={max(1000, 10 * max_steps)})"
+        )
     worst = float(np.nanmax(tau))
     slowest = names[int(np.nanargmax(tau))]
     need = int(np.ceil(tau_multiple * worst * 1.2 / 1000.0) * 1000)

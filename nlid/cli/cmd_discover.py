@@ -5,8 +5,10 @@ from __future__ import annotations
 import argparse
 import sys
 
-from ..errors import InputError
+from ..errors import InputError, NlidError
+from ..progress import stderr_is_terminal
 from .common import add_data_arguments, load_data, parse_settings, print_json
+from .isolated import DISCOVER_TIMEOUT, add_timeout_argument, parse_timeout, plugin_warnings
 
 EPILOG = """\
 candidate effects (--candidates): coulomb, viscous, quadratic-damping, cubic-damping,
@@ -20,7 +22,7 @@ acceptance: candidates are ranked by the fraction of the held-out residual varia
 
 examples:
   nlid discover dataset:emps --declared "v, 1"
-  nlid discover dataset:silverbox:multisine --declared "1, z, v" --holdout dataset:silverbox:arrow
+  nlid discover dataset:silverbox:estimation --declared "1, z, v"
   nlid discover x.csv --declared "1, z, z^3, v" --mass 0.2 --out report/ --json
   nlid discover dataset:bouc-wen --declared "z, v" --validation dataset:bouc-wen:sinesweep
 
@@ -67,6 +69,13 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         "decision, e.g. a benchmark's validation set (file or dataset:NAME, read like DATA)",
     )
     p.add_argument(
+        "--rule",
+        metavar="RULE",
+        help="transient rule of the free runs on the held-out and validation records: first-sample, window:N "
+        "(N samples fit the initial state and are not scored), periodic or periodic:P (periodic steady state); "
+        "default: each record's own (periodic when declared or when its force repeats, else first-sample)",
+    )
+    p.add_argument(
         "--candidates",
         metavar="NAMES",
         help="comma-separated candidate effects to test (default: all of the library and of installed plugins, "
@@ -102,9 +111,14 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument(
         "--force",
         action="store_true",
-        help="with --out, write into a folder that holds files nlid did not write (it never replaces them)",
+        help="with --out, write into a folder that holds files nlid did not write; nlid never replaces them: if "
+        "one has the name of an output (figures, report.md, report.html, result.json, models.csv), it stops "
+        "before writing anything, naming it",
     )
-    p.add_argument("--quiet", action="store_true", help="no progress lines on stderr")
+    p.add_argument(
+        "--quiet", action="store_true", help="no progress on stderr (it is shown only on a terminal, never with --json)"
+    )
+    add_timeout_argument(p, DISCOVER_TIMEOUT, "the search (every identification of it)")
     p.add_argument(
         "--refine",
         action="store_true",
@@ -125,22 +139,65 @@ def _holdout(args: argparse.Namespace):
     return fraction
 
 
+class _SearchProgress:
+    """The search's stages on one terminal line, redrawn in place; each accepted effect kept as a line of its own."""
+
+    def __init__(self, show: bool) -> None:
+        from ..progress import ProgressLine
+
+        self.line = ProgressLine("nlid discover", enabled=show)  # the parent looked at its terminal
+
+    def __call__(self, message: str) -> None:
+        if ": accepted " in message:
+            self.line.keep(f"nlid discover: {message}")
+        else:
+            self.line.update(note=message)
+
+
+def _discover_in_child(record, declared, method, settings, show: bool = False) -> tuple:
+    """The child's side of ``nlid discover``: the result, or the error's class names and message.
+
+    ``show``: the parent asked for progress (on a terminal, not ``--quiet`` nor ``--json``); the search's
+    stages, and the progress of a long identifier (``oe`` with ``--refine``), are then drawn on stderr.
+    """
+    from ..discovery import discover
+    from ..progress import showing
+
+    with showing(show):
+        progress = _SearchProgress(show)
+        try:
+            with progress.line:
+                return ("ok", discover(record, declared, method, progress=progress, **settings))
+        except NlidError as exc:
+            return ("error", [c.__name__ for c in type(exc).__mro__], str(exc))
+
+
+def _discover_isolated(timeout: float, record, declared, method, settings, show: bool = False):
+    """:func:`nlid.discovery.discover` in a child process stopped after ``timeout`` seconds."""
+    from ..runtime.isolation import run_in_child
+
+    label = "the search" if method is None else f"the search with identifier {method!r}"
+    outcome = run_in_child(_discover_in_child, (record, declared, method, settings, show), timeout=timeout)
+    outcome.reissue_warnings(label)
+    return outcome.answer(label, timeout, "raise --timeout")
+
+
 def run(args: argparse.Namespace) -> int:
-    from ..discovery import AcceptanceRule, discover, write_report
+    from ..discovery import AcceptanceRule, write_report
+    from ..runtime.isolation import start_fork_server
 
     if args.max_steps < 0:
         raise InputError(f"--max-steps must be >= 0, got {args.max_steps}")
+    timeout = parse_timeout(args.timeout)
+    start_fork_server(pin_threads=False)  # it loads the pipeline while this process reads the data
     record = load_data(args)
     rule = AcceptanceRule(min_explained=args.min_explained, max_delta_bic=args.max_delta_bic)
 
-    def progress(message: str) -> None:
+    def status(message: str) -> None:
         if not args.quiet:
-            print(f"nlid discover: {message}", file=sys.stderr)
+            print(f"nlid discover: {message}", file=sys.stderr, flush=True)
 
-    result = discover(
-        record,
-        args.declared,
-        args.method,
+    settings = dict(
         mass=args.mass,
         holdout=_holdout(args),
         validation=None
@@ -152,16 +209,20 @@ def run(args: argparse.Namespace) -> int:
         max_steps=args.max_steps,
         cutoff=args.cutoff,
         options=parse_settings(args.set),
-        progress=progress,
         views=bool(args.out),
         refine=args.refine,
+        freerun_rule=args.rule,
     )
+    with plugin_warnings("discover"):
+        # progress only on a terminal (never when piped, under --quiet or with --json)
+        show = not (args.quiet or args.json) and stderr_is_terminal()
+        result = _discover_isolated(timeout, record, args.declared, args.method, settings, show)
     if args.out:
         try:
             paths = write_report(result, args.out, force=args.force)
         except OSError as exc:
             raise InputError(f"cannot write the report to {args.out}: {exc.strerror or exc}") from None
-        progress(f"report written to {paths[1]} (and {paths[0].name})")
+        status(f"report written to {paths[1]} (and {paths[0].name})")
     if args.json:
         print_json(result.to_dict())
     else:
@@ -181,6 +242,8 @@ def _refined_lines(result) -> str:
 
     refiner = after.identified.method
     lines = ["", f"refined with {refiner} (output error on the free run, started from {result.method}):"]
+    if result.info.get("refined_on"):
+        lines.append(f"  fitted on {result.info['refined_on']}")
     lines.append(f"  free-run RMS error held-out: {fmt(before.sim_rms_holdout)} -> {fmt(after.sim_rms_holdout)}")
     if before.validation is not None:
         lines.append(

@@ -4,7 +4,9 @@ from __future__ import annotations
 
 import argparse
 
+from ..progress import showing
 from .common import add_data_arguments, add_model_arguments, load_data, parse_px_roots, parse_settings, print_json
+from .isolated import IDENTIFY_TIMEOUT, add_timeout_argument, parse_timeout, plugin_warnings
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
@@ -18,32 +20,36 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         epilog="example: nlid identify x.csv --method rfs --terms 'z^3,z^2,v*|v|' --mass 0.2",
     )
     add_data_arguments(p)
-    add_model_arguments(p, "identifier to use (default rfs; see nlid methods)")
-    p.add_argument(
-        "--timeout",
-        type=float,
-        metavar="SECONDS",
-        help="run the identifier in a separate process and stop it after SECONDS (a hanging or crashing "
-        "plugin then gives one error line)",
-    )
+    add_model_arguments(p, "identifier to use (default: the installed one with the best preference; see nlid methods)")
+    add_timeout_argument(p, IDENTIFY_TIMEOUT, "the identifier")
     p.add_argument("--json", action="store_true", help="print one JSON object instead of a table")
+    p.add_argument(
+        "--quiet", action="store_true", help="no progress on stderr (it is shown only on a terminal, never with --json)"
+    )
     p.set_defaults(func=run)
 
 
 def run(args: argparse.Namespace) -> int:
+    from ..runtime.isolation import start_fork_server
+
+    timeout = parse_timeout(args.timeout)
+
+    start_fork_server(pin_threads=False)  # it loads the pipeline while this process reads the data
     from ..pipeline import identify
 
     record = load_data(args)
-    result = identify(
-        record,
-        args.terms,
-        args.method,
-        mass=args.mass,
-        options=parse_settings(args.set),
-        without=args.without,
-        px_roots=parse_px_roots(args.px_roots),
-        timeout=args.timeout,
-    )
+    # a long identifier (oe) shows its progress on a terminal, never under --quiet or --json
+    with plugin_warnings("identify"), showing(not (args.quiet or args.json)):
+        result = identify(
+            record,
+            args.terms,
+            args.method,
+            mass=args.mass,
+            options=parse_settings(args.set),
+            without=args.without,
+            px_roots=parse_px_roots(args.px_roots),
+            timeout=timeout,
+        )
     if args.json:
         print_json(result.to_dict())
     else:

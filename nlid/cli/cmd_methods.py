@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import argparse
 
-from ..errors import InputError
+from ..errors import InputError, brief, one_line
 from ..formatting import TERMINAL_WIDTH, wrap
 from .common import print_json
 
@@ -19,7 +19,9 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         help="list the installed identifiers and their options",
         description="Which identifier to choose, then the identifiers found through the 'nlid.identifiers' "
         "entry points with a one-line summary. Give NAMEs (or --all) to list their options (set them with "
-        "'nlid identify --set NAME=VALUE'). Plugins that failed to load are listed with their error. "
+        "'nlid identify --set NAME=VALUE'). Plugins that failed to load, or provide nothing, are listed with "
+        "their error; plugins that printed while loading (kept out of the output) or were slow to import, "
+        "with a note. "
         "docs/methods.md has the decision table with the measurements behind it.",
     )
     p.add_argument("names", nargs="*", metavar="NAME", help="identifiers whose options to list")
@@ -46,13 +48,14 @@ def run(args: argparse.Namespace) -> int:
                     for name, cls in sorted(reg.identifiers.items())
                 },
                 "failures": reg.failures,
+                "notes": reg.notes,
             }
         )
         return 0
     unknown = [n for n in args.names if n not in reg.identifiers]
     if unknown:
         reg.get(unknown[0])  # raises the registry's error, with a suggestion
-        raise InputError(f"unknown identifier {unknown[0]!r}")
+        raise InputError(f"unknown identifier {brief(unknown[0])}")
     if not reg.identifiers:
         print("no identifiers installed")
     detailed = set(args.names) if args.names else set(reg.names()) if args.all else set()
@@ -88,5 +91,8 @@ def run(args: argparse.Namespace) -> int:
             print(wrap(opt.help, TERMINAL_WIDTH, indent="        ", subsequent="        "))
         print()
     for plugin, error in sorted(reg.failures.items()):
-        print(f"{plugin}  UNUSABLE: {error}")
+        print(f"{plugin}  UNUSABLE: {one_line(error)}")
+    for plugin, notes in sorted(reg.notes.items()):
+        for note in notes:
+            print(f"{plugin}  NOTE: {one_line(note)}")
     return 0

@@ -3,9 +3,11 @@
 from __future__ import annotations
 
 import argparse
+import math
 import sys
 
-from ..errors import DataError, InputError
+from ..errors import DataError, InputError, brief
+from ..progress import showing
 from ..validate import NOISE_SD
 from .common import add_data_arguments, add_model_arguments, load_data, parse_px_roots, parse_settings, print_json
 
@@ -47,7 +49,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     add_data_arguments(p)
-    add_model_arguments(p, "identifier giving the starting point (default rfs)")
+    add_model_arguments(p, "identifier giving the starting point (default: the preferred installed one)")
     p.add_argument(
         "--params",
         default="damping",
@@ -99,6 +101,9 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         help="positions (m) of the damping-force slices (default: the equilibria, as in the paper's Fig. 21)",
     )
     p.add_argument("--json", action="store_true", help="print one JSON object instead of a table")
+    p.add_argument(
+        "--quiet", action="store_true", help="no progress on stderr (it is shown only on a terminal, never with --json)"
+    )
     p.add_argument("--out", metavar="DIR", help="write the table (CSV), JSON, samples (NPZ) and figures (PNG) to DIR")
     p.add_argument("--no-figures", action="store_true", help="with --out, skip the PNG figures")
     p.add_argument(
@@ -113,9 +118,12 @@ def _floats(text: str | None, what: str) -> list[float] | None:
     if not text:
         return None
     try:
-        return [float(x) for x in text.split(",") if x.strip()]
+        values = [float(x) for x in text.split(",") if x.strip()]
     except ValueError:
-        raise InputError(f"{what} expects comma-separated numbers, got {text!r}") from None
+        raise InputError(f"{what} expects comma-separated numbers, got {brief(text)}") from None
+    if not all(math.isfinite(x) for x in values):
+        raise InputError(f"{what} expects finite numbers, got {brief(text)}")
+    return values
 
 
 def parse_noise_levels(items: list[str] | None, noise_z: float | None = None) -> dict[str, float] | None:
@@ -128,12 +136,12 @@ def parse_noise_levels(items: list[str] | None, noise_z: float | None = None) ->
         channel = channel.strip()
         if not sep or channel not in ("z", "v"):
             raise InputError(
-                f"--noise-level expects CHANNEL=SD with CHANNEL z or v (noise on a needs no level), got {item!r}"
+                f"--noise-level expects CHANNEL=SD with CHANNEL z or v (noise on a needs no level), got {brief(item)}"
             )
         try:
             level = float(value)
         except ValueError:
-            raise InputError(f"--noise-level {channel}= expects a number, got {value.strip()!r}") from None
+            raise InputError(f"--noise-level {channel}= expects a number, got {brief(value.strip())}") from None
         NOISE_SD[channel].check(level, f"--noise-level {channel}=")
         if channel in levels:
             raise InputError(f"--noise-level gives the level of {channel} twice")
@@ -152,6 +160,8 @@ def run(args: argparse.Namespace) -> int:
         NOISE_SD["z"].check(args.noise_z, "--noise-z")
     noise = parse_noise_levels(args.noise_level, args.noise_z)
     slices = _floats(args.slices, "--slices")
+    if slices is not None and not args.out:
+        raise InputError("--slices sets the damping-force slices of the figures written with --out; give --out DIR")
     # read priors and parameter names before the (slower) identification, so typos fail at once
     parse_prior_assignments(args.prior)
     if args.params.strip().lower() not in ("damping", "friction", "all"):
@@ -171,9 +181,12 @@ def run(args: argparse.Namespace) -> int:
     )
     record = load_data(args)
     model = as_model(args.terms, without=args.without, px_roots=parse_px_roots(args.px_roots))
-    result = identify(record, model, args.method, mass=args.mass, options=parse_settings(args.set))
+    show = not (args.quiet or args.json)  # the sampler's progress, on a terminal only
+    with showing(show):
+        result = identify(record, model, args.method, mass=args.mass, options=parse_settings(args.set))
     try:
-        posterior = sampler.run(record, result)
+        with showing(show):
+            posterior = sampler.run(record, result)
     except UnknownNoiseError as exc:
         wanted = " ".join(f"{c}=SD" for c in exc.channels)
         units = ", ".join(f"{c} in {UNITS[c]}" for c in exc.channels)

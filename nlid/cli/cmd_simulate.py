@@ -5,11 +5,11 @@ from __future__ import annotations
 import argparse
 import sys
 
-from ..errors import InputError
+from ..errors import InputError, brief
 from ..outputs import check_new_file
-from ..presets import PRESETS, get_preset
-from ..validate import DURATION, NOISE_FRACTION
-from .common import parse_settings
+from ..presets import PRESETS, RESPONSE_CHANNELS, get_preset
+from ..validate import DURATION, check_noise
+from .common import parse_settings, print_json
 
 _FIELDS = {"mass": float, "force_rms": float, "fs": float, "duration": float, "g": float}
 
@@ -27,13 +27,18 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--seed", type=int, default=0, help="seed of the force and the noise (default 0)")
     p.add_argument(
         "--noise",
-        type=float,
-        default=0.0,
+        default="0",
+        metavar="F|CH=F,...",
         help="measurement noise on every written response channel, as a fraction of its standard deviation "
-        "(0.02 = 2 %%; the force stays clean)",
+        "(0.02 = 2 %%; the force stays clean), or per channel: z=0.02,a=0.01",
     )
     p.add_argument("--duration", type=float, metavar="S", help="record length in s (default: the preset's)")
-    p.add_argument("--channels", default="", metavar="v,a", help="extra response channels to write: v and/or a")
+    p.add_argument(
+        "--channels",
+        default="",
+        metavar="z,v,a",
+        help="response channels to write besides the force: z (always written), v and/or a",
+    )
     p.add_argument(
         "--set",
         action="append",
@@ -44,7 +49,46 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         "--out", required=True, metavar="FILE", help="output file, .csv or .npz (not replaced unless --force)"
     )
     p.add_argument("--force", action="store_true", help="replace the output file if it exists")
+    p.add_argument("--json", action="store_true", help="print what was written (path, channels, samples...) as JSON")
     p.set_defaults(func=run)
+
+
+def parse_noise(text: str) -> float | dict[str, float]:
+    """``--noise``: one fraction for every response channel (``0.02``) or ``z=0.02,a=0.01`` (as ``noise=``)."""
+    text = str(text).strip()
+    try:
+        return float(text)
+    except ValueError:
+        pass
+    levels: dict[str, float] = {}
+    for item in text.split(","):
+        channel, sep, value = item.partition("=")
+        try:
+            levels[channel.strip()] = float(value)
+        except ValueError:
+            sep = ""
+        if not sep or not channel.strip():
+            raise InputError(f"--noise expects a fraction or CHANNEL=FRACTION,... (z=0.02,a=0.01), got {brief(text)}")
+    return levels
+
+
+def simulation_summary(record, path: str | None = None) -> dict:
+    """What ``nlid simulate --json`` prints about the record it wrote (and :func:`nlid.simulate` returns)."""
+    meta = record.meta
+    return {
+        "path": path,
+        "format": None if path is None else path.rsplit(".", 1)[-1].lower(),
+        "preset": meta.get("preset"),
+        "seed": meta.get("seed"),
+        "noise": dict(meta.get("noise") or {}),
+        "channels": [c for c in ("t", *record.channels) if c == "t" or record.is_measured(c)],
+        "samples": int(record.n),
+        "fs": float(record.fs),
+        "duration": record.n / record.fs,
+        "force_hold": meta.get("force_hold"),
+        "source": meta.get("source"),
+        "reference": meta.get("reference"),
+    }
 
 
 def run(args: argparse.Namespace) -> int:
@@ -68,22 +112,27 @@ def run(args: argparse.Namespace) -> int:
         overrides["duration"] = DURATION.check(args.duration, "--duration")
     if overrides:
         preset = preset.with_overrides(**overrides)
-    extra = tuple(c.strip() for c in args.channels.split(",") if c.strip())
-    for c in extra:
-        if c not in ("v", "a"):
-            raise InputError(f"--channels: unknown channel {c!r}; choose from v, a")
-    NOISE_FRACTION.check(args.noise, "--noise")
+    # the channel rule of nlid.simulate(channels=): z, v, a (z is always recorded)
+    channels = tuple(dict.fromkeys(("z", *(c.strip() for c in args.channels.split(",") if c.strip()))))
+    for c in channels:
+        if c not in RESPONSE_CHANNELS:
+            raise InputError(f"--channels: unknown channel {brief(c)}; choose from {', '.join(RESPONSE_CHANNELS)}")
+    noise = parse_noise(args.noise)
+    check_noise(noise, channels, name="--noise")  # the rule of nlid.simulate(noise=), named as the flag
     out = args.out
     if not out.lower().endswith((".csv", ".npz")):
         raise InputError(f"--out must end in .csv or .npz, got {out!r}")
     check_new_file(out, force=args.force)
-    record = preset.simulate(args.seed, noise=args.noise, channels=("z", *extra))
+    record = preset.simulate(args.seed, noise=noise, channels=channels)
     try:
         if out.lower().endswith(".csv"):
-            write_csv(record, out, ("f", "z", *extra))
+            write_csv(record, out, ("f", *channels))
         else:
             write_npz(record, out)
     except OSError as exc:
         raise InputError(f"cannot write {out}: {exc.strerror or exc}") from None
-    print(f"wrote {record.n} samples at {record.fs:g} Hz to {out} ({record.meta['source']})", file=sys.stderr)
+    if args.json:
+        print_json(simulation_summary(record, out))
+    else:
+        print(f"wrote {record.n} samples at {record.fs:g} Hz to {out} ({record.meta['source']})", file=sys.stderr)
     return 0

@@ -3,9 +3,13 @@
 from __future__ import annotations
 
 import argparse
+import io
 import signal
 import sys
 from pathlib import Path
+
+from .common import print_json
+from .isolated import parse_timeout
 
 DESCRIPTION = """\
 Run a benchmark study: every identifier of the study on the same data
@@ -60,11 +64,26 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     run.add_argument(
         "--force",
         action="store_true",
-        help="write into a folder that holds files nlid did not write (it never replaces them)",
+        help="write into a folder that holds files nlid did not write; nlid never replaces them: if one has the "
+        "name of an output (study.toml, runs, arrays, results.csv, summary.md, summary.txt, summary.csv, "
+        "report.html, figures), it stops before writing anything, naming it",
+    )
+    run.add_argument(
+        "--timeout",
+        metavar="SECONDS",
+        help="time limit of each run, which runs in a separate process and is recorded as timed out past it "
+        "(default: the study's 'timeout', 600 s unless it sets one; 0 or 'none': no limit)",
     )
     run.add_argument("--no-progress", action="store_true", help="no progress line (it only shows on a terminal)")
+    run.add_argument("--quiet", action="store_true", help="no progress line and no status lines on stderr")
+    run.add_argument(
+        "--json",
+        action="store_true",
+        help="print the study, its folder and one row per run (results.csv) as JSON instead of the summary",
+    )
     run.set_defaults(func=run_command)
     lst = actions.add_parser("list", help="list the built-in studies", description="List the built-in studies.")
+    lst.add_argument("--json", action="store_true", help="machine-readable output")
     lst.set_defaults(func=list_command)
     p.set_defaults(func=lambda args: _usage(p))
 
@@ -83,12 +102,13 @@ def run_command(args: argparse.Namespace) -> int:
     from ..study.report import TEXT_SUMMARY
 
     if args.executor == "local":
-        from ..isolation import start_fork_server
+        from ..runtime.isolation import start_fork_server
 
-        start_fork_server()  # it loads the plugins while this process reads the study (nlid._preload)
+        start_fork_server(pin_threads=True)  # it loads the plugins while this process reads the study
     config = load_study(args.study)
     executor = make_executor(args.executor, jobs=args.jobs, scheduler=args.scheduler)
     out = Path(args.out) if args.out else Path("nlid-studies") / config.name
+    quiet = args.quiet or args.json
     previous = signal.signal(signal.SIGTERM, _terminate)  # stop children and keep what is saved
     try:
         outcome = run_study(
@@ -96,19 +116,32 @@ def run_command(args: argparse.Namespace) -> int:
             out,
             executor=executor,
             rerun=args.rerun,
-            progress=False if args.no_progress else None,
+            progress=False if args.no_progress or quiet else None,
+            log=_Quiet() if args.quiet else None,
             force=args.force,
+            timeout=parse_timeout(args.timeout),
         )
     finally:
         signal.signal(signal.SIGTERM, previous)
-    # the terminal summary (verdict first, no line over 100 characters); summary.md holds the Markdown
-    text = outcome.folder / TEXT_SUMMARY
-    print(text.read_text().rstrip("\n") if text.is_file() else outcome.summary)
-    print(
-        f"nlid study: {outcome.executed} runs executed, {outcome.skipped} reused; report: {outcome.report}",
-        file=sys.stderr,
-    )
+    if args.json:
+        print_json(outcome.to_dict())
+    else:
+        # the terminal summary (verdict first, no line over 100 characters); summary.md holds the Markdown
+        text = outcome.folder / TEXT_SUMMARY
+        print(text.read_text().rstrip("\n") if text.is_file() else outcome.summary)
+    if not args.quiet:
+        print(
+            f"nlid study: {outcome.executed} runs executed, {outcome.skipped} reused; report: {outcome.report}",
+            file=sys.stderr,
+        )
     return 0
+
+
+class _Quiet(io.StringIO):
+    """The status lines of ``--quiet``: kept, not shown."""
+
+    def isatty(self) -> bool:
+        return False
 
 
 def list_command(args: argparse.Namespace) -> int:
@@ -116,14 +149,20 @@ def list_command(args: argparse.Namespace) -> int:
     from ..study.config import tomllib
 
     studies = builtin_studies()
+    descriptions = {}
+    for name, path in studies.items():
+        try:
+            descriptions[name] = tomllib.loads(path.read_text()).get("study", {}).get("description", "")
+        except (OSError, UnicodeDecodeError, RecursionError, tomllib.TOMLDecodeError):
+            descriptions[name] = None
+    if args.json:
+        print_json({"studies": {n: {"description": descriptions[n], "path": str(p)} for n, p in studies.items()}})
+        return 0
     if not studies:
         print("no built-in studies found", file=sys.stderr)
         return 0
     width = max(len(n) for n in studies)
-    for name, path in studies.items():
-        try:
-            description = tomllib.loads(path.read_text()).get("study", {}).get("description", "")
-        except (OSError, UnicodeDecodeError, RecursionError, tomllib.TOMLDecodeError):
-            description = "(unreadable)"
-        print(f"{name:<{width}}  {description}")
+    for name in studies:
+        description = descriptions[name]
+        print(f"{name:<{width}}  {'(unreadable)' if description is None else description}")
     return 0

@@ -9,7 +9,7 @@ import sys
 from collections.abc import Sequence
 from typing import TYPE_CHECKING, Any
 
-from ..errors import InputError
+from ..errors import InputError, brief, one_line
 
 if TYPE_CHECKING:
     from ..record import Record
@@ -45,12 +45,15 @@ FLAGS: dict[str, str] = {
     "px_max_iter": "--set px_max_iter",
     "cutoff": "--cutoff",
     "holdout": "--holdout",
+    "methods": "--methods",
+    "reference": "--reference",
     "jobs": "--jobs",
     "scheduler": "--scheduler",
     "executor": "--executor",
     "options": "--set",
     "force=True": "--force",
     "timeout": "--timeout",
+    "files": "--test-file",
 }
 _PARAM = re.compile(
     r"(?<![\w.-])(" + "|".join(sorted(map(re.escape, FLAGS), key=len, reverse=True)) + r")=(?=[\s),;:]|$)"
@@ -69,7 +72,7 @@ class Parser(argparse.ArgumentParser):
     """ArgumentParser whose usage errors are one line and exit with status 2."""
 
     def error(self, message: str) -> None:  # type: ignore[override]
-        self.exit(2, f"{self.prog}: error: {message} (see {self.prog} --help)\n")
+        self.exit(2, f"{self.prog}: error: {one_line(message)} (see {self.prog} --help)\n")
 
 
 def to_cli(message: str) -> str:
@@ -86,7 +89,7 @@ def to_cli(message: str) -> str:
 def describe_os_error(exc: OSError) -> str:
     """One line for an operating-system error: what failed and on which path."""
     what = exc.strerror or str(exc) or type(exc).__name__
-    paths = [str(p) for p in (exc.filename, exc.filename2) if p is not None]
+    paths = [one_line(str(p), 200) for p in (exc.filename, exc.filename2) if p is not None]
     return f"{what}: {' -> '.join(paths)}" if paths else what
 
 
@@ -95,29 +98,34 @@ def parse_settings(items: Sequence[str] | None) -> dict[str, str]:
     out: dict[str, str] = {}
     for item in items or ():
         if "=" not in item:
-            raise InputError(f"--set expects key=value, got {item!r}")
+            raise InputError(f"--set expects key=value, got {brief(item)}")
         key, value = item.split("=", 1)
         key = key.strip()
         if not key:
-            raise InputError(f"--set expects key=value, got {item!r}")
+            raise InputError(f"--set expects key=value, got {brief(item)}")
         out[key] = value.strip()
     return out
 
 
 def add_model_arguments(parser: argparse.ArgumentParser, method_help: str) -> None:
     """The model and identifier options: --method, --terms, --without, --mass, --px-roots, --set."""
-    parser.add_argument("--method", default="rfs", metavar="NAME", help=method_help)
+    parser.add_argument("--method", metavar="NAME", help=method_help)  # default: nlid.methods.choose_method
+    add_term_arguments(parser, "known mass in kg (default: estimated by the method)")
+    parser.add_argument("--set", action="append", metavar="KEY=VALUE", help="identifier option (repeatable)")
+
+
+def add_term_arguments(parser: argparse.ArgumentParser, mass_help: str) -> None:
+    """The model's options: --terms, --without, --mass, --px-roots."""
     parser.add_argument(
         "--terms", default="", metavar="TERMS", help="comma-separated terms besides 1, z, v, e.g. 'z^3,z^2,v*|v|'"
     )
     parser.add_argument("--without", default="", metavar="TERMS", help="default terms to leave out, e.g. '1' or 'z'")
-    parser.add_argument("--mass", type=float, metavar="KG", help="known mass in kg (default: estimated by the method)")
+    parser.add_argument("--mass", type=float, metavar="KG", help=mass_help)
     parser.add_argument(
         "--px-roots",
         metavar="ZMINUS,ZPLUS",
         help="roots of px(z) in m (default: taken from the identified stiffness, iterated)",
     )
-    parser.add_argument("--set", action="append", metavar="KEY=VALUE", help="identifier option (repeatable)")
 
 
 def parse_px_roots(text: str | None) -> tuple[float, float] | None:
@@ -127,7 +135,7 @@ def parse_px_roots(text: str | None) -> tuple[float, float] | None:
     try:
         a, b = (float(x) for x in text.split(","))
     except ValueError:
-        raise InputError(f"--px-roots expects two numbers 'zminus,zplus', got {text!r}") from None
+        raise InputError(f"--px-roots expects two numbers 'zminus,zplus', got {brief(text)}") from None
     return a, b
 
 

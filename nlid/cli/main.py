@@ -5,7 +5,11 @@ Every subcommand lives in its own module with ``add_parser(subparsers)`` and
 exit status 2 for bad input (file, term, option, unknown method, broken
 plugin) and for a file or folder that cannot be read or written, 1 when an
 identification ran but cannot be trusted. numpy's runtime warnings become one
-warning line. ``--debug`` shows the traceback and the raw warnings instead.
+warning line. Every such line is one line whatever the message holds: line breaks
+are escaped and a runaway message is cut (:func:`nlid.errors.one_line`) - the last
+resort behind the capped values of the messages themselves. An error nlid did not
+foresee (a bug) is one line too, ``internal error: ...``, with exit status 1 (as
+Python's own). ``--debug`` shows the traceback and the raw warnings instead.
 """
 
 from __future__ import annotations
@@ -15,8 +19,10 @@ import sys
 from collections.abc import Sequence
 
 from .. import __version__
-from ..errors import IdentificationError, NlidError
+from ..errors import IdentificationError, NlidError, describe_exception, one_line
 from . import (
+    cmd_bench,
+    cmd_compare,
     cmd_data,
     cmd_discover,
     cmd_identify,
@@ -33,7 +39,9 @@ __all__ = ["main", "build_parser", "COMMANDS"]
 #: Subcommand modules, in the order ``nlid --help`` lists them.
 COMMANDS = (
     cmd_study,
+    cmd_bench,
     cmd_identify,
+    cmd_compare,
     cmd_discover,
     cmd_posterior,
     cmd_simulate,
@@ -54,6 +62,7 @@ examples:
   nlid simulate --preset paper-numerical --seed 0 --channels v,a --out x.csv
   nlid identify x.csv --method rfs --terms "z^3,z^2,v*|v|" --mass 0.2
   nlid identify dataset:emps --method rfs --terms "sign(v)" --without z
+  nlid compare x.csv --methods rfs,sindy --terms "z^3,z^2,v*|v|" --mass 0.2
   nlid discover dataset:emps --declared "v, 1"
   nlid posterior x.csv --terms "z^3,z^2,v*|v|" --mass 0.2 --params damping
   nlid data                       # the measured benchmarks: where to get them, which files are here
@@ -87,10 +96,10 @@ def main(argv: Sequence[str] | None = None) -> int:
             status = int(args.func(args) or 0)
     except NlidError as exc:
         status = 1 if isinstance(exc, IdentificationError) else 2
-        print(f"nlid {args.command}: error: {to_cli(str(exc))}", file=sys.stderr)
+        print(f"nlid {args.command}: error: {one_line(to_cli(str(exc)))}", file=sys.stderr)
         return status
     except OSError as exc:  # a file or folder the command reads or writes, whatever path it took
-        print(f"nlid {args.command}: error: {describe_os_error(exc)}", file=sys.stderr)
+        print(f"nlid {args.command}: error: {one_line(describe_os_error(exc))}", file=sys.stderr)
         return 2
     except MemoryError:
         print(f"nlid {args.command}: error: not enough memory (try a shorter record or fewer samples)", file=sys.stderr)
@@ -98,8 +107,18 @@ def main(argv: Sequence[str] | None = None) -> int:
     except KeyboardInterrupt:
         print("nlid: interrupted", file=sys.stderr)
         return 130
+    except Exception as exc:  # noqa: BLE001 - the last resort: an error nlid did not foresee is a bug, still one line
+        what = one_line(describe_exception(exc))
+        print(
+            f"nlid {args.command}: internal error: {what} (a bug: rerun with --debug for the traceback, and report it)",
+            file=sys.stderr,
+        )
+        return 1
     if numerical:
-        print(f"nlid {args.command}: warning: numerical warnings: {describe_warnings(numerical)}", file=sys.stderr)
+        print(
+            f"nlid {args.command}: warning: {one_line(f'numerical warnings: {describe_warnings(numerical)}')}",
+            file=sys.stderr,
+        )
     return status
 
 

@@ -11,11 +11,13 @@ Two small objects that replace half of the keywords of :func:`nlid.discovery.dis
 
 from __future__ import annotations
 
-from collections.abc import Iterable, Sequence
+from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass
+from typing import Any
 
 from ..errors import DataError, InputError
 from ..record import Record
+from ..scoring import TransientRule, record_period, rule_from_spec
 from .library import Candidate, resolve_candidates
 
 __all__ = ["DEFAULT_HOLDOUT", "BUILTIN_CANDIDATES", "Split", "CandidateLibrary"]
@@ -33,24 +35,35 @@ class Split:
     Parameters
     ----------
     holdout
-        Fraction of the record held out (its last part), or a separate held-out record.
+        Fraction of the record held out (its last part), or a separate held-out record. A fraction of a
+        periodic record (:func:`nlid.scoring.record_period`: declared, or a periodic force with a
+        steady-state response) holds out whole periods: the nearest whole number of periods to the
+        fraction, at least one, leaving at least one to estimate on; both parts keep the period
+        (``meta["periodic"]``), so the held-out free run is scored in periodic steady state.
     validation
         A record on which every model is also scored (epsilon, force residual and free-run error)
         without taking part in any decision: e.g. a benchmark's validation set, whose excitation may
         differ from the estimation record's.
+    freerun_rule
+        The transient rule of the free runs on the held-out and validation records (a rule or its
+        spelling, ``"window:50"``; :mod:`nlid.scoring.rules`); default: each record's own
+        (:func:`nlid.scoring.default_rule`).
 
     Raises
     ------
     InputError
-        ``holdout`` is neither a number nor a :class:`~nlid.record.Record`.
+        ``holdout`` is neither a number nor a :class:`~nlid.record.Record`, or the rule is not one.
     DataError
         The held-out record has no sampling frequency.
     """
 
     holdout: float | Record = DEFAULT_HOLDOUT
     validation: Record | None = None
+    freerun_rule: TransientRule | str | Mapping[str, Any] | None = None
 
     def __post_init__(self) -> None:
+        if self.freerun_rule is not None:
+            object.__setattr__(self, "freerun_rule", rule_from_spec(self.freerun_rule))
         if isinstance(self.holdout, Record):
             if self.holdout.fs <= 0:
                 raise DataError("the held-out record has no sampling frequency")
@@ -66,6 +79,15 @@ class Split:
             held = self.holdout
             return record, held, f"separate record ({held.n} samples, {held.meta.get('source', 'given')})"
         fraction = float(self.holdout)
+        period, how = record_period(record)
+        if period is not None and record.n // period >= 2:
+            periods = record.n // period
+            count = min(max(round(fraction * record.n / period), 1), periods - 1)
+            marked = record.with_meta(periodic=period)
+            cut = record.n - count * period
+            estimation, held = marked[:cut], marked[cut:]
+            whole = "period" if count == 1 else f"{count} periods"
+            return estimation, held, f"last {whole} of the record ({held.n} samples; period {period} samples, {how})"
         estimation, held = record.split(fraction)
         return estimation, held, f"last {100 * fraction:g} % of the record ({held.n} samples)"
 

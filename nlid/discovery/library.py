@@ -60,10 +60,10 @@ import math
 import re
 from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
-from difflib import get_close_matches
 
-from ..errors import PASS_THROUGH, InputError, NlidError, describe_exception
+from ..errors import PASS_THROUGH, InputError, NlidError, brief, describe_exception
 from ..terms import Model, Term, parse_term, split_terms
+from ..validate import did_you_mean
 
 __all__ = [
     "Candidate",
@@ -534,11 +534,9 @@ def resolve_candidates(
         chosen = []
         for n in items:
             if n not in by_name:
-                hint = get_close_matches(n, list(by_name), n=1)
                 raise InputError(
-                    f"unknown candidate {n!r}"
-                    + (f" (did you mean {hint[0]!r}?)" if hint else "")
-                    + f"; known: {', '.join(by_name)} (add your own with NAME=TERMS)"
+                    f"unknown candidate {brief(n)}{did_you_mean(n, by_name)}; known: {', '.join(by_name)} "
+                    "(add your own with NAME=TERMS)"
                 )
             chosen.append(by_name[n])
     for item in extra:

@@ -156,7 +156,7 @@ def _legendre(x: np.ndarray, degrees: range) -> np.ndarray:
 
 def _play(z: np.ndarray, width: float) -> np.ndarray:
     """The play (backlash) operator of width ``width`` minus its input: a hysteretic feature in ``[-w, w]``."""
-    from ..terms._memory_kernels import play_loop
+    from ..terms.memory_kernels import play_loop
 
     z = np.ascontiguousarray(z, dtype=float)
     out = np.empty_like(z)
@@ -167,7 +167,8 @@ def _play(z: np.ndarray, width: float) -> np.ndarray:
 class _Scaler:
     """Maps z and v onto the range of the record a probe is fitted on (applied to both records)."""
 
-    def __init__(self, est: Residual):
+    def __init__(self, est: Residual, shortest: int):
+        self.shortest = shortest  # the shorter record's length: both records get the same lagged features
         self.z_mid = 0.5 * (float(est.z.max()) + float(est.z.min()))
         self.z_half = max(0.5 * float(np.ptp(est.z)), 1e-300)
         self.v_half = max(float(np.max(np.abs(est.v))), 1e-300)
@@ -189,12 +190,13 @@ class _Scaler:
         v_basis = np.column_stack([_legendre(xv, range(1, 8)), sv])
         zp = _legendre(xz, range(0, 5))
         vp = np.column_stack([_legendre(xv, range(1, 5)), sv])
-        zv = np.column_stack([zp[:, i] * vp[:, j] for i in range(zp.shape[1]) for j in range(vp.shape[1])] + [zp[:, 1:]])
+        zv = np.column_stack(
+            [zp[:, i] * vp[:, j] for i in range(zp.shape[1]) for j in range(vp.shape[1])] + [zp[:, 1:]]
+        )
         history = [_play(res.z, w * self.z_std) / self.z_std for w in PLAY_WIDTHS]
-        n = res.z.size
         for periods in LAG_PERIODS:
             lag = int(round(periods * self.fs / self.band))
-            if 0 < lag < n // 4:
+            if 0 < lag < self.shortest // 4:
                 for x in (xz, xv):
                     shifted = np.empty_like(x)
                     shifted[lag:] = x[:-lag]
@@ -256,7 +258,8 @@ def probe_residual(estimation: Residual, holdout: Residual, threshold: float = M
     """
     # each direction scales (and clips) both records to the range of the record it fits on, so that no
     # polynomial is asked to extrapolate beyond the data it was fitted to
-    fit_est, fit_ho = _Scaler(estimation), _Scaler(holdout)
+    shortest = min(estimation.z.size, holdout.z.size)
+    fit_est, fit_ho = _Scaler(estimation, shortest), _Scaler(holdout, shortest)
     pe_e, ph_e = fit_est.parts(estimation), fit_est.parts(holdout)
     ph_h, pe_h = fit_ho.parts(holdout), fit_ho.parts(estimation)
     # the history features need a warm-up: leave out the longest lag at the start of each record
@@ -330,8 +333,7 @@ def describe_remaining(remaining: Remaining) -> str:
         best = max(remaining.probes.values(), key=lambda p: p.explained, default=None)
         tail = "" if best is None else f" (largest: {best.name}, {100 * max(best.explained, 0.0):.2g} %)"
         return (
-            f"clean: no probe predicts {100 * remaining.threshold:g} % or more of the held-out residual "
-            f"variance{tail}"
+            f"clean: no probe predicts {100 * remaining.threshold:g} % or more of the held-out residual variance{tail}"
         )
     d = remaining.dominant
     share = remaining.probes[d].explained
@@ -339,6 +341,5 @@ def describe_remaining(remaining: Remaining) -> str:
     if np.isfinite(remaining.residual_of_force):
         scale = f" (about {100 * np.sqrt(share) * remaining.residual_of_force:.2g} % of the force's RMS)"
     return (
-        f"{100 * share:.2g} % of the held-out residual variance{scale} remains predictable from {_WHERE[d]}; "
-        f"{_TRY[d]}"
+        f"{100 * share:.2g} % of the held-out residual variance{scale} remains predictable from {_WHERE[d]}; {_TRY[d]}"
     )

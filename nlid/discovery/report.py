@@ -168,6 +168,9 @@ def discovery_summary(result: Result) -> Summary:
         ],
         separator="   ",
     )
+    rule = result.info.get("freerun_rule") or ""
+    if rule and not rule.startswith("from the record's first sample"):  # the default rule goes unsaid (JSON: info)
+        out.add_text(f"free run: {rule}", width=TERMINAL_WIDTH)
     _add_table(out, *_model_rows(result))
     out.add_text(_MODEL_NOTE, width=TERMINAL_WIDTH)
     out.add_text(

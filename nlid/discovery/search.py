@@ -39,7 +39,7 @@ from __future__ import annotations
 
 import dataclasses
 import time
-from collections.abc import Callable, Iterable, Iterator, Sequence
+from collections.abc import Callable, Iterable, Iterator, Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -50,7 +50,9 @@ from ..errors import IdentificationError, InputError
 from ..methods import choose_method, choose_refiner
 from ..record import Record
 from ..registry import Registry, default_registry
+from ..scoring import TransientRule
 from ..terms import Model
+from ..validate import check_cutoff, check_mass
 from .evidence import AcceptanceRule, Evidence, judge, rank
 from .inputs import BUILTIN_CANDIDATES, DEFAULT_HOLDOUT, CandidateLibrary, Split
 from .library import Candidate
@@ -62,11 +64,13 @@ from .trials import (
     gate,
     prune,
     refine_stage,
+    refit_description,
     residual_view,
     root_mean_square,
     test_candidate,
     test_dictionary,
     test_mass,
+    validation_scores,
     with_free_run,
     with_probes,
 )
@@ -178,7 +182,7 @@ class Discovery:
     mass
         Known mass (kg); ``None``: estimated by the identifier.
     split
-        Estimation / hold-out division and the validation record (default :class:`Split`).
+        Estimation / hold-out division, the validation record and the free runs' rule (default :class:`Split`).
     library
         Candidate effects (default :meth:`CandidateLibrary.select`: all of them).
     rule
@@ -201,8 +205,8 @@ class Discovery:
         Keep the residual views for the report.
     refine
         Refine the final model with the preferred refining identifier (``refines = True``, e.g. the
-        output-error ``oe``: free-run error, shape parameters included), started from ``method``;
-        :attr:`DiscoveryResult.refined` holds it with the same scores.
+        output-error ``oe``: free-run error, shape parameters included), started from ``method``, fitted on
+        the whole record once the structure is chosen; :attr:`DiscoveryResult.refined` holds it.
 
     Raises
     ------
@@ -236,8 +240,7 @@ class Discovery:
         else:
             notes = [f"method {method!r} given"]
         self.identifier = self.registry.create(method, options)
-        if mass is not None and not (np.isfinite(mass) and mass > 0):
-            raise InputError(f"mass= must be a positive number of kg, got {mass}")
+        mass = check_mass(mass)
         if mass is None and getattr(self.identifier, "needs_mass", False):
             raise InputError(f"method {method!r} cannot estimate the mass: give mass= (in kg)")
         self.method, self.method_notes, self.mass = method, tuple(notes), mass
@@ -300,11 +303,10 @@ class Discovery:
         cutoff = self.cutoff
         if cutoff is None:
             cutoff = derivatives.suggest_cutoff(estimation.z, estimation.fs)
-        elif not (np.isfinite(cutoff) and 0.0 < float(cutoff) < estimation.fs / 2.0):
-            raise InputError(
-                f"cutoff must lie between 0 and the Nyquist frequency {estimation.fs / 2:g} Hz, got {float(cutoff):g}"
-            )
-        ctx = Context(estimation, held, self.identifier, float(cutoff), self.rule, self.structure)
+        else:
+            cutoff = check_cutoff(cutoff, estimation.fs)
+        rules = (self.rule, self.structure, self.split.freerun_rule)  # Split read its rule with rule_from_spec
+        ctx = Context(estimation, held, self.identifier, float(cutoff), *rules, whole=record)  # type: ignore[arg-type]
         run = SearchSetup(
             context=ctx,
             method=self.method,
@@ -436,12 +438,7 @@ class Discovery:
             states = [with_free_run(ctx, stage) for stage in states]
         if validation is not None:
             say("scores on the validation record")
-            states = [
-                dataclasses.replace(
-                    st, validation=st.identified.score(validation, cutoff=ctx.cutoff, free_run=self.simulate)
-                )
-                for st in states
-            ]
+            states = [validation_scores(ctx, st, validation, self.simulate) for st in states]
         steps = [dataclasses.replace(step, before=states[k], after=states[k + 1]) for k, step in enumerate(state.steps)]
         refined = None
         if self.refine:
@@ -468,6 +465,9 @@ class Discovery:
             if validation is None
             else [float(validation.z.min()), float(validation.z.max())],
             "max_steps": self.max_steps,
+            "freerun_rule": states[-1].holdout.freerun_rule,
+            "freerun_rule_validation": None if validation is None else states[-1].validation.freerun_rule,
+            "refined_on": None if refined is None else refit_description(ctx),
             "seconds": time.perf_counter() - run.started,
         }
         return DiscoveryResult(
@@ -506,6 +506,7 @@ def discover(
     views: bool = True,
     progress: Callable[[str], None] | None = None,
     refine: bool = False,
+    freerun_rule: TransientRule | str | Mapping[str, Any] | None = None,
 ) -> DiscoveryResult:
     """Find the effects a declared model lacks, one at a time (see the module docstring).
 
@@ -565,7 +566,9 @@ def discover(
         Called with one line per stage (e.g. ``print`` to stderr).
     refine
         Refine the final model with the refining identifier (``oe``: free-run error, shape parameters
-        included), started from ``method``; :attr:`DiscoveryResult.refined` holds it with the same scores.
+        included), started from ``method``, on the whole record; :attr:`DiscoveryResult.refined` holds it.
+    freerun_rule
+        Transient rule of the held-out and validation free runs (``"window:50"``...; :class:`Split`).
 
     Returns
     -------
@@ -582,7 +585,7 @@ def discover(
     search = Discovery(
         method,
         mass=mass,
-        split=Split(holdout, validation),
+        split=Split(holdout, validation, freerun_rule),
         library=library,
         rule=rule,
         max_steps=max_steps,

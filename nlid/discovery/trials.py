@@ -36,6 +36,7 @@ from ..balance import regression_data
 from ..errors import IdentificationError, InputError, NlidError
 from ..pipeline import identify
 from ..record import Record
+from ..scoring import TransientRule
 from ..terms import Model
 from .evidence import AcceptanceRule, Evidence, effective_sample_size
 from .library import Candidate, dictionary_terms
@@ -47,6 +48,7 @@ __all__ = [
     "fit_stage",
     "residual_view",
     "with_free_run",
+    "validation_scores",
     "with_probes",
     "prune",
     "gate",
@@ -54,6 +56,7 @@ __all__ = [
     "test_mass",
     "test_dictionary",
     "refine_stage",
+    "refit_description",
     "DICTIONARY_MAX_TERMS",
     "SHAPE_REFINE_FITS",
 ]
@@ -75,6 +78,12 @@ class Context:
         The acceptance rule.
     structure
         Share of the held-out residual variance a probe must predict to count as remaining structure.
+    freerun_rule
+        The transient rule of the free runs on the held-out and validation records (``None``: each
+        record's own, :func:`nlid.scoring.default_rule`).
+    whole
+        The whole estimation part (the record before the hold-out was taken from it): the final refit
+        (:func:`refine_stage`) uses it. ``None``: the estimation record.
     """
 
     estimation: Record
@@ -83,6 +92,8 @@ class Context:
     cutoff: float
     rule: AcceptanceRule
     structure: float = MIN_STRUCTURE
+    freerun_rule: TransientRule | None = None
+    whole: Record | None = None
 
 
 def root_mean_square(x: np.ndarray) -> float:
@@ -115,8 +126,16 @@ def residual_view(record: Record, stage: Stage, cutoff: float | None, label: str
 
 def with_free_run(ctx: Context, stage: Stage) -> Stage:
     """The stage with its held-out scores recomputed with the free-run error (:func:`nlid.scoring.score`)."""
-    scores = stage.identified.score(ctx.holdout, cutoff=ctx.cutoff, free_run=True)
+    scores = stage.identified.score(ctx.holdout, cutoff=ctx.cutoff, free_run=True, rule=ctx.freerun_rule)
     return dataclasses.replace(stage, holdout=scores)
+
+
+def validation_scores(ctx: Context, stage: Stage, validation: Record, simulate: bool) -> Stage:
+    """The stage with its scores on the validation record (free run under the context's rule)."""
+    rule = ctx.freerun_rule if simulate else None
+    return dataclasses.replace(
+        stage, validation=stage.identified.score(validation, cutoff=ctx.cutoff, free_run=simulate, rule=rule)
+    )
 
 
 def with_probes(ctx: Context, stage: Stage) -> Stage:
@@ -373,10 +392,24 @@ def test_candidate(
     return evidence, fit, bad
 
 
+def refit_description(ctx: Context) -> str:
+    """What the final refit was fitted on (:func:`refine_stage`), and whether its held-out scores are in-sample."""
+    record = ctx.whole if ctx.whole is not None else ctx.estimation
+    inside = record is not ctx.estimation
+    return f"the whole record ({record.n} samples)" + (": its held-out scores are in-sample" if inside else "")
+
+
 def refine_stage(ctx: Context, final: Stage, refiner: Any, simulate: bool, validation: Record | None) -> Stage:
-    """The final model refined by a refining identifier (its ``init`` set by the caller), scored like the rest."""
-    fit = identify(ctx.estimation, final.model, refiner, mass=final.given_mass, cutoff=ctx.cutoff)
-    stage = Stage(fit, fit.score(ctx.holdout, cutoff=ctx.cutoff, free_run=simulate))
+    """The final model refined by a refining identifier (its ``init`` set by the caller), scored like the rest.
+
+    The structure is chosen; the refit uses the whole estimation part (:attr:`Context.whole`: the
+    estimation and held-out parts of a divided record), so its held-out scores are not out-of-sample when
+    the hold-out was a part of the record.
+    """
+    record = ctx.whole if ctx.whole is not None else ctx.estimation
+    fit = identify(record, final.model, refiner, mass=final.given_mass, cutoff=ctx.cutoff)
+    rule = ctx.freerun_rule if simulate else None
+    stage = Stage(fit, fit.score(ctx.holdout, cutoff=ctx.cutoff, free_run=simulate, rule=rule))
     if validation is not None:
-        stage = dataclasses.replace(stage, validation=fit.score(validation, cutoff=ctx.cutoff, free_run=simulate))
+        stage = validation_scores(ctx, stage, validation, simulate)
     return stage

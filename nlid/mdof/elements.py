@@ -55,8 +55,8 @@ from typing import Any
 
 import numpy as np
 
-from .._frozen import FrozenDict
 from ..errors import InputError, TermError
+from ..frozen import FrozenDict
 from ..terms import Model, Term, split_terms
 from .spelling import MAX_LENGTH, Connection, canonical, render, rewrite
 

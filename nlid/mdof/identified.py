@@ -27,8 +27,8 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from .. import numerics
-from .._frozen import FrozenDict, freeze
 from ..errors import IdentificationError, InputError, NlidError
+from ..frozen import FrozenDict, freeze
 from ..interface import to_jsonable
 from ..summary import Column, Summary
 from .balance import StructureResidual, residual

@@ -24,14 +24,17 @@ from __future__ import annotations
 import numba
 import numpy as np
 
-from ..simulation.kernels import _memory_step, _plan, _sign, _term
+from ..simulation.kernels import memory_step as _memory_step
+from ..simulation.kernels import sign as _sign
+from ..simulation.kernels import term_plan as _plan
+from ..simulation.kernels import term_value as _term
 
 __all__ = ["integrate", "element_plans"]
 
 
 @numba.njit(cache=True)
 def element_plans(parts, special):
-    """The one-DOF evaluation plan of each element on its own (:func:`nlid.simulation.kernels._plan`)."""
+    """The one-DOF evaluation plan of each element on its own (:func:`nlid.simulation.kernels.term_plan`)."""
     count = parts.shape[0]
     plan = np.zeros((count, 5), np.int64)
     tops = np.full((count, 3), -1, np.int64)

@@ -24,8 +24,8 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from .._frozen import FrozenDict
 from ..errors import InputError
+from ..frozen import FrozenDict
 from ..physics import linear_damping
 from ..terms import Model
 from .elements import Element, ElementSet

@@ -44,7 +44,9 @@ import numpy as np
 
 from .. import derivatives
 from ..errors import DataError, InputError
-from ..record import MIN_SAMPLES, TIME_TOLERANCE, Record, RecordMeta, _freeze
+from ..record import Record
+from ..recordchecks import MIN_SAMPLES, TIME_TOLERANCE, RecordMeta
+from ..recordchecks import freeze as _freeze
 from ..units import Unit, parse_units
 
 if TYPE_CHECKING:  # pragma: no cover

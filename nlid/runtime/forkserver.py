@@ -1,100 +1,234 @@
-"""Imported once by nlid's fork server (:mod:`nlid.runtime.isolation`): die with the parent, and clean up.
+"""nlid's fork server: ``python -m nlid.runtime.forkserver FD``, started by :mod:`nlid.runtime.isolation`.
 
-The fork server asks for ``SIGTERM`` when the thread that started it ends
-(``prctl(PR_SET_PDEATHSIG)``). If that thread ended but the parent process
-lives on, the signal is ignored (the kernel sends it again when the process
-itself dies); once the parent process is gone, the fork server removes its
-socket and the temporary folder holding it (``pymp-*``, which the killed
-parent could not remove) if nothing else is left there, and exits; the run
-children it forked, which asked for ``SIGKILL`` when it dies, die with it.
+A small program of nlid's own (no ``multiprocessing`` internals, no socket
+file): it imports nlid and the plugins once, then forks one child per run
+request, so a run starts warm in a few milliseconds. Its main module is this
+one, never the user's script, so a script without an ``if __name__ ==
+"__main__"`` guard (or one read from stdin) is never imported again.
 
-The kernel closes the dead parent's end of the fork server's "alive" pipe
-before it sends the signal, so the fork server may see the pipe close first
-and leave through ``SystemExit``; an exit handler then does the same clean-up
-(a fork server with few preloaded modules exits before the signal arrives).
+The protocol, over the anonymous ``AF_UNIX`` socket pair whose end is ``FD``
+(no path, so no ``AF_UNIX path too long`` whatever ``TMPDIR`` or the working
+folder is):
 
-It also pins the thread pools of the numerical libraries (BLAS, OpenMP,
-numba) to one thread, before anything imports numpy: every run forked from
-the server inherits them, so N runs on N cores do not fight over the cores.
-Variables the user set are kept.
+* the parent sends one byte with two descriptors attached (``SCM_RIGHTS``): a
+  *status* socket and a *data* socket of that run;
+* the server forks; the child runs :func:`nlid.runtime.child.serve` on the
+  data socket (the request and the reply travel there, straight between the
+  parent and the child) in a session and process group of its own;
+* the server writes the child's pid to the status socket at once, and its
+  exit code (negative: killed by that signal) when it has reaped it; then it
+  kills the rest of the child's process group (grandchildren a plugin left).
 
-Importing this module anywhere but in the fork server does nothing.
+It ends, killing every run's process group, when the parent closes its end of
+the socket or dies (the socket closes; on Linux the parent-death signal says
+so as well). On Linux it is also a *child subreaper*: a grandchild that left
+its run's process group is re-parented to the server, which kills it when
+the run ends.
+
+Set-up, before numpy is imported: with ``NLID_PIN_THREADS=1`` (studies: one
+run per core) it pins the thread pools of the numerical libraries (BLAS,
+OpenMP, numba) to one thread, keeping variables the user set. The preload
+(:mod:`nlid.runtime.preload`) runs with stdout and stderr silenced (a plugin
+that prints at import is heard once, from the parent) and under an alarm: a
+plugin that hangs at import delays the server by at most
+:data:`PRELOAD_LIMIT` seconds.
 """
 
 from __future__ import annotations
 
-import atexit
 import contextlib
 import os
+import select
 import signal
-import time
+import socket
+import struct
+import sys
 
-from .isolation import FORKSERVER_ENV, PARENT_ENV, die_with_parent
+from .process import _PR_SET_CHILD_SUBREAPER, THREAD_ENV, _prctl, children_of, die_with, pin_threads
 
+__all__ = ["THREAD_ENV", "PIN_ENV", "PRELOAD_ENV", "PRELOAD_LIMIT", "main", "die_with", "pin_threads"]
 
-def _parent_gone(expected: int) -> bool:
-    return os.getppid() != expected
-
-
-def _remove_socket() -> None:
-    from multiprocessing import forkserver
-
-    address = forkserver._forkserver._forkserver_address
-    if isinstance(address, str) and os.path.basename(os.path.dirname(address)).startswith("pymp-"):
-        # the socket is ours; the folder may be shared (a spawned process inherits its parent's
-        # temporary folder), so it goes only if nothing else is left in it
-        with contextlib.suppress(OSError):
-            os.unlink(address)
-        with contextlib.suppress(OSError):
-            os.rmdir(os.path.dirname(address))
+#: ``"1"``: pin the numerical libraries to one thread per run (studies).
+PIN_ENV = "NLID_PIN_THREADS"
+#: What the server loads before serving (:func:`nlid.runtime.preload.warm_up`): ``"full"`` (studies: every
+#: plugin and the simulator's kernels), ``"core"`` (the pipeline), or ``"none"`` (after a failed start).
+PRELOAD_ENV = "NLID_PRELOAD"
+#: Longest time the preload may take (s); past it the server serves anyway.
+PRELOAD_LIMIT = 90
 
 
-def _on_parent_death(signum: int, frame: object) -> None:
-    if not _parent_gone(_PARENT):
-        return  # the starting thread ended; the parent process is alive
+class _PreloadTimeout(BaseException):
+    """Raised by the alarm inside a preload that takes too long (not an Exception: plugins may catch those)."""
+
+
+def _alarm(signum: int, frame: object) -> None:
+    raise _PreloadTimeout
+
+
+def _preload(kind: str) -> None:
+    """Import what every run needs, silently and within :data:`PRELOAD_LIMIT` seconds."""
+    if kind == "none":
+        return
+    import warnings
+
+    saved = [os.dup(1), os.dup(2)]
+    devnull = os.open(os.devnull, os.O_WRONLY)
+    has_alarm = hasattr(signal, "SIGALRM")
     try:
-        _remove_socket()
+        os.dup2(devnull, 1)
+        os.dup2(devnull, 2)
+        if has_alarm:
+            signal.signal(signal.SIGALRM, _alarm)
+            signal.alarm(PRELOAD_LIMIT)
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            from . import preload
+
+            preload.warm_up(kind)
+    except BaseException:  # noqa: BLE001 - the server serves whatever a plugin does at import
+        pass
     finally:
+        if has_alarm:
+            signal.alarm(0)
+            signal.signal(signal.SIGALRM, signal.SIG_DFL)
+        with contextlib.suppress(OSError, ValueError):
+            sys.stdout.flush()
+            sys.stderr.flush()
+        os.dup2(saved[0], 1)
+        os.dup2(saved[1], 2)
+        for fd in (*saved, devnull):
+            os.close(fd)
+
+
+class _Server:
+    def __init__(self, sock: socket.socket, parent: int) -> None:
+        self.sock = sock
+        self.parent = parent
+        self.runs: dict[int, socket.socket] = {}  # run child pid -> its status socket
+        self.wake_r, self.wake_w = os.pipe()
+        os.set_blocking(self.wake_r, False)
+        os.set_blocking(self.wake_w, False)
+
+    # ------------------------------------------------------------------ life
+    def shutdown(self) -> None:
+        """Kill every run's process group and leave."""
+        for pid in list(self.runs):
+            with contextlib.suppress(OSError):
+                os.killpg(pid, signal.SIGKILL)
         os._exit(0)
 
+    def on_parent_death(self, signum: int, frame: object) -> None:
+        if os.getppid() != self.parent:  # the parent process is gone (not just the thread that started us)
+            self.shutdown()
 
-def _at_exit() -> None:
-    """The "alive" pipe closed: the parent is exiting; once it is gone (re-parented), clean up as above."""
-    deadline = time.monotonic() + 1.0
-    while not _parent_gone(_PARENT) and time.monotonic() < deadline:
-        time.sleep(0.01)
-    if _parent_gone(_PARENT):
-        _remove_socket()
+    # ------------------------------------------------------------------ loop
+    def serve(self) -> None:
+        signal.set_wakeup_fd(self.wake_w)
+        signal.signal(signal.SIGCHLD, lambda *a: None)
+        while True:
+            try:
+                ready, _, _ = select.select([self.sock, self.wake_r], [], [])
+            except InterruptedError:  # pragma: no cover - PEP 475 retries
+                continue
+            if self.wake_r in ready:
+                with contextlib.suppress(OSError):
+                    while os.read(self.wake_r, 512):
+                        pass
+                self.reap()
+            if self.sock in ready:
+                self.accept()
+
+    def accept(self) -> None:
+        try:
+            message, fds, _, _ = socket.recv_fds(self.sock, 1, 3)
+        except OSError:
+            message, fds = b"", []
+        if not message:  # the parent closed its end or died
+            self.shutdown()
+        if len(fds) < 2:
+            for fd in fds:
+                os.close(fd)
+            return
+        status = socket.socket(fileno=fds[0])
+        data_fd, stderr_fd = fds[1], (fds[2] if len(fds) > 2 else None)
+        pid = os.fork()
+        if pid == 0:
+            self.become_child(status, data_fd, stderr_fd)
+        for fd in (data_fd, stderr_fd):
+            if fd is not None:
+                os.close(fd)
+        try:
+            status.sendall(struct.pack("!q", pid))
+        except OSError:
+            pass  # the parent gave up on the run: the child finds out on its data socket
+        self.runs[pid] = status
+
+    def become_child(self, status: socket.socket, data_fd: int, stderr_fd: int | None) -> None:
+        server = os.getppid()
+        try:
+            os.setsid()  # its own session and process group: killed as a group, deaf to the terminal's Ctrl-C
+            signal.set_wakeup_fd(-1)
+            for sig in (signal.SIGCHLD, signal.SIGTERM):
+                signal.signal(sig, signal.SIG_DFL)
+            signal.signal(signal.SIGINT, signal.default_int_handler)
+            for sock in (self.sock, status, *self.runs.values()):
+                sock.close()
+            os.close(self.wake_r)
+            os.close(self.wake_w)
+            die_with(server)
+            from .child import serve
+
+            serve(socket.socket(fileno=data_fd), stderr_fd=stderr_fd)
+        finally:
+            os._exit(70)  # serve() never returns; this only runs if the set-up itself failed
+
+    def reap(self) -> None:
+        ended = False
+        while True:
+            try:
+                pid, status = os.waitpid(-1, os.WNOHANG)
+            except ChildProcessError:
+                break
+            if pid == 0:
+                break
+            code = os.waitstatus_to_exitcode(status)
+            sock = self.runs.pop(pid, None)
+            if sock is None:
+                continue  # an orphan re-parented to us (subreaper), now reaped
+            ended = True
+            with contextlib.suppress(OSError):
+                os.killpg(pid, signal.SIGKILL)  # what the run left in its process group
+            with contextlib.suppress(OSError):
+                sock.sendall(struct.pack("!q", code))
+            sock.close()
+        if ended:
+            self.kill_strays()
+
+    def kill_strays(self) -> None:
+        """Kill children of the server that are not runs: grandchildren that escaped their run's group (Linux)."""
+        for pid in children_of(os.getpid()):
+            if pid not in self.runs:
+                with contextlib.suppress(OSError):
+                    os.kill(pid, signal.SIGKILL)
 
 
-def _in_fork_server() -> bool:
-    """True while ``multiprocessing.forkserver.main`` imports its preload modules (and nowhere else)."""
-    import sys
+def main(fd: int) -> None:
+    """Serve run requests on the socket ``fd`` (see the module docstring)."""
+    parent = os.getppid()
+    if os.environ.get(PIN_ENV) == "1":
+        pin_threads(os.environ)
+    sock = socket.socket(fileno=fd)
+    server = _Server(sock, parent)
+    signal.signal(signal.SIGTERM, server.on_parent_death)
+    _prctl(_PR_SET_CHILD_SUBREAPER, 1)
+    die_with(parent, signal.SIGTERM)
+    import warnings
 
-    frame = sys._getframe(1)
-    while frame is not None:
-        code = frame.f_code
-        if code.co_name == "main" and code.co_filename.replace("\\", "/").endswith("multiprocessing/forkserver.py"):
-            return True
-        frame = frame.f_back
-    return False
+    # the server forks by design: its only other threads are idle pools of the numerical libraries
+    warnings.filterwarnings("ignore", message=r".*use of fork\(\) may lead to deadlocks", category=DeprecationWarning)
+    _preload(os.environ.get(PRELOAD_ENV, "full"))
+    server.serve()
 
 
-#: Thread-pool sizes of the numerical libraries, read when they load (one thread per run process).
-THREAD_ENV = (
-    "OMP_NUM_THREADS",
-    "OPENBLAS_NUM_THREADS",
-    "MKL_NUM_THREADS",
-    "VECLIB_MAXIMUM_THREADS",
-    "NUMEXPR_NUM_THREADS",
-    "NUMBA_NUM_THREADS",
-)
-
-_PARENT = int(os.environ.get(PARENT_ENV, "0") or 0)
-if _PARENT and _PARENT != os.getpid() and FORKSERVER_ENV not in os.environ and _in_fork_server():
-    os.environ[FORKSERVER_ENV] = str(os.getpid())
-    for _name in THREAD_ENV:
-        os.environ.setdefault(_name, "1")
-    signal.signal(signal.SIGTERM, _on_parent_death)
-    atexit.register(_at_exit)
-    die_with_parent(_PARENT, signal.SIGTERM)
+if __name__ == "__main__":
+    main(int(sys.argv[1]))

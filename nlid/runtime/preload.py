@@ -1,44 +1,46 @@
-"""Imported last by nlid's fork server (:mod:`nlid.runtime.isolation`): load once what every run needs.
+"""What nlid's fork server (:mod:`nlid.runtime.forkserver`) loads once, so that every run starts warm.
 
 A run is a child forked from the fork server, so what the server has loaded
-costs a run nothing: the identifier plugins (whose modules import scipy,
-pysindy and scikit-learn, ~1 s) and the simulator's compiled kernels
-(numba's on-disk cache, or one compilation when the cache is cold, ~0.5 s),
-which the study's data and free-run scores use. Without this every run would
-load them again.
+costs a run nothing: the identification pipeline and the study worker, the
+identifier plugins (whose modules import scipy, pysindy and scikit-learn,
+~1 s) and, for studies, the simulator's compiled kernels (numba's on-disk
+cache, or one compilation when the cache is cold, ~0.5 s), which the study's
+data and free-run scores use. Without this every run would load them again.
 
-Importing this module anywhere but in the fork server does nothing; a failure
-here only means each run loads what it needs itself.
+A single identification (``nlid identify``) needs only the pipeline: its
+child imports the one plugin it uses. The fork server calls :func:`warm_up` with its output silenced and under a
+time limit; a failure only means each run loads what it needs itself.
 """
 
 from __future__ import annotations
 
-import os
-
-from .isolation import FORKSERVER_ENV
+import importlib
 
 __all__ = ["warm_up"]
 
 
-def warm_up() -> None:
-    """Import the plugins and the numerical modules, and load the simulator's kernels."""
+def warm_up(kind: str = "full") -> None:
+    """Load what every run needs.
+
+    Parameters
+    ----------
+    kind
+        ``"core"``: the pipeline and the numerical modules (a single
+        identification, which imports only its own plugin);
+        ``"full"``: also every plugin and the simulator's kernels (studies).
+    """
     import numpy as np
-    import scipy.fft  # noqa: F401 - derivatives
-    import scipy.signal  # noqa: F401 - resampling, filters, Welch
 
-    from .. import scoring  # noqa: F401
-    from ..registry import load_registry
-    from ..simulation import simulate
-    from ..terms import Model
+    # by name: the runtime sits below the pipeline and the study, which call it (no import circle)
+    for name in ("scipy.fft", "scipy.signal", "nlid.pipeline", "nlid.scoring"):
+        importlib.import_module(name)
+    if kind != "full":
+        return
+    importlib.import_module("nlid.registry").load_registry()
+    importlib.import_module("nlid.study.worker")
+    simulate = importlib.import_module("nlid.simulation").simulate
+    Model = importlib.import_module("nlid.terms").Model
 
-    load_registry()
     model = Model.from_spec("z^3, sign(v)*|px(z)|").with_px_roots((-1.0, 1.0))
     force = np.zeros(64)
     simulate(model, np.zeros(len(model.names)), 1.0, force, 100.0)
-
-
-if os.environ.get(FORKSERVER_ENV) == str(os.getpid()):
-    try:
-        warm_up()
-    except Exception:  # noqa: BLE001 - the fork server must start whatever a plugin does
-        pass

@@ -16,7 +16,8 @@ import numpy as np
 
 from ..errors import InputError, NlidError
 from ..terms import Model
-from ..terms._memory_kernels import bouc_wen_step
+from ..terms.memory_kernels import bouc_wen_step
+from ..validate import MASS
 from .encode import encode_memory, encode_model
 from .excitation import fine_force
 
@@ -366,8 +367,7 @@ def simulate(
     SimulationError
         If the state becomes non-finite.
     """
-    if not mass > 0:
-        raise InputError(f"mass must be positive, got {mass}")
+    mass = MASS.check(mass, "mass=")
     theta = model.vector(coefficients)
     force = np.ascontiguousarray(force, dtype=float)
     parts, special, pxc = encode_model(model)
@@ -484,3 +484,11 @@ def free_run(
     fine = fine_force(force, force_hold, q)
     z, v, a = simulate(model, coefficients, mass, fine, fs * q, x0)
     return z[::q], v[::q], a[::q]
+
+
+# The evaluation of one term, shared with the integrator of several degrees of freedom (nlid.mdof.kernels), which
+# evaluates each element's term on its relative coordinate with exactly these functions.
+term_plan = _plan
+sign = _sign
+term_value = _term
+memory_step = _memory_step

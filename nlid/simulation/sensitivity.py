@@ -17,7 +17,8 @@ import numpy as np
 
 from ..errors import InputError
 from ..terms import Model
-from ..terms._memory_kernels import bouc_wen_step_d, dahl_step_d
+from ..terms.memory_kernels import bouc_wen_step_d, dahl_step_d
+from ..validate import MASS
 from .encode import encode_memory, encode_model
 from .excitation import fine_force
 from .kernels import FREE_RUN_OVERSAMPLE, SimulationError, _plan, _sign
@@ -36,7 +37,7 @@ __all__ = ["simulate_segments", "SegmentRun", "sensitivity_columns"]
 # so the sensitivities are those of the discrete free run, exact to rounding, not of an approximation of it.
 # Each term's derivatives with respect to z and v follow from its normal form (a product of signed powers
 # and special factors, :mod:`nlid.terms.term`); the memory states' from the exact steps
-# (:func:`nlid.terms._memory_kernels.bouc_wen_step_d`, ``dahl_step_d``).
+# (:func:`nlid.terms.memory_kernels.bouc_wen_step_d`, ``dahl_step_d``).
 
 
 @numba.njit(cache=True, inline="always")
@@ -480,8 +481,7 @@ def simulate_segments(
     SimulationError
         If a segment's state becomes non-finite.
     """
-    if not mass > 0:
-        raise InputError(f"mass must be positive, got {mass}")
+    mass = MASS.check(mass, "mass=")
     q = int(oversample)
     if q < 1:
         raise InputError(f"oversample must be a positive integer, got {oversample}")

@@ -14,27 +14,47 @@ Example::
     from nlid.study import load_study, run_study
     outcome = run_study(load_study("paper-numerical"), "out/paper-numerical")
     print(outcome.summary)
+
+The names below are loaded on first use (as :mod:`nlid`'s are): importing
+one submodule, e.g. the worker a child process runs, does not import the
+runner, the executors and the report with it, and no submodule depends on
+this package's namespace.
 """
 
-from .config import ConfigError, StudyConfig, builtin_studies, load_study, parse_study
-from .execute import DaskExecutor, LocalExecutor, make_executor
-from .plan import Run, derive_seed, plan_study
-from .runner import StudyOutcome, run_study
-from .store import ResultStore
+from __future__ import annotations
 
-__all__ = [
-    "ConfigError",
-    "StudyConfig",
-    "builtin_studies",
-    "load_study",
-    "parse_study",
-    "plan_study",
-    "derive_seed",
-    "Run",
-    "run_study",
-    "StudyOutcome",
-    "ResultStore",
-    "LocalExecutor",
-    "DaskExecutor",
-    "make_executor",
-]
+import importlib
+from typing import Any
+
+#: Public name -> module that defines it (imported on first access).
+_LAZY: dict[str, str] = {
+    "ConfigError": "nlid.study.values",
+    "StudyConfig": "nlid.study.config",
+    "builtin_studies": "nlid.study.config",
+    "load_study": "nlid.study.config",
+    "parse_study": "nlid.study.config",
+    "plan_study": "nlid.study.plan",
+    "derive_seed": "nlid.study.plan",
+    "Run": "nlid.study.plan",
+    "run_study": "nlid.study.runner",
+    "StudyOutcome": "nlid.study.runner",
+    "ResultStore": "nlid.study.store",
+    "LocalExecutor": "nlid.study.execute",
+    "DaskExecutor": "nlid.study.execute",
+    "make_executor": "nlid.study.execute",
+}
+
+__all__ = list(_LAZY)
+
+
+def __getattr__(name: str) -> Any:
+    module = _LAZY.get(name)
+    if module is None:
+        raise AttributeError(f"module 'nlid.study' has no attribute {name!r}")
+    value = getattr(importlib.import_module(module), name)
+    globals()[name] = value  # later lookups skip this function
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(__all__))

@@ -18,6 +18,7 @@ from typing import Any
 
 from ..record import Record
 from ..reference import Reference
+from ..scoring import record_period
 from ..terms import Model
 from .plan import RunSpec
 from .values import FractionHoldout, IndependentHoldout, PartHoldout, PresetSource
@@ -59,7 +60,9 @@ def build_data(spec: RunSpec) -> RunData:
         record = src.load()
         heldout = None
         if isinstance(ds.holdout, FractionHoldout):
-            record, heldout = record.split(ds.holdout.fraction)
+            period, _ = record_period(record)  # a periodic record's held-out part keeps its period
+            marked = record if period is None else record.with_meta(periodic=period)
+            record, heldout = marked.split(ds.holdout.fraction)
         elif isinstance(ds.holdout, PartHoldout):
             heldout = src.load(ds.holdout.part)  # type: ignore[call-arg]
         meta_ref = Reference.from_meta(record.meta)

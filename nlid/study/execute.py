@@ -1,9 +1,10 @@
 """Executors: where a study's runs execute.
 
 Both executors call :func:`nlid.study.worker.run_isolated` for each run, so a
-run always executes in its own child process with its time limit, and both
-hand each finished run back to the caller (``on_done(run, payload)``) in the
-calling thread as soon as it finishes, where it is persisted at once.
+run always executes in its own child process with its time limit (forked from
+nlid's warm fork server, or a fresh interpreter with the spawn start method),
+and both hand each finished run back to the caller (``on_done(run, payload)``)
+in the calling thread as soon as it finishes, where it is persisted at once.
 
 :class:`LocalExecutor`
     A pool of ``jobs`` threads on this machine (default: every core), each
@@ -12,9 +13,8 @@ calling thread as soon as it finishes, where it is persisted at once.
     The same function submitted to a Dask distributed cluster
     (``pip install "nlid[dask]"``): an existing scheduler by address, or a
     ``LocalCluster`` of ``jobs`` single-threaded worker processes started for
-    the study. Its workers are started non-daemonic so they may fork run
-    processes; workers of an outside cluster that are daemonic (Dask's
-    default) start each run as ``python -m nlid.study.child`` instead.
+    the study. Each worker starts its own fork server for its runs (a plain
+    subprocess, so the daemonic workers of an outside cluster may too).
 
 Results do not depend on the executor: every run's data and seed come from
 its spec alone (:mod:`nlid.study.plan`).
@@ -22,7 +22,6 @@ its spec alone (:mod:`nlid.study.plan`).
 
 from __future__ import annotations
 
-import multiprocessing
 import os
 from collections.abc import Callable, Sequence
 from concurrent.futures import FIRST_COMPLETED, ThreadPoolExecutor
@@ -30,7 +29,7 @@ from concurrent.futures import wait as wait_futures
 from typing import Any
 
 from ..errors import InputError
-from ..isolation import start_fork_server
+from ..runtime.isolation import start_fork_server
 from .plan import Run
 from .worker import kill_children, run_isolated
 
@@ -66,8 +65,7 @@ class LocalExecutor:
         if not runs:
             return
         jobs = self.jobs or default_jobs()
-        if not multiprocessing.current_process().daemon:
-            start_fork_server()  # from this thread: the fork server dies with it (nlid.isolation)
+        start_fork_server(pin_threads=True)  # it loads the plugins while the pool starts
         pool = ThreadPoolExecutor(max_workers=min(jobs, len(runs)), thread_name_prefix="nlid-run")
         try:
             pending = {pool.submit(run_isolated, run.spec): run for run in runs}

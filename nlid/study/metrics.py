@@ -36,6 +36,11 @@ errors are percentages, signed unless noted):
     ``100 RMS(z_sim - z) / std(z)``, MATLAB ``compare``'s fit
     ``100 (1 - |z - z_sim| / |z - mean(z)|)`` and the RMS error in the
     record's unit; the note says why it was skipped.
+``freerun_rule``, ``freerun_scored_samples``
+    The transient rule the free run was scored under, as applied (the
+    dataset's ``freerun_rule``, else the held-out record's own:
+    :func:`nlid.scoring.default_rule`; a held-out part of a periodic record is
+    scored in periodic steady state), and the number of samples scored.
 """
 
 from __future__ import annotations
@@ -82,24 +87,34 @@ def equilibrium_metrics(result: IdentifiedModel, reference: Reference | Mapping[
     return compare(result, reference).equilibrium_row()
 
 
-def holdout_metrics(heldout: Record | None, fit: IdentifiedModel, free_run: bool = True) -> dict[str, Any]:
-    """``eps_holdout_percent`` and the free-run columns, from :meth:`nlid.IdentifiedModel.score`."""
+def holdout_metrics(
+    heldout: Record | None, fit: IdentifiedModel, free_run: bool = True, rule: str = ""
+) -> dict[str, Any]:
+    """``eps_holdout_percent`` and the free-run columns, from :meth:`nlid.IdentifiedModel.score`.
+
+    ``rule`` is the dataset's ``freerun_rule`` (:func:`nlid.scoring.rule_from_spec`'s spelling; empty: the
+    held-out record's own).
+    """
     row: dict[str, Any] = {
         col.EPS_HOLDOUT.key(): NAN,
         col.FREERUN_NRMSE.key(): NAN,
         col.FREERUN_FIT.key(): NAN,
         col.FREERUN_RMSE.key(): NAN,
         col.FREERUN_NOTE.key(): "skipped: disabled in the study" if not free_run else "skipped: no held-out data",
+        col.FREERUN_RULE.key(): "",
+        col.FREERUN_SCORED.key(): 0,
     }
     if heldout is None:
         return row
-    scores = fit.score(heldout, free_run=free_run)
+    scores = fit.score(heldout, free_run=free_run, rule=(rule or None) if free_run else None)
     row[col.EPS_HOLDOUT.key()] = scores.eps_percent
     if free_run:
         row[col.FREERUN_NRMSE.key()] = scores.freerun_nrmse_percent
         row[col.FREERUN_FIT.key()] = scores.freerun_fit_percent
         row[col.FREERUN_RMSE.key()] = scores.freerun_rmse
         row[col.FREERUN_NOTE.key()] = scores.freerun_note
+        row[col.FREERUN_RULE.key()] = scores.freerun_rule
+        row[col.FREERUN_SCORED.key()] = scores.freerun_scored_samples
     return row
 
 

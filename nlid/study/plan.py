@@ -13,9 +13,9 @@ executor ran the study and in whatever order.
 Each run carries a :class:`RunSpec`: a frozen value saying everything a
 worker process needs (the typed dataset entry, the terms, the identifier and
 its options, the seeds, the time limit). It crosses process boundaries as
-itself (pickled by ``multiprocessing`` and Dask, all plain frozen dataclasses)
-or as JSON (:meth:`RunSpec.to_dict` / :meth:`RunSpec.from_dict`, for a child
-started as ``python -m nlid.study.child``). Its digest tells whether a stored
+itself (pickled by :mod:`nlid.runtime.isolation` and Dask, all plain frozen
+dataclasses) or as JSON (:meth:`RunSpec.to_dict` / :meth:`RunSpec.from_dict`,
+the layout of the stored run). Its digest tells whether a stored
 result still belongs to the current configuration.
 """
 
@@ -27,7 +27,7 @@ from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import Any
 
-from .._frozen import FrozenDict, freeze
+from ..frozen import FrozenDict, freeze
 from ..interface import to_jsonable
 from .config import DatasetConfig, StudyConfig
 

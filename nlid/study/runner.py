@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import sys
 import time
 from dataclasses import dataclass
@@ -13,6 +14,7 @@ from .config import StudyConfig
 from .execute import LocalExecutor
 from .plan import Run, plan_study
 from .store import ResultStore
+from .worker import failure_payload
 
 __all__ = ["Progress", "StudyOutcome", "run_study"]
 
@@ -81,6 +83,28 @@ class StudyOutcome:
     skipped: int
     summary: str
     report: Path | None
+    name: str = ""
+
+    def to_dict(self) -> dict[str, Any]:
+        """What ``nlid study run --json`` prints: the study, where its outputs are, and one row per run.
+
+        ``results`` holds the stored row of every run of the study (the rows of ``results.csv``, in plan
+        order; a run without a stored result is left out).
+        """
+        from ..interface import to_jsonable
+
+        rows = [record["row"] for record in ResultStore(self.folder).records(self.runs)]
+        return to_jsonable(
+            {
+                "study": self.name,
+                "folder": str(self.folder),
+                "report": None if self.report is None else str(self.report),
+                "runs": len(self.runs),
+                "executed": self.executed,
+                "skipped": self.skipped,
+                "results": rows,
+            }
+        )
 
 
 def run_study(
@@ -93,6 +117,7 @@ def run_study(
     progress: bool | None = None,
     log: TextIO | None = None,
     force: bool = False,
+    timeout: float | None = None,
 ) -> StudyOutcome:
     """Run every run of a study not yet done, persisting each as it finishes, then report.
 
@@ -116,7 +141,13 @@ def run_study(
     log
         Where one-line status messages go (default ``sys.stderr``; ``None`` is the default).
     force
-        Write into a folder that holds files nlid did not write (never replacing them).
+        Write into a folder that holds files nlid did not write. They are never
+        replaced: a file with the name of an output stops the study before
+        anything is written (:data:`nlid.outputs.STUDY_OUTPUTS`).
+    timeout
+        Time limit of each run in seconds, instead of the study's
+        ``timeout`` (600 s unless the study sets one); ``math.inf``: none.
+        Not part of a run's digest: stored runs are reused whatever it is.
 
     Raises
     ------
@@ -126,7 +157,7 @@ def run_study(
         Another process is running a study in the folder.
     """
     with output_folder(folder, STUDY_OUTPUTS, force=force) as path:
-        return _run_study(config, path, executor, rerun, report, progress, log)
+        return _run_study(config, path, executor, rerun, report, progress, log, timeout)
 
 
 def _run_study(
@@ -137,12 +168,18 @@ def _run_study(
     report: bool,
     progress: bool | None,
     log: TextIO | None,
+    timeout: float | None = None,
 ) -> StudyOutcome:
     log = log if log is not None else sys.stderr
     store = ResultStore(folder)
     (store.folder / "study.toml").write_text(config.text)
     runs = plan_study(config)
     todo = runs if rerun else [r for r in runs if not store.is_done(r)]
+    if timeout is not None:
+        from ..pipeline import check_timeout
+
+        limit = check_timeout(timeout)
+        todo = [dataclasses.replace(r, spec=dataclasses.replace(r.spec, timeout=limit)) for r in todo]
     skipped = len(runs) - len(todo)
     executor = executor or LocalExecutor()
     for name, why in config.skipped_identifiers.items():
@@ -156,7 +193,13 @@ def _run_study(
     bar = Progress(len(todo), label=f"{config.name}: ", stream=log, enabled=progress)
 
     def on_done(run: Run, payload: dict[str, Any]) -> None:
-        store.save(run, payload)
+        try:
+            store.save(run, payload)
+        except (TypeError, ValueError, OverflowError, RecursionError, KeyError) as exc:
+            # a result that cannot be stored (e.g. an object among a plugin's diagnostics) is that run's failure
+            why = f"identifier {run.spec.method!r} returned a result that cannot be stored: {type(exc).__name__}: {exc}"
+            payload = failure_payload(run.spec, "failed", why)
+            store.save(run, payload)
         bar.update(failed=payload["row"]["status"] != "ok")
 
     try:
@@ -169,4 +212,4 @@ def _run_study(
         from .report import write_report
 
         summary_text, report_path = write_report(config, runs, store)
-    return StudyOutcome(store.folder, runs, len(todo), skipped, summary_text, report_path)
+    return StudyOutcome(store.folder, runs, len(todo), skipped, summary_text, report_path, config.name)

@@ -6,53 +6,49 @@
 columns are declared in :mod:`nlid.study.columns`) and, when the study has a
 ``[posterior]`` table, adds ``nlid.bayes.study_metrics(record, result,
 reference, **options)`` to the row. It never raises: a failure is a payload with
-``status = "failed"`` and the error message.
+``status = "failed"`` and the error message, and so is a result that could not
+be stored as JSON (a plugin's diagnostics holding an object, say).
 
-:func:`run_isolated` runs :func:`execute_run` in a child process so a hung or
-crashing identifier can be stopped: the child is forked from nlid's fork
-server (:func:`nlid.isolation.run_in_child`, shared with ``nlid identify
---timeout``), or, inside a daemonic process such as a default Dask worker
-(which may not have ``multiprocessing`` children), started as ``python -m
-nlid.study.child``. A child still running at the time limit is killed and the
-run is recorded as timed out; a child that dies is recorded as failed with
-its exit code or signal. Children die with their parent
-(:func:`nlid.isolation.die_with_parent`). The child gets the parent's
-``sys.path`` and environment, so plugins visible to the parent are visible to
-it.
+:func:`run_isolated` runs :func:`execute_run` in a child process
+(:func:`nlid.runtime.isolation.run_in_child`, shared with ``nlid identify``),
+forked from nlid's warm fork server, or started as a fresh interpreter with
+the spawn start method (Windows, ``NLID_START_METHOD=spawn``). Whatever the
+plugin does, the run ends as a payload: a child still running at the time
+limit is killed with its process group and the run is recorded as
+``timeout``; a child that crashes (``"identifier 'x' crashed: segmentation
+fault (SIGSEGV)"``), raises through everything, or returns what cannot be
+sent back is recorded as ``failed`` with that reason; warnings the plugin
+issued and threads it left running go to the row's ``warnings``. Only a
+failure of the machinery itself (no child could be started) raises
+(:class:`~nlid.runtime.isolation.IsolationError`), so a study never records
+every run as failed for a reason that is not theirs.
+A spec of another kind than a study's :class:`RunSpec` (``nlid bench``'s
+:class:`nlid.benchmarking.jobs.BenchJob`) runs itself through the same
+isolation: it has ``run_id``, ``timeout``, ``execute()``, ``failure(status,
+error)`` and ``to_dict()``.
 """
 
 from __future__ import annotations
 
-import json
-import multiprocessing
-import os
-import shutil
-import subprocess
-import sys
-import tempfile
 import time
 import traceback
 import tracemalloc
-from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from .. import isolation
 from ..errors import NlidError
 from ..interface import to_jsonable
 from ..pipeline import as_model, identify
 from ..reference import compare
 from ..registry import load_registry
+from ..runtime import isolation
 from . import columns as col
 from . import metrics
 from .data import build_data
 from .plan import RunSpec
 
-__all__ = ["execute_run", "run_isolated", "kill_children", "failure_payload", "subprocess_main"]
-
-#: Prefix of the temporary folders of runs started as ``python -m nlid.study.child`` (then the parent's pid).
-RUN_FOLDER_PREFIX = "nlid-run-"
+__all__ = ["execute_run", "run_isolated", "kill_children", "failure_payload", "json_problem"]
 
 
 def _base_row(spec: RunSpec) -> dict[str, Any]:
@@ -70,6 +66,8 @@ def _base_row(spec: RunSpec) -> dict[str, Any]:
 
 def failure_payload(spec: RunSpec, status: str, error: str) -> dict[str, Any]:
     """The payload of a run that produced no result."""
+    if not isinstance(spec, RunSpec):  # a job of another kind (nlid.benchmarking) says what its failure looks like
+        return spec.failure(status, error)
     row = _base_row(spec)
     row[col.STATUS.key()] = status
     row[col.ERROR.key()] = error
@@ -79,7 +77,7 @@ def failure_payload(spec: RunSpec, status: str, error: str) -> dict[str, Any]:
 def _add_warning(row: dict[str, Any], text: str) -> None:
     """Append a warning to the row's ``warnings`` column (``" | "``-separated)."""
     key = col.WARNINGS.key()
-    row[key] = f"{row[key]} | {text}" if row[key] else text
+    row[key] = f"{row[key]} | {text}" if row.get(key) else text
 
 
 def execute_run(spec: RunSpec) -> dict[str, Any]:
@@ -92,14 +90,50 @@ def execute_run(spec: RunSpec) -> dict[str, Any]:
         metrics row, the :class:`~nlid.identified.IdentifiedModel` as a
         dictionary, the reference values and the result's arrays.
     """
+    if not isinstance(spec, RunSpec):  # another kind of job (nlid.benchmarking.jobs.BenchJob) runs itself
+        return spec.execute()
     try:
-        return _execute(spec)
+        payload = _execute(spec)
     except NlidError as exc:
         return failure_payload(spec, "failed", str(exc))
     except Exception as exc:  # noqa: BLE001 - a run's failure is recorded, the study goes on
         payload = failure_payload(spec, "failed", f"{type(exc).__name__}: {exc}")
         payload["traceback"] = traceback.format_exc()
         return payload
+    problem = json_problem({k: payload[k] for k in ("row", "result", "reference")})
+    objects = [k for k, v in payload["arrays"].items() if v.dtype.hasobject]
+    if objects and not problem:
+        problem = f"arrays[{objects[0]!r}] holds Python objects, not numbers"
+    if problem:
+        why = f"identifier {spec.method!r} returned a result that cannot be stored: {problem}"
+        return failure_payload(spec, "failed", why)
+    return payload
+
+
+def json_problem(value: Any, where: str = "") -> str | None:
+    """Why ``value`` (after :func:`~nlid.interface.to_jsonable`) is not plain JSON, or ``None``.
+
+    ``"result['diagnostics']['fit'] is a Foo, not a JSON value"``: the first
+    offending entry.
+    """
+    value = to_jsonable(value)
+    if value is None or isinstance(value, (str, bool, int)):
+        return None
+    if isinstance(value, float):
+        return None if np.isfinite(value) else f"{where or 'the value'} is {value}"
+    if isinstance(value, dict):
+        for key, item in value.items():
+            found = json_problem(item, f"{where}[{key!r}]")
+            if found:
+                return found
+        return None
+    if isinstance(value, list):
+        for i, item in enumerate(value):
+            found = json_problem(item, f"{where}[{i}]")
+            if found:
+                return found
+        return None
+    return f"{where or 'the value'} is a {type(value).__name__}, not a JSON value"
 
 
 def _execute(spec: RunSpec) -> dict[str, Any]:
@@ -127,7 +161,7 @@ def _execute(spec: RunSpec) -> dict[str, Any]:
     row[col.FORCE_RESIDUAL.key()] = result.force_residual_percent
     row[col.WARNINGS.key()] = " | ".join(result.warnings)
     try:
-        row.update(metrics.holdout_metrics(data.heldout, result, spec.dataset.freerun))
+        row.update(metrics.holdout_metrics(data.heldout, result, spec.dataset.freerun, spec.dataset.freerun_rule))
     except NlidError as exc:
         row.update(metrics.holdout_metrics(None, result, False))
         _add_warning(row, f"held-out scores: {exc}")
@@ -156,94 +190,47 @@ def _execute(spec: RunSpec) -> dict[str, Any]:
 
 # --------------------------------------------------------------------------- isolation
 def kill_children() -> None:
-    """Kill every run child process this process started (on interrupt)."""
+    """Kill every run child process this process started, with their process groups (on interrupt)."""
     isolation.kill_children()
 
 
-def _died(spec: RunSpec, exitcode: int | None) -> dict[str, Any]:
-    return failure_payload(spec, "failed", f"worker process died ({isolation.describe_exit(exitcode)})")
-
-
 def run_isolated(spec: RunSpec, timeout: float | None = None, *, use_subprocess: bool | None = None) -> dict:
-    """Run :func:`execute_run` in a child process, killed at the time limit (:func:`nlid.isolation.run_in_child`).
+    """Run :func:`execute_run` in a child process killed at its time limit (``isolation.run_in_child``).
 
     Parameters
     ----------
     spec
-        The run's spec (:class:`nlid.study.plan.Run`).
+        The run's spec (:class:`nlid.study.plan.RunSpec`).
     timeout
         Seconds; default ``spec.timeout``.
     use_subprocess
-        Force (``True``) or forbid (``False``) the ``python -m`` child; default:
-        only inside a daemonic process.
+        ``True``: a fresh interpreter (the spawn start method), whatever
+        :func:`nlid.runtime.isolation.start_method` says; default: that.
+
+    Returns
+    -------
+    dict
+        The run's payload (:func:`execute_run`), or a failure payload saying
+        why the run produced nothing.
+
+    Raises
+    ------
+    IsolationError
+        No child process could be started (not the run's fault).
     """
     timeout = float(spec.timeout if timeout is None else timeout)
-    if use_subprocess is None:
-        use_subprocess = bool(multiprocessing.current_process().daemon)
-    if use_subprocess:
-        return _run_subprocess(spec, timeout)
-    outcome = isolation.run_in_child(execute_run, (spec,), timeout=timeout)
+    label = f"identifier {spec.method!r}" if isinstance(spec, RunSpec) else f"job {spec.run_id!r}"
+    outcome = isolation.run_in_child(
+        execute_run, (spec,), timeout=timeout, pin_threads=True, method="spawn" if use_subprocess else None
+    )
     if outcome.status == "ok":
-        return outcome.value
-    if outcome.status == "timeout":
-        return failure_payload(spec, "timeout", f"stopped after the time limit of {timeout:g} s")
-    return _died(spec, outcome.exitcode)
-
-
-def _sweep_run_folders() -> None:
-    """Remove run folders left in the temporary folder by parents that were killed."""
-    for folder in Path(tempfile.gettempdir()).glob(f"{RUN_FOLDER_PREFIX}*"):
-        try:
-            pid = int(folder.name[len(RUN_FOLDER_PREFIX) :].split("-", 1)[0])
-            os.kill(pid, 0)
-        except ProcessLookupError:
-            shutil.rmtree(folder, ignore_errors=True)
-        except (ValueError, PermissionError, OSError):
-            continue
-
-
-def _run_subprocess(spec: RunSpec, timeout: float) -> dict[str, Any]:
-    _sweep_run_folders()
-    with tempfile.TemporaryDirectory(prefix=f"{RUN_FOLDER_PREFIX}{os.getpid()}-") as tmp:
-        folder = Path(tmp)
-        (folder / "spec.json").write_text(json.dumps(spec.to_dict()))
-        env = dict(os.environ)
-        env["PYTHONPATH"] = os.pathsep.join(p for p in sys.path if p)
-        env[isolation.PARENT_ENV] = str(os.getpid())
-        proc = subprocess.Popen(
-            [sys.executable, "-m", "nlid.study.child", str(folder)], env=env, stdout=subprocess.DEVNULL
-        )
-        isolation.track(proc)
-        try:
-            proc.wait(timeout)
-        except subprocess.TimeoutExpired:
-            proc.kill()
-            proc.wait()
-            return failure_payload(spec, "timeout", f"stopped after the time limit of {timeout:g} s")
-        finally:
-            isolation.untrack(proc)
-        out = folder / "payload.json"
-        if proc.returncode != 0 or not out.is_file():
-            return _died(spec, proc.returncode)
-        payload = json.loads(out.read_text())
-        arrays = folder / "arrays.npz"
-        if arrays.is_file():
-            with np.load(arrays, allow_pickle=False) as npz:
-                payload["arrays"] = {k: npz[k] for k in npz.files}
-        return payload
-
-
-def subprocess_main(folder: str) -> int:
-    """Run the spec in ``folder/spec.json``; write ``payload.json`` and ``arrays.npz`` there."""
-    parent = os.environ.get(isolation.PARENT_ENV)
-    isolation.die_with_parent(int(parent) if parent else None)
-    path = Path(folder)
-    spec = RunSpec.from_dict(json.loads((path / "spec.json").read_text()))
-    payload = execute_run(spec)
-    arrays = payload.pop("arrays", {})
-    if arrays:
-        np.savez(path / "arrays.npz", **arrays)
-    tmp = path / "payload.json.tmp"
-    tmp.write_text(json.dumps(to_jsonable(payload)))
-    os.replace(tmp, path / "payload.json")
-    return 0
+        payload = outcome.value
+    elif outcome.status == "timeout":
+        payload = failure_payload(spec, "timeout", f"stopped after the time limit of {timeout:g} s")
+    else:
+        payload = failure_payload(spec, "failed", outcome.describe(label, timeout))
+        if outcome.traceback:
+            payload["traceback"] = outcome.traceback
+    for line in outcome.warning_lines(label):
+        _add_warning(payload["row"], line)
+    return payload

@@ -33,7 +33,7 @@ EXAMPLES: tuple[tuple[str, str], ...] = (
 )
 
 LANGUAGE = """\
-Terms are products (*) of factors, each optionally raised to an integer power (^):
+Terms are products (*) of factors, each optionally raised to an integer power (^, or ** as in Python):
   1                 the constant
   z, v              displacement (m), velocity (m/s)
   |x|, abs(x)       absolute value of a product x

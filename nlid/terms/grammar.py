@@ -1,6 +1,7 @@
 """Parser of the term language (a small recursive-descent grammar, no ``eval``).
 
-Grammar (whitespace is ignored; ``**`` may be written for ``^``)::
+Grammar (whitespace is ignored; ``**`` may be written for ``^``, as in Python: ``z**3`` is read as
+``z^3``, and every output shows the canonical spelling it was read as)::
 
     term     := factor ( "*" factor )*
     factor   := atom ( "^" INTEGER )?
@@ -32,11 +33,12 @@ of every variable and factor *in the normal form* is at most
 
 from __future__ import annotations
 
+import math
 import re
 from collections import Counter
 from dataclasses import dataclass
 
-from ..errors import TermError, excerpt
+from ..errors import TermError, brief, excerpt
 from .term import MAX_POWER, VARIABLES, Term, _special_name
 
 __all__ = ["parse_term", "split_terms", "MAX_DEPTH"]
@@ -58,6 +60,11 @@ class _Tok:
     kind: str  # number | name | op | end
     text: str
     pos: int
+
+    @property
+    def shown(self) -> str:
+        """The token as messages echo it: quoted, cut when long (``'qqq...'... (100002 characters)``)."""
+        return "end of term" if self.kind == "end" else brief(self.text, 40)
 
 
 def _tokenize(text: str) -> list[_Tok]:
@@ -164,17 +171,20 @@ class _Parser:
     def expect(self, text: str, what: str | None = None) -> _Tok:
         tok = self.peek()
         if tok.text != text or tok.kind == "number":
-            found = "end of term" if tok.kind == "end" else repr(tok.text)
+            found = tok.shown
             raise self.fail(f"expected {what or repr(text)}, found {found}", tok)
         return self.take()
 
     def number(self, what: str) -> float:
         tok = self.peek()
         if tok.kind != "number":
-            found = "end of term" if tok.kind == "end" else repr(tok.text)
+            found = tok.shown
             raise self.fail(f"expected {what}, found {found}", tok)
+        value = float(tok.text)
+        if not math.isfinite(value):
+            raise self.fail(f"the number {tok.shown} is too large", tok)
         self.take()
-        return float(tok.text)
+        return value
 
     def variable(self, allowed: tuple[str, ...] = ("z", "v")) -> str:
         tok = self.peek()
@@ -182,8 +192,8 @@ class _Parser:
             self.take()
             return tok.text
         if tok.kind == "name":
-            raise self.fail(f"unknown variable {tok.text!r}: use z for displacement and v for velocity", tok)
-        found = "end of term" if tok.kind == "end" else repr(tok.text)
+            raise self.fail(f"unknown variable {tok.shown}: use z for displacement and v for velocity", tok)
+        found = tok.shown
         raise self.fail(f"expected a variable (z or v), found {found}", tok)
 
     # ---------------------------------------------------------------- grammar
@@ -193,7 +203,7 @@ class _Parser:
         mono = self.product(stop=("end",))
         tok = self.peek()
         if tok.kind != "end":
-            raise self.fail(f"unexpected {tok.text!r}", tok)
+            raise self.fail(f"unexpected {tok.shown}", tok)
         high = mono.too_high()
         if high is not None:
             raise TermError(
@@ -229,14 +239,14 @@ class _Parser:
                 return mono
             elif tok.text in ("+", "-"):
                 raise self.fail(
-                    f"{tok.text!r} is not allowed inside a term: separate terms with commas "
+                    f"{tok.shown} is not allowed inside a term: separate terms with commas "
                     "(each term gets its own coefficient)",
                     tok,
                 )
             elif tok.text == "/":
                 raise self.fail("division is only allowed as the scale inside exp(...) or tanh(...)", tok)
             else:
-                raise self.fail(f"expected '*' between factors, found {tok.text!r}", tok)
+                raise self.fail(f"expected '*' between factors, found {tok.shown}", tok)
 
     def factor(self) -> _Mono:
         mono = self.atom()
@@ -246,7 +256,11 @@ class _Parser:
             if tok.kind != "number" or not re.fullmatch(r"\d+", tok.text):
                 raise self.fail("expected a non-negative integer exponent", tok)
             self.take()
-            n = int(tok.text)
+            digits = tok.text.lstrip("0") or "0"
+            if len(digits) > 3:  # int() of a 5 000-digit exponent is refused by Python itself: never try it
+                shown = digits if len(digits) <= 30 else f"{digits[:20]}... ({len(digits)} digits)"
+                raise self.fail(f"exponent {shown} is larger than the maximum {MAX_POWER}", tok)
+            n = int(digits)
             if n > MAX_POWER:
                 raise self.fail(f"exponent {n} is larger than the maximum {MAX_POWER}", tok)
             if mono.memory is not None and n != 1:
@@ -259,8 +273,8 @@ class _Parser:
         if tok.kind == "number":
             if float(tok.text) != 1.0:
                 raise self.fail(
-                    f"a number ({tok.text}) cannot be a factor: coefficients are what nlid estimates; "
-                    "write the constant term as 1",
+                    f"a number ({tok.text if len(tok.text) <= 40 else tok.shown}) cannot be a factor: "
+                    "coefficients are what nlid estimates; write the constant term as 1",
                     tok,
                 )
             self.take()
@@ -289,10 +303,10 @@ class _Parser:
                     if len(name) <= 2
                     else ("known functions: " + ", ".join(f for f in _FUNCTIONS if f != "sgn"))
                 )
-                raise self.fail(f"unknown name {name!r}: {hint}", tok)
+                raise self.fail(f"unknown name {tok.shown}: {hint}", tok)
             self.take()
             return getattr(self, "_fn_" + ("sign" if name == "sgn" else name))(tok)
-        found = "end of term" if tok.kind == "end" else repr(tok.text)
+        found = tok.shown
         raise self.fail(
             f"expected a factor (1, z, v, |...|, sign(...), px(z), exp(...), tanh(...)), found {found}", tok
         )

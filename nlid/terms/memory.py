@@ -38,7 +38,7 @@ KINDS: dict[str, tuple[tuple[str, ...], str]] = {
 
 def bouc_wen_path(z: np.ndarray, a: float, b: float, w0: float = 0.0) -> np.ndarray:
     """The Bouc-Wen state ``w`` (m) along the displacement samples ``z`` (module docstring)."""
-    from ._memory_kernels import bouc_wen_loop
+    from .memory_kernels import bouc_wen_loop
 
     z = np.ascontiguousarray(z, dtype=float)
     out = np.empty_like(z)
@@ -49,7 +49,7 @@ def bouc_wen_path(z: np.ndarray, a: float, b: float, w0: float = 0.0) -> np.ndar
 
 def dahl_path(z: np.ndarray, rho: float, w0: float = 0.0) -> np.ndarray:
     """The Dahl state ``w`` (-1 to 1) along the displacement samples ``z`` (module docstring)."""
-    from ._memory_kernels import dahl_loop
+    from .memory_kernels import dahl_loop
 
     z = np.ascontiguousarray(z, dtype=float)
     out = np.empty_like(z)
@@ -78,7 +78,7 @@ def path(kind: str, params: tuple[float, ...], z: np.ndarray, oversample: int = 
         w = dahl_path(fine, *params)
     else:
         raise ValueError(f"unknown memory law {kind!r}")
-    return w[:: oversample] if fine is not z else w
+    return w[::oversample] if fine is not z else w
 
 
 def initial_slope(kind: str, params: tuple[float, ...]) -> float:

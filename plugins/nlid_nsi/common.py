@@ -9,7 +9,7 @@ from typing import Any
 
 import numpy as np
 
-from nlid.plugin import DataError, FigureArray, InputError, Option, Record, derivatives
+from nlid.plugin import DataError, FigureArray, InputError, Option, Record, derivatives, suggested_cutoff
 
 from .fit import NSIFit, format_eigenvalues
 from .reconstruction import Reconstruction, fuse_motion, reconstruct_motion
@@ -170,13 +170,15 @@ class Velocity:
     cutoff: float | None
 
 
-def default_cutoff(z: np.ndarray, fs: float) -> float:
+def default_cutoff(z: np.ndarray, fs: float, suggested: float | None = None) -> float:
     """Default cut-off of the velocity differentiator and the de-noising low-pass (Hz).
 
-    ``CUTOFF_FACTOR`` times :func:`nlid.derivatives.suggest_cutoff` of ``z``,
-    capped at ``nlid.derivatives.CUTOFF_MAX_FRACTION`` of fs.
+    ``CUTOFF_FACTOR`` times :func:`nlid.derivatives.suggest_cutoff` of ``z``
+    (``suggested``, when already known), capped at
+    ``nlid.derivatives.CUTOFF_MAX_FRACTION`` of fs.
     """
-    return min(CUTOFF_FACTOR * derivatives.suggest_cutoff(z, fs), derivatives.CUTOFF_MAX_FRACTION * fs)
+    base = derivatives.suggest_cutoff(z, fs) if suggested is None else suggested
+    return min(CUTOFF_FACTOR * base, derivatives.CUTOFF_MAX_FRACTION * fs)
 
 
 #: Warning when the force's intersample behaviour is assumed, not known.
@@ -212,7 +214,8 @@ def velocity_estimate(record: Record, how: str | None, cutoff: float | None) -> 
         if record.v is None:
             raise DataError("velocity=measured needs a velocity channel 'v'")
         return Velocity(np.asarray(record.v), None, record.source_of("v"), None)
-    fc = default_cutoff(record.z, fs) if cutoff is None else float(cutoff)
+    # the record's suggested cut-off is computed once: the core's scores use it too (nlid.plugin.suggested_cutoff)
+    fc = default_cutoff(record.z, fs, suggested_cutoff(record)) if cutoff is None else float(cutoff)
     if not 0 < fc < fs / 2:
         raise InputError(f"velocity_cutoff must lie between 0 and the Nyquist frequency {fs / 2:g} Hz, got {fc:g}")
 

@@ -180,14 +180,16 @@ def clip_indefinite(gram: np.ndarray, floor: float = 1e-8) -> tuple[np.ndarray, 
     shape = gram.shape
     gg = gram.reshape(shape[0] * shape[1], -1)
     gg = 0.5 * (gg + gg.T)
+    # gg is symmetric to the bit: gg.T is the same matrix in Fortran order, which LAPACK reads without the
+    # transposing copy scipy makes of a C-ordered array
     try:
-        linalg.cholesky(gg, lower=True, check_finite=False)
+        linalg.cholesky(gg.T, lower=True, check_finite=False)
         return gram, False
     except linalg.LinAlgError:
         pass
     low = floor * float(np.trace(gg)) / len(gg)
     # only the eigenpairs below the floor (half the cost of the full decomposition)
-    ev, vec = linalg.eigh(gg, subset_by_value=(-np.inf, low), driver="evr", check_finite=False)
+    ev, vec = linalg.eigh(gg.T, subset_by_value=(-np.inf, low), driver="evr", check_finite=False)
     # gg + V diag(low - ev) V^T as a symmetric rank-k update (half the flops of the product), in place:
     # gg.T is gg in Fortran order, whose "upper" triangle is gg's lower one
     root = vec * np.sqrt(low - ev)

@@ -148,6 +148,12 @@ def _schur(gram: np.ndarray, drop: int) -> np.ndarray:
     return out
 
 
+def _exactly_symmetric(a: np.ndarray, block: int = 64) -> bool:
+    """Whether the square matrix ``a`` equals its transpose to the bit (compared one block of rows at a time)."""
+    n = len(a)
+    return all(np.array_equal(a[r : r + block, r:], a[r:, r : r + block].T) for r in range(0, n, block))
+
+
 class PerturbedMOESP:
     """PO-MOESP of the channels ``T(kappa) w`` for many ``kappa`` from one base Gram.
 
@@ -233,8 +239,9 @@ class PerturbedMOESP:
             ga = gram.reshape(s * c, s * c)[np.ix_(flat, flat)]
         else:
             ga = transform_gram(gram, aug).reshape(s * ca, s * ca)[np.ix_(order, order)]
-        ga += ga.T
-        ga *= 0.5
+        if not _exactly_symmetric(ga):  # the Grams nsi builds are (and (x + x) / 2 == x)
+            ga += ga.T
+            ga *= 0.5
         nu, nw, nk = len(u_fixed), len(w_fixed), nv * i
         pick_u = np.r_[nw : nw + nk, nw + 2 * nk : nw + 3 * nk, nw + 4 * nk : nw + 4 * nk + i]
         try:
@@ -306,37 +313,43 @@ class PerturbedMOESP:
 
 
 def _state_filters(a: np.ndarray, cm: np.ndarray) -> tuple[np.ndarray, list[np.ndarray]]:
-    """Denominator and numerators of ``C (qI - A)^-1 e_r``, ``r = 1..n``."""
+    """Denominator and numerators of ``C (qI - A)^-1 e_r``, ``r = 1..n``.
+
+    The arithmetic of ``scipy.signal.ss2tf(A, e_r, C, 0)`` (``poly(A - e_r C) -
+    poly(A)``, the same numbers to the bit) without its argument handling,
+    which cost more than the polynomials for a 2 x 2 ``A``.
+    """
     n = a.shape[0]
     den = np.poly(a)
     nums = []
     for r in range(n):
-        e = np.zeros((n, 1))
-        e[r] = 1.0
-        num, _ = signal.ss2tf(a, e, cm, np.zeros((1, 1)))
-        nums.append(np.atleast_1d(num[0]))
+        shifted = np.array(a, dtype=float)
+        shifted[r] -= cm[0]  # A - e_r C
+        nums.append(np.atleast_1d(np.poly(shifted) + (0.0 - 1.0) * den))
     return den, nums
 
 
-#: Rows of the data processed at a time by the B step: its temporaries (~1 MB) stay in cache; measured
-#: at 10^6 samples, 4 096-8 192 rows 80-81 ms per call, 16 384 rows 86 ms, 65 536 rows 108 ms.
+#: Samples of the data processed at a time by the B step: its temporaries (~1 MB) stay in cache; measured
+#: at 10^6 samples, 4 096-8 192 samples 80-81 ms per call, 16 384 samples 86 ms, 65 536 samples 108 ms.
 B_BLOCK = 8192
 
 
 def _row_blocks(u: np.ndarray, y: np.ndarray, size: int = B_BLOCK) -> Iterator[np.ndarray]:
-    """``[u, y]`` in consecutive blocks of rows (new arrays)."""
+    """``[u, y]`` in consecutive blocks of samples, channel-major: shape ``(m + 1, rows)`` (new arrays)."""
+    u = np.asarray(u, dtype=float).reshape(len(y), -1)
     for r0 in range(0, len(y), size):
-        yield np.column_stack([u[r0 : r0 + size], y[r0 : r0 + size]])
+        yield np.vstack([u[r0 : r0 + size].T, y[r0 : r0 + size]])
 
 
 def channel_blocks(base: np.ndarray, t: np.ndarray, size: int = B_BLOCK) -> Iterator[np.ndarray]:
-    """The channels ``t w`` (``w = base``: inputs, then the output) in consecutive blocks of rows.
+    """The channels ``t w`` (``w = base``: inputs, then the output) in consecutive blocks of samples.
 
-    The mapped channels (``fbar = f + k~1 <z>`` for nsi-ip) are formed one
-    block at a time: never a second copy of the record.
+    Each block is channel-major, shape ``(m + 1, rows)``: one contiguous row
+    per channel. The mapped channels (``fbar = f + k~1 <z>`` for nsi-ip) are
+    formed one block at a time: never a second copy of the record.
     """
     for r0 in range(0, len(base), size):
-        yield base[r0 : r0 + size] @ t.T
+        yield t @ base[r0 : r0 + size].T
 
 
 def _normal_equations(
@@ -352,11 +365,14 @@ def _normal_equations(
     with its state carried over; the regressors are the FIR ``nums_r`` over
     lags ``0..n`` of those signals. So ``phi^T phi`` and ``phi^T y`` are a
     fixed linear map of the Gram of ``[e(t), e(t-1), .., e(t-n), y(t)]``,
-    accumulated per block (one BLAS ``syrk``): no matrix of the record's
-    length.
+    accumulated per block by one matrix product of the lagged signals laid
+    out channel-major (contiguous rows; a product with a short output and a
+    long inner dimension, which BLAS does at full speed where ``syrk`` on the
+    sample-major layout did not): no matrix of the record's length.
 
-    ``blocks`` are consecutive blocks of rows ``[u_1 .. u_m, y]`` (new
-    arrays: they are overwritten).
+    ``blocks`` are consecutive channel-major blocks ``[u_1 .. u_m, y]`` of
+    shape ``(m + 1, rows)`` (:func:`channel_blocks`; new arrays: they are
+    overwritten).
 
     Returns
     -------
@@ -367,28 +383,30 @@ def _normal_equations(
     """
     n = len(den) - 1
     taps = np.array(nums)  # (n, n + 1); taps[:, 0] = 0 (no feedthrough)
-    hist = zi = acc = None
+    hist = zi = acc = lagged = None
     total = m = 0
     for x in blocks:
-        rows, k1 = x.shape
+        k1, rows = x.shape
         m = k1 - 1
+        nl = (n + 1) * k1
         if hist is None:
-            hist = np.zeros((n, k1))  # e(-n .. -1)
-            hist[n - 1, m] = 1.0  # the impulse at t = -1: e(-1) = 1 in the last column
-            zi = np.zeros((n, k1))
-            zi[:, m] = signal.lfiltic([1.0], den, [1.0])
-            acc = np.zeros(((n + 1) * k1 + 1, (n + 1) * k1 + 1))
-        lagged = np.empty((rows, (n + 1) * k1 + 1))
-        lagged[:, -1] = x[:, m]
-        x[:, m] = 0.0  # the impulse column's input (the impulse itself is in the state)
-        e, zi = signal.lfilter([1.0], den, x, axis=0, zi=zi)
-        for lag in range(n + 1):  # lagged[:, l (m + 1) + j] = e_j(t - l), e(t < t0) from the history
-            cols = slice(lag * k1, (lag + 1) * k1)
+            hist = np.zeros((k1, n))  # e(-n .. -1)
+            hist[m, n - 1] = 1.0  # the impulse at t = -1: e(-1) = 1 in the last channel
+            zi = np.zeros((k1, n))
+            zi[m] = signal.lfiltic([1.0], den, [1.0])
+            acc = np.zeros((nl + 1, nl + 1))
+        if lagged is None or lagged.shape[1] != rows:
+            lagged = np.empty((nl + 1, rows))
+        lagged[nl] = x[m]
+        x[m] = 0.0  # the impulse channel's input (the impulse itself is in the state)
+        e, zi = signal.lfilter([1.0], den, x, axis=1, zi=zi)
+        for lag in range(n + 1):  # lagged[l (m + 1) + j] = e_j(t - l), e(t < t0) from the history
+            chans = slice(lag * k1, (lag + 1) * k1)
             head = min(lag, rows)
-            lagged[:head, cols] = hist[n - lag : n - lag + head]
-            lagged[head:, cols] = e[: rows - head]
-        hist = np.concatenate([hist, e])[-n:] if n else hist
-        acc += blas.dsyrk(1.0, lagged.T, trans=0, lower=0)  # upper triangle of lagged^T lagged (no copy)
+            lagged[chans, :head] = hist[:, n - lag : n - lag + head]
+            lagged[chans, head:] = e[:, : rows - head]
+        hist = np.concatenate([hist, e], axis=1)[:, -n:] if n else hist
+        acc += blas.dsyrk(1.0, lagged.T, trans=1, lower=0)  # upper triangle of lagged lagged^T (no copy)
         total += rows
     k1 = m + 1
     acc = np.triu(acc) + np.triu(acc, 1).T
@@ -444,8 +462,9 @@ def estimate_b(
     ir_len
         Length of the impulse responses used for the noise correction.
     blocks
-        The data as consecutive blocks of rows ``[u, y]`` (new arrays, e.g.
-        :func:`channel_blocks`) instead of ``u`` and ``y``.
+        The data as consecutive channel-major blocks ``[u, y]`` of shape
+        ``(m + 1, rows)`` (new arrays, e.g. :func:`channel_blocks`) instead of
+        ``u`` and ``y``.
     """
     n = a.shape[0]
     den, nums = _state_filters(a, cm)

@@ -65,6 +65,7 @@ from nlid.plugin import (
     identify,
     least_squares,
     predictability_horizon,
+    progress_line,
 )
 
 from .problem import Parameter, Problem
@@ -408,13 +409,34 @@ class OutputError(Identifier):
             raise IdentificationError(f"oe: the start model ({method}) diverges in a free run of the record")
         lower, upper = problem.bounds(u0)
         tol = self.settings["tol"]
+        limit = self.settings["max_nfev"]
+        # a terminal-only line when the caller asked for progress (nlid.progress): evaluations of the free run
+        line = progress_line("oe", total=limit, unit="free runs")
+        stage = f"{problem.K} segment(s)"
+
+        def residual(u: np.ndarray) -> np.ndarray:
+            r = problem.residual(u)
+            line.update(line.done + 1, note=f"{stage}, cost {float(r @ r):.4g}")
+            return r
+
         try:
-            res = optimize.least_squares(
-                problem.residual, u0, jac=problem.jacobian, bounds=(lower, upper), method="trf",
-                x_scale=1.0 if self._solver(problem) == "exact" else "jac", tr_solver=self._solver(problem),
-                tr_options={} if self._solver(problem) == "exact" else {"atol": 1e-10, "btol": 1e-10, "maxiter": 2000},
-                ftol=tol, xtol=tol, gtol=tol, max_nfev=self.settings["max_nfev"],
-            )
+            with line:
+                res = optimize.least_squares(
+                    residual,
+                    u0,
+                    jac=problem.jacobian,
+                    bounds=(lower, upper),
+                    method="trf",
+                    x_scale=1.0 if self._solver(problem) == "exact" else "jac",
+                    tr_solver=self._solver(problem),
+                    tr_options={}
+                    if self._solver(problem) == "exact"
+                    else {"atol": 1e-10, "btol": 1e-10, "maxiter": 2000},
+                    ftol=tol,
+                    xtol=tol,
+                    gtol=tol,
+                    max_nfev=limit,
+                )
         except (ValueError, np.linalg.LinAlgError) as exc:
             raise IdentificationError(f"oe: the optimiser failed: {exc}") from None
         if res.status == 0:

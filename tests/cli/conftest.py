@@ -8,12 +8,15 @@ from nlid.cli.main import main
 
 
 @pytest.fixture
-def cli(capsys):
-    """Run ``nlid ARGS...`` in-process; returns ``(exit status, stdout, stderr)``."""
+def cli(capfd):
+    """Run ``nlid ARGS...`` in-process; returns ``(exit status, stdout, stderr)``.
+
+    The file descriptors are read (``capfd``): plugin code runs in a child process, which writes to them.
+    """
 
     def run(*argv: str) -> tuple[int, str, str]:
         status = main(list(argv))
-        out = capsys.readouterr()
+        out = capfd.readouterr()
         return status, out.out, out.err
 
     return run

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import math
+
 import pytest
 
 import nlid
@@ -65,3 +67,11 @@ def test_the_json_object_and_the_sentence():
     assert set(out["probes"]) == set(PROBES) and out["structured"] is True and out["dominant"] == "force-rate"
     assert "force's rate of change" in out["text"] and "% of the force's RMS" in out["text"]
     assert out["explained_holdout"] >= out["probes"]["force-rate"]["explained"]
+
+
+def test_a_short_held_out_record_gets_the_same_lagged_features_as_the_estimation_record():
+    """A lag kept for the long record but too long for the short one gave mismatched design matrices."""
+    record = nlid.simulate("paper-numerical", seed=1, noise={"z": 0.01}, channels="z", duration=2, fs=1024)
+    remaining = _probe(record, "1, z, z^3, v", 0.2)  # 1.5 s to fit on, 0.5 s held out
+    assert set(remaining.probes) == set(PROBES)
+    assert all(math.isfinite(p.explained) and p.explained <= 1.0 for p in remaining.probes.values())

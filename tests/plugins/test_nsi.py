@@ -11,7 +11,7 @@ import pytest
 
 from nlid import IdentificationError, identify, physics
 from nlid.cli.main import main
-from nlid_nsi import NSIInputPerturbation, NSIZeroShift, UnstableULSError
+from nlid_nsi import UnstableULSError
 
 TERMS = "z^3, z^2, v*|v|"
 SEEDS = range(5)

@@ -371,3 +371,39 @@ def test_fast_term_evaluation_matches_the_term_language():
         ref = np.asarray(term.evaluate(z, v, model.px(z) if term.uses_px else None, {}), dtype=float)
         np.testing.assert_allclose(b.func(z, v), ref, rtol=1e-14, atol=0, err_msg=b.name)
         assert b.uses_v == term.depends_on_v
+
+
+# --------------------------------------------------------------------------- issue 26: work done once
+
+
+def test_the_suggested_cutoff_is_computed_once_per_identification(monkeypatch):
+    import nlid
+    from nlid import derivatives
+    from nlid_nsi.common import default_cutoff
+
+    calls = []
+    suggest = derivatives.suggest_cutoff
+
+    def counted(x, fs):
+        calls.append(len(x))
+        return suggest(x, fs)
+
+    record = nlid.simulate("paper-numerical", seed=1, noise={"z": 0.02}, channels="z", duration=16)
+    ref = suggest(record.z, record.fs)
+    monkeypatch.setattr(derivatives, "suggest_cutoff", counted)
+    res = nlid.identify(record, "z^3, z^2, v*|v|", "nsi-ip", mass=0.2)
+    # nsi-ip's velocity differentiator and the core's scores share the record's one Welch estimate
+    assert calls == [record.n]
+    assert res.diagnostics["velocity_cutoff_hz"] == default_cutoff(record.z, record.fs, ref)
+
+
+def test_a_constant_regressor_column_skips_the_filter_with_the_same_numbers():
+    from nlid import derivatives
+    from nlid.balance import _lowpass_columns
+
+    rng = np.random.default_rng(13)
+    n, fs = 5000, 1000.0
+    smooth = np.cumsum(rng.standard_normal((n, 2)), axis=0)
+    for columns in ([np.ones(n), smooth[:, 0], np.full(n, -2.5), smooth[:, 1]], [np.full(n, 3.0)], [smooth[:, 0]]):
+        values = np.column_stack(columns)
+        np.testing.assert_array_equal(_lowpass_columns(values.copy(), fs, 40.0), derivatives.lowpass(values, fs, 40.0))

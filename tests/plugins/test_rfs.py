@@ -5,7 +5,6 @@ import pytest
 
 from nlid import IdentificationError, identify
 from nlid.datasets import EMPS_REFERENCE, load
-from nlid_rfs import RestoringForceSurface
 
 TERMS = "z^3, z^2, v*|v|"
 

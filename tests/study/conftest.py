@@ -8,9 +8,8 @@ parent's ``sys.path``) that is an installed distribution.
 
 from __future__ import annotations
 
-import textwrap
-
 import pytest
+from plugin_dist import write_distribution
 
 from nlid.registry import load_registry
 
@@ -89,11 +88,12 @@ def nlid_identifiers():
 def plugin_path(tmp_path_factory):
     """A folder holding the test plugins as an installed distribution, on sys.path."""
     folder = tmp_path_factory.mktemp("study-plugins")
-    (folder / "nlid_study_test_plugins.py").write_text(textwrap.dedent(PLUGINS))
-    info = folder / "nlid_study_test_plugins-0.1.dist-info"
-    info.mkdir()
-    (info / "METADATA").write_text("Metadata-Version: 2.1\nName: nlid-study-test-plugins\nVersion: 0.1\n")
-    (info / "entry_points.txt").write_text("[nlid.identifiers]\nstudy-test = nlid_study_test_plugins\n")
+    write_distribution(
+        folder,
+        "nlid-study-test-plugins",
+        {"nlid_study_test_plugins": PLUGINS},
+        {"study-test": "nlid_study_test_plugins"},
+    )
     with pytest.MonkeyPatch.context() as mp:
         mp.syspath_prepend(str(folder))
         yield folder

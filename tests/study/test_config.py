@@ -5,6 +5,7 @@ from __future__ import annotations
 import dataclasses
 import json
 import sys
+import textwrap
 
 import pytest
 
@@ -47,8 +48,11 @@ BAD_VALUES = [
     ("[study]\ntimeout = -1\n[[datasets]]\npreset = 'paper-numerical'\n", "study.timeout: must be positive"),
     ("[study]\ntimeout = 1e12\n[[datasets]]\npreset = 'paper-numerical'\n", "study.timeout: must be <="),
     ("[study]\nrepetitions = 1000000000\n[[datasets]]\npreset = 'paper-numerical'\n", "study.repetitions: must be <="),
-    ("[study]\nrepetitions = 6000\nidentifiers = ['rfs', 'sindy', 'nsi-ip', 'nsi-shift']\n"
-     "[[datasets]]\npreset = 'paper-numerical'\n", "plans 24000 runs"),
+    (
+        "[study]\nrepetitions = 6000\nidentifiers = ['rfs', 'sindy', 'nsi-ip', 'nsi-shift']\n"
+        "[[datasets]]\npreset = 'paper-numerical'\n",
+        "plans 24000 runs",
+    ),
     ("[[datasets]]\npreset = 'paper-numerical'\nmass = inf\n", "datasets[0].mass: expected a finite number"),
     ("[[datasets]]\npreset = 'paper-numerical'\nmass = -0.2\n", "datasets[0].mass: must be positive"),
     ("[[datasets]]\npreset = 'paper-numerical'\nmass = 1e300\n", "datasets[0].mass: must be <="),
@@ -56,40 +60,59 @@ BAD_VALUES = [
     ("[[datasets]]\npreset = 'paper-numerical'\nnoise = { z = nan }\n", "datasets[0].noise.z: must be 0 or a fraction"),
     ("[[datasets]]\npreset = 'paper-numerical'\nslices = [0.0, nan]\n", "datasets[0].slices[1]: expected a finite"),
     ("[[datasets]]\npreset = 'paper-numerical'\noverrides = { duration = 0 }\n", "datasets[0].overrides: preset"),
-    ("[[datasets]]\npreset = 'paper-numerical'\noverrides = { fs = nan }\n", "datasets[0].overrides.fs: expected a finite"),
+    (
+        "[[datasets]]\npreset = 'paper-numerical'\noverrides = { fs = nan }\n",
+        "datasets[0].overrides.fs: expected a finite",
+    ),
     ("[[datasets]]\npreset = 'paper-numerical'\noverrides = { duration = 1e9 }\n", "more than the limit"),
     ("[[datasets]]\npreset = 'paper-numerical'\ntimeout = 0\n", "datasets[0].timeout: must be positive"),
     ("[[datasets]]\nfile = 'x.csv'\nfs = -5\n", "datasets[0].fs: must be positive"),
     ("[[datasets]]\npreset = 'paper-numerical'\n[posterior]\ndraws = 10\n", "posterior.draws: unknown key 'draws'"),
     ("[[datasets]]\npreset = 'paper-numerical'\n[posterior]\nlevel = 1.5\n", "posterior.level: the credible level"),
-    ("[[datasets]]\npreset = 'paper-numerical'\n[posterior]\nwalkers = 1.5\n", "posterior.walkers: expected an integer"),
+    (
+        "[[datasets]]\npreset = 'paper-numerical'\n[posterior]\nwalkers = 1.5\n",
+        "posterior.walkers: expected an integer",
+    ),
     ("[[datasets]]\npreset = 'paper-numerical'\n[posterior]\nmove = 'gibbs'\n", "posterior: unknown move"),
-    ("[[datasets]]\npreset = 'paper-numerical'\n[datasets.reference]\nmass = nan\n", "reference.mass: expected a finite"),
+    (
+        "[[datasets]]\npreset = 'paper-numerical'\n[datasets.reference]\nmass = nan\n",
+        "reference.mass: expected a finite",
+    ),
     # every table: reference values, per-identifier overrides, [options.X], preset fields, [posterior] (issue 18)
     ("[[datasets]]\npreset = 'paper-numerical'\n[datasets.reference]\nmass = 1e300\n", "reference.mass: must be <="),
     (
         "[[datasets]]\npreset = 'paper-numerical'\n[datasets.reference]\nmodal = [{ fn_hz = 1 }]\n",
         "modal[0]: needs zeta",
     ),
-    ("[[datasets]]\npreset = 'paper-numerical'\n[datasets.reference]\nmodal = [{ fn_hz = inf, zeta = 0.1 }]\n",
-     "modal[0].fn_hz: expected a finite"),
+    (
+        "[[datasets]]\npreset = 'paper-numerical'\n[datasets.reference]\nmodal = [{ fn_hz = inf, zeta = 0.1 }]\n",
+        "modal[0].fn_hz: expected a finite",
+    ),
     (
         "[[datasets]]\npreset = 'paper-numerical'\n[datasets.reference]\nequilibria = [1e300]\n",
         "equilibria[0]: must be <=",
     ),
-    ("[[datasets]]\npreset = 'paper-numerical'\n[datasets.reference]\ncoefficients = { 'z^3' = nan }\n",
-     "reference.coefficients.z^3: expected a finite"),
+    (
+        "[[datasets]]\npreset = 'paper-numerical'\n[datasets.reference]\ncoefficients = { 'z^3' = nan }\n",
+        "reference.coefficients.z^3: expected a finite",
+    ),
     ("[[datasets]]\npreset = 'paper-numerical'\nslices = [-1e300]\n", "datasets[0].slices[0]: must be >="),
     (
         "[[datasets]]\npreset = 'paper-numerical'\npx_roots = [nan, 0.01]\n",
         "datasets[0].px_roots[0]: expected a finite",
     ),
-    ("[[datasets]]\npreset = 'paper-numerical'\n[datasets.models.b]\npx_roots = [-0.01, inf]\n",
-     "datasets[0].models.b.px_roots[1]: expected a finite"),
-    ("[[datasets]]\npreset = 'paper-numerical'\n[datasets.methods.rfs]\npx_roots = [-1e9, 0.01]\n",
-     "datasets[0].methods.rfs.px_roots[0]: must be >="),
-    ("[[datasets]]\npreset = 'paper-numerical'\n[datasets.methods.rfs.options]\ncutoff = nan\n",
-     "datasets[0].methods.rfs.options: "),
+    (
+        "[[datasets]]\npreset = 'paper-numerical'\n[datasets.models.b]\npx_roots = [-0.01, inf]\n",
+        "datasets[0].models.b.px_roots[1]: expected a finite",
+    ),
+    (
+        "[[datasets]]\npreset = 'paper-numerical'\n[datasets.methods.rfs]\npx_roots = [-1e9, 0.01]\n",
+        "datasets[0].methods.rfs.px_roots[0]: must be >=",
+    ),
+    (
+        "[[datasets]]\npreset = 'paper-numerical'\n[datasets.methods.rfs.options]\ncutoff = nan\n",
+        "datasets[0].methods.rfs.options: ",
+    ),
     (
         "[[datasets]]\npreset = 'paper-numerical'\n[datasets.methods.rfs]\nterms = 5\n",
         "methods.rfs.terms: expected a string",
@@ -107,8 +130,10 @@ BAD_VALUES = [
     ("[posterior]\nnoise = { z = -1 }\n[[datasets]]\npreset = 'paper-numerical'\n", "noise on z must be"),
     ("[posterior]\npriors = { v = 'normal(0, -1)' }\n[[datasets]]\npreset = 'paper-numerical'\n", "positive sd"),
     ("[posterior]\nparams = 'z^5'\n[[datasets]]\npreset = 'paper-numerical'\n", "posterior.params: dataset"),
-    ("[posterior]\npriors = { 'z^3' = 'normal(0, 1)' }\n[[datasets]]\npreset = 'paper-numerical'\n",
-     "posterior.priors: a prior is given for z^3"),
+    (
+        "[posterior]\npriors = { 'z^3' = 'normal(0, 1)' }\n[[datasets]]\npreset = 'paper-numerical'\n",
+        "posterior.priors: a prior is given for z^3",
+    ),
 ]
 
 
@@ -153,6 +178,85 @@ def test_typed_values_and_the_run_spec_round_trip():
     assert again == run.spec and again.digest() == run.digest
     with pytest.raises(dataclasses.FrozenInstanceError):
         run.spec.method = "x"  # type: ignore[misc]
+
+
+@pytest.mark.parametrize("name", sorted(builtin_studies()))
+def test_a_parsed_study_writes_itself_back_to_the_same_runs(name):
+    """StudyConfig.to_toml: every value explicit; read back, the same datasets, runs, seeds and digests."""
+    path = builtin_studies()[name]
+    config = parse_study(path.read_text(), source=str(path), base_dir=path.parent, default_name=name)
+    text = config.to_toml()
+    again = parse_study(text, source="written.toml", base_dir="/nowhere", default_name="other")
+    assert again.datasets == config.datasets and again.to_dict() == config.to_dict()
+    assert (again.name, again.seed, again.identifiers) == (config.name, config.seed, config.identifiers)
+    assert (again.options, again.posterior) == (config.options, config.posterior)
+    assert [(r.run_id, r.seed, r.digest) for r in plan_study(again)] == [
+        (r.run_id, r.seed, r.digest) for r in plan_study(config)
+    ]
+    assert again.to_toml() == text  # a fixed point
+
+
+def test_a_resolved_study_with_every_kind_of_value_round_trips_through_a_file(tmp_path):
+    """Sources, masses, hold-outs, term sets, per-method options, references and awkward strings survive."""
+    data = tmp_path / "data"
+    data.mkdir()
+    (data / "rig.csv").write_text("f,z\n" + "".join(f"{i % 7},{(i % 5) * 1e-3}\n" for i in range(400)))
+    (tmp_path / "study.toml").write_text(
+        textwrap.dedent(
+            """\
+            [study]
+            description = 'quote " backslash \\\\ tab \\t unicode é 𝔷'
+            seed = 7
+            repetitions = 2
+            timeout = 30
+            identifiers = ["rfs", "sindy"]
+
+            [options.rfs]
+            cutoff = 80
+
+            [[datasets]]
+            name = "sim"
+            preset = "paper-numerical"
+            overrides = { duration = 4, band = [5, 40] }
+            noise = { z = 0.02, a = 1e-5 }
+            terms = "z^3, z^2, v*|v|"
+            mass = 0.2
+            holdout = 0.25
+            slices = [-0.02, 0.0, 0.02]
+            [datasets.models]
+            stiffness-only = { terms = "z^3, z^2", without = "v" }
+            roots = { terms = "z^3, px(z)", px_roots = [-0.01, 0.011] }
+            [datasets.methods.rfs]
+            without = "1"
+            options = { cutoff = 50 }
+
+            [[datasets]]
+            name = "rig"
+            file = "data/rig.csv"
+            columns = "f=f,z=z"
+            fs = 100
+            holdout = "none"
+            mass = "known"
+            [datasets.reference]
+            mass = 1.5
+            coefficients = { "sign(v)" = 2.0, v = 3.0 }
+            equilibria = [0.001, -0.002]
+            modal = [{ fn_hz = 11.75, zeta = 0.109 }]
+            """
+        )
+    )
+    config = load_study(tmp_path / "study.toml")
+    moved = tmp_path / "elsewhere"
+    moved.mkdir()
+    (moved / "copy.toml").write_text(config.to_toml())
+    again = load_study(moved / "copy.toml")
+    assert again.resolved and again.datasets == config.datasets
+    assert again.datasets[1].source.path == str(data / "rig.csv")  # written absolute: found from anywhere
+    assert again.description == config.description and again.options == config.options
+    assert [r.digest for r in plan_study(again)] == [r.digest for r in plan_study(config)]
+    sim = config.datasets[0].to_toml()
+    assert sim["noise"] == {"z": 0.02, "a": 1e-5} and sim["channels"] == ["z", "a"]
+    assert sim["models"]["roots"]["px_roots"] == [-0.01, 0.011] and sim["repetitions"] == 2
 
 
 def test_builtin_studies_validate():
@@ -255,7 +359,7 @@ def test_measured_studies_run(data_dir, tmp_path):
     assert row["freerun_note"] == "skipped: disabled in the study"
     silverbox = run_study(load_study("silverbox"), tmp_path / "sb", executor=LocalExecutor(1), progress=False)
     row = ResultStore(tmp_path / "sb").results(silverbox.runs).set_index("method").loc["rfs"]
-    assert row["status"] == "ok" and row["samples"] == 131072 - 40000
+    assert row["status"] == "ok" and row["samples"] == 105712 - 40650  # the benchmark's estimation part
     assert 0 < row["eps_holdout_percent"] < 5
     assert row["freerun_rmse"] < 0.01, "the cubic model should track the arrow head within 10 mV RMS"
 

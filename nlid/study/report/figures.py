@@ -5,8 +5,9 @@ Every figure has units on its axes, a legend and a one-line caption.
 * ``summary_<dataset>_<model>``: the metrics that separate the methods - the
   |error| of every coefficient, of the modal parameters and equilibria, the
   held-out residual and free-run error, and the time per identification: bar
-  = median, whisker = min-max over repetitions, log scale; methods with
-  identical results share a bar (``rfs = sindy``).
+  = median, whisker = min-max over repetitions, log scale; one bar per
+  method, also for methods with identical coefficients (``sindy (= rfs)`` in
+  the legend): their accuracy bars are equal, their times their own.
 * ``kz_<dataset>_<model>``: the identified elastic force K(z) (Eq. 6) against
   the reference, equilibria marked, and below the difference identified -
   reference per method (line: median over the repetitions, band: min-max).
@@ -24,6 +25,7 @@ Every figure has units on its axes, a legend and a one-line caption.
 from __future__ import annotations
 
 import re
+import textwrap
 from pathlib import Path
 from typing import Any
 
@@ -31,17 +33,16 @@ import numpy as np
 import pandas as pd
 
 from ... import physics
-from ...errors import NlidError
 from ...formatting import sig
-from ...interface import FigureArray, standard_figure_arrays
+from ...interface import FigureArray
 from ...plotting import new_figure, save_figure
-from ...registry import registry_for
+from ...responseplots import declared_arrays
 from ...terms import Model
 from .. import columns as col
 from .section import Section
 from .verdict import identical_methods
 
-__all__ = ["section_figures", "Figure", "figure_arrays"]
+__all__ = ["section_figures", "Figure", "figure_arrays", "draw_summary"]
 
 _SAFE = re.compile(r"[^A-Za-z0-9_.+-]+")
 _DATASET, _MODEL, _METHOD = col.DATASET.key(), col.MODEL.key(), col.METHOD.key()
@@ -188,15 +189,18 @@ def _stats(frame: pd.DataFrame, column: str, methods: list[str], absolute: bool 
     return med, lo, hi
 
 
-def _grouped_bars(ax: Any, frame: pd.DataFrame, columns: list[tuple[str, str]], groups: list[tuple[str, ...]]) -> None:
-    """Bars of ``columns`` (x axis) per method group (colours): median, whiskers min-max, log scale."""
+def _grouped_bars(ax: Any, frame: pd.DataFrame, columns: list[tuple[str, str]], methods: list[str]) -> None:
+    """Bars of ``columns`` (x axis) per method (colours): median, whiskers min-max, log scale.
+
+    Every method has its own bar with its own values, also where methods tie: their bars are then equal.
+    """
     x = np.arange(len(columns))
-    width = 0.8 / max(1, len(groups))
-    colors = _colors(len(groups))
-    for i, group in enumerate(groups):
+    width = 0.8 / max(1, len(methods))
+    colors = _colors(len(methods))
+    for i, method in enumerate(methods):
         med, lo, hi = [], [], []
         for key, _ in columns:
-            m, a, b = _stats(frame, key, [group[0]])
+            m, a, b = _stats(frame, key, [method])
             med.append(m[0])
             lo.append(a[0])
             hi.append(b[0])
@@ -204,21 +208,25 @@ def _grouped_bars(ax: Any, frame: pd.DataFrame, columns: list[tuple[str, str]], 
         # a log axis cannot show a bar reaching zero: the lower whisker stops at 1 % of the median
         lo = np.minimum(np.asarray(lo), 0.99 * np.nan_to_num(med))
         ax.bar(
-            x + (i - (len(groups) - 1) / 2) * width,
+            x + (i - (len(methods) - 1) / 2) * width,
             med,
             width,
             yerr=[lo, hi],
             capsize=2,
             color=colors[i],
-            label=" = ".join(group),
+            label=method,
             error_kw={"lw": 0.8},
         )
     ax.set_yscale("log")
     ax.set_xticks(x, [label for _, label in columns], rotation=30, ha="right", fontsize=8)
 
 
-def _summary_figure(section: Section, folder: Path) -> Figure | None:
-    """The metrics that separate the methods: coefficient, modal and equilibrium errors, residuals, time."""
+def draw_summary(section: Section) -> Any:
+    """The summary figure of a section (a :class:`matplotlib.figure.Figure`), or None without runs.
+
+    The metrics that separate the methods: coefficient, modal and equilibrium errors, residuals, time; one
+    panel per family, one bar per method and metric (median, whiskers min-max, log scale).
+    """
     frame = section.frame
     groups = _groups(section)
     if not groups:
@@ -241,21 +249,35 @@ def _summary_figure(section: Section, folder: Path) -> Figure | None:
         (present(col.SECONDS), "time per identification (s)"),
     ]
     panels = [p for p in panels if p[0]]
-    widths = [max(1.5, 0.55 * len(c) * max(1, len(groups)) / 2 + 0.8) for c, _ in panels]
+    methods = [m for g in groups for m in g]
+    widths = [max(1.5, 0.55 * len(c) * max(1, len(methods)) / 2 + 0.8) for c, _ in panels]
     fig, axes = new_figure(
         1,
         len(panels),
         width=min(16.0, sum(widths) + 1.5),
-        height=4.2,
+        height=4.4,
         squeeze=False,
         gridspec_kw={"width_ratios": widths},
     )
-    for ax, (columns, title) in zip(axes[0], panels, strict=True):
-        _grouped_bars(ax, frame, columns, groups)
-        ax.set_title(title, fontsize=9)
+    width = min(16.0, sum(widths) + 1.5)
+    for ax, (columns, title), w in zip(axes[0], panels, widths, strict=True):
+        _grouped_bars(ax, frame, columns, methods)
+        # a title wider than its panel is cut at the figure's edge: wrapped to the panel (9 pt, 0.6 em a glyph)
+        chars = max(10, int((width - 1.5) * w / sum(widths) * 72 / (0.6 * 9)))
+        ax.set_title("\n".join(textwrap.wrap(title, chars)), fontsize=9)
     axes[0, 0].set_ylabel("median (whiskers: min-max)")
-    handles, names = axes[0, 0].get_legend_handles_labels()
-    fig.legend(handles, names, loc="outside upper center", ncols=len(groups), fontsize=9)
+    handles, _ = axes[0, 0].get_legend_handles_labels()
+    # identical methods keep their own bars (equal on the accuracy panels, their own times); the legend says so
+    names = [m if len(g) == 1 or m == g[0] else f"{m} (= {g[0]})" for g in groups for m in g]
+    fig.legend(handles, names, loc="outside upper center", ncols=len(methods), fontsize=9)
+    return fig
+
+
+def _summary_figure(section: Section, folder: Path) -> Figure | None:
+    """Write the summary figure (:func:`draw_summary`)."""
+    fig = draw_summary(section)
+    if fig is None:
+        return None
     stem = _stem(folder, "summary", section.dataset, section.model)
     save_figure(fig, stem)
     return Figure(
@@ -263,7 +285,7 @@ def _summary_figure(section: Section, folder: Path) -> Figure | None:
         stem,
         "Median over repetitions (whiskers: min-max, log scale) of each coefficient's |error|, the modal and "
         "equilibrium errors, the held-out residual and free-run error, and the time per identification; lower "
-        "is better; methods with identical results share a bar.",
+        "is better; methods with identical coefficients (legend: = another method) have equal accuracy bars.",
     )
 
 
@@ -324,18 +346,8 @@ def _slices_figure(section: Section, method: str, tag: str, arrays: dict, folder
 
 
 def figure_arrays(method: str, arrays: dict) -> tuple[FigureArray, ...]:
-    """The arrays of a run that the method declares for figures (:meth:`nlid.plugin.Identifier.figure_arrays`).
-
-    A method no longer installed is read with the keys :class:`nlid.plugin.Estimate` documents. Only
-    declared arrays present with their frequency axis are returned.
-    """
-    try:
-        cls = registry_for(method).get(method)
-    except NlidError:
-        cls = None
-    declare = getattr(cls, "figure_arrays", None)
-    declared = declare(arrays) if callable(declare) else standard_figure_arrays(arrays)
-    return tuple(a for a in declared if a.values in arrays and a.frequency in arrays)
+    """The arrays of a run that the method declares for figures (:func:`nlid.responseplots.declared_arrays`)."""
+    return declared_arrays(method, arrays)
 
 
 def _curve(arrays: dict, declared: FigureArray) -> tuple[np.ndarray, np.ndarray]:

@@ -209,6 +209,10 @@ def _residual_table(section: Section) -> Table:
             skipped = skipped[skipped != ""]
             if len(skipped):
                 notes.append(f"{method}: free run {skipped.iloc[0]} ({len(skipped)} of {len(ok)} runs)")
+    rule = col.FREERUN_RULE.key()
+    if rule in frame.columns:  # the first-sample rule goes unsaid; any other is stated
+        said = sorted({r for r in frame[rule].dropna() if r and not r.startswith("from the record's first")})
+        notes += [f"free run scored under: {r}" for r in said[:3]]
     rows, best = method_rows(section, cols)
     return Table("Residuals (eps: Eq. 26), simulation error and cost", _head(cols), rows, notes, best=best)
 

@@ -65,6 +65,16 @@ class Entry:
         """``rfs`` or ``rfs = sindy``."""
         return " = ".join(self.methods)
 
+    @property
+    def tied(self) -> bool:
+        """True when the entry stands for several methods with identical values on every record."""
+        return len(self.methods) > 1
+
+
+def _and(names: list[str] | tuple[str, ...]) -> str:
+    """``a``, ``a and b``, ``a, b and c``."""
+    return names[0] if len(names) == 1 else ", ".join(names[:-1]) + " and " + names[-1]
+
 
 @dataclass(frozen=True)
 class Finding:
@@ -135,8 +145,14 @@ class Finding:
         """``[metric, best, next, margin, verdict]`` as text (the verdict table's row)."""
         nxt = self.runner_up
         if nxt is None:
-            return [self.metric, self._value(self.best), "–", "–", "the only method with a value"]
+            return [self.metric, self._value(self.best), "–", "–", self._alone()]
         return [self.metric, self._value(self.best), self._value(nxt), self.margin_text(), self.judgement()]
+
+    def _alone(self) -> str:
+        """Why the best entry has no next one: a tie of identical methods, or the only method with a value."""
+        if self.best.tied:
+            return f"{_and(self.best.methods)} tie: identical on every record"
+        return "the only method with a value"
 
     def margin_text(self) -> str:
         """``0.68 (2.4x)``: the difference of the medians and their ratio."""
@@ -162,7 +178,7 @@ class Finding:
         """One line: ``v error (%): nsi-ip 0.48 [...] vs nsi-shift 1.2 [...]: lower by ...``."""
         nxt = self.runner_up
         if nxt is None:
-            return f"{self.metric}: {self._value(self.best)} (the only method with a value)"
+            return f"{self.metric}: {self._value(self.best)} ({self._alone()})"
         return (
             f"{self.metric}: {self._value(self.best)} vs {self._value(nxt)}; "
             f"lower by {self.margin_text()}, {self.judgement()}"
@@ -184,24 +200,40 @@ class Verdict:
         return self.ranking[0][0] if self.ranking else None
 
     def headline(self) -> str:
-        """The overall ranking in one sentence."""
+        """The overall ranking in one sentence; ties (equal mean ranks, identical methods) are said to tie."""
+        tail = f"Medians over {self.records} repetition(s); lower is better."
         if not self.ranking:
-            return "No method has a scored metric yet."
+            accuracy = [f for f in self.findings if f.kind == "accuracy"]
+            if not accuracy:
+                return "No method has a scored metric yet."
+            names = list(dict.fromkeys(f.best.name for f in accuracy))
+            if len(names) == 1 and accuracy[0].best.tied:
+                methods = accuracy[0].best.methods
+                return (
+                    f"Overall: {_and(methods)} tie: their coefficients are identical on every record, so every "
+                    f"accuracy metric ({len(accuracy)}) is the same. {tail}"
+                )
+            return f"Overall: only {_and(names)} {'has' if len(names) == 1 else 'have'} scored metrics. {tail}"
         count = max(n for _, _, n in self.ranking)
         ranks = ", ".join(f"{name} {r:.2g}" for name, r, _ in self.ranking)
-        return (
-            f"Overall: {self.ranking[0][0]} (mean rank over {count} accuracy metrics, 1 = best on every one: "
-            f"{ranks}). Medians over {self.records} repetition(s); lower is better."
-        )
+        top = [name for name, r, _ in self.ranking if math.isclose(r, self.ranking[0][1])]
+        lead = top[0] if len(top) == 1 else f"{_and(top)} tie"
+        return f"Overall: {lead} (mean rank over {count} accuracy metrics, 1 = best on every one: {ranks}). {tail}"
 
     def separation(self) -> str:
         """Which metrics separate the methods beyond the spread, and which only record by record."""
         clear = [f.metric for f in self.findings if f.runner_up is not None and not f.within_spread]
         every = [f.metric for f in self.findings if f.within_spread and f.paired[1] > 1 and f.paired[0] == f.paired[1]]
+        tied = [f for f in self.findings if f.runner_up is None and f.best.tied]
         parts = [f"Separated beyond the spread: {', '.join(clear) if clear else 'none'}."]
         if every:
             parts.append(f"Within the spread but lower on every record: {', '.join(every)}.")
-        if len(self.findings) > len(clear) + len(every):
+        if tied:
+            groups = list(dict.fromkeys(f.best.methods for f in tied))
+            parts.append(
+                f"Tied (identical on every record): {'; '.join(_and(g) for g in groups)} on {len(tied)} metric(s)."
+            )
+        if len(self.findings) > len(clear) + len(every) + len(tied):
             parts.append("Every other metric: within the spread over the repetitions.")
         return " ".join(parts)
 

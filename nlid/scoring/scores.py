@@ -1,52 +1,21 @@
-"""How well an identified model meets a record: the one place every score is computed.
-
-Every layer of nlid (the pipeline, ``nlid identify``, studies, discovery,
-posteriors, the output-error identifier) scores a model on data through the
-functions here, so that the same model on the same record gets the same
-number whichever command asks.
-
-Scores (:class:`Scores`, from :func:`score`):
-
-``eps_percent``
-    The percentage RMS residual of the restoring-force surface (Eq. 26):
-    ``100 RMS(R_e - R_hat) / RMS(R_e)`` with ``R_e = f - m a`` (Eq. 25),
-    formed in the band of the shared differentiating filter when a channel
-    the model needs is estimated (:func:`nlid.balance.regression_data`).
-``force_residual_percent``
-    The same residual relative to the force, ``100 RMS(f - m a - R_hat) /
-    RMS(f)``: the "relative force residual" of inverse-dynamics benchmarks
-    such as EMPS.
-``freerun_rmse``, ``freerun_nrmse_percent``, ``freerun_fit_percent``, ``freerun_note``
-    The free-run simulation error of the displacement: the model driven by
-    the record's force from the record's first state
-    (:func:`nlid.simulation.free_run`, which holds a zero-order-held force
-    and interpolates a sampled one), ``RMS(z_sim - z)`` in the unit of ``z``
-    and relative to ``std(z)``; and the fit of MATLAB's ``compare``,
-    ``100 (1 - |z - z_sim| / |z - mean(z)|)`` (100 % a perfect match, the
-    norms over the record; ``100 - freerun_nrmse_percent`` up to rounding,
-    in the convention benchmark tables quote). The initial velocity is the measured one when
-    the record has it, else the derivative of ``z`` through the shared filter
-    at its suggested cut-off (a property of the record alone, so the number
-    does not depend on who asks). It is not reported for a model that is too
-    sensitive to its initial state for one free run to mean anything
-    (chaotic): two runs started :data:`SENSITIVITY_DELTA` ``std(z)`` apart
-    that differ by more than :data:`SENSITIVITY_LIMIT` ``std(z)`` (RMS over
-    the second half). ``freerun_note`` says why a figure is missing.
-"""
+"""The scores of a model on a record: epsilon, the force residual, the free-run and k-step errors (see the package)."""
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import asdict, dataclass
 from typing import Any, Protocol
 
 import numpy as np
 
-from . import derivatives
-from .balance import RegressionData, regression_data
-from .errors import DataError, InputError, NlidError
-from .physics import Coefficients, damping, dict_or_vector
-from .record import Record
-from .terms import Model
+from .. import derivatives
+from ..balance import RegressionData, regression_data
+from ..errors import DataError, InputError, NlidError
+from ..physics import Coefficients, dict_or_vector
+from ..record import Record
+from ..terms import Model
+from .rules import FromFirstSample, TransientRule, error_metrics, resolve_rule
+from .rules import start as rule_start
 
 __all__ = [
     "ModelFit",
@@ -56,13 +25,13 @@ __all__ = [
     "score",
     "residual",
     "free_run_error",
+    "free_run_response",
+    "FreeRunResponse",
     "predictability_horizon",
     "HORIZON_STARTS",
     "initial_state",
     "epsilon",
     "force_residual_percent",
-    "DampingSlice",
-    "damping_slice",
     "SENSITIVITY_DELTA",
     "SENSITIVITY_LIMIT",
 ]
@@ -126,24 +95,55 @@ class FreeRun:
     Attributes
     ----------
     rmse
-        ``RMS(z_sim - z)`` in the unit of ``z`` (NaN when not computed).
+        ``RMS(z_sim - z)`` over the scored samples, in the unit of ``z`` (NaN when not computed).
     nrmse_percent
-        ``100 rmse / std(z)``.
+        ``100 rmse / std(z)`` (``z`` over the scored samples).
     fit_percent
-        ``100 (1 - |z - z_sim| / |z - mean(z)|)``: MATLAB ``compare``'s fit (NaN when not computed).
+        ``100 (1 - |z - z_sim| / |z - mean(z)|)`` over the scored samples: MATLAB ``compare``'s fit (NaN when
+        not computed).
     note
         Empty when computed, else why not (chaotic, diverged, no mass...).
+    rule
+        The transient rule as applied (:mod:`nlid.scoring.rules`): ``"from the record's first sample"``, the
+        window, or the period and the number of preceding periods simulated; empty when no run was made.
+    scored_samples
+        Number of samples the figures are computed over (0 when not computed).
     """
 
     rmse: float = NAN
     nrmse_percent: float = NAN
     note: str = ""
     fit_percent: float = NAN
+    rule: str = ""
+    scored_samples: int = 0
 
     @property
     def computed(self) -> bool:
         """True when the error was computed."""
         return not self.note
+
+
+@dataclass(frozen=True)
+class FreeRunResponse:
+    """The free run itself, as :func:`free_run_error` scores it (:func:`free_run_response`; for figures).
+
+    Attributes
+    ----------
+    z
+        The measured displacement (the whole record).
+    z_sim
+        The simulated displacement at every sample of the record (the initialisation window included), or
+        ``None`` when the run diverged or was not made.
+    first
+        The first scored sample (``InitWindow``: the window's length; 0 otherwise).
+    error
+        The figures and the rule as applied (:class:`FreeRun`).
+    """
+
+    z: np.ndarray
+    z_sim: np.ndarray | None
+    first: int
+    error: FreeRun
 
 
 @dataclass(frozen=True)
@@ -162,6 +162,12 @@ class Scores:
         The equation band (Hz), ``None`` when nothing was filtered.
     samples
         Samples of the settled force balance the residuals were computed on.
+    freerun_rule, freerun_scored_samples
+        The transient rule the free run was scored under, as applied, and the number of samples scored
+        (:attr:`FreeRun.rule`, :attr:`FreeRun.scored_samples`).
+    predict_rmse, predict_fit_percent, predict_horizon
+        The ``k``-step-ahead prediction error (:func:`nlid.scoring.predict`; ``score(..., horizon=k)``): RMS in
+        the unit of ``z``, MATLAB ``compare``'s fit, and ``k`` (``None`` when not computed).
     """
 
     eps_percent: float
@@ -172,6 +178,11 @@ class Scores:
     band_hz: float | None = None
     samples: int = 0
     freerun_fit_percent: float = NAN
+    freerun_rule: str = ""
+    freerun_scored_samples: int = 0
+    predict_rmse: float = NAN
+    predict_fit_percent: float = NAN
+    predict_horizon: int | None = None
 
     def to_dict(self) -> dict[str, Any]:
         """Plain dictionary (NaN kept; :func:`nlid.interface.to_jsonable` maps it to null)."""
@@ -264,13 +275,97 @@ def initial_state(record: Record) -> tuple[float, float]:
     return float(record.z[0]), float(v[0])
 
 
-def free_run_error(fit: ModelFit, record: Record) -> FreeRun:
-    """Free-run simulation error of the displacement, with the chaos check (module docstring)."""
-    from .simulation import free_run
+def free_run_error(
+    fit: ModelFit, record: Record, rule: TransientRule | str | Mapping[str, Any] | None = None
+) -> FreeRun:
+    """Free-run simulation error of the displacement under a transient rule, with the chaos check.
 
+    Parameters
+    ----------
+    fit
+        The identified model (without a mass there is no free run: the note says so).
+    record
+        The force that drives the run and the displacement it is scored against.
+    rule
+        The transient rule (:mod:`nlid.scoring.rules`; a rule or its spelling, ``"window:50"``); default
+        :func:`~nlid.scoring.default_rule` of the record.
+
+    Returns
+    -------
+    FreeRun
+        The figures over the scored samples, the rule as applied, or the note saying why there are none
+        (chaotic: two runs started :data:`SENSITIVITY_DELTA` ``std(z)`` apart differ by more than
+        :data:`SENSITIVITY_LIMIT` ``std(z)`` over the second half of the scored samples).
+
+    Raises
+    ------
+    InputError
+        A rule that does not fit the record (a window longer than it, a period it cannot show).
+    """
+    return free_run_response(fit, record, rule).error
+
+
+def free_run_response(
+    fit: ModelFit, record: Record, rule: TransientRule | str | Mapping[str, Any] | None = None
+) -> FreeRunResponse:
+    """The free run :func:`free_run_error` scores, with the simulated displacement (same arguments)."""
+    rule = resolve_rule(rule, record)
+    z = np.asarray(record.z)
     if fit.mass is None:
-        return FreeRun(note="skipped: the mass is unknown")
-    z = record.z
+        return FreeRunResponse(z, None, 0, FreeRun(note="skipped: the mass is unknown"))
+    if isinstance(rule, FromFirstSample):
+        return _free_run_first_sample(fit, record, rule.describe())
+    from ..simulation import FREE_RUN_OVERSAMPLE, simulate_segments
+
+    q = FREE_RUN_OVERSAMPLE
+    try:
+        begin = rule_start(fit, record, rule, q)
+        shifted = begin.state.copy()
+        scale = float(np.std(z[begin.first :]))
+        shifted[0] += SENSITIVITY_DELTA * scale
+        runs = [
+            simulate_segments(
+                fit.model,
+                fit.theta,
+                float(fit.mass),
+                record.f,
+                record.fs,
+                [0],
+                x[None, :],
+                oversample=q,
+                fine=begin.fine,
+                sensitivities=False,
+            ).z
+            for x in (begin.state, shifted)
+        ]
+    except InputError:
+        raise
+    except NlidError as exc:
+        return FreeRunResponse(z, None, 0, FreeRun(note=f"free run diverged: {exc}", rule=rule.describe()))
+    k = begin.first
+    error = _judged(z[k:], runs[0][k:], runs[1][k:], scale, begin.description)
+    return FreeRunResponse(z, runs[0], k, error)
+
+
+def _judged(z: np.ndarray, z1: np.ndarray, z2: np.ndarray, scale: float, rule: str) -> FreeRun:
+    """The figures of a free run ``z1`` against ``z``, unless ``z2`` (started nearby) says the model is chaotic."""
+    half = z.size // 2
+    spread = float(np.sqrt(np.mean((z1[half:] - z2[half:]) ** 2))) / scale
+    if spread > SENSITIVITY_LIMIT:
+        return FreeRun(
+            note=f"skipped: chaotic - two free runs started {SENSITIVITY_DELTA:g} std(z) apart differ by "
+            f"{100 * spread:.3g} % of std(z) over the second half",
+            rule=rule,
+        )
+    rmse, nrmse, fit = error_metrics(z, z1)
+    return FreeRun(rmse, nrmse, "", fit, rule, int(z.size))
+
+
+def _free_run_first_sample(fit: ModelFit, record: Record, rule: str) -> FreeRunResponse:
+    """The free run from the record's first sample (:func:`nlid.simulation.free_run`, nlid's path before the rules)."""
+    from ..simulation import free_run
+
+    z = np.asarray(record.z)
     scale = float(np.std(z))
     x0 = initial_state(record)
     args = (fit.model, fit.theta, float(fit.mass), record.f, record.fs)
@@ -278,17 +373,8 @@ def free_run_error(fit: ModelFit, record: Record) -> FreeRun:
         z1, _, _ = free_run(*args, force_hold=record.force_hold, x0=x0)
         z2, _, _ = free_run(*args, force_hold=record.force_hold, x0=(x0[0] + SENSITIVITY_DELTA * scale, x0[1]))
     except NlidError as exc:
-        return FreeRun(note=f"free run diverged: {exc}")
-    half = z.size // 2
-    spread = float(np.sqrt(np.mean((z1[half:] - z2[half:]) ** 2))) / scale
-    if spread > SENSITIVITY_LIMIT:
-        return FreeRun(
-            note=f"skipped: chaotic - two free runs started {SENSITIVITY_DELTA:g} std(z) apart differ by "
-            f"{100 * spread:.3g} % of std(z) over the second half"
-        )
-    rmse = float(np.sqrt(np.mean((z1 - z) ** 2)))
-    fit = 100.0 * (1.0 - float(np.linalg.norm(z - z1)) / float(np.linalg.norm(z - np.mean(z))))
-    return FreeRun(rmse, 100.0 * rmse / scale, "", fit)
+        return FreeRunResponse(z, None, 0, FreeRun(note=f"free run diverged: {exc}", rule=rule))
+    return FreeRunResponse(z, z1, 0, _judged(z, z1, z2, scale, rule))
 
 
 def predictability_horizon(
@@ -334,7 +420,7 @@ def predictability_horizon(
     nlid.simulation.SimulationError
         If the free run diverges.
     """
-    from .simulation import FREE_RUN_OVERSAMPLE, fine_force, simulate_segments
+    from ..simulation import FREE_RUN_OVERSAMPLE, fine_force, simulate_segments
 
     q = FREE_RUN_OVERSAMPLE if oversample is None else int(oversample)
     theta = dict_or_vector(model, coefficients)
@@ -398,9 +484,11 @@ def score(
     *,
     cutoff: float | None = None,
     free_run: bool = True,
+    rule: TransientRule | str | Mapping[str, Any] | None = None,
+    horizon: int | None = None,
     data: RegressionData | None = None,
 ) -> Scores:
-    """Every score of an identified model on a record (see the module docstring).
+    """Every score of an identified model on a record (see :mod:`nlid.scoring`).
 
     Parameters
     ----------
@@ -413,6 +501,12 @@ def score(
         suggestion for ``record``).
     free_run
         Also compute the free-run error (two simulations of the record).
+    rule
+        The transient rule of the free run and of the prediction (a rule or its spelling such as
+        ``"window:50"``; default :func:`~nlid.scoring.default_rule` of the record).
+    horizon
+        Also compute the ``horizon``-step-ahead prediction error (:func:`~nlid.scoring.predict`): the
+        ``predict_*`` fields (NaN, with the horizon, when the prediction diverged).
     data
         A force balance of ``fit.model`` on ``record`` already formed (saves
         the filtering).
@@ -421,6 +515,8 @@ def score(
     -------
     Scores
     """
+    if not isinstance(record, Record):  # nlid.load reads files, DataFrames and mappings into a Record
+        raise InputError(f"record must be an nlid Record (see nlid.load), got {type(record).__name__}")
     if fit.mass is None:
         note = "skipped: the mass is unknown" if free_run else "not computed"
         return Scores(NAN, NAN, freerun_note=note)
@@ -431,7 +527,20 @@ def score(
     theta = fit.theta
     eps = epsilon(data.restoring_force(mass), data.G @ theta)
     force = force_residual_percent(data, theta, mass)
-    run = free_run_error(fit, record) if free_run else FreeRun(note="not computed")
+    if free_run or horizon is not None:
+        rule = resolve_rule(rule, record)
+    run = free_run_error(fit, record, rule) if free_run else FreeRun(note="not computed")
+    ahead: tuple[float, float, int | None] = (NAN, NAN, None)
+    if horizon is not None:
+        from .prediction import predict
+
+        try:
+            found = predict(fit, record, horizon, rule=rule)
+            ahead = (found.rmse, found.fit_percent, found.horizon)
+        except InputError:
+            raise
+        except NlidError:
+            ahead = (NAN, NAN, int(horizon))
     return Scores(
         eps,
         force,
@@ -440,78 +549,8 @@ def score(
         run.note,
         data.filtered_at,
         int(data.f.size),
-        freerun_fit_percent=run.fit_percent,
+        run.fit_percent,
+        run.rule,
+        run.scored_samples,
+        *ahead,
     )
-
-
-# --------------------------------------------------------------------------- slices of the surface
-@dataclass(frozen=True)
-class DampingSlice:
-    """The damping force near one position (paper Fig. 21 b-d).
-
-    Attributes
-    ----------
-    z0, half_width
-        The slice ``|z - z0| <= half_width`` (m).
-    v
-        Velocities of the samples in the slice (m/s).
-    measured
-        Their measured damping force ``R_e - K(z)`` (N): the restoring force
-        minus the identified elastic part at each sample's own position,
-        formed in the force balance's band (the stiffness columns of ``G``)
-        so that a filtered balance does not leak the out-of-band part of
-        ``K(z)`` into the damping force.
-    v_grid, model
-        The identified ``D(z0, v)`` on a velocity grid spanning the slice.
-    """
-
-    z0: float
-    half_width: float
-    v: np.ndarray
-    measured: np.ndarray
-    v_grid: np.ndarray
-    model: np.ndarray
-
-
-def damping_slice(
-    data: RegressionData,
-    model: Model,
-    coefficients: Coefficients,
-    mass: float,
-    z0: float,
-    half_width: float | None = None,
-    grid: int = 200,
-) -> DampingSlice:
-    """Slice the restoring surface at ``z0`` to compare ``D`` with the data (Fig. 21 b-d).
-
-    Parameters
-    ----------
-    data
-        From :func:`nlid.balance.regression_data` (needs velocity: the model
-        must have velocity terms).
-    model, coefficients, mass
-        The identified model.
-    z0
-        Position of the slice (m).
-    half_width
-        Half width of the slice; default 5 % of the displacement range.
-    grid
-        Number of velocity points of the model curve.
-    """
-    if data.v is None:
-        raise InputError("a damping slice needs velocity: the model has no velocity-dependent term")
-    theta = dict_or_vector(model, coefficients)
-    if data.G.shape[1] != len(model):
-        raise InputError(f"the force balance has {data.G.shape[1]} regressors but the model has {len(model)} terms")
-    if half_width is None:
-        half_width = 0.05 * float(np.ptp(data.z))
-    near = np.abs(data.z - z0) <= half_width
-    if near.sum() < 3:
-        raise InputError(f"fewer than 3 samples within {half_width:.3g} m of z0 = {z0:.4g} m")
-    v = data.v[near]
-    stiff = [i for i, t in enumerate(model.terms) if t.family == "stiffness"]
-    # K in the balance's band: the stiffness regressors of G (equal to K(z) when nothing is filtered)
-    measured = data.restoring_force(mass)[near] - data.G[near][:, stiff] @ theta[stiff]
-    v_grid = np.linspace(v.min(), v.max(), grid)
-    curve = damping(model, theta, np.full(grid, float(z0)), v_grid)
-    return DampingSlice(float(z0), float(half_width), v, measured, v_grid, curve)

@@ -1,4 +1,4 @@
-"""Compiled path integrators of the memory laws (:mod:`nlid.terms.memory`); imported on first use."""
+"""Compiled path integrators of the memory laws (:mod:`nlid.terms.memory`), shared with the simulator and discovery."""
 
 from __future__ import annotations
 

@@ -1,0 +1,82 @@
+"""The posterior's corner plot, read from its drawn artists: the title fits, the record's truth is drawn (issue 23)."""
+
+from __future__ import annotations
+
+from types import SimpleNamespace
+
+import numpy as np
+import pytest
+from matplotlib.backends.backend_agg import FigureCanvasAgg
+from matplotlib.colors import to_rgba
+from matplotlib.text import Text
+
+from nlid import identify
+from nlid.bayes import sample_posterior
+from nlid.bayes.plots import corner_figure
+from nlid.presets import get_preset
+
+
+@pytest.fixture(scope="module")
+def posterior():
+    """A posterior of the damping terms on 8 s of paper-numerical, whose record carries its truth."""
+    preset = get_preset("paper-numerical").with_overrides(duration=8.0)
+    record = preset.simulate(11, noise=0.02, channels=("z", "a"))
+    fit = identify(record, preset.model(), "rfs", mass=preset.mass)
+    return sample_posterior(record, fit, params="damping", seed=3)
+
+
+def _suptitle(fig) -> Text:
+    return next(c for c in fig.get_children() if isinstance(c, Text) and c.get_text() == fig.get_suptitle())
+
+
+def _title_inside(fig) -> bool:
+    FigureCanvasAgg(fig).draw()
+    title = _suptitle(fig).get_window_extent()
+    box = fig.bbox
+    return title.x0 >= box.x0 and title.x1 <= box.x1 and title.y0 >= box.y0 and title.y1 <= box.y1
+
+
+def _constant_lines(ax, axis: str) -> list[float]:
+    """Positions of the black straight lines across ``ax`` (``axvline``: ``axis="x"``, ``axhline``: ``"y"``)."""
+    out = []
+    for line in ax.get_lines():
+        data = np.asarray(line.get_xdata() if axis == "x" else line.get_ydata(), dtype=float)
+        other = np.asarray(line.get_ydata() if axis == "x" else line.get_xdata(), dtype=float)
+        if (
+            data.size == 2
+            and data[0] == data[1]
+            and list(other) == [0, 1]
+            and to_rgba(line.get_color()) == (0, 0, 0, 1)
+        ):
+            out.append(float(data[0]))
+    return out
+
+
+def test_the_corner_plot_draws_the_truth_the_record_carries(posterior):
+    truth = posterior.reference
+    assert set(posterior.names) <= set(truth)  # from record.meta["reference"]
+    fig = corner_figure(posterior)
+    d = len(posterior.names)
+    axes = np.asarray(fig.axes).reshape(d, d)
+    for i, name in enumerate(posterior.names):
+        assert _constant_lines(axes[i, i], "x") == [pytest.approx(truth[name])]
+        for j in range(i):
+            assert _constant_lines(axes[i, j], "x") == [pytest.approx(truth[posterior.names[j]])]
+            assert _constant_lines(axes[i, j], "y") == [pytest.approx(truth[name])]
+        lo, hi = axes[i, i].get_xlim()
+        assert lo < truth[name] < hi  # in view
+    assert "black: truth" in fig.get_suptitle()
+    assert _title_inside(fig)
+
+
+@pytest.mark.parametrize("d", [1, 2, 4])
+def test_the_corner_title_is_not_clipped(d):
+    rng = np.random.default_rng(0)
+    names = tuple(f"z^{k + 1}" for k in range(d))
+    fake = SimpleNamespace(
+        samples=rng.normal(size=(500, d)), names=names, start=dict.fromkeys(names, 0.0), reference={}
+    )
+    fig = corner_figure(fake)
+    assert "truth" not in fig.get_suptitle()
+    assert not any(_constant_lines(ax, "x") for ax in fig.axes)  # no truth, no black line
+    assert _title_inside(fig)

@@ -1,0 +1,97 @@
+"""The pysindy peer: its free run is pysindy's model, its rules do what they say."""
+
+from __future__ import annotations
+
+import warnings
+
+import numpy as np
+import pytest
+
+from nlid import InputError
+from nlid.benchmarking.peer import PeerModel, _fit, fit_peer
+from nlid.benchmarking.protocol import PeerSettings
+from nlid.record import Record
+
+
+def _oscillator(n=3000, fs=200.0, seed=0, x0=(0.0, 0.0), force=None):
+    """A lightly damped linear oscillator z'' = -400 z - 2 z' + f (exact for a force linear between samples)."""
+    from scipy import signal
+
+    rng = np.random.default_rng(seed)
+    t = np.arange(n) / fs
+    f = np.convolve(rng.standard_normal(n), np.ones(40) / 40, mode="same") * 200 if force is None else force
+    system = signal.StateSpace([[0.0, 1.0], [-400.0, -2.0]], [[0.0], [1.0]], [[1.0, 0.0]], [[0.0]])
+    _, z, _ = signal.lsim(system, f, t, X0=x0)
+    return Record(f=f, z=z, fs=fs)
+
+
+def test_peer_free_run_equals_pysindy_simulate():
+    import pysindy as ps
+
+    from nlid.benchmarking.peer import _library
+
+    rec = _oscillator()
+    peer = _fit(rec, PeerSettings(degree=2, friction=False, thresholds=(0.0,)), 0.05, "FiniteDifference")
+    # the same pysindy model, fitted and simulated by pysindy itself (its default cubic interpolation of u)
+    model = ps.SINDy(
+        feature_library=_library(PeerSettings(degree=2, friction=False)),
+        optimizer=ps.STLSQ(threshold=0.05),
+        differentiation_method=ps.FiniteDifference(),
+    )
+    z, v = rec.z, ps.FiniteDifference()(rec.z, 1 / rec.fs)
+    model.fit(np.column_stack([z, v]), t=1 / rec.fs, u=rec.f, feature_names=["z", "v", "u"])
+    assert np.allclose(model.coefficients(), peer.coefficients)
+    t = np.arange(60) / rec.fs
+    smooth = 30 * np.sin(2 * np.pi * 1.5 * t) + 10 * np.cos(2 * np.pi * 4 * t)  # few integrator steps
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", UserWarning)  # "last time point dropped" (u interpolated)
+        kws = {"method": "RK45", "rtol": 1e-9, "atol": 1e-12}  # faster than its default LSODA at 1e-12
+        theirs = model.simulate(np.array([0.01, 0.5]), t, u=smooth, integrator_kws=kws)[:, 0]
+    ours, *_ = peer.simulate(smooth, rec.fs, (0.01, 0.5), limit=1e3)
+    assert theirs.size == t.size - 1
+    assert np.sqrt(np.mean((ours[: theirs.size] - theirs) ** 2)) < 1e-5 * np.std(theirs)
+
+
+def test_peer_threshold_is_chosen_on_the_estimation_record():
+    est = _oscillator(seed=1)
+    peer = fit_peer(est, PeerSettings(degree=1, friction=False, thresholds=(0.0, 0.5)))
+    assert peer.selection["threshold"] in (0.0, 0.5)
+    assert set(peer.selection["holdout_rmse"]) == {
+        f"{d}, threshold {t:g}" for d in ("FiniteDifference", "SmoothedFiniteDifference") for t in (0.0, 0.5)
+    }
+    z_row, v_row = peer.coefficients
+    assert z_row[2] == pytest.approx(1.0, abs=1e-6)  # z' = v
+    assert v_row[1] == pytest.approx(-400, rel=0.02) and v_row[3] == pytest.approx(1.0, rel=0.05)
+
+
+def _true_peer():
+    """The oscillator's own equations as a peer model: features 1, z, v (degree 1), u."""
+    coef = np.array([[0.0, 0.0, 1.0, 0.0], [0.0, -400.0, -2.0, 1.0]])
+    return PeerModel(coef, ["1", "z", "v", "u"], np.array([[0, 0], [1, 0], [0, 1]]), False, 0.0)
+
+
+def _noisy(record, sigma, seed):
+    return record.replace(z=record.z + sigma * np.random.default_rng(seed).standard_normal(record.n))
+
+
+def test_peer_rules_give_the_true_model_its_noise_floor():
+    """The true equations scored under each rule reach the output noise; from the first sample they do not."""
+    peer = _true_peer()
+    sigma = 2e-3  # about 1 % of std(z)
+    # a record that starts far from rest: the window rule fits the state to 20 samples; the first sample
+    # takes z[0] and a differentiated v[0] from single noisy samples, an error that rings for about a second
+    test = _noisy(_oscillator(seed=2, x0=(0.05, 3.0)), sigma, seed=3)
+    first = peer.free_run(test, "first-sample")
+    window = peer.free_run(test, "window:20")
+    assert window.scored_samples == test.n - 20 and first.scored_samples == test.n
+    assert "initialisation window of 20 samples" in window.rule
+    assert window.rmse == pytest.approx(sigma, rel=0.1) and first.rmse > 1.3 * window.rmse
+    # one steady-state period: preceding periods of its force are simulated until the state settles
+    period = 500
+    f = np.tile(test.f[:period], 15)
+    settled = _noisy(_oscillator(n=f.size, fs=test.fs, force=f)[-period:], sigma, seed=4)  # 14 periods before it
+    periodic = peer.free_run(settled, f"periodic:{period}")
+    assert "periodic steady state (period 500 samples, declared;" in periodic.rule
+    assert periodic.rmse == pytest.approx(sigma, rel=0.1)
+    with pytest.raises(InputError, match="not whole periods"):
+        peer.free_run(settled[:-7], f"periodic:{period}")
