@@ -88,7 +88,7 @@ from typing import Any
 
 import numpy as np
 
-from nlid.plugin import Estimate, FigureArray, Identifier, Model, Option, Record, equilibria, modal
+from nlid.plugin import Estimate, FigureArray, Identifier, Model, Option, Record, StructureRecord, equilibria, modal
 
 from .basis import split_model
 from .channels import Channels, perturbation_map, perturbation_subspace, prepare_channels, static_constant
@@ -111,6 +111,7 @@ from .fit import NSIFit, UnstableULSError, fit_extended, format_eigenvalues
 from .gram import block_hankel_gram, clip_indefinite, sub_gram, transform_gram
 from .intersample import force_interval_mean
 from .noise import subtract_noise
+from .structure import identify_structure_ip
 from .subspace import PerturbedMOESP, po_moesp
 
 __all__ = ["NSIInputPerturbation", "search_k_tilde", "ensemble_values", "combine_fits"]
@@ -242,6 +243,7 @@ class NSIInputPerturbation(Identifier):
     )
     advice_order = 30
     docs = "docs/nsi.md"
+    dofs = "multi"
     options = (
         Option(
             "k_tilde",
@@ -290,8 +292,10 @@ class NSIInputPerturbation(Identifier):
         return figure_arrays(arrays, wells=False)
 
     def identify(self, record: Record, model: Model, *, mass: float | None = None) -> Estimate:
-        """Identify every coefficient of ``model`` (and the mass unless given)."""
+        """Identify every coefficient of ``model`` (and the mass unless given); a structure: :mod:`nlid_nsi.structure`."""
         with blas_threads(self.settings["blas_threads"]):
+            if isinstance(record, StructureRecord):
+                return identify_structure_ip(self, record, model, mass)
             return self._identify(record, model, mass)
 
     def _identify(self, record: Record, model: Model, mass: float | None) -> Estimate:
