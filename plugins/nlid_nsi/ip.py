@@ -292,7 +292,7 @@ class NSIInputPerturbation(Identifier):
         return figure_arrays(arrays, wells=False)
 
     def identify(self, record: Record, model: Model, *, mass: float | None = None) -> Estimate:
-        """Identify every coefficient of ``model`` (and the mass unless given); a structure: :mod:`nlid_nsi.structure`."""
+        """Every coefficient of ``model`` (and the mass unless given); structures: :mod:`nlid_nsi.structure`."""
         with blas_threads(self.settings["blas_threads"]):
             if isinstance(record, StructureRecord):
                 return identify_structure_ip(self, record, model, mass)

@@ -76,8 +76,13 @@ __all__ = [
     "static_forces",
     "structure_arrays",
     "check_structure_options",
+    "check_length",
+    "uls_summary",
+    "identify_structure_ip",
 ]
 
+#: Values of k~1 tried at most (each a full identification).
+MAX_TRIALS = 40
 #: Points of the plotted FRF matrix and coefficient spectra.
 PLOT_POINTS = 512
 
@@ -87,7 +92,8 @@ def check_structure_options(opt: dict[str, Any], n_dofs: int) -> int:
     order = opt.get("order")
     if order is not None and order != 2 * n_dofs:
         raise InputError(
-            f"a structure of {n_dofs} DOFs is identified with order {2 * n_dofs} (two states per mode); got order={order}"
+            f"a structure of {n_dofs} DOFs is identified with order {2 * n_dofs} (two states per mode), "
+            f"got order={order}"
         )
     if opt.get("velocity") == "integrate":
         raise InputError("velocity=integrate is not available for a structure: use measured or differentiate")
@@ -349,7 +355,7 @@ def identify_perturbed(
     else:
         step, start = float(opt["k_step"]), float(opt["k_start"])
         count = int(max(0.0, (float(opt["k_max"]) - start)) // step) + 1
-        values = [0.0] + [start + j * step for j in range(count) if start + j * step > 0]
+        values = [0.0] + [start + j * step for j in range(count) if start + j * step > 0][: MAX_TRIALS - 1]
     last: UnstableULSError | None = None
     for k_tilde in values:
         try:
@@ -372,8 +378,10 @@ def static_forces(
 ) -> np.ndarray:
     """The constant force per DOF from the static balance ``mean(f) - K mean(z) - B diag(theta) mean(g)``."""
     g = elements.evaluate(motion.z, motion.v)
-    return np.asarray(record.f, dtype=float).mean(axis=0) - K @ motion.z.mean(axis=0) - elements.B @ (
-        theta * g.mean(axis=0)
+    return (
+        np.asarray(record.f, dtype=float).mean(axis=0)
+        - K @ motion.z.mean(axis=0)
+        - elements.B @ (theta * g.mean(axis=0))
     )
 
 
@@ -413,7 +421,7 @@ def identify_structure_ip(identifier: Any, record: StructureRecord, elements: El
     columns = [(e.name, (element_basis(e, elements).func, e.b(n))) for e in elements]
     ch = structure_channels(record, motion, columns, hold, True, opt["intersample"])
     s = 2 * opt["block_rows"]
-    _check_length(record.n, s, ch.base.shape[1])
+    check_length(record.n, s, ch.base.shape[1])
     gram = block_hankel_gram(ch.base, s)
     trials: list[dict[str, Any]] = []
     fit = identify_perturbed(ch, gram, record.dt, order, elements.B, opt, trials, mass)
@@ -448,7 +456,7 @@ def identify_structure_ip(identifier: Any, record: StructureRecord, elements: El
     )
 
 
-def _check_length(n: int, s: int, channels: int) -> None:
+def check_length(n: int, s: int, channels: int) -> None:
     if n - s + 1 < s * channels:
         raise DataError(
             f"record too short for NSI: {n} samples, but {s} block rows of {channels} channels need at least "
