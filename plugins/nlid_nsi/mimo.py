@@ -31,7 +31,9 @@ The ULS (:func:`structure_uls`)
     record, against 1e-4 % for the eigenvalues).
 
 Coefficients (:func:`element_spectra`)
-    ``theta_e(w) = (H b_e)^H H_E,e / |H b_e|^2`` per element, ``H = (K - w^2 M + i w C)^-1`` (the coefficient
+    ``theta_e(w) = H_E[d, e] / (b_e^T H_E[:, f_d])`` per element: by
+    reciprocity the row ``d`` of ``H b_e`` is ``b_e^T`` times the force column
+    of the driven DOF ``d`` (least squares over the driven DOFs) (the coefficient
     spectrum, Eq. 20 with several outputs); the estimate is the real part of
     its least-squares average over the half-power bands of every mode (the
     weight ``|H b_e|^2`` is where the element is loaded), the quality
@@ -306,20 +308,27 @@ def band_grid(uls: ULSModes, band: str | tuple[float, float], points: int = 256)
 
 
 def element_spectra(
-    uls: ULSModes, w: np.ndarray, columns: Sequence[int], connectivity: np.ndarray
+    uls: ULSModes, w: np.ndarray, columns: Sequence[int], connectivity: np.ndarray, forces: Sequence[tuple[int, int]]
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Coefficient spectra ``theta_e(w)`` of the extended inputs ``columns`` and their estimates and qualities.
+
+    By reciprocity the row ``d`` of ``H b_e`` is ``b_e^T`` times the force
+    column of DOF ``d``, so ``theta_e(w) = H_E[d, e] / (b_e^T H_E[:, f_d])``
+    uses the identified model's own columns (no realisation); several driven
+    DOFs are combined by least squares.
 
     Parameters
     ----------
     uls
-        The identified ULS.
+        The identified model.
     w
         Frequencies (rad/s).
     columns
         The extended inputs of the elements (fed as ``-g_e``).
     connectivity
         ``(n, E)``: ``b_e`` of each.
+    forces
+        ``(input column, DOF from 0)`` of every force input.
 
     Returns
     -------
@@ -330,11 +339,14 @@ def element_spectra(
     quality
         ``E[Re/Im]`` over ``w``.
     """
-    h = frf_matrix(uls, w)
-    he = extended_frf(uls, w)[:, :, list(columns)]
-    hb = np.einsum("wij,je->wie", h, connectivity)
-    num = np.einsum("wie,wie->we", hb.conj(), he)
-    den = np.einsum("wie,wie->we", hb.conj(), hb).real
+    he = extended_frf(uls, w)
+    num = np.zeros((len(w), len(columns)), dtype=complex)
+    den = np.zeros((len(w), len(columns)))
+    for j, col in enumerate(columns):
+        for f_col, d in forces:
+            h = he[:, :, f_col] @ connectivity[:, j]  # (H b_e)[d] by reciprocity
+            num[:, j] += h.conj() * he[:, d, col]
+            den[:, j] += np.abs(h) ** 2
     spectra = num / den
     estimates = np.real(num.sum(axis=0) / den.sum(axis=0))
     quality = np.mean(np.abs(spectra.real) / np.maximum(np.abs(spectra.imag), 1e-300), axis=0)

@@ -46,7 +46,6 @@ from nlid.plugin import (
 from .basis import int_power
 from .common import HOLD_ASSUMED
 from .fit import UnstableULSError
-from .gram import block_hankel_gram
 from .structure import (
     check_length,
     check_structure_options,
@@ -55,6 +54,7 @@ from .structure import (
     static_forces,
     structure_arrays,
     structure_channels,
+    structure_gram,
     structure_motion,
     uls_summary,
 )
@@ -183,8 +183,8 @@ def identify_structure_shift(identifier: Any, record: StructureRecord, elements:
                 columns, connectivity = _columns(poly, others, elements, refs)
                 ch = structure_channels(record, motion, columns, hold, False, opt["intersample"])
                 check_length(record.n, s, ch.base.shape[1])
-                fit = fit_structure(ch, block_hankel_gram(ch.base, s), record.dt, order, connectivity, band,
-                                    opt["zeta_max"], 0.0, mass)  # fmt: skip
+                gram, noise_info = structure_gram(ch, record, motion, columns, opt)
+                fit = fit_structure(ch, gram, record.dt, order, connectivity, band, opt["zeta_max"], 0.0, mass)
                 identifications += 1
                 theta, unmodelled = _map_back(fit, poly, others, elements, refs)
                 K = fit.uls.K - _linear_part(poly, elements, theta, refs)
@@ -245,6 +245,7 @@ def identify_structure_shift(identifier: Any, record: StructureRecord, elements:
         "velocity": motion.velocity,
         "denoise_cutoff_hz": list(motion.cutoffs_hz),
         "force_hold": hold,
+        **noise_info,
         "mass_source": "given" if mass is not None else f"estimated ({opt['combine']} of the wells' ULS)",
         "arrays_note": "no suffix: first well; '@wellN': well N+1 (spectra of the shifted inputs xi^k)",
         "seconds": time.perf_counter() - t0,
