@@ -10,6 +10,10 @@ from nlid.errors import InputError
 from nlid.presets import get_preset
 
 DOUBLE_WELL = "(z1-z2)^3, (z1-z2)^2, (v1-v2)*|v1-v2|"
+# The noise correction estimates each DOF's noise from its spectrum above 0.35 fs; on a noise-free double well the
+# signal's own content there is read as noise (measured: well-2 mode-1 frequency 0.54 % off with it, 0.02 % without),
+# so the noise-free double-well tests switch it off.
+EXACT = {"noise_correction": False}
 
 
 def _rel(got, true):
@@ -53,7 +57,7 @@ def test_chain_with_a_given_mass_matrix(chain20):
 
 def test_double_well_input_perturbation(well20):
     ref = well20.meta["reference"]
-    res = nlid.identify(well20, DOUBLE_WELL, "nsi-ip")
+    res = nlid.identify(well20, DOUBLE_WELL, "nsi-ip", options=EXACT)
     d = res.diagnostics
     assert d["k_tilde"] > 0 and not d["k_tilde_trials"][0]["accepted"]  # K alone is unstable: perturbed
     for name, value in ref["coefficients"].items():
@@ -67,7 +71,7 @@ def test_double_well_input_perturbation(well20):
 
 def test_double_well_zero_reference_shift_per_well(well20):
     ref = well20.meta["reference"]
-    res = nlid.identify(well20, DOUBLE_WELL, "nsi-shift")
+    res = nlid.identify(well20, DOUBLE_WELL, "nsi-shift", options=EXACT)
     wells = res.diagnostics["wells"]
     assert len(wells) == 2 and len(res.modes) == 2
     for name, value in ref["coefficients"].items():
