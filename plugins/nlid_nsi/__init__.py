@@ -25,6 +25,16 @@ Modules: :mod:`~nlid_nsi.gram` (block-Hankel Gram by FFT and recursion),
 extended inputs), :mod:`~nlid_nsi.fit` (one identification),
 :mod:`~nlid_nsi.ip` and :mod:`~nlid_nsi.shift` (the identifiers). Design
 decisions and measurements: ``docs/nsi.md``.
+
+Both identifiers declare ``dofs = "multi"``: on a structure record of several
+DOFs they run the MIMO version, :mod:`~nlid_nsi.mimo` (subspace step with
+several outputs, B, the ULS realisation, element spectra),
+:mod:`~nlid_nsi.structure` (channels on the elements' relative coordinates,
+input perturbation at the driven DOFs), :mod:`~nlid_nsi.structure_shift`
+(zero reference per polynomial connection and well),
+:mod:`~nlid_nsi.structure_noise` (errors-in-variables correction of the
+Gram); :mod:`~nlid_nsi.wells` holds the histogram modes and Taylor shift both
+shift variants use.
 """
 
 from .fit import UnstableULSError
