@@ -47,9 +47,11 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
+from scipy import fft as sp_fft
 from scipy import linalg, signal
 
 from .continuous import band_limits, d2c_zoh
+from .noise import NoiseModel
 from .subspace import _cholesky
 
 __all__ = ["mimo_moesp", "estimate_b", "ULSModes", "structure_uls", "frf_matrix", "element_spectra", "band_grid"]
@@ -94,7 +96,14 @@ def _real_modal(a: np.ndarray) -> tuple[np.ndarray, list[slice]]:
     return np.column_stack(cols), blocks
 
 
-def estimate_b(a: np.ndarray, cm: np.ndarray, u: np.ndarray, y: np.ndarray) -> np.ndarray:
+def estimate_b(
+    a: np.ndarray,
+    cm: np.ndarray,
+    u: np.ndarray,
+    y: np.ndarray,
+    noise: NoiseModel | None = None,
+    ir_len: int = 16384,
+) -> np.ndarray:
     """``B`` (``nx x m``) by output-error least squares of every output on ``C (qI - A)^-1 B u`` and an initial state.
 
     ``A`` must be stable. Each mode's regressors are one second-order filter
@@ -102,6 +111,14 @@ def estimate_b(a: np.ndarray, cm: np.ndarray, u: np.ndarray, y: np.ndarray) -> n
     short FIR (the numerators of ``C_o (qI - A_k)^-1 e_r``), so the normal
     equations come from the Gram of a few lagged signals: no matrix of the
     record's length times the parameters.
+
+    ``noise`` (the model of the channels ``[u, y]``, :mod:`nlid_nsi.structure_noise`)
+    removes the expected noise contributions from the normal equations, as
+    the one-DOF :func:`nlid_nsi.subspace.estimate_b` does (errors in
+    variables): per output ``o`` the regressor of ``(state r, input j)`` is
+    ``h_or * u_j``, so ``E[phi^T phi]`` gains ``sum_d hc_o[r, r', d] cov[d, j, j']``
+    and ``E[phi^T y_o]`` gains ``sum_l h_or(l) cov[l, j, y_o]`` (``ir_len``:
+    length of the impulse responses ``h_or``).
     """
     nx = a.shape[0]
     n_samples, m = u.shape
@@ -153,8 +170,45 @@ def estimate_b(a: np.ndarray, cm: np.ndarray, u: np.ndarray, y: np.ndarray) -> n
                     k[base + m, nx * m + r] += nums[o][rr, lag]
         normal += k.T @ gram @ k
         vec += k.T @ rhs[:, o]
+    if noise is not None:
+        normal, vec = _subtract_b_noise(normal, vec, noise, maps, am, n_samples, m, nout, ir_len)
     theta = linalg.solve(normal, vec, assume_a="sym")
     return t @ theta[: nx * m].reshape(nx, m)
+
+
+def _subtract_b_noise(
+    normal: np.ndarray,
+    vec: np.ndarray,
+    noise: NoiseModel,
+    maps: list,
+    am: np.ndarray,
+    n_samples: int,
+    m: int,
+    nout: int,
+    ir_len: int,
+) -> tuple[np.ndarray, np.ndarray]:
+    """The normal equations of :func:`estimate_b` without the expected contribution of the channels' noise."""
+    nx = am.shape[0]
+    lag = noise.max_lag
+    cov = noise.lag_covariance() * n_samples  # [L + l, a, b], summed over the samples
+    imp = np.zeros(ir_len)
+    imp[0] = 1.0
+    size = sp_fft.next_fast_len(ir_len + lag + 1, real=True)
+    normal, vec = normal.copy(), vec.copy()
+    for o in range(nout):
+        hr = np.zeros((nx, ir_len))
+        for _, blk, nums in maps:
+            den = np.poly(am[blk, blk])
+            for rr in range(blk.stop - blk.start):
+                hr[blk.start + rr] = signal.lfilter(nums[o][rr], den, imp)
+        spec = sp_fft.rfft(hr, size, axis=1)
+        corr = sp_fft.irfft(spec[:, None, :] * spec[None, :, :].conj(), size, axis=2)
+        hc = np.concatenate([corr[:, :, size - lag :], corr[:, :, : lag + 1]], axis=2)  # sum_l h_r(l + d) h_s(l)
+        enn = np.einsum("lab,rsl->rasb", cov[:, :m, :m], hc).reshape(nx * m, nx * m)
+        ene = np.einsum("rl,lj->rj", hr[:, : lag + 1], cov[lag:, :m, m + o]).reshape(nx * m)
+        normal[: nx * m, : nx * m] -= enn
+        vec[: nx * m] -= ene
+    return normal, vec
 
 
 @dataclass(frozen=True)

@@ -69,7 +69,7 @@ from .fit import UnstableULSError, format_eigenvalues
 from .gram import block_hankel_gram, transform_gram
 from .intersample import force_interval_mean, interval_means
 from .mimo import ULSModes, band_grid, element_spectra, estimate_b, frf_matrix, mimo_moesp, structure_uls
-from .noise import subtract_noise
+from .noise import NoiseModel, subtract_noise
 from .structure_noise import structure_noise_model
 
 __all__ = [
@@ -230,10 +230,32 @@ def structure_channels(
     )
 
 
+#: The 3-tap filter ``(-1, 14, -1) / 12`` that turns interval means into the held values of a force-driven mass.
+SHARPEN = np.array([-1.0, 14.0, -1.0]) / 12.0
+
+
+def sharpen(means: np.ndarray) -> np.ndarray:
+    """Interval means ``m_k`` to the held values ``m_k - (m_{k+1} - 2 m_k + m_{k-1}) / 12`` (``gauss`` on a structure).
+
+    The ZOH model maps a held input exactly to the displacement samples; a
+    continuous input ``u(t) = e^{i w t}`` reaches them as the held sequence
+    ``e^{i w (t_k + dt/2)} sinc^2(w dt/2) / cos(w dt/2)`` where the motion is
+    mass-dominated within a sample (a double integrator: the position update
+    weights the interval by ``dt - s``, the velocity uniformly). The interval
+    mean has ``e^{i w (t_k + dt/2)} sinc(w dt/2)``; their ratio is ``1 + (w dt)^2 / 12 + O((w dt)^4)``,
+    which this filter applies. Measured on noise-free ``3dof-cubic`` (seed 0): the
+    cubic coefficient +0.18 % off with the interval means, -0.00 % with this
+    (sample values -0.17 %, trapezoid +0.35 %). The end samples keep their means.
+    """
+    out = means.copy()
+    out[1:-1] = SHARPEN[0] * (means[:-2] + means[2:]) + SHARPEN[1] * means[1:-1]
+    return out
+
+
 def _mean(funcs: list, x: np.ndarray, xd: np.ndarray, dt: float, how: str) -> np.ndarray:
     """Interval means of ``funcs`` (``gauss``), their trapezoid (``trapezoid``) or sample values (``zoh``)."""
     if how == "gauss":
-        return interval_means(funcs, x, xd, dt)
+        return sharpen(interval_means(funcs, x, xd, dt))
     values = np.column_stack([func(x, xd) for func in funcs])
     if how == "trapezoid":
         values[:-1] = 0.5 * (values[:-1] + values[1:])
@@ -293,6 +315,7 @@ def fit_structure(
     zeta_max: float,
     k_tilde: float = 0.0,
     mass: np.ndarray | None = None,
+    noise: NoiseModel | None = None,
 ) -> StructureFit:
     """Identify the extended model of the channels at ``k_tilde`` (module docstring).
 
@@ -315,7 +338,7 @@ def fit_structure(
             lc,
         )
     w = ch.base @ t.T
-    b = estimate_b(a, cm, w[:, :m], w[:, m:])
+    b = estimate_b(a, cm, w[:, :m], w[:, m:], None if noise is None else noise.transformed(t))
     in_scales = np.r_[ch.scales[:nd], ch.scales[nd + ch.n_extra : nd + ch.n_extra + ne]]
     out_scales = ch.scales[-n:]
     directions = np.zeros((n, nd))
@@ -347,19 +370,29 @@ def structure_gram(
     motion: Motion,
     columns: list[tuple[str, Any]],
     opt: dict[str, Any],
-) -> tuple[np.ndarray, dict[str, Any]]:
+) -> tuple[np.ndarray, dict[str, Any], NoiseModel | None]:
     """The data Gram of the base channels, noise-corrected unless ``noise_correction`` is off.
 
-    Returns the Gram and a diagnostic: whether it was corrected and clipped.
+    Returns the Gram, a diagnostic (whether it was corrected) and the noise model (``None`` when not
+    corrected), which :func:`fit_structure` also removes from the normal equations of the B step.
     """
     gram = block_hankel_gram(ch.base, 2 * opt["block_rows"])
     if not opt["noise_correction"]:
-        return gram, {"noise_correction": False}
+        return gram, {"noise_correction": False}, None
     extra = ch.driven if ch.n_extra else ()
-    model = structure_noise_model(record, motion, columns, ch.scales, len(ch.driven), extra, opt["noise_max_lag"])
+    model = structure_noise_model(
+        record,
+        motion,
+        columns,
+        ch.scales,
+        len(ch.driven),
+        extra,
+        opt["noise_max_lag"],
+        SHARPEN if opt["intersample"] == "gauss" else None,
+    )
     # no eigenvalue clipping here (2.7 s for the 1 200 rows of a 3-DOF Gram): PO-MOESP's Cholesky loads the
     # diagonal of a marginally indefinite Gram itself (nlid_nsi.subspace._cholesky)
-    return subtract_noise(gram, model, output=None), {"noise_correction": True}
+    return subtract_noise(gram, model, output=None), {"noise_correction": True}, model
 
 
 def identify_perturbed(
@@ -371,6 +404,7 @@ def identify_perturbed(
     opt: dict[str, Any],
     trials: list[dict[str, Any]],
     mass: np.ndarray | None = None,
+    noise: NoiseModel | None = None,
 ) -> StructureFit:
     """``k~1 = 0``, then the search ``k_start + j k_step`` (or the given ``k_tilde``) until the ULS passes.
 
@@ -389,7 +423,7 @@ def identify_perturbed(
     last: UnstableULSError | None = None
     for k_tilde in values:
         try:
-            fit = fit_structure(ch, gram, dt, order, connectivity, band, opt["zeta_max"], k_tilde, mass)
+            fit = fit_structure(ch, gram, dt, order, connectivity, band, opt["zeta_max"], k_tilde, mass, noise)
         except UnstableULSError as exc:
             trials.append({"k_tilde": k_tilde, "accepted": False, "eigenvalues": format_eigenvalues(exc.eigenvalues)})
             last = exc
@@ -452,9 +486,9 @@ def identify_structure_ip(identifier: Any, record: StructureRecord, elements: El
     ch = structure_channels(record, motion, columns, hold, True, opt["intersample"])
     s = 2 * opt["block_rows"]
     check_length(record.n, s, ch.base.shape[1])
-    gram, noise_info = structure_gram(ch, record, motion, columns, opt)
+    gram, noise_info, noise = structure_gram(ch, record, motion, columns, opt)
     trials: list[dict[str, Any]] = []
-    fit = identify_perturbed(ch, gram, record.dt, order, elements.B, opt, trials, mass)
+    fit = identify_perturbed(ch, gram, record.dt, order, elements.B, opt, trials, mass, noise)
     members = [fit]
     if fit.k_tilde > 0 and opt["k_tilde_ensemble"] > 1:
         band = tuple(opt["band_hz"]) if opt.get("band_hz") else opt["band"]
@@ -462,7 +496,7 @@ def identify_structure_ip(identifier: Any, record: StructureRecord, elements: El
         for k_tilde in spread:
             try:
                 members.append(
-                    fit_structure(ch, gram, record.dt, order, elements.B, band, opt["zeta_max"], k_tilde, mass)
+                    fit_structure(ch, gram, record.dt, order, elements.B, band, opt["zeta_max"], k_tilde, mass, noise)
                 )
             except UnstableULSError:
                 trials.append({"k_tilde": float(k_tilde), "accepted": False, "ensemble": True})

@@ -45,12 +45,15 @@ def noise_variance(x: np.ndarray, fs: float) -> float:
     return float(np.mean(p[band]) * fs / 2.0)
 
 
-def _fold(kernel: np.ndarray) -> np.ndarray:
-    """The kernel followed by the 2-tap interval mean ``(n(k) + n(k+1)) / 2``."""
+def _fold(kernel: np.ndarray, sharpen: np.ndarray | None = None) -> np.ndarray:
+    """The kernel followed by the 2-tap interval mean ``(n(k) + n(k+1)) / 2`` (and the 3-tap ``sharpen``, centred)."""
     half = (len(kernel) - 1) // 2
     avg = np.zeros(2 * half + 1)
     avg[half], avg[half - 1] = 0.5, 0.5
-    return np.convolve(kernel, avg, mode="same")
+    out = np.convolve(kernel, avg, mode="same")
+    if sharpen is not None:
+        out = np.convolve(out, sharpen, mode="same")
+    return out
 
 
 def structure_noise_model(
@@ -61,6 +64,7 @@ def structure_noise_model(
     n_force: int,
     extra: tuple[int, ...],
     max_lag: int,
+    sharpen: np.ndarray | None = None,
 ) -> NoiseModel:
     """The noise model of the base channels ``[f_d..., <z_d>..., -g_e..., z_1..z_n]`` (normalised).
 
@@ -78,6 +82,10 @@ def structure_noise_model(
         The driven DOFs whose de-noised displacement is a channel (nsi-ip), in order.
     max_lag
         Largest lag (samples) of the correction.
+    sharpen
+        The 3-tap filter applied to the interval means of the state-dependent
+        channels (:func:`nlid_nsi.structure.sharpen`), or ``None``; folded into
+        their noise paths like the interval mean (the Jacobian taken as constant over 3 samples).
     """
     n, fs = record.n_dofs, record.fs
     z = np.asarray(record.z, dtype=float)
@@ -86,19 +94,20 @@ def structure_noise_model(
     measured_v = motion.velocity.startswith("measured")
     for k in range(n):
         fc = motion.cutoffs_hz[k]
-        kz = _fold(impulse_response(lambda x, fc=fc: derivatives.lowpass(x, fs, fc), max_lag))
+        kz = _fold(impulse_response(lambda x, fc=fc: derivatives.lowpass(x, fs, fc), max_lag), sharpen)
         ky = np.zeros(2 * max_lag + 1)
         ky[max_lag] = 1.0
         if measured_v:
             kv = np.zeros_like(kz)
         else:
             kv = _fold(
-                impulse_response(lambda x, fc=fc: derivatives.differentiate(x, fs, order=1, cutoff=fc)[0], max_lag)
+                impulse_response(lambda x, fc=fc: derivatives.differentiate(x, fs, order=1, cutoff=fc)[0], max_lag),
+                sharpen,
             )
         sl = slice(3 * k, 3 * k + 3)
         xcorr[sl, sl] += noise_variance(z[:, k], fs) * _xcorr([kz, kv, ky], max_lag)
         if measured_v:
-            kvm = _fold(impulse_response(lambda x, fc=fc: derivatives.lowpass(x, fs, fc), max_lag))
+            kvm = _fold(impulse_response(lambda x, fc=fc: derivatives.lowpass(x, fs, fc), max_lag), sharpen)
             zero = np.zeros_like(kvm)
             xcorr[sl, sl] += noise_variance(np.asarray(record.v[:, k], dtype=float), fs) * _xcorr(
                 [zero, kvm, zero], max_lag

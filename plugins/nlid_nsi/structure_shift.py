@@ -183,8 +183,8 @@ def identify_structure_shift(identifier: Any, record: StructureRecord, elements:
                 columns, connectivity = _columns(poly, others, elements, refs)
                 ch = structure_channels(record, motion, columns, hold, False, opt["intersample"])
                 check_length(record.n, s, ch.base.shape[1])
-                gram, noise_info = structure_gram(ch, record, motion, columns, opt)
-                fit = fit_structure(ch, gram, record.dt, order, connectivity, band, opt["zeta_max"], 0.0, mass)
+                gram, noise_info, noise = structure_gram(ch, record, motion, columns, opt)
+                fit = fit_structure(ch, gram, record.dt, order, connectivity, band, opt["zeta_max"], 0.0, mass, noise)
                 identifications += 1
                 theta, unmodelled = _map_back(fit, poly, others, elements, refs)
                 K = fit.uls.K - _linear_part(poly, elements, theta, refs)
