@@ -43,6 +43,18 @@ The grammar::
   ``/`` divides: ``z="data/disp"`` (a leading ``/`` is allowed:
   ``z="/data/disp"``).
 
+Several degrees of freedom
+--------------------------
+Indexed channels name the DOFs of a structure: ``z1, z2, z3`` (displacements,
+each DOF one), ``f1, f3`` (the forces that act, on some DOFs), ``v2``,
+``a1``... (``"f1=load, z1[mm]=disp_a, z2[mm]=disp_b"``). A map naming indexed
+channels, or a table without a column ``z`` but with columns ``z1``, ``z2``...
+(what :func:`nlid.io.write_csv` writes for a
+:class:`~nlid.mdof.StructureRecord`), is read as a structure
+(:func:`structure_arrays`, :func:`uses_indexed`); one map cannot name both
+``z`` and ``z1``. Units apply per channel (``z2[mm]=``), each in its
+quantity's vocabulary.
+
 The sampling frequency comes from the time column (checked for uniformity, see
 :class:`nlid.record.Record`), else from ``fs=`` given by the caller, else from
 a scalar ``fs`` variable of the table.
@@ -60,6 +72,7 @@ from typing import Any
 import numpy as np
 
 from .errors import DataError, InputError, brief, listing
+from .units import INDEXED
 
 __all__ = [
     "ColumnExpr",
@@ -69,6 +82,10 @@ __all__ = [
     "frame_table",
     "dataset_table",
     "MAP_CHANNELS",
+    "INDEXED",
+    "split_indexed",
+    "uses_indexed",
+    "structure_arrays",
 ]
 
 #: Channels a column map can name: the time ``t`` and the channels of a record.
@@ -211,15 +228,22 @@ def _excerpt(text: str) -> str:
     return repr(text if len(text) <= 60 else text[:57] + "...")
 
 
+def split_indexed(channel: str) -> tuple[str, int] | None:
+    """``"z2"`` -> ``("z", 2)``; ``None`` for a name that is not an indexed channel."""
+    m = INDEXED.fullmatch(channel)
+    return None if m is None else (m.group(1), int(m.group(2)))
+
+
 def _parse_key(key: str) -> tuple[str, str | None]:
     """``"z[mm]"`` -> ``("z", "mm")``; the unit is checked against the vocabulary."""
     from .units import unit_of
 
     m = _KEY.fullmatch(key)
     channel = m.group("channel") if m else key.strip()
-    if channel not in MAP_CHANNELS:
+    if channel not in MAP_CHANNELS and split_indexed(channel) is None:
         raise InputError(
             f"column map: unknown channel {_excerpt(channel)}; channels are {', '.join(MAP_CHANNELS)}"
+            + " (f1, z1, v1, a1... for the DOFs of a structure)"
             + (", each optionally with its unit, e.g. z[mm]" if m is None or "[" in key else "")
         )
     if m is None:
@@ -227,7 +251,7 @@ def _parse_key(key: str) -> tuple[str, str | None]:
     unit = m.group("unit")
     if unit is None:
         return channel, None
-    return channel, unit_of(channel, unit, where="column map").symbol
+    return channel, unit_of(channel, unit, where="column map", indexed=True).symbol
 
 
 def _parse_expr(channel: str, text: str) -> ColumnExpr:
@@ -315,6 +339,12 @@ def channel_arrays(
         A malformed column map, or both a time column and ``fs=``.
     """
     exprs = parse_columns(columns)
+    indexed = [c for c in exprs if split_indexed(c)]
+    if indexed:
+        raise InputError(
+            f"column map names the indexed channel {indexed[0]!r}: channels of several DOFs make a "
+            "StructureRecord (read them with nlid.load or nlid.mdof.StructureRecord.from_table)"
+        )
     for channel in MAP_CHANNELS:
         if channel not in exprs and channel in table and np.asarray(table[channel]).size > 1:
             exprs[channel] = ColumnExpr(channel)
@@ -328,10 +358,17 @@ def channel_arrays(
                 f"(e.g. {required}=NAME); the {noun} has: {listing(sorted(table))}"
             )
     arrays = {c: e.evaluate(table, source).ravel() for c, e in exprs.items()}
+    return arrays, _sampling(arrays, table, fs, source)
+
+
+def _sampling(
+    arrays: Mapping[str, np.ndarray], table: Mapping[str, Any], fs: float | None, source: str
+) -> float | None:
+    """The sampling frequency: ``None`` with a time column, else ``fs=``, else the table's scalar ``fs``."""
     if "t" in arrays:
         if fs is not None:
             raise InputError("give either a time column or fs=, not both")
-        return arrays, None
+        return None
     if fs is None and "fs" in table and np.asarray(table["fs"]).size == 1:
         fs = float(_real(table["fs"], "fs", source, "variable").ravel()[0])
     if fs is None:
@@ -339,7 +376,83 @@ def channel_arrays(
             f"{source}: no time column 't' and no sampling frequency; "
             "give fs= or map a time column (columns= with t=NAME)"
         )
-    return arrays, fs
+    return fs
+
+
+def uses_indexed(table: Mapping[str, Any], columns: str | Mapping[str, str] | None = None) -> bool:
+    """True when a table is read as a structure: its map names indexed channels, or it has ``z1``... and no ``z``.
+
+    Raises
+    ------
+    InputError
+        A map naming both one-DOF channels (``f``, ``z``, ``v``, ``a``) and indexed ones.
+    """
+    exprs = parse_columns(columns)
+    indexed = [c for c in exprs if split_indexed(c)]
+    plain = [c for c in exprs if c in ("f", "z", "v", "a")]
+    if indexed and plain:
+        raise InputError(
+            f"column map names both {plain[0]!r} and {indexed[0]!r}: one DOF's channels are f, z, v, a; "
+            "a structure's are indexed (f1, z1, z2...)"
+        )
+    if indexed:
+        return True
+    if plain or "z" in table:
+        return False
+    return any(split_indexed(str(k)) == ("z", 1) for k in table)
+
+
+def structure_arrays(
+    table: Mapping[str, Any],
+    columns: str | Mapping[str, str] | None = None,
+    *,
+    fs: float | None = None,
+    source: str = "the table",
+    noun: str = "table",
+) -> tuple[dict[str, np.ndarray], float | None]:
+    """The indexed channels of a table under a column map: ``(arrays, fs)`` (as :func:`channel_arrays`).
+
+    Mapped channels are evaluated; indexed channels not in the map are taken
+    from same-named columns (``z1``, ``f2``...), and ``t`` likewise. The
+    displacements must be ``z1`` to ``zn`` without a gap (``n`` DOFs), and at
+    least one force ``fk`` (``k <= n``) must be there.
+
+    Raises
+    ------
+    DataError
+        A missing displacement or force, a channel of a DOF beyond ``zn``, a
+        missing or non-numeric column, or no sampling frequency.
+    InputError
+        A malformed column map, or both a time column and ``fs=``.
+    """
+    exprs = parse_columns(columns)
+    for name in table:
+        key = str(name)
+        if key not in exprs and split_indexed(key) and np.asarray(table[name]).size > 1:
+            exprs[key] = ColumnExpr(key)
+    if "t" not in exprs and "t" in table and np.asarray(table["t"]).size > 1:
+        exprs["t"] = ColumnExpr("t")
+    dofs: dict[str, list[int]] = {g: [] for g in "fzva"}
+    for channel in exprs:
+        parts = split_indexed(channel)
+        if parts is not None:
+            dofs[parts[0]].append(parts[1])
+    n = max(dofs["z"], default=0)
+    if n == 0:
+        raise DataError(
+            f"{source}: no displacement column z1; map the DOFs with columns= (e.g. z1=NAME, z2=NAME, f1=NAME); "
+            f"the {noun} has: {', '.join(sorted(map(str, table)))}"
+        )
+    missing = [k for k in range(1, n + 1) if k not in dofs["z"]]
+    if missing:
+        raise DataError(f"{source}: no column for z{missing[0]}; each of the {n} DOFs needs its displacement z1..z{n}")
+    beyond = [f"{g}{k}" for g in "fva" for k in dofs[g] if k > n]
+    if beyond:
+        raise DataError(f"{source}: channel {beyond[0]} names DOF {beyond[0][1:]} but the displacements are z1..z{n}")
+    if not dofs["f"]:
+        raise DataError(f"{source}: no force column; map at least one (e.g. f1=NAME)")
+    arrays = {c: e.evaluate(table, source).ravel() for c, e in exprs.items()}
+    return arrays, _sampling(arrays, table, fs, source)
 
 
 # --------------------------------------------------------------------------- in-memory tables

@@ -6,6 +6,12 @@ An identifier is a class with
 * ``options``: a tuple of :class:`Option` (typed, with defaults) that the CLI
   and study configs validate before anything runs;
 * ``needs_mass``: ``True`` if it cannot estimate the mass itself;
+* ``dofs``: ``"single"`` (the default) or ``"multi"`` when it also identifies
+  structures of several degrees of freedom (:mod:`nlid.mdof`): it then
+  receives a :class:`~nlid.mdof.StructureRecord`, an
+  :class:`~nlid.mdof.ElementSet` and a mass matrix (or ``None``) and returns a
+  :class:`~nlid.mdof.StructureEstimate`; the core refuses a structure record
+  for a single-DOF identifier, naming it;
 * optionally what the core tells users about it, so that the core never names
   a plugin: ``preference`` (rank as the default method), ``advice`` and
   ``advice_order`` (the "Which method?" list of ``nlid methods``), ``docs``
@@ -268,6 +274,10 @@ class Identifier:
     options: ClassVar[tuple[Option, ...]] = ()
     #: True if the method cannot estimate the mass.
     needs_mass: ClassVar[bool] = False
+    #: ``"single"``: one degree of freedom only; ``"multi"``: also structures of several (a
+    #: :class:`~nlid.mdof.StructureRecord` and an :class:`~nlid.mdof.ElementSet` in, a
+    #: :class:`~nlid.mdof.StructureEstimate` out). The core refuses a structure for a single-DOF identifier.
+    dofs: ClassVar[str] = "single"
     #: Rank as the default method (``nlid discover`` without ``--method``, the start of a refining
     #: identifier; :func:`nlid.methods.choose_method`): lower first; ``None``: after the ranked ones.
     preference: ClassVar[int | None] = None

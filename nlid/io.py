@@ -30,6 +30,14 @@ and one function maps the columns to a record
 the rules are in :mod:`nlid.columnmap` (:class:`ColumnExpr` and
 :func:`parse_columns` are re-exported here).
 
+Several degrees of freedom
+--------------------------
+A column map naming indexed channels (``z1=``, ``f1=``...), or a file with
+columns ``z1``, ``z2``... and no ``z``, is read as a
+:class:`~nlid.mdof.StructureRecord` (:mod:`nlid.columnmap`); the writers
+write its channels ``f1``, ``z1``, ``z2``... the same way, so a written
+structure record reads back as one.
+
 Metadata sidecar
 ----------------
 :func:`write_csv` and :func:`write_npz` also write ``<file>.meta.json`` with
@@ -48,15 +56,18 @@ import json
 import reprlib
 from collections.abc import Iterator, Mapping
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from .columnmap import ColumnExpr, frame_table, parse_columns
+from .columnmap import ColumnExpr, frame_table, parse_columns, uses_indexed
 from .errors import DataError, InputError
 from .interface import to_jsonable
 from .outputs import META_KEYS, check_sidecar, sidecar_path
 from .record import Record
+
+if TYPE_CHECKING:  # pragma: no cover
+    from .mdof.record import StructureRecord
 
 __all__ = [
     "ColumnExpr",
@@ -292,7 +303,7 @@ def _read_sidecar(path: Path) -> dict[str, Any]:
     return {k: data[k] for k in META_KEYS if k in data}
 
 
-def _write_sidecar(record: Record, path: Path) -> None:
+def _write_sidecar(record: Record | StructureRecord, path: Path) -> None:
     meta = {k: record.meta[k] for k in META_KEYS if k in record.meta}
     meta["force_hold"] = record.force_hold
     sidecar_path(path).write_text(json.dumps(to_jsonable(meta), indent=1, allow_nan=False) + "\n")
@@ -305,8 +316,11 @@ def read_record(
     fs: float | None = None,
     meta: Mapping[str, Any] | None = None,
     units: Mapping[str, str] | None = None,
-) -> Record:
+) -> Record | StructureRecord:
     """Read a record from a CSV, NPZ, MAT (v7.3 included), HDF5 or Parquet file.
+
+    A column map with indexed channels (``z1=``...), or a file with columns
+    ``z1``, ``z2``... and no ``z``, gives a :class:`~nlid.mdof.StructureRecord`.
 
     Parameters
     ----------
@@ -325,7 +339,7 @@ def read_record(
 
     Returns
     -------
-    Record
+    Record or StructureRecord
         With ``meta["loaded"]``: the path, the file's SHA-256, the column map
         and ``fs=`` as given.
 
@@ -341,24 +355,43 @@ def read_record(
     with _open_table(path) as table:
         meta = {"source": str(path), **_read_sidecar(path), **dict(meta or {})}
         meta["loaded"] = {**dict(meta.get("loaded") or {}), "sha256": file_sha256(path)}
+        if uses_indexed(table, columns):
+            from .mdof.record import StructureRecord
+
+            return StructureRecord.from_table(table, columns, fs=fs, meta=meta, units=units, source=path)
         return Record.from_table(table, columns, fs=fs, meta=meta, units=units, source=path)
 
 
-def write_csv(record: Record, path: str | Path, channels: tuple[str, ...] | None = None) -> Path:
+def _columns_of(record: Record | StructureRecord, channels: tuple[str, ...] | None) -> dict[str, np.ndarray]:
+    """The named channels of a record; for a structure, ``"z"`` names every DOF's (``z1``, ``z2``...)."""
+    if not isinstance(record, Record):
+        names = []
+        for c in channels or record.channels:
+            names += [n for n in record.channels if n.rstrip("0123456789") == c] if c in ("f", "z", "v", "a") else [c]
+        missing = [c for c in (channels or ()) if c in ("v", "a") and getattr(record, c) is None]
+        if missing:
+            raise InputError(f"record has no channel {missing[0]!r}")
+        return {n: record.channel(n) for n in dict.fromkeys(names)}
+    channels = channels or record.channels
+    missing = [c for c in channels if getattr(record, c, None) is None]
+    if missing:
+        raise InputError(f"record has no channel {missing[0]!r}")
+    return {c: getattr(record, c) for c in channels}
+
+
+def write_csv(record: Record | StructureRecord, path: str | Path, channels: tuple[str, ...] | None = None) -> Path:
     """Write ``t`` and the channels to CSV (12 significant digits), and the metadata sidecar.
 
     Parameters
     ----------
     channels
-        Channels to write (default: all present). ``t`` is always first.
+        Channels to write (default: all present). ``t`` is always first. For
+        a :class:`~nlid.mdof.StructureRecord`, ``"z"`` writes ``z1``, ``z2``...
+        and ``"f"`` the forces of the driven DOFs; single channels (``"a2"``) are named as such.
     """
     import pandas as pd
 
-    channels = channels or record.channels
-    missing = [c for c in channels if getattr(record, c, None) is None]
-    if missing:
-        raise InputError(f"record has no channel {missing[0]!r}")
-    frame = pd.DataFrame({"t": record.t, **{c: getattr(record, c) for c in channels}})
+    frame = pd.DataFrame({"t": record.t, **_columns_of(record, channels)})
     path = Path(path)
     check_sidecar(path)
     frame.to_csv(path, index=False, float_format="%.12g")
@@ -366,11 +399,11 @@ def write_csv(record: Record, path: str | Path, channels: tuple[str, ...] | None
     return path
 
 
-def write_npz(record: Record, path: str | Path) -> Path:
+def write_npz(record: Record | StructureRecord, path: str | Path) -> Path:
     """Write the channels, ``t`` and ``fs`` to an NPZ file (no pickled objects), and the metadata sidecar."""
     path = Path(path)
     check_sidecar(path)
-    arrays = {c: getattr(record, c) for c in record.channels}
+    arrays = _columns_of(record, None)
     np.savez(path, t=record.t, fs=np.array(record.fs), **arrays)
     _write_sidecar(record, path)
     return path

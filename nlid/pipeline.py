@@ -23,7 +23,7 @@ from __future__ import annotations
 import dataclasses
 import time
 from collections.abc import Iterable, Mapping, Sequence
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -45,6 +45,9 @@ from .registry import Registry, registry_for
 from .sources import as_record
 from .terms import Model, Term
 from .validate import check_cutoff, check_mass
+
+if TYPE_CHECKING:  # pragma: no cover
+    from .mdof.identified import IdentifiedStructure
 
 __all__ = ["identify", "as_model", "check_estimate"]
 
@@ -171,8 +174,14 @@ def identify(
     cutoff: float | None = None,
     registry: Registry | None = None,
     timeout: float | None = None,
-) -> IdentifiedModel:
+) -> IdentifiedModel | IdentifiedStructure:
     """Identify the coefficients of a model from a record.
+
+    A record of several degrees of freedom (:class:`~nlid.mdof.StructureRecord`)
+    is identified by :func:`nlid.mdof.fit.identify_structure`: ``terms`` are
+    then elements on connections (``"(z1-z2)^3, z3^3"``), ``mass`` the mass
+    matrix, and the method must declare ``dofs = "multi"``; the result is an
+    :class:`~nlid.mdof.IdentifiedStructure`.
 
     Parameters
     ----------
@@ -218,7 +227,7 @@ def identify(
 
     Returns
     -------
-    IdentifiedModel
+    IdentifiedModel or IdentifiedStructure
         The model with its coefficients, mass, equilibria, modal parameters
         and scores on ``record``.
 
@@ -256,6 +265,13 @@ def identify(
                 registry=registry,
             ),
         )
+    if not isinstance(record, Record):  # several degrees of freedom
+        from .mdof.fit import identify_structure
+
+        return identify_structure(
+            record, terms, method, mass=mass, options=options, without=without, px_roots=px_roots, cutoff=cutoff,
+            registry=registry,
+        )  # fmt: skip
     model = as_model(terms, without=without, px_roots=px_roots)
     if isinstance(method, str):
         identifier = (registry or registry_for(method)).create(method, options)

@@ -16,7 +16,11 @@ The toolkit has four axes, which identifiers compose rather than re-implement:
   (:meth:`Identifier.figure_arrays`), and the :data:`hookimpl` marker of the
   ``nlid_identifiers`` hook;
 * **data and terms**: :class:`Record`, :class:`Model`, :class:`Term`,
-  :func:`parse_term`;
+  :func:`parse_term`; for structures of several degrees of freedom (an
+  identifier declaring ``dofs = "multi"``) :class:`StructureRecord`,
+  :class:`ElementSet`, :class:`Element`, :class:`StructuralModel`,
+  :class:`StructureModes`, :func:`linear_modes` and the
+  :class:`StructureEstimate` it returns;
 * **the force balance and derivatives**: :func:`regression_data` (the
   filtered design matrix of Eq. 25, shared by every method) and its default
   band :func:`suggested_cutoff` (computed once per record),
@@ -48,6 +52,11 @@ from .balance import EDGE_PERIODS, REGRESSOR_BAND_FACTOR, RegressionData, regres
 from .errors import DataError, IdentificationError, InputError, NlidError, OptionError, TermError
 from .hookspecs import hookimpl
 from .interface import FIGURE_KINDS, Estimate, FigureArray, Identifier, Option, standard_figure_arrays, to_jsonable
+from .mdof.elements import Element, ElementSet
+from .mdof.estimate import StructureEstimate
+from .mdof.model import StructuralModel
+from .mdof.modes import StructureModes, linear_modes
+from .mdof.record import StructureRecord
 from .parallel import kernel_threads
 from .physics import Equilibria, Modal, equilibria, modal, stiffness_roots
 from .progress import ProgressLine, progress_line
@@ -86,6 +95,13 @@ __all__ = [
     "Model",
     "Term",
     "parse_term",
+    "StructureRecord",
+    "Element",
+    "ElementSet",
+    "StructuralModel",
+    "StructureModes",
+    "linear_modes",
+    "StructureEstimate",
     "regression_data",
     "RegressionData",
     "suggested_cutoff",

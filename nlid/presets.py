@@ -44,6 +44,7 @@ from .validate import MAX_SAMPLES as MAX_SAMPLES
 if TYPE_CHECKING:  # imported where used: the preset table is read by 'nlid simulate --help'
     import numpy as np
 
+    from .mdof.presets import StructurePreset
     from .record import Record
     from .terms import Model
 
@@ -283,7 +284,7 @@ def _fmt_levels(levels: Mapping[str, float]) -> str:
 
 _G = 9.81
 
-PRESETS: dict[str, Preset] = {
+PRESETS: dict[str, Preset | StructurePreset] = {
     p.name: p
     for p in (
         Preset(
@@ -326,10 +327,17 @@ PRESETS: dict[str, Preset] = {
 }
 
 
-def get_preset(name: str) -> Preset:
-    """The preset called ``name`` (error with a suggestion otherwise)."""
+def get_preset(name: str) -> Preset | StructurePreset:
+    """The preset called ``name`` (error with a suggestion otherwise); structures of several DOFs among them."""
     try:
         return PRESETS[name]
     except KeyError:
         hint = did_you_mean(name, PRESETS)
         raise InputError(f"unknown preset {brief(name)}{hint}; available: {', '.join(PRESETS)}") from None
+
+
+# Structures with several degrees of freedom (nlid.mdof.presets): one table, so that get_preset, nlid.simulate
+# and `nlid simulate --help` know them too.
+from .mdof.presets import STRUCTURE_PRESETS  # noqa: E402
+
+PRESETS.update(STRUCTURE_PRESETS)

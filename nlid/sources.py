@@ -17,6 +17,8 @@
 Files and tables share one column map and one set of rules (:mod:`nlid.columnmap`),
 and one way of declaring units (``units={"z": "mm"}`` or ``z[mm]=`` in the
 column map; :mod:`nlid.units`).
+A table or file whose channels are indexed (``z1, z2, f1``; :mod:`nlid.columnmap`)
+gives a :class:`~nlid.mdof.StructureRecord`, which is also accepted as is.
 Anything else is an :class:`~nlid.errors.InputError` naming what was given.
 pandas and xarray are never imported here: an object can only be a DataFrame
 or a Dataset if its library is already loaded.
@@ -28,15 +30,19 @@ import os
 import reprlib
 import sys
 from collections.abc import Mapping
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from . import datasets
+from .columnmap import dataset_table, frame_table, uses_indexed
 from .digest import record_sha256
 from .errors import InputError
 from .io import read_record
 from .record import Record
+
+if TYPE_CHECKING:  # pragma: no cover
+    from .mdof.record import StructureRecord
 
 __all__ = ["as_record", "ACCEPTED"]
 
@@ -54,8 +60,11 @@ def as_record(
     fs: float | None = None,
     force_hold: str | None = None,
     units: str | Mapping[str, str] | None = None,
-) -> Record:
+) -> Record | StructureRecord:
     """A :class:`~nlid.record.Record` from any accepted source (see the module docstring).
+
+    A source with indexed channels (``z1``, ``z2``, ``f1``...) gives a
+    :class:`~nlid.mdof.StructureRecord` (several degrees of freedom).
 
     Parameters
     ----------
@@ -77,8 +86,8 @@ def as_record(
 
     Returns
     -------
-    Record
-        ``source`` itself when it is a Record and ``force_hold`` is not given.
+    Record or StructureRecord
+        ``source`` itself when it is a record and ``force_hold`` is not given.
 
     Raises
     ------
@@ -97,8 +106,19 @@ def as_record(
     return record
 
 
-def _convert(source: Any, columns: str | Mapping[str, str] | None, fs: float | None, units: Any) -> Record:
-    if isinstance(source, Record):
+def _table_record(table: Mapping[str, Any], columns: Any, fs: float | None, units: Any, source: str) -> Any:
+    """A :class:`Record`, or a :class:`~nlid.mdof.StructureRecord` when the channels are indexed."""
+    if uses_indexed(table, columns):
+        from .mdof.record import StructureRecord
+
+        return StructureRecord.from_table(table, columns, fs=fs, units=units, source=source)
+    return Record.from_table(table, columns, fs=fs, units=units, source=source)
+
+
+def _convert(source: Any, columns: str | Mapping[str, str] | None, fs: float | None, units: Any) -> Any:
+    from .mdof.record import StructureRecord
+
+    if isinstance(source, (Record, StructureRecord)):
         if columns or fs is not None or units:
             raise InputError(
                 "columns=, fs= and units= apply to files and tables, not to a Record "
@@ -109,21 +129,21 @@ def _convert(source: Any, columns: str | Mapping[str, str] | None, fs: float | N
         return _from_path(source, columns, fs, units)
     pandas = sys.modules.get("pandas")
     if pandas is not None and isinstance(source, pandas.DataFrame):
-        return Record.from_frame(source, columns, fs=fs, units=units)
+        return _table_record(frame_table(source, "DataFrame"), columns, fs, units, "DataFrame")
     xarray = sys.modules.get("xarray")
     if xarray is not None and isinstance(source, xarray.Dataset):  # before Mapping: a Dataset is one
-        return Record.from_xarray(source, columns, fs=fs, units=units)
+        return _table_record(dataset_table(source, "Dataset"), columns, fs, units, "Dataset")
     if isinstance(source, np.ndarray) and source.dtype.names:
         table = {name: source[name] for name in source.dtype.names}
-        return Record.from_table(table, columns, fs=fs, units=units, source="structured array")
+        return _table_record(table, columns, fs, units, "structured array")
     if isinstance(source, Mapping):
-        return Record.from_table(source, columns, fs=fs, units=units, source="mapping")
+        return _table_record(source, columns, fs, units, "mapping")
     raise InputError(f"cannot make a record from {_describe(source)}; give {ACCEPTED}")
 
 
 def _from_path(
     source: str | os.PathLike[str], columns: str | Mapping[str, str] | None, fs: float | None, units: Any
-) -> Record:
+) -> Any:
     text = os.fspath(source)
     if isinstance(text, bytes):
         raise InputError(f"cannot make a record from a bytes path {reprlib.repr(text)}; give the path as str")

@@ -59,6 +59,7 @@ they are part of the term's name.
 
 from __future__ import annotations
 
+import re
 from collections.abc import Mapping
 from dataclasses import dataclass
 from types import MappingProxyType
@@ -81,6 +82,7 @@ __all__ = [
     "accepted",
     "display_units",
     "coefficient_conversion",
+    "INDEXED",
 ]
 
 #: Standard gravity g_n in m/s^2 (exact, by definition): the acceleration unit ``g``.
@@ -90,6 +92,8 @@ STANDARD_GRAVITY = 9.80665
 QUANTITIES: Mapping[str, str] = MappingProxyType(
     {"t": "time", "f": "force", "z": "displacement", "v": "velocity", "a": "acceleration"}
 )
+#: An indexed channel of a structure: ``f``, ``z``, ``v`` or ``a`` and a DOF number from 1 (``z1``, ``f12``).
+INDEXED = re.compile(r"([fzva])([1-9][0-9]*)")
 #: The SI unit of each channel.
 SI: Mapping[str, str] = MappingProxyType({"t": "s", "f": "N", "z": "m", "v": "m/s", "a": "m/s^2"})
 
@@ -195,17 +199,20 @@ def accepted(channel: str) -> str:
     return ", ".join(parts)
 
 
-def unit_of(channel: str, text: Any, *, where: str = "units") -> Unit:
+def unit_of(channel: str, text: Any, *, where: str = "units", indexed: bool = False) -> Unit:
     """The :class:`Unit` named ``text`` for ``channel``.
 
     Parameters
     ----------
     channel
-        ``"t"``, ``"f"``, ``"z"``, ``"v"`` or ``"a"``.
+        ``"t"``, ``"f"``, ``"z"``, ``"v"`` or ``"a"``; with ``indexed``, also
+        a channel of one DOF of a structure (``"z2"``: the vocabulary of ``z``).
     text
         The unit as written (surrounding spaces ignored).
     where
         What gave it, for the message (``"units"``, ``"column map"``).
+    indexed
+        Accept indexed channels (``z1``, ``f2``...).
 
     Raises
     ------
@@ -213,38 +220,47 @@ def unit_of(channel: str, text: Any, *, where: str = "units") -> Unit:
         An unknown channel, or a unit outside the vocabulary (one line naming
         the channel, the unit and the units accepted).
     """
-    if channel not in QUANTITIES:
-        raise InputError(f"{where}: unknown channel {channel!r}; channels are {', '.join(QUANTITIES)}")
+    group = channel
+    if indexed and channel not in QUANTITIES:
+        m = INDEXED.fullmatch(channel) if isinstance(channel, str) else None
+        group = m.group(1) if m else channel
+    if group not in QUANTITIES:
+        extra = " (f1, z1, v1, a1... for the DOFs of a structure)" if indexed else ""
+        raise InputError(f"{where}: unknown channel {channel!r}; channels are {', '.join(QUANTITIES)}{extra}")
     if not isinstance(text, str):
         raise InputError(
-            f"{where}: the unit of {channel!r} must be a string such as {VOCABULARY[channel][1].symbol!r}, "
+            f"{where}: the unit of {channel!r} must be a string such as {VOCABULARY[group][1].symbol!r}, "
             f"got {type(text).__name__}"
         )
     spelled = "".join(text.split())
-    unit = _LOOKUP.get((channel, spelled))
+    unit = _LOOKUP.get((group, spelled))
     if unit is not None:
         return unit
-    quantity = QUANTITIES[channel]
+    quantity = QUANTITIES[group]
     elsewhere = [c for c in QUANTITIES if (c, spelled) in _LOOKUP]
     if elsewhere:
         why = f" ({spelled!r} is a unit of {QUANTITIES[elsewhere[0]]}, channel {elsewhere[0]!r})"
     else:
-        folded = [u.symbol for u in VOCABULARY[channel] if u.symbol.lower() == spelled.lower()]
+        folded = [u.symbol for u in VOCABULARY[group] if u.symbol.lower() == spelled.lower()]
         hint = (
             f" (did you mean {folded[0]!r}?)"
             if folded
-            else did_you_mean(spelled, [u.symbol for u in VOCABULARY[channel]])
+            else did_you_mean(spelled, [u.symbol for u in VOCABULARY[group]])
         )
         why = hint
     shown = spelled if len(spelled) <= 40 else spelled[:37] + "..."
     raise InputError(
         f"{where}: unknown unit {shown!r} for channel {channel!r}{why}; "
-        f"the {quantity} {channel} accepts {accepted(channel)}"
+        f"the {quantity} {group} accepts {accepted(group)}"
     )
 
 
-def parse_units(spec: str | Mapping[str, Any] | None, *, where: str = "units") -> dict[str, Unit]:
+def parse_units(
+    spec: str | Mapping[str, Any] | None, *, where: str = "units", indexed: bool = False
+) -> dict[str, Unit]:
     """``{channel: Unit}`` from ``{"z": "mm"}`` or the command line's ``"z=mm,a=g"``.
+
+    With ``indexed``, the channels of a structure's DOFs (``z2``) are accepted too (:func:`unit_of`).
 
     Raises
     ------
@@ -271,10 +287,10 @@ def parse_units(spec: str | Mapping[str, Any] | None, *, where: str = "units") -
     for channel, value in items:
         if channel in out:
             raise InputError(f"{where}: channel {channel!r} is given twice")
-        if isinstance(value, Unit) and value.channel == channel:
+        if isinstance(value, Unit) and value.channel == (channel.rstrip("0123456789") if indexed else channel):
             out[channel] = value
         else:
-            out[channel] = unit_of(channel, value, where=where)
+            out[channel] = unit_of(channel, value, where=where, indexed=indexed)
     return out
 
 

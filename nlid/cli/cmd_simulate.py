@@ -20,7 +20,8 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         "simulate",
         help="simulate a preset and write it to CSV or NPZ",
         description="Simulate m z'' + R(z, z') = f with a preset's model and random force, and write t, f, z "
-        f"(and v, a with --channels). Presets: {presets}.",
+        "(and v, a with --channels); a structure's preset writes f1, z1, z2... for its DOFs. "
+        f"Presets: {presets}.",
     )
     p.add_argument("--preset", required=True, metavar="NAME", help="preset name (" + ", ".join(PRESETS) + ")")
     p.add_argument("--seed", type=int, default=0, help="seed of the force and the noise (default 0)")

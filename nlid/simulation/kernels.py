@@ -484,3 +484,11 @@ def free_run(
     fine = fine_force(force, force_hold, q)
     z, v, a = simulate(model, coefficients, mass, fine, fs * q, x0)
     return z[::q], v[::q], a[::q]
+
+
+# The evaluation of one term, shared with the integrator of several degrees of freedom (nlid.mdof.kernels), which
+# evaluates each element's term on its relative coordinate with exactly these functions.
+term_plan = _plan
+sign = _sign
+term_value = _term
+memory_step = _memory_step

@@ -28,6 +28,16 @@ decisions and measurements: ``docs/nsi.md``.
 
 The identifiers' modules import scipy only when they identify: loading the entry points
 (``nlid methods``, the registry) costs numpy and ``nlid.plugin`` alone.
+
+Both identifiers declare ``dofs = "multi"``: on a structure record of several
+DOFs they run the MIMO version, :mod:`~nlid_nsi.mimo` (subspace step with
+several outputs, B, the ULS realisation, element spectra),
+:mod:`~nlid_nsi.structure` (channels on the elements' relative coordinates,
+input perturbation at the driven DOFs), :mod:`~nlid_nsi.structure_shift`
+(zero reference per polynomial connection and well),
+:mod:`~nlid_nsi.structure_noise` (errors-in-variables correction of the
+Gram); :mod:`~nlid_nsi.wells` holds the histogram modes and Taylor shift both
+shift variants use.
 """
 
 from typing import Any

@@ -88,7 +88,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from nlid.plugin import Estimate, FigureArray, Identifier, Model, Option, Record, equilibria, modal
+from nlid.plugin import Estimate, FigureArray, Identifier, Model, Option, Record, StructureRecord, equilibria, modal
 
 from .common import (
     COMMON_OPTIONS,
@@ -248,6 +248,7 @@ class NSIInputPerturbation(Identifier):
     )
     advice_order = 30
     docs = "docs/nsi.md"
+    dofs = "multi"
     options = (
         Option(
             "k_tilde",
@@ -296,8 +297,12 @@ class NSIInputPerturbation(Identifier):
         return figure_arrays(arrays, wells=False)
 
     def identify(self, record: Record, model: Model, *, mass: float | None = None) -> Estimate:
-        """Identify every coefficient of ``model`` (and the mass unless given)."""
+        """Every coefficient of ``model`` (and the mass unless given); structures: :mod:`nlid_nsi.structure`."""
         with blas_threads(self.settings["blas_threads"]):
+            if isinstance(record, StructureRecord):
+                from .structure import identify_structure_ip
+
+                return identify_structure_ip(self, record, model, mass)
             return self._identify(record, model, mass)
 
     def _identify(self, record: Record, model: Model, mass: float | None) -> Estimate:

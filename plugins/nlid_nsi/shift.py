@@ -49,14 +49,23 @@ damping worse here, docs/nsi.md).
 
 from __future__ import annotations
 
-import math
 import time
 from collections.abc import Mapping
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from nlid.plugin import Estimate, FigureArray, IdentificationError, Identifier, Model, Option, Record, equilibria
+from nlid.plugin import (
+    Estimate,
+    FigureArray,
+    IdentificationError,
+    Identifier,
+    Model,
+    Option,
+    Record,
+    StructureRecord,
+    equilibria,
+)
 
 from .common import (
     COMMON_OPTIONS,
@@ -72,6 +81,7 @@ from .common import (
     velocity_estimate,
     well_suffix,
 )
+from .wells import histogram_modes, taylor_shift
 
 if TYPE_CHECKING:
     from .basis import Basis
@@ -81,42 +91,6 @@ if TYPE_CHECKING:
 # The numerical modules (scipy) are imported where they are used: loading the entry point imports no scipy.
 
 __all__ = ["NSIZeroShift", "histogram_modes", "taylor_shift"]
-
-
-def histogram_modes(z: np.ndarray, degree: int = 4, bins: int = 100, min_count: int = 5) -> np.ndarray:
-    """Modes of the displacement histogram: maxima of a polynomial fit to its logarithm.
-
-    Parameters
-    ----------
-    z
-        Displacement samples.
-    degree
-        Degree of the polynomial fitted to ``log(counts)`` (weights ``sqrt(counts)``).
-    bins
-        Histogram bins.
-    min_count
-        Bins with fewer samples are left out of the fit.
-    """
-    h, e = np.histogram(z, bins)
-    c = 0.5 * (e[1:] + e[:-1])
-    ok = h > min_count
-    if ok.sum() <= degree:  # too few populated bins to fit (a very short record): no mode found
-        return np.zeros(0)
-    sc = float(np.std(z))
-    p = np.polyfit(c[ok] / sc, np.log(h[ok]), degree, w=np.sqrt(h[ok]))
-    d = np.polyder(p)
-    r = np.roots(d)
-    r = np.sort(r[np.abs(r.imag) < 1e-9].real)
-    return np.array([x * sc for x in r if np.polyval(np.polyder(d), x) < 0 and e[0] < x * sc < e[-1]])
-
-
-def taylor_shift(c_asc: np.ndarray, shift: float) -> np.ndarray:
-    """Ascending coefficients of ``P(x + shift)`` from the ascending coefficients of ``P``."""
-    out = np.zeros(len(c_asc))
-    for k, ck in enumerate(c_asc):
-        for j in range(k + 1):
-            out[j] += ck * math.comb(k, j) * shift ** (k - j)
-    return out
 
 
 class NSIZeroShift(Identifier):
@@ -138,6 +112,7 @@ class NSIZeroShift(Identifier):
     advice = "the paper's zero-reference shift (Sec. 3.1): one fit per stable well, combined; the slowest"
     advice_order = 40
     docs = "docs/nsi.md"
+    dofs = "multi"
     options = (
         Option(
             "equilibria",
@@ -163,8 +138,12 @@ class NSIZeroShift(Identifier):
         return figure_arrays(arrays, wells=True)
 
     def identify(self, record: Record, model: Model, *, mass: float | None = None) -> Estimate:
-        """Identify every coefficient of ``model`` (and the mass unless given)."""
+        """Every coefficient of ``model`` (and the mass unless given); structures: :mod:`nlid_nsi.structure_shift`."""
         with blas_threads(self.settings["blas_threads"]):
+            if isinstance(record, StructureRecord):
+                from .structure_shift import identify_structure_shift
+
+                return identify_structure_shift(self, record, model, mass)
             return self._identify(record, model, mass)
 
     def _identify(self, record: Record, model: Model, mass: float | None) -> Estimate:
