@@ -112,6 +112,13 @@ class NormalEquations:
 
     def _selections(self, extras: Sequence[Extra]) -> list[np.ndarray]:
         """``S_i`` of every DOF: the row block ``i`` of the design is ``[basis, extras] @ S_i``."""
+        key = tuple((x.columns.shape[1], tuple(x.b)) for x in extras)
+        memo = self.__dict__.setdefault("_selection_memo", {})
+        if key not in memo:
+            memo[key] = self._build_selections(extras)
+        return memo[key]
+
+    def _build_selections(self, extras: Sequence[Extra]) -> list[np.ndarray]:
         n, E = self.n, len(self.elements)
         static = 1 if self.elements.static else 0
         m = [x.columns.shape[1] for x in extras]
@@ -150,12 +157,17 @@ class NormalEquations:
         """
         if not extras:
             return self.gram, self.cross
-        H = np.column_stack(list(columns) if columns is not None else [x.columns for x in extras])
+        given = list(columns) if columns is not None else [x.columns for x in extras]
+        cached = getattr(self, "_cache", None)  # the same columns are scored several times in a row
+        if cached is not None and len(cached[0]) == len(given) and all(a is b for a, b in zip(cached[0], given)):
+            return cached[1]
+        H = np.column_stack(given)
         if self.basis is None:
             raise InputError("combined normal equations cannot take new columns; add them to each part")
         top = self.basis.T @ H
         gram = np.block([[self.gram, top], [top.T, H.T @ H]])
         cross = np.vstack([self.cross, H.T @ self.y])
+        self._cache = (given, (gram, cross))
         return gram, cross
 
     def assemble(self, weights: np.ndarray, extras: Sequence[Extra] = (), columns=None) -> tuple:
@@ -191,7 +203,8 @@ class NormalEquations:
     def unpack(self, p: np.ndarray, extras: Sequence[Extra], rss: np.ndarray) -> JointFit:
         n, lin = self.n, self.linear_count
         K, C = np.zeros((n, n)), np.zeros((n, n))
-        for idx, (k, j) in enumerate((k, j) for k in range(n) for j in range(k, n)):
+        pairs = [(a, b) for a in range(n) for b in range(a, n)]
+        for idx, (k, j) in enumerate(pairs):
             K[k, j] = K[j, k] = p[idx]
             C[k, j] = C[j, k] = p[lin + idx]
         at = 2 * lin
