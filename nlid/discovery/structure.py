@@ -48,7 +48,7 @@ import numpy as np
 from numpy.polynomial import legendre
 
 from ..errors import InputError, NlidError
-from ..terms import Model, Term
+from ..terms import Term
 from ..validate import HOLDOUT_FRACTION, check_cutoff
 from .evidence import PARSIMONY, AcceptanceRule, integrated_time
 from .library import Candidate, Variant, resolve_candidates
@@ -462,7 +462,8 @@ class StructureDiscoveryResult:
             coef = ", ".join(f"{k} = {v:.4g}" for k, v in e.coefficients.items())
             lines.append(
                 f"step {step.number}: {e.effect} on connection {e.where}: {coef} "
-                f"(explains {100 * (e.explained or 0):.3g} % of the held-out residual of its DOFs, dBIC {e.delta_bic:.3g})"
+                f"(explains {100 * (e.explained or 0):.3g} % of the held-out residual of its DOFs, "
+                f"dBIC {e.delta_bic:.3g})"
             )
         if not self.steps:
             lines.append("no element added")
