@@ -159,7 +159,8 @@ class NormalEquations:
             return self.gram, self.cross
         given = list(columns) if columns is not None else [x.columns for x in extras]
         cached = getattr(self, "_cache", None)  # the same columns are scored several times in a row
-        if cached is not None and len(cached[0]) == len(given) and all(a is b for a, b in zip(cached[0], given, strict=True)):
+        same = cached is not None and len(cached[0]) == len(given)
+        if same and all(a is b for a, b in zip(cached[0], given, strict=True)):
             return cached[1]
         H = np.column_stack(given)
         if self.basis is None:
