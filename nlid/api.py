@@ -298,6 +298,12 @@ def discover(
 ) -> DiscoveryResult:
     """Find the effects a declared model lacks (see :func:`nlid.discovery.discover` for the settings).
 
+    On a :class:`~nlid.mdof.StructureRecord` (several DOFs) this is
+    :func:`nlid.discovery.structure.discover_structure`: ``declared`` are the
+    declared elements (``"tanh(v3/0.001)"``), the settings are its own, and the
+    result is a :class:`~nlid.discovery.structure.StructureDiscoveryResult`
+    naming the connection that carries the missing element.
+
     Returns
     -------
     nlid.discovery.DiscoveryResult
@@ -306,6 +312,16 @@ def discover(
         ``.summary()``, ``.to_dict()``.
     """
     record = as_record(record)
+    from .mdof.record import StructureRecord
+
+    if isinstance(record, StructureRecord):  # several DOFs: which connection lacks an element
+        from .discovery.structure import discover_structure
+
+        if method is not None:
+            raise InputError(
+                "method= does not apply to a structure record: discover fits every DOF by one joint least squares"
+            )
+        return discover_structure(record, declared, **settings)
     from .discovery import discover as _discover
 
     return _discover(record, declared, method, **settings)

@@ -105,6 +105,12 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument(
         "--cutoff", type=float, metavar="HZ", help="equation band for estimated channels (default: from the data)"
     )
+    p.add_argument(
+        "--connections",
+        metavar="LIST",
+        help="structure records only: the connections to test, e.g. '4-5, 5-0' (5-0: DOF 5 to the ground); "
+        "default every pair and every DOF to the ground",
+    )
     p.add_argument("--set", action="append", metavar="KEY=VALUE", help="identifier option (repeatable)")
     p.add_argument("--json", action="store_true", help="print one JSON object instead of the table")
     p.add_argument("--out", metavar="DIR", help="write a report (Markdown, HTML, figures, CSV, JSON) to DIR")
@@ -192,6 +198,12 @@ def run(args: argparse.Namespace) -> int:
     start_fork_server(pin_threads=False)  # it loads the pipeline while this process reads the data
     record = load_data(args)
     rule = AcceptanceRule(min_explained=args.min_explained, max_delta_bic=args.max_delta_bic)
+    from ..mdof.record import StructureRecord
+
+    if isinstance(record, StructureRecord):
+        return _run_structure(args, record, rule)
+    if args.connections:
+        raise InputError("--connections applies to a structure record (channels z1, z2, ...), not to one DOF")
 
     def status(message: str) -> None:
         if not args.quiet:
@@ -259,3 +271,57 @@ def _refined_lines(result) -> str:
     if fit.mass_estimated:
         lines.append(f"  mass {fit.mass:.6g} kg")
     return "\n".join(lines)
+
+
+def _run_structure(args: argparse.Namespace, record, rule) -> int:
+    """``nlid discover`` on a structure record: which connection carries the missing element."""
+    from ..discovery.structure import discover_structure, write_structure_report
+
+    unsupported = [
+        flag
+        for flag, value in (
+            ("--method", args.method),
+            ("--mass", args.mass),
+            ("--validation", args.validation),
+            ("--rule", args.rule),
+            ("--set", args.set),
+            ("--refine", args.refine),
+        )
+        if value
+    ]
+    if unsupported:
+        raise InputError(
+            f"{unsupported[0]} does not apply to a structure record (the mass matrix comes from the record's "
+            "meta['mass']; every DOF is fitted by one joint least squares)"
+        )
+    holdout = _holdout(args)
+    if not isinstance(holdout, float):
+        raise InputError("--holdout for a structure record is a fraction")
+
+    def say(message: str) -> None:
+        if not (args.quiet or args.json):
+            print(f"nlid discover: {message}", file=sys.stderr, flush=True)
+
+    result = discover_structure(
+        record,
+        args.declared,
+        holdout=holdout,
+        connections=args.connections,
+        candidates=args.candidates,
+        extra_candidates=args.candidate or (),
+        rule=rule,
+        max_steps=args.max_steps,
+        cutoff=args.cutoff,
+        progress=say,
+    )
+    if args.out:
+        try:
+            paths = write_structure_report(result, args.out)
+        except OSError as exc:
+            raise InputError(f"cannot write the report to {args.out}: {exc.strerror or exc}") from None
+        say(f"report written to {paths[0]} (and {paths[1].name})")
+    if args.json:
+        print_json(result.to_dict())
+    else:
+        print(result.summary())
+    return 0

@@ -1,0 +1,595 @@
+"""Discovery on a structure (several DOFs): which connection carries the nonlinearity the declared model lacks?
+
+:func:`discover_structure` is the multi-DOF counterpart of :func:`nlid.discovery.discover` (which is unchanged):
+
+1. The record is divided into an *estimation* part, a *held-out* part (together the *selection* record:
+   every choice is made on them) and a *test* part at the end, which never takes part in a choice and on
+   which the errors before and after are reported.
+2. The declared model (the underlying linear system ``K``, ``C`` -- symmetric, every entry free --, a
+   constant force per DOF and the declared elements, with the mass matrix known) is fitted by one joint
+   least squares of the force balance of every DOF (:mod:`nlid.mdof.jointfit`). Each DOF's equations are
+   weighted by the inverse of the declared model's residual variance on that DOF, so that a noisier DOF
+   does not hide a quieter one.
+3. Every candidate of the one-DOF library (:mod:`nlid.discovery.library`: polynomial stiffness, friction and
+   damping laws, gaps and stops, Bouc-Wen, Dahl, Stribeck, user candidates...) is placed on every connection
+   (every pair ``i-j`` and every DOF to the ground, or the connections given), as an element on the
+   relative coordinate, and the model refitted with it (``K``, ``C`` and the static force again free).
+   It is scored by the *cross-fitted* held-out fraction of the residual it explains on the DOFs the
+   connection acts on: fitted on the estimation part and scored on the held-out part, and the reverse,
+   the mean of both (as the remaining-structure probes of one DOF).
+4. The best candidate is accepted when it passes :class:`~nlid.discovery.evidence.AcceptanceRule` (the
+   same rule as one DOF: that fraction at least ``min_explained``, and the BIC with the effective sample
+   size on the estimation part improving by at least ``-max_delta_bic``), and its sign is physical (the
+   one-DOF candidate's ``positive`` terms); among passing candidates within
+   :data:`~nlid.discovery.evidence.PARSIMONY` of the best, the one with fewest parameters. The search then
+   repeats on the model with the new element, up to ``max_steps``.
+5. For the declared model and after each step the test part gives the residual per DOF (epsilon, Eq. 26
+   per DOF) and the free-run error per DOF (:func:`nlid.mdof.simulation.free_run` from the test part's
+   first sample, force as recorded).
+6. *What remains*: on the final model, flexible functions of each connection's relative displacement
+   (Legendre polynomials of degree 2-8), velocity (degree 2-7 and its sign) and history (play operators)
+   are fitted the same cross-fitted way; one that explains :data:`~nlid.discovery.probes.MIN_STRUCTURE`
+   or more of the held-out residual of its DOFs counts as remaining structure.
+
+Candidates that are linear (``z``, ``v``: already in ``K``, ``C``), the constant (the static force per DOF)
+and those using ``px`` (whose roots need a stiffness law on the connection) are not applicable here.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from collections.abc import Callable, Iterable, Mapping, Sequence
+from dataclasses import dataclass, replace
+from typing import Any
+
+import numpy as np
+from numpy.polynomial import legendre
+
+from ..errors import InputError, NlidError
+from ..terms import Term
+from ..validate import HOLDOUT_FRACTION, check_cutoff
+from .evidence import PARSIMONY, AcceptanceRule, integrated_time
+from .library import Candidate, Variant, resolve_candidates
+from .probes import MIN_STRUCTURE, PLAY_WIDTHS
+from .structure_result import (
+    ConnectionEvidence,
+    ConnectionProbe,
+    StructureDiscoveryResult,
+    StructureRemaining,
+    StructureStage,
+    StructureStep,
+    parse_connections,
+    write_structure_report,
+)
+
+__all__ = [
+    "DEFAULT_TEST",
+    "DEFAULT_MAX_STEPS",
+    "STRUCTURE_PROBES",
+    "ConnectionEvidence",
+    "StructureStage",
+    "StructureStep",
+    "ConnectionProbe",
+    "StructureRemaining",
+    "StructureDiscoveryResult",
+    "discover_structure",
+    "parse_connections",
+    "write_structure_report",
+]
+
+#: Fraction of the record kept at its end as the test part (reported on, never chosen on).
+DEFAULT_TEST = 0.2
+#: Default hold-out fraction of the selection record.
+DEFAULT_HOLDOUT = 0.25
+#: Most elements added by one run.
+DEFAULT_MAX_STEPS = 3
+#: Remaining-structure probes on each connection, in report order.
+STRUCTURE_PROBES = ("z", "v", "memory")
+
+Progress = Callable[[str], None]
+Connection = tuple[int, int]
+
+
+def _quiet(_message: str) -> None:
+    return None
+
+
+# --------------------------------------------------------------------------- connections
+# --------------------------------------------------------------------------- the search
+@dataclass
+class _Part:
+    """One part of the record: its balance, its normal equations for the current elements."""
+
+    data: Any
+    eq: Any
+
+
+def _relative(data: Any, c: Connection) -> tuple[np.ndarray, np.ndarray]:
+    i, j = c
+    x = data.z[:, i - 1] - (data.z[:, j - 1] if j else 0.0)
+    xd = data.v[:, i - 1] - (data.v[:, j - 1] if j else 0.0)
+    return np.asarray(x, dtype=float), np.asarray(xd, dtype=float)
+
+
+def _b(c: Connection, n: int) -> np.ndarray:
+    out = np.zeros(n)
+    out[c[0] - 1] = 1.0
+    if c[1]:
+        out[c[1] - 1] = -1.0
+    return out
+
+
+def _linear_or_constant(term: Term) -> bool:
+    return term.is_constant or term in (Term(z=(1, 1)), Term(v=(1, 1)))
+
+
+class _Search:
+    """The state shared by the rounds of one search."""
+
+    def __init__(self, parts: dict[str, _Part], M: np.ndarray, rule: AcceptanceRule, n: int):
+        self.parts, self.M, self.rule, self.n = parts, M, rule, n
+        self.weights = np.ones(n)
+
+    def equations(self, elements) -> None:
+        from ..mdof.jointfit import NormalEquations
+
+        for part in self.parts.values():
+            part.eq = NormalEquations(part.data, self.M, elements)
+
+    def cross_scores(self, extras_by_part: Mapping[str, Sequence[Any]] | None) -> dict[str, Any]:
+        """Fit on each of estimation/held-out and score on the other: the per-DOF RSS of both directions."""
+        est, ho = self.parts["estimation"], self.parts["holdout"]
+        w = self.weights
+        extras = (extras_by_part or {}).get("extras", ())
+        cols = {k: (extras_by_part or {}).get(k) for k in ("estimation", "holdout")}
+        fit_e = est.eq.solve(w, extras, cols["estimation"])
+        fit_h = ho.eq.solve(w, extras, cols["holdout"])
+        return {
+            "on_holdout": ho.eq.rss(fit_e.p, extras, cols["holdout"]),
+            "on_estimation": est.eq.rss(fit_h.p, extras, cols["estimation"]),
+            "in_estimation": fit_e.rss,
+            "fit_estimation": fit_e,
+        }
+
+    def selection_fit(self, extras: Sequence[Any] = (), columns: Mapping[str, Any] | None = None):
+        """The fit on estimation + held-out together (sum of their normal equations)."""
+        est, ho = self.parts["estimation"], self.parts["holdout"]
+        cols = columns or {}
+        A1, h1, *_ = est.eq.assemble(self.weights, extras, cols.get("estimation"))
+        A2, h2, *_ = ho.eq.assemble(self.weights, extras, cols.get("holdout"))
+        A, h = A1 + A2, h1 + h2
+        d = np.sqrt(np.abs(np.diag(A)))
+        d[d == 0] = 1.0
+        q, *_ = np.linalg.lstsq(A / np.outer(d, d), h / d, rcond=1e-13)
+        p = q / d
+        return est.eq.unpack(p, extras, np.zeros(self.n))
+
+
+def _fraction(after: np.ndarray, before: np.ndarray, w: np.ndarray, dofs: Sequence[int]) -> float:
+    idx = list(dofs)
+    b = float(np.sum(w[idx] * before[idx]))
+    return float("nan") if b <= 0 else 1.0 - float(np.sum(w[idx] * after[idx])) / b
+
+
+def _per_dof(after_h, before_h, after_e, before_e) -> tuple[float, ...]:
+    out = []
+    for k in range(len(before_h)):
+        a = 1.0 - after_h[k] / before_h[k] if before_h[k] > 0 else float("nan")
+        b = 1.0 - after_e[k] / before_e[k] if before_e[k] > 0 else float("nan")
+        out.append(0.5 * (a + b))
+    return tuple(out)
+
+
+def _legendre(x: np.ndarray, degrees: Iterable[int]) -> np.ndarray:
+    cols = []
+    for d in degrees:
+        c = np.zeros(d + 1)
+        c[d] = 1.0
+        cols.append(legendre.legval(x, c))
+    return np.column_stack(cols)
+
+
+def _probe_columns(probe: str, x: np.ndarray, xd: np.ndarray, scale: tuple[float, float, float]) -> np.ndarray:
+    mid, half, vhalf = scale
+    if probe == "z":
+        return _legendre(np.clip((x - mid) / half, -1, 1), range(2, 9))
+    if probe == "v":
+        return np.column_stack([_legendre(np.clip(xd / vhalf, -1, 1), range(2, 8)), np.sign(xd)])
+    from ..terms.memory_kernels import play_loop
+
+    std = max(half / 2.0, 1e-300)
+    cols = []
+    for width in PLAY_WIDTHS:
+        out = np.empty_like(x)
+        play_loop(np.ascontiguousarray(x), float(width * std), out)
+        cols.append(out / std)
+    return np.column_stack(cols)
+
+
+def _rms(x: np.ndarray) -> np.ndarray:
+    return np.sqrt(np.mean(np.asarray(x) ** 2, axis=0))
+
+
+def discover_structure(
+    record: Any,
+    declared: str | Iterable[str] = "",
+    *,
+    mass: Any = None,
+    holdout: float = DEFAULT_HOLDOUT,
+    test: Any = DEFAULT_TEST,
+    connections: Any = None,
+    candidates: str | Iterable[str] | None = None,
+    extra_candidates: Iterable[Candidate | str] = (),
+    plugins: bool | Sequence[Candidate] = True,
+    rule: AcceptanceRule | None = None,
+    max_steps: int = DEFAULT_MAX_STEPS,
+    cutoff: float | None = None,
+    structure: float = MIN_STRUCTURE,
+    simulate: bool = True,
+    progress: Progress | None = None,
+) -> StructureDiscoveryResult:
+    """Find which connection of a structure carries the nonlinearity the declared model lacks (module docstring).
+
+    Parameters
+    ----------
+    record
+        A :class:`~nlid.mdof.StructureRecord` (velocities and accelerations measured or estimated).
+    declared
+        The declared elements, ``"tanh(v3/0.001)"`` (``""``: the underlying linear system alone); the
+        linear ``K``, ``C`` and a constant force per DOF are always fitted.
+    mass
+        The mass matrix (kg; a vector is lumped); default ``record.mass`` (``meta["mass"]``).
+    holdout
+        Fraction of the selection record held out (its last part), ``0 < holdout < 1``.
+    test
+        Fraction of the record kept at its end for the errors before and after, or a separate
+        :class:`~nlid.mdof.StructureRecord`.
+    connections
+        The connections to test (:func:`parse_connections`; default every pair and every DOF to the ground).
+    candidates, extra_candidates, plugins
+        The candidate effects, as :func:`nlid.discovery.discover` (names of the library, ``NAME=TERMS``).
+    rule
+        Acceptance rule (default :class:`~nlid.discovery.evidence.AcceptanceRule`).
+    max_steps
+        Most elements to add.
+    cutoff
+        Equation band (Hz) for estimated channels (:func:`nlid.mdof.balance.balance`).
+    structure
+        Fraction a remaining-structure probe must predict to count as structure.
+    simulate
+        Compute the free-run errors on the test part.
+    progress
+        Called with one line per stage.
+
+    Returns
+    -------
+    StructureDiscoveryResult
+
+    Raises
+    ------
+    InputError
+        Not a structure record, no mass matrix, bad elements, fractions, connections or candidates.
+    """
+    from ..mdof.balance import balance
+    from ..mdof.elements import Element, ElementSet
+    from ..mdof.model import as_matrix
+    from ..mdof.record import StructureRecord
+
+    say = progress or _quiet
+    started = time.perf_counter()
+    if not isinstance(record, StructureRecord):
+        raise InputError(f"discover_structure needs a StructureRecord, got {type(record).__name__}")
+    n = record.n_dofs
+    if mass is None:
+        mass = record.mass
+    if mass is None:
+        raise InputError("the structure's mass matrix is needed: give mass= (kg; a vector for a lumped mass)")
+    M = np.asarray(as_matrix(mass, n, "mass=", positive=True))
+    if isinstance(declared, ElementSet):
+        elements0 = declared
+    else:
+        spec = declared if isinstance(declared, str) else list(declared)
+        elements0 = ElementSet.from_spec(spec, n)
+    if elements0.n_dofs != n:
+        raise InputError(f"the declared elements are on {elements0.n_dofs} DOFs but the record has {n}")
+    HOLDOUT_FRACTION.check(holdout, "holdout=")
+    if int(max_steps) < 0:
+        raise InputError(f"max_steps must be >= 0, got {max_steps}")
+    check_cutoff(cutoff, record.fs)
+    if not 0.0 < float(structure) < 1.0:
+        raise InputError(f"structure must lie between 0 and 1, got {structure}")
+    rule = rule or AcceptanceRule()
+    conns = parse_connections(connections, n)
+    if isinstance(test, StructureRecord):
+        selection, test_record = record, test
+        if test.n_dofs != n:
+            raise InputError(f"the test record has {test.n_dofs} DOFs but the record has {n}")
+    else:
+        HOLDOUT_FRACTION.check(test, "test=")
+        selection, test_record = record.split(float(test))
+    estimation, held = selection.split(float(holdout))
+    pool = [c for c in resolve_candidates(candidates, extra_candidates, plugins=plugins)]
+    parts = {
+        "estimation": _Part(balance(estimation, cutoff=cutoff), None),
+        "holdout": _Part(balance(held, cutoff=cutoff), None),
+    }
+    test_data = balance(test_record, cutoff=cutoff)
+    search = _Search(parts, M, rule, n)
+    say(f"fitting the declared model ({elements0 or 'linear system only'}) on {n} DOFs")
+    search.equations(elements0)
+    declared_fit = search.selection_fit()
+    rss = search.parts["estimation"].eq.rss(declared_fit.p) + search.parts["holdout"].eq.rss(declared_fit.p)
+    samples = parts["estimation"].data.z.shape[0] + parts["holdout"].data.z.shape[0]
+    sigma2 = np.maximum(rss / samples, 1e-300)
+    search.weights = 1.0 / sigma2
+
+    def stage(elements, label: str):
+        fit = search.selection_fit()
+        from ..mdof.model import StructuralModel
+
+        model = StructuralModel(M, fit.C, fit.K, elements, fit.theta, fit.static if elements.static else None)
+        return _stage(model, label, test_record, test_data, parts, simulate)
+
+    current = elements0
+    stages = [stage(current, "declared model")]
+    say("remaining-structure probes on the declared model")
+    remaining_declared = _probes(search, conns, structure)
+    steps: list[StructureStep] = []
+    ranking: tuple[ConnectionEvidence, ...] = ()
+    stop = "maximum number of steps reached"
+    for number in range(1, int(max_steps) + 1):
+        say(f"step {number}: testing {len(pool)} candidates on {len(conns)} connections")
+        tested = _round(search, current, conns, pool, Element)
+        ranking, accepted = _rank(tested, rule)
+        if accepted is None:
+            best = next((e for e in ranking if e.explained is not None), None)
+            stop = "no candidate passes the acceptance rule" + (
+                f" (best: {best.effect} on {best.where}, {best.reason})" if best else ""
+            )
+            break
+        added = [Element(t, *accepted.connection) for t in accepted.terms]
+        new = ElementSet((*current.elements, *added), n, current.static, current.px_roots)
+        say(f"step {number}: accepted {accepted.effect} on {accepted.where}")
+        before = stages[-1]
+        current = new
+        search.equations(current)
+        after = stage(current, f"after step {number}: {accepted.effect} on {accepted.where}")
+        stages.append(after)
+        steps.append(StructureStep(number, accepted, before, after, ranking))
+    else:
+        if max_steps == 0:
+            stop = "maximum number of steps reached (0)"
+    say("remaining-structure probes on the final model")
+    remaining = remaining_declared if not steps else _probes(search, conns, structure)
+    stop = (
+        f"{stop}; the final model is " + remaining.describe()
+        if not remaining.structured
+        else f"{stop}; " + remaining.describe()
+    )
+    info = {
+        "samples_estimation": int(parts["estimation"].data.z.shape[0]),
+        "samples_holdout": int(parts["holdout"].data.z.shape[0]),
+        "samples_test": int(test_data.z.shape[0]),
+        "holdout": float(holdout),
+        "test": "given record" if isinstance(test, StructureRecord) else float(test),
+        "fs_hz": record.fs,
+        "band_hz": parts["estimation"].data.cutoff,
+        "weights_sigma": [float(x) for x in np.sqrt(sigma2)],
+        "mass": M.tolist(),
+        "source": str(record.meta.get("source", "")),
+        "max_steps": int(max_steps),
+        "seconds": time.perf_counter() - started,
+    }
+    return StructureDiscoveryResult(
+        declared=tuple(elements0.names),
+        n_dofs=n,
+        connections=conns,
+        candidates=tuple(c.name for c in pool),
+        stages=tuple(stages),
+        steps=tuple(steps),
+        ranking=tuple(ranking),
+        remaining_declared=remaining_declared,
+        remaining=remaining,
+        stop_reason=stop,
+        rule=rule,
+        info=info,
+    )
+
+
+def _stage(model, label: str, test_record, test_data, parts, simulate: bool) -> StructureStage:
+    """The model's errors: epsilon per DOF on the test part and the selection record, the free run on the test part."""
+
+    def eps(data) -> tuple[float, ...]:
+        measured = data.f - data.a @ model.M.T
+        diff = measured - model.restoring(data.z, data.v)
+        scale = _rms(measured)
+        return tuple(float(100.0 * r / s) if s > 0 else float("nan") for r, s in zip(_rms(diff), scale, strict=True))
+
+    sel = [eps(parts[k].data) for k in ("estimation", "holdout")]
+    n_e, n_h = (parts[k].data.z.shape[0] for k in ("estimation", "holdout"))
+    in_sample = tuple(math.sqrt((n_e * a**2 + n_h * b**2) / (n_e + n_h)) for a, b in zip(*sel, strict=True))
+    n = model.n_dofs
+    nan = tuple([float("nan")] * n)
+    run_rms, run_pct, note = nan, nan, "not computed"
+    if simulate:
+        run_rms, run_pct, note = _free_run(model, test_record)
+    return StructureStage(label, model, eps(test_data), in_sample, run_rms, run_pct, note)
+
+
+def _free_run(model, record) -> tuple[tuple[float, ...], tuple[float, ...], str]:
+    from ..mdof.simulation import free_run
+    from ..simulation import SimulationError
+
+    n = model.n_dofs
+    nan = tuple([float("nan")] * n)
+    full = record if record.v is not None else record.with_derivatives()
+    x0 = (record.z[0], full.v[0])
+    try:
+        z, _, _ = free_run(model, record.f, record.fs, force_hold=record.force_hold, x0=x0)
+    except SimulationError as exc:
+        return nan, nan, f"diverged: {exc}"
+    if not np.all(np.isfinite(z)):
+        return nan, nan, "diverged"
+    err = _rms(z - record.z)
+    std = np.std(record.z, axis=0)
+    pct = tuple(float(100 * e / s) if s > 0 else float("nan") for e, s in zip(err, std, strict=True))
+    return (
+        tuple(float(x) for x in err),
+        pct,
+        f"from the test part's first sample (measured state), force as recorded ({record.force_hold}), "
+        f"{record.n} samples scored",
+    )
+
+
+def _round(search: _Search, current, conns, pool: Sequence[Candidate], Element) -> list[ConnectionEvidence]:
+    """Every candidate on every connection, its best shape by the cross-fitted score."""
+    n, w = search.n, search.weights
+    base = search.cross_scores(None)
+    est, ho = search.parts["estimation"], search.parts["holdout"]
+    tau = float(np.mean([integrated_time(_residual(est, base["fit_estimation"], k)) for k in range(n)]))
+    n_eff = max(2.0, n * est.data.z.shape[0] / tau)
+    base_in = float(np.sum(w * base["in_estimation"]))
+    out: list[ConnectionEvidence] = []
+    for c in conns:
+        touched = [c[0] - 1] + ([c[1] - 1] if c[1] else [])
+        x_e, xd_e = _relative(est.data, c)
+        x_h, xd_h = _relative(ho.data, c)
+        rms = {"z": float(np.std(x_e)) or 1e-12, "v": float(_rms(xd_e)) or 1e-12}
+        on_conn = frozenset(e.term for e in current if e.connection == c)  # what variants() leaves out
+        for cand in pool:
+            if cand.uses_px:
+                out.append(ConnectionEvidence(cand.name, c, reason="px needs a stiffness law on the connection"))
+                continue
+            variants = [v for v in cand.variants(on_conn, rms) if not any(_linear_or_constant(t) for t in v.terms)]
+            if not variants:
+                why = "its terms are in the underlying linear system or the static force, or already in the model"
+                out.append(ConnectionEvidence(cand.name, c, reason=why))
+                continue
+            best: tuple[float, Any] | None = None
+            for variant in variants:
+                scored = _score_variant(search, variant, c, touched, (x_e, xd_e), (x_h, xd_h), base, Element)
+                if scored is not None and (best is None or scored[0] > best[0]):
+                    best = scored
+            if best is None:
+                out.append(ConnectionEvidence(cand.name, c, status="rejected", reason="the fit failed"))
+                continue
+            out.append(_evidence(search, cand, best[1], c, base, base_in, n_eff, w))
+    return out
+
+
+def _residual(part: _Part, fit, k: int) -> np.ndarray:
+    d = part.data
+    pred = d.z @ fit.K[k] + d.v @ fit.C[k] + fit.static[k]
+    if len(part.eq.elements):
+        pred = pred + part.eq.basis[:, -len(part.eq.elements) :] @ (part.eq.elements.B[k] * fit.theta)
+    return part.eq.y[:, k] - pred
+
+
+def _score_variant(search: _Search, variant: Variant, c, touched, est_xy, ho_xy, base, Element):
+    from ..mdof.jointfit import Extra
+
+    try:
+        elements = [Element(t, *c) for t in variant.terms]
+        col_e = np.column_stack([e.evaluate(est_xy[0], est_xy[1]) for e in elements])
+        col_h = np.column_stack([e.evaluate(ho_xy[0], ho_xy[1]) for e in elements])
+    except NlidError:
+        return None
+    if not (np.all(np.isfinite(col_e)) and np.all(np.isfinite(col_h))) or np.ptp(col_e) == 0:
+        return None
+    extra = Extra(col_e, _b(c, search.n))
+    scored = search.cross_scores({"extras": [extra], "estimation": [col_e], "holdout": [col_h]})
+    w = search.weights
+    ho = _fraction(scored["on_holdout"], base["on_holdout"], w, touched)
+    es = _fraction(scored["on_estimation"], base["on_estimation"], w, touched)
+    value = 0.5 * (ho + es)
+    if not math.isfinite(value):
+        return None
+    return value, {
+        "variant": variant,
+        "elements": elements,
+        "extra": extra,
+        "cols": (col_e, col_h),
+        "scored": scored,
+        "ho": ho,
+        "es": es,
+    }
+
+
+def _evidence(search: _Search, cand: Candidate, found: dict, c, base, base_in, n_eff, w) -> ConnectionEvidence:
+    variant, scored = found["variant"], found["scored"]
+    all_dofs = range(search.n)
+    ho_all = _fraction(scored["on_holdout"], base["on_holdout"], w, all_dofs)
+    es_all = _fraction(scored["on_estimation"], base["on_estimation"], w, all_dofs)
+    per = _per_dof(scored["on_holdout"], base["on_holdout"], scored["on_estimation"], base["on_estimation"])
+    fit = search.selection_fit([found["extra"]], {"estimation": [found["cols"][0]], "holdout": [found["cols"][1]]})
+    names = tuple(e.name for e in found["elements"])
+    coefficients = {name: float(x) for name, x in zip(names, fit.extra, strict=True)}
+    after_in = float(np.sum(w * scored["in_estimation"]))
+    k = variant.extra_parameters
+    dbic = n_eff * math.log(max(after_in, 1e-300) / max(base_in, 1e-300)) + k * math.log(n_eff)
+    explained = 0.5 * (found["ho"] + found["es"])
+    bad = variant.inadmissible({t.name: float(x) for t, x in zip(variant.terms, fit.extra, strict=True)})
+    if bad:
+        status, reason = "rejected", bad
+    elif explained < search.rule.min_explained:
+        status, reason = "below threshold", f"explains {100 * explained:.3g} % < {100 * search.rule.min_explained:g} %"
+    elif dbic > search.rule.max_delta_bic:
+        status, reason = "not significant", f"dBIC {dbic:.3g} > {search.rule.max_delta_bic:g}"
+    else:
+        status, reason = "passes", f"explains {100 * explained:.3g} %, dBIC {dbic:.3g}"
+    return ConnectionEvidence(
+        effect=cand.name,
+        connection=c,
+        elements=names,
+        coefficients=coefficients,
+        shape=variant.shape,
+        explained=float(explained),
+        explained_holdout=float(found["ho"]),
+        explained_estimation=float(found["es"]),
+        explained_all=float(0.5 * (ho_all + es_all)),
+        explained_per_dof=per,
+        delta_bic=float(dbic),
+        parameters=k,
+        status=status,
+        reason=reason,
+        terms=tuple(variant.terms),
+    )
+
+
+def _rank(tested: list[ConnectionEvidence], rule: AcceptanceRule) -> tuple[tuple[ConnectionEvidence, ...], Any]:
+    fitted = sorted((e for e in tested if e.explained is not None), key=lambda e: -float(e.explained))
+    rest = [e for e in tested if e.explained is None]
+    passing = [e for e in fitted if e.status == "passes"]
+    if not passing:
+        return tuple(fitted + rest), None
+    top = float(passing[0].explained)
+    close = [e for e in passing if float(e.explained) >= top - PARSIMONY]
+    chosen = min(close, key=lambda e: (e.parameters, -float(e.explained)))
+    accepted = replace(chosen, status="accepted")
+    ranked = tuple(accepted if e is chosen else e for e in fitted) + tuple(rest)
+    return ranked, accepted
+
+
+def _probes(search: _Search, conns, threshold: float) -> StructureRemaining:
+    """Flexible functions of each connection's coordinate, cross-fitted on the current model's residual."""
+    from ..mdof.jointfit import Extra
+
+    n, w = search.n, search.weights
+    base = search.cross_scores(None)
+    est, ho = search.parts["estimation"], search.parts["holdout"]
+    out = []
+    for c in conns:
+        touched = [c[0] - 1] + ([c[1] - 1] if c[1] else [])
+        x_e, xd_e = _relative(est.data, c)
+        x_h, xd_h = _relative(ho.data, c)
+        scale = (0.5 * (x_e.max() + x_e.min()), max(0.5 * np.ptp(x_e), 1e-300), max(float(np.abs(xd_e).max()), 1e-300))
+        for probe in STRUCTURE_PROBES:
+            col_e = _probe_columns(probe, x_e, xd_e, scale)
+            col_h = _probe_columns(probe, x_h, xd_h, scale)
+            extra = Extra(col_e, _b(c, n))
+            scored = search.cross_scores({"extras": [extra], "estimation": [col_e], "holdout": [col_h]})
+            a = _fraction(scored["on_holdout"], base["on_holdout"], w, touched)
+            b = _fraction(scored["on_estimation"], base["on_estimation"], w, touched)
+            out.append(ConnectionProbe(c, probe, float(0.5 * (a + b)), float(a), float(b), col_e.shape[1]))
+    return StructureRemaining(tuple(out), float(threshold))

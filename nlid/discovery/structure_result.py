@@ -1,0 +1,483 @@
+"""The result types of :func:`nlid.discovery.structure.discover_structure` (plain data, ``to_dict``, reports)."""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from ..errors import InputError
+from ..terms import Term
+from .evidence import AcceptanceRule
+from .probes import MIN_STRUCTURE
+
+__all__ = [
+    "ConnectionEvidence",
+    "StructureStage",
+    "StructureStep",
+    "ConnectionProbe",
+    "StructureRemaining",
+    "StructureDiscoveryResult",
+    "write_structure_report",
+    "connection_name",
+    "parse_connections",
+]
+
+Connection = tuple[int, int]
+
+
+def connection_name(c: Connection) -> str:
+    """``5-ground`` or ``4-5``."""
+    return f"{c[0]}-ground" if c[1] == 0 else f"{c[0]}-{c[1]}"
+
+
+_connection_name = connection_name
+
+
+def parse_connections(spec: Any, n_dofs: int) -> tuple[Connection, ...]:
+    """The connections to test: every pair and every DOF to the ground (``None``), or the ones given.
+
+    ``spec`` is a list of ``(i, j)`` (``j = 0``: the ground) or a string ``"4-5, 5-0, z3"`` (``z3`` or ``3-0``:
+    DOF 3 to the ground; ``z4-z5`` or ``4-5``: the pair).
+
+    Raises
+    ------
+    InputError
+        A malformed connection or one naming a DOF the record does not have.
+    """
+    if spec is None or (isinstance(spec, str) and spec.strip().lower() in ("", "all")):
+        pairs = [(i, j) for i in range(1, n_dofs + 1) for j in range(i + 1, n_dofs + 1)]
+        return tuple(pairs + [(k, 0) for k in range(1, n_dofs + 1)])
+    items: list[Any] = [s.strip() for s in spec.split(",") if s.strip()] if isinstance(spec, str) else list(spec)
+    out: list[Connection] = []
+    for item in items:
+        if isinstance(item, str):
+            text = item.replace("z", "").replace("ground", "0").replace(" ", "")
+            parts = text.split("-") if "-" in text else [text, "0"]
+            try:
+                i, j = (int(x) for x in parts)
+            except ValueError:
+                raise InputError(
+                    f"connection {item!r}: write 'i-j' (two DOFs), 'k-0' or 'zk' (DOF k to the ground)"
+                ) from None
+        else:
+            try:
+                i, j = (int(x) for x in item)
+            except (TypeError, ValueError):
+                raise InputError(f"connection {item!r}: give (i, j), j = 0 for the ground") from None
+        if i == j or min(i, j) < 0 or max(i, j) > n_dofs or max(i, j) < 1:
+            raise InputError(f"connection {item!r} is not between two DOFs (1..{n_dofs}) or a DOF and the ground (0)")
+        c = (i, 0) if j == 0 else ((j, 0) if i == 0 else (min(i, j), max(i, j)))
+        if c not in out:
+            out.append(c)
+    if not out:
+        raise InputError("connections= names no connection")
+    return tuple(out)
+
+
+# --------------------------------------------------------------------------- result types
+@dataclass(frozen=True)
+class ConnectionEvidence:
+    """A candidate placed on one connection, and what it explained.
+
+    Attributes
+    ----------
+    effect
+        The candidate's name (``cubic-stiffness``).
+    connection
+        ``(i, j)``, ``j = 0`` the ground.
+    elements
+        The element(s) it adds, canonical spelling (``z5^3``); empty when not applicable.
+    coefficients
+        Their coefficients fitted on the selection record.
+    shape
+        The shape parameter(s) chosen on the grid (by the same cross-fitted score), or ``None``.
+    explained
+        Cross-fitted held-out fraction of the residual of the DOFs it acts on (the ranking score).
+    explained_holdout, explained_estimation
+        The two directions: fitted on the other part, scored on this one.
+    explained_all
+        The cross-fitted fraction over every DOF.
+    explained_per_dof
+        Cross-fitted fraction per DOF.
+    delta_bic
+        Change of the effective-sample-size BIC on the estimation part.
+    parameters
+        Parameters it adds (coefficients plus shapes chosen on a grid).
+    status, reason
+        ``accepted``, ``passes``, ``below threshold``, ``not significant``, ``rejected``, ``not applicable``.
+    terms
+        The one-DOF terms of its elements (what is added when it is accepted).
+    """
+
+    effect: str
+    connection: Connection
+    elements: tuple[str, ...] = ()
+    coefficients: Mapping[str, float] = field(default_factory=dict)
+    shape: Any = None
+    explained: float | None = None
+    explained_holdout: float | None = None
+    explained_estimation: float | None = None
+    explained_all: float | None = None
+    explained_per_dof: tuple[float, ...] = ()
+    delta_bic: float | None = None
+    parameters: int = 0
+    status: str = "not applicable"
+    reason: str = ""
+    terms: tuple[Term, ...] = field(default=(), repr=False)
+
+    @property
+    def where(self) -> str:
+        """The connection as text, ``5-ground`` or ``4-5``."""
+        return _connection_name(self.connection)
+
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-friendly dictionary."""
+        return {
+            "effect": self.effect,
+            "connection": list(self.connection),
+            "where": self.where,
+            "elements": list(self.elements),
+            "coefficients": dict(self.coefficients),
+            "shape": list(self.shape) if isinstance(self.shape, tuple) else self.shape,
+            "explained": self.explained,
+            "explained_holdout": self.explained_holdout,
+            "explained_estimation": self.explained_estimation,
+            "explained_all": self.explained_all,
+            "explained_per_dof": list(self.explained_per_dof),
+            "delta_bic": self.delta_bic,
+            "parameters": self.parameters,
+            "status": self.status,
+            "reason": self.reason,
+        }
+
+
+@dataclass(frozen=True)
+class StructureStage:
+    """One model of the search and its errors on the test part.
+
+    Attributes
+    ----------
+    label
+        ``declared model`` or ``after step k: EFFECT on CONNECTION``.
+    model
+        The :class:`~nlid.mdof.StructuralModel` fitted on the selection record.
+    eps_percent
+        Epsilon per DOF on the test part, ``100 RMS(R_e - R_hat) / RMS(R_e)`` (Eq. 26 per DOF).
+    eps_selection_percent
+        The same on the selection record (in-sample).
+    freerun_rms
+        RMS free-run error of each DOF's displacement on the test part (m); ``nan`` when it diverged.
+    freerun_percent
+        The same relative to the standard deviation of each DOF's measured displacement (%).
+    freerun_note
+        How the free run was made, or why it failed.
+    """
+
+    label: str
+    model: Any = field(repr=False)
+    eps_percent: tuple[float, ...] = ()
+    eps_selection_percent: tuple[float, ...] = ()
+    freerun_rms: tuple[float, ...] = ()
+    freerun_percent: tuple[float, ...] = ()
+    freerun_note: str = ""
+
+    @property
+    def elements(self) -> tuple[str, ...]:
+        """The model's elements."""
+        return tuple(self.model.elements.names)
+
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-friendly dictionary (the model as :meth:`nlid.mdof.StructuralModel.to_dict`)."""
+        return {
+            "label": self.label,
+            "elements": list(self.elements),
+            "coefficients": dict(self.model.coefficients),
+            "model": self.model.to_dict(),
+            "eps_percent": list(self.eps_percent),
+            "eps_selection_percent": list(self.eps_selection_percent),
+            "freerun_rms": list(self.freerun_rms),
+            "freerun_percent": list(self.freerun_percent),
+            "freerun_note": self.freerun_note,
+        }
+
+
+@dataclass(frozen=True)
+class StructureStep:
+    """An accepted element: where, what, the evidence, and the model before and after."""
+
+    number: int
+    evidence: ConnectionEvidence
+    before: StructureStage
+    after: StructureStage
+    ranking: tuple[ConnectionEvidence, ...] = ()
+
+    @property
+    def connection(self) -> Connection:
+        """Where the element acts."""
+        return self.evidence.connection
+
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-friendly dictionary (the ranking's best 10)."""
+        return {
+            "number": self.number,
+            "effect": self.evidence.effect,
+            "connection": list(self.connection),
+            "where": self.evidence.where,
+            "elements": list(self.evidence.elements),
+            "evidence": self.evidence.to_dict(),
+            "before": self.before.label,
+            "after": self.after.label,
+            "ranking": [e.to_dict() for e in self.ranking[:10]],
+        }
+
+
+@dataclass(frozen=True)
+class ConnectionProbe:
+    """A remaining-structure probe on one connection: the cross-fitted held-out fraction it predicts."""
+
+    connection: Connection
+    probe: str
+    explained: float
+    explained_holdout: float
+    explained_estimation: float
+    columns: int
+
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-friendly dictionary."""
+        return {
+            "connection": list(self.connection),
+            "where": _connection_name(self.connection),
+            "probe": self.probe,
+            "explained": self.explained,
+            "explained_holdout": self.explained_holdout,
+            "explained_estimation": self.explained_estimation,
+            "columns": self.columns,
+        }
+
+
+_WHAT = {"z": "the relative displacement", "v": "the relative velocity", "memory": "the history of the displacement"}
+
+
+@dataclass(frozen=True)
+class StructureRemaining:
+    """What the probes find in a model's residual, connection by connection."""
+
+    probes: tuple[ConnectionProbe, ...]
+    threshold: float = MIN_STRUCTURE
+
+    @property
+    def best(self) -> ConnectionProbe | None:
+        """The probe that explains most."""
+        return max(self.probes, key=lambda p: p.explained, default=None)
+
+    @property
+    def structured(self) -> bool:
+        """True when some probe reaches the threshold."""
+        best = self.best
+        return best is not None and best.explained >= self.threshold
+
+    @property
+    def explained(self) -> float:
+        """The largest fraction over connections and probes."""
+        best = self.best
+        return float("nan") if best is None else best.explained
+
+    def describe(self) -> str:
+        """One sentence: clean, or where structure remains and of what kind."""
+        best = self.best
+        if best is None:
+            return "no probe was run"
+        where = _connection_name(best.connection)
+        if not self.structured:
+            return (
+                f"clean: no flexible function of a connection predicts {100 * self.threshold:g} % or more of the "
+                f"held-out residual of its DOFs (largest: {best.probe} on {where}, "
+                f"{100 * max(best.explained, 0.0):.2g} %)"
+            )
+        return (
+            f"{100 * best.explained:.2g} % of the held-out residual of the DOFs of connection {where} remains "
+            f"predictable from {_WHAT[best.probe]} of that connection; try candidates of that kind there "
+            "(connections=, extra_candidates=)"
+        )
+
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-friendly dictionary."""
+        return {
+            "structured": self.structured,
+            "explained": self.explained,
+            "threshold": self.threshold,
+            "text": self.describe(),
+            "probes": [p.to_dict() for p in self.probes],
+        }
+
+
+@dataclass(frozen=True)
+class StructureDiscoveryResult:
+    """The outcome of :func:`discover_structure` (plain data; :meth:`to_dict` for JSON).
+
+    Attributes
+    ----------
+    declared
+        The declared elements.
+    n_dofs
+        Number of DOFs.
+    connections
+        The connections tested.
+    candidates
+        The candidate effects tested on each.
+    stages
+        The declared model, then one per accepted element.
+    steps
+        The accepted elements.
+    ranking
+        The last round's candidates, best first (the round that accepted nothing, or the last one).
+    remaining
+        The probes on the declared and the final model.
+    stop_reason
+        Why the search stopped.
+    rule
+        The acceptance rule.
+    info
+        Samples of each part, band, weights, seconds...
+    """
+
+    declared: tuple[str, ...]
+    n_dofs: int
+    connections: tuple[Connection, ...]
+    candidates: tuple[str, ...]
+    stages: tuple[StructureStage, ...]
+    steps: tuple[StructureStep, ...]
+    ranking: tuple[ConnectionEvidence, ...]
+    remaining_declared: StructureRemaining
+    remaining: StructureRemaining
+    stop_reason: str
+    rule: AcceptanceRule
+    info: Mapping[str, Any] = field(default_factory=dict)
+
+    @property
+    def final(self) -> StructureStage:
+        """The final model's stage."""
+        return self.stages[-1]
+
+    @property
+    def located(self) -> Connection | None:
+        """The connection of the first accepted element (``None``: nothing was found)."""
+        return self.steps[0].connection if self.steps else None
+
+    @property
+    def found(self) -> tuple[str, ...]:
+        """The elements the search added, in order."""
+        return tuple(name for s in self.steps for name in s.evidence.elements)
+
+    def to_dict(self) -> dict[str, Any]:
+        """The object ``nlid discover --json`` prints for a structure record."""
+        return {
+            "schema": "nlid.discover-structure/1",
+            "declared": list(self.declared),
+            "n_dofs": self.n_dofs,
+            "located": None if self.located is None else list(self.located),
+            "found": list(self.found),
+            "connections": [list(c) for c in self.connections],
+            "candidates": list(self.candidates),
+            "stages": [s.to_dict() for s in self.stages],
+            "steps": [s.to_dict() for s in self.steps],
+            "ranking": [e.to_dict() for e in self.ranking[:20]],
+            "remaining_declared": self.remaining_declared.to_dict(),
+            "remaining": self.remaining.to_dict(),
+            "stop_reason": self.stop_reason,
+            "rule": self.rule.to_dict(),
+            "info": dict(self.info),
+        }
+
+    def summary(self) -> str:
+        """The table ``nlid discover`` prints: errors per DOF before and after, each step, what remains."""
+        n = self.n_dofs
+        lines = [
+            f"structure discovery: {n} DOFs, declared: {', '.join(self.declared) or '(linear system only)'}",
+            f"tested {len(self.candidates)} candidates on {len(self.connections)} connections; "
+            f"choice on the selection record ({self.info.get('samples_estimation')} estimation + "
+            f"{self.info.get('samples_holdout')} held-out samples, cross-fitted), errors on the test part "
+            f"({self.info.get('samples_test')} samples)",
+        ]
+        for step in self.steps:
+            e = step.evidence
+            coef = ", ".join(f"{k} = {v:.4g}" for k, v in e.coefficients.items())
+            lines.append(
+                f"step {step.number}: {e.effect} on connection {e.where}: {coef} "
+                f"(explains {100 * (e.explained or 0):.3g} % of the held-out residual of its DOFs, "
+                f"dBIC {e.delta_bic:.3g})"
+            )
+        if not self.steps:
+            lines.append("no element added")
+        lines.append(self.stop_reason)
+        header = "DOF".ljust(6) + "".join(f"{s.label[:24]:>28}" for s in self.stages)
+        lines += ["", "epsilon on the test part (%)", header]
+        for k in range(n):
+            lines.append(f"z{k + 1}".ljust(6) + "".join(f"{s.eps_percent[k]:>28.4g}" for s in self.stages))
+        lines += ["", "free-run error on the test part (% of std(z))", header]
+        for k in range(n):
+            lines.append(f"z{k + 1}".ljust(6) + "".join(f"{s.freerun_percent[k]:>28.4g}" for s in self.stages))
+        lines += ["", "What remains: " + self.remaining.describe()]
+        return "\n".join(lines)
+
+    def report(self) -> str:
+        """A Markdown report (sections: Declared model, Steps, Errors, Ranking, What remains)."""
+        n = self.n_dofs
+        out = ["# nlid discover: structure", ""]
+        out.append(f"- declared elements: {', '.join(f'`{d}`' for d in self.declared) or '(linear system only)'}")
+        out.append(f"- connections tested: {', '.join(_connection_name(c) for c in self.connections)}")
+        out.append(f"- candidates: {', '.join(self.candidates)}")
+        out.append(f"- rule: {self.rule.describe()}")
+        out.append(f"- {self.stop_reason}")
+        out += ["", "## Steps", ""]
+        if not self.steps:
+            out.append("No element was added.")
+        for step in self.steps:
+            e = step.evidence
+            out.append(
+                f"{step.number}. **{e.effect}** on connection **{e.where}**: "
+                + ", ".join(f"`{k}` = {v:.6g}" for k, v in e.coefficients.items())
+                + f" (explained {100 * (e.explained or 0):.3g} %, dBIC {e.delta_bic:.4g})"
+            )
+        out += ["", "## Errors on the test part", ""]
+        out.append(
+            "| DOF | "
+            + " | ".join(f"eps % {s.label}" for s in self.stages)
+            + " | "
+            + " | ".join(f"free run % {s.label}" for s in self.stages)
+            + " |"
+        )
+        out.append("|---" * (1 + 2 * len(self.stages)) + "|")
+        for k in range(n):
+            eps = " | ".join(f"{s.eps_percent[k]:.4g}" for s in self.stages)
+            run = " | ".join(f"{s.freerun_percent[k]:.4g}" for s in self.stages)
+            out.append(f"| z{k + 1} | {eps} | {run} |")
+        out += ["", f"Free run: {self.final.freerun_note}", "", "## Ranking (last round, best 15)", ""]
+        out.append("| effect | connection | elements | explained % | all DOFs % | dBIC | status |")
+        out.append("|---|---|---|---|---|---|---|")
+        for e in [x for x in self.ranking if x.explained is not None][:15]:
+            dbic = "" if e.delta_bic is None else f"{e.delta_bic:.4g}"
+            out.append(
+                f"| {e.effect} | {e.where} | {', '.join(e.elements)} | {100 * e.explained:.3g} | "
+                f"{100 * (e.explained_all or 0):.3g} | {dbic} | {e.status} |"
+            )
+        out += ["", "## What remains", "", f"Declared model: {self.remaining_declared.describe()}.", ""]
+        out.append(f"Final model: {self.remaining.describe()}.")
+        out.append("")
+        return "\n".join(out)
+
+
+def write_structure_report(result: StructureDiscoveryResult, out: str | Path) -> tuple[Path, Path]:
+    """Write ``report.md`` and ``result.json`` into ``out`` (created); their paths."""
+    import json
+
+    from ..interface import to_jsonable
+
+    folder = Path(out)
+    folder.mkdir(parents=True, exist_ok=True)
+    md, js = folder / "report.md", folder / "result.json"
+    md.write_text(result.report(), encoding="utf-8")
+    js.write_text(json.dumps(to_jsonable(result.to_dict()), allow_nan=False, indent=1), encoding="utf-8")
+    return md, js
