@@ -129,7 +129,8 @@ def write_report(config: Any, runs: list, store: ResultStore, *, force: bool = F
     digest = report_digest(config, runs, digests)
     if not force and _fresh(folder, digest):
         try:
-            return (folder / "summary.md").read_text().rstrip("\n"), path
+            text = (folder / "summary.md").read_text()
+            return text[:-1] if text.endswith("\n") else text, path  # as written: the summary and a newline
         except OSError:
             pass
     frame = pd.DataFrame([r["row"] for r in records])
