@@ -40,19 +40,28 @@ _TEXT_OUTPUTS = ("results.csv", "summary.md", TEXT_SUMMARY, "summary.csv")
 _META_RE = re.compile(rf'<meta name="{DIGEST_META}" content="([0-9a-f]{{64}})">')
 
 
-@functools.lru_cache(maxsize=1)
-def code_digest() -> str:
-    """A digest of the code the outputs come from: nlid's version and sources, and matplotlib's version.
+@functools.lru_cache(maxsize=8)
+def code_digest(plugins: tuple[str, ...] = ()) -> str:
+    """A digest of the code the outputs come from: nlid's, the identifier plugins' and matplotlib's.
 
-    A change of any of them (an upgrade, or an edit in a source checkout) makes every report and figure stale.
+    nlid's version and sources, the sources of the plugin packages named in ``plugins`` (top-level
+    module names: their figure declarations and advice appear in the report) and matplotlib's version. A
+    change of any of them (an upgrade, or an edit in a source checkout) makes every report and figure
+    stale.
     """
+    import sys
     from importlib.metadata import PackageNotFoundError, version
 
-    root = Path(__file__).resolve().parents[2]  # the nlid package
     h = hashlib.sha256(__version__.encode())
-    for path in sorted(root.rglob("*.py")):
-        h.update(str(path.relative_to(root)).encode())
-        h.update(path.read_bytes())
+    roots = [Path(__file__).resolve().parents[2]]  # the nlid package
+    for top in plugins:
+        origin = getattr(sys.modules.get(top), "__file__", None)
+        if origin:
+            roots.append(Path(origin).parent if Path(origin).name == "__init__.py" else Path(origin))
+    for root in roots:
+        for path in sorted(root.rglob("*.py")) if root.is_dir() else [root]:
+            h.update(path.name.encode())
+            h.update(path.read_bytes())
     try:
         h.update(version("matplotlib").encode())
     except PackageNotFoundError:  # pragma: no cover - matplotlib is a dependency
@@ -60,7 +69,20 @@ def code_digest() -> str:
     return h.hexdigest()
 
 
-def report_digest(config: Any, runs: list, digests: list[str]) -> str:
+def _plugin_packages(identifiers: tuple[str, ...]) -> tuple[str, ...]:
+    """The top-level packages of the study's identifiers (already imported: the study was loaded with them)."""
+    from ...registry import default_registry
+
+    found = set()
+    registry = default_registry()
+    for name in identifiers:
+        cls = registry.identifiers.get(name)
+        if cls is not None:
+            found.add(cls.__module__.split(".")[0])
+    return tuple(sorted(found - {"nlid"}))
+
+
+def report_digest(config: Any, runs: list, digests: list[str], code: str | None = None) -> str:
     """The digest a study's outputs are written from.
 
     Parameters
@@ -71,8 +93,11 @@ def report_digest(config: Any, runs: list, digests: list[str]) -> str:
         The planned runs (ids and spec digests).
     digests
         :meth:`~nlid.study.store.ResultStore.snapshot`'s digest of each stored run (the rows and results).
+    code
+        :func:`code_digest` of nlid and the study's plugins (default: computed).
     """
-    h = hashlib.sha256(code_digest().encode())
+    code = code if code is not None else code_digest(_plugin_packages(tuple(config.identifiers)))
+    h = hashlib.sha256(code.encode())
     h.update(
         repr((config.name, config.text, tuple(config.identifiers), sorted(config.skipped_identifiers.items()))).encode()
     )
@@ -98,7 +123,7 @@ def _fresh(folder: Path, digest: str) -> bool:
     """True when every output in ``folder`` was written from ``digest`` and is there."""
     if stored_digest(folder) != digest or not all((folder / name).is_file() for name in _TEXT_OUTPUTS):
         return False
-    cache = FigureCache(folder / "figures")
+    cache = FigureCache(folder / "figures", code="")
     return all((cache.folder / f"{stem}{suffix}").is_file() for stem in cache.stored for suffix in (".png", ".svg"))
 
 
@@ -126,7 +151,8 @@ def write_report(config: Any, runs: list, store: ResultStore, *, force: bool = F
     folder = store.folder
     path = folder / "report.html"
     records, digests = store.snapshot(runs)
-    digest = report_digest(config, runs, digests)
+    code = code_digest(_plugin_packages(tuple(config.identifiers)))
+    digest = report_digest(config, runs, digests, code)
     if not force and _fresh(folder, digest):
         try:
             text = (folder / "summary.md").read_text()
@@ -140,7 +166,7 @@ def write_report(config: Any, runs: list, store: ResultStore, *, force: bool = F
     (folder / "summary.md").write_text(summary + "\n")
     (folder / TEXT_SUMMARY).write_text(summary_text(config, sections) + "\n")
     summary_long(frame).to_csv(folder / "summary.csv", index=False)
-    cache = FigureCache(folder / "figures")
+    cache = FigureCache(folder / "figures", code=code)
     if force:
         cache.stored = {}
     figures = {(s.dataset, s.model): section_figures(s, records, store, cache.folder, cache) for s in sections}

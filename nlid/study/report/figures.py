@@ -103,13 +103,6 @@ def input_digest(*parts: Any) -> str:
     return h.hexdigest()
 
 
-def _code_digest() -> str:
-    """The code that draws the figures (:func:`code_digest`)."""
-    from . import code_digest
-
-    return code_digest()
-
-
 class FigureCache:
     """Which figures of a study folder are up to date: ``figures/index.json`` maps a figure to its inputs' digest.
 
@@ -121,13 +114,19 @@ class FigureCache:
     ----------
     folder
         The figures folder (created when a figure is written).
+    code
+        The digest of the code that draws (:func:`nlid.study.report.code_digest`; default: nlid's).
     """
 
     INDEX = "index.json"
 
-    def __init__(self, folder: Path) -> None:
+    def __init__(self, folder: Path, code: str | None = None) -> None:
         self.folder = Path(folder)
-        self.code = _code_digest()
+        if code is None:
+            from . import code_digest
+
+            code = code_digest()
+        self.code = code
         self.stored: dict[str, str] = {}
         try:
             loaded = json.loads((self.folder / self.INDEX).read_text())
