@@ -22,14 +22,16 @@ import os
 import re
 from collections.abc import Iterable
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
-import pandas as pd
 
 from ..errors import InputError
 from ..interface import to_jsonable
 from .plan import Run
+
+if TYPE_CHECKING:
+    import pandas as pd
 
 __all__ = ["ResultStore", "safe_name"]
 
@@ -142,6 +144,8 @@ class ResultStore:
 
     def results(self, runs: Iterable[Run]) -> pd.DataFrame:
         """Every stored row of the given runs as a table (plan order)."""
+        import pandas as pd  # not for a study that only reads its store
+
         rows = [r["row"] for r in self.records(runs)]
         frame = pd.DataFrame(rows)
         return frame
