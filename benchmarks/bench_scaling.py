@@ -95,12 +95,13 @@ def costs(study: str, runs: int, workers: int) -> None:
             trips.append(t1 - t0)
             ids.append(float(payload["row"].get("seconds") or 0.0))
             parts.append(payload.get("timings") or {})
-    first = trips[0] - statistics.median(trips)  # the first run also waited for the fork server's preload
-    startup = loaded + max(first, 0.0)
     names = ["data", "identify", "scores", "metrics", "posterior", "payload"]
     med = {n: statistics.median([p.get(n, 0.0) for p in parts]) for n in names}
     child = [sum(p.get(n, 0.0) for n in names) for p in parts]
-    ipc = statistics.median([t - c for t, c in zip(trips, child, strict=True)])
+    ipc = statistics.median([t - c for t, c in zip(trips[1:], child[1:], strict=True)] or [0.0])
+    # the first run also waited for the fork server's preload: its round trip less its own work and transfer
+    startup = loaded + max(trips[0] - child[0] - ipc, 0.0)
+    trips[0] -= startup - loaded
     fixed = [t - i for t, i in zip(trips, ids, strict=True)]
     n = len(planned)
     scale = n / len(picked)  # the measured runs stand for the whole study
