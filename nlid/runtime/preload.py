@@ -5,7 +5,9 @@ costs a run nothing: the identification pipeline and the study worker, the
 identifier plugins (whose modules import scipy, pysindy and scikit-learn,
 ~1 s) and, for studies, the simulator's compiled kernels (numba's on-disk
 cache, or one compilation when the cache is cold, ~0.5 s), which the study's
-data and free-run scores use. Without this every run would load them again.
+data and free-run scores use, in both specialisations they are called with
+(writable coefficients when simulating a preset, read-only ones when scoring an
+identified model). Without this every run would load them again.
 
 A single identification (``nlid identify``) needs only the pipeline: its
 child imports the one plugin it uses. The fork server, and a spawned child
@@ -96,4 +98,9 @@ def warm_up(kind: str = "full") -> None:
 
     model = Model.from_spec("z^3, sign(v)*|px(z)|").with_px_roots((-1.0, 1.0))
     force = np.zeros(64)
-    simulate(model, np.zeros(len(model.names)), 1.0, force, 100.0)
+    theta = np.zeros(len(model.names))
+    simulate(model, theta, 1.0, force, 100.0)
+    # an identified model's coefficients are read-only, a type of their own to numba: the free-run scores of
+    # every study run (nlid.simulation.free_run) use that specialisation (loading it costs a run ~0.1-0.2 s)
+    theta.setflags(write=False)
+    simulate(model, theta, 1.0, force, 100.0)
