@@ -43,7 +43,8 @@ enters ``y`` linearly and independently of ``G``) and is not simulated.
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections import deque
+from collections.abc import Callable, Iterator, Mapping
 from dataclasses import dataclass
 from typing import Any
 
@@ -164,6 +165,32 @@ def simulate_bias(
     return _bindings(record, model, theta, mass, data, [levels], pairs=pairs, rng=rng, phase=phase)[0]
 
 
+def bias_threads(pairs: int) -> int:
+    """Threads the antithetic pairs of one step are simulated on: the free cores, at most one per pair.
+
+    ``NLID_WORKERS`` when set (a positive integer: nlid's one pool size); one in a process whose
+    numerical libraries are pinned to a thread (a study's run: one run per core, ``NUMBA_NUM_THREADS=1``,
+    :func:`nlid.runtime.process.pin_threads`); otherwise the cores this process may use less the other
+    processes' load (the 1-minute load average less this process), at least one.
+    """
+    import os
+
+    fixed = os.environ.get("NLID_WORKERS", "").strip()
+    if fixed.isdigit() and int(fixed) > 0:
+        return max(1, min(pairs, int(fixed)))
+    if pairs <= 1 or os.environ.get("NUMBA_NUM_THREADS", "").strip() == "1":
+        return 1
+    try:
+        cores = len(os.sched_getaffinity(0))
+    except AttributeError:  # pragma: no cover - not Linux
+        cores = os.cpu_count() or 1
+    try:
+        others = max(os.getloadavg()[0] - 1.0, 0.0)
+    except OSError:  # pragma: no cover - no load average
+        others = 0.0
+    return int(max(1, min(pairs, cores, round(cores - others))))
+
+
 def _bindings(
     record: Record,
     model: Model,
@@ -175,12 +202,22 @@ def _bindings(
     pairs: int,
     rng: np.random.Generator | None,
     phase: float,
+    threads: int | None = None,
 ) -> list[BiasCorrection]:
     """:func:`simulate_bias` for several sets of noise levels on the same trajectories and noise draws.
 
     Every set must name the same channels; each set's noise is the same
     standard-normal draws times its levels (common random numbers), so the
     differences between the sets' corrections are due to the levels alone.
+
+    The pairs' simulations and force balances (compiled kernel, FFT filters and
+    array arithmetic, which release the GIL) run on ``threads`` threads
+    (default :func:`bias_threads`), at most that many pairs ahead; their noise
+    is drawn from ``rng`` in pair order first, and the least-squares fits (the
+    only linear algebra) run in this thread in pair order. Every number is the
+    one the pairs give one after the other, to the bit: the correction feeds a
+    simulation of a possibly chaotic model, where a difference in the last bit
+    would grow into a different Monte Carlo draw.
     """
     if pairs < 1:
         raise InputError(f"bias correction needs at least one noise pair, got {pairs}")
@@ -189,10 +226,10 @@ def _bindings(
     v0 = float(record.v[0]) if record.is_measured("v") else 0.0
     fc = data.filtered_at
     meta = {"force_hold": record.force_hold}
-    scale = None
-    J_pairs: list[list[np.ndarray]] = [[] for _ in level_sets]
-    d_pairs: list[list[np.ndarray]] = [[] for _ in level_sets]
-    for pair in range(pairs):
+    units = [{c: rng.standard_normal(record.n) for c in level_sets[0]} for _ in range(pairs)]
+
+    def balances(pair: int) -> list[list[tuple[np.ndarray, np.ndarray, np.ndarray]]]:
+        """``(G, G_ex, y)`` of each level set and sign (+, -) for one antithetic pair."""
         # each pair drives its own trajectory: the recorded force shifted circularly by pair/pairs of its length
         force = np.roll(record.f, -int((pair + phase) * record.n / pairs))
         try:
@@ -204,23 +241,37 @@ def _bindings(
             ) from None
         exact = model.evaluate(zs, vs if model.uses_velocity else None)
         if fc is not None:
-            exact = derivatives.lowpass(exact, record.fs, fc)
+            # a constant column (the term 1) is its own low-pass, to the bit (the filter passes the line through
+            # the end samples unchanged): only the others are filtered
+            for j in range(exact.shape[1]):
+                if np.any(exact[:, j] != exact[0, j]):
+                    exact[:, j] = derivatives.lowpass(exact[:, j], record.fs, fc)
         states = {"z": zs, "v": vs}
         channels = {"a": as_} if record.is_measured("a") else {}
-        unit = {c: rng.standard_normal(record.n) for c in level_sets[0]}
-        for k, levels in enumerate(level_sets):
-            Js, ds = [], []
+        out = []
+        for levels in level_sets:
+            signs = []
             for sign in (1.0, -1.0):
                 noisy = dict(channels)
-                for c, n in unit.items():
+                for c, n in units[pair].items():
                     noisy[c] = states[c] + sign * (levels[c] * n)
                 sim = Record(f=force, fs=record.fs, meta=meta, **noisy)
                 d = regression_data(sim, model, cutoff=fc)
-                G_ex = exact[d.kept]
+                signs.append((d.G, exact[d.kept], d.restoring_force(mass)))
+            out.append(signs)
+        return out
+
+    scale = None
+    J_pairs: list[list[np.ndarray]] = [[] for _ in level_sets]
+    d_pairs: list[list[np.ndarray]] = [[] for _ in level_sets]
+    for sets in _in_order(balances, pairs, bias_threads(pairs) if threads is None else threads):
+        for k, signs in enumerate(sets):
+            Js, ds = [], []
+            for G, G_ex, y in signs:
                 if scale is None:
-                    scale = np.sqrt(np.mean(d.G**2, axis=0))
+                    scale = np.sqrt(np.mean(G**2, axis=0))
                     scale[scale == 0] = 1.0
-                both = _fit(d.G, np.column_stack([G_ex, d.restoring_force(mass) - G_ex @ theta]), scale)
+                both = _fit(G, np.column_stack([G_ex, y - G_ex @ theta]), scale)
                 Js.append(both[:, :-1])
                 ds.append(both[:, -1])
             J_pairs[k].append(0.5 * (Js[0] + Js[1]))
@@ -244,6 +295,33 @@ def _bindings(
             )
         )
     return out
+
+
+def _in_order(work: Callable[[int], Any], count: int, threads: int) -> Iterator[Any]:
+    """``work(0)``, ``work(1)``, ... in order, computed on ``threads`` threads at most ``threads`` items ahead.
+
+    An error of an item is raised when its turn comes (the earlier items are yielded first).
+    """
+    threads = max(1, min(int(threads), count))
+    if threads == 1:
+        for i in range(count):
+            yield work(i)
+        return
+    from concurrent.futures import ThreadPoolExecutor
+
+    with ThreadPoolExecutor(threads, thread_name_prefix="nlid-bias") as pool:
+        pending = deque(pool.submit(work, i) for i in range(threads))
+        submitted = threads
+        try:
+            while pending:
+                value = pending.popleft().result()
+                if submitted < count:
+                    pending.append(pool.submit(work, submitted))
+                    submitted += 1
+                yield value
+        finally:
+            for fut in pending:
+                fut.cancel()
 
 
 def indirect_inference(

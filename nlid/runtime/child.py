@@ -251,9 +251,9 @@ def main() -> None:
     if parent and parent.isdigit():
         die_with(int(parent))
     # load what a fork server would have loaded before forking, so the time limit (from READY) covers the same
-    from .forkserver import PRELOAD_ENV, preload
+    from .preload import PRELOAD_ENV, warm_up_quietly
 
-    preload(os.environ.get(PRELOAD_ENV, "none"))
+    warm_up_quietly(os.environ.get(PRELOAD_ENV, "none"))
     serve(ready=True)
 
 

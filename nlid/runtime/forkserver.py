@@ -44,60 +44,13 @@ import socket
 import struct
 import sys
 
+from .preload import PRELOAD_ENV, PRELOAD_LIMIT, warm_up_quietly
 from .process import _PR_SET_CHILD_SUBREAPER, THREAD_ENV, _prctl, children_of, die_with, pin_threads
 
-__all__ = ["THREAD_ENV", "PIN_ENV", "PRELOAD_ENV", "PRELOAD_LIMIT", "main", "die_with", "pin_threads", "preload"]
+__all__ = ["THREAD_ENV", "PIN_ENV", "PRELOAD_ENV", "PRELOAD_LIMIT", "main", "die_with", "pin_threads"]
 
 #: ``"1"``: pin the numerical libraries to one thread per run (studies).
 PIN_ENV = "NLID_PIN_THREADS"
-#: What the server loads before serving (:func:`nlid.runtime.preload.warm_up`): ``"full"`` (studies: every
-#: plugin and the simulator's kernels), ``"core"`` (the pipeline), or ``"none"`` (after a failed start).
-PRELOAD_ENV = "NLID_PRELOAD"
-#: Longest time the preload may take (s); past it the server serves anyway.
-PRELOAD_LIMIT = 90
-
-
-class _PreloadTimeout(BaseException):
-    """Raised by the alarm inside a preload that takes too long (not an Exception: plugins may catch those)."""
-
-
-def _alarm(signum: int, frame: object) -> None:
-    raise _PreloadTimeout
-
-
-def preload(kind: str) -> None:
-    """Import what every run needs, silently and within :data:`PRELOAD_LIMIT` seconds."""
-    if kind == "none":
-        return
-    import warnings
-
-    saved = [os.dup(1), os.dup(2)]
-    devnull = os.open(os.devnull, os.O_WRONLY)
-    has_alarm = hasattr(signal, "SIGALRM")
-    try:
-        os.dup2(devnull, 1)
-        os.dup2(devnull, 2)
-        if has_alarm:
-            signal.signal(signal.SIGALRM, _alarm)
-            signal.alarm(PRELOAD_LIMIT)
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore")
-            from . import preload
-
-            preload.warm_up(kind)
-    except BaseException:  # noqa: BLE001 - the server serves whatever a plugin does at import
-        pass
-    finally:
-        if has_alarm:
-            signal.alarm(0)
-            signal.signal(signal.SIGALRM, signal.SIG_DFL)
-        with contextlib.suppress(OSError, ValueError):
-            sys.stdout.flush()
-            sys.stderr.flush()
-        os.dup2(saved[0], 1)
-        os.dup2(saved[1], 2)
-        for fd in (*saved, devnull):
-            os.close(fd)
 
 
 class _Server:
@@ -226,7 +179,7 @@ def main(fd: int) -> None:
 
     # the server forks by design: its only other threads are idle pools of the numerical libraries
     warnings.filterwarnings("ignore", message=r".*use of fork\(\) may lead to deadlocks", category=DeprecationWarning)
-    preload(os.environ.get(PRELOAD_ENV, "full"))
+    warm_up_quietly(os.environ.get(PRELOAD_ENV, "full"))
     server.serve()
 
 

@@ -5,18 +5,73 @@ costs a run nothing: the identification pipeline and the study worker, the
 identifier plugins (whose modules import scipy, pysindy and scikit-learn,
 ~1 s) and, for studies, the simulator's compiled kernels (numba's on-disk
 cache, or one compilation when the cache is cold, ~0.5 s), which the study's
-data and free-run scores use. Without this every run would load them again.
+data and free-run scores use, in both specialisations they are called with
+(writable coefficients when simulating a preset, read-only ones when scoring an
+identified model). Without this every run would load them again.
 
 A single identification (``nlid identify``) needs only the pipeline: its
-child imports the one plugin it uses. The fork server calls :func:`warm_up` with its output silenced and under a
-time limit; a failure only means each run loads what it needs itself.
+child imports the one plugin it uses. The fork server, and a spawned child
+before it says it is ready, call :func:`warm_up_quietly`: :func:`warm_up`
+with the output silenced and under a time limit; a failure only means each
+run loads what it needs itself.
 """
 
 from __future__ import annotations
 
+import contextlib
 import importlib
+import os
+import signal
+import sys
 
-__all__ = ["warm_up"]
+__all__ = ["warm_up", "warm_up_quietly", "PRELOAD_ENV", "PRELOAD_LIMIT"]
+
+#: What the server loads before serving (:func:`nlid.runtime.preload.warm_up`): ``"full"`` (studies: every
+#: plugin and the simulator's kernels), ``"core"`` (the pipeline), or ``"none"`` (after a failed start).
+PRELOAD_ENV = "NLID_PRELOAD"
+#: Longest time the preload may take (s); past it the server serves anyway.
+PRELOAD_LIMIT = 90
+
+
+class _PreloadTimeout(BaseException):
+    """Raised by the alarm inside a preload that takes too long (not an Exception: plugins may catch those)."""
+
+
+def _alarm(signum: int, frame: object) -> None:
+    raise _PreloadTimeout
+
+
+def warm_up_quietly(kind: str) -> None:
+    """Import what every run needs, silently and within :data:`PRELOAD_LIMIT` seconds."""
+    if kind == "none":
+        return
+    import warnings
+
+    saved = [os.dup(1), os.dup(2)]
+    devnull = os.open(os.devnull, os.O_WRONLY)
+    has_alarm = hasattr(signal, "SIGALRM")
+    try:
+        os.dup2(devnull, 1)
+        os.dup2(devnull, 2)
+        if has_alarm:
+            signal.signal(signal.SIGALRM, _alarm)
+            signal.alarm(PRELOAD_LIMIT)
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            warm_up(kind)
+    except BaseException:  # noqa: BLE001 - the server serves whatever a plugin does at import
+        pass
+    finally:
+        if has_alarm:
+            signal.alarm(0)
+            signal.signal(signal.SIGALRM, signal.SIG_DFL)
+        with contextlib.suppress(OSError, ValueError):
+            sys.stdout.flush()
+            sys.stderr.flush()
+        os.dup2(saved[0], 1)
+        os.dup2(saved[1], 2)
+        for fd in (*saved, devnull):
+            os.close(fd)
 
 
 def warm_up(kind: str = "full") -> None:
@@ -43,4 +98,9 @@ def warm_up(kind: str = "full") -> None:
 
     model = Model.from_spec("z^3, sign(v)*|px(z)|").with_px_roots((-1.0, 1.0))
     force = np.zeros(64)
-    simulate(model, np.zeros(len(model.names)), 1.0, force, 100.0)
+    theta = np.zeros(len(model.names))
+    simulate(model, theta, 1.0, force, 100.0)
+    # an identified model's coefficients are read-only, a type of their own to numba: the free-run scores of
+    # every study run (nlid.simulation.free_run) use that specialisation (loading it costs a run ~0.1-0.2 s)
+    theta.setflags(write=False)
+    simulate(model, theta, 1.0, force, 100.0)

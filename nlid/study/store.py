@@ -22,14 +22,16 @@ import os
 import re
 from collections.abc import Iterable
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
-import pandas as pd
 
 from ..errors import InputError
 from ..interface import to_jsonable
 from .plan import Run
+
+if TYPE_CHECKING:
+    import pandas as pd
 
 __all__ = ["ResultStore", "safe_name"]
 
@@ -112,12 +114,25 @@ class ResultStore:
 
     def records(self, runs: Iterable[Run]) -> list[dict[str, Any]]:
         """Stored records of the given runs (in their order), skipping missing or stale ones."""
-        out = []
+        return self.snapshot(runs)[0]
+
+    def snapshot(self, runs: Iterable[Run]) -> tuple[list[dict[str, Any]], list[str]]:
+        """The stored records of the given runs (as :meth:`records`) and a digest of each record's file.
+
+        Each file is read once; the digests (SHA-256 of the file's bytes) say whether anything a report
+        shows changed since it was written (:func:`nlid.study.report.report_digest`).
+        """
+        records, digests = [], []
         for run in runs:
-            stored = self.load(run.run_id)
-            if stored is not None and stored.get("digest") == run.digest:
-                out.append(stored)
-        return out
+            try:
+                data = self.path(run.run_id).read_bytes()
+                stored = json.loads(data)
+            except (OSError, ValueError, RecursionError):
+                continue
+            if isinstance(stored, dict) and stored.get("digest") == run.digest:
+                records.append(stored)
+                digests.append(hashlib.sha256(data).hexdigest())
+        return records, digests
 
     def arrays(self, run_id: str) -> dict[str, np.ndarray]:
         """The stored arrays of a run (empty if none)."""
@@ -129,13 +144,19 @@ class ResultStore:
 
     def results(self, runs: Iterable[Run]) -> pd.DataFrame:
         """Every stored row of the given runs as a table (plan order)."""
+        import pandas as pd  # not for a study that only reads its store
+
         rows = [r["row"] for r in self.records(runs)]
         frame = pd.DataFrame(rows)
         return frame
 
-    def write_results(self, runs: Iterable[Run]) -> Path:
-        """Write ``results.csv`` and return its path."""
-        frame = self.results(runs)
+    def write_results(self, runs: Iterable[Run], frame: pd.DataFrame | None = None) -> Path:
+        """Write ``results.csv`` (``frame``: the runs' rows when the caller has them) and return its path."""
+        frame = self.results(runs) if frame is None else frame
         path = self.folder / "results.csv"
         _atomic_write(path, frame.to_csv(index=False).encode())
         return path
+
+    def write_text(self, path: str | os.PathLike[str], text: str) -> None:
+        """Write an output file of the study atomically (a killed writer leaves the old file)."""
+        _atomic_write(Path(path), text.encode("utf-8"))

@@ -86,9 +86,12 @@ def execute_run(spec: RunSpec) -> dict[str, Any]:
     Returns
     -------
     dict
-        ``{"run_id", "row", "result", "reference", "arrays"}``: the flat
-        metrics row, the :class:`~nlid.identified.IdentifiedModel` as a
-        dictionary, the reference values and the result's arrays.
+        ``{"run_id", "row", "result", "reference", "arrays", "timings"}``: the
+        flat metrics row, the :class:`~nlid.identified.IdentifiedModel` as a
+        dictionary, the reference values, the result's arrays, and the wall
+        time in seconds of each part of the run (``data``, ``identify``,
+        ``scores``, ``metrics``, ``posterior``, ``payload``; not stored: the
+        row's ``seconds`` is the identification's).
     """
     if not isinstance(spec, RunSpec):  # another kind of job (nlid.benchmarking.jobs.BenchJob) runs itself
         return spec.execute()
@@ -137,9 +140,18 @@ def json_problem(value: Any, where: str = "") -> str | None:
 
 
 def _execute(spec: RunSpec) -> dict[str, Any]:
+    clock = [time.perf_counter()]
+    timings: dict[str, float] = {}  # the run's fixed costs beside the identification (benchmarks/bench_scaling.py)
+
+    def lap(name: str) -> None:
+        now = time.perf_counter()
+        timings[name] = now - clock[0]
+        clock[0] = now
+
     data = build_data(spec)
     model = as_model(spec.terms, without=spec.without, px_roots=spec.px_roots)
     registry = load_registry()
+    lap("data")
     tracemalloc.start()
     start = time.perf_counter()
     try:
@@ -150,6 +162,7 @@ def _execute(spec: RunSpec) -> dict[str, Any]:
         _, peak = tracemalloc.get_traced_memory()
     finally:
         tracemalloc.stop()
+    lap("identify")
     row = _base_row(spec)
     row[col.SECONDS.key()] = seconds
     row[col.PEAK_MEMORY.key()] = peak / 1e6
@@ -165,10 +178,12 @@ def _execute(spec: RunSpec) -> dict[str, Any]:
     except NlidError as exc:
         row.update(metrics.holdout_metrics(None, result, False))
         _add_warning(row, f"held-out scores: {exc}")
+    lap("scores")
     row.update(compare(result, data.reference).to_row())
     slices = spec.dataset.slices
     surface, extra_arrays = metrics.surface_metrics(data.record, result, slices)
     row.update(surface)
+    lap("metrics")
     if spec.posterior is not None:
         from .. import bayes  # type: ignore[attr-defined]  # issue 6; checked when the config is loaded
 
@@ -179,13 +194,17 @@ def _execute(spec: RunSpec) -> dict[str, Any]:
             extra = {}
             _add_warning(row, f"posterior: {exc}")
         row.update(extra)  # declared families (nlid.study.columns): they never collide with the columns above
-    return {
+        lap("posterior")
+    payload = {
         "run_id": spec.run_id,
         "row": to_jsonable(row),
         "result": result.to_dict(),
         "reference": to_jsonable(data.reference.to_dict()),
         "arrays": {**{k: np.asarray(v) for k, v in result.arrays.items()}, **extra_arrays},
+        "timings": timings,
     }
+    lap("payload")
+    return payload
 
 
 # --------------------------------------------------------------------------- isolation

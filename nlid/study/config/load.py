@@ -48,7 +48,7 @@ def load_study(name_or_path: str | os.PathLike[str], *, registry: Registry | Non
 
 
 def resolve_study(config: StudyConfig) -> StudyConfig:
-    """Check what a parsed study names: files read, benchmark parts load, "known" masses are known, presets simulate.
+    """Check what a parsed study names: files read, benchmarks load, "known" masses are known, overrides simulate.
 
     This is the only step of loading a study that touches the disk; it
     returns the config marked ``resolved``.
@@ -75,7 +75,8 @@ def resolve_study(config: StudyConfig) -> StudyConfig:
             known = bool(loaded is not None and (loaded.mass or (loaded.meta.get("reference") or {}).get("mass")))
             if isinstance(ds.mass, KnownMass) and not known and not (ds.reference and "mass" in ds.reference):
                 raise (where / "mass").error('the mass is not known for this data: give it in kg or "estimate"')
-        elif isinstance(src, PresetSource):
+        elif isinstance(src, PresetSource) and src.overrides:
+            # a shipped preset as it is needs no trial (it is simulated by the tests); overrides may be absurd
             _trial_simulation(where, src)
         elif isinstance(src, FileSource):
             if not Path(src.path).is_file():

@@ -2,29 +2,144 @@
 
 ``summary.txt`` is what ``nlid study run`` prints: the verdict first, then the
 tables, no line wider than :data:`nlid.formatting.TERMINAL_WIDTH`.
+
+The outputs are written again only when they are stale: ``report.html`` carries
+the digest of what it was written from (:func:`report_digest`: every stored
+row and result of the study's runs, the study file and nlid's code), so a
+re-run with nothing new reads the store and keeps the report; and a report that
+is written again redraws only the figures whose inputs changed
+(:class:`~nlid.study.report.figures.FigureCache`).
 """
 
 from __future__ import annotations
 
 import base64
 import datetime
+import functools
+import hashlib
 import html
+import re
 from pathlib import Path
 from typing import Any
 
+import pandas as pd
+
 from ... import __version__
 from ..store import ResultStore
-from .figures import Figure, section_figures
+from .figures import Figure, FigureCache, section_figures
 from .tables import Section, Table, build_sections, summary_long, summary_markdown, summary_text
 
-__all__ = ["write_report", "report_html", "TEXT_SUMMARY"]
+__all__ = ["write_report", "report_html", "report_digest", "stored_digest", "code_digest", "TEXT_SUMMARY"]
 
 #: The terminal summary's file name in the study folder.
 TEXT_SUMMARY = "summary.txt"
+#: The ``<meta name=...>`` of report.html that holds :func:`report_digest`.
+DIGEST_META = "nlid-report-digest"
+#: The text outputs written with the report (each must exist for the report to be fresh).
+_TEXT_OUTPUTS = ("results.csv", "summary.md", TEXT_SUMMARY, "summary.csv")
+_META_RE = re.compile(rf'<meta name="{DIGEST_META}" content="([0-9a-f]{{64}})">')
 
 
-def write_report(config: Any, runs: list, store: ResultStore) -> tuple[str, Path]:
-    """Write every output of a study from its stored runs.
+@functools.lru_cache(maxsize=8)
+def code_digest(plugins: tuple[str, ...] = ()) -> str:
+    """A digest of the code the outputs come from: nlid's, the identifier plugins' and matplotlib's.
+
+    nlid's version and sources, the sources of the plugin packages named in ``plugins`` (top-level
+    module names: their figure declarations and advice appear in the report) and matplotlib's version. A
+    change of any of them (an upgrade, or an edit in a source checkout) makes every report and figure
+    stale.
+    """
+    import sys
+    from importlib.metadata import PackageNotFoundError, version
+
+    h = hashlib.sha256(__version__.encode())
+    roots = [Path(__file__).resolve().parents[2]]  # the nlid package
+    for top in plugins:
+        origin = getattr(sys.modules.get(top), "__file__", None)
+        if origin:
+            roots.append(Path(origin).parent if Path(origin).name == "__init__.py" else Path(origin))
+    for root in roots:
+        for path in sorted(root.rglob("*.py")) if root.is_dir() else [root]:
+            h.update(path.name.encode())
+            h.update(path.read_bytes())
+    try:
+        h.update(version("matplotlib").encode())
+    except PackageNotFoundError:  # pragma: no cover - matplotlib is a dependency
+        pass
+    return h.hexdigest()
+
+
+def _plugin_packages(identifiers: tuple[str, ...]) -> tuple[str, ...]:
+    """The top-level packages of the study's identifiers (already imported: the study was loaded with them)."""
+    from ...registry import default_registry
+
+    found = set()
+    registry = default_registry()
+    for name in identifiers:
+        cls = registry.identifiers.get(name)
+        if cls is not None:
+            found.add(cls.__module__.split(".")[0])
+    return tuple(sorted(found - {"nlid"}))
+
+
+def report_digest(config: Any, runs: list, digests: list[str], code: str | None = None) -> str:
+    """The digest a study's outputs are written from.
+
+    Parameters
+    ----------
+    config
+        The study (its text, name and identifiers).
+    runs
+        The planned runs (ids and spec digests).
+    digests
+        :meth:`~nlid.study.store.ResultStore.snapshot`'s digest of each stored run (the rows and results).
+    code
+        :func:`code_digest` of nlid and the study's plugins (default: computed).
+    """
+    code = code if code is not None else code_digest(_plugin_packages(tuple(config.identifiers)))
+    h = hashlib.sha256(code.encode())
+    h.update(
+        repr((config.name, config.text, tuple(config.identifiers), sorted(config.skipped_identifiers.items()))).encode()
+    )
+    for run in runs:
+        h.update(f"{run.run_id}\0{run.digest}\n".encode())
+    for d in digests:
+        h.update(d.encode())
+    return h.hexdigest()
+
+
+def stored_digest(folder: Path) -> str | None:
+    """The digest report.html in ``folder`` was written from, or ``None`` (no report, or one of an older nlid)."""
+    try:
+        with open(Path(folder) / "report.html", encoding="utf-8", errors="replace") as fh:
+            head = fh.read(4096)
+    except OSError:
+        return None
+    found = _META_RE.search(head)
+    return found.group(1) if found else None
+
+
+def _fresh(folder: Path, digest: str) -> bool:
+    """True when every output in ``folder`` was written from ``digest`` and is there."""
+    if stored_digest(folder) != digest or not all((folder / name).is_file() for name in _TEXT_OUTPUTS):
+        return False
+    cache = FigureCache(folder / "figures", code="")
+    return all((cache.folder / f"{stem}{suffix}").is_file() for stem in cache.stored for suffix in (".png", ".svg"))
+
+
+def write_report(config: Any, runs: list, store: ResultStore, *, force: bool = False) -> tuple[str, Path]:
+    """Write every output of a study from its stored runs, unless they are up to date.
+
+    The outputs are kept when ``report.html`` was written from the same rows, results, study and code
+    (:func:`report_digest`); otherwise everything is written again, and only the figures whose inputs
+    changed are drawn (:class:`~nlid.study.report.figures.FigureCache`).
+
+    Parameters
+    ----------
+    config, runs, store
+        The study, its planned runs and its folder.
+    force
+        Write every output and draw every figure, fresh or not.
 
     Returns
     -------
@@ -34,18 +149,30 @@ def write_report(config: Any, runs: list, store: ResultStore) -> tuple[str, Path
         ``report.html``.
     """
     folder = store.folder
-    store.write_results(runs)
-    records = store.records(runs)
-    frame = store.results(runs)
+    path = folder / "report.html"
+    records, digests = store.snapshot(runs)
+    code = code_digest(_plugin_packages(tuple(config.identifiers)))
+    digest = report_digest(config, runs, digests, code)
+    if not force and _fresh(folder, digest):
+        try:
+            text = (folder / "summary.md").read_text()
+            return text[:-1] if text.endswith("\n") else text, path  # as written: the summary and a newline
+        except OSError:
+            pass
+    frame = pd.DataFrame([r["row"] for r in records])
+    store.write_results(runs, frame)
     sections = build_sections(config, frame, records)
     summary = summary_markdown(config, sections)
     (folder / "summary.md").write_text(summary + "\n")
     (folder / TEXT_SUMMARY).write_text(summary_text(config, sections) + "\n")
     summary_long(frame).to_csv(folder / "summary.csv", index=False)
-    fig_dir = folder / "figures"
-    figures = {(s.dataset, s.model): section_figures(s, records, store, fig_dir) for s in sections}
-    path = folder / "report.html"
-    path.write_text(report_html(config, sections, figures, len(runs), len(records)))
+    cache = FigureCache(folder / "figures", code=code)
+    if force:
+        cache.stored = {}
+    figures = {(s.dataset, s.model): section_figures(s, records, store, cache.folder, cache) for s in sections}
+    cache.write_index()
+    # written last: its digest says every output above is complete
+    store.write_text(path, report_html(config, sections, figures, len(runs), len(records), digest))
     return summary, path
 
 
@@ -119,13 +246,22 @@ def _figure_html(fig: Figure) -> str:
 
 
 def report_html(
-    config: Any, sections: list[Section], figures: dict[tuple[str, str], list[Figure]], planned: int, finished: int
+    config: Any,
+    sections: list[Section],
+    figures: dict[tuple[str, str], list[Figure]],
+    planned: int,
+    finished: int,
+    digest: str | None = None,
 ) -> str:
-    """The report as one HTML page with the figures embedded (opens offline)."""
+    """The report as one HTML page with the figures embedded (opens offline).
+
+    ``digest`` (:func:`report_digest`) is kept in a ``<meta>`` tag: what the page was written from.
+    """
     now = datetime.datetime.now(datetime.timezone.utc).strftime("%Y-%m-%d %H:%M UTC")
     parts = [
         "<!DOCTYPE html>",
         '<html lang="en"><head><meta charset="utf-8">',
+        f'<meta name="{DIGEST_META}" content="{digest}">' if digest else "",
         f"<title>nlid study {html.escape(config.name)}</title>",
         f"<style>{_CSS}</style><script>{_SCRIPT}</script></head><body>",
         f"<h1>Study {html.escape(config.name)}</h1>",

@@ -20,10 +20,18 @@ Every figure has units on its axes, a legend and a one-line caption.
   and imaginary parts, with the band they are averaged over (Fig. 11/13).
   Which arrays are receptances and spectra the method declares
   (:meth:`nlid.plugin.Identifier.figure_arrays`); no array name is parsed here.
+
+A figure is drawn again only when what it shows changed (:class:`FigureCache`:
+``figures/index.json`` keeps the digest of each figure's inputs and of the
+code that draws it): a re-run whose coefficients are the same redraws the
+summary figure (it shows the times) and reuses the others.
 """
 
 from __future__ import annotations
 
+import hashlib
+import json
+import os
 import re
 import textwrap
 from pathlib import Path
@@ -42,7 +50,7 @@ from .. import columns as col
 from .section import Section
 from .verdict import identical_methods
 
-__all__ = ["section_figures", "Figure", "figure_arrays", "draw_summary"]
+__all__ = ["section_figures", "Figure", "FigureCache", "figure_arrays", "draw_summary", "input_digest"]
 
 _SAFE = re.compile(r"[^A-Za-z0-9_.+-]+")
 _DATASET, _MODEL, _METHOD = col.DATASET.key(), col.MODEL.key(), col.METHOD.key()
@@ -60,6 +68,105 @@ class Figure:
         return self.stem.with_suffix(".png")
 
 
+#: Keys of a stored result that are wall times, not results (a figure that drew them would show the time).
+_VOLATILE = ("seconds", "timings_s")
+
+
+def _feed(h: Any, value: Any) -> None:
+    """Hash ``value`` (nested dicts, sequences, arrays, frames and scalars) into ``h``, each with its type."""
+    if isinstance(value, np.ndarray):
+        h.update(f"a{value.dtype.str}{value.shape}".encode())
+        h.update(np.ascontiguousarray(value).tobytes())
+    elif isinstance(value, pd.DataFrame):
+        h.update(b"f")
+        h.update(value.to_csv(index=False).encode())  # floats as repr: exact
+    elif isinstance(value, dict):
+        h.update(f"d{len(value)}".encode())
+        for key in sorted(value, key=str):
+            if key in _VOLATILE:
+                continue
+            _feed(h, str(key))
+            _feed(h, value[key])
+    elif isinstance(value, (list, tuple)):
+        h.update(f"l{len(value)}".encode())
+        for item in value:
+            _feed(h, item)
+    else:
+        h.update(f"s{type(value).__name__}:{value!r};".encode())
+
+
+def input_digest(*parts: Any) -> str:
+    """A digest of what a figure is drawn from (wall-time keys, :data:`_VOLATILE`, left out)."""
+    h = hashlib.sha256()
+    for part in parts:
+        _feed(h, part)
+    return h.hexdigest()
+
+
+class FigureCache:
+    """Which figures of a study folder are up to date: ``figures/index.json`` maps a figure to its inputs' digest.
+
+    A figure is drawn (PNG and SVG) only when its digest (:func:`input_digest` of what it shows, and of
+    the code that draws it) differs from the one stored, or its files are missing. The index is written
+    after the figures, so a report killed half-way redraws what it had not recorded.
+
+    Parameters
+    ----------
+    folder
+        The figures folder (created when a figure is written).
+    code
+        The digest of the code that draws (:func:`nlid.study.report.code_digest`; default: nlid's).
+    """
+
+    INDEX = "index.json"
+
+    def __init__(self, folder: Path, code: str | None = None) -> None:
+        self.folder = Path(folder)
+        if code is None:
+            from . import code_digest
+
+            code = code_digest()
+        self.code = code
+        self.stored: dict[str, str] = {}
+        try:
+            loaded = json.loads((self.folder / self.INDEX).read_text())
+            if isinstance(loaded, dict):
+                self.stored = {str(k): str(v) for k, v in loaded.items()}
+        except (OSError, ValueError, RecursionError):
+            pass
+        self.current: dict[str, str] = {}
+        self.drawn: list[str] = []
+        self.reused: list[str] = []
+
+    def key(self, *parts: Any) -> str:
+        """The digest of a figure's inputs, with the drawing code's."""
+        return input_digest(self.code, *parts)
+
+    def fresh(self, stem: Path, key: str) -> bool:
+        """True when ``stem`` was drawn from the same inputs and its files are there (then it is kept)."""
+        ok = self.stored.get(stem.name) == key and all(stem.with_suffix(s).is_file() for s in (".png", ".svg"))
+        if ok:
+            self.current[stem.name] = key
+            self.reused.append(stem.name)
+        return ok
+
+    def save(self, fig: Any, stem: Path, key: str) -> None:
+        """Write ``fig`` (:func:`nlid.plotting.save_figure`) and record its digest."""
+        save_figure(fig, stem)
+        self.current[stem.name] = key
+        self.drawn.append(stem.name)
+
+    def write_index(self) -> None:
+        """Store the digests of this report's figures (atomically)."""
+        if not self.current and not (self.folder / self.INDEX).exists():
+            return
+        self.folder.mkdir(parents=True, exist_ok=True)
+        path = self.folder / self.INDEX
+        tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
+        tmp.write_text(json.dumps(self.current, indent=1, sort_keys=True))
+        os.replace(tmp, path)
+
+
 def _stem(folder: Path, *parts: str) -> Path:
     return folder / _SAFE.sub("_", "_".join(parts))
 
@@ -75,8 +182,11 @@ def _colors(n: int) -> list[Any]:
     return [cmap(i % 10) for i in range(n)]
 
 
-def section_figures(section: Section, records: list[dict[str, Any]], store: Any, folder: Path) -> list[Figure]:
-    """Every figure of one dataset x model; returns what was written."""
+def section_figures(
+    section: Section, records: list[dict[str, Any]], store: Any, folder: Path, cache: FigureCache | None = None
+) -> list[Figure]:
+    """Every figure of one dataset x model; returns them (drawn, or kept when ``cache`` says they are fresh)."""
+    cache = cache if cache is not None else FigureCache(folder)
     figures: list[Figure] = []
     recs = [
         r
@@ -86,13 +196,13 @@ def section_figures(section: Section, records: list[dict[str, Any]], store: Any,
     if not recs:
         return figures
     for make in (_summary_figure, _kz_figure, _rms_figure):
-        fig = make(section, folder) if make is not _kz_figure else make(section, recs, folder)
+        fig = make(section, folder, cache) if make is not _kz_figure else make(section, recs, folder, cache)
         if fig:
             figures.append(fig)
     for method in section.methods:
         for rec in recs:
             if rec["row"][_METHOD] == method and rec.get("arrays"):
-                figures += _array_figures(section, method, rec, store.arrays(rec["run_id"]), folder)
+                figures += _array_figures(section, method, rec, store.arrays(rec["run_id"]), folder, cache)
                 break
     return figures
 
@@ -107,7 +217,27 @@ def _groups(section: Section) -> list[tuple[str, ...]]:
     return out
 
 
-def _kz_figure(section: Section, recs: list[dict[str, Any]], folder: Path) -> Figure | None:
+def _kz_figure(section: Section, recs: list[dict[str, Any]], folder: Path, cache: FigureCache) -> Figure | None:
+    stem = _stem(folder, "kz", section.dataset, section.model)
+    figure = Figure(
+        "Elastic restoring force K(z)",
+        stem,
+        "Top: identified K(z) (median over repetitions per method) against the reference, with the stable "
+        "equilibria; bottom: identified minus reference per method, line the median, band min-max over "
+        "repetitions (dotted: reference equilibria).",
+    )
+    groups = _groups(section)
+    key = cache.key(
+        "kz",
+        section.dataset,
+        section.model,
+        section.reference,
+        groups,
+        section.present_methods,
+        [(r["row"][_METHOD], r["row"][col.Z_MIN.key()], r["row"][col.Z_MAX.key()], r["result"]) for r in recs],
+    )
+    if cache.fresh(stem, key):
+        return figure
     ref = section.reference or {}
     z_lo = min(r["row"][col.Z_MIN.key()] for r in recs)
     z_hi = max(r["row"][col.Z_MAX.key()] for r in recs)
@@ -122,7 +252,6 @@ def _kz_figure(section: Section, recs: list[dict[str, Any]], folder: Path) -> Fi
         ax.plot(z, k_ref, color="black", lw=2.5, label="reference")
         eq = ref.get("equilibria") or []
         ax.plot(eq, np.zeros(len(eq)), "o", mfc="none", mec="black", ms=10, label="reference stable equilibria")
-    groups = _groups(section)
     colors = dict(zip(groups, _colors(len(groups)), strict=True))
     curves: dict[tuple[str, ...], list[np.ndarray]] = {g: [] for g in groups}
     for rec in recs:
@@ -159,15 +288,8 @@ def _kz_figure(section: Section, recs: list[dict[str, Any]], folder: Path) -> Fi
             axes[1].axvline(zq, color="0.5", lw=0.6, ls=":")
     else:
         ax.set_xlabel("z (m)")
-    stem = _stem(folder, "kz", section.dataset, section.model)
-    save_figure(fig, stem)
-    return Figure(
-        "Elastic restoring force K(z)",
-        stem,
-        "Top: identified K(z) (median over repetitions per method) against the reference, with the stable "
-        "equilibria; bottom: identified minus reference per method, line the median, band min-max over "
-        "repetitions (dotted: reference equilibria).",
-    )
+    cache.save(fig, stem, key)
+    return figure
 
 
 def _stats(frame: pd.DataFrame, column: str, methods: list[str], absolute: bool = True) -> tuple[list, list, list]:
@@ -273,13 +395,17 @@ def draw_summary(section: Section) -> Any:
     return fig
 
 
-def _summary_figure(section: Section, folder: Path) -> Figure | None:
-    """Write the summary figure (:func:`draw_summary`)."""
-    fig = draw_summary(section)
-    if fig is None:
+def _summary_figure(section: Section, folder: Path, cache: FigureCache) -> Figure | None:
+    """Write the summary figure (:func:`draw_summary`), unless it is fresh."""
+    if not _groups(section):
         return None
     stem = _stem(folder, "summary", section.dataset, section.model)
-    save_figure(fig, stem)
+    key = cache.key("summary", section.dataset, section.model, section.terms, section.methods, section.frame)
+    if not cache.fresh(stem, key):
+        fig = draw_summary(section)
+        if fig is None:
+            return None
+        cache.save(fig, stem, key)
     return Figure(
         "What separates the methods",
         stem,
@@ -289,13 +415,23 @@ def _summary_figure(section: Section, folder: Path) -> Figure | None:
     )
 
 
-def _rms_figure(section: Section, folder: Path) -> Figure | None:
+def _rms_figure(section: Section, folder: Path, cache: FigureCache) -> Figure | None:
     """Grouped bars of each term's RMS contribution to R per method (paper Fig. 22)."""
     frame = section.frame
     terms = section.terms_with(col.RMS)
     methods = [m for m in section.methods if (frame[_METHOD] == m).any()]
     if not terms or not methods:
         return None
+    stem = _stem(folder, "rms", section.dataset, section.model)
+    figure = Figure(
+        "RMS contribution of each term",
+        stem,
+        "RMS of theta_i g_i(z, v) over the record, median over repetitions (paper Fig. 22); log scale.",
+    )
+    used = [_METHOD, col.STATUS.key(), *(col.RMS.key(t) for t in terms)]
+    key = cache.key("rms", section.dataset, section.model, terms, methods, frame[used])
+    if cache.fresh(stem, key):
+        return figure
     fig, ax = new_figure(width=max(6.0, 1.1 * len(terms) + 2.0), height=3.8)
     x = np.arange(len(terms))
     width = 0.8 / len(methods)
@@ -307,20 +443,26 @@ def _rms_figure(section: Section, folder: Path) -> Figure | None:
     ax.set_ylabel("RMS contribution (N)")
     ax.set_title(f"{section.dataset} / {section.model}: terms of the identified restoring force")
     ax.legend(fontsize=8)
-    stem = _stem(folder, "rms", section.dataset, section.model)
-    save_figure(fig, stem)
-    return Figure(
-        "RMS contribution of each term",
-        stem,
-        "RMS of theta_i g_i(z, v) over the record, median over repetitions (paper Fig. 22); log scale.",
-    )
+    cache.save(fig, stem, key)
+    return figure
 
 
-def _slices_figure(section: Section, method: str, tag: str, arrays: dict, folder: Path) -> Figure | None:
+def _slices_figure(
+    section: Section, method: str, tag: str, arrays: dict, folder: Path, cache: FigureCache, key: str
+) -> Figure | None:
     """Measured damping force near each slice position against the identified D(z0, v) (Fig. 21 b-d)."""
     count = col.SLICES.count(arrays)
     if not count:
         return None
+    stem = _stem(folder, "slices", section.dataset, section.model, method)
+    figure = Figure(
+        f"Damping force slices, {method}",
+        stem,
+        f"Measured R_e - K(z) of the samples near each position (grey) against the identified D(z0, v) ({tag}); "
+        "paper Fig. 21 b-d.",
+    )
+    if cache.fresh(stem, key):
+        return figure
     fig, axes = new_figure(1, count, width=3.2 * count + 0.6, height=3.4, squeeze=False)
     for k in range(count):
         ax = axes[0, k]
@@ -335,14 +477,8 @@ def _slices_figure(section: Section, method: str, tag: str, arrays: dict, folder
         ax.set_xlabel("v (m/s)")
     axes[0, 0].set_ylabel("damping force D (N)")
     axes[0, 0].legend(fontsize=8)
-    stem = _stem(folder, "slices", section.dataset, section.model, method)
-    save_figure(fig, stem)
-    return Figure(
-        f"Damping force slices, {method}",
-        stem,
-        f"Measured R_e - K(z) of the samples near each position (grey) against the identified D(z0, v) ({tag}); "
-        "paper Fig. 21 b-d.",
-    )
+    cache.save(fig, stem, key)
+    return figure
 
 
 def figure_arrays(method: str, arrays: dict) -> tuple[FigureArray, ...]:
@@ -355,11 +491,31 @@ def _curve(arrays: dict, declared: FigureArray) -> tuple[np.ndarray, np.ndarray]
     return np.asarray(arrays[declared.frequency], dtype=float).ravel(), np.asarray(arrays[declared.values]).ravel()
 
 
-def _frf_figure(section: Section, method: str, rec: dict[str, Any], arrays: dict, folder: Path) -> Figure | None:
+def _frf_figure(
+    section: Section, method: str, rec: dict[str, Any], arrays: dict, folder: Path, cache: FigureCache, key: str
+) -> Figure | None:
     """The method's underlying-linear FRF(s) with the identified model linearised at each stable equilibrium."""
     frfs = [a for a in figure_arrays(method, arrays) if a.kind == "frf"]
     if not frfs:
         return None
+    stem = _stem(folder, "frf", section.dataset, section.model, method)
+    k_tilde = (rec["result"].get("diagnostics") or {}).get("k_tilde")
+    if k_tilde is not None:
+        why = (
+            f"Solid: the FRF {method} identifies, that of the system perturbed by the virtual stiffness k~1 "
+            f"= {sig(float(k_tilde), 3)} N/m about z = 0 (Sec. 3.2), so its peak is not a natural frequency of the "
+            "oscillator"
+        )
+    else:
+        why = f"Solid: the underlying-linear FRF {method} identifies (paper Fig. 10/15)"
+    figure = Figure(
+        f"Underlying-linear FRF, {method}",
+        stem,
+        why + "; dashed: the identified model linearised at each stable equilibrium, whose peaks (dotted) are the "
+        "natural frequencies of the modal table.",
+    )
+    if cache.fresh(stem, key):
+        return figure
     curves = [(a, *_curve(arrays, a)) for a in frfs]
     res = rec["result"]
     diag = res.get("diagnostics") or {}
@@ -371,7 +527,6 @@ def _frf_figure(section: Section, method: str, rec: dict[str, Any], arrays: dict
     freq = np.linspace(f_max / 2000, f_max, 1500)
     w = 2 * np.pi * freq
     fig, axes = new_figure(2, 1, width=7.0, height=5.6, sharex=True)
-    k_tilde = diag.get("k_tilde")
     uls = diag.get("uls") if isinstance(diag.get("uls"), dict) else {}
     for i, (declared, f, h) in enumerate(curves):
         if k_tilde is not None:
@@ -400,25 +555,13 @@ def _frf_figure(section: Section, method: str, rec: dict[str, Any], arrays: dict
     axes[0].legend(fontsize=7)
     axes[1].set_ylabel("phase (deg)")
     axes[1].set_xlabel("frequency (Hz)")
-    stem = _stem(folder, "frf", section.dataset, section.model, method)
-    save_figure(fig, stem)
-    if k_tilde is not None:
-        why = (
-            f"Solid: the FRF {method} identifies, that of the system perturbed by the virtual stiffness k~1 "
-            f"= {sig(float(k_tilde), 3)} N/m about z = 0 (Sec. 3.2), so its peak is not a natural frequency of the "
-            "oscillator"
-        )
-    else:
-        why = f"Solid: the underlying-linear FRF {method} identifies (paper Fig. 10/15)"
-    return Figure(
-        f"Underlying-linear FRF, {method}",
-        stem,
-        why + "; dashed: the identified model linearised at each stable equilibrium, whose peaks (dotted) are the "
-        "natural frequencies of the modal table.",
-    )
+    cache.save(fig, stem, key)
+    return figure
 
 
-def _coef_figure(section: Section, method: str, rec: dict[str, Any], arrays: dict, folder: Path) -> Figure | None:
+def _coef_figure(
+    section: Section, method: str, rec: dict[str, Any], arrays: dict, folder: Path, cache: FigureCache, key: str
+) -> Figure | None:
     """Real and imaginary parts of each coefficient spectrum, the band averaged over and the reported value."""
     spectra = [a for a in figure_arrays(method, arrays) if a.kind == "coefficient spectrum"]
     if not spectra:
@@ -426,6 +569,20 @@ def _coef_figure(section: Section, method: str, rec: dict[str, Any], arrays: dic
     spectra = [a for a in spectra if a.label == spectra[0].label]  # one fit's (nsi-shift: the first well's)
     res = rec["result"]
     diag = res.get("diagnostics") or {}
+    stem = _stem(folder, "coef", section.dataset, section.model, method)
+    note = ""
+    if "k_tilde_ensemble" in diag or "mean over" in str(diag.get("reported_fit", "")):
+        note = " The reported value is the mean over the k~1 ensemble, so it differs from this one fit's estimate."
+    elif "wells" in diag:
+        note = " Spectra of the first well in its shifted basis x = z - z*; the reported values combine the wells."
+    figure = Figure(
+        f"Coefficient spectra, {method}",
+        stem,
+        f"Frequency-dependent coefficient estimates of {method} ({rec['run_id']}; paper Fig. 11/13): shaded, the "
+        f"band the estimate averages; solid horizontal, that average; dashed, the reported coefficient.{note}",
+    )
+    if cache.fresh(stem, key):
+        return figure
     band = diag.get("band_hz")
     band = band if isinstance(band, (list, tuple)) and len(band) == 2 else None
     fig, axes = new_figure(len(spectra), 2, width=8.5, height=2.4 * len(spectra) + 0.8, squeeze=False)
@@ -459,40 +616,44 @@ def _coef_figure(section: Section, method: str, rec: dict[str, Any], arrays: dic
     axes[0, 1].set_title("imaginary part")
     axes[-1, 0].set_xlabel("frequency (Hz)")
     axes[-1, 1].set_xlabel("frequency (Hz)")
-    stem = _stem(folder, "coef", section.dataset, section.model, method)
-    save_figure(fig, stem)
-    note = ""
-    if "k_tilde_ensemble" in diag or "mean over" in str(diag.get("reported_fit", "")):
-        note = " The reported value is the mean over the k~1 ensemble, so it differs from this one fit's estimate."
-    elif "wells" in diag:
-        note = " Spectra of the first well in its shifted basis x = z - z*; the reported values combine the wells."
-    return Figure(
-        f"Coefficient spectra, {method}",
-        stem,
-        f"Frequency-dependent coefficient estimates of {method} ({rec['run_id']}; paper Fig. 11/13): shaded, the "
-        f"band the estimate averages; solid horizontal, that average; dashed, the reported coefficient.{note}",
-    )
+    cache.save(fig, stem, key)
+    return figure
 
 
-def _array_figures(section: Section, method: str, rec: dict[str, Any], arrays: dict, folder: Path) -> list[Figure]:
+def _array_figures(
+    section: Section, method: str, rec: dict[str, Any], arrays: dict, folder: Path, cache: FigureCache
+) -> list[Figure]:
     out = []
     tag = f"{method}, {rec['run_id']}"
-    slices = _slices_figure(section, method, tag, arrays, folder)
+    # every figure of one run's arrays is drawn from that run's result and arrays, and the section's units
+    key = cache.key(
+        "arrays",
+        section.dataset,
+        section.model,
+        method,
+        rec["run_id"],
+        rec["result"],
+        arrays,
+        section.terms,
+        {t: section.unit(t) for t in section.terms},
+    )
+    slices = _slices_figure(section, method, tag, arrays, folder, cache, key)
     if slices:
         out.append(slices)
     if "singular_values" in arrays:
-        sv = np.asarray(arrays["singular_values"], dtype=float).ravel()
-        fig, ax = new_figure(width=6.0, height=3.6)
-        ax.semilogy(np.arange(1, sv.size + 1), sv, "o-", ms=3, label="singular values")
-        order = (rec["result"].get("diagnostics") or {}).get("order")
-        if isinstance(order, int) and 0 < order <= sv.size:
-            ax.axvline(order + 0.5, color="C3", ls="--", lw=1.0, label=f"model order {order}")
-        ax.set_xlabel("index")
-        ax.set_ylabel("singular value (normalised channels)")
-        ax.set_title(f"singular values ({tag})", fontsize=10)
-        ax.legend(fontsize=8)
         stem = _stem(folder, "sv", section.dataset, section.model, method)
-        save_figure(fig, stem)
+        if not cache.fresh(stem, key):
+            sv = np.asarray(arrays["singular_values"], dtype=float).ravel()
+            fig, ax = new_figure(width=6.0, height=3.6)
+            ax.semilogy(np.arange(1, sv.size + 1), sv, "o-", ms=3, label="singular values")
+            order = (rec["result"].get("diagnostics") or {}).get("order")
+            if isinstance(order, int) and 0 < order <= sv.size:
+                ax.axvline(order + 0.5, color="C3", ls="--", lw=1.0, label=f"model order {order}")
+            ax.set_xlabel("index")
+            ax.set_ylabel("singular value (normalised channels)")
+            ax.set_title(f"singular values ({tag})", fontsize=10)
+            ax.legend(fontsize=8)
+            cache.save(fig, stem, key)
         out.append(
             Figure(
                 f"Singular values, {method}",
@@ -502,7 +663,7 @@ def _array_figures(section: Section, method: str, rec: dict[str, Any], arrays: d
             )
         )
     for make in (_frf_figure, _coef_figure):
-        fig = make(section, method, rec, arrays, folder)
+        fig = make(section, method, rec, arrays, folder, cache, key)
         if fig:
             out.append(fig)
     return out
