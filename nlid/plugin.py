@@ -58,6 +58,7 @@ from .mdof.record import StructureRecord
 from .mdof.regression import (
     StructureRegressionData,
     check_elements_nonlinear,
+    dof_weights,
     structure_regression_data,
 )
 from .mdof.regression import linear_design as structure_linear_design
@@ -110,6 +111,7 @@ __all__ = [
     "structure_regression_data",
     "structure_linear_design",
     "check_elements_nonlinear",
+    "dof_weights",
     "structure_free_run",
     "regression_data",
     "RegressionData",

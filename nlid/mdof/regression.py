@@ -51,6 +51,7 @@ __all__ = [
     "linear_design",
     "LinearDesign",
     "check_elements_nonlinear",
+    "dof_weights",
 ]
 
 
@@ -313,3 +314,17 @@ def linear_design(
         y = (f - a @ np.asarray(mass).T).reshape(-1)
     X = np.concatenate(blocks, axis=1) if blocks else np.empty((N * n, 0))
     return LinearDesign(X, y, tuple(names), parts, bases, symmetric, n)
+
+
+def dof_weights(residual: np.ndarray, y: np.ndarray, n_dofs: int) -> np.ndarray:
+    """Weight of each DOF's equations: the inverse of its residual RMS, the largest weight 1.
+
+    ``residual`` and ``y`` are a first solution's residual and the left-hand
+    side, interleaved as :func:`linear_design` builds them. A DOF whose
+    residual vanishes (noise-free data) is floored at ``1e-12`` of the RMS of
+    ``y``, so the weights stay finite.
+    """
+    rms = np.sqrt(np.mean(np.asarray(residual).reshape(-1, n_dofs) ** 2, axis=0))
+    floor = 1e-12 * max(float(np.sqrt(np.mean(np.asarray(y) ** 2))), 1e-300)
+    weights = 1.0 / np.maximum(rms, floor)
+    return weights / weights.max()

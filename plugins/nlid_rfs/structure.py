@@ -46,6 +46,7 @@ from nlid.plugin import (
     StructureRecord,
     check_elements_nonlinear,
     collinearity_warnings,
+    dof_weights,
     least_squares,
     structure_linear_design,
     structure_regression_data,
@@ -96,10 +97,7 @@ def solve_structure(
     if not np.any(y):
         raise IdentificationError("rfs: no force acts on the structure; its mass and stiffness cannot be scaled")
     first = least_squares(X, y, design.names, correlation_length=correlation * n, context="rfs: ")
-    rms = np.sqrt(np.mean(first.residual.reshape(-1, n) ** 2, axis=0))
-    floor = 1e-12 * max(float(np.sqrt(np.mean(y**2))), 1e-300)
-    weights = 1.0 / np.maximum(rms, floor)
-    weights = weights / weights.max()
+    weights = dof_weights(first.residual, y, n)
     w = np.tile(weights, X.shape[0] // n)
     fit = least_squares(X * w[:, None], y * w, design.names, correlation_length=correlation * n, context="rfs: ")
     parts = design.split(fit.coefficients)

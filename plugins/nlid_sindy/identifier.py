@@ -63,6 +63,7 @@ from nlid.plugin import (
     NlidError,
     Option,
     Record,
+    StructureRecord,
     collinearity_warnings,
     column_scale,
     derivatives,
@@ -268,6 +269,7 @@ class SparseIdentification(Identifier):
         ),
     )
     needs_mass = False
+    dofs = "multi"
     preference = 30
     advice = (
         "unsure which terms belong in the model: sparse selection from the model's terms plus a "
@@ -280,6 +282,10 @@ class SparseIdentification(Identifier):
     def identify(self, record: Record, model: Model, *, mass: float | None = None) -> Estimate:
         """Fit the sparse model and map its ``v'`` equation to the coefficients of ``R``."""
         s = self.settings
+        if isinstance(record, StructureRecord):
+            from .structure import identify_structure
+
+            return identify_structure(record, model, mass, s)
         library_model = model
         if s["library"] == "automatic":
             library_model = model.with_terms(add=[t for t in auto_candidates(s["degree"]) if t not in model])
