@@ -99,8 +99,7 @@ def check_elements_nonlinear(elements: ElementSet, context: str) -> None:
         if e.term.name in ("z", "v"):
             kind = "K" if e.term.name == "z" else "C"
             raise InputError(
-                f"{context}element {e.name} is linear: the underlying linear {kind} is identified in full; "
-                "leave it out"
+                f"{context}element {e.name} is linear: the underlying linear {kind} is identified in full; leave it out"
             )
 
 
@@ -140,9 +139,7 @@ def structure_regression_data(
     measured_a = record.a is not None and all(record.is_measured(f"a{k}") for k in range(1, n + 1))
     if measured_v and measured_a:
         G = elements.evaluate(record.z, record.v) if len(elements) else np.empty((record.n, 0))
-        return StructureRegressionData(
-            record.z, record.v, record.a, record.f, G, None, prov, slice(0, record.n)
-        )
+        return StructureRegressionData(record.z, record.v, record.a, record.f, G, None, prov, slice(0, record.n))
     fs = record.fs
     fc = record.suggest_cutoff() if cutoff is None else float(cutoff)
     wide = min(REGRESSOR_BAND_FACTOR * fc, derivatives.CUTOFF_MAX_FRACTION * fs)
@@ -189,7 +186,7 @@ def structure_regression_data(
 
 
 def matrix_basis(n: int, form: str) -> list[tuple[int, int]]:
-    """The free entries ``(i, j)`` of an ``n x n`` matrix: ``"symmetric"`` (``i <= j``), ``"full"`` or ``"diagonal"``."""
+    """The free entries ``(i, j)`` of an ``n x n`` matrix: ``"symmetric"`` (``i <= j``), ``"full"``, ``"diagonal"``."""
     if form == "symmetric":
         return [(i, j) for i in range(n) for j in range(i, n)]
     if form == "full":
