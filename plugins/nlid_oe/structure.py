@@ -59,7 +59,7 @@ from nlid.plugin import (
 __all__ = ["identify_structure", "StructureProblem", "SEGMENT_PERIODS"]
 
 #: Default segment length, in periods of the start model's lowest mode.
-SEGMENT_PERIODS = 20.0
+SEGMENT_PERIODS = 5.0
 
 
 class StructureProblem:
@@ -101,11 +101,16 @@ class StructureProblem:
         parts = [theta, K, C, *([start.static] if self.static else [])]
         self.p0 = np.concatenate(parts)
 
-        def scale(x: np.ndarray) -> np.ndarray:
-            big = float(np.max(np.abs(x))) if x.size else 1.0
-            return np.where(np.abs(x) > 1e-9 * big, np.abs(x), max(big, 1e-12) * 1e-2)
+        force = float(np.sqrt(np.mean(record.f**2))) or 1.0
 
-        self.scale = np.concatenate([scale(x) for x in parts])
+        def scale(x: np.ndarray, fallback: float) -> np.ndarray:
+            big = float(np.max(np.abs(x))) if x.size else 0.0
+            if big == 0.0:
+                return np.full(len(x), fallback)
+            return np.where(np.abs(x) > 1e-9 * big, np.abs(x), 1e-2 * big)
+
+        fallbacks = [1.0, 1.0, 1.0, 1e-2 * force]  # a static force that starts at zero moves by 1 % of the force
+        self.scale = np.concatenate([scale(x, fb) for x, fb in zip(parts, fallbacks, strict=False)])
         sizes = [len(x) for x in parts]
         self.bounds = np.cumsum([0, *sizes])
         self.zstd = record.z.std(axis=0)
@@ -201,10 +206,7 @@ def identify_structure(
     J = sol.jac
     dof = max(sol.fun.size - sol.x.size, 1)
     s2 = float(sol.fun @ sol.fun) / dof
-    try:
-        cov = s2 * np.linalg.inv(J.T @ J)
-    except np.linalg.LinAlgError:
-        raise IdentificationError("oe: the Gauss-Newton Hessian of the free-run fit is singular") from None
+    cov = s2 * np.linalg.pinv(J.T @ J)
     b = problem.bounds
     se = np.sqrt(np.clip(np.diag(cov)[b[0] : b[1]], 0.0, None)) * problem.scale[b[0] : b[1]]
     before, after = problem.error_percent(u0), problem.error_percent(sol.x)
