@@ -137,6 +137,11 @@ def json_problem(value: Any, where: str = "") -> str | None:
 
 
 def _execute(spec: RunSpec) -> dict[str, Any]:
+    if spec.dataset.source.kind == "preset":
+        from ..mdof.studies import execute_structure_run, is_structure_preset
+
+        if is_structure_preset(spec.dataset.source.name):  # several DOFs: nlid.mdof.studies
+            return execute_structure_run(spec, _base_row(spec))
     data = build_data(spec)
     model = as_model(spec.terms, without=spec.without, px_roots=spec.px_roots)
     registry = load_registry()

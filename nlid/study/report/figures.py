@@ -85,7 +85,8 @@ def section_figures(section: Section, records: list[dict[str, Any]], store: Any,
     ]
     if not recs:
         return figures
-    for make in (_summary_figure, _kz_figure, _rms_figure):
+    structure = "terms" not in recs[0]["result"]  # an identified structure (nlid.mdof): no 1-DOF stiffness curve
+    for make in (_summary_figure, _rms_figure) if structure else (_summary_figure, _kz_figure, _rms_figure):
         fig = make(section, folder) if make is not _kz_figure else make(section, recs, folder)
         if fig:
             figures.append(fig)
