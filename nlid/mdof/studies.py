@@ -89,7 +89,10 @@ def structure_metrics(result: Any, truth: Mapping[str, Any]) -> dict[str, Any]:
     labels = [f"m{k + 1}" for k in range(len(ref_linear["fn_hz"]))]
     fams = (col.LINEAR_FN, col.LINEAR_FN_ERROR, col.LINEAR_ZETA, col.LINEAR_ZETA_ERROR)
     _mode_rows(row, lm.fn_hz, lm.zeta, ref_linear, labels, fams)
-    for agg, fam in ((col.LINEAR_FN_ERROR_MAX, col.LINEAR_FN_ERROR), (col.LINEAR_ZETA_ERROR_MAX, col.LINEAR_ZETA_ERROR)):
+    for agg, fam in (
+        (col.LINEAR_FN_ERROR_MAX, col.LINEAR_FN_ERROR),
+        (col.LINEAR_ZETA_ERROR_MAX, col.LINEAR_ZETA_ERROR),
+    ):
         values = [abs(row[fam.key(lab)]) for lab in labels if row.get(fam.key(lab)) is not None]
         row[agg.key()] = max(values) if values else None
     ref_stable = [np.asarray(p, dtype=float) for p in truth["equilibria"]["stable"]]

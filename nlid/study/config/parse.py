@@ -258,6 +258,11 @@ def _check_posterior_terms(where: Where, settings: Mapping[str, Any], datasets: 
     params = settings.get("params", "damping")
     priors = parse_prior_assignments(settings.get("priors"))
     for ds in datasets:
+        if getattr(ds.source, "kind", "") == "preset" and hasattr(ds.source.preset(), "elements"):
+            raise where.error(
+                f"dataset {ds.name!r} is a structure of several DOFs: the posterior (nlid.bayes) samples the "
+                "terms of one DOF and is not available for structures yet; remove [posterior] or the dataset"
+            )
         main = ds.models[0]
         model = as_model(main.terms, without=main.without, px_roots=main.px_roots)
         try:
