@@ -23,9 +23,9 @@ residual (``eps_percent``: the largest of the DOFs'):
 
 The columns are declared in :mod:`nlid.columns`. The reference stored with
 the run is ``{"coefficients": ..., "structure": <the preset's truth>}``.
-A held-out record, slices and the posterior are not available for
-structures: a dataset asking for them is refused when the study is loaded
-(:func:`check_structure_dataset`).
+A held-out record and damping slices are not scored for structures (a
+dataset asking for them gets a warning in its rows); the posterior is refused
+when the study is loaded (:mod:`nlid.bayes` samples one DOF's terms).
 """
 
 from __future__ import annotations
@@ -38,7 +38,6 @@ from typing import Any
 import numpy as np
 
 from .. import columns as col
-from ..errors import InputError
 
 __all__ = ["is_structure_preset", "check_structure_terms", "execute_structure_run", "structure_metrics"]
 
@@ -157,7 +156,10 @@ def execute_structure_run(spec: Any, base_row: Mapping[str, Any]) -> dict[str, A
     row[col.Z_MIN.key()] = float(record.z.min())
     row[col.Z_MAX.key()] = float(record.z.max())
     row[col.EPS.key()] = max(result.eps_percent) if result.eps_percent else None
-    row[col.WARNINGS.key()] = " | ".join(result.warnings)
+    notes = list(result.warnings)
+    if type(ds.holdout).__name__ != "NoHoldout" or ds.slices:
+        notes.append("held-out scores and damping slices are not computed for structures of several DOFs")
+    row[col.WARNINGS.key()] = " | ".join(notes)
     row.update(structure_metrics(result, truth))
     reference = {"coefficients": dict(truth["coefficients"]), "structure": truth}
     return {
@@ -167,9 +169,3 @@ def execute_structure_run(spec: Any, base_row: Mapping[str, Any]) -> dict[str, A
         "reference": to_jsonable(reference),
         "arrays": {k: np.asarray(v) for k, v in result.arrays.items()},
     }
-
-
-def check_structure_dataset(dataset: Any) -> None:
-    """Refuse what a structure dataset cannot do (a held-out record, slices)."""
-    if getattr(dataset, "holdout", None) is not None and type(dataset.holdout).__name__ != "NoHoldout":
-        raise InputError(f"dataset {dataset.name!r}: a held-out record is not available for structure presets yet")
