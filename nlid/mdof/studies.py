@@ -133,11 +133,12 @@ def execute_structure_run(spec: Any, base_row: Mapping[str, Any]) -> dict[str, A
     """
     from ..interface import to_jsonable
     from ..pipeline import identify
-    from ..study.data import dict_or_level
 
     ds = spec.dataset
     preset = ds.source.preset()
-    record = preset.simulate(spec.seed, noise=dict_or_level(ds.source.noise), channels=ds.source.channels)
+    noise = ds.source.noise
+    noise = dict(noise) if isinstance(noise, Mapping) else float(noise)
+    record = preset.simulate(spec.seed, noise=noise, channels=ds.source.channels)
     truth = record.meta["reference"]
     mass = ds.mass.value(None, record.mass)
     tracemalloc.start()
