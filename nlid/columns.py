@@ -88,6 +88,14 @@ __all__ = [
     "POSTERIOR_TAU",
     "POSTERIOR_SECONDS",
     "POSTERIOR_BIAS_SHIFT",
+    "LINEAR_FN",
+    "LINEAR_FN_ERROR",
+    "LINEAR_ZETA",
+    "LINEAR_ZETA_ERROR",
+    "LINEAR_FN_ERROR_MAX",
+    "LINEAR_ZETA_ERROR_MAX",
+    "WELL_FN_ERROR",
+    "WELL_ZETA_ERROR",
 ]
 
 #: What a family's label is: none (one scalar column), a term, a matched stable equilibrium (``s1``...).
@@ -281,6 +289,25 @@ POSTERIOR_LEVEL = _scalar("posterior:level", unit="1", title="credible level")
 POSTERIOR_TAU = _scalar("posterior:tau", unit="steps", title="tau")
 POSTERIOR_SECONDS = _scalar("posterior:seconds", unit="s", title="time")
 POSTERIOR_BIAS_SHIFT = _scalar("posterior:max_bias_shift_sd", unit="sd", title="largest bias shift")
+
+# structures of several DOFs (nlid.mdof.studies): the elements use COEF / COEF_ERROR, the wells EQ_ERROR;
+# the modes are labelled mK (the K-th mode by frequency) and sJ.mK (mode K linearised at well sJ)
+LINEAR_FN = ColumnFamily("linear_fn_hz", "term", unit="Hz", title="linear fn {label}")
+LINEAR_FN_ERROR = ColumnFamily(
+    "linear_fn_error_pct", "term", error="signed", title="linear fn {label}", lower_better=True
+)
+LINEAR_ZETA = ColumnFamily("linear_zeta", "term", unit="1", title="linear zeta {label}")
+LINEAR_ZETA_ERROR = ColumnFamily(
+    "linear_zeta_error_pct", "term", error="signed", title="linear zeta {label}", lower_better=True
+)
+LINEAR_FN_ERROR_MAX = _scalar(
+    "linear_fn_error_max_pct", error="absolute", title="linear fn", lower_better=True, aggregate="largest"
+)
+LINEAR_ZETA_ERROR_MAX = _scalar(
+    "linear_zeta_error_max_pct", error="absolute", title="linear zeta", lower_better=True, aggregate="largest"
+)
+WELL_FN_ERROR = ColumnFamily("well_fn_error_pct", "term", error="signed", title="fn {label}", lower_better=True)
+WELL_ZETA_ERROR = ColumnFamily("well_zeta_error_pct", "term", error="signed", title="zeta {label}", lower_better=True)
 
 #: Every declared family, in the order of a row.
 FAMILIES: tuple[ColumnFamily, ...] = tuple(v for v in list(globals().values()) if isinstance(v, ColumnFamily))

@@ -57,6 +57,13 @@ from .mdof.estimate import StructureEstimate
 from .mdof.model import StructuralModel
 from .mdof.modes import StructureModes, linear_modes
 from .mdof.record import StructureRecord
+from .mdof.regression import (
+    StructureRegressionData,
+    check_elements_nonlinear,
+    dof_weights,
+    structure_regression_data,
+)
+from .mdof.regression import linear_design as structure_linear_design
 from .parallel import kernel_threads
 from .physics import Equilibria, Modal, equilibria, modal, stiffness_roots
 from .progress import ProgressLine, progress_line
@@ -71,6 +78,7 @@ from .regression import (
 from .terms import Model, Term, parse_term
 
 if TYPE_CHECKING:  # loaded on first use by __getattr__ below (the simulator compiles with numba)
+    from .mdof.simulation import free_run as structure_free_run
     from .methods import choose_method
     from .pipeline import identify
     from .scoring import initial_state, predictability_horizon, score
@@ -102,6 +110,12 @@ __all__ = [
     "StructureModes",
     "linear_modes",
     "StructureEstimate",
+    "StructureRegressionData",
+    "structure_regression_data",
+    "structure_linear_design",
+    "check_elements_nonlinear",
+    "dof_weights",
+    "structure_free_run",
     "regression_data",
     "RegressionData",
     "suggested_cutoff",
@@ -151,6 +165,10 @@ def __getattr__(name: str):  # the simulator (numba) and the scores are loaded o
         from . import scoring
 
         return getattr(scoring, name)
+    if name == "structure_free_run":
+        from .mdof.simulation import free_run as structure_free_run
+
+        return structure_free_run
     if name == "identify":
         from .pipeline import identify
 

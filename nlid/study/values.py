@@ -361,6 +361,13 @@ class PresetSource:
             else:
                 noise = (where / "noise").check(NOISE_FRACTION, raw_noise)
         channels_raw = entry.get("channels", list(noise) if isinstance(noise, dict) else ["z"])
+        if isinstance(channels_raw, list) and hasattr(preset, "elements"):  # a structure: z1..zn name z
+            from ..mdof.presets import StructurePreset
+
+            try:
+                channels_raw = list(StructurePreset._groups(preset, channels_raw, preset.model().n_dofs))
+            except NlidError as exc:
+                raise (where / "channels").error(str(exc)) from None
         if not isinstance(channels_raw, list) or not all(c in RESPONSE_CHANNELS for c in channels_raw):
             raise (where / "channels").error(f"expected a list of z, v, a; got {brief(channels_raw)}")
         channels = tuple(dict.fromkeys(["z", *channels_raw]))
@@ -387,8 +394,9 @@ class PresetSource:
 
     @property
     def default_terms(self) -> str:
-        """The preset's terms (a dataset's terms when it gives none)."""
-        return self.preset().terms
+        """The preset's terms (a dataset's terms when it gives none; a structure preset's elements)."""
+        preset = self.preset()
+        return preset.elements if hasattr(preset, "elements") else preset.terms
 
     def preset(self):
         """The :class:`~nlid.presets.Preset` with the overrides applied."""

@@ -140,6 +140,11 @@ def json_problem(value: Any, where: str = "") -> str | None:
 
 
 def _execute(spec: RunSpec) -> dict[str, Any]:
+    if spec.dataset.source.kind == "preset":
+        from ..mdof.studies import execute_structure_run, is_structure_preset
+
+        if is_structure_preset(spec.dataset.source.name):  # several DOFs: nlid.mdof.studies
+            return execute_structure_run(spec, _base_row(spec))
     clock = [time.perf_counter()]
     timings: dict[str, float] = {}  # the run's fixed costs beside the identification (benchmarks/bench_scaling.py)
 

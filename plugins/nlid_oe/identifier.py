@@ -38,6 +38,10 @@ Shapes
     When shape parameters change, the terms' canonical names change with them: the estimate carries the
     refined model (:attr:`nlid.plugin.Estimate.model`) and its coefficients are keyed by the refined terms;
     ``diagnostics["shapes"]`` lists the fitted values and their standard errors.
+
+Several degrees of freedom (``dofs = "multi"``)
+    A :class:`~nlid.mdof.StructureRecord` is fitted on the free run of every DOF's displacement with the
+    structure simulator, from another identifier's estimate (:mod:`nlid_oe.structure`).
 """
 
 from __future__ import annotations
@@ -58,6 +62,7 @@ from nlid.plugin import (
     Option,
     Record,
     SimulationError,
+    StructureRecord,
     choose_method,
     derivatives,
     fine_force,
@@ -203,6 +208,7 @@ class OutputError(Identifier):
         ),
     )
     needs_mass = False
+    dofs = "multi"
     refines = True  # starts from the method its 'init' option names
     advice = (
         "the figure that matters is the free-run (simulation) error, or a shape parameter enters "
@@ -224,6 +230,10 @@ class OutputError(Identifier):
     # ------------------------------------------------------------------ identify
     def identify(self, record: Record, model: Model, *, mass: float | None = None) -> Estimate:
         """Fit the free run (module docstring) and return the coefficients keyed by the (refined) model."""
+        if isinstance(record, StructureRecord):
+            from .structure import identify_structure
+
+            return identify_structure(record, model, mass, self.settings, self.name)
 
         clock = time.perf_counter()
         if record.n < MIN_SAMPLES:

@@ -63,6 +63,7 @@ from nlid.plugin import (
     NlidError,
     Option,
     Record,
+    StructureRecord,
     collinearity_warnings,
     column_scale,
     derivatives,
@@ -283,6 +284,7 @@ class SparseIdentification(Identifier):
         ),
     )
     needs_mass = False
+    dofs = "multi"
     preference = 30
     advice = (
         "unsure which terms belong in the model: sparse selection from the model's terms plus a "
@@ -298,6 +300,10 @@ class SparseIdentification(Identifier):
         from .threshold import choose_threshold
 
         s = self.settings
+        if isinstance(record, StructureRecord):
+            from .structure import identify_structure
+
+            return identify_structure(record, model, mass, s)
         library_model = model
         if s["library"] == "automatic":
             library_model = model.with_terms(add=[t for t in auto_candidates(s["degree"]) if t not in model])

@@ -103,8 +103,13 @@ def _roots(where: Where, value: Any) -> tuple[float, float] | None:
     return low, high
 
 
-def _check_model(where: Where, model: ModelConfig) -> None:
+def _check_model(where: Where, model: ModelConfig, source: Any = None) -> None:
     try:
+        if getattr(source, "kind", "") == "preset" and hasattr(source.preset(), "elements"):  # several DOFs
+            from ...mdof.studies import check_structure_terms
+
+            check_structure_terms(model.terms, source.preset(), model.without)
+            return
         as_model(model.terms, without=model.without, px_roots=model.px_roots)
     except NlidError as exc:
         raise where.error(str(exc)) from None
@@ -253,6 +258,11 @@ def _check_posterior_terms(where: Where, settings: Mapping[str, Any], datasets: 
     params = settings.get("params", "damping")
     priors = parse_prior_assignments(settings.get("priors"))
     for ds in datasets:
+        if getattr(ds.source, "kind", "") == "preset" and hasattr(ds.source.preset(), "elements"):
+            raise where.error(
+                f"dataset {ds.name!r} is a structure of several DOFs: the posterior (nlid.bayes) samples the "
+                "terms of one DOF and is not available for structures yet; remove [posterior] or the dataset"
+            )
         main = ds.models[0]
         model = as_model(main.terms, without=main.without, px_roots=main.px_roots)
         try:
@@ -302,7 +312,7 @@ def _dataset(where: Where, entry: dict[str, Any], base: Path, reps: int, timeout
         (where / "without").string(entry.get("without", "")),
         _roots(where / "px_roots", entry.get("px_roots")),
     )
-    _check_model(where / "terms", main)
+    _check_model(where / "terms", main, source)
     models = [main]
     at_models = where / "models"
     for mname, spec in at_models.table(entry.get("models", {})).items():
@@ -320,7 +330,7 @@ def _dataset(where: Where, entry: dict[str, Any], base: Path, reps: int, timeout
             (mw / "without").string(spec.get("without", "")),
             _roots(mw / "px_roots", spec.get("px_roots")),
         )
-        _check_model(mw / "terms", model)
+        _check_model(mw / "terms", model, source)
         models.append(model)
 
     methods: dict[str, FrozenDict] = {}
@@ -340,6 +350,7 @@ def _dataset(where: Where, entry: dict[str, Any], base: Path, reps: int, timeout
                     (mw / "without").string(spec.get("without", m.without)),
                     _roots(mw / "px_roots", spec.get("px_roots", m.px_roots)),
                 ),
+                source,
             )
         methods[ident] = FrozenDict(spec)
 

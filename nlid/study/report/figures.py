@@ -195,7 +195,8 @@ def section_figures(
     ]
     if not recs:
         return figures
-    for make in (_summary_figure, _kz_figure, _rms_figure):
+    structure = "terms" not in recs[0]["result"]  # an identified structure (nlid.mdof): no 1-DOF stiffness curve
+    for make in (_summary_figure, _rms_figure) if structure else (_summary_figure, _kz_figure, _rms_figure):
         fig = make(section, folder, cache) if make is not _kz_figure else make(section, recs, folder, cache)
         if fig:
             figures.append(fig)

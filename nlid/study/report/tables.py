@@ -73,6 +73,8 @@ def build_sections(config: Any, frame: pd.DataFrame, records: list[dict[str, Any
             refs[key] = rec["reference"]
         result = rec.get("result")
         if result:
+            if "terms" not in result:  # an identified structure (nlid.mdof): its elements are the terms
+                result = {**result, "terms": list((result.get("structure") or {}).get("elements") or [])}
             terms.setdefault(key, result["terms"])
             units.setdefault(key, {}).update(result.get("units") or {})
             diag = dict(result.get("diagnostics") or {})
@@ -195,6 +197,20 @@ def _modal_table(section: Section) -> Table | None:
     return Table(title, header, rows, best=best)
 
 
+def _structure_modes_table(section: Section) -> Table | None:
+    """A structure's underlying linear modes (mK) and modes per well (sJ.mK): |relative error| in % (nlid.mdof)."""
+    columns = section.frame.columns
+    cols = []
+    for families in ((col.LINEAR_FN_ERROR, col.LINEAR_ZETA_ERROR), (col.WELL_FN_ERROR, col.WELL_ZETA_ERROR)):
+        labels = list(dict.fromkeys(label for f in families for label in f.labels(columns)))
+        cols += [Column.of(f, label) for label in labels for f in families if f.key(label) in columns]
+    if not cols:
+        return None
+    rows, best = method_rows(section, cols)
+    title = "Modes of the structure: underlying linear (mK) and linearised at each stable well (sJ.mK), |error| in %"
+    return Table(title, _head(cols), rows, best=best)
+
+
 def _residual_table(section: Section) -> Table:
     """The families declared for the residual and cost table, with why a free run was skipped."""
     frame = section.frame
@@ -238,6 +254,7 @@ def _fill(section: Section) -> None:
         _coefficient_error_table(section),
         _coefficient_table(section),
         _modal_table(section),
+        _structure_modes_table(section),
         _term_table(
             section,
             col.QUALITY,

@@ -1,0 +1,98 @@
+"""rfs, sindy and oe on structures of several DOFs (short records, so the suite stays fast)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import nlid
+from nlid.errors import InputError
+from nlid.mdof.estimate import StructureEstimate
+from nlid.mdof.identified import IdentifiedStructure
+
+WELL_TERMS = "(z1-z2)^3, (z1-z2)^2, (v1-v2)*|v1-v2|"
+
+
+def _errors(fit, record) -> dict[str, float]:
+    truth = record.meta["reference"]["coefficients"]
+    return {k: abs(fit.coefficients[k] / v - 1) for k, v in truth.items()}
+
+
+@pytest.mark.parametrize("method", ["rfs", "sindy"])
+@pytest.mark.parametrize("given_mass", [True, False])
+def test_noise_free_chain_recovers_element_and_linear_system(chain_record, method, given_mass):
+    rec = chain_record
+    fit = nlid.identify(rec, "z3^3", method, mass=rec.mass if given_mass else None)
+    assert isinstance(fit, IdentifiedStructure)
+    assert max(_errors(fit, rec).values()) < 1e-4
+    ref = rec.meta["reference"]
+    K, C = np.asarray(ref["K"]), np.asarray(ref["C"])
+    assert np.abs(fit.K - K).max() < 1e-4 * np.abs(K).max()
+    assert np.abs(fit.C - C).max() < 1e-3 * np.abs(C).max()
+    assert fit.mass_estimated is not given_mass
+    assert np.allclose(fit.M, np.asarray(ref["M"]), rtol=1e-4)
+    truth_fn = np.asarray(ref["linear_modes"]["fn_hz"])
+    assert np.allclose(fit.linear_modes.fn_hz, truth_fn, rtol=1e-5)
+
+
+@pytest.mark.parametrize("method", ["rfs", "sindy"])
+def test_noise_free_double_well_shares_the_element_between_both_masses(well_record, method):
+    rec = well_record
+    fit = nlid.identify(rec, WELL_TERMS, method, mass=rec.mass)
+    assert max(_errors(fit, rec).values()) < 1e-4
+    # the two wells of the truth, from the identified structure
+    truth = sorted(p[0] - p[1] for p in rec.meta["reference"]["equilibria"]["stable"])
+    found = sorted(p[0] - p[1] for p in fit.equilibria.stable)
+    assert np.allclose(found, truth, rtol=1e-4)
+
+
+def test_reversed_spelling_gives_the_same_element_with_its_sign(well_record):
+    rec = well_record
+    fit = nlid.identify(rec, "(z2-z1)^3, (z1-z2)^2, (v2-v1)*|v2-v1|", "rfs", mass=rec.mass)
+    truth = rec.meta["reference"]["coefficients"]
+    assert fit.coefficient("(z2-z1)^3") == pytest.approx(-truth["(z1-z2)^3"], rel=1e-4)
+
+
+def test_rfs_low_noise_estimated_derivatives(chain):
+    rec = chain.simulate(3, noise={"z": 0.005}, channels=("z",))
+    fit = nlid.identify(rec, "z3^3", "rfs", mass=rec.mass)
+    assert _errors(fit, rec)["z3^3"] < 0.02
+    truth_fn = np.asarray(rec.meta["reference"]["linear_modes"]["fn_hz"])
+    assert np.allclose(fit.linear_modes.fn_hz, truth_fn, rtol=0.005)
+    assert fit.standard_errors["z3^3"] > 0
+    assert all(np.isfinite(fit.eps_percent))
+
+
+def test_sindy_automatic_library_finds_the_connection(chain_record):
+    rec = chain_record
+    fit = nlid.identify(rec, "z3^3", "sindy", mass=rec.mass, options={"library": "automatic", "degree": 3})
+    assert _errors(fit, rec)["z3^3"] < 1e-3
+    assert fit.diagnostics["extra_elements"] == {}
+    library = fit.diagnostics["library"]
+    assert "(z1-z2)^3" in library and "z1^3" in library and "sign(v2-v3)" in library
+
+
+def test_linear_element_is_refused(chain_record):
+    with pytest.raises(InputError, match="linear"):
+        nlid.identify(chain_record, "z3^3, z1-z2", "rfs", mass=chain_record.mass)
+
+
+def test_oe_improves_a_perturbed_start(chain, monkeypatch):
+    import nlid_oe.structure as oe_structure
+
+    rec = chain.with_overrides(duration=2.0).simulate(5, noise={"z": 0.01})
+    truth = rec.meta["reference"]
+    K, C, M = (np.asarray(truth[k]) for k in ("K", "C", "M"))
+    start_theta = 1.2 * truth["coefficients"]["z3^3"]
+
+    def perturbed(record, elements, method, mass=None):
+        estimate = StructureEstimate(coefficients={"z3^3": start_theta}, K=K * 1.01, C=C * 0.9, static=np.zeros(3))
+        return IdentifiedStructure.from_estimate(estimate, elements=elements, record=record, method="start", mass=M)
+
+    monkeypatch.setattr(oe_structure, "identify", perturbed)
+    fit = nlid.identify(rec, "z3^3", "oe", mass=M, options={"init": "rfs", "max_nfev": 15})
+    d = fit.diagnostics
+    assert sum(d["free_run_error_percent"]) < 0.5 * sum(d["free_run_error_percent_start"])
+    before = abs(start_theta / truth["coefficients"]["z3^3"] - 1)
+    assert _errors(fit, rec)["z3^3"] < 0.25 * before
+    assert np.abs(fit.K - K).max() < 0.005 * np.abs(K).max()
