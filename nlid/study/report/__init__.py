@@ -26,6 +26,7 @@ import pandas as pd
 
 from ... import __version__
 from ..store import ResultStore
+from .codedigest import code_digest
 from .figures import Figure, FigureCache, section_figures
 from .tables import Section, Table, build_sections, summary_long, summary_markdown, summary_text
 
@@ -41,34 +42,6 @@ _META_RE = re.compile(rf'<meta name="{DIGEST_META}" content="([0-9a-f]{{64}})">'
 
 
 @functools.lru_cache(maxsize=8)
-def code_digest(plugins: tuple[str, ...] = ()) -> str:
-    """A digest of the code the outputs come from: nlid's, the identifier plugins' and matplotlib's.
-
-    nlid's version and sources, the sources of the plugin packages named in ``plugins`` (top-level
-    module names: their figure declarations and advice appear in the report) and matplotlib's version. A
-    change of any of them (an upgrade, or an edit in a source checkout) makes every report and figure
-    stale.
-    """
-    import sys
-    from importlib.metadata import PackageNotFoundError, version
-
-    h = hashlib.sha256(__version__.encode())
-    roots = [Path(__file__).resolve().parents[2]]  # the nlid package
-    for top in plugins:
-        origin = getattr(sys.modules.get(top), "__file__", None)
-        if origin:
-            roots.append(Path(origin).parent if Path(origin).name == "__init__.py" else Path(origin))
-    for root in roots:
-        for path in sorted(root.rglob("*.py")) if root.is_dir() else [root]:
-            h.update(path.name.encode())
-            h.update(path.read_bytes())
-    try:
-        h.update(version("matplotlib").encode())
-    except PackageNotFoundError:  # pragma: no cover - matplotlib is a dependency
-        pass
-    return h.hexdigest()
-
-
 def _plugin_packages(identifiers: tuple[str, ...]) -> tuple[str, ...]:
     """The top-level packages of the study's identifiers (already imported: the study was loaded with them)."""
     from ...registry import default_registry

@@ -115,7 +115,7 @@ class FigureCache:
     folder
         The figures folder (created when a figure is written).
     code
-        The digest of the code that draws (:func:`nlid.study.report.code_digest`; default: nlid's).
+        The digest of the code that draws (:func:`nlid.study.report.codedigest.code_digest`; default: nlid's).
     """
 
     INDEX = "index.json"
@@ -123,7 +123,7 @@ class FigureCache:
     def __init__(self, folder: Path, code: str | None = None) -> None:
         self.folder = Path(folder)
         if code is None:
-            from . import code_digest
+            from .codedigest import code_digest
 
             code = code_digest()
         self.code = code
