@@ -91,5 +91,12 @@ def test_structure_options_refused(chain_record):
 
 
 def test_one_dof_identifiers_still_refuse_structures(chain_record):
-    with pytest.raises(InputError, match="one degree of freedom"):
-        nlid.identify(chain_record, "z3^3", "rfs")
+    """An identifier that keeps the default declaration (``dofs = "single"``) is refused, naming it."""
+    from nlid_rfs import RestoringForceSurface
+
+    class OneDof(RestoringForceSurface):
+        name = "one-dof-rfs"
+        dofs = "single"
+
+    with pytest.raises(InputError, match="'one-dof-rfs' identifies one degree of freedom"):
+        nlid.identify(chain_record, "z3^3", OneDof())
