@@ -47,6 +47,7 @@ from .basis import int_power
 from .common import HOLD_ASSUMED
 from .fit import UnstableULSError
 from .structure import (
+    band_floor,
     check_length,
     check_structure_options,
     element_basis,
@@ -160,14 +161,29 @@ def _linear_part(poly: dict, elements: ElementSet, theta: np.ndarray, refs: dict
 
 
 def identify_structure_shift(identifier: Any, record: StructureRecord, elements: ElementSet, mass: Any) -> Any:
-    """``nsi-shift`` on a structure (module docstring)."""
+    """``nsi-shift`` on a structure (module docstring); again with raised cut-offs when :func:`band_floor` asks."""
+    t0 = time.perf_counter()
+    est, fn_hz, motion = _identify_shift(identifier, record, elements, mass, 0.0)
+    dofs = {int(k) for k in np.flatnonzero(np.any(elements.B != 0, axis=1))}
+    floor = band_floor(motion, fn_hz, identifier.settings, record.fs, dofs)
+    if floor is not None:
+        first = list(motion.cutoffs_hz)
+        est, _, _ = _identify_shift(identifier, record, elements, mass, floor)
+        est.diagnostics["denoise_first_pass_hz"] = first
+    est.diagnostics["seconds"] = time.perf_counter() - t0
+    return est
+
+
+def _identify_shift(
+    identifier: Any, record: StructureRecord, elements: ElementSet, mass: Any, floor_hz: float
+) -> tuple[Any, np.ndarray, Any]:
     t0 = time.perf_counter()
     opt = identifier.settings
     n = record.n_dofs
     order = check_structure_options(opt, n)
     hold = opt["force_hold"] or record.force_hold
     band = tuple(opt["band_hz"]) if opt.get("band_hz") else opt["band"]
-    motion = structure_motion(record, opt)
+    motion = structure_motion(record, opt, floor_hz)
     poly, others = _split(elements)
     wells_refs, source = _references(poly, elements, motion, opt["equilibria"])
     z_range = [(float(lo), float(hi)) for lo, hi in zip(record.z.min(axis=0), record.z.max(axis=0), strict=True)]
@@ -250,7 +266,7 @@ def identify_structure_shift(identifier: Any, record: StructureRecord, elements:
         "arrays_note": "no suffix: first well; '@wellN': well N+1 (spectra of the shifted inputs xi^k)",
         "seconds": time.perf_counter() - t0,
     }
-    return StructureEstimate(
+    est = StructureEstimate(
         coefficients=elements.as_dict(theta),
         K=K,
         C=C,
@@ -261,6 +277,8 @@ def identify_structure_shift(identifier: Any, record: StructureRecord, elements:
         warnings=warnings,
         arrays=arrays,
     )
+    fn_hz = np.concatenate([np.asarray(w["uls"]["fn_hz"], dtype=float) for w in wells])
+    return est, fn_hz, motion
 
 
 def _text(refs: dict) -> dict[str, float]:
