@@ -13,9 +13,13 @@ Channels (:func:`structure_channels`)
     relative coordinate ``x = z_i - z_j``, ``x' = v_i - v_j`` of the
     de-noised motion (each DOF's ``z`` low-passed at 1.5 x its noise-floor
     cut-off; ``v`` measured and low-passed alike, or differentiated from
-    ``z``), and the measured displacement of every DOF as the outputs. No
-    errors-in-variables correction and no second (reconstruction) pass: the
-    one-DOF refinements are not carried over.
+    ``z``), and the measured displacement of every DOF as the outputs. The
+    interval means are sharpened to the held values a ZOH model of a mass
+    needs (:func:`sharpen`). The data Gram and the B step are corrected for
+    the noise the basis functions carry (:mod:`nlid_nsi.structure_noise`).
+    When a DOF that enters a channel was low-passed below 3 x the highest
+    identified mode, the identification is repeated with the cut-offs raised
+    there (:func:`band_floor`). No reconstruction pass (one-DOF ``nsi-ip``).
 
 Input perturbation (``nsi-ip``, :func:`identify_perturbed`)
     The virtual stiffness acts at the *inputs*: ``fbar_d = f_d + k~1 z_d``
