@@ -16,7 +16,8 @@ carries ``sum_k b_a[k] (dg_a/dx nu_z,k + dg_a/dx' nu_v,k)``; the expected
 contribution ``mean_t(J_a J_b) xcorr(paths)`` is subtracted from the
 input-input and input-output blocks of the Gram (:func:`nlid_nsi.noise.subtract_noise`;
 the white output blocks are left to PO-MOESP), then the Gram is projected onto
-the positive semi-definite matrices. The B step is not corrected.
+the positive semi-definite matrices, and from the normal equations of the B
+step (:func:`nlid_nsi.mimo.estimate_b`).
 """
 
 from __future__ import annotations

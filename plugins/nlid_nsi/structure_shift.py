@@ -47,6 +47,7 @@ from .basis import int_power
 from .common import HOLD_ASSUMED
 from .fit import UnstableULSError
 from .structure import (
+    band_floor,
     check_length,
     check_structure_options,
     element_basis,
@@ -160,16 +161,42 @@ def _linear_part(poly: dict, elements: ElementSet, theta: np.ndarray, refs: dict
 
 
 def identify_structure_shift(identifier: Any, record: StructureRecord, elements: ElementSet, mass: Any) -> Any:
-    """``nsi-shift`` on a structure (module docstring)."""
+    """``nsi-shift`` on a structure (module docstring); again with raised cut-offs when :func:`band_floor` asks."""
+    t0 = time.perf_counter()
+    # the first pass only places the band and the references: one identification per well
+    _, fn_hz, motion, refs = _identify_shift(identifier, record, elements, mass, 0.0, iterate=1)
+    dofs = {int(k) for k in np.flatnonzero(np.any(elements.B != 0, axis=1))}
+    floor = band_floor(motion, fn_hz, identifier.settings, record.fs, dofs)
+    est, _, _, _ = _identify_shift(identifier, record, elements, mass, floor or 0.0, start=refs)
+    if floor is not None:
+        est.diagnostics["denoise_first_pass_hz"] = list(motion.cutoffs_hz)
+    est.diagnostics["seconds"] = time.perf_counter() - t0
+    return est
+
+
+def _identify_shift(
+    identifier: Any,
+    record: StructureRecord,
+    elements: ElementSet,
+    mass: Any,
+    floor_hz: float,
+    iterate: int | None = None,
+    start: list[dict] | None = None,
+) -> tuple[Any, np.ndarray, Any, list[dict]]:
+    """One pass: at most ``iterate`` identifications per well from the references ``start`` (or found)."""
     t0 = time.perf_counter()
     opt = identifier.settings
     n = record.n_dofs
     order = check_structure_options(opt, n)
     hold = opt["force_hold"] or record.force_hold
     band = tuple(opt["band_hz"]) if opt.get("band_hz") else opt["band"]
-    motion = structure_motion(record, opt)
+    motion = structure_motion(record, opt, floor_hz)
     poly, others = _split(elements)
     wells_refs, source = _references(poly, elements, motion, opt["equilibria"])
+    if start:
+        wells_refs = start
+    iterate = iterate or opt["iterate"]
+    following: list[dict] = []
     z_range = [(float(lo), float(hi)) for lo, hi in zip(record.z.min(axis=0), record.z.max(axis=0), strict=True)]
     s = 2 * opt["block_rows"]
     wells: list[dict[str, Any]] = []
@@ -178,8 +205,9 @@ def identify_structure_shift(identifier: Any, record: StructureRecord, elements:
     identifications = 0
     for refs in wells_refs:
         history = [dict(refs)]
+        nxt = dict(refs)
         try:
-            for it in range(opt["iterate"]):
+            for it in range(iterate):
                 columns, connectivity = _columns(poly, others, elements, refs)
                 ch = structure_channels(record, motion, columns, hold, False, opt["intersample"])
                 check_length(record.n, s, ch.base.shape[1])
@@ -198,14 +226,16 @@ def identify_structure_shift(identifier: Any, record: StructureRecord, elements:
                 dist = [sum(abs(float(z @ _b(c, n)) - refs[c]) for c in poly) for z in stable]
                 z_eq = stable[int(np.argmin(dist))]
                 new = {c: float(z_eq @ _b(c, n)) for c in poly}
+                nxt = new
                 scale = max(float(np.std(motion.z)), 1e-12)
-                if all(abs(new[c] - refs[c]) <= 1e-7 * scale for c in poly) or it == opt["iterate"] - 1:
+                if all(abs(new[c] - refs[c]) <= 1e-7 * scale for c in poly) or it == iterate - 1:
                     break
                 refs = new
                 history.append(dict(refs))
         except UnstableULSError as exc:
             warnings.append(f"references {_text(refs)}: {exc}")
             continue
+        following.append(nxt)
         suffix = "" if not wells else f"@well{len(wells)}"
         names = [c[0] for c in columns]
         arrays.update(structure_arrays(fit, names, suffix))
@@ -250,7 +280,7 @@ def identify_structure_shift(identifier: Any, record: StructureRecord, elements:
         "arrays_note": "no suffix: first well; '@wellN': well N+1 (spectra of the shifted inputs xi^k)",
         "seconds": time.perf_counter() - t0,
     }
-    return StructureEstimate(
+    est = StructureEstimate(
         coefficients=elements.as_dict(theta),
         K=K,
         C=C,
@@ -261,6 +291,8 @@ def identify_structure_shift(identifier: Any, record: StructureRecord, elements:
         warnings=warnings,
         arrays=arrays,
     )
+    fn_hz = np.concatenate([np.asarray(w["uls"]["fn_hz"], dtype=float) for w in wells])
+    return est, fn_hz, motion, following
 
 
 def _text(refs: dict) -> dict[str, float]:

@@ -100,3 +100,27 @@ def test_one_dof_identifiers_still_refuse_structures(chain_record):
 
     with pytest.raises(InputError, match="'one-dof-rfs' identifies one degree of freedom"):
         nlid.identify(chain_record, "z3^3", OneDof())
+
+
+def test_sharpened_interval_means_have_the_held_value_gain_of_a_mass():
+    """Interval means of ``cos(w t)`` sharpened: gain ``tan(x)/x`` (``x = w dt / 2``) to O(x^4), unlike the mean."""
+    from nlid_nsi.structure import sharpen
+
+    dt, w = 1e-3, 0.3e3  # w dt = 0.3
+    t = np.arange(4000) * dt
+    means = (np.sin(w * (t + dt)) - np.sin(w * t)) / (w * dt)  # exact interval means of cos(w t)
+    plain = np.abs(np.fft.rfft(means[1000:3000] * np.hanning(2000))).max()
+    sharp = np.abs(np.fft.rfft(sharpen(means)[1000:3000] * np.hanning(2000))).max()
+    x = w * dt / 2
+    assert abs(sharp / plain - np.tan(x) / x) < 3e-4
+    assert sharp / plain - 1.0 > 5e-3
+
+
+def test_band_floor_raises_only_cutoffs_inside_the_band_of_a_used_dof():
+    from nlid_nsi.structure import BAND_FACTOR, Motion, band_floor
+
+    motion = Motion(np.zeros((4, 2)), np.zeros((4, 2)), "measured", (67.0, 400.0))
+    fn = np.array([13.0, 50.7])
+    assert band_floor(motion, fn, {}, 2048.0, {0, 1}) == pytest.approx(BAND_FACTOR * 50.7)
+    assert band_floor(motion, fn, {}, 2048.0, {1}) is None  # DOF 1 is in no channel
+    assert band_floor(motion, fn, {"denoise_cutoff": 67.0}, 2048.0, {0, 1}) is None  # the user's cut-off is kept
