@@ -64,17 +64,17 @@ from nlid.plugin import (
     Model,
     StructureEstimate,
     StructureRecord,
-    derivatives,
 )
 
 from .basis import Basis, split_model
-from .common import CUTOFF_FACTOR, HOLD_ASSUMED
+from .common import HOLD_ASSUMED
 from .continuous import continuous_eigenvalues, uls_ok
 from .fit import UnstableULSError, format_eigenvalues
 from .gram import block_hankel_gram, transform_gram
 from .intersample import force_interval_mean, interval_means
 from .mimo import ULSModes, band_grid, element_spectra, estimate_b, frf_matrix, mimo_moesp, structure_uls
 from .noise import NoiseModel, subtract_noise
+from .structure_motion import Motion, band_floor, structure_motion
 from .structure_noise import structure_noise_model
 
 __all__ = [
@@ -111,75 +111,6 @@ def check_structure_options(opt: dict[str, Any], n_dofs: int) -> int:
     if opt.get("velocity") == "integrate":
         raise InputError("velocity=integrate is not available for a structure: use measured or differentiate")
     return 2 * n_dofs
-
-
-@dataclass(frozen=True)
-class Motion:
-    """The de-noised displacement and the velocity of every DOF the basis functions are evaluated on."""
-
-    z: np.ndarray
-    v: np.ndarray
-    velocity: str
-    cutoffs_hz: tuple[float, ...]
-
-
-def structure_motion(record: StructureRecord, opt: dict[str, Any], floor_hz: float = 0.0) -> Motion:
-    """Each DOF's ``z`` low-passed and ``v`` (measured and low-passed, or differentiated from ``z``).
-
-    ``floor_hz`` raises the automatic cut-offs (not a given ``denoise_cutoff``) to at least that
-    (:func:`band_floor`), capped at 0.4 fs.
-    """
-    fs = record.fs
-    z = np.asarray(record.z, dtype=float)
-    zd, vd, cutoffs = np.empty_like(z), np.empty_like(z), []
-    how = opt.get("velocity")
-    measured = record.v is not None and how != "differentiate"
-    if how == "measured" and record.v is None:
-        raise DataError("velocity=measured needs the velocity channels v1..vn")
-    for k in range(record.n_dofs):
-        base = derivatives.suggest_cutoff(z[:, k], fs)
-        cap = derivatives.CUTOFF_MAX_FRACTION * fs
-        fc = opt.get("denoise_cutoff") or min(max(CUTOFF_FACTOR * base, floor_hz), cap)
-        if not 0 < fc < fs / 2:
-            raise InputError(f"denoise_cutoff must lie between 0 and the Nyquist frequency {fs / 2:g} Hz, got {fc:g}")
-        zd[:, k] = derivatives.lowpass(z[:, k], fs, fc)
-        if measured:
-            vd[:, k] = derivatives.lowpass(np.asarray(record.v[:, k], dtype=float), fs, fc)
-        else:
-            fcv = opt.get("velocity_cutoff") or fc
-            vd[:, k] = derivatives.differentiate(z[:, k], fs, order=1, cutoff=fcv)[0]
-        cutoffs.append(float(fc))
-    velocity = "measured v, low-passed" if measured else "differentiated from z"
-    return Motion(zd, vd, velocity, tuple(cutoffs))
-
-
-#: The automatic cut-offs are raised to this multiple of the highest identified natural frequency.
-BAND_FACTOR = 3.0
-
-
-def band_floor(motion: Motion, fn_hz: np.ndarray, opt: dict[str, Any], fs: float, dofs: set[int]) -> float | None:
-    """The cut-off floor of a second pass, or ``None`` when the automatic cut-offs already pass the structure's band.
-
-    ``dofs`` (from 0): the DOFs whose de-noised motion enters a channel (the elements' and, with
-    ``k~1 > 0``, the driven DOFs'); only their cut-offs are checked.
-
-    Each DOF's automatic cut-off comes from its own spectrum's noise floor, but
-    every mode is in every DOF's motion: a mode that is weak at one DOF (the
-    second mode in ``z1`` of ``2dof-double-well``) can sit where that DOF's
-    low-pass already attenuates it (order-4 zero-phase Butterworth at 67 Hz:
-    -9 % at 50.7 Hz). The basis functions then lack part of the true motion,
-    a bias the noise correction cannot see; there the quadratic damping came
-    out ~2-3 % low and, as ``v`` and ``v|v|`` are nearly collinear, the linear
-    damping +20-30 %. A cut-off of at least :data:`BAND_FACTOR` times the
-    highest identified mode attenuates the band by < 0.02 %.
-    """
-    if opt.get("denoise_cutoff") or not len(fn_hz):
-        return None
-    floor = BAND_FACTOR * float(np.max(fn_hz))
-    cap = derivatives.CUTOFF_MAX_FRACTION * fs
-    if all(motion.cutoffs_hz[k] >= min(floor, cap) * (1 - 1e-9) for k in dofs):
-        return None
-    return floor
 
 
 def element_basis(element: Element, elements: ElementSet) -> Basis:

@@ -47,7 +47,6 @@ from .basis import int_power
 from .common import HOLD_ASSUMED
 from .fit import UnstableULSError
 from .structure import (
-    band_floor,
     check_length,
     check_structure_options,
     element_basis,
@@ -56,9 +55,9 @@ from .structure import (
     structure_arrays,
     structure_channels,
     structure_gram,
-    structure_motion,
     uls_summary,
 )
+from .structure_motion import band_floor, structure_motion
 from .wells import histogram_modes, taylor_shift
 
 __all__ = ["identify_structure_shift", "MAX_WELLS"]

@@ -117,7 +117,7 @@ def test_sharpened_interval_means_have_the_held_value_gain_of_a_mass():
 
 
 def test_band_floor_raises_only_cutoffs_inside_the_band_of_a_used_dof():
-    from nlid_nsi.structure import BAND_FACTOR, Motion, band_floor
+    from nlid_nsi.structure_motion import BAND_FACTOR, Motion, band_floor
 
     motion = Motion(np.zeros((4, 2)), np.zeros((4, 2)), "measured", (67.0, 400.0))
     fn = np.array([13.0, 50.7])
