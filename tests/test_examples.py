@@ -23,7 +23,7 @@ def _run(name: str, cwd: Path) -> str:
 
 
 def test_every_example_is_tested():
-    assert {p.name for p in EXAMPLES.glob("*.py")} == {"simulate_identify_compare.py", "own_csv.py", "emps.py"}
+    assert {p.name for p in EXAMPLES.glob("*.py")} == {"simulate_identify_compare.py", "own_csv.py", "emps.py", "structure.py"}
 
 
 @pytest.mark.slow
@@ -44,3 +44,12 @@ def test_emps(tmp_path):
     if "EMPS data not available" in out:
         pytest.skip("measured data not found (NLID_DATA_DIR)")
     assert "+ coulomb: sign(v)" in out
+
+
+def test_structure(tmp_path):
+    out = _run("structure.py", tmp_path)
+    assert "record: 3 DOFs" in out and "nsi-ip: z3^3" in out and "rfs: z3^3" in out
+    # the cubic element within 1 % of the truth for both methods, as docs/structures.md says
+    errors = [float(line.split("(")[1].split(" %")[0]) for line in out.splitlines() if ": z3^3 = " in line]
+    assert len(errors) == 2 and all(abs(e) < 1.0 for e in errors), out
+    assert (tmp_path / "example-output" / "structure_frf.png").stat().st_size > 10_000
