@@ -25,7 +25,8 @@ import numba
 import numpy as np
 
 from ..simulation.kernels import memory_step as _memory_step
-from ..simulation.kernels import sign as _sign
+from ..simulation.kernels import powers as _powers
+from ..simulation.kernels import special_factors as _special_factors
 from ..simulation.kernels import term_plan as _plan
 from ..simulation.kernels import term_value as _term
 
@@ -48,67 +49,16 @@ def element_plans(parts, special):
 @numba.njit(cache=True, inline="always")
 def _element_plain(e, x, xd, theta, special, pxc, plan, tops):
     """``theta_e g_e(x, x')`` of element ``e`` without special factors (as ``_restoring_plain`` for one term)."""
-    az = abs(x)
-    av = abs(xd)
-    sz = _sign(x)
-    sv = _sign(xd)
-    apx = 0.0
-    spx = 0.0
-    if tops[e, 2] >= 0:
-        px = ((pxc[e, 0] * x + pxc[e, 1]) * x + pxc[e, 2]) * x + pxc[e, 3]
-        apx = abs(px)
-        spx = _sign(px)
-    z2 = az * az
-    v2 = av * av
-    p2 = apx * apx
-    z3, z4 = az * z2, z2 * z2
-    v3, v4 = av * v2, v2 * v2
-    p3, p4 = apx * p2, p2 * p2
+    az, z2, z3, z4, av, v2, v3, v4, apx, p2, p3, p4, sz, sv, spx = _powers(x, xd, pxc[e], tops[e, 2] >= 0)
     return _term(e, theta, plan, az, z2, z3, z4, av, v2, v3, v4, apx, p2, p3, p4, sz, sv, spx)
 
 
 @numba.njit(cache=True, inline="always")
 def _element_special(e, x, xd, theta, special, pxc, plan, tops):
     """``theta_e g_e(x, x')`` of element ``e`` with its special factors (as ``_restoring_special`` for one term)."""
-    az = abs(x)
-    av = abs(xd)
-    sz = _sign(x)
-    sv = _sign(xd)
-    apx = 0.0
-    spx = 0.0
-    if tops[e, 2] >= 0:
-        px = ((pxc[e, 0] * x + pxc[e, 1]) * x + pxc[e, 2]) * x + pxc[e, 3]
-        apx = abs(px)
-        spx = _sign(px)
-    z2 = az * az
-    v2 = av * av
-    p2 = apx * apx
-    z3, z4 = az * z2, z2 * z2
-    v3, v4 = av * v2, v2 * v2
-    p3, p4 = apx * p2, p2 * p2
+    az, z2, z3, z4, av, v2, v3, v4, apx, p2, p3, p4, sz, sv, spx = _powers(x, xd, pxc[e], tops[e, 2] >= 0)
     g = _term(e, theta, plan, az, z2, z3, z4, av, v2, v3, v4, apx, p2, p3, p4, sz, sv, spx)
-    for jj in range(plan[e, 4]):
-        kind = special[e, jj, 0]
-        y = x if special[e, jj, 1] == 0.0 else xd
-        scale = special[e, jj, 2]
-        mult = special[e, jj, 3]
-        if kind == 1.0:
-            g *= np.exp(-abs(y) * mult / scale)
-        elif kind == 2.0:
-            g *= np.exp(-mult * (y / scale) ** 2)
-        elif kind == 4.0:  # gap(x, d) = sign(x) max(|x| - d, 0)
-            u = abs(y) - scale
-            g *= (_sign(y) * u if u > 0 else 0.0) ** mult
-        elif kind == 5.0:  # stop(x, d): max(x - d, 0) for d >= 0, min(x - d, 0) for d < 0
-            u = y - scale
-            if scale >= 0:
-                u = u if u > 0 else 0.0
-            else:
-                u = u if u < 0 else 0.0
-            g *= u**mult
-        else:
-            g *= np.tanh(y / scale) ** mult
-    return g
+    return _special_factors(g, e, x, xd, special, plan)
 
 
 @numba.njit(cache=True, inline="always")

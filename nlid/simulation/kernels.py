@@ -148,15 +148,15 @@ def _term(i, theta, plan, az, z2, z3, z4, av, v2, v3, v4, apx, p2, p3, p4, sz, s
 
 
 @numba.njit(cache=True, inline="always")
-def _restoring_plain(z, v, theta, special, pxc, plan, top):
-    """``R(z, v)`` of a model without special factors."""
+def _powers(z, v, pxc, has_px):
+    """The powers and signs every term is built from: ``|z|^1..4``, ``|v|^1..4``, ``|px(z)|^1..4``, signs."""
     az = abs(z)
     av = abs(v)
     sz = _sign(z)
     sv = _sign(v)
     apx = 0.0
     spx = 0.0
-    if top[2] >= 0:
+    if has_px:
         px = ((pxc[0] * z + pxc[1]) * z + pxc[2]) * z + pxc[3]
         apx = abs(px)
         spx = _sign(px)
@@ -166,6 +166,40 @@ def _restoring_plain(z, v, theta, special, pxc, plan, top):
     z3, z4 = az * z2, z2 * z2
     v3, v4 = av * v2, v2 * v2
     p3, p4 = apx * p2, p2 * p2
+    return az, z2, z3, z4, av, v2, v3, v4, apx, p2, p3, p4, sz, sv, spx
+
+
+@numba.njit(cache=True, inline="always")
+def _special_factors(g, i, z, v, special, plan):
+    """``g`` times the special factors of term ``i`` (``exp``, ``tanh``, gap, stop) of ``z`` or ``v``."""
+    for j in range(plan[i, 4]):
+        kind = special[i, j, 0]
+        x = z if special[i, j, 1] == 0.0 else v
+        scale = special[i, j, 2]
+        mult = special[i, j, 3]
+        if kind == 1.0:
+            g *= np.exp(-abs(x) * mult / scale)
+        elif kind == 2.0:
+            g *= np.exp(-mult * (x / scale) ** 2)
+        elif kind == 4.0:  # gap(x, d) = sign(x) max(|x| - d, 0)
+            y = abs(x) - scale
+            g *= (_sign(x) * y if y > 0 else 0.0) ** mult
+        elif kind == 5.0:  # stop(x, d): max(x - d, 0) for d >= 0, min(x - d, 0) for d < 0
+            y = x - scale
+            if scale >= 0:
+                y = y if y > 0 else 0.0
+            else:
+                y = y if y < 0 else 0.0
+            g *= y**mult
+        else:
+            g *= np.tanh(x / scale) ** mult
+    return g
+
+
+@numba.njit(cache=True, inline="always")
+def _restoring_plain(z, v, theta, special, pxc, plan, top):
+    """``R(z, v)`` of a model without special factors."""
+    az, z2, z3, z4, av, v2, v3, v4, apx, p2, p3, p4, sz, sv, spx = _powers(z, v, pxc, top[2] >= 0)
     total = 0.0
     for i in range(theta.size):
         total += _term(i, theta, plan, az, z2, z3, z4, av, v2, v3, v4, apx, p2, p3, p4, sz, sv, spx)
@@ -175,47 +209,11 @@ def _restoring_plain(z, v, theta, special, pxc, plan, top):
 @numba.njit(cache=True, inline="always")
 def _restoring_special(z, v, theta, special, pxc, plan, top):
     """``R(z, v)`` of a model with special factors (``exp``, ``tanh``), applied after the parts."""
-    az = abs(z)
-    av = abs(v)
-    sz = _sign(z)
-    sv = _sign(v)
-    apx = 0.0
-    spx = 0.0
-    if top[2] >= 0:
-        px = ((pxc[0] * z + pxc[1]) * z + pxc[2]) * z + pxc[3]
-        apx = abs(px)
-        spx = _sign(px)
-    z2 = az * az
-    v2 = av * av
-    p2 = apx * apx
-    z3, z4 = az * z2, z2 * z2
-    v3, v4 = av * v2, v2 * v2
-    p3, p4 = apx * p2, p2 * p2
+    az, z2, z3, z4, av, v2, v3, v4, apx, p2, p3, p4, sz, sv, spx = _powers(z, v, pxc, top[2] >= 0)
     total = 0.0
     for i in range(theta.size):
         g = _term(i, theta, plan, az, z2, z3, z4, av, v2, v3, v4, apx, p2, p3, p4, sz, sv, spx)
-        for j in range(plan[i, 4]):
-            kind = special[i, j, 0]
-            x = z if special[i, j, 1] == 0.0 else v
-            scale = special[i, j, 2]
-            mult = special[i, j, 3]
-            if kind == 1.0:
-                g *= np.exp(-abs(x) * mult / scale)
-            elif kind == 2.0:
-                g *= np.exp(-mult * (x / scale) ** 2)
-            elif kind == 4.0:  # gap(x, d) = sign(x) max(|x| - d, 0)
-                y = abs(x) - scale
-                g *= (_sign(x) * y if y > 0 else 0.0) ** mult
-            elif kind == 5.0:  # stop(x, d): max(x - d, 0) for d >= 0, min(x - d, 0) for d < 0
-                y = x - scale
-                if scale >= 0:
-                    y = y if y > 0 else 0.0
-                else:
-                    y = y if y < 0 else 0.0
-                g *= y**mult
-            else:
-                g *= np.tanh(x / scale) ** mult
-        total += g
+        total += _special_factors(g, i, z, v, special, plan)
     return total
 
 
@@ -491,4 +489,6 @@ def free_run(
 term_plan = _plan
 sign = _sign
 term_value = _term
+powers = _powers
+special_factors = _special_factors
 memory_step = _memory_step
