@@ -302,8 +302,11 @@ def rank(evidence: list[Evidence]) -> tuple[list[Evidence], Evidence | None]:
             if e is accepted:
                 continue
             e.status = "rejected"
-            why = "explains more" if float(e.explained_holdout) <= float(accepted.explained_holdout) else (  # type: ignore[arg-type]
-                f"explains about as much (within {100 * PARSIMONY:g} points) with fewer parameters"
+            why = (
+                "explains more"
+                if float(e.explained_holdout) <= float(accepted.explained_holdout)
+                # type: ignore[arg-type]
+                else (f"explains about as much (within {100 * PARSIMONY:g} points) with fewer parameters")
             )
             e.reason = f"passes the rule, but {accepted.effect!r} {why}; " + e.reason
     return fitted + rest, accepted

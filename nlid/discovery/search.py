@@ -12,18 +12,14 @@
 
 The free-run simulation error on the held-out record is reported for the declared model and after each step:
 it is :func:`nlid.scoring.free_run_error` (with its chaos check), the same number ``nlid study`` reports for
-the same model and record. :meth:`Discovery.run` runs on the shared pool (:func:`nlid.parallel.kernel_threads`).
+the same model and record. Every round runs on the shared pool (:func:`nlid.parallel.kernel_threads`).
 
-:class:`Discovery` holds the settings (as emcee's ``EnsembleSampler`` does);
-:meth:`Discovery.steps` is a generator that yields a :class:`SearchState`
-after each round, so that the caller shows progress or stops early;
-:meth:`Discovery.finish` turns a state into the
-:class:`~nlid.discovery.result.DiscoveryResult` and :meth:`Discovery.run`
-drains the generator and finishes. Two small objects replace half of the
-keywords of :func:`discover` (:mod:`nlid.discovery.inputs`): a
-:class:`CandidateLibrary` (which effects may be added) and a :class:`Split`
-(estimation / hold-out, and a validation record that informs but never
-decides)::
+:class:`Discovery` holds the settings (as emcee's ``EnsembleSampler`` does); :meth:`Discovery.steps` is a
+generator that yields a :class:`SearchState` after each round, so that the caller shows progress or stops
+early; :meth:`Discovery.finish` turns a state into the :class:`~nlid.discovery.result.DiscoveryResult` and
+:meth:`Discovery.run` drains the generator and finishes. Two small objects replace half of the keywords of
+:func:`discover` (:mod:`nlid.discovery.inputs`): a :class:`CandidateLibrary` (which effects may be added)
+and a :class:`Split` (estimation / hold-out, and a validation record that informs but never decides)::
 
     search = Discovery("rfs", mass=0.2, split=Split(0.25), library=CandidateLibrary.select("coulomb, viscous"))
     for state in search.steps(record, "1, z, z^3, v"):
@@ -283,17 +279,16 @@ class Discovery:
             The declared model itself cannot be identified.
         """
         say = progress or _quiet
-        state = self._start(record, declared, say)
+        with kernel_threads():  # each unit of work on the shared pool: steps() and run() give the same numbers
+            state = self._start(record, declared, say)
         return self._rounds(state, say)
 
     def run(
         self, record: Record, declared: str | Iterable[str] | Model, *, progress: Progress | None = None
     ) -> DiscoveryResult:
-        """The whole search: every round of :meth:`steps`, then :meth:`finish`, on the shared pool (the kernels on
-        :func:`nlid.parallel.workers` threads, BLAS on one: a spinning BLAS pool takes the kernels' cores)."""
-        with kernel_threads():
-            *_, last = self.steps(record, declared, progress=progress)  # steps() yields at least once
-            return self.finish(last, progress=progress)
+        """The whole search: every round of :meth:`steps`, then :meth:`finish` (each on the shared pool)."""
+        *_, last = self.steps(record, declared, progress=progress)  # steps() yields at least once
+        return self.finish(last, progress=progress)
 
     def _start(self, record: Record, declared: str | Iterable[str] | Model, say: Progress) -> SearchState:
         started = time.perf_counter()
@@ -330,7 +325,8 @@ class Discovery:
             yield dataclasses.replace(state, stop_reason=MAX_STEPS_REACHED)
             return
         for number in range(1, self.max_steps + 1):
-            state = self._round(state, number, say)
+            with kernel_threads():  # not held across the yield: the caller's code between rounds keeps its threads
+                state = self._round(state, number, say)
             if not state.done and number == self.max_steps:
                 state = dataclasses.replace(state, stop_reason=MAX_STEPS_REACHED)
             yield state
@@ -422,7 +418,10 @@ class Discovery:
         ``state`` is usually the last one :meth:`steps` yielded; a search the caller stopped early says so
         in its stop reason.
         """
-        say = progress or _quiet
+        with kernel_threads():
+            return self._finish(state, progress or _quiet)
+
+    def _finish(self, state: SearchState, say: Progress) -> DiscoveryResult:
         run, ctx = state.run, state.run.context
         validation = self.split.validation
         stop_reason = state.stop_reason or f"stopped by the caller after {len(state.steps)} step(s)"

@@ -24,6 +24,7 @@ the named effect, why.
 from __future__ import annotations
 
 import dataclasses
+import warnings
 from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any
@@ -231,7 +232,11 @@ def test_dictionary(ctx: Context, current: Stage, z_range: tuple[float, float]) 
     if kmax == 0:
         evidence.status, evidence.reason = "not applicable", "the dictionary has no usable term"
         return evidence, None, ""
-    _, _, coefs = lars_path(xs, est.r - est.r.mean(), method="lasso", max_iter=8 * kmax)
+    with warnings.catch_warnings():
+        # collinear dictionary columns (e.g. |v|^p and v^2 on a one-signed velocity): the path drops the
+        # degenerate one and goes on, which is what a screening wants; each support is scored on the hold-out below
+        warnings.filterwarnings("ignore", message="Regressors in active set degenerate", category=Warning)
+        _, _, coefs = lars_path(xs, est.r - est.r.mean(), method="lasso", max_iter=8 * kmax)
     supports: list[list[int]] = []
     for k in range(coefs.shape[1]):
         support = sorted(int(cols[j]) for j in np.flatnonzero(coefs[:, k]))

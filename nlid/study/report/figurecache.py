@@ -17,6 +17,7 @@ import numpy as np
 import pandas as pd
 
 from ...plotting import save_figure
+from .. import columns as col
 
 __all__ = ["Figure", "FigureCache", "input_digest"]
 
@@ -34,7 +35,7 @@ class Figure:
 
 
 #: Keys of a stored result that are wall times, not results (a figure that drew them would show the time).
-_VOLATILE = ("seconds", "timings_s")
+_VOLATILE = (col.SECONDS.key(), "timings_s")
 
 
 def _feed(h: Any, value: Any) -> None:
