@@ -45,7 +45,7 @@ import numpy as np
 from .. import derivatives
 from ..errors import DataError, InputError
 from ..record import Record
-from ..recordchecks import MIN_SAMPLES, TIME_TOLERANCE, RecordMeta
+from ..recordchecks import MIN_SAMPLES, RecordMeta, uniform_step
 from ..recordchecks import freeze as _freeze
 from ..units import Unit, parse_units
 
@@ -229,22 +229,7 @@ class StructureRecord:
             meta = dict(kwargs.pop("meta", None) or {})
             meta["input_units"] = {**dict(meta.get("input_units") or {}), "t": time_unit.to_dict()}
             kwargs["meta"] = meta
-        if t.ndim != 1 or t.size < 2:
-            raise DataError("time vector must be one-dimensional with at least 2 samples")
-        bad = ~np.isfinite(t)
-        if bad.any():
-            raise DataError(f"channel 't' has a non-finite value at index {int(np.argmax(bad))}")
-        dt = np.diff(t)
-        step = float(np.median(dt))
-        if step <= 0:
-            raise DataError("time vector is not increasing")
-        dev = np.abs(dt - step) / step
-        if dev.max() > TIME_TOLERANCE:
-            i = int(np.argmax(dev))
-            raise DataError(
-                f"time axis is not uniform: step {i} is {dt[i]:.6g} s but the median step is {step:.6g} s "
-                f"(tolerance {TIME_TOLERANCE:g} relative)"
-            )
+        step = uniform_step(t)
         return cls(f=f, z=z, fs=1.0 / step, t0=float(t[0]), units={c: u.symbol for c, u in units.items()}, **kwargs)
 
     @classmethod
