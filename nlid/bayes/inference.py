@@ -4,13 +4,14 @@ from __future__ import annotations
 
 import time
 from collections.abc import Iterable, Mapping
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 
 from .. import numerics
 from ..balance import regression_data
-from ..errors import IdentificationError, InputError
+from ..errors import IdentificationError, InputError, NlidError
 from ..identified import IdentifiedModel
 from ..record import Record
 from ..reference import Reference
@@ -32,6 +33,8 @@ from .sampler import MOVES, run_until_converged
 
 __all__ = ["PosteriorSampler", "sample_posterior", "select_params"]
 
+#: Keywords of ``params=`` (``elements``: a structure's element coefficients).
+PARAM_KEYWORDS = ("damping", "friction", "all", "elements")
 #: Treatments of the coefficients that are not sampled.
 OTHERS = ("fixed", "marginal")
 #: Spread of the initial walker ball, in Gaussian-limit posterior standard deviations.
@@ -66,11 +69,11 @@ def _schur(gram: np.ndarray, keep: list[int]) -> np.ndarray:
     return 0.5 * (out + out.T)
 
 
-def _check_start(name: str, prior: Prior, value: float) -> None:
+def _check_start(name: str, prior: Prior, value: float, unit: str) -> None:
     if not np.isfinite(prior.logpdf(np.array([value]))[0]):
         raise PriorError(
             f"the prior of {name} ({prior.describe()}) excludes the identifier's estimate {value:.6g} "
-            f"{parse_term(name).coefficient_unit}: widen the prior of {name} (priors=) or check its units"
+            f"{unit}: widen the prior of {name} (priors=) or check its units"
         )
 
 
@@ -98,6 +101,35 @@ def select_params(model: Model, params: str | Iterable[str]) -> list[int]:
     return sorted(model.index(t) for t in wanted.terms)
 
 
+def check_params_spelling(params: str | Iterable[str]) -> None:
+    """Refuse sampled-coefficient names no model could have, before any work (a typo fails at once).
+
+    Keywords (``damping``, ``friction``, ``all``, ``elements``), one-DOF terms, a
+    structure's elements on connections (``(z1-z2)^3``) and its linear
+    unknowns (``K[1,2]``, ``C[2,2]``, ``s[1]``) are accepted; whether the model
+    has them is checked when the posterior runs.
+    """
+    if isinstance(params, str):
+        if params.strip().lower() in PARAM_KEYWORDS:
+            return
+        try:
+            Model.from_spec(params, defaults=False)
+            return
+        except NlidError as exc:
+            first = exc
+        from .structure import check_structure_names
+
+        try:
+            check_structure_names(params)
+        except NlidError:
+            raise first from None
+        return
+    if not all(isinstance(p, str) for p in params):
+        raise InputError(f"params must be 'damping', 'all' or terms, got {params!r}")
+    for name in params:
+        check_params_spelling(name)
+
+
 class PosteriorSampler:
     """Posterior over chosen coefficients with emcee, started from an identification.
 
@@ -121,7 +153,9 @@ class PosteriorSampler:
         ``"de"`` (differential evolution, default) or ``"stretch"``.
     bias_correction
         Correct the errors-in-variables bias by simulation (see
-        :mod:`nlid.bayes.bias`).
+        :mod:`nlid.bayes.bias`). Default (``None``): on for one DOF; a
+        structure of several DOFs has no such correction (refused when
+        ``True``; :mod:`nlid.bayes.structure`).
     bias_pairs
         Antithetic noise pairs per step of that correction (at least 2).
     bias_iterations
@@ -150,7 +184,7 @@ class PosteriorSampler:
         max_steps: int = 20000,
         seed: int = 0,
         move: str = "de",
-        bias_correction: bool = True,
+        bias_correction: bool | None = None,
         bias_pairs: int = 4,
         bias_iterations: int = 3,
         noise: Mapping[str, float] | None = None,
@@ -164,16 +198,13 @@ class PosteriorSampler:
         _integer("max_steps", max_steps, 1, MAX_STEPS)
         _integer("bias_pairs", bias_pairs, 1, MAX_BIAS_PAIRS)
         _integer("bias_iterations", bias_iterations, 1, MAX_BIAS_ITERATIONS)
-        if not isinstance(bias_correction, (bool, np.bool_)):
+        if bias_correction is not None and not isinstance(bias_correction, (bool, np.bool_)):
             raise InputError(f"bias_correction must be true or false, got {bias_correction!r}")
         check_cutoff(cutoff)  # the record's Nyquist frequency is checked when it is known (run)
         check_noise_sd(noise)  # and each level against the record's channel
-        if isinstance(params, str):
-            if params.strip().lower() not in ("damping", "friction", "all"):
-                Model.from_spec(params, defaults=False)
-        elif not all(isinstance(p, str) for p in params):
-            raise InputError(f"params must be 'damping', 'all' or terms, got {params!r}")
-        parse_prior_assignments(priors)
+        check_params_spelling(params)
+        for name in parse_prior_assignments(priors, canonical=lambda name: name):  # specs, then each name
+            check_params_spelling([name])
         if move not in MOVES:
             raise InputError(f"unknown move {move!r}; choose one of {', '.join(MOVES)}")
         self.params = params
@@ -182,7 +213,7 @@ class PosteriorSampler:
         self.max_steps = int(max_steps)
         self.seed = int(seed)
         self.move = move
-        self.bias_correction = bool(bias_correction)
+        self.bias_correction = None if bias_correction is None else bool(bias_correction)
         self.bias_pairs = int(bias_pairs)
         self.bias_iterations = int(bias_iterations)
         self.noise = None if noise is None else dict(noise)
@@ -238,8 +269,26 @@ class PosteriorSampler:
 
     def _run(self, record: Record, fit: IdentifiedModel) -> tuple[Posterior, dict[str, float]]:
         start_time = time.perf_counter()
+        from ..mdof.identified import IdentifiedStructure
+
+        if isinstance(fit, IdentifiedStructure):
+            return self._sample(self._prepare_structure(record, fit), start_time)
         if not isinstance(fit, IdentifiedModel):
             raise InputError(f"fit must be the IdentifiedModel nlid.identify returns, got {type(fit).__name__}")
+        return self._sample(self._prepare(record, fit), start_time)
+
+    def _user_priors(self, names: tuple[str, ...], canonical: Any = None) -> dict[str, Prior]:
+        user_priors = parse_prior_assignments(self.priors, canonical=canonical)
+        not_sampled = [n for n in user_priors if n not in names]
+        if not_sampled:
+            raise PriorError(
+                f"a prior is given for {', '.join(not_sampled)}, which is not sampled; "
+                "sample it too (params=) or drop the prior"
+            )
+        return user_priors
+
+    def _prepare(self, record: Record, fit: IdentifiedModel) -> _Problem:
+        """The one-DOF likelihood (Eq. 25's balance, bias-corrected by simulation)."""
         model = fit.model
         if fit.mass is None:
             raise InputError("the posterior needs the mass: give mass= (in kg) or use a method that estimates it")
@@ -251,15 +300,9 @@ class PosteriorSampler:
         idx = select_params(model, self.params)
         names = tuple(model.names[i] for i in idx)
         theta0 = fit.theta.copy()
-        user_priors = parse_prior_assignments(self.priors)
-        not_sampled = [n for n in user_priors if n not in names]
-        if not_sampled:
-            raise PriorError(
-                f"a prior is given for {', '.join(not_sampled)}, which is not sampled; "
-                "sample it too (params=) or drop the prior"
-            )
+        user_priors = self._user_priors(names)
         for name, prior in user_priors.items():
-            _check_start(name, prior, theta0[model.index(name)])
+            _check_start(name, prior, theta0[model.index(name)], parse_term(name).coefficient_unit)
         seq_bias, seq_mcmc = np.random.SeedSequence(self.seed).spawn(2)
         data = regression_data(record, model, cutoff=self.cutoff)
         # collinear sampled terms are refused before the (slower) bias correction
@@ -269,15 +312,80 @@ class PosteriorSampler:
             record,
             model,
             float(fit.mass),
-            bias_correction=self.bias_correction,
+            bias_correction=self.bias_correction is not False,
             pairs=self.bias_pairs,
             iterations=self.bias_iterations,
             noise=self.noise,
             rng=np.random.default_rng(seq_bias),
             data=data,
         )
+        return _Problem(
+            model=model,
+            idx=idx,
+            theta0=theta0,
+            lik=lik,
+            user_priors=user_priors,
+            seed=seq_mcmc,
+            mass=float(fit.mass),
+            method=fit.method,
+            data=data,
+            reference=dict(Reference.from_meta(record.meta).coefficients or {}),
+        )
+
+    def _prepare_structure(self, record: Any, fit: Any) -> _Problem:
+        """A structure's likelihood (:mod:`nlid.bayes.structure`): every DOF's balance, no bias correction."""
+        from ..mdof.record import StructureRecord
+        from .structure import NO_CORRECTION, select_structure_params, structure_likelihood
+
+        if not isinstance(record, StructureRecord):
+            raise InputError(
+                f"the fit is a structure of {fit.structure.n_dofs} DOFs but the record is not a structure record"
+            )
+        if self.bias_correction:
+            raise InputError(
+                "bias_correction: the errors-in-variables correction by simulation is available for one DOF only; "
+                "leave it unset (or false) for a structure"
+            )
+        if self.noise:
+            raise InputError("noise= sets the levels the one-DOF bias correction simulates; a structure has none")
+        lik, parameters, _, start = structure_likelihood(record, fit, cutoff=self.cutoff)
+        idx = select_structure_params(parameters, self.params)
+        names = tuple(parameters.names[i] for i in idx)
+        theta0 = parameters.vector(start)
+        user_priors = self._user_priors(names, canonical=parameters.canonical)
+        for name, prior in user_priors.items():
+            _check_start(name, prior, theta0[parameters.index(name)], parameters.unit(name))
+        _, seq_mcmc = np.random.SeedSequence(self.seed).spawn(2)
+        gram = lik.stats.gtg
+        check_identifiable(_schur(gram, idx) if self.others == "marginal" else gram[np.ix_(idx, idx)], names)
+        reference = {}
+        truth = (record.meta or {}).get("reference") or {}  # a structure preset's truth (nlid.mdof.presets)
+        for name, value in dict(truth.get("coefficients") or {}).items():
+            try:
+                reference[parameters.canonical(name)] = float(value)
+            except NlidError:  # a reference in the other orientation, or not an unknown of this fit
+                continue
+        return _Problem(
+            model=parameters,
+            idx=idx,
+            theta0=theta0,
+            lik=lik,
+            user_priors=user_priors,
+            seed=seq_mcmc,
+            mass=np.asarray(fit.structure.M, dtype=float).tolist(),
+            method=fit.method,
+            data=None,
+            reference=reference,
+            warnings=(NO_CORRECTION,),
+            units={n: parameters.unit(n) for n in parameters.names},
+        )
+
+    def _sample(self, problem: _Problem, start_time: float) -> tuple[Posterior, dict[str, float]]:
+        """Priors, the sampled coefficients' target (marginal or conditional) and emcee until converged."""
+        model, idx, lik, theta0 = problem.model, problem.idx, problem.lik, problem.theta0
+        names = tuple(model.names[i] for i in idx)
         priors = default_priors(lik.stats, model.names)
-        priors.update(user_priors)
+        priors.update(problem.user_priors)
         prior_logpdf = joint_logpdf([priors[n] for n in names])
         if self.others == "marginal":
             target = lik.reduced(idx)
@@ -317,7 +425,7 @@ class PosteriorSampler:
             START_SPREAD * np.sqrt(np.diag(cov)),
             walkers=walkers,
             max_steps=self.max_steps,
-            seed=seq_mcmc,
+            seed=problem.seed,
             move=self.move,
             names=names,
         )
@@ -329,14 +437,34 @@ class PosteriorSampler:
             start=model.as_dict(theta0),
             priors={n: priors[n].describe() for n in names},
             likelihood=lik,
-            mass=float(fit.mass),
-            method=fit.method,
+            mass=problem.mass,
+            method=problem.method,
             seconds=time.perf_counter() - start_time,
             others=self.others,
             gaussian=(mean, cov),
-            data=data,
-            reference=dict(Reference.from_meta(record.meta).coefficients or {}),
+            data=problem.data,
+            reference=problem.reference,
+            warnings=problem.warnings,
+            units=problem.units,
         ), prior_sd
+
+
+@dataclass(frozen=True)
+class _Problem:
+    """What the sampler needs from a one-DOF model or a structure: the likelihood and the sampled block."""
+
+    model: Any
+    idx: list[int]
+    theta0: np.ndarray
+    lik: Any
+    user_priors: dict[str, Prior]
+    seed: np.random.SeedSequence
+    mass: Any
+    method: str
+    data: Any
+    reference: dict[str, float]
+    warnings: tuple[str, ...] = ()
+    units: dict[str, str] | None = None
 
 
 def sample_posterior(record: Record, fit: IdentifiedModel, **settings: Any) -> Posterior:

@@ -79,6 +79,7 @@ __all__ = [
     "long_run_covariance",
     "block_length",
     "check_identifiable",
+    "sandwich",
 ]
 
 #: Blocks of the long-run covariance span this many integrated autocorrelation
@@ -380,39 +381,8 @@ def build_likelihood(
         raise InputError("the posterior needs the mass: give mass= (in kg) or use a method that estimates it")
     data = data if data is not None else regression_data(record, model, cutoff=cutoff)
     y = data.restoring_force(mass)
-    stats = SufficientStatistics.from_arrays(data.G, y)
-    s = stats.scale
-    corr_g = stats.gtg / np.outer(s, s)
-    check_identifiable(corr_g, model.names, max_condition=FULL_MAX_CONDITION)
-    theta_hat = stats.solve()
-    resid = y - data.G @ theta_hat
-    scores = (data.G / s) * resid[:, None]
-    block, tau_scores = block_length(scores)
-    omega = long_run_covariance(scores, block) * stats.n
-    h_inv = np.linalg.inv(corr_g)
-    cov = (h_inv @ omega @ h_inv) / np.outer(s, s)
-    cov = 0.5 * (cov + cov.T)
-    tau_resid = float(long_run_covariance(resid[:, None], block)[0, 0] / np.mean(resid**2))
-    tau_resid = max(tau_resid, 1.0)
-    dof = stats.n / tau_resid
-    info: dict[str, Any] = {
-        "samples": stats.n,
-        "band_hz": data.filtered_at,
-        "block_samples": block,
-        "tau_scores_samples": tau_scores,
-        "tau_residual_samples": tau_resid,
-        "dof": dof,
-        "residual_rms": float(np.sqrt(np.mean(resid**2))),
-        "sandwich_over_iid_sd": {
-            n: float(x)
-            for n, x in zip(
-                model.names,
-                np.sqrt(np.diag(cov) / (np.diag(np.linalg.inv(corr_g)) / s**2 * float(resid @ resid) / stats.n)),
-                strict=True,
-            )
-        },
-        "bias_correction": bias_correction,
-    }
+    stats, theta_hat, cov, dof, info = sandwich(data.G, y, model.names)
+    info = {"samples": info.pop("samples"), "band_hz": data.filtered_at, **info, "bias_correction": bias_correction}
     center = theta_hat
     if bias_correction:
         center, cov, corr_info = indirect_inference(
@@ -429,3 +399,74 @@ def build_likelihood(
             n: float(x) for n, x in zip(model.names, (center - theta_hat) / np.sqrt(np.diag(cov)), strict=True)
         }
     return Likelihood(tuple(model.names), stats, theta_hat, center, cov, dof, info)
+
+
+def sandwich(
+    G: np.ndarray, y: np.ndarray, names: Sequence[str], group: int = 1
+) -> tuple[SufficientStatistics, np.ndarray, np.ndarray, float, dict[str, Any]]:
+    """The least-squares estimate of ``y = G theta + e`` with its sandwich covariance and effective sample size.
+
+    Steps 1 and 3 of the module docstring: the residual's effective sample
+    size ``nu`` and ``V = H^-1 Omega H^-1`` by overlapping batch means of the
+    scores.
+
+    Parameters
+    ----------
+    G, y
+        Regressors ``(R, p)`` and target ``(R,)``.
+    names
+        The ``p`` coefficient names (for the diagnostics).
+    group
+        Consecutive rows that belong to one instant (a structure's DOFs,
+        interleaved sample by sample: :func:`nlid.mdof.regression.linear_design`).
+        Their scores are summed per instant and their residuals' long-run
+        variances added before the batch means, so a batch never splits an
+        instant. ``1`` for one DOF.
+
+    Returns
+    -------
+    tuple
+        ``(stats, theta_hat, V, nu, info)``.
+    """
+    stats = SufficientStatistics.from_arrays(G, y)
+    s = stats.scale
+    corr_g = stats.gtg / np.outer(s, s)
+    check_identifiable(corr_g, names, max_condition=FULL_MAX_CONDITION)
+    theta_hat = stats.solve()
+    resid = y - G @ theta_hat
+    scores = (G / s) * resid[:, None]
+    if group == 1:
+        block, tau_scores = block_length(scores)
+        omega = long_run_covariance(scores, block) * stats.n
+        tau_resid = float(long_run_covariance(resid[:, None], block)[0, 0] / np.mean(resid**2))
+    else:
+        if resid.size % group:
+            raise InputError(f"{resid.size} rows do not split into instants of {group}")
+        instants = resid.size // group
+        scores = scores.reshape(instants, group, -1).sum(axis=1)
+        block, tau_scores = block_length(scores)
+        omega = long_run_covariance(scores, block) * instants
+        per_instant = resid.reshape(instants, group)
+        tau_resid = float(np.trace(long_run_covariance(per_instant, block)) / np.sum(np.mean(per_instant**2, axis=0)))
+    h_inv = np.linalg.inv(corr_g)
+    cov = (h_inv @ omega @ h_inv) / np.outer(s, s)
+    cov = 0.5 * (cov + cov.T)
+    tau_resid = max(tau_resid, 1.0)
+    dof = stats.n / tau_resid
+    info: dict[str, Any] = {
+        "samples": stats.n,
+        "block_samples": block,
+        "tau_scores_samples": tau_scores,
+        "tau_residual_samples": tau_resid,
+        "dof": dof,
+        "residual_rms": float(np.sqrt(np.mean(resid**2))),
+        "sandwich_over_iid_sd": {
+            n: float(x)
+            for n, x in zip(
+                names,
+                np.sqrt(np.diag(cov) / (np.diag(np.linalg.inv(corr_g)) / s**2 * float(resid @ resid) / stats.n)),
+                strict=True,
+            )
+        },
+    }
+    return stats, theta_hat, cov, dof, info

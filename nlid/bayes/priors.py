@@ -153,10 +153,14 @@ def parse_prior(text: str) -> Prior:
     return Normal(a, b) if kind == "normal" else Uniform(a, b)
 
 
-def parse_prior_assignments(items: Sequence[str] | Mapping[str, str | Prior] | None) -> dict[str, Prior]:
+def parse_prior_assignments(
+    items: Sequence[str] | Mapping[str, str | Prior] | None, canonical: Callable[[str], str] | None = None
+) -> dict[str, Prior]:
     """Priors by canonical term name from ``["TERM=SPEC", ...]`` or a mapping.
 
     The term may be written in any spelling (``sign(v)*|v|^2`` is ``v*|v|``).
+    ``canonical`` names a term (default: the one-DOF grammar's canonical name;
+    a structure passes its unknowns' :meth:`~nlid.bayes.structure.StructureParameters.canonical`).
     """
     if not items:
         return {}
@@ -171,7 +175,7 @@ def parse_prior_assignments(items: Sequence[str] | Mapping[str, str | Prior] | N
             pairs.append((term, spec))
     out: dict[str, Prior] = {}
     for term, spec in pairs:
-        name = parse_term(term.strip()).name
+        name = canonical(term.strip()) if canonical is not None else parse_term(term.strip()).name
         if name in out:
             raise PriorError(f"two priors given for the term {name}")
         out[name] = spec if isinstance(spec, Prior) else parse_prior(spec)

@@ -64,7 +64,8 @@ class Posterior:
     Attributes
     ----------
     model
-        The model (``px`` roots set).
+        The model (``px`` roots set); for a structure, its unknowns
+        (:class:`~nlid.bayes.structure.StructureParameters`).
     names
         Sampled terms, in model order.
     chains
@@ -77,7 +78,7 @@ class Posterior:
     likelihood
         The adjusted likelihood (centre, covariance, diagnostics).
     mass
-        Mass used (kg).
+        Mass used (kg); for a structure the mass matrix (rows, kg).
     method
         The identifier that gave the start.
     seconds
@@ -95,15 +96,18 @@ class Posterior:
     reference
         The record's reference coefficients (``record.meta["reference"]``, :mod:`nlid.reference`), by
         term; empty when the record carries none. Drawn as the truth in the corner plot; not serialised.
+    units
+        SI unit of each coefficient when the names are not one-DOF terms (a structure's ``K[1,2]``...);
+        ``None``: each term's own unit.
     """
 
-    model: Model
+    model: Model | Any
     names: tuple[str, ...]
     chains: Chains
     start: dict[str, float]
     priors: dict[str, str]
     likelihood: Likelihood
-    mass: float
+    mass: float | list[list[float]]
     method: str
     seconds: float
     others: str = "marginal"
@@ -111,6 +115,19 @@ class Posterior:
     data: RegressionData | None = field(default=None, repr=False)
     warnings: tuple[str, ...] = ()
     reference: dict[str, float] = field(default_factory=dict, repr=False)
+    units: dict[str, str] | None = field(default=None, repr=False)
+
+    def unit(self, name: str) -> str:
+        """SI unit of a sampled coefficient."""
+        if self.units is not None:
+            return self.units[name]
+        return parse_term(name).coefficient_unit
+
+    def _mass_text(self) -> str:
+        if isinstance(self.mass, (int, float)):
+            return f"mass {self.mass:.6g} kg"
+        diag = ", ".join(f"{row[k]:.6g}" for k, row in enumerate(self.mass))
+        return f"mass matrix diagonal {diag} kg"
 
     # ------------------------------------------------------------------ numbers
     @property
@@ -268,7 +285,7 @@ class Posterior:
                 "large_corrections": self.large_corrections,
                 "priors": self.priors,
                 "warnings": list(self.warnings),
-                "units": {n: parse_term(n).coefficient_unit for n in self.names},
+                "units": {n: self.unit(n) for n in self.names},
                 "sampler": {
                     "walkers": self.chains.walkers,
                     "steps": self.chains.steps,
@@ -295,7 +312,7 @@ class Posterior:
             rows.append(
                 {
                     "term": name,
-                    "unit": parse_term(name).coefficient_unit,
+                    "unit": self.unit(name),
                     "start": self.start[name],
                     **s,
                     "tau": self.tau[name],
@@ -317,7 +334,7 @@ class Posterior:
         A :class:`~nlid.summary.Summary` (``print()`` it, or ``.as_markdown()`` /
         ``.as_html()``); the numbers as a mapping are :meth:`summary_dict`.
         """
-        out = Summary(f"posterior of {len(self.names)} coefficient(s); start: {self.method}, mass {self.mass:.6g} kg")
+        out = Summary(f"posterior of {len(self.names)} coefficient(s); start: {self.method}, {self._mass_text()}")
         ess = self.n_effective
         out.add_table(
             [
@@ -341,7 +358,7 @@ class Posterior:
                     f"{s['q95']:.5g}",
                     f"{self.tau[name]:.1f}",
                     f"{ess[name]:.0f}",
-                    parse_term(name).coefficient_unit,
+                    self.unit(name),
                 ]
                 for name, s in self.summary_dict().items()
             ],

@@ -38,8 +38,8 @@ def _truth_coefficients(truth: Reference | Mapping[str, Any] | None) -> dict[str
 
 
 def study_metrics(
-    record: Record,
-    fit: IdentifiedModel,
+    record: Record | Any,
+    fit: IdentifiedModel | Any,
     truth: Reference | Mapping[str, Any] | None,
     **options: Any,
 ) -> dict[str, float | bool]:
@@ -48,7 +48,8 @@ def study_metrics(
     Parameters
     ----------
     record, fit
-        The data and the identified model of the run.
+        The data and the identified model of the run (or a structure record
+        and its :class:`~nlid.mdof.IdentifiedStructure`: :mod:`nlid.bayes.structure`).
     truth
         The reference: a :class:`~nlid.reference.Reference`, true
         coefficients (``{term: value}``, or a preset's ``truth()`` with a
@@ -74,10 +75,13 @@ def study_metrics(
     if not 0 < level < 1:
         raise InputError(f"posterior level must lie between 0 and 1, got {level}")
     posterior = PosteriorSampler(**options).run(record, fit)
-    model = fit.model
-    coeffs = _truth_coefficients(truth)
+    unknowns = posterior.model  # a one-DOF Model, or a structure's unknowns (nlid.bayes.structure)
+    if isinstance(truth, Mapping) and posterior.units is not None:  # a structure's truth: elements on connections
+        coeffs = dict(truth.get("coefficients") or {}) or None
+    else:
+        coeffs = _truth_coefficients(truth)
     if coeffs is not None:
-        coeffs = {model.terms[model.index(k)].name: v for k, v in coeffs.items() if k in model}
+        coeffs = {unknowns.names[unknowns.index(k)]: v for k, v in coeffs.items() if k in unknowns}
     out: dict[str, float | bool] = {col.POSTERIOR_LEVEL.key(): level}
     for name, (lo, hi) in posterior.interval(level).items():
         out[col.CI_LO.key(name)], out[col.CI_HI.key(name)], out[col.CI_WIDTH.key(name)] = lo, hi, hi - lo

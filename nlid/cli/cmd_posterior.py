@@ -55,7 +55,8 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         default="damping",
         metavar="TERMS",
         help="coefficients to sample: 'damping' (every velocity-dependent term, default), 'all', "
-        "or a comma-separated list such as 'sign(v)*|px(z)|,v*|v|'",
+        "or a comma-separated list such as 'sign(v)*|px(z)|,v*|v|'; on a structure record also 'elements' "
+        "(every element on a connection) and names such as '(z1-z2)^3,C[1,1]'",
     )
     p.add_argument(
         "--prior",
@@ -77,7 +78,8 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument(
         "--no-bias-correction",
         action="store_true",
-        help="do not correct the errors-in-variables bias by simulation (faster; intervals may miss the truth)",
+        help="do not correct the errors-in-variables bias by simulation (faster; intervals may miss the truth); "
+        "a structure of several DOFs has no such correction",
     )
     p.add_argument("--bias-pairs", type=int, default=4, metavar="N", help="antithetic noise pairs (default 4)")
     p.add_argument(
@@ -152,9 +154,10 @@ def parse_noise_levels(items: list[str] | None, noise_z: float | None = None) ->
 def run(args: argparse.Namespace) -> int:
     from ..bayes import PosteriorSampler
     from ..bayes.noise import UNITS, UnknownNoiseError
+    from ..bayes.inference import check_params_spelling
     from ..bayes.priors import parse_prior_assignments
+    from ..mdof.record import StructureRecord
     from ..pipeline import as_model, identify
-    from ..terms import Model
 
     if args.noise_z is not None:
         NOISE_SD["z"].check(args.noise_z, "--noise-z")
@@ -163,9 +166,8 @@ def run(args: argparse.Namespace) -> int:
     if slices is not None and not args.out:
         raise InputError("--slices sets the damping-force slices of the figures written with --out; give --out DIR")
     # read priors and parameter names before the (slower) identification, so typos fail at once
-    parse_prior_assignments(args.prior)
-    if args.params.strip().lower() not in ("damping", "friction", "all"):
-        Model.from_spec(args.params, defaults=False)
+    parse_prior_assignments(args.prior, canonical=lambda name: name)  # the specs; the names once the model is known
+    check_params_spelling(args.params)
     sampler = PosteriorSampler(
         args.params,
         priors=args.prior,
@@ -173,17 +175,23 @@ def run(args: argparse.Namespace) -> int:
         max_steps=args.steps,
         seed=args.seed,
         move=args.move,
-        bias_correction=not args.no_bias_correction,
+        bias_correction=False if args.no_bias_correction else None,
         bias_pairs=args.bias_pairs,
         noise=noise,
         cutoff=args.cutoff,
         others=args.others,
     )
     record = load_data(args)
-    model = as_model(args.terms, without=args.without, px_roots=parse_px_roots(args.px_roots))
+    extra: dict = {}
+    if isinstance(record, StructureRecord):  # elements on connections, parsed on the record's DOFs by identify
+        if args.px_roots:
+            raise InputError("--px-roots sets one DOF's px(z) roots; give a structure's roots in its elements' file")
+        model, extra["without"] = args.terms, args.without or ()
+    else:
+        model = as_model(args.terms, without=args.without, px_roots=parse_px_roots(args.px_roots))
     show = not (args.quiet or args.json)  # the sampler's progress, on a terminal only
     with showing(show):
-        result = identify(record, model, args.method, mass=args.mass, options=parse_settings(args.set))
+        result = identify(record, model, args.method, mass=args.mass, options=parse_settings(args.set), **extra)
     try:
         with showing(show):
             posterior = sampler.run(record, result)

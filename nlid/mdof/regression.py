@@ -52,6 +52,9 @@ __all__ = [
     "LinearDesign",
     "check_elements_nonlinear",
     "dof_weights",
+    "matrix_labels",
+    "static_labels",
+    "unknown_names",
 ]
 
 
@@ -196,6 +199,24 @@ def matrix_basis(n: int, form: str) -> list[tuple[int, int]]:
     raise InputError(f"matrix form must be 'symmetric', 'full' or 'diagonal', got {form!r}")
 
 
+def matrix_labels(key: str, basis: Sequence[tuple[int, int]]) -> list[str]:
+    """Names of a matrix's free entries, ``K[1,2]`` (1-based), as the design names its unknowns."""
+    return [f"{key}[{i + 1},{j + 1}]" for i, j in basis]
+
+
+def static_labels(n: int) -> list[str]:
+    """Names of the static force per DOF, ``s[1]`` ... ``s[n]``."""
+    return [f"s[{k + 1}]" for k in range(n)]
+
+
+def unknown_names(elements: ElementSet, stiffness: str = "symmetric") -> tuple[str, ...]:
+    """The unknowns :func:`linear_design` solves for with the mass given, in its order."""
+    n = elements.n_dofs
+    basis = matrix_basis(n, stiffness)
+    names = [*elements.names, *matrix_labels("K", basis), *matrix_labels("C", basis)]
+    return tuple(names + (static_labels(n) if elements.static else []))
+
+
 def _block(x: np.ndarray, basis: Sequence[tuple[int, int]], symmetric: bool) -> np.ndarray:
     """Columns ``d(A x)/dA_ij`` of every DOF's equation, rows interleaved: shape ``(N n, len(basis))``."""
     N, n = x.shape
@@ -297,15 +318,15 @@ def linear_design(
     for key, x in (("K", z), ("C", v)):
         basis = matrix_basis(n, stiffness)
         bases[key], symmetric[key] = basis, stiffness == "symmetric"
-        add(key, _block(x, basis, symmetric[key]), [f"{key}[{i + 1},{j + 1}]" for i, j in basis])
+        add(key, _block(x, basis, symmetric[key]), matrix_labels(key, basis))
     if elements.static:
         S = np.zeros((N, n, n))
         S[:, np.arange(n), np.arange(n)] = 1.0
-        add("s", S.reshape(N * n, n), [f"s[{k + 1}]" for k in range(n)])
+        add("s", S.reshape(N * n, n), static_labels(n))
     if mass is None:
         basis = matrix_basis(n, mass_form)
         bases["M"], symmetric["M"] = basis, mass_form == "symmetric"
-        add("M", _block(a, basis, symmetric["M"]), [f"M[{i + 1},{j + 1}]" for i, j in basis])
+        add("M", _block(a, basis, symmetric["M"]), matrix_labels("M", basis))
         y = f.reshape(-1)
     else:
         y = (f - a @ np.asarray(mass).T).reshape(-1)

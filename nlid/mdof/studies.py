@@ -24,8 +24,11 @@ residual (``eps_percent``: the largest of the DOFs'):
 The columns are declared in :mod:`nlid.columns`. The reference stored with
 the run is ``{"coefficients": ..., "structure": <the preset's truth>}``.
 A held-out record and damping slices are not scored for structures (a
-dataset asking for them gets a warning in its rows); the posterior is refused
-when the study is loaded (:mod:`nlid.bayes` samples one DOF's terms).
+dataset asking for them gets a warning in its rows). A ``[posterior]`` table
+samples the structure's unknowns (:mod:`nlid.bayes.structure`; ``params =
+"elements"`` for every element) and adds the credible-interval columns of
+:func:`nlid.bayes.study_metrics` (``ci_lo:``, ``ci_hi:``, ``ci_width:``,
+``ci_covers:`` per sampled unknown).
 """
 
 from __future__ import annotations
@@ -162,6 +165,14 @@ def execute_structure_run(spec: Any, base_row: Mapping[str, Any]) -> dict[str, A
         notes.append("held-out scores and damping slices are not computed for structures of several DOFs")
     row[col.WARNINGS.key()] = " | ".join(notes)
     row.update(structure_metrics(result, truth))
+    if spec.posterior is not None:  # the element coefficients' intervals (nlid.bayes.structure)
+        from .. import bayes
+        from ..errors import NlidError
+
+        try:
+            row.update(bayes.study_metrics(record, result, {"coefficients": truth["coefficients"]}, **dict(spec.posterior)))
+        except NlidError as exc:  # a posterior that cannot be reported is a warning: the run keeps its metrics
+            row[col.WARNINGS.key()] = " | ".join([*notes, f"posterior: {exc}"])
     reference = {"coefficients": dict(truth["coefficients"]), "structure": truth}
     return {
         "run_id": spec.run_id,

@@ -171,3 +171,28 @@ def test_velocity_and_acceleration_without_displacement_are_refused(csv_velocity
     status, out, err = cli("posterior", str(path), *TERMS)
     assert status == 2 and out == "" and err.count("\n") == 1
     assert "no column for channel 'z'" in err
+
+
+@pytest.fixture(scope="module")
+def structure_csv(tmp_path_factory):
+    """6 s of the 2dof-double-well structure, 2 % noise on the accelerations, every channel written."""
+    path = tmp_path_factory.mktemp("posterior-structure") / "s.csv"
+    argv = ["simulate", "--preset", "2dof-double-well", "--seed", "2", "--duration", "6", "--noise", "a=0.02"]
+    assert main([*argv, "--channels", "v,a", "--out", str(path)]) == 0
+    return path
+
+
+def test_a_structure_file_gets_the_posterior_of_its_elements(structure_csv, cli):
+    elements = "(z1-z2)^3, (z1-z2)^2, (v1-v2)*|v1-v2|"
+    args = ("posterior", str(structure_csv), "--method", "rfs", "--terms", elements, "--params", "elements")
+    status, out, err = cli(*args, "--json", "--seed", "0")
+    assert status == 0, err
+    doc = json.loads(out)
+    assert set(doc["params"]) == {"(z1-z2)^3", "(z1-z2)^2", "(v1-v2)*|v1-v2|"}
+    assert doc["units"]["(z1-z2)^3"] == "N/m^3"
+    assert any("no errors-in-variables correction" in w for w in doc["warnings"])
+    status, out, err = cli(*args[:-2], "--params", "K[1,2], (z1-z2)^3", "--no-bias-correction")
+    assert status == 0, err
+    assert "K[1,2]" in out and "N/m" in out and "mass matrix diagonal" in out
+    status, _, err = cli(*args, "--noise-level", "z=1e-5")
+    assert status == 2 and "has none" in err

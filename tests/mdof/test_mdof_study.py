@@ -53,9 +53,31 @@ def test_study_over_a_structure_preset_runs_resumes_and_reports(tmp_path):
     assert pd.read_csv(out / "results.csv").equals(frame)
 
 
-def test_posterior_on_a_structure_is_refused_with_the_reason(tmp_path):
-    text = STUDY.format(extra='\n[posterior]\nparams = "all"\n')
-    with pytest.raises(ConfigError, match="not available for structures"):
+def test_a_structure_study_reports_the_posterior_of_its_elements(tmp_path):
+    path = tmp_path / "s.toml"
+    path.write_text(STUDY.format(extra='\n[posterior]\nparams = "elements"\nlevel = 0.9\n'))
+    out = tmp_path / "out"
+    run_study(load_study(str(path)), out, progress=False)
+    row = pd.read_csv(out / "results.csv").iloc[0]
+    assert "posterior" not in str(row[col.WARNINGS.key()])
+    for element in ("(z1-z2)^3", "(z1-z2)^2", "(v1-v2)*|v1-v2|"):
+        lo, hi = row[col.CI_LO.key(element)], row[col.CI_HI.key(element)]
+        assert lo < row[col.COEF.key(element)] < hi  # rfs's estimate inside its own posterior's 90 % interval
+        assert row[col.CI_WIDTH.key(element)] == pytest.approx(hi - lo)
+        assert col.CI_COVERS.key(element) in row.index
+
+
+@pytest.mark.parametrize(
+    ("extra", "match"),
+    [
+        ('params = "elements"\nbias_correction = true', "bias_correction"),
+        ('params = "(z2-z3)^3"', "not an element"),
+        ('params = "elements"\npriors = { "(z2-z1)^3" = "flat" }', "opposite sign"),
+    ],
+)
+def test_posterior_settings_a_structure_cannot_honour_are_refused_at_load(tmp_path, extra, match):
+    text = STUDY.format(extra="\n[posterior]\n" + extra + "\n")
+    with pytest.raises(ConfigError, match=match):
         parse_study(text, source="s.toml", base_dir=tmp_path)
 
 

@@ -247,6 +247,33 @@ def _posterior(where: Where, value: Any, datasets: list[DatasetConfig]) -> dict[
     return table
 
 
+def _structure_unknowns(ds: DatasetConfig, main: Any) -> Any:
+    from ...bayes.structure import StructureParameters
+    from ...mdof.fit import as_elements
+    from ...mdof.regression import unknown_names
+
+    elements = as_elements(main.terms, ds.source.preset().model().n_dofs, without=main.without)
+    return StructureParameters(unknown_names(elements), elements)
+
+
+def _structure_params(settings: Mapping[str, Any], ds: DatasetConfig, main: Any) -> list[str]:
+    """The unknowns a structure dataset's posterior samples (its elements on connections, K, C, s)."""
+    from ...bayes.structure import select_structure_params
+
+    if settings.get("bias_correction") or settings.get("noise"):
+        key = "bias_correction" if settings.get("bias_correction") else "noise"
+        raise InputError(
+            f"{key} sets the one-DOF errors-in-variables correction; a structure of several DOFs has none "
+            "(nlid.bayes.structure): leave it out for this dataset"
+        )
+    unknowns = _structure_unknowns(ds, main)
+    return [unknowns.names[i] for i in select_structure_params(unknowns, settings.get("params", "damping"))]
+
+
+def _canonical_in(ds: DatasetConfig, main: Any) -> Any:
+    return _structure_unknowns(ds, main).canonical
+
+
 def _check_posterior_terms(where: Where, settings: Mapping[str, Any], datasets: list[DatasetConfig]) -> None:
     """The sampled terms and the terms given priors exist in each dataset's own term set.
 
@@ -256,19 +283,22 @@ def _check_posterior_terms(where: Where, settings: Mapping[str, Any], datasets: 
     from ...bayes.priors import parse_prior_assignments
 
     params = settings.get("params", "damping")
-    priors = parse_prior_assignments(settings.get("priors"))
+    parse_prior_assignments(settings.get("priors"), canonical=lambda name: name)  # the specs, before the names
     for ds in datasets:
-        if getattr(ds.source, "kind", "") == "preset" and hasattr(ds.source.preset(), "elements"):
-            raise where.error(
-                f"dataset {ds.name!r} is a structure of several DOFs: the posterior (nlid.bayes) samples the "
-                "terms of one DOF and is not available for structures yet; remove [posterior] or the dataset"
-            )
         main = ds.models[0]
-        model = as_model(main.terms, without=main.without, px_roots=main.px_roots)
-        try:
-            names = [model.names[i] for i in select_params(model, params)]
-        except NlidError as exc:
-            raise (where / "params").error(f"dataset {ds.name!r}: {exc}") from None
+        if getattr(ds.source, "kind", "") == "preset" and hasattr(ds.source.preset(), "elements"):
+            try:
+                names = _structure_params(settings, ds, main)
+                priors = parse_prior_assignments(settings.get("priors"), canonical=_canonical_in(ds, main))
+            except NlidError as exc:
+                raise where.error(f"dataset {ds.name!r}: {exc}") from None
+        else:
+            model = as_model(main.terms, without=main.without, px_roots=main.px_roots)
+            try:
+                names = [model.names[i] for i in select_params(model, params)]
+            except NlidError as exc:
+                raise (where / "params").error(f"dataset {ds.name!r}: {exc}") from None
+            priors = parse_prior_assignments(settings.get("priors"))
         stray = [n for n in priors if n not in names]
         if stray:
             raise (where / "priors").error(

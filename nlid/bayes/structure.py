@@ -1,0 +1,270 @@
+"""The posterior of a structure's coefficients (several DOFs): elements on connections, ``K``, ``C``.
+
+The one-DOF posterior (:mod:`nlid.bayes.inference`) samples the coefficients
+of Eq. 25's force balance. A structure's balance is the same regression per
+DOF, solved jointly (:func:`nlid.mdof.regression.linear_design`)::
+
+    f_k - (M a)_k = (K z)_k + (C v)_k + s_k + sum_e B_ke theta_e g_e(x_e, x_e'),   k = 1..n,
+
+with every element coefficient ``theta_e`` shared by the two DOFs its element
+connects. The likelihood is built the same way, from the same pieces:
+
+1. the balance samples in one equation band for every DOF
+   (:func:`nlid.mdof.regression.structure_regression_data`; the cut-off the
+   identification's residual used, unless ``cutoff=`` is given);
+2. each DOF's equations weighted by the inverse of its first-pass residual
+   RMS (:func:`nlid.mdof.regression.dof_weights`, as ``rfs`` does), so one
+   noise scale serves every equation;
+3. the sandwich covariance and effective sample size of
+   :func:`nlid.bayes.likelihood.sandwich` with the DOFs of an instant kept
+   together (``group = n``);
+4. the Student-t likelihood of :class:`~nlid.bayes.likelihood.Likelihood`,
+   its unsampled coefficients integrated out or fixed, the same priors and
+   the same emcee run until converged.
+
+Not available for structures: the errors-in-variables correction by
+simulation (:mod:`nlid.bayes.bias`). The posterior is centred on the weighted
+least-squares estimate, and says so in its warnings: with noise on the
+displacements the regressors are not exact, and an element's interval can
+miss a truth it would cover with the correction (docs/posterior.md,
+"Structures").
+"""
+
+from __future__ import annotations
+
+import re
+from collections.abc import Mapping, Sequence
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from ..errors import InputError
+from .likelihood import Likelihood, sandwich
+
+if TYPE_CHECKING:  # pragma: no cover
+    from ..mdof.identified import IdentifiedStructure
+    from ..mdof.record import StructureRecord
+
+__all__ = [
+    "StructureParameters",
+    "structure_likelihood",
+    "select_structure_params",
+    "check_structure_names",
+    "NO_CORRECTION",
+]
+
+#: The warning every structure posterior carries (module docstring).
+NO_CORRECTION = (
+    "no errors-in-variables correction on a structure: the intervals treat the displacements as exact, "
+    "so with noise on them an element's interval can miss its true value (docs/posterior.md, Structures)"
+)
+
+
+class StructureParameters:
+    """The unknowns of a structure's balance, in the role a :class:`~nlid.terms.Model` has for one DOF.
+
+    Names are the elements' canonical names, then ``K[i,j]``, ``C[i,j]`` and
+    ``s[k]`` (1-based). :meth:`index` accepts any spelling of an element in
+    its canonical orientation.
+
+    Parameters
+    ----------
+    names
+        The unknowns, in the order of the likelihood's coefficient vector.
+    elements
+        The structure's :class:`~nlid.mdof.elements.ElementSet`.
+    """
+
+    def __init__(self, names: Sequence[str], elements: Any) -> None:
+        self.names = tuple(names)
+        self.elements = elements
+        self._position = {n: i for i, n in enumerate(self.names)}
+
+    def __len__(self) -> int:
+        return len(self.names)
+
+    def __contains__(self, name: object) -> bool:
+        try:
+            self.index(str(name))
+        except InputError:
+            return False
+        return True
+
+    def canonical(self, name: str) -> str:
+        """The canonical name of an unknown (an element in any spelling of its orientation, or ``K[1,2]``...)."""
+        text = "".join(str(name).split())
+        if text in self._position:
+            return text
+        if text[:2] in ("K[", "C[", "M[", "s["):
+            raise InputError(f"{name} is not an unknown of this structure's balance ({', '.join(self.names)})")
+        k, sign = self.elements.locate(name)
+        canonical = self.elements.names[k]
+        if sign < 0:
+            raise InputError(f"{name} is {canonical} with the opposite sign: name it as {canonical}")
+        return canonical
+
+    def index(self, name: str) -> int:
+        """Position of an unknown (any spelling)."""
+        return self._position[self.canonical(name)]
+
+    def vector(self, values: Mapping[str, float]) -> np.ndarray:
+        """``{name: value}`` to a vector in this order (names absent from the mapping are 0)."""
+        out = np.zeros(len(self.names))
+        for name, value in values.items():
+            out[self.index(name)] = float(value)
+        return out
+
+    def as_dict(self, values: Sequence[float] | np.ndarray) -> dict[str, float]:
+        """A vector in this order to ``{name: value}``."""
+        return {n: float(x) for n, x in zip(self.names, values, strict=True)}
+
+    def unit(self, name: str) -> str:
+        """SI unit of an unknown's coefficient."""
+        name = self.canonical(name)
+        if name.startswith("K["):
+            return "N/m"
+        if name.startswith("C["):
+            return "N*s/m"
+        if name.startswith("s["):
+            return "N"
+        return self.elements.elements[self.elements.index(name)].coefficient_unit
+
+    def is_damping(self, name: str) -> bool:
+        """True for a ``C`` entry or an element whose term depends on the velocity."""
+        name = self.canonical(name)
+        if name.startswith("C["):
+            return True
+        if name[:2] in ("K[", "s["):
+            return False
+        return self.elements.elements[self.elements.index(name)].term.family == "damping"
+
+    def __str__(self) -> str:
+        return ", ".join(self.names)
+
+
+def select_structure_params(parameters: StructureParameters, params: str | Sequence[str]) -> list[int]:
+    """Indices of the sampled unknowns.
+
+    ``"elements"`` (every element coefficient), ``"damping"`` (the velocity
+    dependent elements and the entries of ``C``), ``"all"``, or names (a
+    comma-separated string or a list; elements in any spelling, ``K[i,j]``,
+    ``C[i,j]``, ``s[k]``).
+    """
+    names = parameters.names
+    n_elements = len(parameters.elements)
+    if isinstance(params, str):
+        key = params.strip().lower()
+        if key == "elements":
+            if not n_elements:
+                raise InputError("the structure has no elements to sample; name K or C entries (params=)")
+            return list(range(n_elements))
+        if key in ("damping", "friction"):
+            idx = [i for i, n in enumerate(names) if parameters.is_damping(n)]
+            if not idx:
+                raise InputError("the structure's balance has no damping (velocity-dependent) unknowns to sample")
+            return idx
+        if key == "all":
+            return list(range(len(names)))
+        params = _split_names(params)
+    idx = sorted({parameters.index(p) for p in params})
+    if not idx:
+        raise InputError("params= names no unknown to sample")
+    return idx
+
+
+def check_structure_names(text: str) -> None:
+    """Refuse a list of names none of which a structure could have (before the model is known).
+
+    Each comma-separated name is a term on a connection (``(z1-z2)^3``,
+    ``sign(v2-v1)``) or a linear unknown ``K[i,j]``, ``C[i,j]``, ``s[k]``.
+    """
+    from ..mdof.spelling import rewrite
+
+    for name in _split_names(text):
+        compact = "".join(name.split())
+        if _LINEAR.fullmatch(compact):
+            continue
+        rewrite(name)
+
+
+_LINEAR = re.compile(r"(K|C)\[\d+,\d+\]|s\[\d+\]")
+
+
+def _split_names(text: str) -> list[str]:
+    """Comma-separated names; commas inside brackets (``K[1,2]``) do not split."""
+    out, depth, current = [], 0, ""
+    for ch in text:
+        if ch in "[(":
+            depth += 1
+        elif ch in "])":
+            depth -= 1
+        if ch == "," and depth == 0:
+            out.append(current)
+            current = ""
+        else:
+            current += ch
+    out.append(current)
+    return [p.strip() for p in out if p.strip()]
+
+
+def structure_likelihood(
+    record: StructureRecord, fit: IdentifiedStructure, *, cutoff: float | None = None
+) -> tuple[Likelihood, StructureParameters, np.ndarray, dict[str, float]]:
+    """The adjusted likelihood of a structure's unknowns (module docstring, steps 1-3).
+
+    Parameters
+    ----------
+    record
+        The data the identification used.
+    fit
+        The identified structure: its elements, mass matrix (taken as exact,
+        given or estimated) and the form of ``K`` (symmetric unless the
+        identification's ``K`` is not).
+    cutoff
+        Equation band in Hz (default: the one the identification's residual used).
+
+    Returns
+    -------
+    tuple
+        The likelihood, its unknowns, the DOF weights, and the identification's
+        estimate of every unknown (the walkers' start).
+    """
+    from ..mdof.regression import dof_weights, linear_design, structure_regression_data
+
+    structure = fit.structure
+    elements = structure.elements
+    if record.n_dofs != structure.n_dofs:
+        raise InputError(f"the record has {record.n_dofs} DOFs but the identified structure {structure.n_dofs}")
+    if cutoff is None:
+        cutoff = fit.diagnostics.get("balance_cutoff_hz")
+    symmetric = np.allclose(structure.K, structure.K.T) and np.allclose(structure.C, structure.C.T)
+    form = "symmetric" if symmetric else "full"
+    data = structure_regression_data(record, elements, cutoff=cutoff)
+    design = linear_design(data, elements, mass=structure.M, stiffness=form)
+    n = record.n_dofs
+    parameters = StructureParameters(design.names, elements)
+    first = sandwich(design.X, design.y, design.names, group=n)
+    residual = design.y - design.X @ first[1]
+    weights = dof_weights(residual, design.y, n)
+    w = np.tile(weights, design.y.size // n)
+    stats, theta_hat, cov, dof, info = sandwich(design.X * w[:, None], design.y * w, design.names, group=n)
+    info = {
+        "samples": stats.n,
+        "band_hz": data.filtered_at,
+        **{k: v for k, v in info.items() if k != "samples"},
+        "bias_correction": False,
+        "dof_weights": weights.tolist(),
+        "stiffness_form": form,
+    }
+    start = dict(elements.as_dict(structure.theta)) if len(elements) else {}
+    for key, matrix in (("K", structure.K), ("C", structure.C)):
+        for name in design.names:
+            if name.startswith(f"{key}["):
+                i, j = (int(x) - 1 for x in name[2:-1].split(","))
+                start[name] = float(matrix[i, j])
+    if structure.static is not None:
+        for k, value in enumerate(np.asarray(structure.static, dtype=float)):
+            start[f"s[{k + 1}]"] = float(value)
+    start = {name: float(start.get(name, theta_hat[i])) for i, name in enumerate(design.names)}
+    lik = Likelihood(tuple(design.names), stats, theta_hat, theta_hat, cov, dof, info)
+    return lik, parameters, weights, start

@@ -1,0 +1,114 @@
+"""The posterior of a structure's unknowns (nlid.bayes.structure): elements on connections, K, C."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+import nlid
+from nlid.bayes import sample_posterior
+from nlid.bayes.structure import NO_CORRECTION, StructureParameters, select_structure_params
+from nlid.errors import InputError, NlidError
+from nlid.mdof.regression import unknown_names
+from nlid.presets import get_preset
+
+
+@pytest.fixture(scope="module")
+def chain():
+    """The 3dof-cubic preset, 8 s."""
+    return get_preset("3dof-cubic").with_overrides(duration=8.0)
+
+
+@pytest.fixture(scope="module")
+def chain_noisy(chain):
+    """3dof-cubic, 2 % noise on the accelerations only (regressors exact: no errors-in-variables bias)."""
+    return chain.simulate(3, noise={"a": 0.02})
+
+
+@pytest.fixture(scope="module")
+def chain_fit(chain_noisy):
+    return nlid.identify(chain_noisy, "z3^3", "rfs", mass=chain_noisy.mass)
+
+
+def test_the_element_posterior_covers_the_truth_and_matches_its_gaussian_limit(chain_noisy, chain_fit):
+    post = sample_posterior(chain_noisy, chain_fit, params="elements", seed=1)
+    assert post.names == ("z3^3",)
+    truth = chain_noisy.meta["reference"]["coefficients"]["z3^3"]
+    lo, hi = post.interval(0.99)["z3^3"]
+    assert lo < truth < hi
+    mean, cov = post.gaussian_limit
+    sd = post.summary_dict()["z3^3"]["sd"]
+    assert sd == pytest.approx(np.sqrt(cov[0, 0]), rel=0.2)
+    # every channel measured: nothing is filtered, the residual is white
+    assert post.likelihood.info["band_hz"] is None
+    assert NO_CORRECTION in post.warnings
+    assert post.reference == {"z3^3": pytest.approx(truth)}
+    doc = json.loads(json.dumps(post.to_dict(), allow_nan=False))
+    assert doc["units"] == {"z3^3": "N/m^3"}
+    assert doc["likelihood"]["bias_correction"] is False
+    assert "mass matrix diagonal" in post.format_table() and "N/m^3" in post.format_table()
+
+
+def test_linear_unknowns_and_damping_can_be_sampled(chain_noisy, chain_fit):
+    post = sample_posterior(chain_noisy, chain_fit, params="K[1,2], C[1,1]", seed=0)
+    assert post.names == ("K[1,2]", "C[1,1]")
+    units = post.to_dict()["units"]
+    assert units == {"K[1,2]": "N/m", "C[1,1]": "N*s/m"}
+    # the identified values lie inside the sampled posterior's bulk
+    for name, (lo, hi) in post.interval(0.999).items():
+        assert lo < post.start[name] < hi
+    damping = sample_posterior(chain_noisy, chain_fit, params="damping", seed=0, others="fixed")
+    assert all(n.startswith("C[") for n in damping.names)
+
+
+def test_settings_a_structure_cannot_honour_are_refused(chain_noisy, chain_fit):
+    with pytest.raises(InputError, match="one DOF only"):
+        sample_posterior(chain_noisy, chain_fit, params="elements", bias_correction=True)
+    with pytest.raises(InputError, match="has none"):
+        sample_posterior(chain_noisy, chain_fit, params="elements", noise={"z": 1e-5})
+    with pytest.raises(NlidError, match="not an element"):
+        sample_posterior(chain_noisy, chain_fit, params="(z1-z2)^3")
+    with pytest.raises(NlidError, match="not an unknown"):
+        sample_posterior(chain_noisy, chain_fit, params="K[1,4]")
+
+
+def test_unknowns_are_named_in_any_spelling_of_their_orientation():
+    elements = nlid.mdof.fit.as_elements("(z1-z2)^3, (z1-z2)^2, (v1-v2)*|v1-v2|", 2)
+    unknowns = StructureParameters(unknown_names(elements), elements)
+    assert unknowns.canonical("(z1 - z2)^3") == "(z1-z2)^3"
+    assert unknowns.canonical("(v1-v2)*|v1-v2|") == "(v1-v2)*|v1-v2|"
+    with pytest.raises(InputError, match="opposite sign"):
+        unknowns.canonical("(z2-z1)^3")
+    assert unknowns.unit("s[2]") == "N"
+    picked = select_structure_params(unknowns, "(z1-z2)^3, K[1,2]")
+    assert [unknowns.names[i] for i in picked] == ["(z1-z2)^3", "K[1,2]"]
+    assert [unknowns.names[i] for i in select_structure_params(unknowns, "damping")] == [
+        "(v1-v2)*|v1-v2|",
+        "C[1,1]",
+        "C[1,2]",
+        "C[2,2]",
+    ]
+
+
+def test_priors_on_a_structure_use_its_names(chain_noisy, chain_fit):
+    truth = chain_noisy.meta["reference"]["coefficients"]["z3^3"]
+    post = sample_posterior(
+        chain_noisy, chain_fit, params="elements", priors={"z3 ^ 3": f"normal({truth}, {abs(truth)})"}, seed=0
+    )
+    assert post.priors["z3^3"].startswith("normal(")
+    with pytest.raises(NlidError, match="not sampled"):
+        sample_posterior(chain_noisy, chain_fit, params="elements", priors={"K[1,1]": "flat"})
+
+
+def test_a_filtered_balance_counts_its_correlated_residual(chain):
+    """Velocities and accelerations estimated from z: the residual is correlated and the sample size shrinks."""
+    record = chain.simulate(5, noise={"z": 0.005}, channels=["z1", "z2", "z3"])
+    fit = nlid.identify(record, "z3^3", "rfs", mass=record.mass)
+    post = sample_posterior(record, fit, params="elements", seed=0)
+    info = post.likelihood.info
+    assert info["band_hz"] == pytest.approx(fit.diagnostics["balance_cutoff_hz"])
+    assert info["tau_residual_samples"] > 2.0
+    assert info["dof"] < info["samples"] / 2.0
+    assert len(info["dof_weights"]) == 3 and max(info["dof_weights"]) == 1.0
