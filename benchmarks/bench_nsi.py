@@ -20,6 +20,7 @@ shared: compare before/after in the same session).
     python benchmarks/bench_nsi.py --quick       # skip the 10^6-sample runs and nfoursid
     python benchmarks/bench_nsi.py --profile 122880   # cProfile (CPU time) of one call, top entries
     python benchmarks/bench_nsi.py --cli-phases 1000000   # nlid identify's steps timed in one process
+    python benchmarks/bench_nsi.py --cli 1000000 [--repeat 5]   # only the whole-process nlid identify
 
 ``--profile`` measures whatever ``nlid`` and ``nlid_nsi`` are importable: to
 profile another version put its tree first on ``PYTHONPATH`` (docs/performance.md).
@@ -114,7 +115,7 @@ def _record_file(folder: Path, n: int) -> Path:
     return path
 
 
-def cli(n: int, repeat: int = 3) -> None:
+def cli(n: int, repeat: int = 5) -> None:
     """``nlid identify`` on a file of ``n`` samples (paper-numerical, seed 0, 2 % noise on z), in a child process.
 
     Reports the median wall time of ``repeat`` runs, the median CPU time
@@ -276,6 +277,10 @@ def profile(n: int, top: int = 25) -> None:
 def main() -> None:
     if "--profile" in sys.argv:
         profile(int(sys.argv[sys.argv.index("--profile") + 1]))
+        return
+    if "--cli" in sys.argv:
+        repeat = int(sys.argv[sys.argv.index("--repeat") + 1]) if "--repeat" in sys.argv else 5
+        cli(int(sys.argv[sys.argv.index("--cli") + 1]), repeat=repeat)
         return
     if "--cli-phases" in sys.argv:
         cli_phases(int(sys.argv[sys.argv.index("--cli-phases") + 1]))

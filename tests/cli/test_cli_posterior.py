@@ -7,13 +7,18 @@ import pytest
 from nlid.cli.main import main
 
 
+def simulated_csv(factory, preset: str, seed: int, duration: float, noise: str, channels: str):
+    """``nlid simulate`` of a preset into a fresh folder; returns the CSV's path."""
+    path = factory.mktemp("posterior") / "x.csv"
+    argv = ["simulate", "--preset", preset, "--seed", str(seed), "--duration", str(duration), "--noise", noise]
+    assert main([*argv, "--channels", channels, "--out", str(path)]) == 0
+    return path
+
+
 @pytest.fixture(scope="module")
 def csv_noisy(tmp_path_factory):
     """20 s of paper-numerical, 2 % noise, channels f, z, a."""
-    path = tmp_path_factory.mktemp("posterior") / "x.csv"
-    argv = ["simulate", "--preset", "paper-numerical", "--seed", "4", "--duration", "20", "--noise", "0.02"]
-    assert main([*argv, "--channels", "a", "--out", str(path)]) == 0
-    return path
+    return simulated_csv(tmp_path_factory, "paper-numerical", 4, 20, "0.02", "a")
 
 
 TERMS = ("--terms", "z^3,z^2,v*|v|", "--mass", "0.2")
@@ -65,10 +70,7 @@ def test_unconverged_chains_are_not_reported(csv_noisy, cli):
 @pytest.fixture(scope="module")
 def csv_velocity(tmp_path_factory):
     """20 s of paper-numerical, 2 % noise, channels f, z, v, a (the record of issue 15, shortened)."""
-    path = tmp_path_factory.mktemp("posterior_v") / "x.csv"
-    argv = ["simulate", "--preset", "paper-numerical", "--seed", "0", "--duration", "20", "--noise", "0.02"]
-    assert main([*argv, "--channels", "v,a", "--out", str(path)]) == 0
-    return path
+    return simulated_csv(tmp_path_factory, "paper-numerical", 0, 20, "0.02", "v,a")
 
 
 def test_measured_velocity_noise_comes_from_v_minus_dz_dt(csv_velocity, cli):
@@ -176,10 +178,7 @@ def test_velocity_and_acceleration_without_displacement_are_refused(csv_velocity
 @pytest.fixture(scope="module")
 def structure_csv(tmp_path_factory):
     """6 s of the 2dof-double-well structure, 2 % noise on the accelerations, every channel written."""
-    path = tmp_path_factory.mktemp("posterior-structure") / "s.csv"
-    argv = ["simulate", "--preset", "2dof-double-well", "--seed", "2", "--duration", "6", "--noise", "a=0.02"]
-    assert main([*argv, "--channels", "v,a", "--out", str(path)]) == 0
-    return path
+    return simulated_csv(tmp_path_factory, "2dof-double-well", 2, 6, "a=0.02", "v,a")
 
 
 def test_a_structure_file_gets_the_posterior_of_its_elements(structure_csv, cli):
