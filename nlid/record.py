@@ -58,6 +58,7 @@ from .recordchecks import (
     MIN_SAMPLES,
     TIME_TOLERANCE,
     RecordMeta,
+    TimeAxis,
     checked_fields,
     merge_units,
     real_array,
@@ -74,7 +75,7 @@ __all__ = ["Record", "CHANNELS", "MIN_SAMPLES", "TIME_TOLERANCE", "DEFAULT_UNITS
 
 
 @dataclass(frozen=True, eq=False)
-class Record:
+class Record(TimeAxis):
     """A uniformly sampled force/motion record.
 
     Parameters
@@ -328,24 +329,6 @@ class Record:
     def n(self) -> int:
         """Number of samples."""
         return int(self.z.size)
-
-    def __len__(self) -> int:
-        return self.n
-
-    @property
-    def dt(self) -> float:
-        """Sampling interval in s."""
-        return 1.0 / self.fs
-
-    @property
-    def duration(self) -> float:
-        """Length of the record in s (``n / fs``)."""
-        return self.n / self.fs
-
-    @property
-    def t(self) -> np.ndarray:
-        """Time of each sample in s."""
-        return self.t0 + np.arange(self.n) / self.fs
 
     @property
     def channels(self) -> tuple[str, ...]:

@@ -23,6 +23,7 @@ from .errors import DataError, InputError
 from .units import Unit, parse_units, unit_of
 
 __all__ = [
+    "TimeAxis",
     "CHANNELS",
     "MIN_SAMPLES",
     "TIME_TOLERANCE",
@@ -247,3 +248,33 @@ def uniform_step(t: np.ndarray) -> float:
             f"(tolerance {TIME_TOLERANCE:g} relative)"
         )
     return step
+
+
+class TimeAxis:
+    """The time axis every record shares (a mixin of :class:`~nlid.record.Record` and
+    :class:`~nlid.mdof.StructureRecord`): its length, step, duration and sample times.
+
+    The class defines ``n`` (samples), ``fs`` (Hz) and ``t0`` (s).
+    """
+
+    n: int
+    fs: float
+    t0: float
+
+    def __len__(self) -> int:
+        return self.n
+
+    @property
+    def dt(self) -> float:
+        """Sampling interval in s."""
+        return 1.0 / self.fs
+
+    @property
+    def duration(self) -> float:
+        """Length of the record in s (``n / fs``)."""
+        return self.n / self.fs
+
+    @property
+    def t(self) -> np.ndarray:
+        """Time of each sample in s."""
+        return self.t0 + np.arange(self.n) / self.fs

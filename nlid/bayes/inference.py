@@ -335,7 +335,7 @@ class PosteriorSampler:
     def _prepare_structure(self, record: Any, fit: Any) -> _Problem:
         """A structure's likelihood (:mod:`nlid.bayes.structure`): every DOF's balance, no bias correction."""
         from ..mdof.record import StructureRecord
-        from .structure import NO_CORRECTION, select_structure_params, structure_likelihood
+        from .structure import select_structure_params, structure_likelihood, structure_warnings
 
         if not isinstance(record, StructureRecord):
             raise InputError(
@@ -376,7 +376,7 @@ class PosteriorSampler:
             method=fit.method,
             data=None,
             reference=reference,
-            warnings=(NO_CORRECTION,),
+            warnings=structure_warnings(record),
             units={n: parameters.unit(n) for n in parameters.names},
         )
 

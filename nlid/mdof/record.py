@@ -45,7 +45,7 @@ import numpy as np
 from .. import derivatives
 from ..errors import DataError, InputError
 from ..record import Record
-from ..recordchecks import MIN_SAMPLES, RecordMeta, uniform_step
+from ..recordchecks import MIN_SAMPLES, RecordMeta, TimeAxis, uniform_step
 from ..recordchecks import freeze as _freeze
 from ..units import Unit, parse_units
 
@@ -98,7 +98,7 @@ def _columns(raw: Any, name: str, n_rows: int | None) -> np.ndarray:
 
 
 @dataclass(frozen=True, eq=False)
-class StructureRecord:
+class StructureRecord(TimeAxis):
     """A uniformly sampled force/motion record of a structure with ``n`` DOFs.
 
     Parameters
@@ -302,28 +302,10 @@ class StructureRecord:
         """Number of samples (as :attr:`Record.n`)."""
         return int(self.z.shape[0])
 
-    def __len__(self) -> int:
-        return self.n
-
     @property
     def n_dofs(self) -> int:
         """Number of degrees of freedom."""
         return int(self.z.shape[1])
-
-    @property
-    def dt(self) -> float:
-        """Sampling interval in s."""
-        return 1.0 / self.fs
-
-    @property
-    def duration(self) -> float:
-        """Length of the record in s."""
-        return self.n / self.fs
-
-    @property
-    def t(self) -> np.ndarray:
-        """Time of each sample in s."""
-        return self.t0 + np.arange(self.n) / self.fs
 
     @property
     def groups(self) -> tuple[str, ...]:

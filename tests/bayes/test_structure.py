@@ -43,7 +43,7 @@ def test_the_element_posterior_covers_the_truth_and_matches_its_gaussian_limit(c
     assert sd == pytest.approx(np.sqrt(cov[0, 0]), rel=0.2)
     # every channel measured: nothing is filtered, the residual is white
     assert post.likelihood.info["band_hz"] is None
-    assert NO_CORRECTION in post.warnings
+    assert post.warnings == (NO_CORRECTION,)  # velocities measured: no second warning
     assert post.reference == {"z3^3": pytest.approx(truth)}
     doc = json.loads(json.dumps(post.to_dict(), allow_nan=False))
     assert doc["units"] == {"z3^3": "N/m^3"}
@@ -112,3 +112,4 @@ def test_a_filtered_balance_counts_its_correlated_residual(chain):
     assert info["tau_residual_samples"] > 2.0
     assert info["dof"] < info["samples"] / 2.0
     assert len(info["dof_weights"]) == 3 and max(info["dof_weights"]) == 1.0
+    assert any("velocities estimated from the displacements (v1, v2, v3)" in w for w in post.warnings)
