@@ -30,6 +30,14 @@ QUANTILES = (0.05, 0.5, 0.95)
 SD_SLACK = 1.25
 
 
+def _equations(info: Mapping[str, Any]) -> str:
+    """``"N samples"``, or for a structure ``"R equations (N samples x n DOFs)"``."""
+    dofs = info.get("dofs")
+    if not dofs:
+        return f"{info['samples']} samples"
+    return f"{info['samples']} equations ({info['samples'] // dofs} samples x {dofs} DOFs)"
+
+
 @dataclass(frozen=True)
 class DampingBand:
     """Posterior predictive band of ``D(z0, v)`` on one slice (paper Fig. 21 b-d).
@@ -385,7 +393,7 @@ class Posterior:
         lines.append(
             (
                 "likelihood",
-                f"equation error over {info['samples']} samples{where}, effective {info['dof']:.0f} "
+                f"equation error over {_equations(info)}{where}, effective {info['dof']:.0f} "
                 f"(residual correlated over {info['tau_residual_samples']:.1f} samples), {bias}",
             )
         )

@@ -271,6 +271,7 @@ def structure_likelihood(
         "band_hz": data.filtered_at,
         **{k: v for k, v in info.items() if k != "samples"},
         "bias_correction": False,
+        "dofs": n,
         "dof_weights": weights.tolist(),
         "stiffness_form": form,
     }
