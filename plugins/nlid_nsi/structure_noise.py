@@ -32,7 +32,7 @@ from nlid.plugin import derivatives
 from .basis import Basis
 from .noise import NoiseModel, _xcorr, impulse_response
 
-__all__ = ["noise_variance", "structure_noise_model"]
+__all__ = ["noise_variance", "noise_paths", "structure_noise_model"]
 
 
 def noise_variance(x: np.ndarray, fs: float) -> float:
@@ -57,41 +57,16 @@ def _fold(kernel: np.ndarray, sharpen: np.ndarray | None = None) -> np.ndarray:
     return out
 
 
-def structure_noise_model(
-    record: Any,
-    motion: Any,
-    columns: list[tuple[str, Any]],
-    scales: np.ndarray,
-    n_force: int,
-    extra: tuple[int, ...],
-    max_lag: int,
-    sharpen: np.ndarray | None = None,
-) -> NoiseModel:
-    """The noise model of the base channels ``[f_d..., <z_d>..., -g_e..., z_1..z_n]`` (normalised).
+def noise_paths(record: Any, motion: Any, max_lag: int, sharpen: np.ndarray | None = None) -> np.ndarray:
+    """``xcorr[i, j, L + l]`` of the noise paths (per DOF: de-noised z, velocity, output), variances included.
 
-    Parameters
-    ----------
-    record, motion
-        The record and the de-noised motion (:class:`nlid_nsi.structure.Motion`) the basis is evaluated on.
-    columns
-        The extended inputs ``(name, (func, b))``.
-    scales
-        Scales of the base channels.
-    n_force
-        Number of force channels (noise-free).
-    extra
-        The driven DOFs whose de-noised displacement is a channel (nsi-ip), in order.
-    max_lag
-        Largest lag (samples) of the correction.
-    sharpen
-        The 3-tap filter applied to the interval means of the state-dependent
-        channels (:func:`nlid_nsi.structure.sharpen`), or ``None``; folded into
-        their noise paths like the interval mean (the Jacobian taken as constant over 3 samples).
+    It depends on the record and the de-noising (:class:`nlid_nsi.structure.Motion`) alone, not on the
+    extended inputs: one array serves every identification on the same motion (nsi-shift's references).
+    Arguments as for :func:`structure_noise_model`.
     """
     n, fs = record.n_dofs, record.fs
     z = np.asarray(record.z, dtype=float)
-    n_paths = 3 * n  # per DOF: de-noised z, velocity, output
-    xcorr = np.zeros((n_paths, n_paths, 2 * max_lag + 1))
+    xcorr = np.zeros((3 * n, 3 * n, 2 * max_lag + 1))
     measured_v = motion.velocity.startswith("measured")
     for k in range(n):
         fc = motion.cutoffs_hz[k]
@@ -113,6 +88,46 @@ def structure_noise_model(
             xcorr[sl, sl] += noise_variance(np.asarray(record.v[:, k], dtype=float), fs) * _xcorr(
                 [zero, kvm, zero], max_lag
             )
+    return xcorr
+
+
+def structure_noise_model(
+    record: Any,
+    motion: Any,
+    columns: list[tuple[str, Any]],
+    scales: np.ndarray,
+    n_force: int,
+    extra: tuple[int, ...],
+    max_lag: int,
+    sharpen: np.ndarray | None = None,
+    paths: np.ndarray | None = None,
+) -> NoiseModel:
+    """The noise model of the base channels ``[f_d..., <z_d>..., -g_e..., z_1..z_n]`` (normalised).
+
+    Parameters
+    ----------
+    record, motion
+        The record and the de-noised motion (:class:`nlid_nsi.structure.Motion`) the basis is evaluated on.
+    columns
+        The extended inputs ``(name, (func, b))``.
+    scales
+        Scales of the base channels.
+    n_force
+        Number of force channels (noise-free).
+    extra
+        The driven DOFs whose de-noised displacement is a channel (nsi-ip), in order.
+    max_lag
+        Largest lag (samples) of the correction.
+    sharpen
+        The 3-tap filter applied to the interval means of the state-dependent
+        channels (:func:`nlid_nsi.structure.sharpen`), or ``None``; folded into
+        their noise paths like the interval mean (the Jacobian taken as constant over 3 samples).
+    paths
+        :func:`noise_paths` of the same record, motion, ``max_lag`` and ``sharpen`` when already computed.
+    """
+    n = record.n_dofs
+    n_paths = 3 * n  # per DOF: de-noised z, velocity, output
+    xcorr = noise_paths(record, motion, max_lag, sharpen) if paths is None else paths
     c = len(scales)
     # sensitivity of each channel to each path, per sample: J[t, a, path]
     sens: list[tuple[int, int, np.ndarray | float]] = []  # (channel, path, values)

@@ -51,13 +51,15 @@ from .structure import (
     check_structure_options,
     element_basis,
     fit_structure,
+    noise_sharpen,
     static_forces,
     structure_arrays,
     structure_channels,
     structure_gram,
     uls_summary,
 )
-from .structure_motion import band_floor, structure_motion
+from .structure_motion import Motion, band_floor, structure_motion
+from .structure_noise import noise_paths
 from .wells import histogram_modes, taylor_shift
 
 __all__ = ["identify_structure_shift", "MAX_WELLS"]
@@ -166,7 +168,10 @@ def identify_structure_shift(identifier: Any, record: StructureRecord, elements:
     _, fn_hz, motion, refs = _identify_shift(identifier, record, elements, mass, 0.0, iterate=1)
     dofs = {int(k) for k in np.flatnonzero(np.any(elements.B != 0, axis=1))}
     floor = band_floor(motion, fn_hz, identifier.settings, record.fs, dofs)
-    est, _, _, _ = _identify_shift(identifier, record, elements, mass, floor or 0.0, start=refs)
+    # without a raised floor the second pass de-noises exactly as the first: its motion is reused
+    est, _, _, _ = _identify_shift(
+        identifier, record, elements, mass, floor or 0.0, start=refs, motion=motion if floor is None else None
+    )
     if floor is not None:
         est.diagnostics["denoise_first_pass_hz"] = list(motion.cutoffs_hz)
     est.diagnostics["seconds"] = time.perf_counter() - t0
@@ -181,15 +186,23 @@ def _identify_shift(
     floor_hz: float,
     iterate: int | None = None,
     start: list[dict] | None = None,
+    motion: Motion | None = None,
 ) -> tuple[Any, np.ndarray, Any, list[dict]]:
-    """One pass: at most ``iterate`` identifications per well from the references ``start`` (or found)."""
+    """One pass: at most ``iterate`` identifications per well from the references ``start`` (or found).
+
+    ``motion``: the de-noised motion at ``floor_hz`` when already computed. The noise paths of the
+    motion (:func:`nlid_nsi.structure_noise.noise_paths`) are computed once and serve every well and
+    iteration: only the extended inputs change with the reference.
+    """
     t0 = time.perf_counter()
     opt = identifier.settings
     n = record.n_dofs
     order = check_structure_options(opt, n)
     hold = opt["force_hold"] or record.force_hold
     band = tuple(opt["band_hz"]) if opt.get("band_hz") else opt["band"]
-    motion = structure_motion(record, opt, floor_hz)
+    if motion is None:
+        motion = structure_motion(record, opt, floor_hz)
+    paths = noise_paths(record, motion, opt["noise_max_lag"], noise_sharpen(opt)) if opt["noise_correction"] else None
     poly, others = _split(elements)
     wells_refs, source = _references(poly, elements, motion, opt["equilibria"])
     if start:
@@ -210,7 +223,7 @@ def _identify_shift(
                 columns, connectivity = _columns(poly, others, elements, refs)
                 ch = structure_channels(record, motion, columns, hold, False, opt["intersample"])
                 check_length(record.n, s, ch.base.shape[1])
-                gram, noise_info, noise = structure_gram(ch, record, motion, columns, opt)
+                gram, noise_info, noise = structure_gram(ch, record, motion, columns, opt, paths)
                 fit = fit_structure(ch, gram, record.dt, order, connectivity, band, opt["zeta_max"], 0.0, mass, noise)
                 identifications += 1
                 theta, unmodelled = _map_back(fit, poly, others, elements, refs)
