@@ -32,7 +32,7 @@ from nlid.plugin import derivatives
 from .basis import Basis
 from .noise import NoiseModel, _xcorr, impulse_response
 
-__all__ = ["noise_variance", "noise_paths", "structure_noise_model"]
+__all__ = ["noise_variance", "noise_variances", "noise_paths", "structure_noise_model"]
 
 
 def noise_variance(x: np.ndarray, fs: float) -> float:
@@ -57,15 +57,32 @@ def _fold(kernel: np.ndarray, sharpen: np.ndarray | None = None) -> np.ndarray:
     return out
 
 
-def noise_paths(record: Any, motion: Any, max_lag: int, sharpen: np.ndarray | None = None) -> np.ndarray:
+def noise_variances(record: Any, motion: Any) -> tuple[list[float], list[float]]:
+    """:func:`noise_variance` of every DOF's measured ``z`` and (when the motion uses it) ``v``."""
+    fs = record.fs
+    z = np.asarray(record.z, dtype=float)
+    var_z = [noise_variance(z[:, k], fs) for k in range(record.n_dofs)]
+    if not motion.velocity.startswith("measured"):
+        return var_z, []
+    return var_z, [noise_variance(np.asarray(record.v[:, k], dtype=float), fs) for k in range(record.n_dofs)]
+
+
+def noise_paths(
+    record: Any,
+    motion: Any,
+    max_lag: int,
+    sharpen: np.ndarray | None = None,
+    variances: tuple[list[float], list[float]] | None = None,
+) -> np.ndarray:
     """``xcorr[i, j, L + l]`` of the noise paths (per DOF: de-noised z, velocity, output), variances included.
 
     It depends on the record and the de-noising (:class:`nlid_nsi.structure.Motion`) alone, not on the
     extended inputs: one array serves every identification on the same motion (nsi-shift's references).
-    Arguments as for :func:`structure_noise_model`.
+    ``variances``: :func:`noise_variances` of the record when already computed (they do not depend on
+    the de-noising). Other arguments as for :func:`structure_noise_model`.
     """
     n, fs = record.n_dofs, record.fs
-    z = np.asarray(record.z, dtype=float)
+    var_z, var_v = noise_variances(record, motion) if variances is None else variances
     xcorr = np.zeros((3 * n, 3 * n, 2 * max_lag + 1))
     measured_v = motion.velocity.startswith("measured")
     for k in range(n):
@@ -81,13 +98,11 @@ def noise_paths(record: Any, motion: Any, max_lag: int, sharpen: np.ndarray | No
                 sharpen,
             )
         sl = slice(3 * k, 3 * k + 3)
-        xcorr[sl, sl] += noise_variance(z[:, k], fs) * _xcorr([kz, kv, ky], max_lag)
+        xcorr[sl, sl] += var_z[k] * _xcorr([kz, kv, ky], max_lag)
         if measured_v:
             kvm = _fold(impulse_response(lambda x, fc=fc: derivatives.lowpass(x, fs, fc), max_lag), sharpen)
             zero = np.zeros_like(kvm)
-            xcorr[sl, sl] += noise_variance(np.asarray(record.v[:, k], dtype=float), fs) * _xcorr(
-                [zero, kvm, zero], max_lag
-            )
+            xcorr[sl, sl] += var_v[k] * _xcorr([zero, kvm, zero], max_lag)
     return xcorr
 
 
