@@ -29,23 +29,29 @@ class Motion:
     v: np.ndarray
     velocity: str
     cutoffs_hz: tuple[float, ...]
+    #: Each DOF's cut-off from its noise floor alone (before ``floor_hz`` and the cap), for a second pass.
+    suggested_hz: tuple[float, ...] = ()
 
 
-def structure_motion(record: StructureRecord, opt: dict[str, Any], floor_hz: float = 0.0) -> Motion:
+def structure_motion(
+    record: StructureRecord, opt: dict[str, Any], floor_hz: float = 0.0, suggested: tuple[float, ...] = ()
+) -> Motion:
     """Each DOF's ``z`` low-passed and ``v`` (measured and low-passed, or differentiated from ``z``).
 
     ``floor_hz`` raises the automatic cut-offs (not a given ``denoise_cutoff``) to at least that
-    (:func:`band_floor`), capped at 0.4 fs.
+    (:func:`band_floor`), capped at 0.4 fs. ``suggested``: :attr:`Motion.suggested_hz` of an earlier
+    pass on the same record (the noise-floor cut-offs depend on the record alone).
     """
     fs = record.fs
     z = np.asarray(record.z, dtype=float)
-    zd, vd, cutoffs = np.empty_like(z), np.empty_like(z), []
+    zd, vd, cutoffs, bases = np.empty_like(z), np.empty_like(z), [], []
     how = opt.get("velocity")
     measured = record.v is not None and how != "differentiate"
     if how == "measured" and record.v is None:
         raise DataError("velocity=measured needs the velocity channels v1..vn")
     for k in range(record.n_dofs):
-        base = derivatives.suggest_cutoff(z[:, k], fs)
+        base = suggested[k] if suggested else derivatives.suggest_cutoff(z[:, k], fs)
+        bases.append(float(base))
         cap = derivatives.CUTOFF_MAX_FRACTION * fs
         fc = opt.get("denoise_cutoff") or min(max(CUTOFF_FACTOR * base, floor_hz), cap)
         if not 0 < fc < fs / 2:
@@ -58,7 +64,7 @@ def structure_motion(record: StructureRecord, opt: dict[str, Any], floor_hz: flo
             vd[:, k] = derivatives.differentiate(z[:, k], fs, order=1, cutoff=fcv)[0]
         cutoffs.append(float(fc))
     velocity = "measured v, low-passed" if measured else "differentiated from z"
-    return Motion(zd, vd, velocity, tuple(cutoffs))
+    return Motion(zd, vd, velocity, tuple(cutoffs), tuple(bases))
 
 
 #: The automatic cut-offs are raised to this multiple of the highest identified natural frequency.

@@ -32,7 +32,7 @@ from nlid.plugin import derivatives
 from .basis import Basis
 from .noise import NoiseModel, _xcorr, impulse_response
 
-__all__ = ["noise_variance", "structure_noise_model"]
+__all__ = ["noise_variance", "noise_variances", "noise_paths", "structure_noise_model"]
 
 
 def noise_variance(x: np.ndarray, fs: float) -> float:
@@ -57,6 +57,55 @@ def _fold(kernel: np.ndarray, sharpen: np.ndarray | None = None) -> np.ndarray:
     return out
 
 
+def noise_variances(record: Any, motion: Any) -> tuple[list[float], list[float]]:
+    """:func:`noise_variance` of every DOF's measured ``z`` and (when the motion uses it) ``v``."""
+    fs = record.fs
+    z = np.asarray(record.z, dtype=float)
+    var_z = [noise_variance(z[:, k], fs) for k in range(record.n_dofs)]
+    if not motion.velocity.startswith("measured"):
+        return var_z, []
+    return var_z, [noise_variance(np.asarray(record.v[:, k], dtype=float), fs) for k in range(record.n_dofs)]
+
+
+def noise_paths(
+    record: Any,
+    motion: Any,
+    max_lag: int,
+    sharpen: np.ndarray | None = None,
+    variances: tuple[list[float], list[float]] | None = None,
+) -> np.ndarray:
+    """``xcorr[i, j, L + l]`` of the noise paths (per DOF: de-noised z, velocity, output), variances included.
+
+    It depends on the record and the de-noising (:class:`nlid_nsi.structure.Motion`) alone, not on the
+    extended inputs: one array serves every identification on the same motion (nsi-shift's references).
+    ``variances``: :func:`noise_variances` of the record when already computed (they do not depend on
+    the de-noising). Other arguments as for :func:`structure_noise_model`.
+    """
+    n, fs = record.n_dofs, record.fs
+    var_z, var_v = noise_variances(record, motion) if variances is None else variances
+    xcorr = np.zeros((3 * n, 3 * n, 2 * max_lag + 1))
+    measured_v = motion.velocity.startswith("measured")
+    for k in range(n):
+        fc = motion.cutoffs_hz[k]
+        kz = _fold(impulse_response(lambda x, fc=fc: derivatives.lowpass(x, fs, fc), max_lag), sharpen)
+        ky = np.zeros(2 * max_lag + 1)
+        ky[max_lag] = 1.0
+        if measured_v:
+            kv = np.zeros_like(kz)
+        else:
+            kv = _fold(
+                impulse_response(lambda x, fc=fc: derivatives.differentiate(x, fs, order=1, cutoff=fc)[0], max_lag),
+                sharpen,
+            )
+        sl = slice(3 * k, 3 * k + 3)
+        xcorr[sl, sl] += var_z[k] * _xcorr([kz, kv, ky], max_lag)
+        if measured_v:
+            kvm = _fold(impulse_response(lambda x, fc=fc: derivatives.lowpass(x, fs, fc), max_lag), sharpen)
+            zero = np.zeros_like(kvm)
+            xcorr[sl, sl] += var_v[k] * _xcorr([zero, kvm, zero], max_lag)
+    return xcorr
+
+
 def structure_noise_model(
     record: Any,
     motion: Any,
@@ -66,6 +115,7 @@ def structure_noise_model(
     extra: tuple[int, ...],
     max_lag: int,
     sharpen: np.ndarray | None = None,
+    paths: np.ndarray | None = None,
 ) -> NoiseModel:
     """The noise model of the base channels ``[f_d..., <z_d>..., -g_e..., z_1..z_n]`` (normalised).
 
@@ -87,32 +137,12 @@ def structure_noise_model(
         The 3-tap filter applied to the interval means of the state-dependent
         channels (:func:`nlid_nsi.structure.sharpen`), or ``None``; folded into
         their noise paths like the interval mean (the Jacobian taken as constant over 3 samples).
+    paths
+        :func:`noise_paths` of the same record, motion, ``max_lag`` and ``sharpen`` when already computed.
     """
-    n, fs = record.n_dofs, record.fs
-    z = np.asarray(record.z, dtype=float)
+    n = record.n_dofs
     n_paths = 3 * n  # per DOF: de-noised z, velocity, output
-    xcorr = np.zeros((n_paths, n_paths, 2 * max_lag + 1))
-    measured_v = motion.velocity.startswith("measured")
-    for k in range(n):
-        fc = motion.cutoffs_hz[k]
-        kz = _fold(impulse_response(lambda x, fc=fc: derivatives.lowpass(x, fs, fc), max_lag), sharpen)
-        ky = np.zeros(2 * max_lag + 1)
-        ky[max_lag] = 1.0
-        if measured_v:
-            kv = np.zeros_like(kz)
-        else:
-            kv = _fold(
-                impulse_response(lambda x, fc=fc: derivatives.differentiate(x, fs, order=1, cutoff=fc)[0], max_lag),
-                sharpen,
-            )
-        sl = slice(3 * k, 3 * k + 3)
-        xcorr[sl, sl] += noise_variance(z[:, k], fs) * _xcorr([kz, kv, ky], max_lag)
-        if measured_v:
-            kvm = _fold(impulse_response(lambda x, fc=fc: derivatives.lowpass(x, fs, fc), max_lag), sharpen)
-            zero = np.zeros_like(kvm)
-            xcorr[sl, sl] += noise_variance(np.asarray(record.v[:, k], dtype=float), fs) * _xcorr(
-                [zero, kvm, zero], max_lag
-            )
+    xcorr = noise_paths(record, motion, max_lag, sharpen) if paths is None else paths
     c = len(scales)
     # sensitivity of each channel to each path, per sample: J[t, a, path]
     sens: list[tuple[int, int, np.ndarray | float]] = []  # (channel, path, values)

@@ -51,13 +51,15 @@ from .structure import (
     check_structure_options,
     element_basis,
     fit_structure,
+    noise_sharpen,
     static_forces,
     structure_arrays,
     structure_channels,
     structure_gram,
     uls_summary,
 )
-from .structure_motion import band_floor, structure_motion
+from .structure_motion import Motion, band_floor, structure_motion
+from .structure_noise import noise_paths, noise_variances
 from .wells import histogram_modes, taylor_shift
 
 __all__ = ["identify_structure_shift", "MAX_WELLS"]
@@ -162,11 +164,18 @@ def _linear_part(poly: dict, elements: ElementSet, theta: np.ndarray, refs: dict
 def identify_structure_shift(identifier: Any, record: StructureRecord, elements: ElementSet, mass: Any) -> Any:
     """``nsi-shift`` on a structure (module docstring); again with raised cut-offs when :func:`band_floor` asks."""
     t0 = time.perf_counter()
+    opt = identifier.settings
+    check_structure_options(opt, record.n_dofs)
+    motion = structure_motion(record, opt)
+    # the noise floors of the measured channels serve both passes (the noise paths change with the cut-offs)
+    variances = noise_variances(record, motion) if opt["noise_correction"] else None
     # the first pass only places the band and the references: one identification per well
-    _, fn_hz, motion, refs = _identify_shift(identifier, record, elements, mass, 0.0, iterate=1)
+    _, fn_hz, refs = _identify_shift(identifier, record, elements, mass, motion, variances, iterate=1)
     dofs = {int(k) for k in np.flatnonzero(np.any(elements.B != 0, axis=1))}
-    floor = band_floor(motion, fn_hz, identifier.settings, record.fs, dofs)
-    est, _, _, _ = _identify_shift(identifier, record, elements, mass, floor or 0.0, start=refs)
+    floor = band_floor(motion, fn_hz, opt, record.fs, dofs)
+    # without a raised floor the second pass de-noises exactly as the first: its motion is reused
+    second = motion if floor is None else structure_motion(record, opt, floor, motion.suggested_hz)
+    est, _, _ = _identify_shift(identifier, record, elements, mass, second, variances, start=refs)
     if floor is not None:
         est.diagnostics["denoise_first_pass_hz"] = list(motion.cutoffs_hz)
     est.diagnostics["seconds"] = time.perf_counter() - t0
@@ -178,18 +187,26 @@ def _identify_shift(
     record: StructureRecord,
     elements: ElementSet,
     mass: Any,
-    floor_hz: float,
+    motion: Motion,
+    variances: Any,
     iterate: int | None = None,
     start: list[dict] | None = None,
-) -> tuple[Any, np.ndarray, Any, list[dict]]:
-    """One pass: at most ``iterate`` identifications per well from the references ``start`` (or found)."""
+) -> tuple[Any, np.ndarray, list[dict]]:
+    """One pass on ``motion``: at most ``iterate`` identifications per well from the references ``start`` (or found).
+
+    The noise paths of the motion (:func:`nlid_nsi.structure_noise.noise_paths`, from the record's noise
+    ``variances``) are computed once and serve every well and iteration: only the extended inputs change
+    with the reference.
+    """
     t0 = time.perf_counter()
     opt = identifier.settings
     n = record.n_dofs
     order = check_structure_options(opt, n)
     hold = opt["force_hold"] or record.force_hold
     band = tuple(opt["band_hz"]) if opt.get("band_hz") else opt["band"]
-    motion = structure_motion(record, opt, floor_hz)
+    paths = None
+    if opt["noise_correction"]:
+        paths = noise_paths(record, motion, opt["noise_max_lag"], noise_sharpen(opt), variances)
     poly, others = _split(elements)
     wells_refs, source = _references(poly, elements, motion, opt["equilibria"])
     if start:
@@ -210,7 +227,7 @@ def _identify_shift(
                 columns, connectivity = _columns(poly, others, elements, refs)
                 ch = structure_channels(record, motion, columns, hold, False, opt["intersample"])
                 check_length(record.n, s, ch.base.shape[1])
-                gram, noise_info, noise = structure_gram(ch, record, motion, columns, opt)
+                gram, noise_info, noise = structure_gram(ch, record, motion, columns, opt, paths)
                 fit = fit_structure(ch, gram, record.dt, order, connectivity, band, opt["zeta_max"], 0.0, mass, noise)
                 identifications += 1
                 theta, unmodelled = _map_back(fit, poly, others, elements, refs)
@@ -291,7 +308,7 @@ def _identify_shift(
         arrays=arrays,
     )
     fn_hz = np.concatenate([np.asarray(w["uls"]["fn_hz"], dtype=float) for w in wells])
-    return est, fn_hz, motion, following
+    return est, fn_hz, following
 
 
 def _text(refs: dict) -> dict[str, float]:

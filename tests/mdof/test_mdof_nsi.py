@@ -124,3 +124,43 @@ def test_band_floor_raises_only_cutoffs_inside_the_band_of_a_used_dof():
     assert band_floor(motion, fn, {}, 2048.0, {0, 1}) == pytest.approx(BAND_FACTOR * 50.7)
     assert band_floor(motion, fn, {}, 2048.0, {1}) is None  # DOF 1 is in no channel
     assert band_floor(motion, fn, {"denoise_cutoff": 67.0}, 2048.0, {0, 1}) is None  # the user's cut-off is kept
+
+
+def test_gram_clipping_from_the_low_eigenpairs_matches_the_full_decomposition():
+    from nlid_nsi.structure import _definite
+
+    rng = np.random.default_rng(3)
+    s, c = 6, 4
+    n = s * c
+    vec = np.linalg.qr(rng.standard_normal((n, n)))[0]
+    ev = np.r_[-3e-3, -1e-4, 1e-9 * np.ones(3), np.logspace(-6, 0, n - 5)]  # two negative, three below the floor
+    flat = (vec * ev) @ vec.T
+    flat = 0.5 * (flat + flat.T)
+    out = _definite(flat.reshape(s, c, s, c)).reshape(n, n)
+    scale = np.trace(flat) / n
+    w, v = np.linalg.eigh(flat)
+    full = (v * np.maximum(w, 1e-8 * scale)) @ v.T  # the eigenvalues raised to the floor, every pair
+    assert np.abs(out - full).max() < 1e-12 * np.abs(full).max()
+    assert np.linalg.eigvalsh(0.5 * (out + out.T)).min() > 0.99e-8 * scale
+    definite = (vec * np.logspace(-6, 0, n)) @ vec.T
+    definite = 0.5 * (definite + definite.T)
+    assert np.array_equal(_definite(definite.reshape(s, c, s, c)).reshape(n, n), definite)  # kept as it is
+
+
+def test_shared_noise_paths_give_the_same_noise_model():
+    from nlid_nsi.structure import SHARPEN
+    from nlid_nsi.structure_motion import structure_motion
+    from nlid_nsi.structure_noise import noise_paths, noise_variances, structure_noise_model
+
+    rec = get_preset("3dof-cubic").with_overrides(duration=4.0).simulate(0, noise=0.02)
+    motion = structure_motion(rec, {})
+    b = np.array([0.0, 0.0, 1.0])
+    columns = [("x^3", (lambda x, v: x**3, b)), ("x^2", (lambda x, v: x**2, b))]
+    scales = np.ones(1 + len(columns) + rec.n_dofs)
+    fresh = structure_noise_model(rec, motion, columns, scales, 1, (), 16, SHARPEN)
+    paths = noise_paths(rec, motion, 16, SHARPEN, noise_variances(rec, motion))
+    shared = structure_noise_model(rec, motion, columns, scales, 1, (), 16, SHARPEN, paths)
+    assert np.array_equal(fresh.xcorr, shared.xcorr)
+    assert np.array_equal(fresh.moments, shared.moments)
+    again = structure_motion(rec, {}, 0.0, motion.suggested_hz)
+    assert motion.cutoffs_hz == again.cutoffs_hz and np.array_equal(motion.z, again.z)
