@@ -339,6 +339,11 @@ def _apply(
     return out
 
 
+#: Bytes of zero-padded input transformed at once by :func:`_filter_columns` (several columns of a short
+#: record in one batched FFT; a long record's columns one at a time, which bounds the peak memory).
+FILTER_BLOCK_BYTES = 4 * 2**20
+
+
 def _filter_columns(
     x: np.ndarray,
     out: np.ndarray,
@@ -353,34 +358,46 @@ def _filter_columns(
     """``out[:, j] =`` the shared response applied to ``x[:, j]`` for each ``j`` in ``columns`` (``out`` may be ``x``).
 
     The response is computed once for all the columns, and each column is
-    extended straight into the FFT's zero-padded input (:func:`_extend_into`):
-    the same numbers as filtering each column on its own, to the bit.
+    extended straight into the FFT's zero-padded input (:func:`_extend_into`).
+    Columns are transformed in blocks of up to :data:`FILTER_BLOCK_BYTES`
+    of input, one row each, with one batched forward and inverse FFT per
+    block (pocketfft applies the same one-dimensional plan to every row):
+    the same numbers as filtering each column on its own, to the bit
+    (``tests/test_derivatives.py`` checks it), in about two thirds of the time
+    for a record of 10^4-10^5 samples.
     """
     from scipy import fft as sp_fft
 
+    columns = list(columns)
+    if not columns:
+        return
     n = x.shape[0]
     pad = _pad_length(n, fs, cutoff)
     size = sp_fft.next_fast_len(n + 2 * pad, real=True)
     response = _response(size, fs, cutoff, order, derivative, hold, complement)
+    block = int(max(1, min(len(columns), FILTER_BLOCK_BYTES // (8 * size))))
     k = None
-    for j in columns:
-        buf = np.zeros(size)
-        offset, slope = _extend_into(x[:, j], pad, buf)
-        spectrum = sp_fft.rfft(buf)
+    for first in range(0, len(columns), block):
+        js = columns[first : first + block]
+        buf = np.zeros((len(js), size))
+        lines = [_extend_into(x[:, j], pad, buf[i]) for i, j in enumerate(js)]
+        spectrum = sp_fft.rfft(buf, axis=-1)
         del buf
         spectrum *= response
-        col = sp_fft.irfft(spectrum, size)[pad : pad + n]
+        filtered = sp_fft.irfft(spectrum, size, axis=-1)
         del spectrum
-        # the removed line passes the low-pass unchanged (1 - L removes it entirely); a hold delays it by half a
-        # sample
-        if not complement and derivative in (0, 1):
-            if derivative == 0:
-                if k is None:
-                    k = np.arange(n) - (0.5 if hold else 0.0)
-                col += offset + slope * k
-            else:
-                col += slope * fs
-        out[:, j] = col
+        for i, (j, (offset, slope)) in enumerate(zip(js, lines, strict=True)):
+            col = filtered[i, pad : pad + n]
+            # the removed line passes the low-pass unchanged (1 - L removes it entirely); a hold delays it by half
+            # a sample
+            if not complement and derivative in (0, 1):
+                if derivative == 0:
+                    if k is None:
+                        k = np.arange(n) - (0.5 if hold else 0.0)
+                    col += offset + slope * k
+                else:
+                    col += slope * fs
+            out[:, j] = col
 
 
 def _apply_nd(
