@@ -81,7 +81,9 @@ def test_vectorised_moves_give_emcees_chains_to_the_bit(ours, theirs):
     ):
         sampler = sampler_cls(16, 3, log_prob, vectorize=True, moves=move)
         state = emcee.State(p0.copy(), log_prob=log_prob(p0), random_state=np.random.RandomState(5).get_state())
-        sampler.run_mcmc(state, 400, skip_initial_state_check=True)
+        for _ in range(2):  # in chunks, as run_until_converged runs it: the second continues from the first
+            for state in sampler.sample(state, iterations=200, skip_initial_state_check=True):  # noqa: B007, B020
+                pass
         chains.append((sampler.get_chain(), sampler.get_log_prob(), sampler.acceptance_fraction))
     (c1, l1, a1), (c2, l2, a2) = chains
     assert 0.05 < a2.mean() < 0.95  # both accepted and rejected proposals were tested
