@@ -24,7 +24,14 @@ from .record import Record
 from .terms import Model
 from .validate import check_cutoff
 
-__all__ = ["RegressionData", "regression_data", "suggested_cutoff", "REGRESSOR_BAND_FACTOR", "EDGE_PERIODS"]
+__all__ = [
+    "RegressionData",
+    "regression_data",
+    "share_channels",
+    "suggested_cutoff",
+    "REGRESSOR_BAND_FACTOR",
+    "EDGE_PERIODS",
+]
 
 
 #: The regressors are evaluated on z and v kept to this multiple of the
@@ -119,6 +126,25 @@ def _cached(cache: dict, key: tuple, compute):
     return cache[key]
 
 
+def share_channels(source: Record, record: Record) -> None:
+    """Let ``record`` re-use the force and acceleration already filtered for ``source`` where they are the same.
+
+    For records that differ only in their motion (the bias correction's noisy copies of one simulation,
+    :mod:`nlid.bayes.bias`): :func:`regression_data` of ``record`` then takes the filtered force (and the
+    filtered measured acceleration) computed for ``source`` instead of filtering the same samples again; the
+    numbers are the same to the bit. A channel is shared only when it is equal sample by sample, at the same
+    sampling frequency and force hold; what is estimated from the displacement is never shared.
+    """
+    if source is record or source.fs != record.fs or source.force_hold != record.force_hold:
+        return
+    src, dst = _record_cache(source), _record_cache(record)
+    same_f = np.array_equal(source.f, record.f)
+    same_a = source.is_measured("a") and record.is_measured("a") and np.array_equal(source.a, record.a)
+    for key, value in src.items():
+        if isinstance(key, tuple) and ((key[0] in ("f", "f-zoh") and same_f) or (key[0] == "a" and same_a)):
+            dst.setdefault(key, value)
+
+
 def suggested_cutoff(record: Record) -> float:
     """:func:`nlid.derivatives.suggest_cutoff` of the record's ``z`` (Hz), computed once per record.
 
@@ -207,6 +233,11 @@ def regression_data(
     cache = _record_cache(record)
     fc = suggested_cutoff(record) if cutoff is None else float(cutoff)
     wide = min(REGRESSOR_BAND_FACTOR * fc, derivatives.CUTOFF_MAX_FRACTION * fs)
+    if needs_v and not record.is_measured("v") and ("z", wide) not in cache and ("v~", wide) not in cache:
+        # the wide-band z and the velocity differentiated from it share one forward transform (same numbers)
+        z_wide, v_wide = derivatives.lowpass_and_derivatives(record.z, fs, wide, (0, 1))
+        _cached(cache, ("z", wide), lambda: z_wide)
+        _cached(cache, ("v~", wide), lambda: (v_wide, derivatives.DerivativeFilter(cutoff=float(wide))))
     z = _cached(cache, ("z", wide), lambda: derivatives.lowpass(record.z, fs, wide))
     v = None
     if needs_v:

@@ -102,3 +102,74 @@ def test_complementary_puts_each_channel_in_its_band():
     assert np.median(pa[high] / expected) == pytest.approx(1.0, rel=0.1)
     with pytest.raises(InputError, match="derivative"):
         complementary(ez, ea, fs, 10.0, derivative=2)
+
+
+def _one_column(x, fs, cutoff, derivative=0, hold=False):
+    """The filter of one column as nlid applied it before the batched transforms: 1-D FFTs, a fresh response."""
+    from scipy import fft as sp_fft
+
+    from nlid import derivatives as d
+
+    n = x.size
+    pad = d._pad_length(n, fs, cutoff)
+    ext, offset, slope = d._extend(x, pad)
+    size = sp_fft.next_fast_len(ext.size, real=True)
+    buf = np.zeros(size)
+    buf[: ext.size] = ext
+    response = d._compute_response(size, fs, cutoff, d.FILTER_ORDER, derivative, hold, False)
+    col = sp_fft.irfft(sp_fft.rfft(buf) * response, size)[pad : pad + n]
+    if derivative == 0:
+        col += offset + slope * (np.arange(n) - (0.5 if hold else 0.0))
+    elif derivative == 1:
+        col += slope * fs
+    return col
+
+
+@pytest.mark.parametrize("block_bytes", [None, 2 * 8 * 4500])  # the default, and blocks of two columns
+def test_batched_column_filters_give_each_columns_numbers_to_the_bit(monkeypatch, block_bytes):
+    from nlid import derivatives as d
+
+    if block_bytes is not None:
+        monkeypatch.setattr(d, "FILTER_BLOCK_BYTES", block_bytes)
+    rng = np.random.default_rng(4)
+    fs, fc = 1000.0, 60.0
+    x = np.cumsum(rng.standard_normal((4000, 5)), axis=0) + np.linspace(0.0, 30.0, 4000)[:, None]
+    y = d.lowpass_columns(x.copy(), fs, fc, [0, 2, 3, 4])
+    np.testing.assert_array_equal(y[:, 1], x[:, 1])  # a column not named is untouched
+    for j in (0, 2, 3, 4):
+        np.testing.assert_array_equal(y[:, j], _one_column(x[:, j], fs, fc))
+    held = zoh_equivalent(x, fs, cutoff=fc)
+    for j in range(5):
+        np.testing.assert_array_equal(held[:, j], _one_column(x[:, j], fs, fc, hold=True))
+        np.testing.assert_array_equal(lowpass(x[:, j], fs, fc), _one_column(x[:, j], fs, fc))
+
+
+def test_lowpass_and_derivatives_share_one_transform_with_the_same_numbers():
+    from nlid.derivatives import lowpass_and_derivatives
+
+    rng = np.random.default_rng(5)
+    fs, fc = 1000.0, 80.0
+    x = np.cumsum(rng.standard_normal(3000)) + 0.01 * np.arange(3000)
+    low, d1, d2 = lowpass_and_derivatives(x, fs, fc, (0, 1, 2))
+    np.testing.assert_array_equal(low, lowpass(x, fs, fc))
+    np.testing.assert_array_equal(d1, differentiate(x, fs, order=1, cutoff=fc)[0])
+    np.testing.assert_array_equal(d2, differentiate(x, fs, order=2, cutoff=fc)[0])
+    np.testing.assert_array_equal(d1, _one_column(x, fs, fc, derivative=1))
+    with pytest.raises(InputError, match="orders must be"):
+        lowpass_and_derivatives(x, fs, fc, (3,))
+
+
+def test_filter_responses_are_kept_within_their_budget(monkeypatch):
+    from nlid import derivatives as d
+
+    monkeypatch.setattr(d, "_RESPONSES", type(d._RESPONSES)())
+    monkeypatch.setattr(d, "RESPONSE_CACHE_BYTES", 3 * 16 * 1001)  # three responses of 1001 frequencies
+    first = d._response(2000, 1000.0, 50.0, 4, 0, False, False)
+    assert d._response(2000, 1000.0, 50.0, 4, 0, False, False) is first  # computed once
+    assert not first.flags.writeable
+    np.testing.assert_array_equal(first, d._compute_response(2000, 1000.0, 50.0, 4, 0, False, False))
+    for cutoff in (60.0, 70.0, 80.0):
+        d._response(2000, 1000.0, cutoff, 4, 0, False, False)
+    assert len(d._RESPONSES) == 3 and (2000, 1000.0, 50.0, 4, 0, False, False) not in d._RESPONSES
+    d._response(100_000, 1000.0, 50.0, 4, 0, False, False)  # larger than the whole budget: not kept
+    assert len(d._RESPONSES) == 0

@@ -104,3 +104,32 @@ def test_damping_slice_of_a_filtered_balance_keeps_the_stiffness_out():
     true = physics.damping(model, theta, np.full(sl.v.size, -0.03), sl.v)
     # measured 0.50 of rms(D); subtracting K(z) sample by sample gave 1.3
     assert np.sqrt(np.mean((sl.measured - true) ** 2)) < 0.75 * np.sqrt(np.mean(true**2))
+
+
+def test_records_sharing_their_force_give_the_force_balances_they_give_alone(short_record, numerical):
+    """share_channels re-uses the filtered force and acceleration of equal channels only, to the bit."""
+    from nlid.record import Record
+
+    model = numerical.model()
+    rng = np.random.default_rng(2)
+    fc = 40.0
+
+    def noisy(z_sd, a=short_record.a):
+        z = short_record.z + z_sd * rng.standard_normal(short_record.n)
+        return Record(f=short_record.f, fs=short_record.fs, z=z, a=a)
+
+    first = noisy(1e-5)
+    balance.regression_data(first, model, cutoff=fc)
+    for record in (noisy(2e-5), noisy(1e-5, a=short_record.a + 1e-3)):
+        copy = Record(f=record.f, fs=record.fs, z=record.z, a=record.a)  # the same record, nothing cached
+        balance.share_channels(first, record)
+        shared, fresh = (
+            balance.regression_data(record, model, cutoff=fc),
+            balance.regression_data(copy, model, cutoff=fc),
+        )
+        for name in ("f", "a", "G", "z", "v"):
+            np.testing.assert_array_equal(getattr(shared, name), getattr(fresh, name))
+        # the equal force is the first record's; an acceleration that differs is filtered anew
+        cache, first_cache = balance._record_cache(record), balance._record_cache(first)
+        assert cache[("f", fc)] is first_cache[("f", fc)]
+        assert (cache[("a", fc)] is first_cache[("a", fc)]) == np.array_equal(record.a, first.a)

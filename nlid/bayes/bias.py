@@ -51,7 +51,7 @@ from typing import Any
 import numpy as np
 
 from .. import derivatives
-from ..balance import RegressionData, regression_data
+from ..balance import RegressionData, regression_data, share_channels
 from ..errors import IdentificationError, InputError
 from ..record import Record
 from ..simulation import SimulationError, simulate
@@ -242,13 +242,13 @@ def _bindings(
         exact = model.evaluate(zs, vs if model.uses_velocity else None)
         if fc is not None:
             # a constant column (the term 1) is its own low-pass, to the bit (the filter passes the line through
-            # the end samples unchanged): only the others are filtered
-            for j in range(exact.shape[1]):
-                if np.any(exact[:, j] != exact[0, j]):
-                    exact[:, j] = derivatives.lowpass(exact[:, j], record.fs, fc)
+            # the end samples unchanged): only the others are filtered, the filter's response computed once
+            varying = [j for j in range(exact.shape[1]) if np.any(exact[:, j] != exact[0, j])]
+            derivatives.lowpass_columns(exact, record.fs, fc, varying)
         states = {"z": zs, "v": vs}
         channels = {"a": as_} if record.is_measured("a") else {}
         out = []
+        first = None
         for levels in level_sets:
             signs = []
             for sign in (1.0, -1.0):
@@ -256,7 +256,11 @@ def _bindings(
                 for c, n in units[pair].items():
                     noisy[c] = states[c] + sign * (levels[c] * n)
                 sim = Record(f=force, fs=record.fs, meta=meta, **noisy)
+                # the force (and a measured acceleration) is the same in every noisy copy: filtered once
+                if first is not None:
+                    share_channels(first, sim)
                 d = regression_data(sim, model, cutoff=fc)
+                first = first if first is not None else sim
                 signs.append((d.G, exact[d.kept], d.restoring_force(mass)))
             out.append(signs)
         return out

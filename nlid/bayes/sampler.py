@@ -24,6 +24,7 @@ walkers of a half-ensemble at once.
 
 from __future__ import annotations
 
+import functools
 from collections.abc import Callable
 from dataclasses import dataclass
 
@@ -97,11 +98,107 @@ class Chains:
         return self.walkers * (self.steps - self.burn) / self.tau
 
 
+class _Vectorised:
+    """emcee's red-blue ``propose`` with the acceptance test of a half-ensemble as one array operation.
+
+    emcee (3.1) draws one uniform number per walker and compares it in a Python loop; here the same
+    numbers are drawn in one call (a legacy ``RandomState`` gives ``rand(k)`` as ``k`` calls of ``rand()``)
+    and compared at once: the same proposals, the same acceptances, the same chains to the bit
+    (``tests/bayes/test_sampler.py`` checks them against emcee's own moves). Everything else is emcee's.
+    """
+
+    def propose(self, model, state):  # noqa: D102 - emcee's RedBlueMove.propose
+        nwalkers, ndim = state.coords.shape
+        if nwalkers < 2 * ndim and not self.live_dangerously:
+            raise RuntimeError("It is unadvisable to use a red-blue move with fewer walkers than twice the dimension")
+        self.setup(state.coords)
+        accepted = np.zeros(nwalkers, dtype=bool)
+        all_inds = np.arange(nwalkers)
+        inds = all_inds % self.nsplits
+        if self.randomize_split:
+            model.random.shuffle(inds)
+        for split in range(self.nsplits):
+            subset = inds == split
+            sets = [state.coords[inds == j] for j in range(self.nsplits)]
+            q, factors = self.get_proposal(sets[split], sets[:split] + sets[split + 1 :], model.random)
+            new_log_probs, new_blobs = model.compute_log_prob_fn(q)
+            members = all_inds[subset]
+            lnpdiff = factors + new_log_probs - state.log_prob[members]
+            accepted[members] = lnpdiff > np.log(model.random.rand(members.size))
+            state = self.update(state, emcee.State(q, log_prob=new_log_probs, blobs=new_blobs), accepted, subset)
+        return state, accepted
+
+
+@functools.lru_cache(maxsize=4)
+def _ordered_pairs(n: int) -> np.ndarray:
+    """Every ordered pair ``(i, j)``, ``i != j``, of ``n`` walkers, in emcee's order (its DEMove draws from these)."""
+    rows, cols = np.tril_indices(n, -1)
+    pairs = np.column_stack([np.concatenate([rows, cols]), np.concatenate([cols, rows])])
+    pairs.setflags(write=False)
+    return pairs
+
+
+class _DEMove(_Vectorised, emcee.moves.DEMove):
+    """:class:`emcee.moves.DEMove` with the vectorised acceptance test of :class:`_Vectorised`.
+
+    Its proposal is emcee's, drawn with less overhead: ``randint(0, n, size)`` is what a legacy
+    ``RandomState.choice(n, size, replace=True)`` draws, and ``c[j] - c[i]`` is ``np.diff`` of the pair.
+    """
+
+    def get_proposal(self, s, c, random):  # noqa: D102 - emcee's DEMove.get_proposal
+        c = np.concatenate(c, axis=0)
+        ns = s.shape[0]
+        pairs = _ordered_pairs(c.shape[0])
+        picked = pairs[random.randint(0, pairs.shape[0], size=ns)]
+        diffs = c[picked[:, 1]] - c[picked[:, 0]]
+        gamma = self.g0 * (1 + self.sigma * random.randn(ns, 1))
+        return s + gamma * diffs, np.zeros(ns, dtype=np.float64)
+
+
+class _StretchMove(_Vectorised, emcee.moves.StretchMove):
+    """:class:`emcee.moves.StretchMove` with the vectorised acceptance test of :class:`_Vectorised`."""
+
+
+class _Sampler(emcee.EnsembleSampler):
+    """emcee's sampler for a vectorised log-probability that returns one float per walker and no blobs.
+
+    emcee (3.1) converts the returned array element by element while it looks for blobs; here it is taken
+    as it is. The same checks (finite positions, no NaN returned) with emcee's messages.
+    """
+
+    @property
+    def random_state(self):
+        """``None``: the generator goes on where it stands.
+
+        emcee copies the generator's whole state (624 words) into every step's
+        :class:`emcee.State` (40 us a step) so that a run can be continued from
+        that state; the next chunk of :func:`run_until_converged` continues with
+        this sampler, whose generator is already there. A state given to
+        :meth:`sample` (the first chunk's) is still set.
+        """
+        return None
+
+    @random_state.setter
+    def random_state(self, state):
+        if state is not None:
+            self._random.set_state(state)
+
+    def compute_log_prob(self, coords):  # noqa: D102 - emcee's EnsembleSampler.compute_log_prob
+        if not np.all(np.isfinite(coords)):
+            return super().compute_log_prob(coords)  # emcee's own error for the infinite or NaN position
+        log_prob = np.asarray(self.log_prob_fn(coords), dtype=float)
+        if log_prob.shape != (coords.shape[0],):
+            raise ValueError(f"the log-probability returned shape {log_prob.shape} for {coords.shape[0]} walkers")
+        if np.any(np.isnan(log_prob)):
+            raise ValueError("Probability function returned NaN")
+        return log_prob, None
+
+
 def _move(name: str):
     if name == "de":
-        return emcee.moves.DEMove()
+        return _DEMove()
     if name == "stretch":
-        return emcee.moves.StretchMove()
+        return _StretchMove()
     raise InputError(f"unknown move {name!r}; choose one of {', '.join(MOVES)}")
 
 
@@ -171,7 +268,7 @@ def run_until_converged(
         lp0[bad] = log_prob(p0[bad])
     if not np.all(np.isfinite(lp0)):
         raise InputError("the initial walkers have zero posterior density: the prior excludes the start")
-    sampler = emcee.EnsembleSampler(walkers, ndim, log_prob, vectorize=True, moves=_move(move))
+    sampler = _Sampler(walkers, ndim, log_prob, vectorize=True, moves=_move(move))
     state = emcee.State(p0, log_prob=lp0, random_state=np.random.RandomState(np.random.MT19937(emcee_seq)).get_state())
     previous = np.inf
     tau = np.full(ndim, np.nan)

@@ -42,7 +42,9 @@ def test_same_seed_same_chains():
 
 
 def test_too_few_steps_is_refused_with_what_to_raise():
-    with pytest.raises(ConvergenceError, match=r"did not converge in 300 steps.*raise max_steps= \(e\.g\. max_steps=\d+\)"):
+    with pytest.raises(
+        ConvergenceError, match=r"did not converge in 300 steps.*raise max_steps= \(e\.g\. max_steps=\d+\)"
+    ):
         run_until_converged(
             _gaussian(MEAN, COV), MEAN, np.full(3, 0.1), walkers=16, max_steps=300, seed=0, names=("a", "b", "c")
         )
@@ -51,3 +53,49 @@ def test_too_few_steps_is_refused_with_what_to_raise():
 def test_too_few_walkers():
     with pytest.raises(InputError, match="at least 2 x 3 = 6 walkers"):
         run_until_converged(_gaussian(MEAN, COV), MEAN, np.full(3, 0.1), walkers=4, max_steps=100)
+
+
+@pytest.mark.parametrize(
+    ("ours", "theirs"),
+    [("_DEMove", "DEMove"), ("_StretchMove", "StretchMove")],
+)
+def test_vectorised_moves_give_emcees_chains_to_the_bit(ours, theirs):
+    """The faster acceptance test and log-probability call change no number of emcee's own."""
+    import emcee
+
+    from nlid.bayes import sampler as mod
+
+    gaussian = _gaussian(MEAN, COV)
+
+    def log_prob(x):  # a bounded support, so that some proposals have zero density
+        lp = gaussian(x)
+        lp[x[:, 0] > 1.5] = -np.inf
+        return lp
+
+    rng = np.random.default_rng(3)
+    p0 = MEAN - 0.5 + 0.1 * rng.standard_normal((16, 3))
+    chains = []
+    for sampler_cls, move in (
+        (mod._Sampler, getattr(mod, ours)()),
+        (emcee.EnsembleSampler, getattr(emcee.moves, theirs)()),
+    ):
+        sampler = sampler_cls(16, 3, log_prob, vectorize=True, moves=move)
+        state = emcee.State(p0.copy(), log_prob=log_prob(p0), random_state=np.random.RandomState(5).get_state())
+        for _ in range(2):  # in chunks, as run_until_converged runs it: the second continues from the first
+            for state in sampler.sample(state, iterations=200, skip_initial_state_check=True):  # noqa: B007, B020
+                pass
+        chains.append((sampler.get_chain(), sampler.get_log_prob(), sampler.acceptance_fraction))
+    (c1, l1, a1), (c2, l2, a2) = chains
+    assert 0.05 < a2.mean() < 0.95  # both accepted and rejected proposals were tested
+    assert c2[:, :, 0].max() > 1.3  # the walkers reached the bound
+    np.testing.assert_array_equal(c1, c2)
+    np.testing.assert_array_equal(l1, l2)
+    np.testing.assert_array_equal(a1, a2)
+
+
+def test_a_nan_log_probability_is_refused_with_emcees_message():
+    from nlid.bayes.sampler import _Sampler
+
+    sampler = _Sampler(8, 2, lambda x: np.full(x.shape[0], np.nan), vectorize=True)
+    with pytest.raises(ValueError, match="Probability function returned NaN"):
+        sampler.compute_log_prob(np.zeros((8, 2)))
