@@ -194,11 +194,16 @@ class _Sampler(emcee.EnsembleSampler):
         return log_prob, None
 
 
+#: The faster classes above repeat emcee 3.1's draws exactly (checked by tests/bayes/test_sampler.py); another
+#: emcee gets its own classes, so that a change in its internals can never change nlid's chains silently.
+FAST_EMCEE = emcee.__version__.startswith("3.1.")
+
+
 def _move(name: str):
     if name == "de":
-        return _DEMove()
+        return _DEMove() if FAST_EMCEE else emcee.moves.DEMove()
     if name == "stretch":
-        return _StretchMove()
+        return _StretchMove() if FAST_EMCEE else emcee.moves.StretchMove()
     raise InputError(f"unknown move {name!r}; choose one of {', '.join(MOVES)}")
 
 
@@ -268,7 +273,8 @@ def run_until_converged(
         lp0[bad] = log_prob(p0[bad])
     if not np.all(np.isfinite(lp0)):
         raise InputError("the initial walkers have zero posterior density: the prior excludes the start")
-    sampler = _Sampler(walkers, ndim, log_prob, vectorize=True, moves=_move(move))
+    sampler_class = _Sampler if FAST_EMCEE else emcee.EnsembleSampler
+    sampler = sampler_class(walkers, ndim, log_prob, vectorize=True, moves=_move(move))
     state = emcee.State(p0, log_prob=lp0, random_state=np.random.RandomState(np.random.MT19937(emcee_seq)).get_state())
     previous = np.inf
     tau = np.full(ndim, np.nan)
