@@ -233,7 +233,7 @@ class OutputError(Identifier):
         if isinstance(record, StructureRecord):
             from .structure import identify_structure
 
-            return identify_structure(record, model, mass, self.settings, self.name)
+            return identify_structure(self, record, model, mass)
 
         clock = time.perf_counter()
         if record.n < MIN_SAMPLES:
