@@ -238,7 +238,7 @@ class StructureProblem(Shooting):
         # a state column's difference moves both sides of a boundary: the ending segment's end (through its
         # run) and the next segment's start (-weight: states are scaled by the state scales)
         nxt = np.broadcast_to(-self.weight * np.eye(L), (K - 1, L, L)).copy()
-        return E[:, :, :G], E[:, :, G:] - nxt, nxt
+        return Jg, Jl, (E[:, :, :G], E[:, :, G:] - nxt, nxt)
 
     def error_percent(self, u: np.ndarray) -> list[float]:
         """Free-run error per DOF: ``100 RMS(z_sim - z) / RMS(z)``."""
