@@ -2,7 +2,7 @@
 
 The model ``M z'' + C z' + K z + s + sum_e b_e theta_e g_e = f`` is driven by
 the measured force from an initial state and simulated by the structure
-simulator (:func:`nlid.plugin.structure_free_run`: RK4, ``oversample``
+simulator (:func:`nlid.plugin.structure_free_run_segments`: RK4, ``oversample``
 sub-steps per sample, the record's force hold); the displacement of every
 DOF, each scaled by its standard deviation, is compared with the measured
 one. The unknowns are
@@ -63,7 +63,7 @@ from nlid.plugin import (
     choose_method,
     identify,
     kernel_threads,
-    structure_free_run,
+    structure_free_run_segments,
     structure_regression_data,
 )
 
@@ -186,21 +186,13 @@ class StructureProblem(Shooting):
 
     def simulate(self, u: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """The free-run displacements ``(N, n)`` segment by segment, and each segment's end state ``(K, 2 n)``."""
-        model, states = self.unpack(u), self.states_of(u)
-        n, N, rec = self.n, self.record.n, self.record
-        out, ends = np.empty_like(rec.z), np.empty((self.K, self.L))
-        for k, (a, b) in enumerate(zip(self.edges[:-1], self.edges[1:], strict=True)):
-            stop = min(b + 1, N)  # one sample more: the state the next segment starts from
-            try:
-                z, v, _ = structure_free_run(
-                    model, rec.f[a:stop], rec.fs, force_hold=rec.force_hold, x0=(states[k, :n], states[k, n:]),
-                    oversample=self.q,
-                )  # fmt: skip
-            except InputError as exc:  # a non-finite state
-                raise SimulationError(str(exc)) from None
-            out[a:b] = z[: b - a]
-            ends[k] = np.concatenate([z[-1], v[-1]])
-        return out, ends
+        try:
+            return structure_free_run_segments(
+                self.unpack(u), self.record.f, self.record.fs, self.starts, self.states_of(u),
+                force_hold=self.record.force_hold, oversample=self.q,
+            )  # fmt: skip
+        except InputError as exc:  # a non-finite state
+            raise SimulationError(str(exc)) from None
 
     def _rows(self, z: np.ndarray, ends: np.ndarray, u: np.ndarray) -> np.ndarray:
         r = np.empty(self.rows)
