@@ -101,8 +101,6 @@ class StructureProblem(Shooting):
         RK4 sub-steps per sample.
     continuity_weight
         Multiplies the continuity rows (as :class:`~nlid_oe.problem.Problem`).
-    fit_globals
-        ``False``: only the states are unknowns (the model held at ``start``).
     """
 
     def __init__(
@@ -114,7 +112,6 @@ class StructureProblem(Shooting):
         starts: np.ndarray,
         oversample: int,
         continuity_weight: float,
-        fit_globals: bool = True,
     ) -> None:
         n = record.n_dofs
         self.record, self.elements, self.M, self.n, self.q = record, elements, start.M, n, int(oversample)
@@ -138,8 +135,7 @@ class StructureProblem(Shooting):
         labels = [f"K[{i + 1},{j + 1}]" for i, j in self.upper] + [f"C[{i + 1},{j + 1}]" for i, j in self.upper]
         names = [*elements.names, *labels, *([f"static[{i + 1}]" for i in range(n)] if self.static else [])]
         self.params = [Parameter("theta" if k < len(start.theta) else "linear", name=x) for k, x in enumerate(names)]
-        self.G = self.p0.size if fit_globals else 0
-        self.params = self.params[: self.G]
+        self.G = self.p0.size
         self.L, self.C = 2 * n, n
         self.starts = np.asarray(starts, dtype=np.int64)
         self.K = self.starts.size
@@ -147,7 +143,7 @@ class StructureProblem(Shooting):
         self.channel_scale = record.z.std(axis=0)
         self.channel_scale[self.channel_scale == 0] = 1.0
         self.state_scales = np.concatenate([self.channel_scale, np.maximum(states[:, n:].std(axis=0), 1e-300)])
-        self.scale = np.concatenate([gscale[: self.G], np.tile(self.state_scales, self.K)])
+        self.scale = np.concatenate([gscale, np.tile(self.state_scales, self.K)])
         self.state0 = np.asarray(states, dtype=float)[self.starts]
         lengths = np.diff(self.edges)
         self.weight = float(continuity_weight) * np.sqrt(float(np.mean(lengths)) * self.C) if self.K > 1 else 0.0
@@ -160,15 +156,15 @@ class StructureProblem(Shooting):
 
     def start(self) -> np.ndarray:
         """The scaled start vector ``u``."""
-        return np.concatenate([self.p0[: self.G], self.state0.ravel()]) / self.scale
+        return np.concatenate([self.p0, self.state0.ravel()]) / self.scale
 
     def bounds(self, u0: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """No bounds."""
         return np.full(u0.size, -np.inf), np.full(u0.size, np.inf)
 
     def globals_of(self, u: np.ndarray) -> np.ndarray:
-        """All global parameters at ``u`` (physical units; the start's where they are held)."""
-        return np.concatenate([np.asarray(u[: self.G]) * self.scale[: self.G], self.p0[self.G :]])
+        """The global parameters at ``u`` (physical units)."""
+        return np.asarray(u[: self.G]) * self.scale[: self.G]
 
     def states_of(self, u: np.ndarray) -> np.ndarray:
         """Each segment's initial state ``(z, v)`` at ``u``, shape ``(K, 2 n)``."""
@@ -274,30 +270,25 @@ def identify_structure(
         seconds = SEGMENT_PERIODS / lowest if lowest > 0 else 0.0
     starts = _starts(record.n, record.n if seconds == 0 else int(round(seconds * record.fs)))
 
-    def problem(states: np.ndarray, fit_globals: bool) -> StructureProblem:
+    def problem(states: np.ndarray) -> StructureProblem:
         out = StructureProblem(
-            record, start.elements, structure, states, starts, settings["oversample"], settings["continuity_weight"],
-            fit_globals,
-        )  # fmt: skip
+            record, start.elements, structure, states, starts, settings["oversample"], settings["continuity_weight"]
+        )
         out.dense_limit = DENSE_LIMIT if identifier._solver(out) == "exact" else 0
         return out
 
     with kernel_threads() as threads:  # BLAS on one thread between the free runs
-        held = problem(states, False)
-        before = held.error_percent(held.start())
-        first = identifier._solve(held, method)  # the states, the start model held
-        fitted = states.copy()
-        fitted[starts] = held.states_of(first.x)
-        joint = problem(fitted, True)
+        joint = problem(states)
+        before = joint.error_percent(joint.start())
         res = identifier._solve(joint, method)
         residual = joint.residual(res.x)
         se_u, _, corr, _ = standard_errors(joint, residual, res.x)
     model = joint.unpack(res.x)
     b = joint.bounds_p
     se = se_u[b[0] : b[1]] * joint.scale[b[0] : b[1]]
-    start_fitted, after = held.error_percent(first.x), joint.error_percent(res.x)
+    after = joint.error_percent(res.x)
     warnings = []
-    if sum(after) > sum(start_fitted):
+    if sum(after) > sum(before):
         warnings.append("oe: the free-run error did not decrease from the start; the start's estimate may be better")
     return StructureEstimate(
         coefficients=elements.as_dict(model.theta),
@@ -311,15 +302,14 @@ def identify_structure(
             "init": method,
             "init_coefficients": dict(structure.coefficients),
             "free_run_error_percent_start": before,
-            "free_run_error_percent_start_fitted_states": start_fitted,
             "free_run_error_percent": after,
             "continuity_defect_max": float(np.max(np.abs(residual[joint.rows_data :])) / joint.weight)
             if joint.K > 1
             else 0.0,
             "segments": int(joint.K),
             "segment_seconds": float(np.mean(np.diff(joint.edges))) / record.fs,
-            "nfev": int(first.nfev + res.nfev),
-            "njev": int((first.njev or 0) + (res.njev or 0)),
+            "nfev": int(res.nfev),
+            "njev": int(res.njev or 0),
             "optimizer_message": str(res.message),
             "correlation_length_samples": corr,
             "mass": "given" if mass is not None else f"held at the start's ({method}) estimate",
