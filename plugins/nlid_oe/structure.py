@@ -39,7 +39,7 @@ Jacobian
     By forward differences (step :data:`DIFF_STEP` of the scaled parameter):
     one free run of the record per global parameter, and one per state
     component for all segments at once (a segment's run depends on its own
-    state only).
+    state only), on the threads of :func:`nlid.plugin.kernel_threads`.
 
 Standard errors
     As for one DOF (:mod:`nlid_oe.uncertainty`): the segments' states profiled
@@ -49,6 +49,7 @@ Standard errors
 from __future__ import annotations
 
 import time
+from concurrent.futures import ThreadPoolExecutor
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -150,6 +151,8 @@ class StructureProblem(Shooting):
         self.rows_data = record.n * self.C
         self.rows = self.rows_data + (self.K - 1) * self.L
         self.dense_limit = 0
+        #: Threads running the Jacobian's free runs.
+        self.threads = 1
         self.diverged = False
         self._reduced = None
         self._cache: tuple[np.ndarray, np.ndarray, tuple] | None = None
@@ -208,17 +211,17 @@ class StructureProblem(Shooting):
         """The Jacobian's blocks (:meth:`Shooting.blocks`) by forward differences (module docstring)."""
         r0 = self._evaluate(u)[0]
         G, L, K = self.G, self.L, self.K
-        cols = []
-        for j in range(G + L):
-            step = np.zeros_like(u)
+
+        def column(j: int) -> np.ndarray:
+            shifted = u.copy()
             if j < G:
-                step[j] = DIFF_STEP
+                shifted[j] += DIFF_STEP
             else:
-                step[j::L] = DIFF_STEP  # state component j - G of every segment
-            shifted = u + step
-            z, ends = self.simulate(shifted)
-            cols.append((self._rows(z, ends, shifted) - r0) / DIFF_STEP)
-        D = np.column_stack(cols) if cols else np.zeros((self.rows, 0))
+                shifted[j::L] += DIFF_STEP  # state component j - G of every segment
+            return (self._rows(*self.simulate(shifted), shifted) - r0) / DIFF_STEP
+
+        with ThreadPoolExecutor(self.threads) as pool:  # the kernel releases the GIL
+            D = np.column_stack(list(pool.map(column, range(G + L))))
         Jg, Jl = D[: self.rows_data, :G], D[: self.rows_data, G:]
         if K == 1:
             return Jg, Jl, None
@@ -279,6 +282,7 @@ def identify_structure(
 
     with kernel_threads() as threads:  # BLAS on one thread between the free runs
         joint = problem(states)
+        joint.threads = threads
         before = joint.error_percent(joint.start())
         res = identifier._solve(joint, method)
         residual = joint.residual(res.x)

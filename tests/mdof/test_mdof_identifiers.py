@@ -121,10 +121,21 @@ def test_oe_fits_the_segment_states_and_recovers_a_noise_free_structure(chain, m
     assert max(fit.diagnostics["free_run_error_percent"]) < 1e-4
 
 
-@pytest.mark.parametrize("seed", [0, 1])
-def test_oe_on_a_noisy_structure_does_not_lose_to_its_rfs_start(chain, seed):
-    rec = chain.simulate(seed, noise={"z": 0.02}, channels=("z",))
+def test_oe_on_a_noisy_structure_reaches_the_noise_and_improves_on_rfs(chain):
+    # with every segment's state fitted the free run reaches the noise floor: the least squares is at most the
+    # noise's, its value at the truth (from the data's states the free run misses by several times the noise);
+    # the element lands within its standard errors, and the underlying linear modes (which rfs biases through
+    # the noise on z) come closer than rfs's
+    short = chain.with_overrides(duration=2.0)
+    rec, clean = short.simulate(0, noise={"z": 0.02}, channels=("z",)), short.simulate(0)
+    noise = 100 * np.sqrt(np.mean((rec.z - clean.z) ** 2, axis=0) / np.mean(rec.z**2, axis=0))
+    truth = rec.meta["reference"]
     rfs = nlid.identify(rec, "z3^3", "rfs", mass=rec.mass)
     fit = nlid.identify(rec, "z3^3", "oe", mass=rec.mass, options={"init": "rfs"})
     assert fit.diagnostics["init_coefficients"] == pytest.approx(dict(rfs.coefficients))
-    assert _errors(fit, rec)["z3^3"] <= _errors(rfs, rec)["z3^3"]
+    assert np.sum(np.square(fit.diagnostics["free_run_error_percent"])) <= np.sum(noise**2)
+    assert min(fit.diagnostics["free_run_error_percent_start"]) > 2 * max(noise)
+    error = abs(fit.coefficient("z3^3") - truth["coefficients"]["z3^3"])
+    assert error < 4 * fit.standard_errors["z3^3"]
+    fn = np.asarray(truth["linear_modes"]["fn_hz"])
+    assert np.abs(fit.linear_modes.fn_hz / fn - 1).max() <= np.abs(rfs.linear_modes.fn_hz / fn - 1).max()
