@@ -25,7 +25,9 @@ Multiple shooting
     the optimiser in local minima. The record is therefore cut into
     segments (option ``segment_seconds``; default :data:`SEGMENT_PERIODS`
     periods of the start model's lowest mode, linearised at a stable
-    equilibrium or underlying linear; ``0``: one segment), each simulated
+    equilibrium or underlying linear; with several stable equilibria, as for
+    one DOF, ``SHORT_PERIODS`` periods of its highest mode; ``0``: one
+    segment), each simulated
     from its own initial state, with the mismatch between a segment's end
     and the next one's start a soft constraint (option ``continuity_weight``),
     as for one DOF (:mod:`nlid_oe.problem`, whose reduced problem and solver
@@ -249,7 +251,7 @@ def identify_structure(
     identifier: OutputError, record: StructureRecord, elements: ElementSet, mass: np.ndarray | None
 ) -> StructureEstimate:
     """oe on a structure record (module docstring)."""
-    from .identifier import DENSE_LIMIT
+    from .identifier import DENSE_LIMIT, SHORT_PERIODS
     from .uncertainty import standard_errors
 
     clock = time.perf_counter()
@@ -269,8 +271,11 @@ def identify_structure(
     seconds = settings["segment_seconds"]
     if seconds is None:
         found = [float(f) for m in (*start.modes, start.linear_modes) for f in m.fn_hz if f > 0]
-        lowest = min(found, default=0.0)
-        seconds = SEGMENT_PERIODS / lowest if lowest > 0 else 0.0
+        wells = len(start.equilibria.stable) if start.equilibria is not None else 1
+        if wells > 1:  # as for one DOF: a free run over wells it may cross differently has local minima
+            seconds = SHORT_PERIODS / max(found) if found else 0.0
+        else:
+            seconds = SEGMENT_PERIODS / min(found) if found else 0.0
     starts = _starts(record.n, record.n if seconds == 0 else int(round(seconds * record.fs)))
 
     def problem(states: np.ndarray) -> StructureProblem:
