@@ -139,3 +139,18 @@ def test_oe_on_a_noisy_structure_reaches_the_noise_and_improves_on_rfs(chain):
     assert error < 4 * fit.standard_errors["z3^3"]
     fn = np.asarray(truth["linear_modes"]["fn_hz"])
     assert np.abs(fit.linear_modes.fn_hz / fn - 1).max() <= np.abs(rfs.linear_modes.fn_hz / fn - 1).max()
+
+
+def test_free_run_segments_continue_one_free_run(chain_record):
+    from nlid.mdof import free_run, free_run_segments
+
+    rec = chain_record
+    model = nlid.identify(rec, "z3^3", "rfs", mass=rec.mass).structure
+    z, v, _ = free_run(model, rec.f, rec.fs, force_hold="zoh", oversample=4)
+    starts = np.array([0, 700, 1500])
+    states = np.column_stack([z, v])[starts]
+    zs, ends = free_run_segments(model, rec.f, rec.fs, starts, states, force_hold="zoh", oversample=4)
+    assert np.allclose(zs, z, rtol=0, atol=1e-12 * np.abs(z).max())
+    assert np.allclose(ends[:-1], states[1:], rtol=0, atol=1e-12 * np.abs(states).max())
+    with pytest.raises(InputError, match="starts"):
+        free_run_segments(model, rec.f, rec.fs, [5, 10], states[:2], force_hold="zoh")
