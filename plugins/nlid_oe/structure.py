@@ -29,7 +29,10 @@ Multiple shooting
     one DOF, ``SHORT_PERIODS`` periods of its highest mode; ``0``: one
     segment), each simulated
     from its own initial state, with the mismatch between a segment's end
-    and the next one's start a soft constraint (option ``continuity_weight``),
+    and the next one's start a soft constraint (option ``continuity_weight``;
+    automatic segments whose fit stays above ``NOISE_RATIO`` times the
+    measurement noise are halved, at most ``MAX_HALVINGS`` times, as for one
+    DOF),
     as for one DOF (:mod:`nlid_oe.problem`, whose reduced problem and solver
     this module reuses). The states start from the data (the displacement,
     the velocity measured or through nlid's differentiating filter) and are
@@ -64,6 +67,7 @@ from nlid.plugin import (
     StructureEstimate,
     StructureRecord,
     choose_method,
+    derivatives,
     identify,
     kernel_threads,
     structure_free_run_segments,
@@ -251,7 +255,7 @@ def identify_structure(
     identifier: OutputError, record: StructureRecord, elements: ElementSet, mass: np.ndarray | None
 ) -> StructureEstimate:
     """oe on a structure record (module docstring)."""
-    from .identifier import DENSE_LIMIT, SHORT_PERIODS
+    from .identifier import DENSE_LIMIT, MAX_HALVINGS, NOISE_RATIO, SHORT_PERIODS
     from .uncertainty import standard_errors
 
     clock = time.perf_counter()
@@ -278,18 +282,35 @@ def identify_structure(
             seconds = SEGMENT_PERIODS / min(found) if found else 0.0
     starts = _starts(record.n, record.n if seconds == 0 else int(round(seconds * record.fs)))
 
-    def problem(states: np.ndarray) -> StructureProblem:
+    def problem(model: StructuralModel, starts: np.ndarray) -> StructureProblem:
         out = StructureProblem(
-            record, start.elements, structure, states, starts, settings["oversample"], settings["continuity_weight"]
+            record, start.elements, model, states, starts, settings["oversample"], settings["continuity_weight"]
         )
         out.dense_limit = DENSE_LIMIT if identifier._solver(out) == "exact" else 0
+        out.threads = threads
         return out
 
+    def miss(problem: StructureProblem, u: np.ndarray) -> float:
+        return float(np.sqrt(np.mean(problem.residual(u)[: problem.rows_data] ** 2)))
+
+    # the measurement noise per DOF relative to its std: automatic segments that leave the fit above it have
+    # states stuck on a wrong trajectory (a wrong well): halved, from the data's states, as for one DOF
+    floor = float(
+        np.sqrt(np.mean([(derivatives.noise_sd(z, record.fs) / max(z.std(), 1e-300)) ** 2 for z in record.z.T]))
+    )
     with kernel_threads() as threads:  # BLAS on one thread between the free runs
-        joint = problem(states)
-        joint.threads = threads
+        joint = problem(structure, starts)
         before = joint.error_percent(joint.start())
         res = identifier._solve(joint, method)
+        for _ in range(MAX_HALVINGS if settings["segment_seconds"] is None and joint.K > 1 else 0):
+            length = int(np.diff(joint.edges).min()) // 2
+            if miss(joint, res.x) <= NOISE_RATIO * floor or length < MIN_SEGMENT:
+                break
+            halved = problem(joint.unpack(res.x), _starts(record.n, length))
+            res_h = identifier._solve(halved, method)
+            if miss(halved, res_h.x) >= miss(joint, res.x):
+                break
+            joint, res = halved, res_h
         residual = joint.residual(res.x)
         se_u, _, corr, _ = standard_errors(joint, residual, res.x)
     model = joint.unpack(res.x)
