@@ -58,7 +58,8 @@ def table(rows: list[dict]) -> str:
     for case in dict.fromkeys(r["case"] for r in rows):
         sub = [r for r in rows if r["case"] == case]
         names = list(sub[0]["errors"])
-        head = ["seed", *[f"{n} rfs / oe" for n in names], "fn max rfs / oe", "zeta max rfs / oe", "s rfs / oe"]
+        shown = [n.replace("|", "\\|") + " rfs / oe" for n in names]  # a | would split the cell
+        head = ["seed", *shown, "fn max rfs / oe", "zeta max rfs / oe", "s rfs / oe"]
         lines += [f"### {case}: |relative error| in %", "", "| " + " | ".join(head) + " | oe <= rfs |"]
         lines.append("|---" * (len(head) + 1) + "|")
         for seed in dict.fromkeys(r["seed"] for r in sub):
