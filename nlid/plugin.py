@@ -79,6 +79,7 @@ from .terms import Model, Term, parse_term
 
 if TYPE_CHECKING:  # loaded on first use by __getattr__ below (the simulator compiles with numba)
     from .mdof.simulation import free_run as structure_free_run
+    from .mdof.simulation import free_run_segments as structure_free_run_segments
     from .methods import choose_method
     from .pipeline import identify
     from .scoring import initial_state, predictability_horizon, score
@@ -116,6 +117,7 @@ __all__ = [
     "check_elements_nonlinear",
     "dof_weights",
     "structure_free_run",
+    "structure_free_run_segments",
     "regression_data",
     "RegressionData",
     "suggested_cutoff",
@@ -165,10 +167,10 @@ def __getattr__(name: str):  # the simulator (numba) and the scores are loaded o
         from . import scoring
 
         return getattr(scoring, name)
-    if name == "structure_free_run":
-        from .mdof.simulation import free_run as structure_free_run
+    if name in ("structure_free_run", "structure_free_run_segments"):
+        from .mdof import simulation
 
-        return structure_free_run
+        return simulation.free_run if name == "structure_free_run" else simulation.free_run_segments
     if name == "identify":
         from .pipeline import identify
 

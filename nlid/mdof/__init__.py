@@ -40,6 +40,7 @@ _LAZY = {
     "StructureModes": "nlid.mdof.modes",
     "simulate": "nlid.mdof.simulation",
     "free_run": "nlid.mdof.simulation",
+    "free_run_segments": "nlid.mdof.simulation",
     "StructurePreset": "nlid.mdof.presets",
     "StructureEstimate": "nlid.mdof.estimate",
     "IdentifiedStructure": "nlid.mdof.identified",

@@ -184,7 +184,7 @@ def _steps(
     return -1
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, nogil=True)  # nogil: oe's finite differences run free runs on threads
 def integrate(
     force, dt, stride, Minv, K, C, static, theta, plain, memory, parts, special, pxc, ci, cj, kpos, cpos,
     z0, v0, out_z, out_v, out_a,

@@ -24,7 +24,7 @@ from ..terms import Model, Term
 if TYPE_CHECKING:  # pragma: no cover
     from .model import StructuralModel
 
-__all__ = ["simulate", "free_run", "FREE_RUN_OVERSAMPLE"]
+__all__ = ["simulate", "free_run", "free_run_segments", "FREE_RUN_OVERSAMPLE"]
 
 
 def _forces(model: StructuralModel, force: np.ndarray) -> np.ndarray:
@@ -88,28 +88,25 @@ def _inverse_mass(M: np.ndarray) -> np.ndarray:
     return np.linalg.inv(M)
 
 
-def _run(model: StructuralModel, fine: np.ndarray, dt: float, stride: int, x0, fs: float) -> tuple:
+def _arguments(model: StructuralModel) -> tuple:
+    """The kernel's arguments that describe the structure (between the step and the initial state)."""
+    matrices = (_inverse_mass(model.M), model.K, model.C, model.static)
+    return tuple(np.ascontiguousarray(x) for x in matrices) + _encoded(model)
+
+
+def _run(model: StructuralModel, fine: np.ndarray, dt: float, stride: int, x0, fs: float, args=None, first=0) -> tuple:
+    """The kernel over ``fine`` from ``x0``; ``args``: :func:`_arguments` when the caller has them; ``first``: the
+    record's sample the run starts at (for the message)."""
     from .kernels import integrate
 
     n = model.n_dofs
     z0, v0 = _state(x0, n)
     rows = fine.shape[0] // stride
     out = [np.empty((rows, n)) for _ in range(3)]
-    bad = integrate(
-        np.ascontiguousarray(fine),
-        float(dt),
-        int(stride),
-        np.ascontiguousarray(_inverse_mass(model.M)),
-        np.ascontiguousarray(model.K),
-        np.ascontiguousarray(model.C),
-        np.ascontiguousarray(model.static),
-        *_encoded(model),
-        z0,
-        v0,
-        *out,
-    )
+    args = _arguments(model) if args is None else args
+    bad = integrate(np.ascontiguousarray(fine), float(dt), int(stride), *args, z0, v0, *out)
     if bad >= 0:
-        sample = bad // stride
+        sample = first + bad // stride
         raise SimulationError(
             f"simulation diverged at sample {sample} (t = {sample / fs:.4g} s); the structure may be unstable "
             "for this force (check the signs of the coefficients: they are coefficients of R = f - M z'')"
@@ -186,6 +183,12 @@ def free_run(
     SimulationError
         If the state becomes non-finite.
     """
+    fine, q, fs = _fine(model, force, fs, force_hold, oversample)
+    return _run(model, fine, 1.0 / (fs * q), q, x0, fs)
+
+
+def _fine(model: StructuralModel, force: np.ndarray, fs: float, force_hold: str, oversample: int) -> tuple:
+    """The checked sub-step force ``(N q, n)``, ``q`` and ``fs``."""
     q = int(oversample)
     if q < 1:
         raise InputError(f"oversample must be a positive integer, got {oversample}")
@@ -195,5 +198,61 @@ def free_run(
     if not np.isfinite(fs) or fs <= 0:
         raise InputError(f"fs must be a positive number of Hz, got {fs!r}")
     f = _forces(model, force)
-    fine = np.stack([fine_force(f[:, k], force_hold, q) for k in range(f.shape[1])], axis=1)
-    return _run(model, fine, 1.0 / (fs * q), q, x0, fs)
+    return np.stack([fine_force(f[:, k], force_hold, q) for k in range(f.shape[1])], axis=1), q, fs
+
+
+def free_run_segments(
+    model: StructuralModel,
+    force: np.ndarray,
+    fs: float,
+    starts: Sequence[int] | np.ndarray,
+    states: np.ndarray,
+    *,
+    force_hold: str = "sampled",
+    oversample: int = FREE_RUN_OVERSAMPLE,
+) -> tuple[np.ndarray, np.ndarray]:
+    """Free runs of consecutive segments of a record (multiple shooting), each from its own state.
+
+    The structure's counterpart of :func:`nlid.simulation.simulate_segments` (without sensitivities): the
+    scheme of :func:`free_run`, the sub-step force computed once for the whole record, the structure
+    encoded once for all segments.
+
+    Parameters
+    ----------
+    model, force, fs, force_hold, oversample
+        As in :func:`free_run`.
+    starts
+        First sample of each segment, increasing, starting at 0.
+    states
+        Shape ``(K, 2 n)``: the displacements and velocities at the start of each segment.
+
+    Returns
+    -------
+    z : numpy.ndarray
+        Shape ``(N, n)``: each segment's samples from its own run.
+    ends : numpy.ndarray
+        Shape ``(K, 2 n)``: the state ``(z, v)`` each run reaches at the next segment's first sample (the last
+        segment's: at the record's last sample).
+
+    Raises
+    ------
+    SimulationError
+        If a state becomes non-finite.
+    """
+    fine, q, fs = _fine(model, force, fs, force_hold, oversample)
+    n, N = model.n_dofs, fine.shape[0] // q
+    starts = np.asarray(starts, dtype=np.int64)
+    states = np.asarray(states, dtype=float)
+    if starts.ndim != 1 or starts.size == 0 or starts[0] != 0 or np.any(np.diff(starts) <= 0) or starts[-1] >= N:
+        raise InputError(f"starts must increase from 0 and stay below the {N} samples")
+    if states.shape != (starts.size, 2 * n):
+        raise InputError(f"states must have shape ({starts.size}, {2 * n}), got {states.shape}")
+    args = _arguments(model)
+    edges = np.append(starts, N)
+    z, ends = np.empty((N, n)), np.empty((starts.size, 2 * n))
+    for k, (a, b) in enumerate(zip(edges[:-1], edges[1:], strict=True)):
+        stop = min(b + 1, N)  # one sample more: the state the next segment starts from
+        run = _run(model, fine[a * q : stop * q], 1.0 / (fs * q), q, (states[k, :n], states[k, n:]), fs, args, a)
+        z[a:b] = run[0][: b - a]
+        ends[k] = np.concatenate([run[0][-1], run[1][-1]])
+    return z, ends

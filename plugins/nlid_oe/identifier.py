@@ -73,7 +73,7 @@ from nlid.plugin import (
 )
 
 if TYPE_CHECKING:
-    from .problem import Parameter, Problem
+    from .problem import Parameter, Problem, Shooting
 
 #: Segment length as a fraction of the predictability horizon (over a third of the horizon an initial
 #: error grows by about (SENSITIVITY_LIMIT / SENSITIVITY_DELTA)^(1/3) = 10).
@@ -233,7 +233,7 @@ class OutputError(Identifier):
         if isinstance(record, StructureRecord):
             from .structure import identify_structure
 
-            return identify_structure(record, model, mass, self.settings, self.name)
+            return identify_structure(self, record, model, mass)
 
         clock = time.perf_counter()
         if record.n < MIN_SAMPLES:
@@ -522,7 +522,7 @@ class OutputError(Identifier):
         )
 
     # ------------------------------------------------------------------ the optimiser
-    def _solve(self, problem: Problem, method: str) -> Any:
+    def _solve(self, problem: Shooting, method: str) -> Any:
         """:func:`scipy.optimize.least_squares` (trust-region reflective) on one problem; raises when it fails."""
         from scipy import optimize
 

@@ -19,6 +19,7 @@ Parameters are scaled (``physical = scale * u``) so that every ``u`` is of order
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 from scipy import sparse
@@ -37,7 +38,168 @@ class Parameter:
     name: str = ""
 
 
-class Problem:
+class Shooting:
+    """The linear algebra of a multiple-shooting least-squares problem, whatever the simulator.
+
+    A subclass sets ``G`` (global parameters), ``L`` (state components per segment), ``K`` (segments),
+    ``C`` (fitted channels), ``starts`` (first sample of each segment), ``record`` (its ``n``: samples),
+    ``rows_data = n C``, ``rows`` (with the ``(K - 1) L`` continuity rows), ``dense_limit``, ``diverged`` and
+    ``_reduced = None``, and implements ``start()`` (the scaled start vector), ``bounds(u0)``,
+    ``_evaluate(u) -> (residual, anything)`` (raising :class:`~nlid.plugin.SimulationError` where the free
+    run diverges) and :meth:`blocks`. The one-DOF :class:`Problem` has exact sensitivities; the structure's
+    (:mod:`nlid_oe.structure`) differences. ``OutputError._solve`` solves either. The unknowns are
+    ``u = [globals (G), state of segment 0 (L), ..., state of segment K - 1 (L)]``; the residual is the data
+    rows (time-major, ``C`` per sample) followed by the continuity rows.
+    """
+
+    G: int
+    L: int
+    K: int
+    C: int
+    starts: np.ndarray
+    rows_data: int
+    rows: int
+    dense_limit: int
+    diverged: bool
+    _reduced: tuple[np.ndarray, np.ndarray, object] | None
+    record: Any
+
+    def start(self) -> np.ndarray:  # pragma: no cover - abstract
+        raise NotImplementedError
+
+    def _evaluate(self, u: np.ndarray) -> tuple[np.ndarray, object]:  # pragma: no cover - abstract
+        raise NotImplementedError
+
+    def blocks(self, u: np.ndarray):  # pragma: no cover - abstract
+        """The Jacobian's non-zero blocks at ``u``: ``Jg`` (data rows x globals), ``Jl`` (data rows x the row's
+        own segment's state) and, with several segments, the continuity rows' ``(dg, dl, nxt)``: shapes
+        ``(K - 1, L, G)``, ``(K - 1, L, L)`` (the ending segment's state), ``(K - 1, L, L)`` (the next one's)."""
+        raise NotImplementedError
+
+    @property
+    def size(self) -> int:
+        """Number of unknowns (global parameters and every segment's initial state)."""
+        return self.G + self.K * self.L
+
+    def residual(self, u: np.ndarray | None) -> np.ndarray:
+        """The residual vector at ``u`` (default: the start); a large constant where the free run diverges.
+
+        A diverging trial point has a cost far above any other, so the optimiser refuses the step;
+        :attr:`diverged` tells whether the last evaluation diverged.
+        """
+        u = self.start() if u is None else u
+        try:
+            out = self._evaluate(u)[0]
+            self.diverged = False
+            return out
+        except SimulationError:
+            self.diverged = True
+            return np.full(self.rows, 1e3)
+
+    def jacobian(self, u: np.ndarray):
+        """The Jacobian of :meth:`residual` with respect to ``u`` (dense for one segment, else sparse CSR)."""
+        Jg, Jl, defect = self.blocks(u)
+        if self.K == 1:
+            return np.concatenate([Jg, Jl], axis=1)
+        J = self._assemble(Jg, Jl, defect, self.C * np.diff(np.append(self.starts, self.record.n)))
+        return J.toarray() if self.rows * self.size <= self.dense_limit else J
+
+    def _assemble(self, Jg, Jl, defect, heights):
+        """The multiple-shooting Jacobian as a CSR matrix from its blocks; ``heights``: data rows per segment."""
+        G, L, K = self.G, self.L, self.K
+        rows_d = Jg.shape[0]
+        seg = np.repeat(np.arange(K), heights)
+        data_idx = np.concatenate(
+            [np.broadcast_to(np.arange(G), (rows_d, G)), G + seg[:, None] * L + np.arange(L)[None, :]], axis=1
+        )
+        data_val = np.concatenate([Jg, Jl], axis=1)
+        dg, dl, nxt = defect
+        b = np.arange(K - 1)
+        def_idx = np.concatenate(
+            [
+                np.broadcast_to(np.arange(G), (K - 1, L, G)),
+                np.broadcast_to((G + b * L)[:, None, None] + np.arange(L)[None, None, :], (K - 1, L, L)),
+                np.broadcast_to((G + (b + 1) * L)[:, None, None] + np.arange(L)[None, None, :], (K - 1, L, L)),
+            ],
+            axis=2,
+        ).reshape(-1, G + 2 * L)
+        def_val = np.concatenate([dg, dl, nxt], axis=2).reshape(-1, G + 2 * L)
+        width_d, width_e = G + L, G + 2 * L
+        indptr = np.concatenate(
+            [np.arange(rows_d + 1) * width_d, rows_d * width_d + np.arange(1, def_idx.shape[0] + 1) * width_e]
+        )
+        indices = np.concatenate([data_idx.ravel(), def_idx.ravel()])
+        values = np.concatenate([data_val.ravel(), def_val.ravel()])
+        return sparse.csr_matrix((values, indices, indptr), shape=(rows_d + def_idx.shape[0], self.size))
+
+    # ------------------------------------------------------------------ the reduced problem
+    @property
+    def reduced_rows(self) -> int:
+        """Rows of the reduced problem (:meth:`reduced`): ``G + L + 1`` per segment and the defect rows."""
+        return self.K * (self.G + self.L + 1) + (self.K - 1) * self.L
+
+    def reduced(self, u: np.ndarray) -> tuple[np.ndarray, object]:
+        """The residual and Jacobian of an equivalent small least-squares problem at ``u``.
+
+        Each segment's data rows ``[J_k | r_k]`` (global and own-state columns, residual) are replaced by the
+        triangular factor of their QR decomposition, ``G + L + 1`` rows: ``J_k = Q_k R_k`` and
+        ``r_k = Q_k t_k`` exactly, so ``|J p + r|`` is the same for every step ``p`` (and ``|r|`` the same
+        cost) as in the full problem of :meth:`residual` and :meth:`jacobian` (up to rounding): the
+        trust-region steps are the full problem's, computed on ``K (G + L + 1) + (K - 1) L`` rows instead of
+        ``N C + (K - 1) L``. The defect rows are kept as they are. Raises :class:`SimulationError` where the
+        free run diverges.
+
+        Returns
+        -------
+        residual, jacobian
+            Dense Jacobian while ``reduced_rows x size`` is at most :attr:`dense_limit`, else CSR.
+        """
+        if self._reduced is not None and np.array_equal(self._reduced[0], u):
+            return self._reduced[1], self._reduced[2]
+        r = self._evaluate(u)[0]
+        Jg, Jl, defect = self.blocks(u)
+        G, L, K, C = self.G, self.L, self.K, self.C
+        W = G + L + 1
+        heights = C * np.diff(np.append(self.starts, self.record.n))
+        A = np.concatenate([Jg, Jl, r[: self.rows_data, None]], axis=1)
+        R = np.zeros((K, W, W))
+        h = int(heights[0])
+        equal = int(np.argmin(heights == h)) if np.any(heights != h) else K  # leading segments of h rows
+        # segments of equal length (all but possibly the last) in one batched QR
+        Rb = np.linalg.qr(A[: equal * h].reshape(equal, h, W), mode="r")
+        R[:equal, : Rb.shape[1]] = Rb
+        edges = np.append(0, np.cumsum(heights))
+        for k in range(equal, K):
+            Rk = np.linalg.qr(A[edges[k] : edges[k + 1]], mode="r")
+            R[k, : Rk.shape[0]] = Rk
+        f = np.concatenate([R[:, :, -1].ravel(), r[self.rows_data :]])
+        if K == 1:
+            J = R[0, :, :-1]
+        else:
+            J = self._assemble(
+                R[:, :, :G].reshape(K * W, G), R[:, :, G : G + L].reshape(K * W, L), defect, np.full(K, W)
+            )
+            if self.reduced_rows * self.size <= self.dense_limit:
+                J = J.toarray()
+        self._reduced = (np.array(u, copy=True), f, J)
+        return f, J
+
+    def reduced_residual(self, u: np.ndarray) -> np.ndarray:
+        """The residual of :meth:`reduced` (a large constant where the free run diverges, as in :meth:`residual`)."""
+        try:
+            out = self.reduced(u)[0]
+            self.diverged = False
+            return out
+        except SimulationError:
+            self.diverged = True
+            return np.full(self.reduced_rows, 1e3 * np.sqrt(self.rows / self.reduced_rows))
+
+    def reduced_jacobian(self, u: np.ndarray, *_: object):
+        """The Jacobian of :meth:`reduced` (at a point :meth:`reduced_residual` was evaluated at)."""
+        return self.reduced(u)[1]
+
+
+class Problem(Shooting):
     """The least-squares problem of one output-error fit (see the module docstring).
 
     Parameters
@@ -115,11 +277,6 @@ class Problem:
         self.dense_limit = 0
 
     # ------------------------------------------------------------------ parameters
-    @property
-    def size(self) -> int:
-        """Number of unknowns (global parameters and every segment's initial state)."""
-        return self.G + self.K * self.L
-
     def start(self) -> np.ndarray:
         """The scaled start vector ``u`` (after :meth:`fit_states`, the refined one)."""
         if self._start is not None:
@@ -252,29 +409,6 @@ class Problem:
     def _state_scale(self, model: Model, order: list[int]) -> np.ndarray:
         return self._given_state_order(self.state_scales[None, :], model, order)[0]
 
-    def residual(self, u: np.ndarray | None) -> np.ndarray:
-        """The residual vector at ``u`` (default: the start); a large constant where the free run diverges.
-
-        A diverging trial point has a cost far above any other, so the optimiser refuses the step;
-        :attr:`diverged` tells whether the last evaluation diverged.
-        """
-        u = self.start() if u is None else u
-        try:
-            out = self._evaluate(u)[0]
-            self.diverged = False
-            return out
-        except SimulationError:
-            self.diverged = True
-            return np.full(self.rows, 1e3)
-
-    def jacobian(self, u: np.ndarray):
-        """The Jacobian of :meth:`residual` with respect to ``u`` (dense for one segment, else sparse CSR)."""
-        Jg, Jl, defect = self.blocks(u)
-        if self.K == 1:
-            return np.concatenate([Jg, Jl], axis=1)
-        J = self._assemble(Jg, Jl, defect, self.C * np.diff(np.append(self.starts, self.record.n)))
-        return J.toarray() if self.rows * self.size <= self.dense_limit else J
-
     def blocks(self, u: np.ndarray):
         """The Jacobian's non-zero blocks at ``u``.
 
@@ -320,100 +454,6 @@ class Problem:
         nxt = np.zeros((self.K - 1, self.L, self.L))
         nxt[:, np.arange(self.L), perm] = -(lscale[perm] * wsc)[None, :]
         return Jg, Jl, (dg, dl, nxt)
-
-    def _assemble(self, Jg, Jl, defect, heights):
-        """The multiple-shooting Jacobian as a CSR matrix from its blocks; ``heights``: data rows per segment."""
-        G, L, K = self.G, self.L, self.K
-        rows_d = Jg.shape[0]
-        seg = np.repeat(np.arange(K), heights)
-        data_idx = np.concatenate(
-            [np.broadcast_to(np.arange(G), (rows_d, G)), G + seg[:, None] * L + np.arange(L)[None, :]], axis=1
-        )
-        data_val = np.concatenate([Jg, Jl], axis=1)
-        dg, dl, nxt = defect
-        b = np.arange(K - 1)
-        def_idx = np.concatenate(
-            [
-                np.broadcast_to(np.arange(G), (K - 1, L, G)),
-                np.broadcast_to((G + b * L)[:, None, None] + np.arange(L)[None, None, :], (K - 1, L, L)),
-                np.broadcast_to((G + (b + 1) * L)[:, None, None] + np.arange(L)[None, None, :], (K - 1, L, L)),
-            ],
-            axis=2,
-        ).reshape(-1, G + 2 * L)
-        def_val = np.concatenate([dg, dl, nxt], axis=2).reshape(-1, G + 2 * L)
-        width_d, width_e = G + L, G + 2 * L
-        indptr = np.concatenate(
-            [np.arange(rows_d + 1) * width_d, rows_d * width_d + np.arange(1, def_idx.shape[0] + 1) * width_e]
-        )
-        indices = np.concatenate([data_idx.ravel(), def_idx.ravel()])
-        values = np.concatenate([data_val.ravel(), def_val.ravel()])
-        return sparse.csr_matrix((values, indices, indptr), shape=(rows_d + def_idx.shape[0], self.size))
-
-    # ------------------------------------------------------------------ the reduced problem
-    @property
-    def reduced_rows(self) -> int:
-        """Rows of the reduced problem (:meth:`reduced`): ``G + L + 1`` per segment and the defect rows."""
-        return self.K * (self.G + self.L + 1) + (self.K - 1) * self.L
-
-    def reduced(self, u: np.ndarray) -> tuple[np.ndarray, object]:
-        """The residual and Jacobian of an equivalent small least-squares problem at ``u``.
-
-        Each segment's data rows ``[J_k | r_k]`` (global and own-state columns, residual) are replaced by the
-        triangular factor of their QR decomposition, ``G + L + 1`` rows: ``J_k = Q_k R_k`` and
-        ``r_k = Q_k t_k`` exactly, so ``|J p + r|`` is the same for every step ``p`` (and ``|r|`` the same
-        cost) as in the full problem of :meth:`residual` and :meth:`jacobian` (up to rounding): the
-        trust-region steps are the full problem's, computed on ``K (G + L + 1) + (K - 1) L`` rows instead of
-        ``N C + (K - 1) L``. The defect rows are kept as they are. Raises :class:`SimulationError` where the
-        free run diverges.
-
-        Returns
-        -------
-        residual, jacobian
-            Dense Jacobian while ``reduced_rows x size`` is at most :attr:`dense_limit`, else CSR.
-        """
-        if self._reduced is not None and np.array_equal(self._reduced[0], u):
-            return self._reduced[1], self._reduced[2]
-        r = self._evaluate(u)[0]
-        Jg, Jl, defect = self.blocks(u)
-        G, L, K, C = self.G, self.L, self.K, self.C
-        W = G + L + 1
-        heights = C * np.diff(np.append(self.starts, self.record.n))
-        A = np.concatenate([Jg, Jl, r[: self.rows_data, None]], axis=1)
-        R = np.zeros((K, W, W))
-        h = int(heights[0])
-        equal = int(np.argmin(heights == h)) if np.any(heights != h) else K  # leading segments of h rows
-        # segments of equal length (all but possibly the last) in one batched QR
-        Rb = np.linalg.qr(A[: equal * h].reshape(equal, h, W), mode="r")
-        R[:equal, : Rb.shape[1]] = Rb
-        edges = np.append(0, np.cumsum(heights))
-        for k in range(equal, K):
-            Rk = np.linalg.qr(A[edges[k] : edges[k + 1]], mode="r")
-            R[k, : Rk.shape[0]] = Rk
-        f = np.concatenate([R[:, :, -1].ravel(), r[self.rows_data :]])
-        if K == 1:
-            J = R[0, :, :-1]
-        else:
-            J = self._assemble(
-                R[:, :, :G].reshape(K * W, G), R[:, :, G : G + L].reshape(K * W, L), defect, np.full(K, W)
-            )
-            if self.reduced_rows * self.size <= self.dense_limit:
-                J = J.toarray()
-        self._reduced = (np.array(u, copy=True), f, J)
-        return f, J
-
-    def reduced_residual(self, u: np.ndarray) -> np.ndarray:
-        """The residual of :meth:`reduced` (a large constant where the free run diverges, as in :meth:`residual`)."""
-        try:
-            out = self.reduced(u)[0]
-            self.diverged = False
-            return out
-        except SimulationError:
-            self.diverged = True
-            return np.full(self.reduced_rows, 1e3 * np.sqrt(self.rows / self.reduced_rows))
-
-    def reduced_jacobian(self, u: np.ndarray, *_: object):
-        """The Jacobian of :meth:`reduced` (at a point :meth:`reduced_residual` was evaluated at)."""
-        return self.reduced(u)[1]
 
     def _local_permutation(self, model: Model, order: list[int]) -> np.ndarray:
         """``perm[l]``: the given-order local column that state component ``l`` of ``model`` comes from."""

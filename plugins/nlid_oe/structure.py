@@ -2,68 +2,95 @@
 
 The model ``M z'' + C z' + K z + s + sum_e b_e theta_e g_e = f`` is driven by
 the measured force from an initial state and simulated by the structure
-simulator (:func:`nlid.plugin.structure_free_run`: RK4, ``oversample``
+simulator (:func:`nlid.plugin.structure_free_run_segments`: RK4, ``oversample``
 sub-steps per sample, the record's force hold); the displacement of every
 DOF, each scaled by its standard deviation, is compared with the measured
-one, and :func:`scipy.optimize.least_squares` (trust-region reflective,
-finite-difference Jacobian) minimises the sum of squares over
+one. The unknowns are
 
 * the element coefficients ``theta``,
 * the symmetric ``K`` and ``C`` (``n (n + 1) / 2`` entries each),
 * the constant force per DOF (when the element set has it),
+* the initial state (``z`` and ``v`` of every DOF) of every segment,
 
 starting from another identifier's estimate (option ``init``, default the
 preferred installed identifier; it must handle several DOFs). The mass
 matrix is held at the given one, or at the start's estimate (reported as
 estimated). Each parameter is scaled by its start value (entries that start
-at zero by the largest of their matrix), so the optimiser's steps are
-relative.
+at zero by the largest of their matrix; states by the std of their channel).
 
-Segments
+Multiple shooting
     A lightly damped structure's free run over a long record drifts in phase
     for a frequency error of a fraction of a percent (3dof-cubic: 0.4 % on
     the first mode turns into a 56 % free-run error over 5 s), which leaves
     the optimiser in local minima. The record is therefore cut into
     segments (option ``segment_seconds``; default :data:`SEGMENT_PERIODS`
-    periods of the start model's lowest mode (linearised at a stable equilibrium or underlying linear), ``0``: one
-    segment), each simulated from the state the data give at its start (the
-    measured displacement, the velocity measured or through nlid's
-    differentiating filter). The initial states are not fitted.
+    periods of the start model's lowest mode, linearised at a stable
+    equilibrium or underlying linear; with several stable equilibria, as for
+    one DOF, ``SHORT_PERIODS`` periods of its highest mode; ``0``: one
+    segment), each simulated
+    from its own initial state, with the mismatch between a segment's end
+    and the next one's start a soft constraint (option ``continuity_weight``;
+    automatic segments whose fit stays above ``NOISE_RATIO`` times the
+    measurement noise are halved, at most ``MAX_HALVINGS`` times, as for one
+    DOF),
+    as for one DOF (:mod:`nlid_oe.problem`, whose reduced problem and solver
+    this module reuses). The states start from the data (the displacement,
+    the velocity measured or through nlid's differentiating filter) and are
+    first fitted with the model held at the start, then jointly with it: a
+    state taken from a noisy record is off by the noise, and a fit that keeps
+    it bends the coefficients to compensate.
 
-Standard errors are ``s^2 (J^T J)^-1`` at the optimum (the residual's
-correlation is ignored, so they are optimistic).
+Jacobian
+    By forward differences (step :data:`DIFF_STEP` of the scaled parameter):
+    one free run of the record per global parameter, and one per state
+    component for all segments at once (a segment's run depends on its own
+    state only), on the threads of :func:`nlid.plugin.kernel_threads`.
+
+Standard errors
+    As for one DOF (:mod:`nlid_oe.uncertainty`): the segments' states profiled
+    out, batch-means sandwich.
 """
 
 from __future__ import annotations
 
 import time
-from collections.abc import Mapping
-from typing import Any
+from concurrent.futures import ThreadPoolExecutor
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from nlid.plugin import (
     ElementSet,
-    IdentificationError,
     InputError,
     SimulationError,
     StructuralModel,
     StructureEstimate,
     StructureRecord,
     choose_method,
+    derivatives,
     identify,
-    structure_free_run,
+    kernel_threads,
+    structure_free_run_segments,
     structure_regression_data,
 )
 
-__all__ = ["identify_structure", "StructureProblem", "SEGMENT_PERIODS"]
+from .problem import Parameter, Shooting
+
+if TYPE_CHECKING:
+    from .identifier import OutputError
+
+__all__ = ["identify_structure", "StructureProblem", "SEGMENT_PERIODS", "DIFF_STEP"]
 
 #: Default segment length, in periods of the start model's lowest mode.
 SEGMENT_PERIODS = 5.0
+#: Fewest samples in a segment.
+MIN_SEGMENT = 16
+#: Forward-difference step of the scaled parameters.
+DIFF_STEP = 1e-6
 
 
-class StructureProblem:
-    """The free-run residual of a structure as a function of scaled parameters.
+class StructureProblem(Shooting):
+    """The multiple-shooting free-run residual of a structure (:class:`~nlid_oe.problem.Shooting`).
 
     Parameters
     ----------
@@ -72,13 +99,15 @@ class StructureProblem:
     elements
         The elements.
     start
-        The start model (its ``M`` is held).
-    z0, v0
-        The state at every sample ``(N, n)`` each (from the data); segments start from it.
+        The start model (its ``M`` is held; its other parameters are the globals' start).
+    states
+        The state ``(z, v)`` at every sample, shape ``(N, 2 n)``; each segment's state starts from it.
+    starts
+        First sample of each segment.
     oversample
         RK4 sub-steps per sample.
-    length
-        Samples per segment.
+    continuity_weight
+        Multiplies the continuity rows (as :class:`~nlid_oe.problem.Problem`).
     """
 
     def __init__(
@@ -86,21 +115,19 @@ class StructureProblem:
         record: StructureRecord,
         elements: ElementSet,
         start: StructuralModel,
-        z0: np.ndarray,
-        v0: np.ndarray,
+        states: np.ndarray,
+        starts: np.ndarray,
         oversample: int,
-        length: int,
+        continuity_weight: float,
     ) -> None:
         n = record.n_dofs
         self.record, self.elements, self.M, self.n, self.q = record, elements, start.M, n, int(oversample)
         self.upper = [(i, j) for i in range(n) for j in range(i, n)]
         self.static = elements.static
-        theta = start.theta
         K = np.array([start.K[i, j] for i, j in self.upper])
         C = np.array([start.C[i, j] for i, j in self.upper])
-        parts = [theta, K, C, *([start.static] if self.static else [])]
+        parts = [start.theta, K, C, *([start.static] if self.static else [])]
         self.p0 = np.concatenate(parts)
-
         force = float(np.sqrt(np.mean(record.f**2))) or 1.0
 
         def scale(x: np.ndarray, fallback: float) -> np.ndarray:
@@ -110,64 +137,129 @@ class StructureProblem:
             return np.where(np.abs(x) > 1e-9 * big, np.abs(x), 1e-2 * big)
 
         fallbacks = [1.0, 1.0, 1.0, 1e-2 * force]  # a static force that starts at zero moves by 1 % of the force
-        self.scale = np.concatenate([scale(x, fb) for x, fb in zip(parts, fallbacks, strict=False)])
-        sizes = [len(x) for x in parts]
-        self.bounds = np.cumsum([0, *sizes])
-        self.zstd = record.z.std(axis=0)
-        self.zstd[self.zstd == 0] = 1.0
-        self.force = record.f
-        self.hold = record.force_hold
-        starts = list(range(0, record.n, max(int(length), 16)))
-        if len(starts) > 1 and record.n - starts[-1] < 16:
-            starts.pop()
-        self.segments = [(a, b) for a, b in zip(starts, [*starts[1:], record.n], strict=True)]
-        self.states = [(z0[a], v0[a]) for a, _ in self.segments]
+        gscale = np.concatenate([scale(x, fb) for x, fb in zip(parts, fallbacks, strict=False)])
+        self.bounds_p = np.cumsum([0, *[len(x) for x in parts]])
+        labels = [f"K[{i + 1},{j + 1}]" for i, j in self.upper] + [f"C[{i + 1},{j + 1}]" for i, j in self.upper]
+        names = [*elements.names, *labels, *([f"static[{i + 1}]" for i in range(n)] if self.static else [])]
+        self.params = [Parameter("theta" if k < len(start.theta) else "linear", name=x) for k, x in enumerate(names)]
+        self.G = self.p0.size
+        self.L, self.C = 2 * n, n
+        self.starts = np.asarray(starts, dtype=np.int64)
+        self.K = self.starts.size
+        self.edges = np.append(self.starts, record.n)
+        self.channel_scale = record.z.std(axis=0)
+        self.channel_scale[self.channel_scale == 0] = 1.0
+        self.state_scales = np.concatenate([self.channel_scale, np.maximum(states[:, n:].std(axis=0), 1e-300)])
+        self.scale = np.concatenate([gscale, np.tile(self.state_scales, self.K)])
+        self.state0 = np.asarray(states, dtype=float)[self.starts]
+        lengths = np.diff(self.edges)
+        self.weight = float(continuity_weight) * np.sqrt(float(np.mean(lengths)) * self.C) if self.K > 1 else 0.0
+        self.rows_data = record.n * self.C
+        self.rows = self.rows_data + (self.K - 1) * self.L
+        self.dense_limit = 0
+        #: Threads running the Jacobian's free runs.
+        self.threads = 1
+        self.diverged = False
+        self._reduced = None
+        self._cache: tuple[np.ndarray, np.ndarray, tuple] | None = None
+
+    def start(self) -> np.ndarray:
+        """The scaled start vector ``u``."""
+        return np.concatenate([self.p0, self.state0.ravel()]) / self.scale
+
+    def bounds(self, u0: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """No bounds."""
+        return np.full(u0.size, -np.inf), np.full(u0.size, np.inf)
+
+    def globals_of(self, u: np.ndarray) -> np.ndarray:
+        """The global parameters at ``u`` (physical units)."""
+        return np.asarray(u[: self.G]) * self.scale[: self.G]
+
+    def states_of(self, u: np.ndarray) -> np.ndarray:
+        """Each segment's initial state ``(z, v)`` at ``u``, shape ``(K, 2 n)``."""
+        return (np.asarray(u[self.G :]) * self.scale[self.G :]).reshape(self.K, self.L)
 
     def unpack(self, u: np.ndarray) -> StructuralModel:
-        """Scaled parameters to the model."""
-        p = self.p0 + u * self.scale
-        b = self.bounds
-        theta = p[b[0] : b[1]]
+        """The model at ``u``."""
+        p, b = self.globals_of(u), self.bounds_p
         K, C = np.zeros((self.n, self.n)), np.zeros((self.n, self.n))
         for (i, j), kv, cv in zip(self.upper, p[b[1] : b[2]], p[b[2] : b[3]], strict=True):
             K[i, j] = K[j, i] = kv
             C[i, j] = C[j, i] = cv
         static = p[b[3] : b[4]] if self.static else None
-        return StructuralModel(self.M, C, K, self.elements, theta, static)
+        return StructuralModel(self.M, C, K, self.elements, p[b[0] : b[1]], static)
 
-    def simulate(self, u: np.ndarray) -> np.ndarray:
-        """The free-run displacements ``(N, n)``, segment by segment."""
-        model = self.unpack(u)
-        out = np.empty_like(self.record.z)
-        for (a, b), x0 in zip(self.segments, self.states, strict=True):
-            z, _, _ = structure_free_run(
-                model, self.force[a:b], self.record.fs, force_hold=self.hold, x0=x0, oversample=self.q
-            )
-            out[a:b] = z
-        return out
-
-    def residual(self, u: np.ndarray) -> np.ndarray:
-        """``(z_sim - z) / std(z)`` per DOF, flattened; large where the simulation diverges."""
+    def simulate(self, u: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The free-run displacements ``(N, n)`` segment by segment, and each segment's end state ``(K, 2 n)``."""
         try:
-            z = self.simulate(u)
-        except (SimulationError, InputError):
-            return np.full(self.record.z.size, 1e3)
-        return ((z - self.record.z) / self.zstd).ravel()
+            return structure_free_run_segments(
+                self.unpack(u), self.record.f, self.record.fs, self.starts, self.states_of(u),
+                force_hold=self.record.force_hold, oversample=self.q,
+            )  # fmt: skip
+        except InputError as exc:  # a non-finite state
+            raise SimulationError(str(exc)) from None
+
+    def _rows(self, z: np.ndarray, ends: np.ndarray, u: np.ndarray) -> np.ndarray:
+        r = np.empty(self.rows)
+        r[: self.rows_data] = ((z - self.record.z) / self.channel_scale).ravel()
+        if self.K > 1:
+            defect = (ends[:-1] - self.states_of(u)[1:]) / self.state_scales
+            r[self.rows_data :] = self.weight * defect.ravel()
+        return r
+
+    def _evaluate(self, u: np.ndarray) -> tuple[np.ndarray, tuple]:
+        if self._cache is None or not np.array_equal(self._cache[0], u):
+            z, ends = self.simulate(u)
+            self._cache = (np.array(u, copy=True), self._rows(z, ends, u), (z, ends))
+        return self._cache[1], self._cache[2]
+
+    def blocks(self, u: np.ndarray):
+        """The Jacobian's blocks (:meth:`Shooting.blocks`) by forward differences (module docstring)."""
+        r0 = self._evaluate(u)[0]
+        G, L, K = self.G, self.L, self.K
+
+        def column(j: int) -> np.ndarray:
+            shifted = u.copy()
+            if j < G:
+                shifted[j] += DIFF_STEP
+            else:
+                shifted[j::L] += DIFF_STEP  # state component j - G of every segment
+            return (self._rows(*self.simulate(shifted), shifted) - r0) / DIFF_STEP
+
+        with ThreadPoolExecutor(self.threads) as pool:  # the kernel releases the GIL
+            D = np.column_stack(list(pool.map(column, range(G + L))))
+        Jg, Jl = D[: self.rows_data, :G], D[: self.rows_data, G:]
+        if K == 1:
+            return Jg, Jl, None
+        E = D[self.rows_data :].reshape(K - 1, L, G + L)
+        # a state column's difference moves both sides of a boundary: the ending segment's end (through its
+        # run) and the next segment's start (-weight: states are scaled by the state scales)
+        nxt = np.broadcast_to(-self.weight * np.eye(L), (K - 1, L, L)).copy()
+        return Jg, Jl, (E[:, :, :G], E[:, :, G:] - nxt, nxt)
 
     def error_percent(self, u: np.ndarray) -> list[float]:
         """Free-run error per DOF: ``100 RMS(z_sim - z) / RMS(z)``."""
-        r = self.residual(u).reshape(-1, self.n) * self.zstd
+        r = self.residual(u)[: self.rows_data].reshape(-1, self.n) * self.channel_scale
         rms = np.sqrt(np.mean(self.record.z**2, axis=0))
         return (100 * np.sqrt(np.mean(r**2, axis=0)) / np.where(rms > 0, rms, 1.0)).tolist()
 
 
+def _starts(n: int, length: int) -> np.ndarray:
+    starts = list(range(0, n, max(int(length), MIN_SEGMENT)))
+    if len(starts) > 1 and n - starts[-1] < MIN_SEGMENT:
+        starts.pop()  # a short tail joins the last segment
+    return np.asarray(starts)
+
+
 def identify_structure(
-    record: StructureRecord, elements: ElementSet, mass: np.ndarray | None, settings: Mapping[str, Any], name: str
+    identifier: OutputError, record: StructureRecord, elements: ElementSet, mass: np.ndarray | None
 ) -> StructureEstimate:
     """oe on a structure record (module docstring)."""
-    from scipy import optimize
+    from .identifier import DENSE_LIMIT, MAX_HALVINGS, NOISE_RATIO, SHORT_PERIODS
+    from .uncertainty import standard_errors
 
     clock = time.perf_counter()
+    settings, name = identifier.settings, identifier.name
     if settings["outputs"] != "z":
         raise InputError("oe: a structure's free run is fitted on the displacements of every DOF (outputs='z')")
     method = settings["init"]
@@ -177,39 +269,54 @@ def identify_structure(
         raise InputError("oe: option 'init' must name another identifier (oe starts from its estimate)")
     start = identify(record, elements, method, mass=mass)
     structure = start.structure
-    # the segments' initial states: the balance's displacement and velocity (filtered when estimated)
+    # the segments' initial states start from the balance's displacement and velocity (filtered when estimated)
     data = structure_regression_data(record, start.elements, cutoff=None, trim=False)
+    states = np.column_stack([data.z, data.v])
     seconds = settings["segment_seconds"]
     if seconds is None:
         found = [float(f) for m in (*start.modes, start.linear_modes) for f in m.fn_hz if f > 0]
-        lowest = min(found, default=0.0)
-        seconds = SEGMENT_PERIODS / lowest if lowest > 0 else 0.0
-    length = record.n if seconds == 0 else int(round(seconds * record.fs))
-    problem = StructureProblem(record, start.elements, structure, data.z, data.v, settings["oversample"], length)
-    u0 = np.zeros(problem.p0.size)
-    r0 = problem.residual(u0)
-    if not np.all(r0 < 1e3):
-        raise IdentificationError(f"oe: the start model ({method}) diverges in a free run of the record")
-    tol = settings["tol"]
-    sol = optimize.least_squares(
-        problem.residual,
-        u0,
-        method="trf",
-        x_scale=1.0,
-        diff_step=1e-6,
-        max_nfev=settings["max_nfev"],
-        ftol=tol,
-        xtol=tol,
-        gtol=tol,
+        wells = len(start.equilibria.stable) if start.equilibria is not None else 1
+        if wells > 1:  # as for one DOF: a free run over wells it may cross differently has local minima
+            seconds = SHORT_PERIODS / max(found) if found else 0.0
+        else:
+            seconds = SEGMENT_PERIODS / min(found) if found else 0.0
+    starts = _starts(record.n, record.n if seconds == 0 else int(round(seconds * record.fs)))
+
+    def problem(model: StructuralModel, starts: np.ndarray) -> StructureProblem:
+        out = StructureProblem(
+            record, start.elements, model, states, starts, settings["oversample"], settings["continuity_weight"]
+        )
+        out.dense_limit = DENSE_LIMIT if identifier._solver(out) == "exact" else 0
+        out.threads = threads
+        return out
+
+    def miss(problem: StructureProblem, u: np.ndarray) -> float:
+        return float(np.sqrt(np.mean(problem.residual(u)[: problem.rows_data] ** 2)))
+
+    # the measurement noise per DOF relative to its std: automatic segments that leave the fit above it have
+    # states stuck on a wrong trajectory (a wrong well): halved, from the data's states, as for one DOF
+    floor = float(
+        np.sqrt(np.mean([(derivatives.noise_sd(z, record.fs) / max(z.std(), 1e-300)) ** 2 for z in record.z.T]))
     )
-    model = problem.unpack(sol.x)
-    J = sol.jac
-    dof = max(sol.fun.size - sol.x.size, 1)
-    s2 = float(sol.fun @ sol.fun) / dof
-    cov = s2 * np.linalg.pinv(J.T @ J)
-    b = problem.bounds
-    se = np.sqrt(np.clip(np.diag(cov)[b[0] : b[1]], 0.0, None)) * problem.scale[b[0] : b[1]]
-    before, after = problem.error_percent(u0), problem.error_percent(sol.x)
+    with kernel_threads() as threads:  # BLAS on one thread between the free runs
+        joint = problem(structure, starts)
+        before = joint.error_percent(joint.start())
+        res = identifier._solve(joint, method)
+        for _ in range(MAX_HALVINGS if settings["segment_seconds"] is None and joint.K > 1 else 0):
+            length = int(np.diff(joint.edges).min()) // 2
+            if miss(joint, res.x) <= NOISE_RATIO * floor or length < MIN_SEGMENT:
+                break
+            halved = problem(joint.unpack(res.x), _starts(record.n, length))
+            res_h = identifier._solve(halved, method)
+            if miss(halved, res_h.x) >= miss(joint, res.x):
+                break
+            joint, res = halved, res_h
+        residual = joint.residual(res.x)
+        se_u, _, corr, _ = standard_errors(joint, residual, res.x)
+    model = joint.unpack(res.x)
+    b = joint.bounds_p
+    se = se_u[b[0] : b[1]] * joint.scale[b[0] : b[1]]
+    after = joint.error_percent(res.x)
     warnings = []
     if sum(after) > sum(before):
         warnings.append("oe: the free-run error did not decrease from the start; the start's estimate may be better")
@@ -226,12 +333,17 @@ def identify_structure(
             "init_coefficients": dict(structure.coefficients),
             "free_run_error_percent_start": before,
             "free_run_error_percent": after,
-            "segments": len(problem.segments),
-            "segment_seconds": (problem.segments[0][1] - problem.segments[0][0]) / record.fs,
-            "nfev": int(sol.nfev),
-            "optimizer_status": int(sol.status),
-            "optimizer_message": str(sol.message),
+            "continuity_defect_max": float(np.max(np.abs(residual[joint.rows_data :])) / joint.weight)
+            if joint.K > 1
+            else 0.0,
+            "segments": int(joint.K),
+            "segment_seconds": float(np.mean(np.diff(joint.edges))) / record.fs,
+            "nfev": int(res.nfev),
+            "njev": int(res.njev or 0),
+            "optimizer_message": str(res.message),
+            "correlation_length_samples": corr,
             "mass": "given" if mass is not None else f"held at the start's ({method}) estimate",
+            "threads": threads,
             "seconds_fit": time.perf_counter() - clock,
         },
     )
