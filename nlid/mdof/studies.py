@@ -170,7 +170,9 @@ def execute_structure_run(spec: Any, base_row: Mapping[str, Any]) -> dict[str, A
         from ..errors import NlidError
 
         try:
-            row.update(bayes.study_metrics(record, result, {"coefficients": truth["coefficients"]}, **dict(spec.posterior)))
+            row.update(
+                bayes.study_metrics(record, result, {"coefficients": truth["coefficients"]}, **dict(spec.posterior))
+            )
         except NlidError as exc:  # a posterior that cannot be reported is a warning: the run keeps its metrics
             row[col.WARNINGS.key()] = " | ".join([*notes, f"posterior: {exc}"])
     reference = {"coefficients": dict(truth["coefficients"]), "structure": truth}

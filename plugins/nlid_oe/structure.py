@@ -75,6 +75,7 @@ from nlid.plugin import (
 )
 
 from .problem import Parameter, Shooting
+from .rules import DENSE_LIMIT, MAX_HALVINGS, NOISE_RATIO, SHORT_PERIODS
 
 if TYPE_CHECKING:
     from .identifier import OutputError
@@ -255,7 +256,6 @@ def identify_structure(
     identifier: OutputError, record: StructureRecord, elements: ElementSet, mass: np.ndarray | None
 ) -> StructureEstimate:
     """oe on a structure record (module docstring)."""
-    from .identifier import DENSE_LIMIT, MAX_HALVINGS, NOISE_RATIO, SHORT_PERIODS
     from .uncertainty import standard_errors
 
     clock = time.perf_counter()
