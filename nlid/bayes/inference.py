@@ -153,9 +153,8 @@ class PosteriorSampler:
         ``"de"`` (differential evolution, default) or ``"stretch"``.
     bias_correction
         Correct the errors-in-variables bias by simulation (see
-        :mod:`nlid.bayes.bias`). Default (``None``): on for one DOF; a
-        structure of several DOFs has no such correction (refused when
-        ``True``; :mod:`nlid.bayes.structure`).
+        :mod:`nlid.bayes.bias`; for a structure :func:`nlid.bayes.structure.correct_bias`).
+        Default (``None``): on.
     bias_pairs
         Antithetic noise pairs per step of that correction (at least 2).
     bias_iterations
@@ -333,7 +332,7 @@ class PosteriorSampler:
         )
 
     def _prepare_structure(self, record: Any, fit: Any) -> _Problem:
-        """A structure's likelihood (:mod:`nlid.bayes.structure`): every DOF's balance, no bias correction."""
+        """A structure's likelihood (:mod:`nlid.bayes.structure`): every DOF's balance, bias-corrected by simulation."""
         from ..mdof.record import StructureRecord
         from .structure import select_structure_params, structure_likelihood, structure_warnings
 
@@ -341,21 +340,27 @@ class PosteriorSampler:
             raise InputError(
                 f"the fit is a structure of {fit.structure.n_dofs} DOFs but the record is not a structure record"
             )
-        if self.bias_correction:
-            raise InputError(
-                "bias_correction: the errors-in-variables correction by simulation is available for one DOF only; "
-                "leave it unset (or false) for a structure"
-            )
         if self.noise:
-            raise InputError("noise= sets the levels the one-DOF bias correction simulates; a structure has none")
-        lik, parameters, _, start = structure_likelihood(record, fit, cutoff=self.cutoff)
+            raise InputError(
+                "noise= sets the one-DOF correction's levels; a structure's are each displacement's noise floor"
+            )
+        seq_bias, seq_mcmc = np.random.SeedSequence(self.seed).spawn(2)
+        correct = self.bias_correction is not False
+        lik, parameters, _, start = structure_likelihood(
+            record,
+            fit,
+            cutoff=self.cutoff,
+            bias_correction=correct,
+            pairs=self.bias_pairs,
+            iterations=self.bias_iterations,
+            rng=np.random.default_rng(seq_bias),
+        )
         idx = select_structure_params(parameters, self.params)
         names = tuple(parameters.names[i] for i in idx)
         theta0 = parameters.vector(start)
         user_priors = self._user_priors(names, canonical=parameters.canonical)
         for name, prior in user_priors.items():
             _check_start(name, prior, theta0[parameters.index(name)], parameters.unit(name))
-        _, seq_mcmc = np.random.SeedSequence(self.seed).spawn(2)
         gram = lik.stats.gtg
         check_identifiable(_schur(gram, idx) if self.others == "marginal" else gram[np.ix_(idx, idx)], names)
         reference = {}
@@ -376,7 +381,7 @@ class PosteriorSampler:
             method=fit.method,
             data=None,
             reference=reference,
-            warnings=structure_warnings(record),
+            warnings=structure_warnings(record, corrected=correct),
             units={n: parameters.unit(n) for n in parameters.names},
         )
 

@@ -22,12 +22,17 @@ connects. The likelihood is built the same way, from the same pieces:
    its unsampled coefficients integrated out or fixed, the same priors and
    the same emcee run until converged.
 
-Not available for structures: the errors-in-variables correction by
-simulation (:mod:`nlid.bayes.bias`). The posterior is centred on the weighted
-least-squares estimate, and says so in its warnings: with noise on the
-displacements the regressors are not exact, and an element's interval can
-miss a truth it would cover with the correction (docs/posterior.md,
-"Structures").
+Errors in variables (:func:`correct_bias`): with noise on the displacements
+the regressors are not exact (and a velocity differentiated from them even
+less), which biases the least-squares estimate. As for one DOF
+(:mod:`nlid.bayes.bias`), the bias is found by simulation: the structure at
+the current centre is run under the record's force, each DOF's displacement
+gets white noise at the level of its noise floor
+(:func:`nlid.derivatives.noise_sd`; antithetic pairs), the same weighted least
+squares is solved on every copy, and the centre is moved until the simulated
+estimates average to the record's (a fixed point, ``iterations`` steps). The
+Monte Carlo error of that average is added to the covariance. Noise on a
+measured velocity is not simulated (the warning says so).
 """
 
 from __future__ import annotations
@@ -57,11 +62,16 @@ __all__ = [
 
 #: The warning every structure posterior carries (module docstring).
 NO_CORRECTION = (
-    "no errors-in-variables correction on a structure: the intervals treat the displacements as exact, "
+    "no errors-in-variables correction (bias_correction=False): the intervals treat the displacements as exact, "
     "so with noise on them an element's interval can miss its true value (docs/posterior.md, Structures)"
 )
 
 
+#: With the correction: the noise of a measured velocity is not simulated.
+NOISY_VELOCITY = (
+    "the bias correction simulates the noise of the displacements only: noise on the measured velocities "
+    "({channels}) would bias the velocity-dependent elements uncorrected"
+)
 #: The second warning, when a velocity is differentiated from the displacement (measured: docs/posterior.md).
 ESTIMATED_VELOCITY = (
     "velocities estimated from the displacements ({channels}): with noise on z the velocity-dependent elements "
@@ -70,9 +80,14 @@ ESTIMATED_VELOCITY = (
 )
 
 
-def structure_warnings(record: StructureRecord) -> tuple[str, ...]:
-    """What every structure posterior says about itself (:data:`NO_CORRECTION`, :data:`ESTIMATED_VELOCITY`)."""
-    estimated = [f"v{k}" for k in range(1, record.n_dofs + 1) if not record.is_measured(f"v{k}")]
+def structure_warnings(record: StructureRecord, corrected: bool) -> tuple[str, ...]:
+    """What a structure posterior says about itself: :data:`NO_CORRECTION` and :data:`ESTIMATED_VELOCITY`
+    without the correction, :data:`NOISY_VELOCITY` with it when a velocity is measured."""
+    n = record.n_dofs
+    if corrected:
+        measured = [f"v{k}" for k in range(1, n + 1) if record.v is not None and record.is_measured(f"v{k}")]
+        return (NOISY_VELOCITY.format(channels=", ".join(measured)),) if measured else ()
+    estimated = [f"v{k}" for k in range(1, n + 1) if not record.is_measured(f"v{k}")]
     if not estimated:
         return (NO_CORRECTION,)
     return (NO_CORRECTION, ESTIMATED_VELOCITY.format(channels=", ".join(estimated)))
@@ -225,8 +240,97 @@ def _split_names(text: str) -> list[str]:
     return [p.strip() for p in out if p.strip()]
 
 
+def _weighted_problem(record: Any, elements: Any, M: np.ndarray, form: str, cutoff: float | None) -> Any:
+    from ..mdof.regression import linear_design, structure_regression_data
+
+    data = structure_regression_data(record, elements, cutoff=cutoff)
+    return data, linear_design(data, elements, mass=M, stiffness=form)
+
+
+def correct_bias(
+    record: StructureRecord,
+    design: Any,
+    elements: Any,
+    M: np.ndarray,
+    form: str,
+    cutoff: float | None,
+    weights: np.ndarray,
+    theta_hat: np.ndarray,
+    *,
+    pairs: int = 4,
+    iterations: int = 3,
+    rng: np.random.Generator | None = None,
+) -> tuple[np.ndarray, np.ndarray, dict[str, Any]]:
+    """The bias-corrected centre of a structure's unknowns and the Monte Carlo covariance of the correction.
+
+    See the module docstring. Returns ``(centre, covariance, info)``; ``info`` holds the noise level
+    simulated on each DOF's displacement (m), the pairs and iterations.
+
+    Raises
+    ------
+    IdentificationError
+        The fitted structure's free run under the record's force diverged.
+    """
+    from .. import derivatives
+    from ..errors import IdentificationError, NlidError
+    from ..mdof.model import StructuralModel
+    from ..mdof.record import StructureRecord as _Record
+    from ..mdof.simulation import free_run
+    from .likelihood import SufficientStatistics
+
+    rng = rng if rng is not None else np.random.default_rng(0)
+    n, fs = record.n_dofs, record.fs
+    sd = np.array([derivatives.noise_sd(record.z[:, k], fs) for k in range(n)])
+    measured = {g: getattr(record, g) is not None and all(record.is_measured(f"{g}{k}") for k in range(1, n + 1))
+                for g in ("v", "a")}  # fmt: skip
+    z0 = record.z[0]
+    v0 = record.v[0] if measured["v"] else (record.z[1] - record.z[0]) * fs
+    w = np.tile(weights, design.y.size // n)
+
+    def estimate(z: np.ndarray, v: np.ndarray, a: np.ndarray) -> np.ndarray:
+        copy = _Record(
+            f=record.f,
+            z=z,
+            fs=fs,
+            v=v if measured["v"] else None,
+            a=a if measured["a"] else None,
+            force_dofs=record.force_dofs,
+            meta={"force_hold": record.force_hold},
+        )
+        _, d = _weighted_problem(copy, elements, M, form, cutoff)
+        return SufficientStatistics.from_arrays(d.X * w[:, None], d.y * w).solve()
+
+    centre = theta_hat.copy()
+    draws = np.empty((pairs, theta_hat.size))
+    for _ in range(iterations):
+        parts = design.split(centre)
+        model = StructuralModel(M, parts["C"], parts["K"], elements, parts["theta"], parts["s"])
+        try:
+            z, v, a = free_run(model, record.f, fs, force_hold=record.force_hold, x0=(z0, v0))
+        except NlidError as exc:
+            raise IdentificationError(
+                f"the bias correction's free run of the fitted structure failed ({exc}); "
+                "sample without it (bias_correction=False)"
+            ) from None
+        for p in range(pairs):
+            e = rng.standard_normal(z.shape) * sd
+            draws[p] = 0.5 * (estimate(z + e, v, a) + estimate(z - e, v, a))
+        bias = draws.mean(axis=0) - centre
+        centre = theta_hat - bias
+    spread = np.cov(draws, rowvar=False) / pairs if pairs > 1 else np.zeros((centre.size, centre.size))
+    info = {"noise_sd": sd.tolist(), "pairs": pairs, "iterations": iterations}
+    return centre, np.atleast_2d(spread), info
+
+
 def structure_likelihood(
-    record: StructureRecord, fit: IdentifiedStructure, *, cutoff: float | None = None
+    record: StructureRecord,
+    fit: IdentifiedStructure,
+    *,
+    cutoff: float | None = None,
+    bias_correction: bool = True,
+    pairs: int = 4,
+    iterations: int = 3,
+    rng: np.random.Generator | None = None,
 ) -> tuple[Likelihood, StructureParameters, np.ndarray, dict[str, float]]:
     """The adjusted likelihood of a structure's unknowns (module docstring, steps 1-3).
 
@@ -240,6 +344,8 @@ def structure_likelihood(
         identification's ``K`` is not).
     cutoff
         Equation band in Hz (default: the one the identification's residual used).
+    bias_correction, pairs, iterations, rng
+        The errors-in-variables correction by simulation (:func:`correct_bias`) and its settings.
 
     Returns
     -------
@@ -247,7 +353,7 @@ def structure_likelihood(
         The likelihood, its unknowns, the DOF weights, and the identification's
         estimate of every unknown (the walkers' start).
     """
-    from ..mdof.regression import dof_weights, linear_design, structure_regression_data
+    from ..mdof.regression import dof_weights
 
     structure = fit.structure
     elements = structure.elements
@@ -257,8 +363,7 @@ def structure_likelihood(
         cutoff = fit.diagnostics.get("balance_cutoff_hz")
     symmetric = np.allclose(structure.K, structure.K.T) and np.allclose(structure.C, structure.C.T)
     form = "symmetric" if symmetric else "full"
-    data = structure_regression_data(record, elements, cutoff=cutoff)
-    design = linear_design(data, elements, mass=structure.M, stiffness=form)
+    data, design = _weighted_problem(record, elements, structure.M, form, cutoff)
     n = record.n_dofs
     parameters = StructureParameters(design.names, elements)
     first = sandwich(design.X, design.y, design.names, group=n)
@@ -270,7 +375,7 @@ def structure_likelihood(
         "samples": stats.n,
         "band_hz": data.filtered_at,
         **{k: v for k, v in info.items() if k != "samples"},
-        "bias_correction": False,
+        "bias_correction": bool(bias_correction),
         "dofs": n,
         "dof_weights": weights.tolist(),
         "stiffness_form": form,
@@ -285,5 +390,21 @@ def structure_likelihood(
         for k, value in enumerate(np.asarray(structure.static, dtype=float)):
             start[f"s[{k + 1}]"] = float(value)
     start = {name: float(start.get(name, theta_hat[i])) for i, name in enumerate(design.names)}
-    lik = Likelihood(tuple(design.names), stats, theta_hat, theta_hat, cov, dof, info)
+    centre = theta_hat
+    if bias_correction:
+        cutoff_used = data.filtered_at if data.filtered_at is not None else cutoff
+        centre, spread, corr = correct_bias(
+            record, design, elements, structure.M, form, cutoff_used, weights, theta_hat,
+            pairs=pairs, iterations=iterations, rng=rng,
+        )  # fmt: skip
+        cov = cov + spread  # the Monte Carlo error of the simulated average
+        sd = np.sqrt(np.diag(cov))
+        info.update(
+            noise_sd=corr["noise_sd"],
+            bias_pairs=corr["pairs"],
+            bias_iterations=corr["iterations"],
+            bias=dict(zip(design.names, (theta_hat - centre).tolist(), strict=True)),
+            bias_shift_sd=dict(zip(design.names, ((centre - theta_hat) / sd).tolist(), strict=True)),
+        )
+    lik = Likelihood(tuple(design.names), stats, theta_hat, centre, cov, dof, info)
     return lik, parameters, weights, start

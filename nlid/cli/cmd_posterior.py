@@ -78,8 +78,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument(
         "--no-bias-correction",
         action="store_true",
-        help="do not correct the errors-in-variables bias by simulation (faster; intervals may miss the truth); "
-        "a structure of several DOFs has no such correction",
+        help="do not correct the errors-in-variables bias by simulation (faster; intervals may miss the truth)",
     )
     p.add_argument("--bias-pairs", type=int, default=4, metavar="N", help="antithetic noise pairs (default 4)")
     p.add_argument(
@@ -153,8 +152,8 @@ def parse_noise_levels(items: list[str] | None, noise_z: float | None = None) ->
 
 def run(args: argparse.Namespace) -> int:
     from ..bayes import PosteriorSampler
-    from ..bayes.noise import UNITS, UnknownNoiseError
     from ..bayes.inference import check_params_spelling
+    from ..bayes.noise import UNITS, UnknownNoiseError
     from ..bayes.priors import parse_prior_assignments
     from ..mdof.record import StructureRecord
     from ..pipeline import as_model, identify

@@ -9,7 +9,7 @@ import pytest
 
 import nlid
 from nlid.bayes import sample_posterior
-from nlid.bayes.structure import NO_CORRECTION, StructureParameters, select_structure_params
+from nlid.bayes.structure import NO_CORRECTION, NOISY_VELOCITY, StructureParameters, select_structure_params
 from nlid.errors import InputError, NlidError
 from nlid.mdof.regression import unknown_names
 from nlid.presets import get_preset
@@ -33,7 +33,7 @@ def chain_fit(chain_noisy):
 
 
 def test_the_element_posterior_covers_the_truth_and_matches_its_gaussian_limit(chain_noisy, chain_fit):
-    post = sample_posterior(chain_noisy, chain_fit, params="elements", seed=1)
+    post = sample_posterior(chain_noisy, chain_fit, params="elements", seed=1, bias_correction=False)
     assert post.names == ("z3^3",)
     truth = chain_noisy.meta["reference"]["coefficients"]["z3^3"]
     lo, hi = post.interval(0.99)["z3^3"]
@@ -64,9 +64,7 @@ def test_linear_unknowns_and_damping_can_be_sampled(chain_noisy, chain_fit):
 
 
 def test_settings_a_structure_cannot_honour_are_refused(chain_noisy, chain_fit):
-    with pytest.raises(InputError, match="one DOF only"):
-        sample_posterior(chain_noisy, chain_fit, params="elements", bias_correction=True)
-    with pytest.raises(InputError, match="has none"):
+    with pytest.raises(InputError, match="noise floor"):
         sample_posterior(chain_noisy, chain_fit, params="elements", noise={"z": 1e-5})
     with pytest.raises(NlidError, match="not an element"):
         sample_posterior(chain_noisy, chain_fit, params="(z1-z2)^3")
@@ -112,4 +110,35 @@ def test_a_filtered_balance_counts_its_correlated_residual(chain):
     assert info["tau_residual_samples"] > 2.0
     assert info["dof"] < info["samples"] / 2.0
     assert len(info["dof_weights"]) == 3 and max(info["dof_weights"]) == 1.0
-    assert any("velocities estimated from the displacements (v1, v2, v3)" in w for w in post.warnings)
+    # the correction simulated each displacement's noise at its floor, which sees at least the noise the record
+    # was given (signal in the floor's band can only add to it: nlid.derivatives.noise_sd)
+    true_sd = 0.005 * record.z.std(axis=0)  # noise added relative to the clean channel's std (~ the noisy one's)
+    assert info["bias_correction"] is True
+    assert np.all(np.asarray(info["noise_sd"]) > 0.8 * true_sd)
+    assert post.warnings == ()  # no velocity measured, nothing uncorrected
+    plain = sample_posterior(record, fit, params="elements", seed=0, bias_correction=False)
+    assert any("velocities estimated from the displacements (v1, v2, v3)" in w for w in plain.warnings)
+    assert NO_CORRECTION in plain.warnings
+
+
+def test_the_correction_removes_the_damping_bias_of_noisy_displacements():
+    """2 % noise on z (v differentiated from it) biases the quadratic damping between the masses by several sd."""
+    record = get_preset("2dof-double-well").with_overrides(duration=10.0).simulate(
+        11, noise={"z": 0.02, "a": 0.02}, channels=["z", "a"]
+    )
+    fit = nlid.identify(record, "(z1-z2)^3, (z1-z2)^2, (v1-v2)*|v1-v2|", "rfs", mass=record.mass)
+    name, truth = "(v1-v2)*|v1-v2|", record.meta["reference"]["coefficients"]["(v1-v2)*|v1-v2|"]
+    post = sample_posterior(record, fit, params=name, seed=0)
+    lik = post.likelihood
+    i = lik.names.index(name)
+    sd = float(np.sqrt(lik.covariance[i, i]))
+    assert abs(lik.estimate[i] - truth) > 2 * sd  # the least-squares estimate misses by more than 2 sd
+    assert abs(lik.center[i] - truth) < abs(lik.estimate[i] - truth) / 2
+    lo, hi = post.interval(0.99)[name]
+    assert lo < truth < hi
+    assert post.bias_shifts[name] == pytest.approx((lik.center[i] - lik.estimate[i]) / sd)
+
+
+def test_measured_velocities_are_named_as_not_simulated(chain_noisy, chain_fit):
+    post = sample_posterior(chain_noisy, chain_fit, params="elements", seed=0)
+    assert post.warnings == (NOISY_VELOCITY.format(channels="v1, v2, v3"),)

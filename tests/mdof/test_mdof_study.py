@@ -70,7 +70,7 @@ def test_a_structure_study_reports_the_posterior_of_its_elements(tmp_path):
 @pytest.mark.parametrize(
     ("extra", "match"),
     [
-        ('params = "elements"\nbias_correction = true', "bias_correction"),
+        ('params = "elements"\nnoise = { z = 1e-5 }', "noise floor"),
         ('params = "(z2-z3)^3"', "not an element"),
         ('params = "elements"\npriors = { "(z2-z1)^3" = "flat" }', "opposite sign"),
     ],

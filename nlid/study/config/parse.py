@@ -260,10 +260,9 @@ def _structure_params(settings: Mapping[str, Any], ds: DatasetConfig, main: Any)
     """The unknowns a structure dataset's posterior samples (its elements on connections, K, C, s)."""
     from ...bayes.structure import select_structure_params
 
-    if settings.get("bias_correction") or settings.get("noise"):
-        key = "bias_correction" if settings.get("bias_correction") else "noise"
+    if settings.get("noise"):
         raise InputError(
-            f"{key} sets the one-DOF errors-in-variables correction; a structure of several DOFs has none "
+            "noise sets the one-DOF correction's levels; a structure's are each displacement's noise floor "
             "(nlid.bayes.structure): leave it out for this dataset"
         )
     unknowns = _structure_unknowns(ds, main)
