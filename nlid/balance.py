@@ -27,6 +27,7 @@ from .validate import check_cutoff
 __all__ = [
     "RegressionData",
     "regression_data",
+    "settled_samples",
     "share_channels",
     "suggested_cutoff",
     "REGRESSOR_BAND_FACTOR",
@@ -145,6 +146,23 @@ def share_channels(source: Record, record: Record) -> None:
             dst.setdefault(key, value)
 
 
+def settled_samples(n: int, fs: float, fc: float, unknowns: int) -> slice:
+    """The samples of a filtered force balance that have settled: ``EDGE_PERIODS * fs / fc`` dropped at each end.
+
+    Raises
+    ------
+    DataError
+        Fewer than ``max(64, 4 unknowns)`` samples are left.
+    """
+    edge = int(np.ceil(EDGE_PERIODS * fs / fc))
+    if n - 2 * edge < max(64, 4 * unknowns):
+        raise DataError(
+            f"record too short for a filtered force balance: {n} samples, {edge} dropped at each end "
+            f"at the cut-off {fc:.3g} Hz"
+        )
+    return slice(edge, n - edge)
+
+
 def suggested_cutoff(record: Record) -> float:
     """:func:`nlid.derivatives.suggest_cutoff` of the record's ``z`` (Hz), computed once per record.
 
@@ -260,13 +278,7 @@ def regression_data(
             f = _cached(cache, ("f-zoh", fc), lambda: derivatives.zoh_equivalent(record.f, fs, fc))
         else:
             f = _cached(cache, ("f", fc), lambda: derivatives.lowpass(record.f, fs, fc))
-    edge = int(np.ceil(EDGE_PERIODS * fs / fc))
-    if record.n - 2 * edge < max(64, 4 * len(model)):
-        raise DataError(
-            f"record too short for a filtered force balance: {record.n} samples, {edge} dropped at each end "
-            f"at the cut-off {fc:.3g} Hz"
-        )
-    keep = slice(edge, record.n - edge)
+    keep = settled_samples(record.n, fs, fc, len(model))
     if not trim:
         return RegressionData(f, a, G, z, v, fc, prov, keep)
     return RegressionData(f[keep], a[keep], G[keep], z[keep], None if v is None else v[keep], fc, prov, keep)

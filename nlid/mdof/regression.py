@@ -31,15 +31,14 @@ so contiguous rows are contiguous in time (batch-means standard errors).
 
 from __future__ import annotations
 
-import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
 
 from .. import derivatives
-from ..balance import EDGE_PERIODS, REGRESSOR_BAND_FACTOR
-from ..errors import DataError, InputError
+from ..balance import REGRESSOR_BAND_FACTOR, settled_samples
+from ..errors import InputError
 from ..validate import check_cutoff
 from .elements import ElementSet
 from .record import StructureRecord
@@ -176,13 +175,7 @@ def structure_regression_data(
         else:
             f = derivatives.lowpass(record.f, fs, fc)
         f = np.asarray(f, dtype=float).reshape(record.n, n)
-    edge = int(math.ceil(EDGE_PERIODS * fs / fc))
-    if record.n - 2 * edge < max(64, 4 * (len(elements) + n * n + n)):
-        raise DataError(
-            f"record too short for a filtered force balance: {record.n} samples, {edge} dropped at each end "
-            f"at the cut-off {fc:.3g} Hz"
-        )
-    keep = slice(edge, record.n - edge)
+    keep = settled_samples(record.n, fs, fc, len(elements) + n * n + n)
     if not trim:
         return StructureRegressionData(z, v, a, f, G, fc, prov, keep)
     return StructureRegressionData(z[keep], v[keep], a[keep], f[keep], G[keep], fc, prov, keep)
