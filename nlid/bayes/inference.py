@@ -276,6 +276,10 @@ class PosteriorSampler:
             raise InputError(f"fit must be the IdentifiedModel nlid.identify returns, got {type(fit).__name__}")
         return self._sample(self._prepare(record, fit), start_time)
 
+    def _check_sampled(self, gram: np.ndarray, idx: list[int], names: tuple[str, ...]) -> None:
+        """Refuse collinear sampled coefficients: their information with the others integrated out (or fixed)."""
+        check_identifiable(_schur(gram, idx) if self.others == "marginal" else gram[np.ix_(idx, idx)], names)
+
     def _user_priors(self, names: tuple[str, ...], canonical: Any = None) -> dict[str, Prior]:
         user_priors = parse_prior_assignments(self.priors, canonical=canonical)
         not_sampled = [n for n in user_priors if n not in names]
@@ -305,8 +309,7 @@ class PosteriorSampler:
         seq_bias, seq_mcmc = np.random.SeedSequence(self.seed).spawn(2)
         data = regression_data(record, model, cutoff=self.cutoff)
         # collinear sampled terms are refused before the (slower) bias correction
-        gram = data.G.T @ data.G
-        check_identifiable(_schur(gram, idx) if self.others == "marginal" else gram[np.ix_(idx, idx)], names)
+        self._check_sampled(data.G.T @ data.G, idx, names)
         lik = build_likelihood(
             record,
             model,
@@ -346,6 +349,13 @@ class PosteriorSampler:
             )
         seq_bias, seq_mcmc = np.random.SeedSequence(self.seed).spawn(2)
         correct = self.bias_correction is not False
+        chosen: dict[str, Any] = {}
+
+        def choose(gram: np.ndarray, parameters: Any) -> None:
+            # the sampled unknowns, refused when collinear before the (slower) bias correction
+            chosen["idx"] = select_structure_params(parameters, self.params)
+            self._check_sampled(gram, chosen["idx"], tuple(parameters.names[i] for i in chosen["idx"]))
+
         lik, parameters, _, start = structure_likelihood(
             record,
             fit,
@@ -354,15 +364,14 @@ class PosteriorSampler:
             pairs=self.bias_pairs,
             iterations=self.bias_iterations,
             rng=np.random.default_rng(seq_bias),
+            check=choose,
         )
-        idx = select_structure_params(parameters, self.params)
+        idx = chosen["idx"]
         names = tuple(parameters.names[i] for i in idx)
         theta0 = parameters.vector(start)
         user_priors = self._user_priors(names, canonical=parameters.canonical)
         for name, prior in user_priors.items():
             _check_start(name, prior, theta0[parameters.index(name)], parameters.unit(name))
-        gram = lik.stats.gtg
-        check_identifiable(_schur(gram, idx) if self.others == "marginal" else gram[np.ix_(idx, idx)], names)
         reference = {}
         truth = (record.meta or {}).get("reference") or {}  # a structure preset's truth (nlid.mdof.presets)
         for name, value in dict(truth.get("coefficients") or {}).items():

@@ -38,13 +38,13 @@ measured velocity is not simulated (the warning says so).
 from __future__ import annotations
 
 import re
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from ..errors import InputError
-from .likelihood import Likelihood, sandwich
+from .likelihood import Likelihood, SufficientStatistics, sandwich
 
 if TYPE_CHECKING:  # pragma: no cover
     from ..mdof.identified import IdentifiedStructure
@@ -240,7 +240,7 @@ def _split_names(text: str) -> list[str]:
     return [p.strip() for p in out if p.strip()]
 
 
-def _weighted_problem(record: Any, elements: Any, M: np.ndarray, form: str, cutoff: float | None) -> Any:
+def _balance_design(record: Any, elements: Any, M: np.ndarray, form: str, cutoff: float | None) -> Any:
     from ..mdof.regression import linear_design, structure_regression_data
 
     data = structure_regression_data(record, elements, cutoff=cutoff)
@@ -276,7 +276,6 @@ def correct_bias(
     from ..mdof.model import StructuralModel
     from ..mdof.record import StructureRecord as _Record
     from ..mdof.simulation import free_run
-    from .likelihood import SufficientStatistics
 
     rng = rng if rng is not None else np.random.default_rng(0)
     n, fs = record.n_dofs, record.fs
@@ -297,7 +296,7 @@ def correct_bias(
             force_dofs=record.force_dofs,
             meta={"force_hold": record.force_hold},
         )
-        _, d = _weighted_problem(copy, elements, M, form, cutoff)
+        _, d = _balance_design(copy, elements, M, form, cutoff)
         return SufficientStatistics.from_arrays(d.X * w[:, None], d.y * w).solve()
 
     centre = theta_hat.copy()
@@ -331,6 +330,7 @@ def structure_likelihood(
     pairs: int = 4,
     iterations: int = 3,
     rng: np.random.Generator | None = None,
+    check: Callable[[np.ndarray, StructureParameters], None] | None = None,
 ) -> tuple[Likelihood, StructureParameters, np.ndarray, dict[str, float]]:
     """The adjusted likelihood of a structure's unknowns (module docstring, steps 1-3).
 
@@ -346,6 +346,9 @@ def structure_likelihood(
         Equation band in Hz (default: the one the identification's residual used).
     bias_correction, pairs, iterations, rng
         The errors-in-variables correction by simulation (:func:`correct_bias`) and its settings.
+    check
+        Called with the weighted Gram matrix and the unknowns before the (slower) correction, e.g. to refuse
+        collinear sampled unknowns at once.
 
     Returns
     -------
@@ -363,11 +366,11 @@ def structure_likelihood(
         cutoff = fit.diagnostics.get("balance_cutoff_hz")
     symmetric = np.allclose(structure.K, structure.K.T) and np.allclose(structure.C, structure.C.T)
     form = "symmetric" if symmetric else "full"
-    data, design = _weighted_problem(record, elements, structure.M, form, cutoff)
+    data, design = _balance_design(record, elements, structure.M, form, cutoff)
     n = record.n_dofs
     parameters = StructureParameters(design.names, elements)
-    first = sandwich(design.X, design.y, design.names, group=n)
-    residual = design.y - design.X @ first[1]
+    # the unweighted first pass needs the estimate only (the sandwich's own solve, without its covariance)
+    residual = design.y - design.X @ SufficientStatistics.from_arrays(design.X, design.y).solve()
     weights = dof_weights(residual, design.y, n)
     w = np.tile(weights, design.y.size // n)
     stats, theta_hat, cov, dof, info = sandwich(design.X * w[:, None], design.y * w, design.names, group=n)
@@ -390,6 +393,8 @@ def structure_likelihood(
         for k, value in enumerate(np.asarray(structure.static, dtype=float)):
             start[f"s[{k + 1}]"] = float(value)
     start = {name: float(start.get(name, theta_hat[i])) for i, name in enumerate(design.names)}
+    if check is not None:
+        check(stats.gtg, parameters)
     centre = theta_hat
     if bias_correction:
         cutoff_used = data.filtered_at if data.filtered_at is not None else cutoff

@@ -256,7 +256,7 @@ def _structure_unknowns(ds: DatasetConfig, main: Any) -> Any:
     return StructureParameters(unknown_names(elements), elements)
 
 
-def _structure_params(settings: Mapping[str, Any], ds: DatasetConfig, main: Any) -> list[str]:
+def _structure_params(settings: Mapping[str, Any], unknowns: Any) -> list[str]:
     """The unknowns a structure dataset's posterior samples (its elements on connections, K, C, s)."""
     from ...bayes.structure import select_structure_params
 
@@ -265,12 +265,7 @@ def _structure_params(settings: Mapping[str, Any], ds: DatasetConfig, main: Any)
             "noise sets the one-DOF correction's levels; a structure's are each displacement's noise floor "
             "(nlid.bayes.structure): leave it out for this dataset"
         )
-    unknowns = _structure_unknowns(ds, main)
     return [unknowns.names[i] for i in select_structure_params(unknowns, settings.get("params", "damping"))]
-
-
-def _canonical_in(ds: DatasetConfig, main: Any) -> Any:
-    return _structure_unknowns(ds, main).canonical
 
 
 def _check_posterior_terms(where: Where, settings: Mapping[str, Any], datasets: list[DatasetConfig]) -> None:
@@ -287,8 +282,9 @@ def _check_posterior_terms(where: Where, settings: Mapping[str, Any], datasets: 
         main = ds.models[0]
         if getattr(ds.source, "kind", "") == "preset" and hasattr(ds.source.preset(), "elements"):
             try:
-                names = _structure_params(settings, ds, main)
-                priors = parse_prior_assignments(settings.get("priors"), canonical=_canonical_in(ds, main))
+                unknowns = _structure_unknowns(ds, main)
+                names = _structure_params(settings, unknowns)
+                priors = parse_prior_assignments(settings.get("priors"), canonical=unknowns.canonical)
             except NlidError as exc:
                 raise where.error(f"dataset {ds.name!r}: {exc}") from None
         else:
