@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import sys
+from typing import Any
 
 from ..errors import InputError, NlidError
 from ..progress import stderr_is_terminal
@@ -230,10 +231,7 @@ def run(args: argparse.Namespace) -> int:
         show = not (args.quiet or args.json) and stderr_is_terminal()
         result = _discover_isolated(timeout, record, args.declared, args.method, settings, show)
     if args.out:
-        try:
-            paths = write_report(result, args.out, force=args.force)
-        except OSError as exc:
-            raise InputError(f"cannot write the report to {args.out}: {exc.strerror or exc}") from None
+        paths = _written(write_report, result, args.out, force=args.force)
         status(f"report written to {paths[1]} (and {paths[0].name})")
     if args.json:
         print_json(result.to_dict())
@@ -271,6 +269,14 @@ def _refined_lines(result) -> str:
     if fit.mass_estimated:
         lines.append(f"  mass {fit.mass:.6g} kg")
     return "\n".join(lines)
+
+
+def _written(write: Any, result: Any, out: str, **options: Any) -> list:
+    """The files a report writer wrote into ``out``; a folder that cannot be written is one line (exit 2)."""
+    try:
+        return write(result, out, **options)
+    except OSError as exc:
+        raise InputError(f"cannot write the report to {out}: {exc.strerror or exc}") from None
 
 
 def _run_structure(args: argparse.Namespace, record, rule) -> int:
@@ -315,10 +321,7 @@ def _run_structure(args: argparse.Namespace, record, rule) -> int:
         progress=say,
     )
     if args.out:
-        try:
-            paths = write_structure_report(result, args.out)
-        except OSError as exc:
-            raise InputError(f"cannot write the report to {args.out}: {exc.strerror or exc}") from None
+        paths = _written(write_structure_report, result, args.out)
         say(f"report written to {paths[0]} (and {paths[1].name})")
     if args.json:
         print_json(result.to_dict())
