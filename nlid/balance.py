@@ -128,22 +128,44 @@ def _cached(cache: dict, key: tuple, compute):
 
 
 def share_channels(source: Record, record: Record) -> None:
-    """Let ``record`` re-use the force and acceleration already filtered for ``source`` where they are the same.
+    """Let ``record`` re-use what :func:`regression_data` already computed for ``source`` where it is the same.
 
-    For records that differ only in their motion (the bias correction's noisy copies of one simulation,
-    :mod:`nlid.bayes.bias`): :func:`regression_data` of ``record`` then takes the filtered force (and the
-    filtered measured acceleration) computed for ``source`` instead of filtering the same samples again; the
-    numbers are the same to the bit. A channel is shared only when it is equal sample by sample, at the same
-    sampling frequency and force hold; what is estimated from the displacement is never shared.
+    Two kinds of records differ from another in one part only:
+
+    * the bias correction's noisy copies of one simulation (:mod:`nlid.bayes.bias`) differ in their motion:
+      the filtered force (and the filtered measured acceleration) of ``source`` is re-used where it is equal
+      sample by sample (same force hold);
+    * a record whose force went through an input path (:mod:`nlid.inputpath`) differs in its force only:
+      everything computed from its motion (the filtered displacement, the estimated velocity and
+      acceleration, the filtered regressors, the suggested cut-off) is re-used.
+
+    The numbers are the same to the bit; nothing is shared between records of different sampling frequencies.
     """
-    if source is record or source.fs != record.fs or source.force_hold != record.force_hold:
+    if source is record or source.fs != record.fs:
         return
     src, dst = _record_cache(source), _record_cache(record)
-    same_f = np.array_equal(source.f, record.f)
+    same_f = source.force_hold == record.force_hold and np.array_equal(source.f, record.f)
     same_a = source.is_measured("a") and record.is_measured("a") and np.array_equal(source.a, record.a)
+    same_motion = (
+        np.array_equal(source.z, record.z)
+        and source.is_measured("v") == record.is_measured("v")
+        and source.is_measured("a") == record.is_measured("a")
+        and (not source.is_measured("v") or np.array_equal(source.v, record.v))
+        and (not source.is_measured("a") or same_a)
+    )
     for key, value in src.items():
-        if isinstance(key, tuple) and ((key[0] in ("f", "f-zoh") and same_f) or (key[0] == "a" and same_a)):
+        if not isinstance(key, tuple):
+            if key == "cutoff" and same_motion:
+                dst.setdefault(key, value)
+            continue
+        if (key[0] in ("f", "f-zoh") and same_f) or (key[0] == "a" and same_a):
             dst.setdefault(key, value)
+        elif key[0] in _MOTION_KEYS and same_motion:
+            dst.setdefault(key, value)
+
+
+#: Cache entries computed from a record's motion alone (:func:`share_channels`).
+_MOTION_KEYS = ("z", "v", "v~", "a", "a~", "col")
 
 
 def settled_samples(n: int, fs: float, fc: float, unknowns: int) -> slice:

@@ -36,6 +36,7 @@ import numpy as np
 from . import modelplots, numerics, physics, scoring
 from ._frozen import FrozenDict, freeze
 from .errors import IdentificationError, InputError, NlidError
+from .inputpath import InputPath, input_path
 from .interface import Estimate
 from .modeldict import SCHEMA, model_from_dict, model_to_dict
 from .modeltables import coefficient_frame, model_summary
@@ -96,6 +97,10 @@ class IdentifiedModel:
         ``(min, max)`` of the estimation record's displacement (m).
     arrays
         Large numeric outputs of the method (not in :meth:`to_dict`).
+    input_path
+        What happens to a record's force before it acts on the model (:class:`~nlid.inputpath.InputPath`:
+        a delay, a first-order lag, the force's hold between samples); the identity when the force acts
+        as recorded. Every score, prediction and simulation on a record applies it to the record's force.
     provenance
         Where the model came from, enough to identify it again from its JSON
         alone: the nlid version, the data's source and SHA-256, the column
@@ -121,6 +126,7 @@ class IdentifiedModel:
     z_range: tuple[float, float] | None = None
     arrays: Mapping[str, np.ndarray] = field(default_factory=FrozenDict, repr=False)
     provenance: Mapping[str, Any] = field(default_factory=FrozenDict, repr=False)
+    input_path: InputPath = field(default_factory=InputPath)
 
     def __post_init__(self) -> None:
         if not isinstance(self.model, Model):
@@ -143,6 +149,7 @@ class IdentifiedModel:
         set_(self, "warnings", tuple(str(w) for w in self.warnings))
         set_(self, "arrays", FrozenDict(self.arrays))
         set_(self, "provenance", freeze(dict(self.provenance or {})))
+        set_(self, "input_path", input_path(self.input_path))
         if self.z_range is not None:
             set_(self, "z_range", (float(min(self.z_range)), float(max(self.z_range))))
 
@@ -454,7 +461,11 @@ class IdentifiedModel:
             raise InputError("simulating needs the mass: the model has none (give mass= when identifying)")
         force = np.asarray(force, dtype=float)
         q = FREE_RUN_OVERSAMPLE if oversample is None else oversample
-        z, v, a = free_run(self.model, self.theta, self.mass, force, fs, force_hold=force_hold, x0=x0, oversample=q)
+        acting, hold = force, force_hold
+        if not self.input_path.identity:  # the force that acts: through the model's input path
+            hold = self.input_path.hold or force_hold
+            acting = self.input_path.acting_force(force, float(fs), hold)
+        z, v, a = free_run(self.model, self.theta, self.mass, acting, fs, force_hold=hold, x0=x0, oversample=q)
         meta = {
             "mass": self.mass,
             "source": f"simulated: {self.method} model ({', '.join(self.terms)})",

@@ -18,6 +18,7 @@ import numpy as np
 
 from .errors import InputError, brief
 from .estimate import to_jsonable
+from .inputpath import InputPath
 from .physics import Equilibria
 from .scoring import Scores
 from .terms import Model, parse_term
@@ -68,6 +69,8 @@ def model_to_dict(fit: IdentifiedModel) -> dict[str, Any]:
             "seconds": fit.seconds,
             "z_range": None if fit.z_range is None else list(fit.z_range),
             "provenance": dict(fit.provenance) or None,
+            # written only when the force does not act as recorded (the layout of older models is unchanged)
+            **({} if fit.input_path.identity else {"input_path": fit.input_path.to_dict()}),
         }
     )
 
@@ -122,4 +125,5 @@ def model_from_dict(cls: type[IdentifiedModel], data: Mapping[str, Any]) -> Iden
         seconds=data.get("seconds"),
         z_range=data.get("z_range"),
         provenance=data.get("provenance") or {},
+        input_path=InputPath.from_dict(data.get("input_path")),
     )

@@ -37,6 +37,8 @@ from .errors import (
     describe_exception,
 )
 from .identified import IdentifiedModel
+from .inputpath import InputPath
+from .inputpath import input_path as to_input_path
 from .interface import Estimate, check_estimate, refined_terms
 from .methods import choose_method
 from .provenance import identify_provenance
@@ -174,6 +176,7 @@ def identify(
     cutoff: float | None = None,
     registry: Registry | None = None,
     timeout: float | None = None,
+    input_path: InputPath | str | Mapping[str, Any] | None = None,
 ) -> IdentifiedModel | IdentifiedStructure:
     """Identify the coefficients of a model from a record.
 
@@ -224,6 +227,11 @@ def identify(
         fastest, and a debugger can step into it. The identifier (a name, or
         an instance of a class defined in a module) and the record are sent
         to the child pickled.
+    input_path
+        What happens to the force before it acts (:class:`~nlid.inputpath.InputPath`, or its spelling
+        ``"delay=3ms, lag=1ms"``): the identifier is given the record with the acting force, and the model
+        keeps the path (:attr:`IdentifiedModel.input_path`), so every score on another record applies it too.
+        Default: the force acts as recorded.
 
     Returns
     -------
@@ -246,6 +254,7 @@ def identify(
         (:class:`nlid.runtime.isolation.IsolationError`).
     """
     record = as_record(record)
+    path = to_input_path(input_path, getattr(record, "fs", None))
     if method is None:
         method = choose_method(mass, registry)[0]
     if timeout is not None:
@@ -263,9 +272,12 @@ def identify(
                 px_max_iter=px_max_iter,
                 cutoff=cutoff,
                 registry=registry,
+                input_path=path,
             ),
         )
     if not isinstance(record, Record):  # several degrees of freedom
+        if not path.identity:
+            raise InputError("input_path= is for a record of one degree of freedom")
         from .mdof.fit import identify_structure
 
         return identify_structure(
@@ -285,6 +297,7 @@ def identify(
         raise InputError(f"method {_name(identifier)!r} cannot estimate the mass: give mass= (in kg)")
     extra: dict[str, Any] = {}
     given = model
+    measured, record = record, path.apply(record)  # the identifier sees the force that acts
     with numerics.collect_warnings() as numerical:
         try:
             if model.uses_px and model.px_roots is None:
@@ -318,7 +331,7 @@ def identify(
         numerical=numerical,
     )
     provenance = identify_provenance(
-        record,
+        measured,
         given,
         method=_name(identifier),
         mass=mass,
@@ -327,7 +340,9 @@ def identify(
         px_max_iter=px_max_iter,
         cutoff=cutoff,
     )
-    return dataclasses.replace(result, provenance=provenance)
+    if not path.identity:
+        provenance["identify"]["input_path"] = path.to_spec()
+    return dataclasses.replace(result, provenance=provenance, input_path=path)
 
 
 # --------------------------------------------------------------------------- isolated

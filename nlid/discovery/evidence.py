@@ -58,6 +58,7 @@ __all__ = [
     "effective_sample_size",
     "delta_bic",
     "judge",
+    "eligible",
     "rank",
 ]
 
@@ -182,6 +183,13 @@ class Evidence:
         The fitted coefficients with the candidate added.
     mass
         The mass the ``mass`` candidate estimated (kg).
+    input_path
+        The input path an input-path candidate fitted (:meth:`nlid.inputpath.InputPath.to_spec`).
+    prediction_before, prediction_after
+        The cross-fitted held-out prediction of the current model and of the model with the candidate
+        (:meth:`nlid.discovery.crossfit.Prediction.to_dict`), when the candidate was judged by it.
+    rule_reason
+        What the equation-error rule said (the reason before any later judgement was added).
     """
 
     effect: str
@@ -199,6 +207,10 @@ class Evidence:
     coefficients: dict[str, float] | None = None
     passes: dict[str, bool] = field(default_factory=dict)
     mass: float | None = None
+    input_path: str | None = None
+    prediction_before: dict[str, Any] | None = None
+    prediction_after: dict[str, Any] | None = None
+    rule_reason: str = ""
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-friendly dictionary (scores flattened with ``_after`` names)."""
@@ -227,6 +239,11 @@ class Evidence:
             out["coefficients"] = dict(self.coefficients)
         if self.mass is not None:
             out["mass"] = self.mass
+        if self.input_path is not None:
+            out["input_path"] = self.input_path
+        if self.prediction_after is not None:
+            out["prediction_before"] = self.prediction_before
+            out["prediction_after"] = self.prediction_after
         return out
 
 
@@ -271,11 +288,21 @@ def judge(
             why.append(f"dBIC = {evidence.delta_bic:.4g} (> {rule.max_delta_bic:g})")
         evidence.status = "rejected"
         evidence.reason = "; ".join(why)
+    evidence.rule_reason = evidence.reason
     return evidence
+
+
+def eligible(evidence: Evidence) -> bool:
+    """True when a fitted candidate passes every test it was put to (the rule, physics, prediction)."""
+    return evidence.explained_holdout is not None and bool(evidence.passes) and all(evidence.passes.values())
 
 
 def rank(evidence: list[Evidence]) -> tuple[list[Evidence], Evidence | None]:
     """Sort by held-out explained variance and accept the best eligible candidate.
+
+    Eligible: every test a candidate was put to passed (:func:`eligible`: the rule's two, the physical
+    sign, and the prediction check once a candidate was judged by it). Ranking again after a candidate
+    failed a later test gives the next one its turn: the statuses and reasons are set afresh each time.
 
     Returns
     -------
@@ -289,24 +316,23 @@ def rank(evidence: list[Evidence]) -> tuple[list[Evidence], Evidence | None]:
     fitted = [e for e in evidence if e.explained_holdout is not None]
     rest = [e for e in evidence if e.explained_holdout is None]
     fitted.sort(key=lambda e: -float(e.explained_holdout))  # type: ignore[arg-type]
-    eligible = [e for e in fitted if e.status == "eligible"]
+    passing = [e for e in fitted if eligible(e)]
     accepted = None
-    if eligible:
+    if passing:
         # parsimony: of the eligible candidates within PARSIMONY of the best share, the one with the fewest
         # parameters (a Coulomb friction rather than a Dahl law that reduces to it, on data that cannot tell)
-        top = float(eligible[0].explained_holdout)  # type: ignore[arg-type]
-        close = [e for e in eligible if float(e.explained_holdout) >= top - PARSIMONY]  # type: ignore[arg-type]
+        top = float(passing[0].explained_holdout)  # type: ignore[arg-type]
+        close = [e for e in passing if float(e.explained_holdout) >= top - PARSIMONY]  # type: ignore[arg-type]
         accepted = min(close, key=lambda e: (e.extra_parameters, -float(e.explained_holdout)))  # type: ignore[arg-type]
-        accepted.status = "accepted"
-        for e in eligible:
+        accepted.status, accepted.reason = "accepted", accepted.rule_reason or accepted.reason
+        for e in passing:
             if e is accepted:
                 continue
             e.status = "rejected"
             why = (
                 "explains more"
-                if float(e.explained_holdout) <= float(accepted.explained_holdout)
-                # type: ignore[arg-type]
+                if float(e.explained_holdout) <= float(accepted.explained_holdout)  # type: ignore[arg-type]
                 else (f"explains about as much (within {100 * PARSIMONY:g} points) with fewer parameters")
             )
-            e.reason = f"passes the rule, but {accepted.effect!r} {why}; " + e.reason
+            e.reason = f"passes the rule, but {accepted.effect!r} {why}; " + (e.rule_reason or e.reason)
     return fitted + rest, accepted

@@ -18,7 +18,7 @@ from typing import Any
 from ..errors import DataError, InputError
 from ..record import Record
 from ..scoring import TransientRule, record_period, rule_from_spec
-from .library import Candidate, resolve_candidates
+from .library import Candidate, InputPathCandidate, resolve_candidates
 
 __all__ = ["DEFAULT_HOLDOUT", "BUILTIN_CANDIDATES", "Split", "CandidateLibrary"]
 
@@ -110,7 +110,7 @@ class CandidateLibrary:
         named candidate passes).
     """
 
-    candidates: tuple[Candidate, ...]
+    candidates: tuple[Candidate | InputPathCandidate, ...]
     mass: bool = True
     dictionary: bool = True
 

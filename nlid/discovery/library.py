@@ -67,6 +67,9 @@ from ..validate import did_you_mean
 
 __all__ = [
     "Candidate",
+    "InputPathCandidate",
+    "INPUT_PATH",
+    "INPUT_PATH_GRID",
     "Shape",
     "Variant",
     "LIBRARY",
@@ -355,8 +358,8 @@ class Candidate:
 LIBRARY: tuple[Candidate, ...] = (
     Candidate("coulomb", ("sign(v)",), "Coulomb (dry) friction: sign(v), Eq. 24 with j = 0", positive=("sign(v)",)),
     Candidate("viscous", ("v",), "linear viscous damping: v", positive=("v",)),
-    Candidate("quadratic-damping", ("v*|v|",), "quadratic damping: v*|v| (= sign(v)*v^2)"),
-    Candidate("cubic-damping", ("v^3",), "cubic damping: v^3"),
+    Candidate("quadratic-damping", ("v*|v|",), "quadratic damping: v*|v| (= sign(v)*v^2)", positive=("v*|v|",)),
+    Candidate("cubic-damping", ("v^3",), "cubic damping: v^3", positive=("v^3",)),
     Candidate(
         "position-dependent-friction",
         ("sign(v)*|px(z)|",),
@@ -423,6 +426,87 @@ LIBRARY: tuple[Candidate, ...] = (
 )
 
 
+@dataclass(frozen=True)
+class InputPathCandidate:
+    """An effect in the input path (:mod:`nlid.inputpath`): the force acts delayed, lagged or held differently.
+
+    It adds no term: the loop fits the same model with the force passed through the path, the path's
+    time chosen on a grid of multiples of the sampling interval by the estimation residual and refined
+    between the grid neighbours, as a shape parameter is (:func:`nlid.discovery.trials.test_input_path`).
+
+    Parameters
+    ----------
+    name
+        What reports and ``candidates=`` call it.
+    kind
+        ``"delay"``, ``"lag"`` (a time, fitted) or ``"hold"`` (the other force hold between samples).
+    grid
+        Multiples of the sampling interval tried (``delay``, ``lag``).
+    description
+        One line for reports.
+    """
+
+    name: str
+    kind: str
+    grid: tuple[float, ...] = ()
+    description: str = ""
+    requires: tuple[str, ...] = ()
+
+    @property
+    def terms(self) -> tuple[str, ...]:
+        """No terms: the effect is in the input."""
+        return ()
+
+    @property
+    def shapes(self) -> tuple[Shape, ...]:
+        """No shape grid of the term language (the path's grid is :attr:`grid`)."""
+        return ()
+
+    @property
+    def uses_px(self) -> bool:
+        """Never: the effect is in the input."""
+        return False
+
+    def describe(self) -> dict[str, object]:
+        """JSON-friendly description."""
+        return {
+            "name": self.name,
+            "terms": [],
+            "input_path": self.kind,
+            "grid_samples": list(self.grid),
+            "description": self.description,
+            "requires": list(self.requires),
+        }
+
+
+#: Delays and lags tried, in samples (refined between neighbours).
+INPUT_PATH_GRID: tuple[float, ...] = (0.25, 0.5, 1.0, 2.0, 3.0, 5.0, 8.0)
+#: The input-path effects (:class:`InputPathCandidate`).
+INPUT_PATH: tuple[InputPathCandidate, ...] = (
+    InputPathCandidate(
+        "input-delay",
+        "delay",
+        INPUT_PATH_GRID,
+        "the force acts delayed behind the force channel (a drive's current loop, an acquisition offset): "
+        "delay on a grid of " + ", ".join(f"{g:g}" for g in INPUT_PATH_GRID) + " samples, refined",
+    ),
+    InputPathCandidate(
+        "actuator-lag",
+        "lag",
+        INPUT_PATH_GRID,
+        "the force acts through a first-order lag (an actuator or amplifier): time constant on a grid of "
+        + ", ".join(f"{g:g}" for g in INPUT_PATH_GRID)
+        + " samples, refined",
+    ),
+    InputPathCandidate(
+        "force-hold",
+        "hold",
+        (),
+        "the force is held between samples where the record says band-limited, or the reverse",
+    ),
+)
+
+
 #: Factors of the automatic dictionary: displacement parts, velocity parts, position-dependent parts.
 DICTIONARY_Z: tuple[str, ...] = ("", "z", "z^2", "z^3", "z^4", "z^5", "|z|", "z*|z|", "|z|^3")
 DICTIONARY_V: tuple[str, ...] = ("", "sign(v)", "v", "v*|v|", "v^3", "|v|", "v^2")
@@ -452,8 +536,8 @@ def dictionary_terms(model: Model, px: bool = False) -> list[Term]:
 
 
 def library_names() -> list[str]:
-    """Names of the built-in candidates, in library order."""
-    return [c.name for c in LIBRARY]
+    """Names of the built-in candidates, in library order (the input-path effects last)."""
+    return [c.name for c in (*LIBRARY, *INPUT_PATH)]
 
 
 def plugin_candidates(pm=None) -> tuple[list[Candidate], dict[str, str]]:
@@ -495,8 +579,8 @@ def resolve_candidates(
     extra: Iterable[Candidate | str] = (),
     *,
     plugins: bool | Iterable[Candidate] = True,
-) -> list[Candidate]:
-    """The candidates a run tests.
+) -> list[Candidate | InputPathCandidate]:
+    """The candidates a run tests (the term candidates and the input-path effects).
 
     Parameters
     ----------
@@ -515,7 +599,7 @@ def resolve_candidates(
         For an unknown name (with a suggestion) or two candidates with the
         same name.
     """
-    pool = list(LIBRARY)
+    pool: list[Candidate | InputPathCandidate] = [*LIBRARY, *INPUT_PATH]
     if plugins is True:
         try:
             found, _ = plugin_candidates()
@@ -524,7 +608,7 @@ def resolve_candidates(
         pool += found
     elif plugins:
         pool += list(plugins)
-    by_name: dict[str, Candidate] = {}
+    by_name: dict[str, Candidate | InputPathCandidate] = {}
     for cand in pool:
         by_name.setdefault(cand.name, cand)
     if names is None or (isinstance(names, str) and names.strip().lower() in ("", "all")):

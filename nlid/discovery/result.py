@@ -19,10 +19,12 @@ from typing import Any
 import numpy as np
 
 from ..identified import IdentifiedModel
+from ..inputpath import InputPath
 from ..interface import to_jsonable
 from ..scoring import Scores as ScoreSet
 from ..summary import Summary
 from ..terms import Model
+from .crossfit import FoldPrediction
 from .evidence import AcceptanceRule, Evidence, Scores
 from .probes import Remaining
 from .report import discovery_summary, write_report
@@ -52,12 +54,15 @@ class Stage:
     validation
         Its scores on a validation record that takes no part in the
         decisions (``discover(..., validation=...)``), if one was given.
+    prediction
+        Its cross-fitted held-out prediction (:mod:`nlid.discovery.crossfit`), once the search measured it.
     """
 
     identified: IdentifiedModel
     holdout: ScoreSet
     remaining: Remaining | None = None
     validation: ScoreSet | None = None
+    prediction: FoldPrediction | None = None
 
     @property
     def model(self) -> Model:
@@ -77,6 +82,11 @@ class Stage:
         estimates it. Each stage carries that state, so nothing is reset along the way.
         """
         return None if self.identified.mass_estimated else self.mass
+
+    @property
+    def path(self) -> InputPath:
+        """The input path the force goes through in this model (:mod:`nlid.inputpath`)."""
+        return self.identified.input_path
 
     @property
     def coefficients(self) -> dict[str, float]:

@@ -41,14 +41,26 @@ from .. import derivatives
 from ..errors import IdentificationError, InputError
 from ..methods import choose_method, choose_refiner
 from ..parallel import kernel_threads
+from ..pipeline import identify
 from ..record import Record
 from ..registry import Registry, default_registry
 from ..scoring import TransientRule
 from ..terms import Model
 from ..validate import check_cutoff, check_mass
+from .crossfit import (
+    Folds,
+    FoldPrediction,
+    PredictionRule,
+    chaotic,
+    compare_predictions,
+    fold_rule,
+    make_folds,
+    predict_folds,
+    steps_for,
+)
 from .evidence import AcceptanceRule, Evidence, judge, rank
 from .inputs import BUILTIN_CANDIDATES, DEFAULT_HOLDOUT, CandidateLibrary, Split
-from .library import Candidate
+from .library import Candidate, InputPathCandidate
 from .probes import MIN_STRUCTURE, describe_remaining
 from .result import DiscoveryResult, ResidualView, Stage, Step
 from .trials import (
@@ -62,6 +74,7 @@ from .trials import (
     root_mean_square,
     test_candidate,
     test_dictionary,
+    test_input_path,
     test_mass,
     validation_scores,
     with_free_run,
@@ -84,6 +97,9 @@ __all__ = [
 DEFAULT_MAX_STEPS = 5
 #: The stop reason of a search that added ``max_steps`` effects.
 MAX_STEPS_REACHED = "maximum number of steps reached"
+#: Candidates judged by their cross-fitted prediction in one round (in the order of the equation-error rule); a
+#: round whose first ones all fail the prediction check stops the search.
+MAX_JUDGED = 3
 
 Progress = Callable[[str], None]
 
@@ -112,6 +128,8 @@ class SearchSetup:
     use_mass: bool
     z_range: tuple[float, float]
     started: float
+    folds: Folds = dataclasses.field(default_factory=Folds)
+    fitter: Any = None
 
 
 @dataclass(frozen=True)
@@ -199,7 +217,12 @@ class Discovery:
     refine
         Refine the final model with the preferred refining identifier (``refines = True``, e.g. the
         output-error ``oe``: free-run error, shape parameters included), started from ``method``, fitted on
-        the whole record once the structure is chosen; :attr:`DiscoveryResult.refined` holds it.
+        the whole record once the structure is chosen; :attr:`DiscoveryResult.refined` holds it. The
+        prediction check then judges candidates by the refined fits (what the search delivers).
+    prediction
+        When a candidate improves the cross-fitted held-out prediction (default
+        :class:`~nlid.discovery.crossfit.PredictionRule`: two blocks, every block better, the pooled error
+        1 % lower); ``PredictionRule(enabled=False)`` judges by the equation error alone.
 
     Raises
     ------
@@ -223,6 +246,7 @@ class Discovery:
         simulate: bool = True,
         views: bool = True,
         refine: bool = False,
+        prediction: PredictionRule | None = None,
     ) -> None:
         if int(max_steps) < 0:
             raise InputError(f"max_steps must be >= 0, got {max_steps}")
@@ -242,6 +266,9 @@ class Discovery:
         self.max_steps = int(max_steps)
         self.cutoff, self.structure = cutoff, float(structure)
         self.simulate, self.views, self.refine = simulate, views, refine
+        if prediction is not None and not isinstance(prediction, PredictionRule):
+            raise InputError(f"prediction= must be a PredictionRule, got {type(prediction).__name__}")
+        self.prediction = prediction or PredictionRule()
 
     def __repr__(self) -> str:
         return (
@@ -314,11 +341,85 @@ class Discovery:
             use_mass=self.library.mass and not getattr(self.identifier, "needs_mass", False),
             z_range=(float(estimation.z.min()), float(estimation.z.max())),
             started=started,
+            folds=self._folds(record) if self.prediction.enabled else Folds(note="the prediction check is off"),
+            fitter=self._fitter(float(cutoff)),
         )
         say(f"identifying the declared model ({model0}) with {self.method}")
         current = fit_stage(ctx, model0, self.mass)
         view = residual_view(estimation, current, ctx.cutoff, "declared model")
         return SearchState(run, (current,), views=(view,))
+
+    def _folds(self, record: Record) -> Folds:
+        """The cross-fitting blocks of the whole record given to the search (:mod:`nlid.discovery.crossfit`)."""
+        return make_folds(record, self.prediction.folds, fold_rule(record, self.split.freerun_rule))
+
+    def _fitter(self, cutoff: float) -> Any:
+        """What fits a model for the prediction check: the search's identifier, or the refiner when refining."""
+        identifier = self.identifier
+        if self.refine:
+            identifier = self.registry.create(choose_refiner(self.registry), {"init": self.method})
+
+        def fit(record: Record, model: Model, mass: float | None, path: Any) -> Any:
+            return identify(record, model, identifier, mass=mass, cutoff=cutoff, input_path=path)
+
+        return fit
+
+    def _predict(self, run: SearchSetup, stage: Stage, steps: int | None = None) -> FoldPrediction:
+        return predict_folds(run.fitter, stage.model, stage.given_mass, stage.path, run.folds, steps=steps)
+
+    def _judged(
+        self,
+        run: SearchSetup,
+        current: Stage,
+        tested: list[Evidence],
+        fits: dict[str, Stage],
+        number: int,
+        say: Progress,
+    ) -> tuple[list[Evidence], Evidence | None, Stage]:
+        """Rank the candidates and accept the best whose cross-fitted prediction is better too.
+
+        Candidates the equation-error rule accepts are judged in its order, :data:`MAX_JUDGED` at most; one
+        that does not improve the prediction is rejected (and said), and the next one gets its turn.
+        Returns the ranking, the accepted candidate (``None``: none) and the current stage with its
+        prediction measured.
+        """
+        ranking, accepted = rank(tested)
+        if accepted is None or not self.prediction.enabled or not run.folds.usable:
+            return ranking, accepted, current
+        for _ in range(MAX_JUDGED):
+            if current.prediction is None:
+                before = self._predict(run, current)
+                if chaotic(before):  # a chaotic free run means nothing: k steps ahead instead
+                    before = self._predict(run, current, steps_for([current.identified], run.context.estimation.fs))
+                current = dataclasses.replace(current, prediction=before)
+            before = current.prediction
+            assert before is not None
+            steps = int(before.kind.rsplit("=", 1)[1]) if before.kind.startswith("k-step") else None
+            say(f"step {number}: judging {accepted.effect} by its cross-fitted prediction ({before.kind})")
+            after = self._predict(run, fits[accepted.effect], steps)
+            ok, why = compare_predictions(before, after, self.prediction)
+            accepted.prediction_before, accepted.prediction_after = before.to_dict(), after.to_dict()
+            accepted.passes["prediction"] = ok
+            if ok:
+                fits[accepted.effect] = dataclasses.replace(fits[accepted.effect], prediction=after)
+                accepted.reason = f"{accepted.rule_reason}; {why}"
+                return ranking, accepted, current
+            say(f"step {number}: {accepted.effect} lowers the equation error but not the prediction: {why}")
+            accepted.status, accepted.reason = "rejected", f"{accepted.rule_reason}; but {why}"
+            ranking, accepted = rank(tested)
+            if accepted is None:
+                return ranking, None, current
+        # the next eligible ones were not judged: they are not accepted unjudged
+        for ev in tested:
+            if ev.status == "accepted" or (ev.status == "rejected" and ev.passes and all(ev.passes.values())):
+                ev.passes["prediction"] = False
+                ev.status = "rejected"
+                ev.reason = (
+                    f"{ev.rule_reason}; not judged by prediction: the {MAX_JUDGED} candidates before it "
+                    "did not improve it"
+                )
+        ranking, _ = rank(tested)
+        return ranking, None, current
 
     def _rounds(self, state: SearchState, say: Progress) -> Iterator[SearchState]:
         if self.max_steps == 0:
@@ -368,6 +469,9 @@ class Discovery:
             if why:
                 tested.append(Evidence(cand.name, status="not applicable", reason=why))
                 continue
+            if isinstance(cand, InputPathCandidate):
+                consider(*test_input_path(ctx, current, cand))
+                continue
             consider(*test_candidate(ctx, current, cand, rms, run.z_range))
         if run.use_mass and current.given_mass is not None:
             why = gate(remaining, ("acceleration",))
@@ -375,12 +479,13 @@ class Discovery:
                 tested.append(Evidence("mass", status="not applicable", reason=why))
             else:
                 consider(*test_mass(ctx, current))
-        ranking, accepted = rank(tested)
+        ranking, accepted, current = self._judged(run, current, tested, fits, number, say)
         if accepted is None and run.library.dictionary and not gate(remaining, ("z", "v", "z,v")):
             # open world: when nothing named passes, let a sparse regression on the dictionary propose terms
             say(f"step {number}: no named candidate passes; searching the automatic dictionary")
             consider(*test_dictionary(ctx, current, run.z_range))
-            ranking, accepted = rank(tested)
+            ranking, accepted, current = self._judged(run, current, tested, fits, number, say)
+        stages = (*state.stages[:-1], current)
         if accepted is None:
             best = ranking[0] if ranking and ranking[0].explained_holdout is not None else None
             stop_reason = "no candidate passes the acceptance rule" + (

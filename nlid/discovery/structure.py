@@ -309,7 +309,8 @@ def discover_structure(
         HOLDOUT_FRACTION.check(test, "test=")
         selection, test_record = record.split(float(test))
     estimation, held = selection.split(float(holdout))
-    pool = [c for c in resolve_candidates(candidates, extra_candidates, plugins=plugins)]
+    # effects in the input path are for one degree of freedom (nlid.inputpath); a structure's candidates are terms
+    pool = [c for c in resolve_candidates(candidates, extra_candidates, plugins=plugins) if isinstance(c, Candidate)]
     parts = {
         "estimation": _Part(balance(estimation, cutoff=cutoff), None),
         "holdout": _Part(balance(held, cutoff=cutoff), None),

@@ -35,12 +35,13 @@ from scipy import optimize
 from .. import physics
 from ..balance import regression_data
 from ..errors import IdentificationError, InputError, NlidError
+from ..inputpath import InputPath
 from ..pipeline import identify
 from ..record import Record
 from ..scoring import TransientRule
 from ..terms import Model
 from .evidence import AcceptanceRule, Evidence, effective_sample_size
-from .library import Candidate, dictionary_terms
+from .library import Candidate, InputPathCandidate, dictionary_terms
 from .probes import MIN_STRUCTURE, Remaining, probe_residual
 from .result import ResidualView, Stage, Step
 
@@ -56,6 +57,7 @@ __all__ = [
     "test_candidate",
     "test_mass",
     "test_dictionary",
+    "test_input_path",
     "refine_stage",
     "refit_description",
     "DICTIONARY_MAX_TERMS",
@@ -102,12 +104,13 @@ def root_mean_square(x: np.ndarray) -> float:
     return float(np.sqrt(np.mean(np.square(x))))
 
 
-def fit_stage(ctx: Context, model: Model, mass: float | None) -> Stage:
+def fit_stage(ctx: Context, model: Model, mass: float | None, path: InputPath | None = None) -> Stage:
     """Identify ``model`` on the estimation record and score it on the held-out record (no free run).
 
-    ``mass`` is the mass given to the identifier (kg), or ``None`` to estimate it.
+    ``mass`` is the mass given to the identifier (kg), or ``None`` to estimate it; ``path`` the input path
+    the force goes through (:mod:`nlid.inputpath`; default: as recorded).
     """
-    identified = identify(ctx.estimation, model, ctx.identifier, mass=mass, cutoff=ctx.cutoff)
+    identified = identify(ctx.estimation, model, ctx.identifier, mass=mass, cutoff=ctx.cutoff, input_path=path)
     if identified.mass is None or identified.scores is None:
         raise IdentificationError(f"identifier {identified.method!r} returned no mass: epsilon cannot be computed")
     return Stage(identified, identified.score(ctx.holdout, cutoff=ctx.cutoff, free_run=False))
@@ -160,7 +163,7 @@ def prune(ctx: Context, current: Stage, earlier: Sequence[Step], newest: str) ->
         if not terms or step.effect == "mass":
             continue
         try:
-            without = fit_stage(ctx, current.model.with_terms(remove=terms), current.given_mass)
+            without = fit_stage(ctx, current.model.with_terms(remove=terms), current.given_mass, current.path)
         except NlidError:
             continue
         share = 1.0 - (current.scores.force_residual_holdout / without.scores.force_residual_holdout) ** 2
@@ -185,7 +188,7 @@ def test_mass(ctx: Context, current: Stage) -> tuple[Evidence, Stage | None, str
     """The ``mass`` candidate: the current model with the mass estimated instead of the one given."""
     evidence = Evidence("mass", extra_parameters=1)
     try:
-        fit = fit_stage(ctx, current.model, None)
+        fit = fit_stage(ctx, current.model, None, current.path)
     except NlidError as exc:
         evidence.status, evidence.reason = "failed", str(exc)
         return evidence, None, ""
@@ -276,7 +279,7 @@ def test_dictionary(ctx: Context, current: Stage, z_range: tuple[float, float]) 
     if roots is not None and model.uses_px:
         model = model.with_px_roots(roots)
     try:
-        fit = fit_stage(ctx, model, current.given_mass)
+        fit = fit_stage(ctx, model, current.given_mass, current.path)
     except NlidError as exc:
         evidence.status, evidence.reason = "failed", str(exc)
         return evidence, None, ""
@@ -329,7 +332,7 @@ def test_candidate(
         if roots is not None:
             model = model.with_px_roots(roots)
         try:
-            fit = fit_stage(ctx, model, current.given_mass)
+            fit = fit_stage(ctx, model, current.given_mass, current.path)
         except NlidError as exc:
             errors.append(str(exc))
             return None
@@ -397,6 +400,65 @@ def test_candidate(
     return evidence, fit, bad
 
 
+def test_input_path(ctx: Context, current: Stage, cand: InputPathCandidate) -> tuple[Evidence, Stage | None, str]:
+    """Fit the current model with the force through an input path (:mod:`nlid.inputpath`).
+
+    A delay or a lag is chosen on the candidate's grid (multiples of the sampling interval) by the
+    estimation record's force residual, then refined between the grid neighbours (bounded search in the
+    log of the time, :data:`SHAPE_REFINE_FITS` fits); ``hold`` tries the other force hold. The path found is
+    added to the current one (a delay found after a lag keeps the lag).
+    """
+    evidence = Evidence(cand.name)
+    base = current.path
+    dt = 1.0 / ctx.estimation.fs
+    if cand.kind == "hold":
+        hold = "sampled" if (base.hold or ctx.estimation.force_hold) == "zoh" else "zoh"
+        paths = [dataclasses.replace(base, hold=hold)]
+    elif (cand.kind == "delay" and base.delay) or (cand.kind == "lag" and base.lag):
+        evidence.status, evidence.reason = "not applicable", f"the model's input path already has a {cand.kind}"
+        return evidence, None, ""
+    else:
+        paths = [dataclasses.replace(base, **{cand.kind: g * dt}) for g in cand.grid]
+    tried: dict[float, Stage] = {}
+    errors: list[str] = []
+
+    def attempt(path: InputPath) -> Stage | None:
+        key = path.delay + path.lag if cand.kind != "hold" else 0.0
+        if key not in tried:
+            try:
+                tried[key] = fit_stage(ctx, current.model, current.given_mass, path)
+            except NlidError as exc:
+                errors.append(str(exc))
+                return None
+        return tried[key]
+
+    for path in paths:
+        attempt(path)
+    if not tried:
+        evidence.status, evidence.reason = "failed", "; ".join(dict.fromkeys(errors))
+        return evidence, None, ""
+    if cand.kind != "hold" and len(cand.grid) > 1:
+        grid = [g * dt for g in cand.grid]
+        best_time = min(tried, key=lambda k: tried[k].scores.force_residual)
+        i = int(np.argmin([abs(g - best_time) for g in grid]))
+        lo, hi = np.log(grid[max(i - 1, 0)]), np.log(grid[min(i + 1, len(grid) - 1)])
+
+        def objective(log_t: float) -> float:
+            got = attempt(dataclasses.replace(base, **{cand.kind: float(np.exp(log_t))}))
+            return np.inf if got is None else got.scores.force_residual
+
+        if hi > lo:
+            optimize.minimize_scalar(
+                objective, bounds=(lo, hi), method="bounded", options={"maxiter": SHAPE_REFINE_FITS, "xatol": 0.02}
+            )
+    fit = min(tried.values(), key=lambda st: st.scores.force_residual)
+    evidence.input_path = fit.path.to_spec()
+    evidence.terms = []
+    evidence.extra_parameters = 1
+    evidence.coefficients = fit.coefficients
+    return evidence, fit, ""
+
+
 def refit_description(ctx: Context) -> str:
     """What the final refit was fitted on (:func:`refine_stage`), and whether its held-out scores are in-sample."""
     record = ctx.whole if ctx.whole is not None else ctx.estimation
@@ -412,7 +474,7 @@ def refine_stage(ctx: Context, final: Stage, refiner: Any, simulate: bool, valid
     the hold-out was a part of the record.
     """
     record = ctx.whole if ctx.whole is not None else ctx.estimation
-    fit = identify(record, final.model, refiner, mass=final.given_mass, cutoff=ctx.cutoff)
+    fit = identify(record, final.model, refiner, mass=final.given_mass, cutoff=ctx.cutoff, input_path=final.path)
     rule = ctx.freerun_rule if simulate else None
     stage = Stage(fit, fit.score(ctx.holdout, cutoff=ctx.cutoff, free_run=simulate, rule=rule))
     if validation is not None:

@@ -29,6 +29,7 @@ from typing import Any
 import numpy as np
 
 from ..errors import InputError
+from ..inputpath import acting_record
 from ..record import Record
 from .rules import InitWindow, PeriodicSteadyState, TransientRule, data_velocity, error_metrics, resolve_rule
 
@@ -126,6 +127,7 @@ def predict(
     if not isinstance(k, int) or isinstance(k, bool) or not 1 <= k < n:
         raise InputError(f"horizon= must be a whole number of samples from 1 to {n - 1}, got {horizon!r}")
     rule = resolve_rule(rule, record)
+    record = acting_record(fit, record)
     first = max(k, rule.samples if isinstance(rule, InitWindow) else 0)
     if first >= n - 1:
         raise InputError(f"nothing is left to score: the first {first} samples of {n} are not scored")

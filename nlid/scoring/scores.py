@@ -11,6 +11,7 @@ import numpy as np
 from .. import derivatives
 from ..balance import RegressionData, regression_data
 from ..errors import DataError, InputError, NlidError
+from ..inputpath import acting_record
 from ..physics import Coefficients, dict_or_vector
 from ..record import Record
 from ..terms import Model
@@ -243,6 +244,7 @@ def residual(fit: ModelFit, record: Record, *, cutoff: float | None = None) -> R
         Equation band in Hz (default: the filter's suggestion for ``record``).
     """
     mass = _require_mass(fit, "the residual")
+    record = acting_record(fit, record)
     model = fit.model
     augmented = model if "v" in model else model.with_terms(add=["v"])
     data = regression_data(record, augmented, cutoff=cutoff)
@@ -310,6 +312,7 @@ def free_run_response(
 ) -> FreeRunResponse:
     """The free run :func:`free_run_error` scores, with the simulated displacement (same arguments)."""
     rule = resolve_rule(rule, record)
+    record = acting_record(fit, record)
     z = np.asarray(record.z)
     if fit.mass is None:
         return FreeRunResponse(z, None, 0, FreeRun(note="skipped: the mass is unknown"))
@@ -525,6 +528,7 @@ def score(
         note = "skipped: the mass is unknown" if free_run else "not computed"
         return Scores(NAN, NAN, freerun_note=note)
     mass = float(fit.mass)
+    record = acting_record(fit, record)
     data = data if data is not None else regression_data(record, fit.model, cutoff=cutoff)
     if data.G.shape[1] != len(fit.model):
         raise InputError(f"the force balance has {data.G.shape[1]} regressors but the model has {len(fit.model)} terms")
