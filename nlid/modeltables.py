@@ -96,6 +96,9 @@ def model_summary(fit: IdentifiedModel, units: str | Mapping[str, str] | None = 
         head.append(("mass", f"{fit.mass:.6g}{se} kg ({how})"))
     if shown is not None:
         head.append(("units", ", ".join(f"{c} in {shown[c].symbol}" for c in ("f", "z", "v"))))
+    path = getattr(fit, "input_path", None)
+    if path is not None and not path.identity:  # said only when the force does not act as recorded
+        head.append(("input path", path.describe()))
     out.add_fields(head)
     se = fit.standard_errors or {}
     rows = []

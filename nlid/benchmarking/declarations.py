@@ -159,6 +159,9 @@ class PipelineSettings:
         What knowledge the settings carry (e.g. "the benchmark's model form given").
     peer
         The pysindy peer's settings.
+    rule
+        The transient rule of ``discover``'s cross-fitted prediction check on blocks of the estimation part
+        (``[pipelines] rule``; default: the test sets' window rule when they share one, else each block's own).
     """
 
     terms: str
@@ -169,6 +172,7 @@ class PipelineSettings:
     options: Mapping[str, Mapping[str, Any]]
     note: str
     peer: PeerSettings
+    rule: str | None = None
 
 
 @dataclass(frozen=True)

@@ -182,12 +182,23 @@ def _discover(record: Record, settings: PipelineSettings, specs: Sequence[Pipeli
     from ..pipeline import identify
 
     start = time.perf_counter()
-    result = discover(record, settings.declared, mass=settings.mass, holdout=settings.holdout, views=False)
+    refine = any(spec.refine for spec in specs)
+    result = discover(
+        record,
+        settings.declared,
+        mass=settings.mass,
+        holdout=settings.holdout,
+        views=False,
+        refine=refine,
+        freerun_rule=settings.rule,
+    )
     method = result.method
     final = result.final
     declared = set(result.declared)
     chosen_shapes = sum(len(t.shapes) for t in final.model.terms if t.name not in declared)
-    refit = identify(record, final.model, method, mass=final.given_mass)  # the whole estimation part
+    chosen_shapes += final.path.parameters
+    # the whole estimation part, with the input path the search found
+    refit = identify(record, final.model, method, mass=final.given_mass, input_path=final.path)
     discover_seconds = time.perf_counter() - start
     stages = [_stage(result.states[0], "declared", result.states[0].identified.terms)]
     stages += [_stage(step.after, f"+ {step.effect}", step.terms) for step in result.steps]
@@ -200,6 +211,8 @@ def _discover(record: Record, settings: PipelineSettings, specs: Sequence[Pipeli
         "estimation_samples": record.n,
         "selection_samples": int(round(record.n * (1 - settings.holdout))),
         "final_terms": list(final.identified.terms),
+        "input_path": final.path.describe(),
+        "prediction_rule": result.info.get("prediction_rule"),
     }
     choices = {
         "method": method,
@@ -226,7 +239,9 @@ def _discover(record: Record, settings: PipelineSettings, specs: Sequence[Pipeli
         refiner = choose_refiner()
         t0 = time.perf_counter()
         options = {**dict(settings.options.get(refiner, {})), "init": method}
-        refined = identify(record, final.model, refiner, mass=final.given_mass, options=options)
+        refined = identify(
+            record, final.model, refiner, mass=final.given_mass, options=options, input_path=final.path
+        )
         seconds = discover_seconds + time.perf_counter() - t0
         out.append(
             Fitted(

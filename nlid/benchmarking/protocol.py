@@ -199,8 +199,10 @@ def _user_file(t: _Table) -> UserFile | None:
     return out
 
 
-def _rule(t: _Table) -> str:
-    rule = t.string("rule", required=True)
+def _rule(t: _Table, required: bool = True) -> str:
+    rule = t.string("rule", required=required)
+    if not required and not rule:
+        return ""
     if not _RULE.match(rule):
         raise t.error("rule", f"must be first-sample, window:N or periodic[:N], got {rule!r}")
     return rule
@@ -354,7 +356,12 @@ def parse_protocol(text: str, source: str = "<text>") -> Protocol:
             raise peer_t.error("degree", f"must lie between 1 and 5, got {degree}")
         peer = PeerSettings(degree, peer_t.boolean("friction", peer.friction), tuple(float(x) for x in thresholds))
         peer_t.done()
+    # the rule of discover's prediction check on blocks of the estimation part: the tests' window rule when they
+    # share one (a block cut from a record starts in motion, as a test set does); else each block's own
+    windows = {t.rule for t in tests if t.rule.startswith("window:")}
+    rule = _rule(p, required=False) or (windows.pop() if len(windows) == 1 else None)
     pipelines = PipelineSettings(
+        rule=rule or None,
         terms=p.string("terms", required=True),
         without=p.string("without"),
         declared=p.string("declared", required=True),

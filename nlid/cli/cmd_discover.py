@@ -92,9 +92,30 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument(
         "--min-explained",
         type=float,
-        default=0.10,
         metavar="F",
-        help="fraction of the held-out residual variance a candidate must explain (default 0.10)",
+        help="fraction of the held-out residual variance a candidate must explain (default 0.02 when the "
+        "prediction decides, 0.10 with --no-prediction)",
+    )
+    p.add_argument(
+        "--folds",
+        type=int,
+        default=2,
+        metavar="K",
+        help="contiguous blocks of the cross-fitted prediction check: a candidate must improve the free run "
+        "(k-step prediction when chaotic) of every block, predicted by the model fitted on the rest (default 2)",
+    )
+    p.add_argument(
+        "--min-gain",
+        type=float,
+        default=0.01,
+        metavar="F",
+        help="smallest relative drop of the pooled cross-fitted prediction error that accepts a candidate "
+        "(default 0.01)",
+    )
+    p.add_argument(
+        "--no-prediction",
+        action="store_true",
+        help="judge candidates by the equation error alone (no cross-fitted prediction check)",
     )
     p.add_argument(
         "--max-delta-bic",
@@ -191,6 +212,7 @@ def _discover_isolated(timeout: float, record, declared, method, settings, show:
 
 def run(args: argparse.Namespace) -> int:
     from ..discovery import AcceptanceRule, write_report
+    from ..discovery.crossfit import PredictionRule
     from ..runtime.isolation import start_fork_server
 
     if args.max_steps < 0:
@@ -198,10 +220,15 @@ def run(args: argparse.Namespace) -> int:
     timeout = parse_timeout(args.timeout)
     start_fork_server(pin_threads=False)  # it loads the pipeline while this process reads the data
     record = load_data(args)
-    rule = AcceptanceRule(min_explained=args.min_explained, max_delta_bic=args.max_delta_bic)
+    prediction = PredictionRule(folds=args.folds, min_gain=args.min_gain, enabled=not args.no_prediction)
+    default_share = prediction.screen if prediction.enabled else AcceptanceRule().min_explained
+    share = default_share if args.min_explained is None else args.min_explained
+    rule = AcceptanceRule(min_explained=share, max_delta_bic=args.max_delta_bic)
     from ..mdof.record import StructureRecord
 
     if isinstance(record, StructureRecord):
+        if args.min_explained is None:  # structures are judged by the equation error (issue 31 covers one DOF)
+            rule = AcceptanceRule(max_delta_bic=args.max_delta_bic)
         return _run_structure(args, record, rule)
     if args.connections:
         raise InputError("--connections applies to a structure record (channels z1, z2, ...), not to one DOF")
@@ -225,6 +252,7 @@ def run(args: argparse.Namespace) -> int:
         views=bool(args.out),
         refine=args.refine,
         freerun_rule=args.rule,
+        prediction=prediction,
     )
     with plugin_warnings("discover"):
         # progress only on a terminal (never when piped, under --quiet or with --json)

@@ -22,6 +22,12 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     add_data_arguments(p)
     add_model_arguments(p, "identifier to use (default: the installed one with the best preference; see nlid methods)")
     add_timeout_argument(p, IDENTIFY_TIMEOUT, "the identifier")
+    p.add_argument(
+        "--input-path",
+        metavar="SPEC",
+        help="what happens to the force before it acts, e.g. 'delay=3ms', 'lag=2 samples', 'hold=zoh' "
+        "(comma-separated; units s, ms, us or samples): the model keeps it and every score applies it",
+    )
     p.add_argument("--json", action="store_true", help="print one JSON object instead of a table")
     p.add_argument(
         "--quiet", action="store_true", help="no progress on stderr (it is shown only on a terminal, never with --json)"
@@ -38,6 +44,11 @@ def run(args: argparse.Namespace) -> int:
     from ..pipeline import identify
 
     record = load_data(args)
+    path = None
+    if args.input_path is not None:
+        from ..inputpath import InputPath
+
+        path = InputPath.from_spec(args.input_path, getattr(record, "fs", None))
     # a long identifier (oe) shows its progress on a terminal, never under --quiet or --json
     with plugin_warnings("identify"), showing(not (args.quiet or args.json)):
         result = identify(
@@ -49,6 +60,7 @@ def run(args: argparse.Namespace) -> int:
             without=args.without,
             px_roots=parse_px_roots(args.px_roots),
             timeout=timeout,
+            input_path=path,
         )
     if args.json:
         print_json(result.to_dict())

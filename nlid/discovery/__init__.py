@@ -3,7 +3,9 @@
 :func:`discover` identifies a declared model, tests candidate effects
 (:mod:`nlid.discovery.library`) against its residual, accepts one only when it
 passes a stated rule (:mod:`nlid.discovery.evidence`), re-identifies and
-repeats. :func:`write_report` writes the Markdown/HTML report with the
+repeats; a candidate must also improve the cross-fitted held-out prediction
+(:mod:`nlid.discovery.crossfit`), and effects in the input path (a delay, a lag, the force's hold;
+:mod:`nlid.inputpath`) are candidates like the terms. :func:`write_report` writes the Markdown/HTML report with the
 residual figures (:mod:`nlid.discovery.plots`). The command line is
 ``nlid discover``; the documentation is ``docs/discover.md``.
 
@@ -14,9 +16,10 @@ are in :mod:`nlid.discovery.result`, the fits in :mod:`nlid.discovery.trials`.
 """
 
 from ..methods import choose_method
+from .crossfit import FoldPrediction, PredictionRule
 from .evidence import AcceptanceRule, Evidence, Scores
 from .inputs import CandidateLibrary, Split
-from .library import LIBRARY, Candidate, Shape, library_names, resolve_candidates
+from .library import INPUT_PATH, LIBRARY, Candidate, InputPathCandidate, Shape, library_names, resolve_candidates
 from .report import discovery_summary, summary_table, write_report
 from .result import DiscoveryResult, ResidualView, Stage, Step
 from .search import Discovery, SearchState, discover
@@ -36,10 +39,14 @@ __all__ = [
     "Step",
     "ResidualView",
     "AcceptanceRule",
+    "PredictionRule",
+    "FoldPrediction",
     "Evidence",
     "Scores",
     "Candidate",
     "Shape",
+    "InputPathCandidate",
+    "INPUT_PATH",
     "LIBRARY",
     "library_names",
     "resolve_candidates",

@@ -51,6 +51,7 @@ __all__ = [
     "compare_predictions",
     "DEFAULT_FOLDS",
     "MIN_PREDICTION_GAIN",
+    "SCREEN_EXPLAINED",
     "MIN_FOLD_SAMPLES",
 ]
 
@@ -58,6 +59,8 @@ __all__ = [
 DEFAULT_FOLDS = 2
 #: Smallest relative drop of the pooled RMS prediction error that accepts a candidate (1 %).
 MIN_PREDICTION_GAIN = 0.01
+#: Share of the held-out residual variance (equation error) that screens a candidate for the prediction check.
+SCREEN_EXPLAINED = 0.02
 #: Fewest samples of a held-out block (else the cross-fitted prediction is not computed and says why).
 MIN_FOLD_SAMPLES = 256
 #: Periods of the fastest linearised mode predicted ahead when the free run is chaotic, and the bounds of k.
@@ -78,11 +81,16 @@ class PredictionRule:
         Smallest relative drop of the pooled RMS prediction error, ``0 <= min_gain < 1``.
     enabled
         ``False`` judges candidates by the equation error alone (the rule before prediction was judged).
+    screen
+        The share of the held-out residual variance a candidate must explain to be judged by its prediction
+        (the equation-error rule's ``min_explained`` when the search is given no rule): the equation error
+        screens and ranks, the prediction decides.
     """
 
     folds: int = DEFAULT_FOLDS
     min_gain: float = MIN_PREDICTION_GAIN
     enabled: bool = True
+    screen: float = SCREEN_EXPLAINED
 
     def __post_init__(self) -> None:
         if isinstance(self.folds, bool) or not isinstance(self.folds, (int, np.integer)) or self.folds < 2:
@@ -91,6 +99,9 @@ class PredictionRule:
         if not (isinstance(self.min_gain, (int, float)) and 0.0 <= float(self.min_gain) < 1.0):
             raise InputError(f"min_gain must lie in [0, 1), got {self.min_gain!r}")
         object.__setattr__(self, "min_gain", float(self.min_gain))
+        if not (isinstance(self.screen, (int, float)) and 0.0 < float(self.screen) < 1.0):
+            raise InputError(f"screen must lie between 0 and 1, got {self.screen!r}")
+        object.__setattr__(self, "screen", float(self.screen))
 
     def describe(self) -> str:
         """The rule in one sentence (reports and JSON)."""
@@ -105,7 +116,13 @@ class PredictionRule:
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-friendly form, with the sentence."""
-        return {"folds": self.folds, "min_gain": self.min_gain, "enabled": self.enabled, "text": self.describe()}
+        return {
+            "folds": self.folds,
+            "min_gain": self.min_gain,
+            "enabled": self.enabled,
+            "screen": self.screen,
+            "text": self.describe(),
+        }
 
 
 @dataclass(frozen=True)

@@ -102,10 +102,21 @@ def _sim(fit: StageLike, units: dict[str, str]) -> str:
     return _length(fit.sim_rms_holdout, units)
 
 
+def _prediction(fit: StageLike, units: dict[str, str]) -> str:
+    """The stage's pooled cross-fitted prediction error (``-`` when the search did not measure it)."""
+    found = getattr(fit, "prediction", None)
+    if found is None:
+        return "-"
+    pooled = found.pooled
+    return _length(pooled, units) if pooled < float("inf") else "failed"
+
+
 def _model_rows(result: Result) -> tuple[list[str], list[list[str]]]:
     units = result.info.get("units", {})
     validation = any(st.validation is not None for st in result.states)
-    headers = list(_MODEL_HEADERS) + (["free-run validation"] if validation else [])
+    predicted = any(getattr(st, "prediction", None) is not None for st in result.states)
+    headers = list(_MODEL_HEADERS) + (["x-fit prediction"] if predicted else [])
+    headers += ["free-run validation"] if validation else []
     rows = []
     for label, fit in zip(_labels(result), result.states, strict=True):
         s = fit.scores
@@ -117,6 +128,8 @@ def _model_rows(result: Result) -> tuple[list[str], list[list[str]]]:
             _pct(s.force_residual_holdout),
             _sim(fit, units),
         ]
+        if predicted:
+            row.append(_prediction(fit, units))
         if validation:
             row.append(_length(fit.sim_rms_validation, units))
         rows.append(row)
@@ -134,7 +147,8 @@ _MODEL_HEADERS = [
 #: What the columns of the before/after table are (printed under it).
 _MODEL_NOTE = (
     "eps: Eq. 26, relative to f - m a; force res.: the same error relative to f; free-run: RMS error of the "
-    "displacement simulated from the held-out (validation) force"
+    "displacement simulated from the held-out (validation) force; x-fit prediction: the pooled RMS error of "
+    "the cross-fitted held-out prediction each step was judged by (nlid.discovery.crossfit)"
 )
 
 
@@ -171,12 +185,18 @@ def discovery_summary(result: Result) -> Summary:
     rule = result.info.get("freerun_rule") or ""
     if rule and not rule.startswith("from the record's first sample"):  # the default rule goes unsaid (JSON: info)
         out.add_text(f"free run: {rule}", width=TERMINAL_WIDTH)
+    judged = result.info.get("prediction_rule") or {}
+    if judged.get("enabled") and judged.get("folds_note"):
+        out.add_text(f"prediction: {judged['folds_note']}", width=TERMINAL_WIDTH)
     _add_table(out, *_model_rows(result))
     out.add_text(_MODEL_NOTE, width=TERMINAL_WIDTH)
     out.add_text(
         *(
-            f"step {number}: {step.effect} explains {100 * step.evidence.explained_holdout:.3g} % of the held-out "
+            f"step {number}: {step.effect}"
+            + (f" ({step.evidence.input_path})" if step.evidence.input_path else "")
+            + f" explains {100 * step.evidence.explained_holdout:.3g} % of the held-out "
             f"residual variance, dBIC = {step.evidence.delta_bic:.4g} (N_eff = {step.evidence.n_eff:.4g})"
+            + (_judged_text(step.evidence) if step.evidence.prediction_after else "")
             for number, step in enumerate(result.steps, 1)
         ),
         width=TERMINAL_WIDTH,
@@ -195,6 +215,15 @@ def discovery_summary(result: Result) -> Summary:
         out.add_text(f"validation: {result.validation_note}", width=TERMINAL_WIDTH)
     _add_table(out, *_coefficient_rows(final, units))
     return out
+
+
+def _judged_text(ev: Evidence) -> str:
+    """``"; cross-fitted free run 7.25e-3 -> 4.48e-3"`` of a judged candidate."""
+    before, after = ev.prediction_before or {}, ev.prediction_after or {}
+    b, a = before.get("pooled"), after.get("pooled")
+    if b is None or a is None:
+        return ""
+    return f"; cross-fitted {after.get('kind', 'prediction')} error {b:.4g} -> {a:.4g}"
 
 
 def _add_table(out: Summary, headers: list[str], rows: list[list[str]]) -> None:

@@ -67,6 +67,7 @@ from .trials import (
     Context,
     fit_stage,
     gate,
+    injects_energy,
     prune,
     refine_stage,
     refit_description,
@@ -262,13 +263,16 @@ class Discovery:
             raise InputError(f"method {method!r} cannot estimate the mass: give mass= (in kg)")
         self.method, self.method_notes, self.mass = method, tuple(notes), mass
         self.split = split if split is not None else Split()
-        self.rule = rule or AcceptanceRule()
-        self.max_steps = int(max_steps)
-        self.cutoff, self.structure = cutoff, float(structure)
-        self.simulate, self.views, self.refine = simulate, views, refine
         if prediction is not None and not isinstance(prediction, PredictionRule):
             raise InputError(f"prediction= must be a PredictionRule, got {type(prediction).__name__}")
         self.prediction = prediction or PredictionRule()
+        # the equation error screens and ranks; where the prediction decides, the screen is wider
+        self.rule = rule or (
+            AcceptanceRule(min_explained=self.prediction.screen) if self.prediction.enabled else AcceptanceRule()
+        )
+        self.max_steps = int(max_steps)
+        self.cutoff, self.structure = cutoff, float(structure)
+        self.simulate, self.views, self.refine = simulate, views, refine
 
     def __repr__(self) -> str:
         return (
@@ -453,6 +457,7 @@ class Discovery:
 
         def consider(evidence: Evidence, fit: Stage | None, bad: str) -> None:
             if fit is not None:
+                bad = bad or injects_energy(fit, view.z, view.v)
                 judge(evidence, current.scores, fit.scores, view.n_eff, view.tau_samples, ctx.rule)
                 fits[evidence.effect] = fit
                 evidence.passes["physical"] = not bad
@@ -568,6 +573,13 @@ class Discovery:
             if validation is None
             else [float(validation.z.min()), float(validation.z.max())],
             "max_steps": self.max_steps,
+            "prediction_rule": {
+                **self.prediction.to_dict(),
+                "folds_note": run.folds.note,
+                "fold_rule": None if run.folds.rule is None else run.folds.rule.describe(),
+                "fitter": "the refiner (output error)" if self.refine else f"the search's identifier ({run.method})",
+            },
+            "input_path": states[-1].path.to_dict(),
             "freerun_rule": states[-1].holdout.freerun_rule,
             "freerun_rule_validation": None if validation is None else states[-1].validation.freerun_rule,
             "refined_on": None if refined is None else refit_description(ctx),
@@ -610,6 +622,7 @@ def discover(
     progress: Callable[[str], None] | None = None,
     refine: bool = False,
     freerun_rule: TransientRule | str | Mapping[str, Any] | None = None,
+    prediction: PredictionRule | None = None,
 ) -> DiscoveryResult:
     """Find the effects a declared model lacks, one at a time (see the module docstring).
 
@@ -671,7 +684,12 @@ def discover(
         Refine the final model with the refining identifier (``oe``: free-run error, shape parameters
         included), started from ``method``, on the whole record; :attr:`DiscoveryResult.refined` holds it.
     freerun_rule
-        Transient rule of the held-out and validation free runs (``"window:50"``...; :class:`Split`).
+        Transient rule of the held-out and validation free runs (``"window:50"``...; :class:`Split`), and of
+        the cross-fitted prediction's blocks.
+    prediction
+        When a candidate improves the cross-fitted held-out prediction
+        (:class:`~nlid.discovery.crossfit.PredictionRule`; default: two blocks, every block better, the pooled
+        error 1 % lower; ``PredictionRule(enabled=False)``: the equation error alone decides).
 
     Returns
     -------
@@ -699,5 +717,6 @@ def discover(
         simulate=simulate,
         views=views,
         refine=refine,
+        prediction=prediction,
     )
     return search.run(record, declared, progress=progress)

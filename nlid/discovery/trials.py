@@ -58,6 +58,8 @@ __all__ = [
     "test_mass",
     "test_dictionary",
     "test_input_path",
+    "injects_energy",
+    "MAX_INJECTING",
     "refine_stage",
     "refit_description",
     "DICTIONARY_MAX_TERMS",
@@ -174,6 +176,37 @@ def prune(ctx: Context, current: Stage, earlier: Sequence[Step], newest: str) ->
             )
             current = without
     return current, notes
+
+
+#: A model whose velocity-dependent force feeds energy into the motion (``D(z, v) v < 0``) on more than this share
+#: of the estimation samples is refused (a damping law fitted with the wrong sign to soak up another error).
+MAX_INJECTING = 0.05
+
+
+def injects_energy(fit: Stage, z: np.ndarray, v: np.ndarray) -> str:
+    """Why a fitted model's damping would feed energy in (``""`` when it dissipates, as damping must).
+
+    ``D(z, v)`` is the sum of the model's velocity-dependent terms (family ``"damping"``) with their
+    coefficients; the model is refused when ``D v`` is negative, beyond rounding, on more than
+    :data:`MAX_INJECTING` of the samples ``(z, v)`` of the estimation record.
+    """
+    model = fit.model
+    columns = [i for i, t in enumerate(model.terms) if t.family == "damping"]
+    if not columns:
+        return ""
+    part = Model(tuple(model.terms[i] for i in columns), model.px_roots)
+    theta = fit.identified.theta[columns]
+    power = (np.asarray(part.evaluate(z, v), dtype=float) @ theta) * v
+    scale = float(np.sqrt(np.mean(power**2)))
+    if scale == 0.0:
+        return ""
+    share = float(np.mean(power < -1e-6 * scale))
+    if share <= MAX_INJECTING:
+        return ""
+    return (
+        f"its damping force feeds energy into the motion (D(z, v) v < 0) on {100 * share:.2g} % of the estimation "
+        "samples: a dissipative law with the wrong sign"
+    )
 
 
 def gate(remaining: Remaining, probes: Sequence[str]) -> str:

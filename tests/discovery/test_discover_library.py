@@ -25,10 +25,12 @@ ISSUE_NAMES = [
 ]
 # issue 13: non-smooth stiffness and memory, offered only where the probes find structure of their kind
 OPEN_WORLD_NAMES = ["gap", "stop-positive", "stop-negative", "hysteresis-bouc-wen", "dahl-friction"]
+# issue 31: effects in the input path (nlid.inputpath), fitted without adding a term
+INPUT_PATH_NAMES = ["input-delay", "actuator-lag", "force-hold"]
 
 
 def test_the_library_has_the_issue_names_and_terms():
-    assert library_names() == ISSUE_NAMES + OPEN_WORLD_NAMES
+    assert library_names() == ISSUE_NAMES + OPEN_WORLD_NAMES + INPUT_PATH_NAMES
     by_name = {c.name: c for c in LIBRARY}
     assert by_name["gap"].terms == ("gap(z, {c})",) and by_name["gap"].requires == ("z", "z,v")
     assert by_name["hysteresis-bouc-wen"].requires == ("memory",) and len(by_name["hysteresis-bouc-wen"].shapes) == 2
