@@ -410,19 +410,25 @@ class IdentifiedModel:
         return scoring.score(self, record, cutoff=cutoff, free_run=free_run, rule=rule, horizon=horizon)
 
     def predict(
-        self, record: Record, horizon: int, *, rule: TransientRule | str | Mapping[str, Any] | None = None
+        self,
+        record: Record,
+        horizon: int,
+        *,
+        rule: TransientRule | str | Mapping[str, Any] | None = None,
+        partitions: int | None = None,
     ) -> Prediction:
         """The ``horizon``-step-ahead prediction of the displacement (:func:`nlid.scoring.predict`).
 
         Every sample from ``horizon`` on is simulated over ``horizon`` samples from the measured state before
-        it; a chaotic record, whose free run means nothing, gets a finite error this way.
+        it; a chaotic record, whose free run means nothing, gets a finite error this way. ``partitions``
+        simulates only some of the ``horizon`` interleaved sets of runs (:func:`nlid.scoring.predict`).
 
         Returns
         -------
         nlid.scoring.Prediction
             ``z`` (NaN where not predicted), ``rmse``, ``nrmse_percent``, ``fit_percent``, ``horizon``, ``rule``.
         """
-        return scoring.predict(self, record, horizon, rule=rule)
+        return scoring.predict(self, record, horizon, rule=rule, partitions=partitions)
 
     def simulate(
         self,

@@ -14,7 +14,8 @@ The acting force is the recorded one through ``H(s) = exp(-s d) / (1 + s tau)``:
 
 ``delay`` (``d``, seconds)
     a pure delay between the force channel and the force that acts (sub-sample values are
-    allowed);
+    allowed); negative when the force channel is the late one (an anti-aliasing filter on the
+    force sensor, a clock offset), which offline data allow;
 ``lag`` (``tau``, seconds)
     a first-order low-pass (an actuator or amplifier lag);
 ``hold``
@@ -64,12 +65,13 @@ _UNITS = {"s": 1.0, "ms": 1e-3, "us": 1e-6, "samples": None, "sample": None}
 _SPEC = re.compile(r"^\s*([a-z]+)\s*=\s*([^=]+?)\s*$")
 
 
-def _seconds(value: Any, name: str) -> float:
+def _seconds(value: Any, name: str, signed: bool = False) -> float:
     if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)):
         raise InputError(f"input_path {name}= must be a number of seconds, got {brief(value)}")
     x = float(value)
-    if not math.isfinite(x) or x < 0:
-        raise InputError(f"input_path {name}= must be a finite number of seconds >= 0, got {value!r}")
+    if not math.isfinite(x) or (x < 0 and not signed):
+        bound = "" if signed else " >= 0"
+        raise InputError(f"input_path {name}= must be a finite number of seconds{bound}, got {value!r}")
     return x
 
 
@@ -80,7 +82,8 @@ class InputPath:
     Parameters
     ----------
     delay
-        Delay of the acting force behind the recorded one (s, >= 0).
+        Delay of the acting force behind the recorded one (s); negative when the force channel is the late one
+        (a filter or a clock offset on the force sensor: the force acts before it is recorded).
     lag
         Time constant of a first-order lag (s, >= 0).
     hold
@@ -98,7 +101,7 @@ class InputPath:
     hold: str | None = None
 
     def __post_init__(self) -> None:
-        object.__setattr__(self, "delay", _seconds(self.delay, "delay"))
+        object.__setattr__(self, "delay", _seconds(self.delay, "delay", signed=True))
         object.__setattr__(self, "lag", _seconds(self.lag, "lag"))
         if self.hold is not None and self.hold not in _HOLDS:
             raise InputError(f"input_path hold= must be 'zoh' or 'sampled', got {brief(self.hold)}")
@@ -112,15 +115,17 @@ class InputPath:
     @property
     def parameters(self) -> int:
         """Numbers fitted from data: the delay and the lag when non-zero (a hold is a choice, not a number)."""
-        return int(self.delay > 0) + int(self.lag > 0)
+        return int(self.delay != 0) + int(self.lag > 0)
 
     def describe(self) -> str:
         """One line, e.g. ``"force delayed by 3 ms, first-order lag 1.2 ms"`` (``"as recorded"``)."""
         if self.identity:
             return "as recorded"
         parts = []
-        if self.delay:
+        if self.delay > 0:
             parts.append(f"force delayed by {_ms(self.delay)}")
+        elif self.delay < 0:
+            parts.append(f"force acting {_ms(-self.delay)} ahead of the force channel (the channel is late)")
         if self.lag:
             parts.append(f"first-order lag {_ms(self.lag)}")
         if self.hold:
@@ -216,7 +221,7 @@ class InputPath:
             The record is whole periods of this many samples (filtered circularly), or ``None``.
         """
         f = np.asarray(force, dtype=float)
-        steps = max(self.delay, self.lag) * fs
+        steps = max(abs(self.delay), self.lag) * fs
         if steps > MAX_DELAY_SAMPLES:
             raise InputError(
                 f"input path of {steps:.3g} samples: at most {MAX_DELAY_SAMPLES} samples of delay or lag are accepted"
@@ -306,11 +311,14 @@ def _held_delay(f: np.ndarray, steps: float, circular: bool) -> np.ndarray:
     alpha = steps - whole
 
     def shifted(k: int) -> np.ndarray:
+        """``f`` later by ``k`` samples (earlier for ``k < 0``), its end values held beyond the record."""
         if circular:
             return np.roll(f, k)
         if k == 0:
             return f.copy()
-        return np.concatenate([np.full(min(k, f.size), f[0]), f[: max(f.size - k, 0)]])
+        if k > 0:
+            return np.concatenate([np.full(min(k, f.size), f[0]), f[: max(f.size - k, 0)]])
+        return np.concatenate([f[min(-k, f.size) :], np.full(min(-k, f.size), f[-1])])
 
     out = shifted(whole)
     if alpha > 0.0:
@@ -348,7 +356,7 @@ def _sampled(f: np.ndarray, delay: float, lag: float, period: int | None) -> np.
         # beyond each end the force is continued by its odd reflection about the end sample (value and slope
         # continuous: no kink whose ringing a fractional delay would carry into the record), then brought back
         # smoothly to where the other end starts, so that the FFT's periodic extension has no step either
-        pad = int(math.ceil(delay + _LAG_PADDING * lag)) + _EDGE
+        pad = int(math.ceil(abs(delay) + _LAG_PADDING * lag)) + _EDGE
         m = min(pad, n - 1)
         front = np.concatenate([np.full(pad - m, 2.0 * f[0] - f[m]), 2.0 * f[0] - f[m:0:-1]])
         back = np.concatenate([2.0 * f[-1] - f[-2 : -m - 2 : -1], np.full(pad - m, 2.0 * f[-1] - f[-m - 1])])

@@ -43,7 +43,7 @@ def test_a_held_force_keeps_its_staircase():
     f = rng.normal(size=200)
     assert np.array_equal(InputPath(delay=0.03).acting_force(f, 100.0, "zoh")[3:], f[:-3])
     shared = InputPath(delay=0.025).acting_force(f, 100.0, "zoh")  # half a sample: each interval shared
-    assert np.allclose(shared[3:], 0.5 * f[1:-2] + 0.5 * f[2:-1])
+    assert np.allclose(shared[3:], 0.5 * f[1:-2] + 0.5 * f[:-3])
     # a lag: each interval's mean of the exact first-order response to the staircase (fine integration)
     tau, q = 0.05, 2000
     a = np.exp(-1.0 / (100.0 * q * tau))
@@ -62,7 +62,8 @@ def test_spellings_dictionaries_and_refusals():
     assert InputPath.from_dict(path.to_dict()) == path
     assert input_path(None).identity and input_path({"delay": 0.001}).delay == 0.001
     assert "3 ms" in path.describe() and InputPath().describe() == "as recorded"
-    for bad in ("delay=-1ms", "delay=abc", "speed=3", "delay=1 parsec", "delay=1ms, delay=2ms", "hold=cubic"):
+    assert "ahead of the force channel" in InputPath(delay=-0.002).describe()  # the force channel is the late one
+    for bad in ("lag=-1ms", "delay=abc", "speed=3", "delay=1 parsec", "delay=1ms, delay=2ms", "hold=cubic"):
         with pytest.raises(InputError):
             InputPath.from_spec(bad, fs=1000.0)
     with pytest.raises(InputError, match="samples need the sampling frequency"):

@@ -112,7 +112,7 @@ OPEN_WORLD: dict[str, tuple[dict[str, float], list[str] | None, str]] = {
     "gap": ({"gap(z, 0.007)": 2000.0}, None, "gap"),
     "product-friction": ({"|z|*sign(v)": 300.0}, None, "dictionary"),
     "wrong-mass": ({}, [], "mass"),
-    "time-skew": ({}, [], "force-rate"),
+    "time-skew": ({}, [], "input-delay"),
 }
 #: The wrong-mass case gives the mass this many times the true one.
 WRONG_MASS_FACTOR = 1.15

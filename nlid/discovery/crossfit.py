@@ -49,6 +49,7 @@ __all__ = [
     "make_folds",
     "predict_folds",
     "compare_predictions",
+    "veto_only",
     "DEFAULT_FOLDS",
     "MIN_PREDICTION_GAIN",
     "SCREEN_EXPLAINED",
@@ -63,6 +64,12 @@ MIN_PREDICTION_GAIN = 0.01
 SCREEN_EXPLAINED = 0.02
 #: Fewest samples of a held-out block (else the cross-fitted prediction is not computed and says why).
 MIN_FOLD_SAMPLES = 256
+#: The initialisation window of a block that starts in motion: periods of the equation band's cut-off, and the
+#: fewest samples (the nonlinear-benchmarks package's EMPS window).
+WINDOW_PERIODS, MIN_WINDOW = 2.0, 20
+#: Interleaved sets of k-step runs simulated per block (each costs one simulation of the block; ``k`` of them
+#: would predict every sample): four give the error on 4/k of the samples, spread evenly.
+PARTITIONS = 4
 #: Periods of the fastest linearised mode predicted ahead when the free run is chaotic, and the bounds of k.
 CHAOTIC_PERIODS, CHAOTIC_MIN_STEPS, CHAOTIC_MAX_STEPS = 2.0, 5, 100
 
@@ -249,7 +256,7 @@ def predict_folds(
             fit = fitter(train, model, mass, path)
             rule = folds.rule if folds.rule is not None else default_rule(test)
             if steps is not None:
-                found = fit.predict(test, steps, rule=rule)
+                found = fit.predict(test, steps, rule=rule, partitions=PARTITIONS)
                 rmse.append(float(found.rmse) if np.isfinite(found.rmse) else math.inf)
                 samples.append(int(found.scored_samples))
                 continue
@@ -277,16 +284,31 @@ def chaotic(prediction: FoldPrediction) -> bool:
 
 
 def compare_predictions(before: FoldPrediction, after: FoldPrediction, rule: PredictionRule) -> tuple[bool, str]:
-    """Whether ``after`` improves on ``before`` by the rule, and why, in words."""
+    """Whether ``after`` improves on ``before`` by the rule, and why, in words.
+
+    A free run must improve on every block and in the pooled error by ``min_gain``. A ``k``-step prediction (a
+    chaotic record) can only veto: it passes unless a block is worse by more than ``min_gain``, because its
+    error is dominated by the measured initial states and the chaos and barely sees a small law (measured:
+    a Stribeck friction on the double well, 21 % of the held-out equation residual, changes the 100-step error
+    by 0.2 %); the caller then asks the equation-error rule's full share (:func:`veto_only`).
+    """
     pooled_b, pooled_a = before.pooled, after.pooled
     if not math.isfinite(pooled_a):
         why = "; ".join(dict.fromkeys(after.notes)) or "a run diverged"
         return False, f"its cross-fitted prediction fails ({why})"
     if not math.isfinite(pooled_b):
         return True, f"cross-fitted {after.kind} error {pooled_a:.4g} where the current model's fails"
-    worse = [k + 1 for k, (b, a) in enumerate(zip(before.rmse, after.rmse, strict=True)) if not a < b]
     gain = 1.0 - pooled_a / pooled_b if pooled_b > 0 else 0.0
     figures = f"cross-fitted {after.kind} error {pooled_b:.4g} -> {pooled_a:.4g} ({-100 * gain:+.3g} %)"
+    if veto_only(after):
+        worse = [
+            k + 1 for k, (b, a) in enumerate(zip(before.rmse, after.rmse, strict=True)) if a > (1.0 + rule.min_gain) * b
+        ]
+        if worse:
+            blocks = ", ".join(str(k) for k in worse)
+            return False, f"{figures}: worse by more than {100 * rule.min_gain:g} % on held-out block(s) {blocks}"
+        return True, f"{figures}: no block worse by more than {100 * rule.min_gain:g} % (a chaotic record)"
+    worse = [k + 1 for k, (b, a) in enumerate(zip(before.rmse, after.rmse, strict=True)) if not a < b]
     if worse:
         blocks = ", ".join(str(k) for k in worse)
         return False, f"{figures}: worse on held-out block(s) {blocks} of {len(before.rmse)}"
@@ -295,21 +317,24 @@ def compare_predictions(before: FoldPrediction, after: FoldPrediction, rule: Pre
     return True, figures
 
 
-def fold_rule(record: Record, rule: TransientRule | None) -> TransientRule | None:
-    """The transient rule of the held-out blocks: the given one, else a window when the record starts in motion.
+def veto_only(prediction: FoldPrediction) -> bool:
+    """True for a ``k``-step prediction: on a chaotic record the prediction can veto a candidate, not accept it."""
+    return prediction.kind.startswith("k-step")
 
-    A block cut from the middle of a record does not start at rest, so the first-sample rule (the default of a
-    record that is not periodic) would score a start-up transient the model is not to blame for: such blocks
-    get an initialisation window of two periods of the record's dominant frequency (at least 20 samples).
+
+def fold_rule(record: Record, rule: TransientRule | None, cutoff: float) -> TransientRule | None:
+    """The transient rule of the held-out blocks: the given one, else the record's, with a window for a record in motion.
+
+    A periodic record keeps its periodic steady state. Otherwise a block cut from the middle of a record does not
+    start at rest, so the first-sample rule (the default of a record that is not periodic) is replaced by an
+    initialisation window of :data:`WINDOW_PERIODS` periods of the equation band's cut-off ``cutoff`` (Hz), at
+    least :data:`MIN_WINDOW` samples: the state is fitted to it, as the benchmarks' windows do.
     """
     if rule is not None:
         return rule
     found = default_rule(record)
     if isinstance(found, FromFirstSample):
-        z = np.asarray(record.z) - np.mean(record.z)
-        crossings = int(np.count_nonzero(np.signbit(z[1:]) != np.signbit(z[:-1])))
-        period = 2.0 * z.size / max(crossings, 1)
-        return InitWindow(int(min(max(round(2 * period), 20), max(record.n // 20, 20))))
+        return InitWindow(int(max(MIN_WINDOW, math.ceil(WINDOW_PERIODS * record.fs / cutoff))))
     return found
 
 

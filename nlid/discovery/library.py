@@ -487,8 +487,10 @@ INPUT_PATH: tuple[InputPathCandidate, ...] = (
         "input-delay",
         "delay",
         INPUT_PATH_GRID,
-        "the force acts delayed behind the force channel (a drive's current loop, an acquisition offset): "
-        "delay on a grid of " + ", ".join(f"{g:g}" for g in INPUT_PATH_GRID) + " samples, refined",
+        "the force acts delayed behind the force channel (a drive's current loop), or ahead of it (a filter or "
+        "clock offset on the force channel): delay on a grid of +/- "
+        + ", ".join(f"{g:g}" for g in INPUT_PATH_GRID)
+        + " samples, refined",
     ),
     InputPathCandidate(
         "actuator-lag",

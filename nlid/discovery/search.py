@@ -57,6 +57,7 @@ from .crossfit import (
     make_folds,
     predict_folds,
     steps_for,
+    veto_only,
 )
 from .evidence import AcceptanceRule, Evidence, judge, rank
 from .inputs import BUILTIN_CANDIDATES, DEFAULT_HOLDOUT, CandidateLibrary, Split
@@ -345,7 +346,9 @@ class Discovery:
             use_mass=self.library.mass and not getattr(self.identifier, "needs_mass", False),
             z_range=(float(estimation.z.min()), float(estimation.z.max())),
             started=started,
-            folds=self._folds(record) if self.prediction.enabled else Folds(note="the prediction check is off"),
+            folds=self._folds(record, float(cutoff))
+            if self.prediction.enabled
+            else Folds(note="the prediction check is off"),
             fitter=self._fitter(float(cutoff)),
         )
         say(f"identifying the declared model ({model0}) with {self.method}")
@@ -353,9 +356,10 @@ class Discovery:
         view = residual_view(estimation, current, ctx.cutoff, "declared model")
         return SearchState(run, (current,), views=(view,))
 
-    def _folds(self, record: Record) -> Folds:
+    def _folds(self, record: Record, cutoff: float) -> Folds:
         """The cross-fitting blocks of the whole record given to the search (:mod:`nlid.discovery.crossfit`)."""
-        return make_folds(record, self.prediction.folds, fold_rule(record, self.split.freerun_rule))
+        rule = fold_rule(record, self.split.freerun_rule, cutoff)  # type: ignore[arg-type]
+        return make_folds(record, self.prediction.folds, rule)
 
     def _fitter(self, cutoff: float) -> Any:
         """What fits a model for the prediction check: the search's identifier, or the refiner when refining."""
@@ -401,7 +405,19 @@ class Discovery:
             steps = int(before.kind.rsplit("=", 1)[1]) if before.kind.startswith("k-step") else None
             say(f"step {number}: judging {accepted.effect} by its cross-fitted prediction ({before.kind})")
             after = self._predict(run, fits[accepted.effect], steps)
+            if chaotic(after):  # the candidate's free run is chaotic: both are compared k steps ahead
+                steps = steps_for([current.identified, fits[accepted.effect].identified], run.context.estimation.fs)
+                before = self._predict(run, current, steps)
+                after = self._predict(run, fits[accepted.effect], steps)
             ok, why = compare_predictions(before, after, self.prediction)
+            floor = AcceptanceRule().min_explained
+            if ok and veto_only(after) and float(accepted.explained_holdout or 0.0) < floor:
+                # a chaotic record: the k-step prediction cannot decide, so the equation error decides at its full share
+                ok = False
+                why += (
+                    f"; on a chaotic record the equation error decides, and it explains "
+                    f"{100 * float(accepted.explained_holdout or 0.0):.3g} % < {100 * floor:g} % of the held-out residual"
+                )
             accepted.prediction_before, accepted.prediction_after = before.to_dict(), after.to_dict()
             accepted.passes["prediction"] = ok
             if ok:
@@ -484,8 +500,15 @@ class Discovery:
                 tested.append(Evidence("mass", status="not applicable", reason=why))
             else:
                 consider(*test_mass(ctx, current))
+        named = max((float(e.explained_holdout) for e in tested if e.explained_holdout is not None), default=0.0)
+        weak = named < AcceptanceRule().min_explained  # what the named candidates explain is a screen's share only
+        if weak and run.library.dictionary and not gate(remaining, ("z", "v", "z,v")):
+            # open world: when no named candidate explains much, a sparse regression on the dictionary proposes
+            # terms, ranked with them (the prediction decides between them)
+            say(f"step {number}: no named candidate explains much; searching the automatic dictionary")
+            consider(*test_dictionary(ctx, current, run.z_range))
         ranking, accepted, current = self._judged(run, current, tested, fits, number, say)
-        if accepted is None and run.library.dictionary and not gate(remaining, ("z", "v", "z,v")):
+        if accepted is None and not weak and run.library.dictionary and not gate(remaining, ("z", "v", "z,v")):
             # open world: when nothing named passes, let a sparse regression on the dictionary propose terms
             say(f"step {number}: no named candidate passes; searching the automatic dictionary")
             consider(*test_dictionary(ctx, current, run.z_range))

@@ -272,6 +272,8 @@ def test_dictionary(ctx: Context, current: Stage, z_range: tuple[float, float]) 
         # collinear dictionary columns (e.g. |v|^p and v^2 on a one-signed velocity): the path drops the
         # degenerate one and goes on, which is what a screening wants; each support is scored on the hold-out below
         warnings.filterwarnings("ignore", message="Regressors in active set degenerate", category=Warning)
+        # a path stopped early when the residual is small: the supports found so far are what is scored
+        warnings.filterwarnings("ignore", message="Early stopping the lars path", category=Warning)
         _, _, coefs = lars_path(xs, est.r - est.r.mean(), method="lasso", max_iter=8 * kmax)
     supports: list[list[int]] = []
     for k in range(coefs.shape[1]):
@@ -436,8 +438,8 @@ def test_candidate(
 def test_input_path(ctx: Context, current: Stage, cand: InputPathCandidate) -> tuple[Evidence, Stage | None, str]:
     """Fit the current model with the force through an input path (:mod:`nlid.inputpath`).
 
-    A delay or a lag is chosen on the candidate's grid (multiples of the sampling interval) by the
-    estimation record's force residual, then refined between the grid neighbours (bounded search in the
+    A delay (either sign: the force channel late or early) or a lag is chosen on the candidate's grid
+    (multiples of the sampling interval) by the estimation record's force residual, then refined between the grid neighbours (bounded search in the
     log of the time, :data:`SHAPE_REFINE_FITS` fits); ``hold`` tries the other force hold. The path found is
     added to the current one (a delay found after a lag keeps the lag).
     """
@@ -451,12 +453,14 @@ def test_input_path(ctx: Context, current: Stage, cand: InputPathCandidate) -> t
         evidence.status, evidence.reason = "not applicable", f"the model's input path already has a {cand.kind}"
         return evidence, None, ""
     else:
-        paths = [dataclasses.replace(base, **{cand.kind: g * dt}) for g in cand.grid]
+        # a delay either way (the force channel late or early), a lag forward only
+        grid = [*cand.grid, *(-g for g in cand.grid)] if cand.kind == "delay" else list(cand.grid)
+        paths = [dataclasses.replace(base, **{cand.kind: g * dt}) for g in grid]
     tried: dict[float, Stage] = {}
     errors: list[str] = []
 
     def attempt(path: InputPath) -> Stage | None:
-        key = path.delay + path.lag if cand.kind != "hold" else 0.0
+        key = getattr(path, cand.kind) if cand.kind != "hold" else 0.0
         if key not in tried:
             try:
                 tried[key] = fit_stage(ctx, current.model, current.given_mass, path)
@@ -471,13 +475,14 @@ def test_input_path(ctx: Context, current: Stage, cand: InputPathCandidate) -> t
         evidence.status, evidence.reason = "failed", "; ".join(dict.fromkeys(errors))
         return evidence, None, ""
     if cand.kind != "hold" and len(cand.grid) > 1:
-        grid = [g * dt for g in cand.grid]
         best_time = min(tried, key=lambda k: tried[k].scores.force_residual)
-        i = int(np.argmin([abs(g - best_time) for g in grid]))
-        lo, hi = np.log(grid[max(i - 1, 0)]), np.log(grid[min(i + 1, len(grid) - 1)])
+        sign = 1.0 if best_time > 0 else -1.0  # refined on the best value's side, in the log of its size
+        sizes = sorted(g * dt for g in cand.grid)
+        i = int(np.argmin([abs(g - abs(best_time)) for g in sizes]))
+        lo, hi = np.log(sizes[max(i - 1, 0)]), np.log(sizes[min(i + 1, len(sizes) - 1)])
 
         def objective(log_t: float) -> float:
-            got = attempt(dataclasses.replace(base, **{cand.kind: float(np.exp(log_t))}))
+            got = attempt(dataclasses.replace(base, **{cand.kind: sign * float(np.exp(log_t))}))
             return np.inf if got is None else got.scores.force_residual
 
         if hi > lo:
