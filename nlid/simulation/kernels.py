@@ -387,45 +387,6 @@ def simulate(
     return z, v, a
 
 
-def random_force(
-    n: int,
-    fs: float,
-    rms: float,
-    rng: np.random.Generator,
-    band: Sequence[float] | None = None,
-) -> np.ndarray:
-    """Zero-mean Gaussian random force with a given RMS.
-
-    Parameters
-    ----------
-    n
-        Number of samples.
-    fs
-        Sampling frequency in Hz.
-    rms
-        Target RMS in N (met exactly on the generated record).
-    rng
-        Random generator (``numpy.random.default_rng(seed)``).
-    band
-        ``(low, high)`` in Hz for a band-limited force (zero-phase
-        Butterworth band-pass of order 4); ``None`` for white.
-    """
-    x = rng.standard_normal(n)
-    if band is not None:
-        from scipy import signal
-
-        low, high = float(band[0]), float(band[1])
-        if not (0 <= low < high < fs / 2):
-            raise InputError(f"force band must satisfy 0 <= low < high < fs/2, got {band}")
-        if low > 0:
-            sos = signal.butter(4, [low, high], btype="band", fs=fs, output="sos")
-        else:
-            sos = signal.butter(4, high, btype="low", fs=fs, output="sos")
-        x = signal.sosfiltfilt(sos, x)
-    x -= x.mean()
-    return x * (rms / np.sqrt(np.mean(x**2)))
-
-
 def free_run(
     model: Model,
     coefficients: dict[str, float] | np.ndarray,
