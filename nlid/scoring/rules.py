@@ -56,6 +56,7 @@ __all__ = [
     "error_metrics",
     "SPELLINGS",
     "RESPONSE_REPEAT",
+    "periodic_fine_force",
 ]
 
 #: The spellings :func:`rule_from_spec` reads (``N``, ``P``: numbers of samples).
@@ -438,6 +439,25 @@ def _fit_window(fit: Any, record: Record, samples: int, fine: np.ndarray, q: int
     return np.asarray(found.x, dtype=float)
 
 
+def periodic_fine_force(force: np.ndarray, period: int, force_hold: str, oversample: int) -> np.ndarray:
+    """The sub-step force (:func:`nlid.simulation.fine_force`) over a record in periodic steady state.
+
+    Whole periods are interpolated by the FFT; otherwise the record is continued by its own period on each
+    side (``f[i - P] = f[i]`` before it, ``f[i + P] = f[i]`` after it) for the interpolator's taps.
+    """
+    from ..simulation import INTERPOLATION_TAPS, fine_force
+
+    f = np.asarray(force, dtype=float)
+    n, q = f.size, int(oversample)
+    if n % period == 0:
+        return fine_force(f, force_hold, q, periodic=True)
+    guard = np.arange(INTERPOLATION_TAPS)
+    before = f[(guard - INTERPOLATION_TAPS) % period]  # the first period's end
+    after = f[n - period + guard % period]  # the last period's start
+    extended = np.concatenate([before, f, after])
+    return fine_force(extended, force_hold, q)[INTERPOLATION_TAPS * q : (INTERPOLATION_TAPS + n) * q]
+
+
 def _periodic_start(fit: Any, record: Record, rule: PeriodicSteadyState, q: int, guess: np.ndarray) -> Start:
     """Simulate preceding periods of the force until the state at a period start settles."""
     from ..simulation import fine_force, simulate_segments
@@ -454,13 +474,9 @@ def _periodic_start(fit: Any, record: Record, rule: PeriodicSteadyState, q: int,
         period, how = rule.period, "declared"
     if period > n:
         raise InputError(f"periodic steady state needs a whole period ({period} samples) in a record of {n} samples")
-    # the force before sample 0 is the record's first period (f[i - P] = f[i]); after the end, its last one
-    guard = min(period, 64)
     f = record.f
-    extended = np.concatenate([f[period - guard : period], f[:period], f, f[n - period : n - period + guard]])
-    fine_all = fine_force(extended, record.force_hold, q)
-    one = fine_all[guard * q : (guard + period) * q]
-    fine = fine_all[(guard + period) * q : (guard + period + n) * q]
+    one = fine_force(f[:period], record.force_hold, q, periodic=True)
+    fine = periodic_fine_force(f, period, record.force_hold, q)
     model, theta, mass = fit.model, fit.theta, float(fit.mass)
     state = guess.copy()
     moves: list[float] = []

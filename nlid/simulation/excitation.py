@@ -142,7 +142,7 @@ def fine_force(
 
 
 def _trigonometric(force: np.ndarray, per: int, shift: float, hold: int) -> np.ndarray:
-    """The periodic band-limited force at ``k + shift + j / per`` (``j < per``) from its FFT (see :func:`fine_force`)."""
+    """The periodic band-limited force at ``k + shift + j / per`` (``j < per``) from its FFT (:func:`fine_force`)."""
     n = force.size
     spectrum = np.fft.rfft(force)
     lines = np.arange(spectrum.size) / n  # cycles per sample
