@@ -268,7 +268,7 @@ def test_from_the_first_sample_a_steady_state_period_is_far_off(bouc_wen, period
 
 def test_periodic_needs_a_period(bouc_wen, cut_record):
     record, _, _ = cut_record
-    with pytest.raises(InputError, match="does not repeat"):
+    with pytest.raises(InputError, match="neither repeats"):
         scoring.free_run_error(bouc_wen, record, "periodic")
     with pytest.raises(InputError, match="whole period"):
         scoring.free_run_error(bouc_wen, record[:500], "periodic:600")
