@@ -49,7 +49,6 @@ from ._frozen import FrozenDict
 from .errors import InputError, NlidError
 from .identified import IdentifiedModel
 from .record import Record
-from .scoring import FromFirstSample
 from .terms import Model
 
 if TYPE_CHECKING:  # pragma: no cover
@@ -497,7 +496,7 @@ class Comparison:
             add("eps_percent", "holdout", held.eps_percent, "%")
             add("force_residual_percent", "holdout", held.force_residual_percent, "%")
             add("freerun_rmse", "holdout", held.freerun_rmse, self.holdout.units.get("z", "m"))
-            if held.freerun_rule not in ("", FromFirstSample().describe()):  # the first-sample rule goes unsaid
+            if held.freerun_rule:  # every free-run figure states its rule
                 rows[-1]["note"] = f"free run: {held.freerun_rule}"
         if fit.seconds is not None:
             add("seconds", "identification", fit.seconds, "s")
