@@ -32,7 +32,7 @@ from ..record import Record
 from .data import load_estimation, load_test, noise_floor
 from .pipelines import Fitted, PipelineSpec, fit_pipelines
 from .protocol import Protocol, TestSet, parse_protocol
-from .truth import true_fitted
+from .truth import TRUTH_KIND, true_fitted
 
 __all__ = ["BenchJob", "BenchRun", "score_model"]
 
@@ -309,7 +309,7 @@ def _fit_dict(fitted: Fitted) -> dict[str, Any]:
         "choices": fitted.choices,
         "details": fitted.details,
     }
-    if fitted.kind == "nlid":
+    if fitted.kind in ("nlid", TRUTH_KIND):  # the true system's coefficients are shown as a fit's
         fit = fitted.model
         se = fit.standard_errors or {}
         out["coefficients"] = {k: float(v) for k, v in fit.coefficients.items()}
