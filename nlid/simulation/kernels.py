@@ -405,10 +405,10 @@ def free_run(
     a whole interval, which delays the force by half a sample (at 70 Hz and
     610 Hz sampling that is a phase lag of 0.36 rad). Here each sample
     interval is split into ``oversample`` RK4 sub-steps and the force of each
-    sub-step is its band-limited (polyphase) interpolation at the sub-step's
-    midpoint, which removes the delay and the discretisation error of one
-    step per sample. A force that really was held (``force_hold="zoh"``, as
-    in the presets) is held exactly.
+    sub-step is the force interpolated within its band, its hold compensated
+    (:func:`~nlid.simulation.fine_force`), which removes the delay and the
+    discretisation error of one step per sample. A force that really was held
+    (``force_hold="zoh"``, as in the presets) is held exactly.
 
     Parameters
     ----------
