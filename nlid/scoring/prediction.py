@@ -31,7 +31,15 @@ import numpy as np
 from ..errors import InputError
 from ..inputpath import acting_record
 from ..record import Record
-from .rules import InitWindow, PeriodicSteadyState, TransientRule, data_velocity, error_metrics, resolve_rule
+from .rules import (
+    InitWindow,
+    PeriodicSteadyState,
+    TransientRule,
+    data_velocity,
+    error_metrics,
+    periodic_fine_force,
+    resolve_rule,
+)
 
 __all__ = ["Prediction", "predict"]
 
@@ -143,7 +151,10 @@ def predict(
         period = rule.period if rule.period is not None else detect_period(record.f)
     states = np.column_stack([record.z, data_velocity(record), _memory_states(fit, record, period)])
     q = FREE_RUN_OVERSAMPLE
-    fine = fine_force(record.f, record.force_hold, q)
+    if period is None:
+        fine = fine_force(record.f, record.force_hold, q)
+    else:
+        fine = periodic_fine_force(record.f, period, record.force_hold, q)
     predicted = np.full(n, np.nan)
     if partitions is not None and (isinstance(partitions, bool) or not isinstance(partitions, int) or partitions < 1):
         raise InputError(f"partitions= must be a whole number >= 1, got {partitions!r}")
