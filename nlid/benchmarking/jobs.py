@@ -100,7 +100,7 @@ class BenchJob:
     protocol_text
         The benchmark file's text (the job re-reads it: a changed file changes the digest).
     pipelines
-        The pipelines, fitted together (``discover`` and ``discover --refine`` share a discovery).
+        The pipelines of the job (one per job since issue 31: each discovery is judged by its own fits).
     source
         ``"auto"``, ``"local"`` or ``"package"`` (:mod:`nlid.benchmarking.data`).
     files

@@ -3,9 +3,11 @@
 Every pipeline is given the *estimation part only* (:func:`fit_pipelines` has no other record):
 the test sets take no part in any decision. ``discover`` selects the structure with its
 hold-out taken from the end of the estimation part (the benchmark file's ``holdout``; no
-``validation=`` record is given), then the final model is **refitted on the whole estimation
-part** with the same identifier; ``discover --refine`` refines that structure with the refining
-identifier (``oe``) on the whole estimation part, started from the same identifier (``discover-refine``). The pysindy
+``validation=`` record is given) and the cross-fitted prediction on blocks of the estimation
+part, then the final model is **refitted on the whole estimation part** with the same
+identifier; ``discover --refine`` runs its own search, whose candidates are judged by the
+refining identifier's (``oe``) fits, and refines the structure it chose on the whole estimation
+part, started from the same identifier (``discover-refine``). The pysindy
 peer chooses its hyper-parameters on the end of the estimation part and refits on all of it.
 
 Pipeline names: any installed identifier (``rfs``, ``sindy``, ``oe``...), ``discover``,
@@ -176,20 +178,24 @@ def _stage(stage: Any, label: str, terms: Sequence[str]) -> dict[str, Any]:
     }
 
 
-def _discover(record: Record, settings: PipelineSettings, specs: Sequence[PipelineSpec]) -> list[Fitted]:
+def _discover(record: Record, settings: PipelineSettings, spec: PipelineSpec) -> Fitted:
+    """One discovery, judged by the fits the pipeline delivers (``discover --refine``: the refiner's).
+
+    ``discover`` and ``discover --refine`` run their own searches: a candidate is accepted when it improves
+    the cross-fitted prediction of the model the row will report (an equation-error refit, or ``oe``).
+    """
     from ..discovery import discover
     from ..methods import choose_refiner
     from ..pipeline import identify
 
     start = time.perf_counter()
-    refine = any(spec.refine for spec in specs)
     result = discover(
         record,
         settings.declared,
         mass=settings.mass,
         holdout=settings.holdout,
         views=False,
-        refine=refine,
+        refine=spec.refine,
         freerun_rule=settings.rule,
     )
     method = result.method
@@ -197,9 +203,6 @@ def _discover(record: Record, settings: PipelineSettings, specs: Sequence[Pipeli
     declared = set(result.declared)
     chosen_shapes = sum(len(t.shapes) for t in final.model.terms if t.name not in declared)
     chosen_shapes += final.path.parameters
-    # the whole estimation part, with the input path the search found
-    refit = identify(record, final.model, method, mass=final.given_mass, input_path=final.path)
-    discover_seconds = time.perf_counter() - start
     stages = [_stage(result.states[0], "declared", result.states[0].identified.terms)]
     stages += [_stage(step.after, f"+ {step.effect}", step.terms) for step in result.steps]
     details = {
@@ -219,44 +222,21 @@ def _discover(record: Record, settings: PipelineSettings, specs: Sequence[Pipeli
         "method": method,
         "steps": [{"effect": step.effect, "terms": list(step.terms)} for step in result.steps],
         "selected": _identified_choices(final.identified),
-        "refit": _identified_choices(refit),
     }
-    out = []
-    for spec in specs:
-        if not spec.refine:
-            out.append(
-                Fitted(
-                    DISCOVER,
-                    "nlid",
-                    f"discover ({method}), refit on the estimation part",
-                    refit,
-                    _parameters(refit, chosen_shapes),
-                    discover_seconds,
-                    choices,
-                    details,
-                )
-            )
-            continue
-        refiner = choose_refiner()
-        t0 = time.perf_counter()
-        options = {**dict(settings.options.get(refiner, {})), "init": method}
-        refined = identify(
-            record, final.model, refiner, mass=final.given_mass, options=options, input_path=final.path
-        )
-        seconds = discover_seconds + time.perf_counter() - t0
-        out.append(
-            Fitted(
-                REFINE,
-                "nlid",
-                f"discover ({method}) + {refiner} on the estimation part",
-                refined,
-                _parameters(refined, chosen_shapes),
-                seconds,
-                {**choices, "refined": _identified_choices(refined), "refiner": refiner},
-                details,
-            )
-        )
-    return out
+    if not spec.refine:
+        # the whole estimation part, with the input path the search found
+        refit = identify(record, final.model, method, mass=final.given_mass, input_path=final.path)
+        seconds = time.perf_counter() - start
+        how = f"discover ({method}), refit on the estimation part"
+        return Fitted(DISCOVER, "nlid", how, refit, _parameters(refit, chosen_shapes), seconds,
+                      {**choices, "refit": _identified_choices(refit)}, details)  # fmt: skip
+    refiner = choose_refiner()
+    options = {**dict(settings.options.get(refiner, {})), "init": method}
+    refined = identify(record, final.model, refiner, mass=final.given_mass, options=options, input_path=final.path)
+    seconds = time.perf_counter() - start
+    how = f"discover ({method}, judged by {refiner}'s fits) + {refiner} on the estimation part"
+    choices = {**choices, "refined": _identified_choices(refined), "refiner": refiner}
+    return Fitted(REFINE, "nlid", how, refined, _parameters(refined, chosen_shapes), seconds, choices, details)
 
 
 def _peer(record: Record, settings: PipelineSettings) -> Fitted:
@@ -284,24 +264,19 @@ def _pysindy_version() -> str:
 
 
 def fit_pipelines(record: Record, settings: PipelineSettings, specs: Sequence[PipelineSpec]) -> list[Fitted]:
-    """Fit every pipeline on the estimation record (``discover`` and ``discover --refine`` share one discovery).
+    """Fit every pipeline on the estimation record (``discover`` and ``discover --refine`` each run their own search).
 
     Returns
     -------
     list of Fitted
         In the order of ``specs``.
     """
-    discovered: dict[str, Fitted] = {}
-    wanted = [s for s in specs if s.kind == "discover"]
-    if wanted:
-        for fitted in _discover(record, settings, wanted):
-            discovered[fitted.pipeline] = fitted
     out = []
     for spec in specs:
         if spec.kind == "identify":
             out.append(_identify(record, settings, spec.method or spec.name))
         elif spec.kind == "discover":
-            out.append(discovered[spec.name])
+            out.append(_discover(record, settings, spec))
         elif spec.kind == "peer":
             out.append(_peer(record, settings))
         else:  # pragma: no cover - parse_pipelines makes only these

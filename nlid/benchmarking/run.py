@@ -111,18 +111,13 @@ def plan_bench(
     files: Mapping[str, str] | None = None,
     timeout: float = 1800.0,
 ) -> list[BenchRun]:
-    """The jobs: per benchmark, ``discover`` and ``discover --refine`` together, every other pipeline alone.
+    """The jobs: one per benchmark and pipeline (``discover`` and ``discover --refine`` run their own searches).
 
     Longest first (discoveries, then the rest), so a pool of workers finishes early.
     """
     runs: list[tuple[int, BenchRun]] = []
     for p in protocols.values():
-        groups = [tuple(s for s in pipelines if s.kind == "discover")] + [
-            (s,) for s in pipelines if s.kind != "discover"
-        ]
-        for group in groups:
-            if not group:
-                continue
+        for group in ((s,) for s in pipelines):
             job = BenchJob.make(p, group, source=source, files=files, timeout=timeout)
             runs.append(
                 (-sum(_COST[s.kind] for s in group) - (2 if any(s.refine for s in group) else 0), BenchRun.of(job))

@@ -500,15 +500,8 @@ class Discovery:
                 tested.append(Evidence("mass", status="not applicable", reason=why))
             else:
                 consider(*test_mass(ctx, current))
-        named = max((float(e.explained_holdout) for e in tested if e.explained_holdout is not None), default=0.0)
-        weak = named < AcceptanceRule().min_explained  # what the named candidates explain is a screen's share only
-        if weak and run.library.dictionary and not gate(remaining, ("z", "v", "z,v")):
-            # open world: when no named candidate explains much, a sparse regression on the dictionary proposes
-            # terms, ranked with them (the prediction decides between them)
-            say(f"step {number}: no named candidate explains much; searching the automatic dictionary")
-            consider(*test_dictionary(ctx, current, run.z_range))
         ranking, accepted, current = self._judged(run, current, tested, fits, number, say)
-        if accepted is None and not weak and run.library.dictionary and not gate(remaining, ("z", "v", "z,v")):
+        if accepted is None and run.library.dictionary and not gate(remaining, ("z", "v", "z,v")):
             # open world: when nothing named passes, let a sparse regression on the dictionary propose terms
             say(f"step {number}: no named candidate passes; searching the automatic dictionary")
             consider(*test_dictionary(ctx, current, run.z_range))

@@ -17,9 +17,18 @@ def test_the_right_effect_first_or_the_right_probe(effect):
     for seed in (0, 1):
         record, declared, mass = build_open_case(effect, seed)
         result = nlid.discover(record, declared, "rfs", mass=mass, simulate=False, views=False)
-        assert result.steps and result.steps[0].effect == expected, (seed, [s.effect for s in result.steps])
-        before, after = result.steps[0].before.scores, result.steps[0].after.scores
-        assert after.eps_holdout < before.eps_holdout
+        effects = [s.effect for s in result.steps]
+        if effect == "product-friction":
+            # named candidates come first: a Stribeck law may stand in for the product until the dictionary
+            # finds it, and is then removed as redundant (prune); the final model holds the product alone
+            assert expected in effects, (seed, effects)
+            step = result.steps[effects.index(expected)]
+            assert "|z|*sign(v)" in step.terms and "|z|*sign(v)" in result.final.identified.terms
+            assert not any(t.startswith("sign(v)*exp") for t in result.final.identified.terms)
+        else:
+            assert effects and effects[0] == expected, (seed, effects)
+            step = result.steps[0]
+        assert step.after.scores.eps_holdout < step.before.scores.eps_holdout
         if effect == "time-skew":  # the recorded force is late by SKEW_SAMPLES: the force acts that much ahead
             delay = result.steps[0].after.path.delay * record.fs
             assert delay == pytest.approx(-SKEW_SAMPLES, abs=0.25), delay
@@ -27,8 +36,6 @@ def test_the_right_effect_first_or_the_right_probe(effect):
             note = result.steps[0].notes[0]
             assert note.startswith("the given mass looks wrong: the data say m = ")
             assert abs(result.final.mass / 0.2 - 1) < 0.02
-        if effect == "product-friction":
-            assert "|z|*sign(v)" in result.steps[0].terms
 
 
 @pytest.mark.parametrize("noise", [0.01, 0.02, 0.05])
