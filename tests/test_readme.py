@@ -32,7 +32,7 @@ def test_python_section_runs_as_written(tmp_path, monkeypatch):
         exec(compile(block, "README.md", "exec"), namespace)  # noqa: S102 - our own documentation
     # the claims the text makes
     found, fit, same = namespace["found"], namespace["fit"], namespace["same"]
-    assert [s.effect for s in found.steps] == ["quadratic-stiffness", "quadratic-damping"]
+    assert [s.effect for s in found.steps] == ["quadratic-damping", "quadratic-stiffness"]
     assert same.terms == fit.terms and same.method == "rfs"
     assert {"load", "simulate", "identify", "compare", "posterior", "discover", "run_study"} <= {
         m for m in re.findall(r"nlid\.(\w+)\(", _section("Python"))

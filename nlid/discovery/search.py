@@ -473,7 +473,7 @@ class Discovery:
 
         def consider(evidence: Evidence, fit: Stage | None, bad: str) -> None:
             if fit is not None:
-                bad = bad or injects_energy(fit, view.z, view.v)
+                bad = bad or injects_energy(fit, current, view.z, view.v)
                 judge(evidence, current.scores, fit.scores, view.n_eff, view.tau_samples, ctx.rule)
                 fits[evidence.effect] = fit
                 evidence.passes["physical"] = not bad

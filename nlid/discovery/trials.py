@@ -60,6 +60,7 @@ __all__ = [
     "test_input_path",
     "injects_energy",
     "MAX_INJECTING",
+    "INJECTING_RANGE",
     "refine_stage",
     "refit_description",
     "DICTIONARY_MAX_TERMS",
@@ -178,34 +179,47 @@ def prune(ctx: Context, current: Stage, earlier: Sequence[Step], newest: str) ->
     return current, notes
 
 
-#: A model whose velocity-dependent force feeds energy into the motion (``D(z, v) v < 0``) on more than this share
-#: of the estimation samples is refused (a damping law fitted with the wrong sign to soak up another error).
-MAX_INJECTING = 0.05
+#: A candidate model whose velocity-dependent force feeds energy into the motion (``D(z, v) v < 0``) on a larger share
+#: of the widened estimation trajectory than the current model by more than this is refused (a damping law fitted
+#: with the wrong sign to soak up another error).
+MAX_INJECTING = 0.01
+#: The damping is checked on the estimation samples ``(z, v)`` scaled this many times about the centre of ``z``'s
+#: range: a free run on another record goes a little beyond the estimation data. Measured on Silverbox: a model
+#: with a negative ``|z|^3*v`` and ``z^2*sign(v)`` dissipates on 99.5 % of the data's samples but feeds energy in on
+#: 2.7 % of them scaled 1.5 times, and its free run on the arrow head (which goes there) was 1.0 mV instead of 0.46.
+INJECTING_RANGE = 1.5
 
 
-def injects_energy(fit: Stage, z: np.ndarray, v: np.ndarray) -> str:
-    """Why a fitted model's damping would feed energy in (``""`` when it dissipates, as damping must).
-
-    ``D(z, v)`` is the sum of the model's velocity-dependent terms (family ``"damping"``) with their
-    coefficients; the model is refused when ``D v`` is negative, beyond rounding, on more than
-    :data:`MAX_INJECTING` of the samples ``(z, v)`` of the estimation record.
-    """
+def _injecting_share(fit: Stage, z: np.ndarray, v: np.ndarray) -> float:
+    """Share of the samples ``(z, v)`` where the model's velocity-dependent force feeds energy in (``D v < 0``)."""
     model = fit.model
     columns = [i for i, t in enumerate(model.terms) if t.family == "damping"]
     if not columns:
-        return ""
+        return 0.0
     part = Model(tuple(model.terms[i] for i in columns), model.px_roots)
-    theta = fit.identified.theta[columns]
-    power = (np.asarray(part.evaluate(z, v), dtype=float) @ theta) * v
+    power = (np.asarray(part.evaluate(z, v), dtype=float) @ fit.identified.theta[columns]) * v
     scale = float(np.sqrt(np.mean(power**2)))
-    if scale == 0.0:
-        return ""
-    share = float(np.mean(power < -1e-6 * scale))
-    if share <= MAX_INJECTING:
+    return 0.0 if scale == 0.0 else float(np.mean(power < -1e-6 * scale))
+
+
+def injects_energy(fit: Stage, current: Stage, z: np.ndarray, v: np.ndarray) -> str:
+    """Why a fitted candidate model's damping would feed energy in (``""`` when it dissipates as damping must).
+
+    ``D(z, v)`` is the sum of the model's velocity-dependent terms (family ``"damping"``) with their coefficients.
+    ``D v`` is evaluated on the estimation samples scaled :data:`INJECTING_RANGE` times (``z`` about the centre
+    of its range); the candidate is refused when it is negative on a larger share of them than the current
+    model's by more than :data:`MAX_INJECTING` (a declared law that already feeds energy in somewhere does not
+    block every candidate).
+    """
+    centre = 0.5 * (float(np.max(z)) + float(np.min(z)))
+    zs, vs = centre + INJECTING_RANGE * (z - centre), INJECTING_RANGE * v
+    share, before = _injecting_share(fit, zs, vs), _injecting_share(current, zs, vs)
+    if share <= before + MAX_INJECTING:
         return ""
     return (
         f"its damping force feeds energy into the motion (D(z, v) v < 0) on {100 * share:.2g} % of the estimation "
-        "samples: a dissipative law with the wrong sign"
+        f"samples scaled {INJECTING_RANGE:g} times (the current model: {100 * before:.2g} %): a dissipative law with "
+        "the wrong sign, or one that turns over just beyond the data"
     )
 
 
