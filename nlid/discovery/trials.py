@@ -39,7 +39,7 @@ from ..inputpath import InputPath
 from ..pipeline import identify
 from ..record import Record
 from ..scoring import TransientRule
-from ..terms import Model
+from ..terms import Model, Term
 from .evidence import AcceptanceRule, Evidence, effective_sample_size
 from .library import Candidate, InputPathCandidate, dictionary_terms
 from .probes import MIN_STRUCTURE, Remaining, probe_residual
@@ -190,6 +190,12 @@ MAX_INJECTING = 0.01
 INJECTING_RANGE = 1.5
 
 
+def _widened(z: np.ndarray, v: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The samples ``(z, v)`` scaled :data:`INJECTING_RANGE` times (``z`` about the centre of its range)."""
+    centre = 0.5 * (float(np.max(z)) + float(np.min(z)))
+    return centre + INJECTING_RANGE * (z - centre), INJECTING_RANGE * v
+
+
 def _injecting_share(fit: Stage, z: np.ndarray, v: np.ndarray) -> float:
     """Share of the samples ``(z, v)`` where the model's velocity-dependent force feeds energy in (``D v < 0``)."""
     model = fit.model
@@ -211,8 +217,7 @@ def injects_energy(fit: Stage, current: Stage, z: np.ndarray, v: np.ndarray) -> 
     model's by more than :data:`MAX_INJECTING` (a declared law that already feeds energy in somewhere does not
     block every candidate).
     """
-    centre = 0.5 * (float(np.max(z)) + float(np.min(z)))
-    zs, vs = centre + INJECTING_RANGE * (z - centre), INJECTING_RANGE * v
+    zs, vs = _widened(z, v)
     share, before = _injecting_share(fit, zs, vs), _injecting_share(current, zs, vs)
     if share <= before + MAX_INJECTING:
         return ""
@@ -324,11 +329,25 @@ def test_dictionary(ctx: Context, current: Stage, z_range: tuple[float, float]) 
             "held-out residual"
         )
         return evidence, None, ""
-    model = current.model.with_terms(add=terms)
-    if roots is not None and model.uses_px:
-        model = model.with_px_roots(roots)
+
+    def fitted(chosen: list[Term]) -> Stage:
+        model = current.model.with_terms(add=chosen)
+        if roots is not None and model.uses_px:
+            model = model.with_px_roots(roots)
+        return fit_stage(ctx, model, current.given_mass, current.path)
+
     try:
-        fit = fit_stage(ctx, model, current.given_mass, current.path)
+        fit = fitted(terms)
+        # a proposal whose damping would feed energy in (injects_energy) loses, one at a time, the velocity term
+        # whose removal leaves the least of it: the dictionary proposes physical term sets, not only small ones
+        while injects_energy(fit, current, est.z, est.v) and len(terms) > 1:
+            damping = [t for t in terms if t.family == "damping"]
+            if not damping:
+                break
+            trials = [(t, fitted([u for u in terms if u != t])) for t in damping]
+            dropped, fit = min(trials, key=lambda tf: _injecting_share(tf[1], *_widened(est.z, est.v)))
+            terms = [u for u in terms if u != dropped]
+            evidence.terms = [t.name for t in terms]
     except NlidError as exc:
         evidence.status, evidence.reason = "failed", str(exc)
         return evidence, None, ""
