@@ -54,6 +54,7 @@ from .hookspecs import hookimpl
 from .interface import FIGURE_KINDS, Estimate, FigureArray, Identifier, Option, standard_figure_arrays, to_jsonable
 from .mdof.elements import Element, ElementSet
 from .mdof.estimate import StructureEstimate
+from .mdof.jointfit import JointSolution, joint_least_squares
 from .mdof.model import StructuralModel
 from .mdof.modes import StructureModes, linear_modes
 from .mdof.record import StructureRecord
@@ -114,6 +115,8 @@ __all__ = [
     "StructureRegressionData",
     "structure_regression_data",
     "structure_linear_design",
+    "joint_least_squares",
+    "JointSolution",
     "check_elements_nonlinear",
     "dof_weights",
     "structure_free_run",
