@@ -47,6 +47,7 @@ import numpy as np
 from numpy.polynomial import legendre
 
 from ..errors import InputError, NlidError
+from ..mdof.balance import residual_on
 from ..mdof.jointfit import Extra
 from ..terms import Term
 from ..validate import HOLDOUT_FRACTION, check_cutoff
@@ -62,7 +63,6 @@ from .structure_fit import (
     fraction,
     per_dof,
     relative,
-    restoring,
 )
 from .structure_result import (
     ConnectionEvidence,
@@ -332,11 +332,7 @@ def _stage(model, label: str, test_record, test_data, parts, simulate: bool) -> 
     """The model's errors: epsilon per DOF on the test part and the selection record, the free run on the test part."""
 
     def eps(data) -> tuple[float, ...]:
-        data = data.with_elements(model.elements)
-        measured = data.f - data.a @ model.M.T
-        diff = measured - restoring(model, data)
-        scale = _rms(measured)
-        return tuple(float(100.0 * r / s) if s > 0 else float("nan") for r, s in zip(_rms(diff), scale, strict=True))
+        return residual_on(model, data.with_elements(model.elements)).eps_percent
 
     sel = [eps(parts[k].data) for k in ("estimation", "holdout")]
     n_e, n_h = (parts[k].data.n for k in ("estimation", "holdout"))

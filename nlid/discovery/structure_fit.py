@@ -25,7 +25,7 @@ from ..mdof.jointfit import Extra, JointFit, NormalEquations, joint_least_square
 from ..mdof.model import StructuralModel
 from ..mdof.regression import StructureRegressionData, stack_regression_data
 
-__all__ = ["Part", "Search", "relative", "connectivity", "fraction", "per_dof", "restoring", "Connection"]
+__all__ = ["Part", "Search", "relative", "connectivity", "fraction", "per_dof", "Connection"]
 
 Connection = tuple[int, int]
 
@@ -90,14 +90,6 @@ def per_dof(after_h, before_h, after_e, before_e) -> tuple[float, ...]:
         b = 1.0 - after_e[k] / before_e[k] if before_e[k] > 0 else float("nan")
         out.append(0.5 * (a + b))
     return tuple(out)
-
-
-def restoring(model: StructuralModel, data: StructureRegressionData) -> np.ndarray:
-    """``R_hat`` of ``model`` on balance samples whose ``G`` are the regressors of ``model.elements``."""
-    out = data.z @ model.K.T + data.v @ model.C.T + model.static
-    if len(model.elements):
-        out = out + (data.G * model.theta) @ model.elements.B.T
-    return out
 
 
 class Search:
