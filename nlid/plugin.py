@@ -81,6 +81,7 @@ from .terms import Model, Term, parse_term
 if TYPE_CHECKING:  # loaded on first use by __getattr__ below (the simulator compiles with numba)
     from .mdof.simulation import free_run as structure_free_run
     from .mdof.simulation import free_run_segments as structure_free_run_segments
+    from .mdof.sensitivity import structure_segments
     from .methods import choose_method
     from .pipeline import identify
     from .scoring import initial_state, predictability_horizon, score
@@ -121,6 +122,7 @@ __all__ = [
     "dof_weights",
     "structure_free_run",
     "structure_free_run_segments",
+    "structure_segments",
     "regression_data",
     "RegressionData",
     "suggested_cutoff",
@@ -174,6 +176,10 @@ def __getattr__(name: str):  # the simulator (numba) and the scores are loaded o
         from .mdof import simulation
 
         return simulation.free_run if name == "structure_free_run" else simulation.free_run_segments
+    if name == "structure_segments":
+        from .mdof.sensitivity import structure_segments
+
+        return structure_segments
     if name == "identify":
         from .pipeline import identify
 
