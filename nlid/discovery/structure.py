@@ -170,7 +170,9 @@ def discover_structure(
         The declared elements, ``"tanh(v3/0.001)"`` (``""``: the underlying linear system alone); the
         linear ``K``, ``C`` and a constant force per DOF are always fitted.
     mass
-        The mass matrix (kg; a vector is lumped); default ``record.mass`` (``meta["mass"]``).
+        The mass matrix (kg; a vector is lumped, or text: :func:`nlid.validate.parse_mass`); default the
+        record's (``meta["mass"]``, a file's sidecar), read as ``identify`` reads it
+        (:func:`~nlid.mdof.model.structure_mass`).
     holdout
         Fraction of the selection record held out (its last part), ``0 < holdout < 1``.
     test
@@ -205,7 +207,7 @@ def discover_structure(
         Not a structure record, no mass matrix, bad elements, fractions, connections or candidates.
     """
     from ..mdof.elements import Element, ElementSet
-    from ..mdof.model import as_matrix
+    from ..mdof.model import structure_mass
     from ..mdof.record import StructureRecord
     from ..mdof.regression import structure_regression_data
 
@@ -214,11 +216,13 @@ def discover_structure(
     if not isinstance(record, StructureRecord):
         raise InputError(f"discover_structure needs a StructureRecord, got {type(record).__name__}")
     n = record.n_dofs
-    if mass is None:
-        mass = record.mass
-    if mass is None:
-        raise InputError("the structure's mass matrix is needed: give mass= (kg; a vector for a lumped mass)")
-    M = np.asarray(as_matrix(mass, n, "mass=", positive=True))
+    M = structure_mass(mass, record)
+    if M is None:
+        raise InputError(
+            "the structure's mass matrix is needed: give mass= (kg; a vector for a lumped mass) or the record's "
+            "meta['mass'] (a file's .meta.json sidecar)"
+        )
+    M = np.asarray(M)
     if isinstance(declared, ElementSet):
         elements0 = declared
     else:

@@ -268,7 +268,7 @@ def identify_structure(
         method, _ = choose_method(mass)
     if method == name:
         raise InputError("oe: option 'init' must name another identifier (oe starts from its estimate)")
-    start = identify(record, elements, method, mass=mass)
+    start = identify(record, elements, method, mass="estimate" if mass is None else mass)  # not the record's
     structure = start.structure
     # the segments' initial states start from the balance's displacement and velocity (filtered when estimated)
     data = structure_regression_data(record, start.elements, cutoff=None, trim=False)
