@@ -46,7 +46,9 @@ def main() -> None:
         fit = nlid.identify(record, ELEMENTS, "oe", mass=record.mass)
         times.append(time.perf_counter() - clock)
         d = fit.diagnostics
-        errors = ", ".join(f"{name} {100 * (fit.structure.coefficient(name) / v - 1):+.3g} %" for name, v in TRUTH.items())
+        errors = ", ".join(
+            f"{name} {100 * (fit.structure.coefficient(name) / v - 1):+.3g} %" for name, v in TRUTH.items()
+        )
         print(
             f"run {k + 1}: {times[-1]:.1f} s (fit {d.get('seconds_fit', float('nan')):.1f} s; jacobian "
             f"{d.get('jacobian', 'finite differences')}; {d.get('segments')} segments; nfev {d.get('nfev')}, "

@@ -79,9 +79,9 @@ from .regression import (
 from .terms import Model, Term, parse_term
 
 if TYPE_CHECKING:  # loaded on first use by __getattr__ below (the simulator compiles with numba)
+    from .mdof.sensitivity import structure_segments
     from .mdof.simulation import free_run as structure_free_run
     from .mdof.simulation import free_run_segments as structure_free_run_segments
-    from .mdof.sensitivity import structure_segments
     from .methods import choose_method
     from .pipeline import identify
     from .scoring import initial_state, predictability_horizon, score

@@ -198,7 +198,9 @@ def run(args: argparse.Namespace) -> int:
         model = as_model(args.terms, without=args.without, px_roots=parse_px_roots(args.px_roots))
     show = not (args.quiet or args.json)  # the sampler's progress, on a terminal only
     with showing(show):
-        result = identify(record, model, args.method, mass=mass_argument(args.mass), options=parse_settings(args.set), **extra)
+        result = identify(
+            record, model, args.method, mass=mass_argument(args.mass), options=parse_settings(args.set), **extra
+        )
     try:
         with showing(show):
             posterior = sampler.run(record, result)

@@ -97,7 +97,7 @@ _PLACEHOLDERS = re.compile(r"\{([a-z])\}")
 
 
 def dissipative(term: Term) -> bool:
-    """True if ``term`` is a friction or damping law (``g(z, v) v >= 0`` everywhere): it dissipates when its coefficient > 0.
+    """True if ``term`` is a friction or damping law, ``g(z, v) v >= 0`` (it dissipates if its coefficient > 0).
 
     Decided from the normal form: the term depends on the velocity, has no memory and no gap or stop
     factor, and its sign is the sign of ``v`` (an odd number of ``sign(v)`` and ``tanh(v/c)`` factors,
@@ -382,9 +382,7 @@ class Candidate:
 LIBRARY: tuple[Candidate, ...] = (
     Candidate("coulomb", ("sign(v)",), "Coulomb (dry) friction: sign(v), Eq. 24 with j = 0", positive=("sign(v)",)),
     Candidate("viscous", ("v",), "linear viscous damping: v", positive=("v",)),
-    Candidate(
-        "quadratic-damping", ("v*|v|",), "quadratic damping: v*|v| (= sign(v)*v^2)", positive=("v*|v|",)
-    ),
+    Candidate("quadratic-damping", ("v*|v|",), "quadratic damping: v*|v| (= sign(v)*v^2)", positive=("v*|v|",)),
     Candidate("cubic-damping", ("v^3",), "cubic damping: v^3", positive=("v^3",)),
     Candidate(
         "position-dependent-friction",

@@ -40,7 +40,7 @@ from __future__ import annotations
 import math
 import time
 from collections.abc import Callable, Iterable, Mapping, Sequence
-from dataclasses import dataclass, replace
+from dataclasses import replace
 from typing import Any
 
 import numpy as np
@@ -505,7 +505,7 @@ def _probes(search: Search, conns, threshold: float) -> StructureRemaining:
         x_e, xd_e = relative(est.data, c)
         scale = (0.5 * (x_e.max() + x_e.min()), max(0.5 * np.ptp(x_e), 1e-300), max(float(np.abs(xd_e).max()), 1e-300))
         for probe in STRUCTURE_PROBES:
-            columns = lambda x, xd, probe=probe: _probe_columns(probe, x, xd, scale)  # noqa: E731
+            columns = lambda x, xd, probe=probe, scale=scale: _probe_columns(probe, x, xd, scale)  # noqa: E731
             col_e, col_h = connection_columns(est.data, c, columns), connection_columns(ho.data, c, columns)
             extra = Extra(col_e, connectivity(c, n))
             scored = search.cross_scores({"extras": [extra], "estimation": [col_e], "holdout": [col_h]})

@@ -25,7 +25,7 @@ import numba
 import numpy as np
 
 from ..errors import InputError
-from ..simulation import FREE_RUN_OVERSAMPLE, SimulationError, fine_force
+from ..simulation import FREE_RUN_OVERSAMPLE, SimulationError
 from ..simulation.kernels import sign as _sign
 from ..simulation.sensitivity import abs_powers, signed_part_d, special_factor_d
 from ..terms.memory_kernels import bouc_wen_step_d, dahl_step_d

@@ -38,11 +38,10 @@ import tracemalloc
 from collections.abc import Mapping
 from typing import Any
 
-from ..validate import ESTIMATE
-
 import numpy as np
 
 from .. import columns as col
+from ..validate import ESTIMATE
 
 __all__ = ["is_structure_preset", "check_structure_terms", "execute_structure_run", "structure_metrics"]
 

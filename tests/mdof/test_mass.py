@@ -1,4 +1,4 @@
-"""A structure's mass matrix: one reading for identify and discover, given as an array, text or a file, or the sidecar's."""
+"""A structure's mass matrix: one reading for identify and discover (an array, text, a file, or the sidecar's)."""
 
 from __future__ import annotations
 
