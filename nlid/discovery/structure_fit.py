@@ -20,12 +20,23 @@ from typing import Any
 
 import numpy as np
 
+from ..errors import InputError
 from ..mdof.elements import Element, ElementSet
 from ..mdof.jointfit import Extra, JointFit, NormalEquations, joint_least_squares
 from ..mdof.model import StructuralModel
 from ..mdof.regression import StructureRegressionData, stack_regression_data
 
-__all__ = ["Part", "Search", "relative", "connectivity", "fraction", "per_dof", "Connection"]
+__all__ = [
+    "Part",
+    "Search",
+    "relative",
+    "connectivity",
+    "connection_columns",
+    "element_columns",
+    "fraction",
+    "per_dof",
+    "Connection",
+]
 
 Connection = tuple[int, int]
 
@@ -138,7 +149,8 @@ class Search:
     def model(self) -> StructuralModel:
         """The current elements fitted on the selection record by the one joint least squares."""
         elements = self.elements
-        assert elements is not None
+        if elements is None:
+            raise InputError("the search has no model yet: call equations() first")
         data = stack_regression_data([self.parts["estimation"].data, self.parts["holdout"].data])
         return joint_least_squares(data, elements, self.M, context="discover: ").model(elements, self.M)
 

@@ -20,8 +20,11 @@ Data
     low-pass, and a zero-order-held force given the hold's response. (An
     earlier copy evaluated the elements on the motion already low-passed at
     ``fc`` and the force without its hold: on a 3-DOF chain whose displacements
-    alone were recorded with 1 % noise, ``fc`` fell to 100 Hz and the cubic
-    came out 24 % low, the friction 78 %; see ``benchmarks/bench_discover_mdof.py``.)
+    alone were recorded with 0.5-1 % noise, ``fc`` fell to about 100 Hz and the
+    cubic came out 25-27 % low, the friction 70-81 %, with the true model
+    declared; ``benchmarks/accuracy_mdof_friction.py``. The motion above ``fc``
+    puts part of a nonlinear element's force into the band; that part is
+    missed when the element is evaluated on the low-passed motion.)
 Weighting
     The DOFs' equations have different scales (a driven DOF carries the
     force). A first, unweighted solution gives each DOF's residual RMS; the
