@@ -54,7 +54,7 @@ import numpy as np
 from ..errors import IdentificationError, InputError
 from ..regression import least_squares
 from .elements import ElementSet
-from .model import StructuralModel, as_matrix
+from .model import StructuralModel, structure_mass
 from .regression import LinearDesign, StructureRegressionData, dof_weights, linear_design, structure_regression_data
 
 __all__ = ["NormalEquations", "JointFit", "Extra", "JointSolution", "joint_least_squares", "fit_linear_elements"]
@@ -358,7 +358,8 @@ def fit_linear_elements(
     elements
         The elements (``"z5^3, tanh(v3/0.001)"`` or an :class:`ElementSet`).
     mass
-        Mass matrix (kg; a vector is lumped); default ``record.mass``.
+        Mass matrix (kg; a vector is lumped, or text); default the record's
+        (:func:`~nlid.mdof.model.structure_mass`).
     cutoff
         The balance filter's cut-off (Hz) for estimated channels.
 
@@ -373,13 +374,13 @@ def fit_linear_elements(
     IdentificationError
         As :func:`joint_least_squares`.
     """
-    n = record.n_dofs
-    if mass is None:
-        mass = record.mass
-    if mass is None:
-        raise InputError("the joint least squares needs the mass matrix: give mass= (kg; a vector for a lumped mass)")
-    M = as_matrix(mass, n, "mass=", positive=True)
+    M = structure_mass(mass, record)
+    if M is None:
+        raise InputError(
+            "the joint least squares needs the mass matrix: give mass= (kg; a vector for a lumped mass) or the "
+            "record's meta['mass']"
+        )
     if isinstance(elements, str):
-        elements = ElementSet.from_spec(elements, n)
+        elements = ElementSet.from_spec(elements, record.n_dofs)
     data = structure_regression_data(record, elements, cutoff=cutoff)
     return joint_least_squares(data, elements, M).model(elements, M)
