@@ -31,9 +31,11 @@ from pathlib import Path
 from typing import Any
 
 import pytest
+from pinning import Tolerances, assert_pinned, csv_leaves, leaves
 
 PINS_PATH = Path(__file__).parent / "data" / "pins_before_issue22.json"
-REL = 1e-9
+#: This file's entry in ``tests/data/pin_tolerances.json``.
+SUITE = "issue22"
 #: Values that are wall times or memory readings, not results.
 VOLATILE = ("seconds", "peak_memory_mb", "method_seconds", "posterior:seconds", "timings_s")
 
@@ -116,9 +118,7 @@ def collect_compare() -> dict[str, str]:
 
     record, other, _ = _records()
     out = {}
-    out["truth_holdout"] = _frame_text(
-        nlid.compare(record, TERMS, ["rfs", "sindy", "nsi-ip"], mass=0.2, holdout=other)
-    )
+    out["truth_holdout"] = _frame_text(nlid.compare(record, TERMS, ["rfs", "sindy", "nsi-ip"], mass=0.2, holdout=other))
     out["estimated_mass"] = _frame_text(nlid.compare(record, TERMS, ["rfs"]))
     fit = nlid.identify(other, TERMS, method="rfs", mass=0.2)
     out["reference_fit"] = _frame_text(nlid.compare(record, TERMS, ["rfs", "sindy"], mass=0.2, reference=fit))
@@ -151,43 +151,32 @@ def collect_study(folder: Path) -> dict[str, dict[str, Any]]:
     return rows
 
 
-def _close(new: Any, old: Any, where: str) -> None:
-    if isinstance(old, dict):
-        assert isinstance(new, dict), where
-        for key, value in old.items():
-            assert key in new, f"{where}: key {key!r} is gone"
-            _close(new[key], value, f"{where}.{key}")
-    elif isinstance(old, list):
-        assert isinstance(new, list) and len(new) == len(old), where
-        for i, (a, b) in enumerate(zip(new, old, strict=True)):
-            _close(a, b, f"{where}[{i}]")
-    elif isinstance(old, bool) or old is None or isinstance(old, str):
-        if old is None and isinstance(new, float) and math.isnan(new):
-            return
-        assert new == old, f"{where}: {new!r} != {old!r}"
-    elif isinstance(old, (int, float)):
-        assert isinstance(new, (int, float)) and not isinstance(new, bool), f"{where}: {new!r}"
-        assert new == pytest.approx(old, rel=REL, abs=1e-300), f"{where}: {new!r} != {old!r}"
-    else:  # pragma: no cover - the pins hold JSON values only
-        raise AssertionError(f"{where}: unexpected pinned value {old!r}")
+def pinned_leaves(pins: dict[str, Any], section: str) -> dict[str, Any]:
+    """The pinned leaves of one section (``identify``, ``compare`` or ``study``) of the pin file."""
+    if section != "compare":
+        return leaves(pins[section], section)
+    out: dict[str, Any] = {}
+    for name, text in pins["compare"].items():
+        # issue 25 changed one thing on purpose: an unknown method name is now refused before anything runs
+        # (tests/test_hostile_round2.py), where it used to give a "failed" row; the pinned row is left out
+        text = "".join(line for line in text.splitlines(keepends=True) if not line.startswith("no-such-method,"))
+        out.update(csv_leaves(text, f"compare.{name}"))
+    return out
 
 
-def _csv_close(new: str, old: str, where: str) -> None:
-    """Two CSV texts: the same cells, numbers to :data:`REL`."""
-    new_lines, old_lines = new.splitlines(), old.splitlines()
-    assert len(new_lines) == len(old_lines), f"{where}: {len(new_lines)} lines, pinned {len(old_lines)}"
-    import csv
+def new_leaves(section: str) -> dict[str, Any]:
+    """The same leaves computed now (the study runs in a temporary folder)."""
+    if section == "identify":
+        return leaves(collect_identify(), "identify")
+    if section == "compare":
+        out: dict[str, Any] = {}
+        for name, text in collect_compare().items():
+            out.update(csv_leaves(text, f"compare.{name}"))
+        return out
+    import tempfile
 
-    for i, (a, b) in enumerate(zip(csv.reader(new_lines), csv.reader(old_lines), strict=True)):
-        assert len(a) == len(b), f"{where} line {i}"
-        for x, y in zip(a, b, strict=True):
-            if x == y:
-                continue
-            try:
-                fx, fy = float(x), float(y)
-            except ValueError:
-                raise AssertionError(f"{where} line {i}: {x!r} != {y!r}") from None
-            assert fx == pytest.approx(fy, rel=REL), f"{where} line {i}: {x} != {y}"
+    with tempfile.TemporaryDirectory() as tmp:
+        return leaves(collect_study(Path(tmp)), "study")
 
 
 @pytest.fixture(scope="module")
@@ -195,29 +184,26 @@ def pins() -> dict[str, Any]:
     return json.loads(PINS_PATH.read_text())
 
 
-@pytest.mark.slow
-def test_identify_json_unchanged(pins):
-    new = collect_identify()
-    for name, old in pins["identify"].items():
-        _close(new[name], old, f"identify.{name}")
+@pytest.fixture(scope="module")
+def tolerances() -> Tolerances:
+    return Tolerances(SUITE)
 
 
 @pytest.mark.slow
-def test_compare_frames_unchanged(pins):
-    new = collect_compare()
-    for name, old in pins["compare"].items():
-        # issue 25 changed one thing on purpose: an unknown method name is now refused before anything runs
-        # (tests/test_hostile_round2.py), where it used to give a "failed" row; the pinned row is left out
-        old = "".join(line for line in old.splitlines(keepends=True) if not line.startswith("no-such-method,"))
-        _csv_close(new[name], old, f"compare.{name}")
+def test_identify_json_unchanged(pins, tolerances):
+    assert_pinned(new_leaves("identify"), pinned_leaves(pins, "identify"), tolerances, "identify")
 
 
 @pytest.mark.slow
-def test_study_rows_unchanged(pins, tmp_path):
-    new = collect_study(tmp_path)
-    assert sorted(new) == sorted(pins["study"])
-    for run_id, old in pins["study"].items():
-        _close(new[run_id], old, f"study.{run_id}")
+def test_compare_frames_unchanged(pins, tolerances):
+    assert_pinned(new_leaves("compare"), pinned_leaves(pins, "compare"), tolerances, "compare")
+
+
+@pytest.mark.slow
+def test_study_rows_unchanged(pins, tolerances, tmp_path):
+    rows = collect_study(tmp_path)
+    assert sorted(rows) == sorted(pins["study"])
+    assert_pinned(leaves(rows, "study"), pinned_leaves(pins, "study"), tolerances, "study")
 
 
 def _collect_all() -> dict[str, Any]:
