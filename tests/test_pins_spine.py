@@ -15,11 +15,19 @@ refactor. It holds, for the records built below:
   a posterior, an independent held-out record).
 
 Wall times (``seconds`` and friends) are left out: they are not results. The
-test compares text exactly and numbers to 1e-9 relative (the last bits of a
-float may differ between CPUs' BLAS kernels; on one machine the outputs are
-byte-identical, which ``python tests/test_pins_spine.py --check`` shows by
-diffing the JSON text). Keys added later (new columns, new JSON fields) are
-allowed; keys pinned here must keep their values.
+test compares text exactly and each number to the tolerance measured for its
+group (``tests/pinning.py``, ``tests/data/pin_tolerances.json``): the last bits
+of a float differ between CPUs' BLAS kernels, and what they become after an
+eigendecomposition or an iterative fit depends on its conditioning, so
+``python benchmarks/pin_spreads.py`` measured the spread of every leaf across
+the kernels of one CPU and under last-bit perturbations of the records (1e-9
+relative where it is reproducible to the last bits, up to 3e-4 for an
+ill-conditioned diagnostic). The posterior columns come from an MCMC chain
+whose convergence verdict flips with the last bits (:func:`posterior_outcome`).
+On the machine that wrote them the outputs are byte-identical, which ``python
+tests/test_pins_spine.py --check`` shows by diffing the JSON text. Keys added
+later (new columns, new JSON fields) are allowed; keys pinned here must keep
+their values.
 """
 
 from __future__ import annotations
@@ -72,6 +80,48 @@ channels = ["z", "a"]
 terms = "z^3, z^2, sign(v)*|px(z)|, v*|px(z)|"
 holdout = "none"
 """
+
+
+#: The study's posterior columns (their values come from the MCMC chain, or from the posterior's bias check).
+POSTERIOR_COLUMNS = ("ci_lo:", "ci_hi:", "ci_width:", "ci_covers:", "posterior:")
+#: How a row's warnings say that the posterior's chains did not converge.
+NOT_CONVERGED = "posterior: the chains did not converge in "
+
+
+def posterior_outcome(new: dict[str, Any], old: dict[str, Any]) -> tuple[dict[str, Any], dict[str, Any], list[str]]:
+    """The study leaves to compare once the posterior's convergence verdict is allowed to flip.
+
+    The study's posterior (16 walkers, at most 300 steps, a convergence check at steps 250 and 300) has
+    converged when ``300 >= 50 tau`` and ``tau`` moved by at most 10 % since step 250. Its ``tau`` is 4.5 to
+    8 steps on these records, so the verdict sits on the edge and flips with the last bits of the chain:
+    ``python benchmarks/pin_spreads.py`` found the pinned "converged" in only 7 to 10 of 14 configurations
+    of this machine per run, "did not converge" in the others (the pins were written where all three
+    converged). That is a decision between near-equal options, not a number to pin, so a run whose chains
+    did not converge must say exactly that in its warnings and leave every posterior column empty; its
+    other columns, and its warnings without that sentence, are compared as usual. A converged posterior is
+    compared with the pins to its Monte Carlo tolerance (``tests/data/pin_tolerances.json``) and must cover
+    the truth as the pins do (``ci_covers``).
+
+    Returns the leaves of ``new`` and ``old`` to compare, and what breaks the rule.
+    """
+    new, old, problems = dict(new), dict(old), []
+    runs = {path.split(".")[1] for path in old if path.startswith("study.")}
+    for run in sorted(runs):
+        prefix = f"study.{run}."
+        posterior = [p for p in old if p.startswith(prefix) and p[len(prefix) :].startswith(POSTERIOR_COLUMNS)]
+        for path in posterior:  # a column no row of the study filled is not in the frame at all
+            new.setdefault(path, None)
+        warnings = new.get(prefix + "warnings")
+        if not (isinstance(warnings, str) and NOT_CONVERGED in warnings):
+            continue
+        filled = [p for p in posterior if new[p] is not None]
+        if filled:
+            problems.append(f"study.{run}: the chains did not converge, yet {', '.join(filled)} are filled")
+        for path in posterior:
+            new.pop(path), old.pop(path)
+        kept = [w for w in warnings.split(" | ") if not w.startswith(NOT_CONVERGED)]
+        new[prefix + "warnings"] = " | ".join(kept)
+    return new, old, problems
 
 
 def _drop_volatile(value: Any) -> Any:
@@ -203,7 +253,9 @@ def test_compare_frames_unchanged(pins, tolerances):
 def test_study_rows_unchanged(pins, tolerances, tmp_path):
     rows = collect_study(tmp_path)
     assert sorted(rows) == sorted(pins["study"])
-    assert_pinned(leaves(rows, "study"), pinned_leaves(pins, "study"), tolerances, "study")
+    new, old, problems = posterior_outcome(leaves(rows, "study"), pinned_leaves(pins, "study"))
+    assert not problems, "\n".join(problems)
+    assert_pinned(new, old, tolerances, "study")
 
 
 def _collect_all() -> dict[str, Any]:
