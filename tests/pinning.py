@@ -108,6 +108,8 @@ class Tolerances:
         self.absolute = float(entry.get("abs", 0.0))
         self.groups: dict[str, Mapping[str, Any]] = dict(entry["groups"])
         self.masked: dict[str, str] = {g: v["mask"] for g, v in entry.get("masked", {}).items()}
+        #: Limits of a posterior compared to Monte Carlo precision (``shift_sd``, ``sd_rel``), if the suite has one.
+        self.posterior: dict[str, Any] = dict(entry.get("posterior", {}))
 
     def limits(self, path: str) -> tuple[float, float]:
         """``(rel, abs)`` of a leaf: its group's (the floor for a group that was never measured)."""

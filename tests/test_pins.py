@@ -73,18 +73,21 @@ def test_identify_json_unchanged(record, name, tolerances):
     assert_pinned(leaves(collect_identify(record, name), name), leaves(pinned_identify(name), name), tolerances, name)
 
 
-def test_posterior_unchanged(record):
+def test_posterior_unchanged(record, tolerances):
     """The same posterior, to Monte Carlo precision.
 
-    The chain itself is not bit-reproducible across numpy/emcee releases (their random streams and
-    reductions change): on numpy 2.4 / emcee 3.1.6 every pinned figure moved by about 0.03 posterior sd
-    while the deterministic fit stayed identical. So the target distribution is checked: means and
-    quantiles within 0.1 posterior sd of the pins, the sd within 5 %. A change of the likelihood, the
+    The chain itself is not bit-reproducible: a last-bit change anywhere (numpy/emcee releases, another
+    BLAS kernel, records perturbed by 1e-15) flips an accept/reject step and gives another chain. So the
+    target distribution is checked: means and 5/50/95 % quantiles within ``shift_sd`` posterior sd of the
+    pins, the sd within ``sd_rel``, limits measured by ``benchmarks/pin_spreads.py`` as 3 x the largest
+    deviation of the chains of 13 configurations (``tests/data/pin_tolerances.json``: 0.03-0.11 sd, so
+    0.4 sd; the 0.1 sd this test had failed under the Prescott kernel). A change of the likelihood, the
     bias correction or the priors moves them by far more (the bias correction alone moves ``v`` by 3 sd).
     """
+    limits = tolerances.posterior
     for term, (shift, sd_ratio) in posterior_shifts(record).items():
-        assert sd_ratio == pytest.approx(1.0, rel=0.05), (term, "sd", sd_ratio)
-        assert shift <= 0.1, (term, "largest shift of the mean and quantiles, in posterior sd", shift)
+        assert abs(sd_ratio - 1.0) <= limits["sd_rel"], (term, "sd / pinned sd", sd_ratio)
+        assert shift <= limits["shift_sd"], (term, "largest shift of the mean and quantiles, in posterior sd", shift)
 
 
 def posterior_shifts(record) -> dict[str, tuple[float, float]]:
