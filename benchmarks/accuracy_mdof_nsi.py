@@ -41,7 +41,7 @@ def part1(seeds: list[int], noise: float) -> None:
             rec = nlid.simulate("3dof-cubic", seed=seed, noise=noise)
             ref = rec.meta["reference"]
             t0 = time.perf_counter()
-            res = nlid.identify(rec, "z3^3", method)
+            res = nlid.identify(rec, "z3^3", method, mass="estimate")
             wall = time.perf_counter() - t0
             true_lin = ref["linear_modes"]
             fn = [_err(a, b) for a, b in zip(res.linear_modes.fn_hz, true_lin["fn_hz"], strict=True)]
@@ -92,7 +92,7 @@ def part2(seeds: list[int], noise: float, given_mass: bool) -> None:
             ref = rec.meta["reference"]
             t0 = time.perf_counter()
             try:
-                res = nlid.identify(rec, DOUBLE_WELL, method, mass=rec.meta["mass"] if given_mass else None)
+                res = nlid.identify(rec, DOUBLE_WELL, method, mass=rec.meta["mass"] if given_mass else "estimate")
             except nlid.NlidError as exc:
                 print(f"  {method} seed {seed}: {exc}")
                 continue

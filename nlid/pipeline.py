@@ -46,7 +46,7 @@ from .record import Record
 from .registry import Registry, registry_for
 from .sources import as_record
 from .terms import Model, Term
-from .validate import check_cutoff, check_mass
+from .validate import ESTIMATE, check_cutoff, check_mass
 
 if TYPE_CHECKING:  # pragma: no cover
     from .mdof.identified import IdentifiedStructure
@@ -167,7 +167,7 @@ def identify(
     terms: str | Iterable[str | Term] | Model,
     method: str | Any | None = None,
     *,
-    mass: float | None = None,
+    mass: float | str | Any | None = None,
     options: Mapping[str, Any] | None = None,
     without: str | Iterable[str] = (),
     px_roots: Sequence[float] | None = None,
@@ -202,7 +202,10 @@ def identify(
         (:func:`nlid.methods.choose_method`: ``"rfs"`` with nlid's own
         plugins).
     mass
-        Known mass in kg; ``None`` asks the method to estimate it.
+        Known mass in kg; ``None`` (or ``"estimate"``) asks the method to estimate it. For a structure,
+        the mass matrix (kg; array-like, a vector is lumped, or text such as ``"diag(1,1,2)"``:
+        :func:`nlid.validate.parse_mass`); ``None`` takes the record's (``meta['mass']``, a file's
+        ``.meta.json`` sidecar), as ``discover`` does, and ``"estimate"`` asks the method to estimate it.
     options
         Identifier options (validated against its declaration).
     without
@@ -254,9 +257,11 @@ def identify(
         (:class:`nlid.runtime.isolation.IsolationError`).
     """
     record = as_record(record)
+    if isinstance(mass, str) and mass.strip().lower() == ESTIMATE and isinstance(record, Record):
+        mass = None  # one DOF: None already asks the method to estimate it
     path = to_input_path(input_path, getattr(record, "fs", None))
     if method is None:
-        method = choose_method(mass, registry)[0]
+        method = choose_method(None if isinstance(mass, str) and mass == ESTIMATE else mass, registry)[0]
     if timeout is not None:
         return _identify_isolated(
             timeout,

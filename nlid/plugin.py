@@ -54,6 +54,7 @@ from .hookspecs import hookimpl
 from .interface import FIGURE_KINDS, Estimate, FigureArray, Identifier, Option, standard_figure_arrays, to_jsonable
 from .mdof.elements import Element, ElementSet
 from .mdof.estimate import StructureEstimate
+from .mdof.jointfit import JointSolution, joint_least_squares
 from .mdof.model import StructuralModel
 from .mdof.modes import StructureModes, linear_modes
 from .mdof.record import StructureRecord
@@ -78,6 +79,7 @@ from .regression import (
 from .terms import Model, Term, parse_term
 
 if TYPE_CHECKING:  # loaded on first use by __getattr__ below (the simulator compiles with numba)
+    from .mdof.sensitivity import structure_segments
     from .mdof.simulation import free_run as structure_free_run
     from .mdof.simulation import free_run_segments as structure_free_run_segments
     from .methods import choose_method
@@ -114,10 +116,13 @@ __all__ = [
     "StructureRegressionData",
     "structure_regression_data",
     "structure_linear_design",
+    "joint_least_squares",
+    "JointSolution",
     "check_elements_nonlinear",
     "dof_weights",
     "structure_free_run",
     "structure_free_run_segments",
+    "structure_segments",
     "regression_data",
     "RegressionData",
     "suggested_cutoff",
@@ -171,6 +176,10 @@ def __getattr__(name: str):  # the simulator (numba) and the scores are loaded o
         from .mdof import simulation
 
         return simulation.free_run if name == "structure_free_run" else simulation.free_run_segments
+    if name == "structure_segments":
+        from .mdof.sensitivity import structure_segments
+
+        return structure_segments
     if name == "identify":
         from .pipeline import identify
 

@@ -8,7 +8,12 @@ calls trust it. The rules:
 
 =================  ==========================================================
 ``mass``           :data:`MASS`: a finite positive number of kg (``None``
-                   where the method estimates it): :func:`check_mass`.
+                   where the method estimates it): :func:`check_mass`; a
+                   structure's is a symmetric positive-definite matrix
+                   (:func:`nlid.mdof.model.structure_mass`), and
+                   :func:`parse_mass` reads either written as text (a
+                   number, ``"estimate"``, a matrix literal, ``diag(...)``
+                   or a CSV/JSON/.npy file).
 ``cutoff``         a positive number of Hz below the Nyquist frequency of
                    the record (:func:`check_cutoff`; without ``fs``, just
                    positive).
@@ -51,19 +56,26 @@ passes another). :func:`did_you_mean` is the one suggestion helper of nlid.
 
 from __future__ import annotations
 
+import ast
+import io
+import json
 import math
 import numbers
+import os
+import re
 from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass
 from difflib import get_close_matches
 from typing import Any
 
-from .errors import InputError, brief
+from .errors import InputError, brief, one_line
 
 __all__ = [
     "Interval",
     "Options",
     "MASS",
+    "ESTIMATE",
+    "parse_mass",
     "CUTOFF",
     "SEED",
     "FS",
@@ -229,6 +241,85 @@ def check_mass(mass: Any, *, name: str = "mass=", error: type[InputError] = Inpu
         ``"mass= must be a positive number of kg, got -1"`` for anything but a finite positive number.
     """
     return None if mass is None else MASS.check(mass, name, error)
+
+
+#: The mass setting that asks the method to estimate the mass (a structure's ``mass=None`` takes the record's).
+ESTIMATE = "estimate"
+#: Files a mass matrix is read from (``np.load`` without pickles for ``.npy``).
+MASS_FILES = (".csv", ".txt", ".json", ".npy")
+_MATRIX_TEXT = re.compile(r"^[\s\[\]\(\),0-9eE+.\-]+$")
+
+
+def parse_mass(text: str | os.PathLike[str], *, name: str = "mass=") -> Any:
+    """A mass written as text: a number of kg, ``"estimate"``, or a matrix (as a list of rows, kg).
+
+    Accepted: ``"0.2"``; ``"estimate"``; a literal ``"[[1,0,0],[0,1,0],[0,0,2]]"`` (a flat list is the
+    diagonal); ``"diag(1,1,2)"``; a file ``.csv``/``.txt`` (rows of numbers), ``.json`` (a matrix, a list,
+    or an object with ``"mass"``, as a sidecar) or ``.npy`` (read without pickles). Nothing is evaluated:
+    a literal is read by :func:`json.loads` or, for a Python spelling such as ``1.``, by
+    :func:`ast.literal_eval` after checking it holds only numbers, brackets and commas. The shape and the
+    physics (symmetric, positive definite, one row per DOF) are checked by whoever knows the record
+    (:func:`check_mass`, :func:`nlid.mdof.model.structure_mass`).
+
+    Raises
+    ------
+    InputError
+        One line naming ``name``: an unreadable literal or file.
+    """
+    raw = os.fspath(text).strip()
+    if raw.lower() == ESTIMATE:
+        return ESTIMATE
+    try:
+        return float(raw)
+    except ValueError:
+        pass
+    diag = re.fullmatch(r"diag\s*\((.*)\)", raw, flags=re.IGNORECASE)
+    if diag:
+        try:
+            values = [float(x) for x in diag.group(1).split(",") if x.strip()]
+        except ValueError:
+            values = []
+        if not values:
+            return _bad_mass(raw, name)
+        return [[x if i == j else 0.0 for j in range(len(values))] for i, x in enumerate(values)]
+    if raw.startswith("[") and _MATRIX_TEXT.match(raw):
+        try:
+            return json.loads(raw)
+        except ValueError:
+            try:
+                return ast.literal_eval(raw)
+            except (ValueError, SyntaxError):
+                return _bad_mass(raw, name)
+    if raw.lower().endswith(MASS_FILES) or os.path.isfile(raw):
+        return _mass_file(raw, name)
+    return _bad_mass(raw, name)
+
+
+def _bad_mass(raw: str, name: str) -> Any:
+    raise InputError(
+        f"{name} must be a number of kg, 'estimate', a matrix such as '[[1,0],[0,2]]' or 'diag(1,2)', or a file "
+        f"({', '.join(MASS_FILES)}), got {brief(raw)}"
+    )
+
+
+def _mass_file(path: str, name: str) -> Any:
+    import numpy as np
+
+    if not os.path.isfile(path):
+        raise InputError(f"{name} names a file that does not exist: {brief(path)}")
+    suffix = os.path.splitext(path)[1].lower()
+    try:
+        if suffix == ".npy":
+            return np.load(path, allow_pickle=False).tolist()
+        if suffix == ".json":
+            with open(path, encoding="utf-8") as handle:
+                data = json.load(handle)
+            return data.get("mass") if isinstance(data, dict) else data
+        with open(path, encoding="utf-8") as handle:
+            body = handle.read()
+        return np.loadtxt(io.StringIO(body), delimiter="," if "," in body else None, ndmin=1).tolist()
+    except (OSError, ValueError, UnicodeDecodeError) as exc:
+        raise InputError(f"{name} file {brief(path)} is not a matrix of numbers: {one_line(str(exc), 120)}") from None
 
 
 def check_cutoff(cutoff: Any, fs: float | None = None, *, name: str = "cutoff=") -> float | None:

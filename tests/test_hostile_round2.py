@@ -344,7 +344,7 @@ G7_ONE_LINE = [  # tracebacks and runaway messages
     (["identify", "x.csv", "--terms", "z^3", "--set", LONG + "=1"], 2, "unknown option 'qqqq"),
     (["identify", "x.csv", "--terms", "z^3", "--set", "cutoff=" + LONG], 2, "expects a number or 'auto', got 'qqq"),
     (["identify", "x.csv", "--terms", "z^3", "--columns", "f=" + LONG], 2, "column 'qqqq"),
-    (["identify", "x.csv", "--terms", "z^3", "--mass", LONG], 2, "invalid float value"),
+    (["identify", "x.csv", "--terms", "z^3", "--mass", LONG], 2, "--mass must be a number of kg"),
     (
         ["identify", "wide.csv", "--terms", "z^3"],
         2,

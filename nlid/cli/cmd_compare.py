@@ -9,7 +9,15 @@ from typing import Any
 
 from ..errors import DataError, InputError, brief
 from ..progress import showing
-from .common import add_data_arguments, add_term_arguments, load_data, parse_px_roots, parse_settings, print_json
+from .common import (
+    add_data_arguments,
+    add_term_arguments,
+    load_data,
+    mass_argument,
+    parse_px_roots,
+    parse_settings,
+    print_json,
+)
 
 DESCRIPTION = """\
 Identify one model with several methods on one record and print one table:
@@ -168,7 +176,7 @@ def run(args: argparse.Namespace) -> int:
             record,
             args.terms,
             methods,
-            mass=args.mass,
+            mass=mass_argument(args.mass),
             reference=reference,
             holdout=_holdout(args),
             options=options or None,

@@ -8,7 +8,8 @@ from typing import Any
 
 from ..errors import InputError, NlidError
 from ..progress import stderr_is_terminal
-from .common import add_data_arguments, load_data, parse_settings, print_json
+from ..validate import ESTIMATE
+from .common import add_data_arguments, add_mass_argument, load_data, mass_argument, parse_settings, print_json
 from .isolated import DISCOVER_TIMEOUT, add_timeout_argument, parse_timeout, plugin_warnings
 
 EPILOG = """\
@@ -55,7 +56,11 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument(
         "--method", metavar="NAME", help="identifier (default: the preferred installed one; see nlid methods)"
     )
-    p.add_argument("--mass", type=float, metavar="KG", help="known mass in kg (default: estimated by the method)")
+    add_mass_argument(
+        p,
+        "known mass in kg (default: estimated by the method); for a structure its matrix (default: the record's "
+        ".meta.json sidecar)",
+    )
     p.add_argument(
         "--holdout",
         default="0.25",
@@ -237,8 +242,9 @@ def run(args: argparse.Namespace) -> int:
         if not args.quiet:
             print(f"nlid discover: {message}", file=sys.stderr, flush=True)
 
+    mass = mass_argument(args.mass)
     settings = dict(
-        mass=args.mass,
+        mass=None if mass == ESTIMATE else mass,
         holdout=_holdout(args),
         validation=None
         if not args.validation
@@ -318,7 +324,6 @@ def _run_structure(args: argparse.Namespace, record, rule) -> int:
         flag
         for flag, value in (
             ("--method", args.method),
-            ("--mass", args.mass),
             ("--validation", args.validation),
             ("--rule", args.rule),
             ("--set", args.set),
@@ -328,8 +333,8 @@ def _run_structure(args: argparse.Namespace, record, rule) -> int:
     ]
     if unsupported:
         raise InputError(
-            f"{unsupported[0]} does not apply to a structure record (the mass matrix comes from the record's "
-            "meta['mass']; every DOF is fitted by one joint least squares)"
+            f"{unsupported[0]} does not apply to a structure record (every DOF is fitted by one joint least "
+            "squares, rfs's)"
         )
     holdout = _holdout(args)
     if not isinstance(holdout, float):
@@ -342,6 +347,7 @@ def _run_structure(args: argparse.Namespace, record, rule) -> int:
     result = discover_structure(
         record,
         args.declared,
+        mass=mass_argument(args.mass),
         holdout=holdout,
         connections=args.connections,
         candidates=args.candidates,

@@ -5,7 +5,15 @@ from __future__ import annotations
 import argparse
 
 from ..progress import showing
-from .common import add_data_arguments, add_model_arguments, load_data, parse_px_roots, parse_settings, print_json
+from .common import (
+    add_data_arguments,
+    add_model_arguments,
+    load_data,
+    mass_argument,
+    parse_px_roots,
+    parse_settings,
+    print_json,
+)
 from .isolated import IDENTIFY_TIMEOUT, add_timeout_argument, parse_timeout, plugin_warnings
 
 
@@ -17,7 +25,8 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         "1 (static load), z and v (underlying-linear system) are always included unless removed with "
         "--without; list the others with --terms. See 'nlid terms' for the language and 'nlid methods' for "
         "the methods and their options.",
-        epilog="example: nlid identify x.csv --method rfs --terms 'z^3,z^2,v*|v|' --mass 0.2",
+        epilog="examples: nlid identify x.csv --method rfs --terms 'z^3,z^2,v*|v|' --mass 0.2; "
+        "nlid identify chain.csv --method rfs --terms '(z2-z3)^3' --mass 'diag(1,1,2)'",
     )
     add_data_arguments(p)
     add_model_arguments(p, "identifier to use (default: the installed one with the best preference; see nlid methods)")
@@ -55,7 +64,7 @@ def run(args: argparse.Namespace) -> int:
             record,
             args.terms,
             args.method,
-            mass=args.mass,
+            mass=mass_argument(args.mass),
             options=parse_settings(args.set),
             without=args.without,
             px_roots=parse_px_roots(args.px_roots),

@@ -9,7 +9,15 @@ import sys
 from ..errors import DataError, InputError, brief
 from ..progress import showing
 from ..validate import NOISE_SD
-from .common import add_data_arguments, add_model_arguments, load_data, parse_px_roots, parse_settings, print_json
+from .common import (
+    add_data_arguments,
+    add_model_arguments,
+    load_data,
+    mass_argument,
+    parse_px_roots,
+    parse_settings,
+    print_json,
+)
 
 DESCRIPTION = """\
 Identify a model (as 'nlid identify' does), then sample the posterior of the
@@ -190,7 +198,9 @@ def run(args: argparse.Namespace) -> int:
         model = as_model(args.terms, without=args.without, px_roots=parse_px_roots(args.px_roots))
     show = not (args.quiet or args.json)  # the sampler's progress, on a terminal only
     with showing(show):
-        result = identify(record, model, args.method, mass=args.mass, options=parse_settings(args.set), **extra)
+        result = identify(
+            record, model, args.method, mass=mass_argument(args.mass), options=parse_settings(args.set), **extra
+        )
     try:
         with showing(show):
             posterior = sampler.run(record, result)

@@ -25,6 +25,8 @@ __all__ = [
     "to_cli",
     "FLAGS",
     "identify_command",
+    "add_mass_argument",
+    "mass_argument",
 ]
 
 #: Python parameter names in library messages -> the command-line flag that sets them.
@@ -110,7 +112,11 @@ def parse_settings(items: Sequence[str] | None) -> dict[str, str]:
 def add_model_arguments(parser: argparse.ArgumentParser, method_help: str) -> None:
     """The model and identifier options: --method, --terms, --without, --mass, --px-roots, --set."""
     parser.add_argument("--method", metavar="NAME", help=method_help)  # default: nlid.methods.choose_method
-    add_term_arguments(parser, "known mass in kg (default: estimated by the method)")
+    add_term_arguments(
+        parser,
+        "known mass in kg; for a structure its matrix (default: estimated by the method; a structure's comes from "
+        "the record's .meta.json sidecar when it has one)",
+    )
     parser.add_argument("--set", action="append", metavar="KEY=VALUE", help="identifier option (repeatable)")
 
 
@@ -120,12 +126,29 @@ def add_term_arguments(parser: argparse.ArgumentParser, mass_help: str) -> None:
         "--terms", default="", metavar="TERMS", help="comma-separated terms besides 1, z, v, e.g. 'z^3,z^2,v*|v|'"
     )
     parser.add_argument("--without", default="", metavar="TERMS", help="default terms to leave out, e.g. '1' or 'z'")
-    parser.add_argument("--mass", type=float, metavar="KG", help=mass_help)
+    add_mass_argument(parser, mass_help)
     parser.add_argument(
         "--px-roots",
         metavar="ZMINUS,ZPLUS",
         help="roots of px(z) in m (default: taken from the identified stiffness, iterated)",
     )
+
+
+def add_mass_argument(parser: argparse.ArgumentParser, mass_help: str) -> None:
+    """``--mass``: a number of kg, ``estimate``, or a structure's mass matrix (literal, ``diag(...)``, a file)."""
+    parser.add_argument(
+        "--mass",
+        metavar="KG|MATRIX|FILE",
+        help=f"{mass_help}; a matrix is written '[[1,0,0],[0,1,0],[0,0,2]]' or 'diag(1,1,2)' or read from a "
+        ".csv/.json/.npy file; 'estimate' asks the method to estimate it",
+    )
+
+
+def mass_argument(text: str | None) -> Any:
+    """``--mass`` as the library's ``mass=`` (:func:`nlid.validate.parse_mass`), ``None`` when not given."""
+    from ..validate import parse_mass
+
+    return None if text is None else parse_mass(text)
 
 
 def parse_px_roots(text: str | None) -> tuple[float, float] | None:
@@ -241,7 +264,8 @@ def identify_command(provenance: Any) -> str | None:
     if call.get("without"):
         words += ["--without", ",".join(call["without"])]
     if call.get("mass") is not None:
-        words += ["--mass", str(float(call["mass"]))]
+        mass = call["mass"]
+        words += ["--mass", json.dumps(mass, separators=(",", ":")) if isinstance(mass, list) else str(float(mass))]
     if call.get("px_roots") is not None:
         words += ["--px-roots", ",".join(str(float(x)) for x in call["px_roots"])]
     for key, value in dict(call.get("options") or {}).items():

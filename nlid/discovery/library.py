@@ -79,6 +79,7 @@ __all__ = [
     "BOUC_WEN_A",
     "BOUC_WEN_B",
     "dictionary_terms",
+    "dissipative",
     "library_names",
     "plugin_candidates",
     "resolve_candidates",
@@ -96,6 +97,27 @@ BOUC_WEN_B: tuple[float, ...] = (-1.5, -0.7, -0.3, 0.0, 0.3, 0.7)
 _NAME = re.compile(r"^[A-Za-z][A-Za-z0-9_.+-]*$")
 _PLACEHOLDER = "{c}"
 _PLACEHOLDERS = re.compile(r"\{([a-z])\}")
+
+
+def dissipative(term: Term) -> bool:
+    """True if ``term`` is a friction or damping law, ``g(z, v) v >= 0`` (it dissipates if its coefficient > 0).
+
+    Decided from the normal form: the term depends on the velocity, has no memory and no gap or stop
+    factor, and its sign is the sign of ``v`` (an odd number of ``sign(v)`` and ``tanh(v/c)`` factors,
+    ``v``, ``v*|v|``, ``v^3``...) times a factor that is never negative (``|z|^p``, ``z^2``, ``|px(z)|``,
+    ``exp(...)``). ``sign(v)``, ``v*|v|``, ``v^3``, ``sign(v)*exp(-(v/c)^2)``, ``z^2*v`` and
+    ``sign(v)*|px(z)|`` are; ``v^2``, ``|v|`` and ``z*v`` are not. On a structure's connection the
+    element's power is ``theta g(x, x') x'``, so the same sign decides whether it feeds energy in.
+    """
+    if term.memory is not None or not term.depends_on_v:
+        return False
+    parity = {"z": term.z[1], "v": term.v[1], "px": term.px[1]}
+    for kind, var, _, mult in term.special:
+        if kind in ("gap", "stop"):
+            return False
+        if kind == "tanh":
+            parity[var] += int(mult)
+    return parity["v"] % 2 == 1 and parity["z"] % 2 == 0 and parity["px"] % 2 == 0
 
 
 @dataclass(frozen=True)
@@ -201,7 +223,9 @@ class Candidate:
         negative coefficient is not the named effect (e.g. a negative
         ``sign(v)*exp(-(v/c)^2)`` next to Coulomb friction smooths the friction
         step, which is what an error in the estimated velocity near ``v = 0``
-        looks like) and is rejected.
+        looks like) and is rejected. Every friction or damping law among the
+        terms (:func:`dissipative`) is added whether listed or not: with a
+        negative coefficient it would feed energy in.
     requires
         Remaining-structure probes (:data:`nlid.discovery.probes.PROBES`) of
         which one must find structure in the current residual for the
@@ -253,6 +277,9 @@ class Candidate:
         unknown = [t for t in self.positive if t not in self.terms]
         if unknown:
             raise InputError(f"candidate {self.name!r}: positive term {unknown[0]!r} is not one of its terms")
+        # every friction or damping law carries its physical sign, declared or not (a user's, a plugin's)
+        laws = [t for t in self.terms if dissipative(parse_term(_PLACEHOLDERS.sub("1", t)))]
+        object.__setattr__(self, "positive", tuple(dict.fromkeys((*self.positive, *laws))))
         from .probes import PROBES
 
         object.__setattr__(self, "requires", tuple(self.requires))

@@ -40,18 +40,30 @@ from __future__ import annotations
 import math
 import time
 from collections.abc import Callable, Iterable, Mapping, Sequence
-from dataclasses import dataclass, replace
+from dataclasses import replace
 from typing import Any
 
 import numpy as np
 from numpy.polynomial import legendre
 
 from ..errors import InputError, NlidError
+from ..mdof.balance import residual_on
+from ..mdof.jointfit import Extra
 from ..terms import Term
 from ..validate import HOLDOUT_FRACTION, check_cutoff
 from .evidence import PARSIMONY, AcceptanceRule, integrated_time
-from .library import Candidate, Variant, resolve_candidates
+from .library import Candidate, Variant, dissipative, resolve_candidates
 from .probes import MIN_STRUCTURE, PLAY_WIDTHS
+from .structure_fit import (
+    Part,
+    Search,
+    connection_columns,
+    connectivity,
+    element_columns,
+    fraction,
+    per_dof,
+    relative,
+)
 from .structure_result import (
     ConnectionEvidence,
     ConnectionProbe,
@@ -59,6 +71,7 @@ from .structure_result import (
     StructureRemaining,
     StructureStage,
     StructureStep,
+    connection_name,
     parse_connections,
     write_structure_report,
 )
@@ -95,90 +108,8 @@ def _quiet(_message: str) -> None:
     return None
 
 
-# --------------------------------------------------------------------------- connections
-# --------------------------------------------------------------------------- the search
-@dataclass
-class _Part:
-    """One part of the record: its balance, its normal equations for the current elements."""
-
-    data: Any
-    eq: Any
-
-
-def _relative(data: Any, c: Connection) -> tuple[np.ndarray, np.ndarray]:
-    i, j = c
-    x = data.z[:, i - 1] - (data.z[:, j - 1] if j else 0.0)
-    xd = data.v[:, i - 1] - (data.v[:, j - 1] if j else 0.0)
-    return np.asarray(x, dtype=float), np.asarray(xd, dtype=float)
-
-
-def _b(c: Connection, n: int) -> np.ndarray:
-    out = np.zeros(n)
-    out[c[0] - 1] = 1.0
-    if c[1]:
-        out[c[1] - 1] = -1.0
-    return out
-
-
 def _linear_or_constant(term: Term) -> bool:
     return term.is_constant or term in (Term(z=(1, 1)), Term(v=(1, 1)))
-
-
-class _Search:
-    """The state shared by the rounds of one search."""
-
-    def __init__(self, parts: dict[str, _Part], M: np.ndarray, rule: AcceptanceRule, n: int):
-        self.parts, self.M, self.rule, self.n = parts, M, rule, n
-        self.weights = np.ones(n)
-
-    def equations(self, elements) -> None:
-        from ..mdof.jointfit import NormalEquations
-
-        for part in self.parts.values():
-            part.eq = NormalEquations(part.data, self.M, elements)
-
-    def cross_scores(self, extras_by_part: Mapping[str, Sequence[Any]] | None) -> dict[str, Any]:
-        """Fit on each of estimation/held-out and score on the other: the per-DOF RSS of both directions."""
-        est, ho = self.parts["estimation"], self.parts["holdout"]
-        w = self.weights
-        extras = (extras_by_part or {}).get("extras", ())
-        cols = {k: (extras_by_part or {}).get(k) for k in ("estimation", "holdout")}
-        fit_e = est.eq.solve(w, extras, cols["estimation"])
-        fit_h = ho.eq.solve(w, extras, cols["holdout"])
-        return {
-            "on_holdout": ho.eq.rss(fit_e.p, extras, cols["holdout"]),
-            "on_estimation": est.eq.rss(fit_h.p, extras, cols["estimation"]),
-            "in_estimation": fit_e.rss,
-            "fit_estimation": fit_e,
-        }
-
-    def selection_fit(self, extras: Sequence[Any] = (), columns: Mapping[str, Any] | None = None):
-        """The fit on estimation + held-out together (sum of their normal equations)."""
-        est, ho = self.parts["estimation"], self.parts["holdout"]
-        cols = columns or {}
-        A1, h1, *_ = est.eq.assemble(self.weights, extras, cols.get("estimation"))
-        A2, h2, *_ = ho.eq.assemble(self.weights, extras, cols.get("holdout"))
-        A, h = A1 + A2, h1 + h2
-        d = np.sqrt(np.abs(np.diag(A)))
-        d[d == 0] = 1.0
-        q, *_ = np.linalg.lstsq(A / np.outer(d, d), h / d, rcond=1e-13)
-        p = q / d
-        return est.eq.unpack(p, extras, np.zeros(self.n))
-
-
-def _fraction(after: np.ndarray, before: np.ndarray, w: np.ndarray, dofs: Sequence[int]) -> float:
-    idx = list(dofs)
-    b = float(np.sum(w[idx] * before[idx]))
-    return float("nan") if b <= 0 else 1.0 - float(np.sum(w[idx] * after[idx])) / b
-
-
-def _per_dof(after_h, before_h, after_e, before_e) -> tuple[float, ...]:
-    out = []
-    for k in range(len(before_h)):
-        a = 1.0 - after_h[k] / before_h[k] if before_h[k] > 0 else float("nan")
-        b = 1.0 - after_e[k] / before_e[k] if before_e[k] > 0 else float("nan")
-        out.append(0.5 * (a + b))
-    return tuple(out)
 
 
 def _legendre(x: np.ndarray, degrees: Iterable[int]) -> np.ndarray:
@@ -239,7 +170,9 @@ def discover_structure(
         The declared elements, ``"tanh(v3/0.001)"`` (``""``: the underlying linear system alone); the
         linear ``K``, ``C`` and a constant force per DOF are always fitted.
     mass
-        The mass matrix (kg; a vector is lumped); default ``record.mass`` (``meta["mass"]``).
+        The mass matrix (kg; a vector is lumped, or text: :func:`nlid.validate.parse_mass`); default the
+        record's (``meta["mass"]``, a file's sidecar), read as ``identify`` reads it
+        (:func:`~nlid.mdof.model.structure_mass`).
     holdout
         Fraction of the selection record held out (its last part), ``0 < holdout < 1``.
     test
@@ -254,7 +187,9 @@ def discover_structure(
     max_steps
         Most elements to add.
     cutoff
-        Equation band (Hz) for estimated channels (:func:`nlid.mdof.balance.balance`).
+        Equation band (Hz) for estimated channels, one for every part (default
+        :meth:`~nlid.mdof.StructureRecord.suggest_cutoff` of the selection record;
+        :func:`nlid.mdof.regression.structure_regression_data`).
     structure
         Fraction a remaining-structure probe must predict to count as structure.
     simulate
@@ -271,21 +206,23 @@ def discover_structure(
     InputError
         Not a structure record, no mass matrix, bad elements, fractions, connections or candidates.
     """
-    from ..mdof.balance import balance
     from ..mdof.elements import Element, ElementSet
-    from ..mdof.model import as_matrix
+    from ..mdof.model import structure_mass
     from ..mdof.record import StructureRecord
+    from ..mdof.regression import structure_regression_data
 
     say = progress or _quiet
     started = time.perf_counter()
     if not isinstance(record, StructureRecord):
         raise InputError(f"discover_structure needs a StructureRecord, got {type(record).__name__}")
     n = record.n_dofs
-    if mass is None:
-        mass = record.mass
-    if mass is None:
-        raise InputError("the structure's mass matrix is needed: give mass= (kg; a vector for a lumped mass)")
-    M = np.asarray(as_matrix(mass, n, "mass=", positive=True))
+    M = structure_mass(mass, record)
+    if M is None:
+        raise InputError(
+            "the structure's mass matrix is needed: give mass= (kg; a vector for a lumped mass) or the record's "
+            "meta['mass'] (a file's .meta.json sidecar)"
+        )
+    M = np.asarray(M)
     if isinstance(declared, ElementSet):
         elements0 = declared
     else:
@@ -311,12 +248,14 @@ def discover_structure(
     estimation, held = selection.split(float(holdout))
     # effects in the input path are for one degree of freedom (nlid.inputpath); a structure's candidates are terms
     pool = [c for c in resolve_candidates(candidates, extra_candidates, plugins=plugins) if isinstance(c, Candidate)]
-    parts = {
-        "estimation": _Part(balance(estimation, cutoff=cutoff), None),
-        "holdout": _Part(balance(held, cutoff=cutoff), None),
-    }
-    test_data = balance(test_record, cutoff=cutoff)
-    search = _Search(parts, M, rule, n)
+    fc = selection.suggest_cutoff() if cutoff is None else float(cutoff)  # one band for every part
+
+    def data(part: StructureRecord):
+        return structure_regression_data(part, elements0, cutoff=fc)
+
+    parts = {"estimation": Part(data(estimation)), "holdout": Part(data(held))}
+    test_data = data(test_record)
+    search = Search(parts, M, rule, n)
     say(f"fitting the declared model ({elements0 or 'linear system only'}) on {n} DOFs")
     search.equations(elements0)
     declared_fit = search.selection_fit()
@@ -325,15 +264,11 @@ def discover_structure(
     sigma2 = np.maximum(rss / samples, 1e-300)
     search.weights = 1.0 / sigma2
 
-    def stage(elements, label: str):
-        fit = search.selection_fit()
-        from ..mdof.model import StructuralModel
-
-        model = StructuralModel(M, fit.C, fit.K, elements, fit.theta, fit.static if elements.static else None)
-        return _stage(model, label, test_record, test_data, parts, simulate)
+    def stage(label: str):
+        return _stage(search.model(), label, test_record, test_data, parts, simulate)
 
     current = elements0
-    stages = [stage(current, "declared model")]
+    stages = [stage("declared model")]
     say("remaining-structure probes on the declared model")
     remaining_declared = _probes(search, conns, structure)
     steps: list[StructureStep] = []
@@ -355,7 +290,7 @@ def discover_structure(
         before = stages[-1]
         current = new
         search.equations(current)
-        after = stage(current, f"after step {number}: {accepted.effect} on {accepted.where}")
+        after = stage(f"after step {number}: {accepted.effect} on {accepted.where}")
         stages.append(after)
         steps.append(StructureStep(number, accepted, before, after, ranking))
     else:
@@ -375,7 +310,7 @@ def discover_structure(
         "holdout": float(holdout),
         "test": "given record" if isinstance(test, StructureRecord) else float(test),
         "fs_hz": record.fs,
-        "band_hz": parts["estimation"].data.cutoff,
+        "band_hz": parts["estimation"].data.filtered_at,
         "weights_sigma": [float(x) for x in np.sqrt(sigma2)],
         "mass": M.tolist(),
         "source": str(record.meta.get("source", "")),
@@ -402,13 +337,10 @@ def _stage(model, label: str, test_record, test_data, parts, simulate: bool) -> 
     """The model's errors: epsilon per DOF on the test part and the selection record, the free run on the test part."""
 
     def eps(data) -> tuple[float, ...]:
-        measured = data.f - data.a @ model.M.T
-        diff = measured - model.restoring(data.z, data.v)
-        scale = _rms(measured)
-        return tuple(float(100.0 * r / s) if s > 0 else float("nan") for r, s in zip(_rms(diff), scale, strict=True))
+        return residual_on(model, data.with_elements(model.elements)).eps_percent
 
     sel = [eps(parts[k].data) for k in ("estimation", "holdout")]
-    n_e, n_h = (parts[k].data.z.shape[0] for k in ("estimation", "holdout"))
+    n_e, n_h = (parts[k].data.n for k in ("estimation", "holdout"))
     in_sample = tuple(math.sqrt((n_e * a**2 + n_h * b**2) / (n_e + n_h)) for a, b in zip(*sel, strict=True))
     n = model.n_dofs
     nan = tuple([float("nan")] * n)
@@ -443,19 +375,18 @@ def _free_run(model, record) -> tuple[tuple[float, ...], tuple[float, ...], str]
     )
 
 
-def _round(search: _Search, current, conns, pool: Sequence[Candidate], Element) -> list[ConnectionEvidence]:
-    """Every candidate on every connection, its best shape by the cross-fitted score."""
+def _round(search: Search, current, conns, pool: Sequence[Candidate], Element) -> list[ConnectionEvidence]:
+    """Every candidate on every connection, its best shape by the cross-fitted score (admissible signs first)."""
     n, w = search.n, search.weights
     base = search.cross_scores(None)
-    est, ho = search.parts["estimation"], search.parts["holdout"]
-    tau = float(np.mean([integrated_time(_residual(est, base["fit_estimation"], k)) for k in range(n)]))
-    n_eff = max(2.0, n * est.data.z.shape[0] / tau)
+    est = search.parts["estimation"]
+    tau = float(np.mean([integrated_time(search.residual(est, base["fit_estimation"], k)) for k in range(n)]))
+    n_eff = max(2.0, n * est.data.n / tau)
     base_in = float(np.sum(w * base["in_estimation"]))
     out: list[ConnectionEvidence] = []
     for c in conns:
         touched = [c[0] - 1] + ([c[1] - 1] if c[1] else [])
-        x_e, xd_e = _relative(est.data, c)
-        x_h, xd_h = _relative(ho.data, c)
+        x_e, xd_e = relative(est.data, c)
         rms = {"z": float(np.std(x_e)) or 1e-12, "v": float(_rms(xd_e)) or 1e-12}
         on_conn = frozenset(e.term for e in current if e.connection == c)  # what variants() leaves out
         for cand in pool:
@@ -467,62 +398,53 @@ def _round(search: _Search, current, conns, pool: Sequence[Candidate], Element) 
                 why = "its terms are in the underlying linear system or the static force, or already in the model"
                 out.append(ConnectionEvidence(cand.name, c, reason=why))
                 continue
-            best: tuple[float, Any] | None = None
-            for variant in variants:
-                scored = _score_variant(search, variant, c, touched, (x_e, xd_e), (x_h, xd_h), base, Element)
-                if scored is not None and (best is None or scored[0] > best[0]):
-                    best = scored
-            if best is None:
+            scored = [_score_variant(search, variant, c, touched, base, Element) for variant in variants]
+            done = [x for x in scored if x is not None]
+            if not done:
                 out.append(ConnectionEvidence(cand.name, c, status="rejected", reason="the fit failed"))
                 continue
+            # as for one DOF: the shape is chosen among the fits whose signs are the effect's, when there are any
+            best = max([x for x in done if not x[1]["bad"]] or done, key=lambda x: x[0])
             out.append(_evidence(search, cand, best[1], c, base, base_in, n_eff, w))
     return out
 
 
-def _residual(part: _Part, fit, k: int) -> np.ndarray:
-    d = part.data
-    pred = d.z @ fit.K[k] + d.v @ fit.C[k] + fit.static[k]
-    if len(part.eq.elements):
-        pred = pred + part.eq.basis[:, -len(part.eq.elements) :] @ (part.eq.elements.B[k] * fit.theta)
-    return part.eq.y[:, k] - pred
-
-
-def _score_variant(search: _Search, variant: Variant, c, touched, est_xy, ho_xy, base, Element):
-    from ..mdof.jointfit import Extra
-
+def _score_variant(search: Search, variant: Variant, c, touched, base, Element):
+    est, ho = search.parts["estimation"], search.parts["holdout"]
     try:
         elements = [Element(t, *c) for t in variant.terms]
-        col_e = np.column_stack([e.evaluate(est_xy[0], est_xy[1]) for e in elements])
-        col_h = np.column_stack([e.evaluate(ho_xy[0], ho_xy[1]) for e in elements])
+        col_e, col_h = element_columns(est.data, elements), element_columns(ho.data, elements)
     except NlidError:
         return None
     if not (np.all(np.isfinite(col_e)) and np.all(np.isfinite(col_h))) or np.ptp(col_e) == 0:
         return None
-    extra = Extra(col_e, _b(c, search.n))
+    extra = Extra(col_e, connectivity(c, search.n))
     scored = search.cross_scores({"extras": [extra], "estimation": [col_e], "holdout": [col_h]})
     w = search.weights
-    ho = _fraction(scored["on_holdout"], base["on_holdout"], w, touched)
-    es = _fraction(scored["on_estimation"], base["on_estimation"], w, touched)
-    value = 0.5 * (ho + es)
+    ho_ = fraction(scored["on_holdout"], base["on_holdout"], w, touched)
+    es_ = fraction(scored["on_estimation"], base["on_estimation"], w, touched)
+    value = 0.5 * (ho_ + es_)
     if not math.isfinite(value):
         return None
-    return value, {
-        "variant": variant,
-        "elements": elements,
-        "extra": extra,
-        "cols": (col_e, col_h),
-        "scored": scored,
-        "ho": ho,
-        "es": es,
-    }
+    signs = {t.name: float(x) for t, x in zip(variant.terms, scored["fit_estimation"].extra, strict=True)}
+    found = {"variant": variant, "elements": elements, "extra": extra, "cols": (col_e, col_h)}
+    return value, {**found, "scored": scored, "ho": ho_, "es": es_, "bad": variant.inadmissible(signs)}
 
 
-def _evidence(search: _Search, cand: Candidate, found: dict, c, base, base_in, n_eff, w) -> ConnectionEvidence:
+def _refusal(variant: Variant, coefficients: Mapping[str, float], where: str) -> str:
+    """Why fitted coefficients are not the candidate's effect (:meth:`Variant.inadmissible`), said for a structure."""
+    bad = variant.inadmissible(coefficients)
+    if bad and any(dissipative(t) and not coefficients.get(t.name, 0.0) > 0 for t in variant.positive):
+        bad += f"; on its own, an element with this sign on connection {where} would feed energy into the structure"
+    return bad
+
+
+def _evidence(search: Search, cand: Candidate, found: dict, c, base, base_in, n_eff, w) -> ConnectionEvidence:
     variant, scored = found["variant"], found["scored"]
     all_dofs = range(search.n)
-    ho_all = _fraction(scored["on_holdout"], base["on_holdout"], w, all_dofs)
-    es_all = _fraction(scored["on_estimation"], base["on_estimation"], w, all_dofs)
-    per = _per_dof(scored["on_holdout"], base["on_holdout"], scored["on_estimation"], base["on_estimation"])
+    ho_all = fraction(scored["on_holdout"], base["on_holdout"], w, all_dofs)
+    es_all = fraction(scored["on_estimation"], base["on_estimation"], w, all_dofs)
+    per = per_dof(scored["on_holdout"], base["on_holdout"], scored["on_estimation"], base["on_estimation"])
     fit = search.selection_fit([found["extra"]], {"estimation": [found["cols"][0]], "holdout": [found["cols"][1]]})
     names = tuple(e.name for e in found["elements"])
     coefficients = {name: float(x) for name, x in zip(names, fit.extra, strict=True)}
@@ -530,9 +452,10 @@ def _evidence(search: _Search, cand: Candidate, found: dict, c, base, base_in, n
     k = variant.extra_parameters
     dbic = n_eff * math.log(max(after_in, 1e-300) / max(base_in, 1e-300)) + k * math.log(n_eff)
     explained = 0.5 * (found["ho"] + found["es"])
-    bad = variant.inadmissible({t.name: float(x) for t, x in zip(variant.terms, fit.extra, strict=True)})
+    where = connection_name(c)
+    bad = _refusal(variant, {t.name: float(x) for t, x in zip(variant.terms, fit.extra, strict=True)}, where)
     if bad:
-        status, reason = "rejected", bad
+        status, reason = "rejected", f"{bad} (it explains {100 * explained:.3g} %)"
     elif explained < search.rule.min_explained:
         status, reason = "below threshold", f"explains {100 * explained:.3g} % < {100 * search.rule.min_explained:g} %"
     elif dbic > search.rule.max_delta_bic:
@@ -572,25 +495,22 @@ def _rank(tested: list[ConnectionEvidence], rule: AcceptanceRule) -> tuple[tuple
     return ranked, accepted
 
 
-def _probes(search: _Search, conns, threshold: float) -> StructureRemaining:
+def _probes(search: Search, conns, threshold: float) -> StructureRemaining:
     """Flexible functions of each connection's coordinate, cross-fitted on the current model's residual."""
-    from ..mdof.jointfit import Extra
-
     n, w = search.n, search.weights
     base = search.cross_scores(None)
     est, ho = search.parts["estimation"], search.parts["holdout"]
     out = []
     for c in conns:
         touched = [c[0] - 1] + ([c[1] - 1] if c[1] else [])
-        x_e, xd_e = _relative(est.data, c)
-        x_h, xd_h = _relative(ho.data, c)
+        x_e, xd_e = relative(est.data, c)
         scale = (0.5 * (x_e.max() + x_e.min()), max(0.5 * np.ptp(x_e), 1e-300), max(float(np.abs(xd_e).max()), 1e-300))
         for probe in STRUCTURE_PROBES:
-            col_e = _probe_columns(probe, x_e, xd_e, scale)
-            col_h = _probe_columns(probe, x_h, xd_h, scale)
-            extra = Extra(col_e, _b(c, n))
+            columns = lambda x, xd, probe=probe, scale=scale: _probe_columns(probe, x, xd, scale)  # noqa: E731
+            col_e, col_h = connection_columns(est.data, c, columns), connection_columns(ho.data, c, columns)
+            extra = Extra(col_e, connectivity(c, n))
             scored = search.cross_scores({"extras": [extra], "estimation": [col_e], "holdout": [col_h]})
-            a = _fraction(scored["on_holdout"], base["on_holdout"], w, touched)
-            b = _fraction(scored["on_estimation"], base["on_estimation"], w, touched)
+            a = fraction(scored["on_holdout"], base["on_holdout"], w, touched)
+            b = fraction(scored["on_estimation"], base["on_estimation"], w, touched)
             out.append(ConnectionProbe(c, probe, float(0.5 * (a + b)), float(a), float(b), col_e.shape[1]))
     return StructureRemaining(tuple(out), float(threshold))

@@ -371,6 +371,19 @@ class StructureDiscoveryResult:
         """The elements the search added, in order."""
         return tuple(name for s in self.steps for name in s.evidence.elements)
 
+    @property
+    def refused(self) -> tuple[ConnectionEvidence, ...]:
+        """Fits refused for their sign (``rejected``: e.g. a negative damping that would feed energy in) that
+        explained at least the rule's ``min_explained``, round by round: what would otherwise have competed."""
+        rounds = [s.ranking for s in self.steps]
+        if not self.steps or self.ranking is not self.steps[-1].ranking:
+            rounds.append(self.ranking)
+        floor = float(self.rule.min_explained)
+        return tuple(
+            e for ranking in rounds for e in ranking
+            if e.status == "rejected" and e.explained is not None and e.explained >= floor
+        )  # fmt: skip
+
     def to_dict(self) -> dict[str, Any]:
         """The object ``nlid discover --json`` prints for a structure record."""
         return {
@@ -379,6 +392,7 @@ class StructureDiscoveryResult:
             "n_dofs": self.n_dofs,
             "located": None if self.located is None else list(self.located),
             "found": list(self.found),
+            "refused": [e.to_dict() for e in self.refused],
             "connections": [list(c) for c in self.connections],
             "candidates": list(self.candidates),
             "stages": [s.to_dict() for s in self.stages],
@@ -411,6 +425,9 @@ class StructureDiscoveryResult:
             )
         if not self.steps:
             lines.append("no element added")
+        for e in self.refused:
+            coef = ", ".join(f"{k} = {v:.4g}" for k, v in e.coefficients.items())
+            lines.append(f"refused: {e.effect} on connection {e.where} ({coef}): {e.reason}")
         lines.append(self.stop_reason)
         header = "DOF".ljust(6) + "".join(f"{s.label[:24]:>28}" for s in self.stages)
         lines += ["", "epsilon on the test part (%)", header]
@@ -441,6 +458,11 @@ class StructureDiscoveryResult:
                 + ", ".join(f"`{k}` = {v:.6g}" for k, v in e.coefficients.items())
                 + f" (explained {100 * (e.explained or 0):.3g} %, dBIC {e.delta_bic:.4g})"
             )
+        if self.refused:
+            out += ["", "Refused for their sign (a friction or damping law must dissipate energy):", ""]
+            for e in self.refused:
+                coef = ", ".join(f"`{k}` = {v:.6g}" for k, v in e.coefficients.items())
+                out.append(f"- **{e.effect}** on connection **{e.where}**: {coef}: {e.reason}")
         out += ["", "## Errors on the test part", ""]
         out.append(
             "| DOF | "
@@ -455,13 +477,15 @@ class StructureDiscoveryResult:
             run = " | ".join(f"{s.freerun_percent[k]:.4g}" for s in self.stages)
             out.append(f"| z{k + 1} | {eps} | {run} |")
         out += ["", f"Free run: {self.final.freerun_note}", "", "## Ranking (last round, best 15)", ""]
-        out.append("| effect | connection | elements | explained % | all DOFs % | dBIC | status |")
-        out.append("|---|---|---|---|---|---|---|")
+        out.append("| effect | connection | elements | coefficients | explained % | all DOFs % | dBIC | status |")
+        out.append("|---|---|---|---|---|---|---|---|")
         for e in [x for x in self.ranking if x.explained is not None][:15]:
             dbic = "" if e.delta_bic is None else f"{e.delta_bic:.4g}"
+            coef = ", ".join(f"{v:.4g}" for v in e.coefficients.values())
+            status = f"{e.status}: {e.reason}" if e.status == "rejected" else e.status
             out.append(
-                f"| {e.effect} | {e.where} | {', '.join(e.elements)} | {100 * e.explained:.3g} | "
-                f"{100 * (e.explained_all or 0):.3g} | {dbic} | {e.status} |"
+                f"| {e.effect} | {e.where} | {', '.join(e.elements)} | {coef} | {100 * e.explained:.3g} | "
+                f"{100 * (e.explained_all or 0):.3g} | {dbic} | {status} |"
             )
         out += ["", "## What remains", "", f"Declared model: {self.remaining_declared.describe()}.", ""]
         out.append(f"Final model: {self.remaining.describe()}.")

@@ -13,8 +13,11 @@ adds the multi-DOF counterparts, one job per module:
 :mod:`~nlid.mdof.model`, :mod:`~nlid.mdof.statics`, :mod:`~nlid.mdof.modes`
     :class:`StructuralModel` (``M``, ``C``, ``K`` plus elements), its
     equilibria, linearised modes and FRF matrix;
-:mod:`~nlid.mdof.kernels`, :mod:`~nlid.mdof.simulation`
-    the compiled integrator and its free runs;
+:mod:`~nlid.mdof.kernels`, :mod:`~nlid.mdof.simulation`, :mod:`~nlid.mdof.sensitivity`
+    the compiled integrator, its free runs, and their forward sensitivities (``oe``'s Jacobian);
+:mod:`~nlid.mdof.regression`, :mod:`~nlid.mdof.jointfit`, :mod:`~nlid.mdof.balance`
+    the force balance of every DOF on one footing, the one joint least squares of a structure
+    (``rfs``, ``discover``) and the residual per DOF;
 :mod:`~nlid.mdof.presets`
     ``3dof-cubic``, ``2dof-double-well``, ``beam-5mode`` (``nlid.simulate``);
 :mod:`~nlid.mdof.estimate`, :mod:`~nlid.mdof.identified`, :mod:`~nlid.mdof.fit`

@@ -24,7 +24,7 @@ from ..validate import check_cutoff
 from .elements import Connection, ElementSet
 from .estimate import check_structure_estimate
 from .identified import IdentifiedStructure
-from .model import as_matrix
+from .model import structure_mass
 from .record import StructureRecord
 from .tables import structure_sha256
 
@@ -141,7 +141,9 @@ def identify_structure(
     method
         Identifier name or instance; it must declare ``dofs = "multi"``.
     mass
-        The mass matrix (kg; a vector is a lumped mass), or ``None`` (the method estimates it).
+        The mass matrix (kg; a vector is a lumped mass, text as :func:`nlid.validate.parse_mass`); ``None``:
+        the record's (``meta['mass']``, a file's sidecar), as ``discover`` takes it
+        (:func:`~nlid.mdof.model.structure_mass`); ``"estimate"``: the method estimates it.
     options, registry
         As for :func:`nlid.identify`.
     without
@@ -171,11 +173,12 @@ def identify_structure(
     name = str(getattr(identifier, "name", type(identifier).__name__))
     check_dofs(identifier, record)
     elements = as_elements(terms, record.n_dofs, without=without, px_roots=px_roots)
-    M = None if mass is None else as_matrix(mass, record.n_dofs, "mass=", positive=True)
+    M = structure_mass(mass, record)
     check_cutoff(cutoff, record.fs)
     if M is None and getattr(identifier, "needs_mass", False):
         raise InputError(
-            f"method {name!r} cannot estimate the mass matrix: give mass= (kg; a vector for a lumped mass)"
+            f"method {name!r} cannot estimate the mass matrix: give mass= (kg; a vector for a lumped mass) "
+            "or the record's meta['mass']"
         )
     start = time.perf_counter()
     try:

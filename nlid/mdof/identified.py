@@ -194,7 +194,7 @@ class IdentifiedStructure:
                 diagnostics={
                     **dict(estimate.diagnostics),
                     **dict(diagnostics or {}),
-                    "balance_cutoff_hz": fit.data.cutoff,
+                    "balance_cutoff_hz": fit.data.filtered_at,
                 },
                 warnings=tuple(warnings),
                 seconds=seconds,

@@ -1,35 +1,63 @@
-"""One joint least squares of a structure's force balance over every DOF: ``f - M a = K z + C z' + s + B G theta``.
+"""The one joint least squares of a structure's force balance over every DOF: ``f - M a = K z + C z' + s + B G theta``.
 
 With the mass matrix known, the restoring force of every DOF is linear in the
 unknowns: the symmetric stiffness and damping matrices of the underlying
 linear system (``n (n + 1) / 2`` entries each, which span a linear spring and
 damper on every connection), the constant force per DOF (when the element
 set has one) and one coefficient per element, shared by the two DOFs it
-connects (:meth:`~nlid.mdof.Element.b`). All DOFs are fitted at once, each
-DOF's rows weighted by ``1 / sigma_k^2`` (``sigma_k``: a residual scale per
-DOF, default 1 N, so that a DOF whose balance is noisier does not dominate).
+connects (:meth:`~nlid.mdof.Element.b`); with the mass unknown, its lumped
+entries are unknowns too (:func:`~nlid.mdof.regression.linear_design`).
 
-The fit is formed from sufficient statistics (:class:`NormalEquations`): the
-Gram matrix of the *basis* ``[z, z', 1, g_e(x_e, x_e')]`` and its products with
-``R_e = f - M a``, so that a few columns can be added (a candidate element,
-a probe) at the cost of their products with the basis, and the sums of two
-parts of a record are the statistics of both (:meth:`NormalEquations.__add__`).
-:func:`fit_linear_elements` is the one-call form on a record.
+:func:`joint_least_squares` is the estimator every structure path uses: ``rfs``
+(through :func:`nlid.plugin.joint_least_squares`), :func:`fit_linear_elements`
+and ``discover`` on a structure (:mod:`nlid.discovery.structure`).
+
+Data
+    The balance samples of :func:`~nlid.mdof.regression.structure_regression_data`:
+    measured channels as they are; otherwise every channel through the one
+    zero-phase filter at ``fc``, each element's regressor evaluated on the
+    motion in the wider band ``REGRESSOR_BAND_FACTOR * fc`` *before* the
+    low-pass, and a zero-order-held force given the hold's response. (An
+    earlier copy evaluated the elements on the motion already low-passed at
+    ``fc`` and the force without its hold: on a 3-DOF chain whose displacements
+    alone were recorded with 0.5-1 % noise, ``fc`` fell to about 100 Hz and the
+    cubic came out 25-27 % low, the friction 70-81 %, with the true model
+    declared; ``benchmarks/accuracy_mdof_friction.py``. The motion above ``fc``
+    puts part of a nonlinear element's force into the band; that part is
+    missed when the element is evaluated on the low-passed motion.)
+Weighting
+    The DOFs' equations have different scales (a driven DOF carries the
+    force). A first, unweighted solution gives each DOF's residual RMS; the
+    solution weights each DOF's equations by its inverse (feasible weighted
+    least squares, :func:`~nlid.mdof.regression.dof_weights`), so that each DOF
+    counts by its own noise. Standard errors are the batch-means sandwich
+    errors of the weighted problem (:func:`nlid.regression.least_squares`), the
+    DOFs' equations interleaved sample by sample.
+
+:class:`NormalEquations` holds the same problem as sufficient statistics: the
+Gram matrix of the basis ``[z, z', 1, G]`` and its products with
+``R_e = f - M a`` per DOF, so that ``discover`` can add a few columns (a
+candidate element, a probe, built by
+:meth:`~nlid.mdof.regression.StructureRegressionData.regressors`) at the cost of
+their products with the basis; with the same data and the same weights it
+solves the same least squares as :func:`joint_least_squares` (a test checks it).
 """
 
 from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
 from ..errors import IdentificationError, InputError
-from .balance import Balance, balance
+from ..regression import least_squares
 from .elements import ElementSet
-from .model import StructuralModel, as_matrix
+from .model import StructuralModel, structure_mass
+from .regression import LinearDesign, StructureRegressionData, dof_weights, linear_design, structure_regression_data
 
-__all__ = ["NormalEquations", "JointFit", "Extra", "fit_linear_elements"]
+__all__ = ["NormalEquations", "JointFit", "Extra", "JointSolution", "joint_least_squares", "fit_linear_elements"]
 
 
 @dataclass(frozen=True)
@@ -42,7 +70,7 @@ class Extra:
 
 @dataclass(frozen=True)
 class JointFit:
-    """The solution of the joint least squares (unweighted residual sums per DOF).
+    """A solution of the normal equations (unweighted residual sums per DOF).
 
     Attributes
     ----------
@@ -54,6 +82,8 @@ class JointFit:
         Coefficient of each element, in element order.
     extra
         Coefficients of the added columns.
+    p
+        Every unknown, in the order of the normal equations.
     rss
         ``sum (R_e - R_hat)^2`` per DOF on the part it was fitted on.
     """
@@ -67,29 +97,123 @@ class JointFit:
     rss: np.ndarray
 
 
+@dataclass(frozen=True)
+class JointSolution:
+    """What :func:`joint_least_squares` returns.
+
+    Attributes
+    ----------
+    theta, K, C, M, s
+        Element coefficients, matrices (``M`` ``None`` when it was given) and static force per DOF (or ``None``).
+    fit
+        The :class:`nlid.regression.LeastSquaresFit` of the weighted problem.
+    design
+        The :class:`~nlid.mdof.regression.LinearDesign`.
+    weights
+        The weight of each DOF's equations (1 / its first-pass residual RMS, the largest 1).
+    """
+
+    theta: np.ndarray
+    K: np.ndarray
+    C: np.ndarray
+    M: np.ndarray | None
+    s: np.ndarray | None
+    fit: Any
+    design: LinearDesign
+    weights: np.ndarray
+
+    def model(self, elements: ElementSet, mass: np.ndarray | None = None) -> StructuralModel:
+        """The identified structure (``mass``: the given mass matrix when it was not estimated)."""
+        M = self.M if self.M is not None else mass
+        if M is None:
+            raise InputError("the mass matrix was given to the fit: pass it as mass=")
+        return StructuralModel(M, self.C, self.K, elements, self.theta, self.s)
+
+
+def joint_least_squares(
+    data: StructureRegressionData,
+    elements: ElementSet,
+    mass: np.ndarray | None,
+    *,
+    step: int = 1,
+    correlation: float = 1.0,
+    context: str = "",
+) -> JointSolution:
+    """The joint least squares of every DOF's force balance (module docstring) on prepared balance samples.
+
+    Parameters
+    ----------
+    data
+        The balance samples (:func:`~nlid.mdof.regression.structure_regression_data`), their ``G`` the
+        regressors of ``elements``.
+    elements
+        The elements.
+    mass
+        The mass matrix (kg), or ``None``: the lumped masses are estimated.
+    step
+        Keep every ``step``-th sample.
+    correlation
+        Samples over which the equation error stays correlated (sets the batch length of the standard
+        errors; multiplied by the number of DOFs, whose equations are interleaved).
+    context
+        Prefix of the messages (``"rfs: "``).
+
+    Raises
+    ------
+    IdentificationError
+        Too few equations, no force, a rank-deficient problem (e.g. a mass matrix that cannot be estimated
+        because no DOF is driven), or an estimated mass that is not positive.
+    """
+    design = linear_design(data, elements, mass=mass, step=step)
+    n = data.n_dofs
+    X, y = design.X, design.y
+    if y.size <= X.shape[1]:
+        raise IdentificationError(
+            f"{context}{y.size} equations for {X.shape[1]} unknowns: the record is too short for the model"
+            + ("; lower 'decimate'" if step > 1 else "")
+        )
+    if not np.any(y):
+        raise IdentificationError(f"{context}no force acts on the structure; its mass and stiffness cannot be scaled")
+    first = least_squares(X, y, design.names, correlation_length=correlation * n, context=context)
+    weights = dof_weights(first.residual, y, n)
+    w = np.tile(weights, X.shape[0] // n)
+    fit = least_squares(X * w[:, None], y * w, design.names, correlation_length=correlation * n, context=context)
+    parts = design.split(fit.coefficients)
+    if parts["M"] is not None and not np.all(np.diag(parts["M"]) > 0):
+        bad = [f"{m:.4g}" for m in np.diag(parts["M"])]
+        raise IdentificationError(
+            f"{context}the estimated masses are not all positive ({', '.join(bad)} kg); give mass= "
+            "(a structure needs a driven DOF connected to every other for its mass to be estimated)"
+        )
+    return JointSolution(parts["theta"], parts["K"], parts["C"], parts["M"], parts["s"], fit, design, weights)
+
+
 class NormalEquations:
     """Sufficient statistics of the joint least squares on one part of a record (module docstring).
 
     Parameters
     ----------
     data
-        The balance samples (:func:`nlid.mdof.balance.balance`).
+        The balance samples (:func:`~nlid.mdof.regression.structure_regression_data`), their ``G`` the
+        regressors of ``elements``.
     M
         Mass matrix (kg).
     elements
         The declared elements.
     """
 
-    def __init__(self, data: Balance, M: np.ndarray, elements: ElementSet) -> None:
+    def __init__(self, data: StructureRegressionData, M: np.ndarray, elements: ElementSet) -> None:
         n = elements.n_dofs
+        if data.G.shape[1] != len(elements):
+            raise InputError(f"the data hold {data.G.shape[1]} element regressors for {len(elements)} elements")
         self.n, self.elements, self.samples = n, elements, int(data.z.shape[0])
-        self.z, self.v = data.z, data.v
+        self.data = data
         self.y = data.f - data.a @ np.asarray(M).T
         parts = [data.z, data.v]
         if elements.static:
             parts.append(np.ones((self.samples, 1)))
         if len(elements):
-            parts.append(elements.evaluate(data.z, data.v))
+            parts.append(data.G)
         self.basis = np.column_stack(parts)
         self.gram = self.basis.T @ self.basis
         self.cross = self.basis.T @ self.y
@@ -100,7 +224,7 @@ class NormalEquations:
         """The statistics of two parts together (the basis samples are not kept)."""
         out = cls.__new__(cls)
         out.n, out.elements, out.samples = a.n, a.elements, a.samples + b.samples
-        out.z = out.v = out.y = out.basis = None  # type: ignore[assignment]
+        out.data = out.y = out.basis = None  # type: ignore[assignment]
         out.gram, out.cross, out.yy = a.gram + b.gram, a.cross + b.cross, a.yy + b.yy
         return out
 
@@ -224,9 +348,8 @@ def fit_linear_elements(
     mass=None,
     *,
     cutoff: float | None = None,
-    weights: Sequence[float] | None = None,
 ) -> StructuralModel:
-    """Fit ``K``, ``C``, the static force and the elements' coefficients by one joint least squares.
+    """Fit ``K``, ``C``, the static force and the elements' coefficients by :func:`joint_least_squares`.
 
     Parameters
     ----------
@@ -235,11 +358,10 @@ def fit_linear_elements(
     elements
         The elements (``"z5^3, tanh(v3/0.001)"`` or an :class:`ElementSet`).
     mass
-        Mass matrix (kg; a vector is lumped); default ``record.mass``.
+        Mass matrix (kg; a vector is lumped, or text); default the record's
+        (:func:`~nlid.mdof.model.structure_mass`).
     cutoff
         The balance filter's cut-off (Hz) for estimated channels.
-    weights
-        Weight of each DOF's equations (default 1 each).
 
     Returns
     -------
@@ -248,18 +370,17 @@ def fit_linear_elements(
     Raises
     ------
     InputError
-        No mass matrix, bad elements or weights.
+        No mass matrix, bad elements.
+    IdentificationError
+        As :func:`joint_least_squares`.
     """
-    n = record.n_dofs
-    if mass is None:
-        mass = record.mass
-    if mass is None:
-        raise InputError("the joint least squares needs the mass matrix: give mass= (kg; a vector for a lumped mass)")
-    M = as_matrix(mass, n, "mass=", positive=True)
+    M = structure_mass(mass, record)
+    if M is None:
+        raise InputError(
+            "the joint least squares needs the mass matrix: give mass= (kg; a vector for a lumped mass) or the "
+            "record's meta['mass']"
+        )
     if isinstance(elements, str):
-        elements = ElementSet.from_spec(elements, n)
-    w = np.ones(n) if weights is None else np.asarray(weights, dtype=float)
-    if w.shape != (n,) or not np.all(np.isfinite(w)) or np.any(w <= 0):
-        raise InputError(f"weights must be {n} positive numbers, got {weights!r}")
-    fit = NormalEquations(balance(record, cutoff=cutoff), M, elements).solve(w)
-    return StructuralModel(M, fit.C, fit.K, elements, fit.theta, fit.static if elements.static else None)
+        elements = ElementSet.from_spec(elements, record.n_dofs)
+    data = structure_regression_data(record, elements, cutoff=cutoff)
+    return joint_least_squares(data, elements, M).model(elements, M)

@@ -28,13 +28,15 @@ from ..errors import InputError
 from ..frozen import FrozenDict
 from ..physics import linear_damping
 from ..terms import Model
+from ..validate import ESTIMATE, parse_mass
 from .elements import Element, ElementSet
 
 if TYPE_CHECKING:  # pragma: no cover
     from .modes import StructureModes
+    from .record import StructureRecord
     from .statics import StructureEquilibria
 
-__all__ = ["StructuralModel", "as_matrix"]
+__all__ = ["StructuralModel", "as_matrix", "structure_mass"]
 
 
 def as_matrix(value: Any, n: int | None, name: str, *, positive: bool = False) -> np.ndarray:
@@ -70,6 +72,40 @@ def as_matrix(value: Any, n: int | None, name: str, *, positive: bool = False) -
         arr = sym
     arr.setflags(write=False)
     return arr
+
+
+def structure_mass(mass: Any, record: StructureRecord, *, name: str = "mass=") -> np.ndarray | None:
+    """The mass matrix a structure is fitted with: the one read by every structure path (identify, discover).
+
+    Parameters
+    ----------
+    mass
+        A matrix (kg; array-like, a vector is lumped) or its text (:func:`nlid.validate.parse_mass`: a
+        literal, ``diag(...)``, a CSV/JSON/.npy file); ``None``: the record's own (``meta['mass']``, the
+        ``.meta.json`` sidecar of a file); ``"estimate"``: none, the method estimates the masses.
+    record
+        The record (its number of DOFs and its metadata).
+    name
+        How messages name ``mass``.
+
+    Returns
+    -------
+    numpy.ndarray or None
+        A read-only ``(n, n)`` symmetric positive-definite matrix, or ``None`` (estimate).
+
+    Raises
+    ------
+    InputError
+        One line naming ``name``: unreadable text, a shape other than the record's DOFs, a matrix that is
+        not symmetric or not positive definite.
+    """
+    if mass is None:
+        return record.mass
+    if isinstance(mass, str) or hasattr(mass, "__fspath__"):
+        mass = parse_mass(mass, name=name)
+    if isinstance(mass, str) and mass == ESTIMATE:
+        return None
+    return as_matrix(mass, record.n_dofs, name, positive=True)
 
 
 @dataclass(frozen=True, eq=False)

@@ -342,7 +342,7 @@ class StructureRecord(TimeAxis):
             return None
         from .model import as_matrix
 
-        return as_matrix(m, self.n_dofs, "meta['mass']", positive=True)
+        return as_matrix(m, self.n_dofs, "the record's mass (meta['mass'], a file's .meta.json sidecar)", positive=True)
 
     def source_of(self, channel: str) -> str:
         """How ``channel`` (``"v2"``) was obtained ("measured" unless estimated)."""

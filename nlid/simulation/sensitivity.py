@@ -546,3 +546,9 @@ def simulate_segments(
         lengths,
         mem_terms,
     )
+
+
+# public names of the pieces the structure's sensitivities (nlid.mdof.sensitivity) evaluate each element with
+abs_powers = _powers
+signed_part_d = _part_d
+special_factor_d = _special_d

@@ -41,10 +41,14 @@ Multiple shooting
     it bends the coefficients to compensate.
 
 Jacobian
-    By forward differences (step :data:`DIFF_STEP` of the scaled parameter):
-    one free run of the record per global parameter, and one per state
-    component for all segments at once (a segment's run depends on its own
-    state only), on the threads of :func:`nlid.plugin.kernel_threads`.
+    From the forward sensitivities of the discrete free run
+    (:func:`nlid.plugin.structure_segments`: every RK4 stage carries its
+    derivatives with respect to the element coefficients, the entries of ``K``
+    and ``C``, the static force and the segment's initial state), computed in
+    the same run as the residual, the segments in parallel on the threads of
+    :func:`nlid.plugin.kernel_threads`. (Forward differences, one free run per
+    parameter and state component, made a 30-s record of a 3-DOF chain take
+    4.5 minutes; ``benchmarks/bench_mdof_oe.py``.)
 
 Standard errors
     As for one DOF (:mod:`nlid_oe.uncertainty`): the segments' states profiled
@@ -54,7 +58,6 @@ Standard errors
 from __future__ import annotations
 
 import time
-from concurrent.futures import ThreadPoolExecutor
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -70,8 +73,8 @@ from nlid.plugin import (
     derivatives,
     identify,
     kernel_threads,
-    structure_free_run_segments,
     structure_regression_data,
+    structure_segments,
 )
 
 from .problem import Parameter, Shooting
@@ -80,14 +83,12 @@ from .rules import DENSE_LIMIT, MAX_HALVINGS, NOISE_RATIO, SHORT_PERIODS
 if TYPE_CHECKING:
     from .identifier import OutputError
 
-__all__ = ["identify_structure", "StructureProblem", "SEGMENT_PERIODS", "DIFF_STEP"]
+__all__ = ["identify_structure", "StructureProblem", "SEGMENT_PERIODS"]
 
 #: Default segment length, in periods of the start model's lowest mode.
 SEGMENT_PERIODS = 5.0
 #: Fewest samples in a segment.
 MIN_SEGMENT = 16
-#: Forward-difference step of the scaled parameters.
-DIFF_STEP = 1e-6
 
 
 class StructureProblem(Shooting):
@@ -158,11 +159,9 @@ class StructureProblem(Shooting):
         self.rows_data = record.n * self.C
         self.rows = self.rows_data + (self.K - 1) * self.L
         self.dense_limit = 0
-        #: Threads running the Jacobian's free runs.
-        self.threads = 1
         self.diverged = False
         self._reduced = None
-        self._cache: tuple[np.ndarray, np.ndarray, tuple] | None = None
+        self._cache: tuple[np.ndarray, np.ndarray, object] | None = None
 
     def start(self) -> np.ndarray:
         """The scaled start vector ``u``."""
@@ -190,15 +189,20 @@ class StructureProblem(Shooting):
         static = p[b[3] : b[4]] if self.static else None
         return StructuralModel(self.M, C, K, self.elements, p[b[0] : b[1]], static)
 
-    def simulate(self, u: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """The free-run displacements ``(N, n)`` segment by segment, and each segment's end state ``(K, 2 n)``."""
+    def run(self, u: np.ndarray):
+        """The free runs of the segments at ``u`` with their sensitivities (:func:`nlid.plugin.structure_segments`)."""
         try:
-            return structure_free_run_segments(
+            return structure_segments(
                 self.unpack(u), self.record.f, self.record.fs, self.starts, self.states_of(u),
                 force_hold=self.record.force_hold, oversample=self.q,
             )  # fmt: skip
         except InputError as exc:  # a non-finite state
             raise SimulationError(str(exc)) from None
+
+    def simulate(self, u: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The free-run displacements ``(N, n)`` segment by segment, and each segment's end state ``(K, 2 n)``."""
+        run = self._evaluate(u)[1]
+        return run.z, run.end_state
 
     def _rows(self, z: np.ndarray, ends: np.ndarray, u: np.ndarray) -> np.ndarray:
         r = np.empty(self.rows)
@@ -208,35 +212,32 @@ class StructureProblem(Shooting):
             r[self.rows_data :] = self.weight * defect.ravel()
         return r
 
-    def _evaluate(self, u: np.ndarray) -> tuple[np.ndarray, tuple]:
+    def _evaluate(self, u: np.ndarray) -> tuple[np.ndarray, object]:
         if self._cache is None or not np.array_equal(self._cache[0], u):
-            z, ends = self.simulate(u)
-            self._cache = (np.array(u, copy=True), self._rows(z, ends, u), (z, ends))
+            run = self.run(u)
+            self._cache = (np.array(u, copy=True), self._rows(run.z, run.end_state, u), run)
         return self._cache[1], self._cache[2]
 
     def blocks(self, u: np.ndarray):
-        """The Jacobian's blocks (:meth:`Shooting.blocks`) by forward differences (module docstring)."""
-        r0 = self._evaluate(u)[0]
-        G, L, K = self.G, self.L, self.K
-
-        def column(j: int) -> np.ndarray:
-            shifted = u.copy()
-            if j < G:
-                shifted[j] += DIFF_STEP
-            else:
-                shifted[j::L] += DIFF_STEP  # state component j - G of every segment
-            return (self._rows(*self.simulate(shifted), shifted) - r0) / DIFF_STEP
-
-        with ThreadPoolExecutor(self.threads) as pool:  # the kernel releases the GIL
-            D = np.column_stack(list(pool.map(column, range(G + L))))
-        Jg, Jl = D[: self.rows_data, :G], D[: self.rows_data, G:]
+        """The Jacobian's blocks (:meth:`Shooting.blocks`) from the run's sensitivities (module docstring)."""
+        run = self._evaluate(u)[1]
+        G, L, K, n = self.G, self.L, self.K, self.n
+        E, P = len(self.elements), len(self.upper)
+        gcols = np.r_[0 : E + 2 * P, (E + 2 * P + np.arange(n)) if self.static else np.arange(0)].astype(int)
+        lcols = E + 2 * P + n + np.arange(L)
+        gscale, lscale = self.scale[:G], self.scale[G : G + L]
+        S = run.sensitivities  # (N, n, ncol)
+        inv = 1.0 / self.channel_scale
+        Jg = (S[:, :, gcols] * (inv[:, None] * gscale[None, :])[None]).reshape(-1, G)
+        Jl = (S[:, :, lcols] * (inv[:, None] * lscale[None, :])[None]).reshape(-1, L)
         if K == 1:
             return Jg, Jl, None
-        E = D[self.rows_data :].reshape(K - 1, L, G + L)
-        # a state column's difference moves both sides of a boundary: the ending segment's end (through its
-        # run) and the next segment's start (-weight: states are scaled by the state scales)
+        wsc = self.weight / self.state_scales
+        ends = run.end_sensitivities[:-1]  # (K - 1, L, ncol)
+        dg = ends[:, :, gcols] * gscale[None, None, :] * wsc[None, :, None]
+        dl = ends[:, :, lcols] * lscale[None, None, :] * wsc[None, :, None]
         nxt = np.broadcast_to(-self.weight * np.eye(L), (K - 1, L, L)).copy()
-        return Jg, Jl, (E[:, :, :G], E[:, :, G:] - nxt, nxt)
+        return Jg, Jl, (dg, dl, nxt)
 
     def error_percent(self, u: np.ndarray) -> list[float]:
         """Free-run error per DOF: ``100 RMS(z_sim - z) / RMS(z)``."""
@@ -267,7 +268,7 @@ def identify_structure(
         method, _ = choose_method(mass)
     if method == name:
         raise InputError("oe: option 'init' must name another identifier (oe starts from its estimate)")
-    start = identify(record, elements, method, mass=mass)
+    start = identify(record, elements, method, mass="estimate" if mass is None else mass)  # not the record's
     structure = start.structure
     # the segments' initial states start from the balance's displacement and velocity (filtered when estimated)
     data = structure_regression_data(record, start.elements, cutoff=None, trim=False)
@@ -287,7 +288,6 @@ def identify_structure(
             record, start.elements, model, states, starts, settings["oversample"], settings["continuity_weight"]
         )
         out.dense_limit = DENSE_LIMIT if identifier._solver(out) == "exact" else 0
-        out.threads = threads
         return out
 
     def miss(problem: StructureProblem, u: np.ndarray) -> float:
@@ -344,6 +344,7 @@ def identify_structure(
             "correlation_length_samples": corr,
             "mass": "given" if mass is not None else f"held at the start's ({method}) estimate",
             "threads": threads,
+            "jacobian": "forward sensitivities",
             "seconds_fit": time.perf_counter() - clock,
         },
     )

@@ -4,8 +4,9 @@ Every DOF ``k`` contributes its force balance at every sample,
 
     ``f_k - (M a)_k = (K z)_k + (C v)_k + s_k + sum_e B_ke theta_e g_e(x_e, x_e')``,
 
-and the equations of all DOFs are solved as **one** least squares
-(:func:`nlid.plugin.structure_linear_design`): an element's coefficient
+and the equations of all DOFs are solved as **one** least squares,
+nlid's joint least squares of a structure (:func:`nlid.plugin.joint_least_squares`,
+which ``discover`` on a structure uses too): an element's coefficient
 ``theta_e`` is one unknown shared by the two DOFs it connects (``+`` at
 ``i``, ``-`` at ``j``), and the underlying linear ``K`` and ``C`` are
 estimated with it, symmetric (reciprocity: ``n (n + 1) / 2`` entries each),
@@ -41,73 +42,15 @@ import numpy as np
 
 from nlid.plugin import (
     ElementSet,
-    IdentificationError,
     StructureEstimate,
     StructureRecord,
     check_elements_nonlinear,
     collinearity_warnings,
-    dof_weights,
-    least_squares,
-    structure_linear_design,
+    joint_least_squares,
     structure_regression_data,
 )
 
-__all__ = ["identify_structure", "solve_structure", "StructureSolution"]
-
-
-class StructureSolution:
-    """The weighted joint least squares of a structure (what :func:`solve_structure` returns).
-
-    Attributes
-    ----------
-    theta, K, C, M, s
-        Element coefficients, matrices (``M`` ``None`` when given) and static force per DOF (or ``None``).
-    fit
-        The :class:`nlid.regression.LeastSquaresFit` of the weighted problem.
-    design
-        The :class:`~nlid.mdof.regression.LinearDesign`.
-    weights
-        The weight of each DOF's equations (1 / its first-pass residual RMS).
-    """
-
-    def __init__(self, parts: Mapping[str, Any], fit: Any, design: Any, weights: np.ndarray) -> None:
-        self.theta = parts["theta"]
-        self.K, self.C, self.M, self.s = parts["K"], parts["C"], parts["M"], parts["s"]
-        self.fit = fit
-        self.design = design
-        self.weights = weights
-
-
-def solve_structure(
-    data: Any, elements: ElementSet, mass: np.ndarray | None, *, step: int = 1, correlation: float = 1.0
-) -> StructureSolution:
-    """Solve the joint force balance of every DOF (module docstring) on prepared balance samples.
-
-    Raises
-    ------
-    IdentificationError
-        A rank-deficient problem (e.g. a mass matrix that cannot be estimated
-        because no DOF is driven), or an estimated mass that is not positive.
-    """
-    design = structure_linear_design(data, elements, mass=mass, step=step)
-    n = data.n_dofs
-    X, y = design.X, design.y
-    if y.size <= X.shape[1]:
-        raise IdentificationError(f"rfs: {y.size} equations for {X.shape[1]} unknowns; lower 'decimate'")
-    if not np.any(y):
-        raise IdentificationError("rfs: no force acts on the structure; its mass and stiffness cannot be scaled")
-    first = least_squares(X, y, design.names, correlation_length=correlation * n, context="rfs: ")
-    weights = dof_weights(first.residual, y, n)
-    w = np.tile(weights, X.shape[0] // n)
-    fit = least_squares(X * w[:, None], y * w, design.names, correlation_length=correlation * n, context="rfs: ")
-    parts = design.split(fit.coefficients)
-    if parts["M"] is not None and not np.all(np.diag(parts["M"]) > 0):
-        bad = [f"{m:.4g}" for m in np.diag(parts["M"])]
-        raise IdentificationError(
-            f"rfs: the estimated masses are not all positive ({', '.join(bad)} kg); give mass= "
-            "(a structure needs a driven DOF connected to every other for its mass to be estimated)"
-        )
-    return StructureSolution(parts, fit, design, weights)
+__all__ = ["identify_structure"]
 
 
 def identify_structure(
@@ -118,7 +61,7 @@ def identify_structure(
     data = structure_regression_data(record, elements, cutoff=settings["cutoff"])
     q = int(settings["decimate"])
     corr = 1.0 if data.filtered_at is None else record.fs / data.filtered_at / q
-    sol = solve_structure(data, elements, mass, step=q, correlation=corr)
+    sol = joint_least_squares(data, elements, mass, step=q, correlation=corr, context="rfs: ")
     fit, design = sol.fit, sol.design
     se = np.sqrt(np.clip(np.diag(fit.covariance), 0.0, None))
     se_iid = np.sqrt(np.clip(np.diag(fit.covariance_iid), 0.0, None))

@@ -98,7 +98,7 @@ BAD = [
     (["simulate", "--preset", "paper", "--out", "x.csv"], "unknown preset 'paper'"),
     (["simulate", "--preset", "paper-numerical", "--out", "x.txt"], "must end in .csv or .npz"),
     (["simulate", "--preset", "paper-numerical", "--channels", "q", "--out", "x.csv"], "unknown channel 'q'"),
-    (["identify", "{csv}", "--mass", "abc"], "invalid float value"),
+    (["identify", "{csv}", "--mass", "abc"], "--mass must be a number of kg, 'estimate', a matrix"),
 ]
 
 

@@ -134,3 +134,47 @@ def test_plugin_candidates_are_found_and_a_broken_plugin_is_isolated():
     assert set(failures) == {"broken"} and "Candidate" in failures["broken"]
     chosen = resolve_candidates("van-der-pol,coulomb", plugins=found)
     assert [c.name for c in chosen] == ["van-der-pol", "coulomb"]
+
+
+@pytest.mark.parametrize(
+    "term, expected",
+    [
+        ("sign(v)", True),
+        ("v", True),
+        ("v*|v|", True),
+        ("v^3", True),
+        ("sign(v)*exp(-(v/0.1)^2)", True),
+        ("tanh(v/0.001)", True),
+        ("z^2*v", True),
+        ("sign(v)*|px(z)|", True),
+        ("v^2", False),
+        ("|v|", False),
+        ("z*v", False),
+        ("z^3", False),
+        ("tanh(v/0.1)*tanh(v/0.2)", False),
+        ("dahl(0.001)", False),
+    ],
+)
+def test_dissipative_terms_are_friction_and_damping_laws(term, expected):
+    from nlid.discovery.library import dissipative
+    from nlid.terms import parse_term
+
+    assert dissipative(parse_term(term)) is expected
+
+
+def test_every_dissipative_candidate_carries_its_sign():
+    """A friction or damping law with a negative coefficient feeds energy in: library, user and plugin candidates."""
+    from nlid.discovery.library import dissipative
+    from nlid.terms import parse_term
+
+    for cand in LIBRARY:
+        for term in cand.terms:
+            if dissipative(parse_term(term.replace("{c}", "1").replace("{a}", "1").replace("{b}", "1"))):
+                assert term in cand.positive, (cand.name, term)
+    by_name = {c.name: c for c in LIBRARY}
+    assert by_name["quadratic-damping"].positive == ("v*|v|",) and by_name["cubic-damping"].positive == ("v^3",)
+    user = Candidate.from_spec("drag=v*|v|, z^2")
+    assert user.positive == ("v*|v|",)
+    (variant,) = user.variants(Model.from_spec("1, z, v", defaults=False), {"z": 0.01, "v": 1.0})
+    assert "not positive" in variant.inadmissible({"v*|v|": -5.39, "z^2": 1.0})
+    assert variant.inadmissible({"v*|v|": 5.39, "z^2": -1.0}) == ""

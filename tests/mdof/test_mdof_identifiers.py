@@ -22,7 +22,7 @@ def _errors(fit, record) -> dict[str, float]:
 @pytest.mark.parametrize("given_mass", [True, False])
 def test_noise_free_chain_recovers_element_and_linear_system(chain_record, method, given_mass):
     rec = chain_record
-    fit = nlid.identify(rec, "z3^3", method, mass=rec.mass if given_mass else None)
+    fit = nlid.identify(rec, "z3^3", method, mass=rec.mass if given_mass else "estimate")
     assert isinstance(fit, IdentifiedStructure)
     assert max(_errors(fit, rec).values()) < 1e-4
     ref = rec.meta["reference"]
