@@ -19,10 +19,12 @@ from ..methods import choose_method
 from .crossfit import FoldPrediction, PredictionRule
 from .evidence import AcceptanceRule, Evidence, Scores
 from .inputs import CandidateLibrary, Split
-from .library import INPUT_PATH, LIBRARY, Candidate, InputPathCandidate, Shape, library_names, resolve_candidates
+from .library import LIBRARY, Candidate, Shape, library_names, resolve_candidates
+from .paths import INPUT_PATH, InputPathCandidate
 from .report import discovery_summary, summary_table, write_report
 from .result import DiscoveryResult, ResidualView, Stage, Step
-from .search import Discovery, SearchState, discover
+from .search import Discovery, discover
+from .state import SearchState
 
 __all__ = [
     "discover",

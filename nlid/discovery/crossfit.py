@@ -323,7 +323,7 @@ def veto_only(prediction: FoldPrediction) -> bool:
 
 
 def fold_rule(record: Record, rule: TransientRule | None, cutoff: float) -> TransientRule | None:
-    """The transient rule of the held-out blocks: the given one, else the record's, with a window for a record in motion.
+    """The transient rule of the held-out blocks: the given one, else the record's (a window if it moves at the start).
 
     A periodic record keeps its periodic steady state. Otherwise a block cut from the middle of a record does not
     start at rest, so the first-sample rule (the default of a record that is not periodic) is replaced by an

@@ -18,7 +18,8 @@ from typing import Any
 from ..errors import DataError, InputError
 from ..record import Record
 from ..scoring import TransientRule, record_period, rule_from_spec
-from .library import Candidate, InputPathCandidate, resolve_candidates
+from .library import Candidate, resolve_candidates
+from .paths import InputPathCandidate
 
 __all__ = ["DEFAULT_HOLDOUT", "BUILTIN_CANDIDATES", "Split", "CandidateLibrary"]
 

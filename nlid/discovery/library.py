@@ -64,12 +64,10 @@ from dataclasses import dataclass, field
 from ..errors import PASS_THROUGH, InputError, NlidError, brief, describe_exception
 from ..terms import Model, Term, parse_term, split_terms
 from ..validate import did_you_mean
+from .paths import INPUT_PATH, InputPathCandidate
 
 __all__ = [
     "Candidate",
-    "InputPathCandidate",
-    "INPUT_PATH",
-    "INPUT_PATH_GRID",
     "Shape",
     "Variant",
     "LIBRARY",
@@ -449,89 +447,6 @@ LIBRARY: tuple[Candidate, ...] = (
         Shape("z", DAHL_MULTIPLIERS),
         positive=("dahl({c})",),
         requires=("memory",),
-    ),
-)
-
-
-@dataclass(frozen=True)
-class InputPathCandidate:
-    """An effect in the input path (:mod:`nlid.inputpath`): the force acts delayed, lagged or held differently.
-
-    It adds no term: the loop fits the same model with the force passed through the path, the path's
-    time chosen on a grid of multiples of the sampling interval by the estimation residual and refined
-    between the grid neighbours, as a shape parameter is (:func:`nlid.discovery.trials.test_input_path`).
-
-    Parameters
-    ----------
-    name
-        What reports and ``candidates=`` call it.
-    kind
-        ``"delay"``, ``"lag"`` (a time, fitted) or ``"hold"`` (the other force hold between samples).
-    grid
-        Multiples of the sampling interval tried (``delay``, ``lag``).
-    description
-        One line for reports.
-    """
-
-    name: str
-    kind: str
-    grid: tuple[float, ...] = ()
-    description: str = ""
-    requires: tuple[str, ...] = ()
-
-    @property
-    def terms(self) -> tuple[str, ...]:
-        """No terms: the effect is in the input."""
-        return ()
-
-    @property
-    def shapes(self) -> tuple[Shape, ...]:
-        """No shape grid of the term language (the path's grid is :attr:`grid`)."""
-        return ()
-
-    @property
-    def uses_px(self) -> bool:
-        """Never: the effect is in the input."""
-        return False
-
-    def describe(self) -> dict[str, object]:
-        """JSON-friendly description."""
-        return {
-            "name": self.name,
-            "terms": [],
-            "input_path": self.kind,
-            "grid_samples": list(self.grid),
-            "description": self.description,
-            "requires": list(self.requires),
-        }
-
-
-#: Delays and lags tried, in samples (refined between neighbours).
-INPUT_PATH_GRID: tuple[float, ...] = (0.25, 0.5, 1.0, 2.0, 3.0, 5.0, 8.0)
-#: The input-path effects (:class:`InputPathCandidate`).
-INPUT_PATH: tuple[InputPathCandidate, ...] = (
-    InputPathCandidate(
-        "input-delay",
-        "delay",
-        INPUT_PATH_GRID,
-        "the force acts delayed behind the force channel (a drive's current loop), or ahead of it (a filter or "
-        "clock offset on the force channel): delay on a grid of +/- "
-        + ", ".join(f"{g:g}" for g in INPUT_PATH_GRID)
-        + " samples, refined",
-    ),
-    InputPathCandidate(
-        "actuator-lag",
-        "lag",
-        INPUT_PATH_GRID,
-        "the force acts through a first-order lag (an actuator or amplifier): time constant on a grid of "
-        + ", ".join(f"{g:g}" for g in INPUT_PATH_GRID)
-        + " samples, refined",
-    ),
-    InputPathCandidate(
-        "force-hold",
-        "hold",
-        (),
-        "the force is held between samples where the record says band-limited, or the reverse",
     ),
 )
 

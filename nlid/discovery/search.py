@@ -32,7 +32,6 @@ from __future__ import annotations
 import dataclasses
 import time
 from collections.abc import Callable, Iterable, Iterator, Mapping, Sequence
-from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -41,29 +40,20 @@ from .. import derivatives
 from ..errors import IdentificationError, InputError
 from ..methods import choose_method, choose_refiner
 from ..parallel import kernel_threads
-from ..pipeline import identify
 from ..record import Record
 from ..registry import Registry, default_registry
 from ..scoring import TransientRule
 from ..terms import Model
 from ..validate import check_cutoff, check_mass
-from .crossfit import (
-    Folds,
-    FoldPrediction,
-    PredictionRule,
-    chaotic,
-    compare_predictions,
-    fold_rule,
-    make_folds,
-    predict_folds,
-    steps_for,
-    veto_only,
-)
-from .evidence import AcceptanceRule, Evidence, judge, rank
+from .crossfit import PredictionRule
+from .evidence import AcceptanceRule, Evidence, judge
 from .inputs import BUILTIN_CANDIDATES, DEFAULT_HOLDOUT, CandidateLibrary, Split
-from .library import Candidate, InputPathCandidate
+from .judge import Judge
+from .library import Candidate
+from .paths import InputPathCandidate
 from .probes import MIN_STRUCTURE, describe_remaining
-from .result import DiscoveryResult, ResidualView, Stage, Step
+from .result import DiscoveryResult, Stage, Step
+from .state import SearchSetup, SearchState
 from .trials import (
     Context,
     fit_stage,
@@ -99,88 +89,11 @@ __all__ = [
 DEFAULT_MAX_STEPS = 5
 #: The stop reason of a search that added ``max_steps`` effects.
 MAX_STEPS_REACHED = "maximum number of steps reached"
-#: Candidates judged by their cross-fitted prediction in one round (in the order of the equation-error rule); a
-#: round whose first ones all fail the prediction check stops the search.
-MAX_JUDGED = 3
-
 Progress = Callable[[str], None]
 
 
 def _quiet(_message: str) -> None:
     return None
-
-
-@dataclass(frozen=True)
-class SearchSetup:
-    """What a search fixed before its first round, shared by its states.
-
-    The records, identifier and band (:class:`~nlid.discovery.trials.Context`), the method and why, the
-    declared model, the candidates, the estimation record's range of ``z`` and the start time.
-    """
-
-    context: Context
-    method: str
-    method_notes: tuple[str, ...]
-    declared: Model
-    held_text: str
-    source: str
-    holdout_source: str
-    units: dict[str, str]
-    library: CandidateLibrary
-    use_mass: bool
-    z_range: tuple[float, float]
-    started: float
-    folds: Folds = dataclasses.field(default_factory=Folds)
-    fitter: Any = None
-
-
-@dataclass(frozen=True)
-class SearchState:
-    """Where a search stands after a round; each round yields a new one (nothing is changed in place).
-
-    Attributes
-    ----------
-    run
-        What the search fixed before its first round (:class:`SearchSetup`).
-    stages
-        The declared model's stage, then one per accepted step (each carries its own mass,
-        :attr:`~nlid.discovery.result.Stage.given_mass`).
-    steps
-        The accepted effects.
-    views
-        The residual view of each stage (estimation record).
-    ranking
-        The candidates of the round that accepted nothing, with their evidence (empty otherwise).
-    stop_reason
-        Why the search stopped; empty while it goes on.
-    """
-
-    run: SearchSetup = dataclasses.field(repr=False)
-    stages: tuple[Stage, ...]
-    steps: tuple[Step, ...] = ()
-    views: tuple[ResidualView, ...] = ()
-    ranking: tuple[Evidence, ...] = ()
-    stop_reason: str = ""
-
-    @property
-    def stage(self) -> Stage:
-        """The current model."""
-        return self.stages[-1]
-
-    @property
-    def step(self) -> Step | None:
-        """The last accepted effect (``None`` before the first)."""
-        return self.steps[-1] if self.steps else None
-
-    @property
-    def done(self) -> bool:
-        """Whether the search stopped by itself."""
-        return bool(self.stop_reason)
-
-    @property
-    def added(self) -> frozenset[str]:
-        """Effects this search added (not tested again; the dictionary may propose terms again)."""
-        return frozenset(s.effect for s in self.steps if s.effect != "dictionary")
 
 
 class Discovery:
@@ -346,100 +259,20 @@ class Discovery:
             use_mass=self.library.mass and not getattr(self.identifier, "needs_mass", False),
             z_range=(float(estimation.z.min()), float(estimation.z.max())),
             started=started,
-            folds=self._folds(record, float(cutoff))
-            if self.prediction.enabled
-            else Folds(note="the prediction check is off"),
-            fitter=self._fitter(float(cutoff)),
+            judge=Judge.for_search(
+                self.prediction, record, self._prediction_fitter(), float(cutoff), self.split.freerun_rule
+            ),
         )
         say(f"identifying the declared model ({model0}) with {self.method}")
         current = fit_stage(ctx, model0, self.mass)
         view = residual_view(estimation, current, ctx.cutoff, "declared model")
         return SearchState(run, (current,), views=(view,))
 
-    def _folds(self, record: Record, cutoff: float) -> Folds:
-        """The cross-fitting blocks of the whole record given to the search (:mod:`nlid.discovery.crossfit`)."""
-        rule = fold_rule(record, self.split.freerun_rule, cutoff)  # type: ignore[arg-type]
-        return make_folds(record, self.prediction.folds, rule)
-
-    def _fitter(self, cutoff: float) -> Any:
+    def _prediction_fitter(self) -> Any:
         """What fits a model for the prediction check: the search's identifier, or the refiner when refining."""
-        identifier = self.identifier
         if self.refine:
-            identifier = self.registry.create(choose_refiner(self.registry), {"init": self.method})
-
-        def fit(record: Record, model: Model, mass: float | None, path: Any) -> Any:
-            return identify(record, model, identifier, mass=mass, cutoff=cutoff, input_path=path)
-
-        return fit
-
-    def _predict(self, run: SearchSetup, stage: Stage, steps: int | None = None) -> FoldPrediction:
-        return predict_folds(run.fitter, stage.model, stage.given_mass, stage.path, run.folds, steps=steps)
-
-    def _judged(
-        self,
-        run: SearchSetup,
-        current: Stage,
-        tested: list[Evidence],
-        fits: dict[str, Stage],
-        number: int,
-        say: Progress,
-    ) -> tuple[list[Evidence], Evidence | None, Stage]:
-        """Rank the candidates and accept the best whose cross-fitted prediction is better too.
-
-        Candidates the equation-error rule accepts are judged in its order, :data:`MAX_JUDGED` at most; one
-        that does not improve the prediction is rejected (and said), and the next one gets its turn.
-        Returns the ranking, the accepted candidate (``None``: none) and the current stage with its
-        prediction measured.
-        """
-        ranking, accepted = rank(tested)
-        if accepted is None or not self.prediction.enabled or not run.folds.usable:
-            return ranking, accepted, current
-        for _ in range(MAX_JUDGED):
-            if current.prediction is None:
-                before = self._predict(run, current)
-                if chaotic(before):  # a chaotic free run means nothing: k steps ahead instead
-                    before = self._predict(run, current, steps_for([current.identified], run.context.estimation.fs))
-                current = dataclasses.replace(current, prediction=before)
-            before = current.prediction
-            assert before is not None
-            steps = int(before.kind.rsplit("=", 1)[1]) if before.kind.startswith("k-step") else None
-            say(f"step {number}: judging {accepted.effect} by its cross-fitted prediction ({before.kind})")
-            after = self._predict(run, fits[accepted.effect], steps)
-            if chaotic(after):  # the candidate's free run is chaotic: both are compared k steps ahead
-                steps = steps_for([current.identified, fits[accepted.effect].identified], run.context.estimation.fs)
-                before = self._predict(run, current, steps)
-                after = self._predict(run, fits[accepted.effect], steps)
-            ok, why = compare_predictions(before, after, self.prediction)
-            floor = AcceptanceRule().min_explained
-            if ok and veto_only(after) and float(accepted.explained_holdout or 0.0) < floor:
-                # a chaotic record: the k-step prediction cannot decide, so the equation error decides at its full share
-                ok = False
-                why += (
-                    f"; on a chaotic record the equation error decides, and it explains "
-                    f"{100 * float(accepted.explained_holdout or 0.0):.3g} % < {100 * floor:g} % of the held-out residual"
-                )
-            accepted.prediction_before, accepted.prediction_after = before.to_dict(), after.to_dict()
-            accepted.passes["prediction"] = ok
-            if ok:
-                fits[accepted.effect] = dataclasses.replace(fits[accepted.effect], prediction=after)
-                accepted.reason = f"{accepted.rule_reason}; {why}"
-                return ranking, accepted, current
-            say(f"step {number}: {accepted.effect} lowers the equation error but not the prediction: {why}")
-            accepted.status, accepted.reason = "rejected", f"{accepted.rule_reason}; but {why}"
-            ranking, accepted = rank(tested)
-            if accepted is None:
-                return ranking, None, current
-        # the next eligible ones were not judged: they are not accepted unjudged
-        for ev in tested:
-            if ev.status == "accepted" or (ev.status == "rejected" and ev.passes and all(ev.passes.values())):
-                ev.passes["prediction"] = False
-                ev.status = "rejected"
-                ev.reason = (
-                    f"{ev.rule_reason}; not judged by prediction: the {MAX_JUDGED} candidates before it "
-                    "did not improve it"
-                )
-        ranking, _ = rank(tested)
-        return ranking, None, current
+            return self.registry.create(choose_refiner(self.registry), {"init": self.method})
+        return self.identifier
 
     def _rounds(self, state: SearchState, say: Progress) -> Iterator[SearchState]:
         if self.max_steps == 0:
@@ -500,12 +333,16 @@ class Discovery:
                 tested.append(Evidence("mass", status="not applicable", reason=why))
             else:
                 consider(*test_mass(ctx, current))
-        ranking, accepted, current = self._judged(run, current, tested, fits, number, say)
+
+        def told(message: str) -> None:
+            say(f"step {number}: {message}")
+
+        ranking, accepted, current = run.judge.judged(current, tested, fits, told)
         if accepted is None and run.library.dictionary and not gate(remaining, ("z", "v", "z,v")):
             # open world: when nothing named passes, let a sparse regression on the dictionary propose terms
             say(f"step {number}: no named candidate passes; searching the automatic dictionary")
             consider(*test_dictionary(ctx, current, run.z_range))
-            ranking, accepted, current = self._judged(run, current, tested, fits, number, say)
+            ranking, accepted, current = run.judge.judged(current, tested, fits, told)
         stages = (*state.stages[:-1], current)
         if accepted is None:
             best = ranking[0] if ranking and ranking[0].explained_holdout is not None else None
@@ -590,9 +427,7 @@ class Discovery:
             else [float(validation.z.min()), float(validation.z.max())],
             "max_steps": self.max_steps,
             "prediction_rule": {
-                **self.prediction.to_dict(),
-                "folds_note": run.folds.note,
-                "fold_rule": None if run.folds.rule is None else run.folds.rule.describe(),
+                **run.judge.to_dict(),
                 "fitter": "the refiner (output error)" if self.refine else f"the search's identifier ({run.method})",
             },
             "input_path": states[-1].path.to_dict(),

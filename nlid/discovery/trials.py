@@ -41,7 +41,8 @@ from ..record import Record
 from ..scoring import TransientRule
 from ..terms import Model, Term
 from .evidence import AcceptanceRule, Evidence, effective_sample_size
-from .library import Candidate, InputPathCandidate, dictionary_terms
+from .library import Candidate, dictionary_terms
+from .paths import InputPathCandidate
 from .probes import MIN_STRUCTURE, Remaining, probe_residual
 from .result import ResidualView, Stage, Step
 
@@ -472,9 +473,9 @@ def test_input_path(ctx: Context, current: Stage, cand: InputPathCandidate) -> t
     """Fit the current model with the force through an input path (:mod:`nlid.inputpath`).
 
     A delay (either sign: the force channel late or early) or a lag is chosen on the candidate's grid
-    (multiples of the sampling interval) by the estimation record's force residual, then refined between the grid neighbours (bounded search in the
-    log of the time, :data:`SHAPE_REFINE_FITS` fits); ``hold`` tries the other force hold. The path found is
-    added to the current one (a delay found after a lag keeps the lag).
+    (multiples of the sampling interval) by the estimation record's force residual, then refined between the
+    grid neighbours (bounded search in the log of the time, :data:`SHAPE_REFINE_FITS` fits); ``hold`` tries the
+    other force hold. The path found is added to the current one (a delay found after a lag keeps the lag).
     """
     evidence = Evidence(cand.name)
     base = current.path
