@@ -30,7 +30,7 @@ from ..errors import DataError, NlidError
 from ..interface import to_jsonable
 from ..record import Record
 from .data import load_estimation, load_test, noise_floor
-from .pipelines import Fitted, PipelineSpec, fit_pipelines
+from .pipelines import PEER, Fitted, PipelineSpec, fit_pipelines
 from .protocol import Protocol, TestSet, parse_protocol
 
 __all__ = ["BenchJob", "BenchRun", "score_model"]
@@ -51,7 +51,7 @@ def _score(fit: Any, record: Record, rule: str) -> tuple[Any, str, str, int]:
 
 def score_model(fitted: Fitted, record: Record, rule: str) -> dict[str, Any]:
     """The free-run scores of one fitted model on one test record under ``rule`` (RMSE in the unit of ``z``)."""
-    if fitted.kind == "peer":
+    if fitted.kind == "peer":  # every peer model has free_run(record, rule) -> PeerScore
         s = fitted.model.free_run(record, rule)
         return {
             "rmse": s.rmse,
@@ -206,9 +206,13 @@ class BenchJob:
         estimation, offsets = load_estimation(
             protocol, source=self.source, path=self.files.get(f"{protocol.name}:estimation")
         )
-        fits = fit_pipelines(estimation, protocol.pipelines, self.pipelines)
+        outcomes = fit_pipelines(estimation, protocol, self.pipelines)
+        fits = [f for f in outcomes if isinstance(f, Fitted)]
+        skipped = [(spec, why) for spec, why in zip(self.pipelines, outcomes, strict=True) if isinstance(why, str)]
         # only now are the test sets read: every decision above was made without them
         rows: list[dict[str, Any]] = []
+        for spec, why in skipped:
+            rows += [_skipped_row(protocol, test, spec.name, spec.kind, why) for test in protocol.tests]
         floors: dict[str, float] = {}
         for test in protocol.tests:
             if test.noise_floor is not None:
@@ -230,6 +234,7 @@ class BenchJob:
         result = {
             "rows": rows,
             "fits": [_fit_dict(f) for f in fits],
+            "skipped": {spec.name: why for spec, why in skipped},
             "noise_floors": floors,
             "estimation": {"samples": estimation.n, "source": estimation.meta.get("source", "")},
             "offsets": {"f": offsets.f, "z": offsets.z},
@@ -255,6 +260,7 @@ class BenchJob:
     ) -> dict[str, Any]:
         s = dict(scores or {})
         return {
+            **fitted.prior.to_row(),
             "benchmark": protocol.name,
             "test": test.name,
             "kind": fitted.kind,
@@ -276,6 +282,30 @@ class BenchJob:
         }
 
 
+def _skipped_row(protocol: Protocol, test: TestSet, pipeline: str, kind: str, why: str) -> dict[str, Any]:
+    """The row of a pipeline that could not run here (an optional peer not installed, no truth declared)."""
+    return {
+        "benchmark": protocol.name,
+        "test": test.name,
+        "kind": "truth" if kind == "truth" else ("peer" if kind == "peer" else "nlid"),
+        "pipeline": pipeline,
+        "method": "",
+        "model": "",
+        "rmse": np.nan,
+        "nrmse_percent": np.nan,
+        "fit_percent": np.nan,
+        "parameters": None,
+        "seconds": None,
+        "rule": "",
+        "rule_applied": "",
+        "rule_declared": test.rule,
+        "scored_samples": None,
+        "status": "skipped",
+        "note": why,
+        "data": "",
+    }
+
+
 def _where(record: Record) -> str:
     """Where a record was read from, with the data folder written as ``$NLID_DATA_DIR`` (no machine's path)."""
     import os
@@ -291,7 +321,10 @@ def _where(record: Record) -> str:
 
 def _model_text(fitted: Fitted, mass_unit: str = "kg") -> str:
     if fitted.kind == "peer":
-        return f"{fitted.parameters} non-zero coefficients in (z', v')"
+        equations = list(getattr(fitted.model, "equations", []) or [])
+        if fitted.pipeline == PEER:
+            return f"{fitted.parameters} non-zero coefficients in (z', v')"
+        return equations[0] if equations else ""
     fit = fitted.model
     how = "estimated" if fit.mass_estimated else "given"
     mass = f"m = {fit.mass:.4g} {mass_unit} ({how})" if fit.mass is not None else ""
@@ -308,7 +341,8 @@ def _fit_dict(fitted: Fitted) -> dict[str, Any]:
         "choices": fitted.choices,
         "details": fitted.details,
     }
-    if fitted.kind == "nlid":
+    out["prior"] = fitted.prior.to_row()
+    if fitted.kind in ("nlid", "truth"):
         fit = fitted.model
         se = fit.standard_errors or {}
         out["coefficients"] = {k: float(v) for k, v in fit.coefficients.items()}

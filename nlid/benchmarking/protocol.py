@@ -31,6 +31,10 @@ says, for one benchmark:
     nothing else is accepted, so no unverified figure reaches a leaderboard).
 ``[[not_comparable]]``
     published figures that are *not* shown, and why (another test set, in-sample, no source).
+``[truth]``
+    optional: the benchmark's own model when it is known (a simulated benchmark): ``coefficients``
+    (``{term = value}`` in nlid's terms), ``mass`` and ``source``; the leaderboard then shows a
+    "true model" row, scored like every other.
 
 :func:`load_protocol` reads a file or a built-in name; :func:`builtin_benchmarks` lists the
 built-in ones. What they return is a frozen dataclass (:mod:`nlid.benchmarking.declarations`, whose
@@ -60,6 +64,7 @@ from .declarations import (
     Protocol,
     Published,
     TestSet,
+    Truth,
     UserFile,
 )
 
@@ -78,6 +83,7 @@ __all__ = [
     "PeerSettings",
     "Published",
     "NotComparable",
+    "Truth",
     "load_protocol",
     "parse_protocol",
     "builtin_benchmarks",
@@ -238,6 +244,43 @@ def _published(t: _Table, tests: list[str]) -> Published:
         fit_percent=fit,
         parameters=parameters,
         note=t.string("note"),
+        structure=_structure(t),
+    )
+    t.done()
+    return out
+
+
+def _structure(t: _Table) -> str:
+    from .prior import STRUCTURES
+
+    value = t.string("structure", "black box")
+    if value not in STRUCTURES:
+        raise t.error("structure", f"must be one of {', '.join(STRUCTURES)}, got {value!r}")
+    return value
+
+
+def _truth(root: _Table) -> Truth | None:
+    t = root.table("truth")
+    if t is None:
+        return None
+    raw = t._get("coefficients", None, True)
+    if (
+        not isinstance(raw, Mapping)
+        or not raw
+        or not all(isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v) for v in raw.values())
+    ):
+        raise t.error("coefficients", "must be a table of finite numbers: { term = value, ... }")
+    from ..errors import TermError
+    from ..terms import Model
+
+    try:
+        Model.from_spec(list(raw), defaults=False)
+    except TermError as exc:
+        raise t.error("coefficients", f"names a term nlid cannot read: {exc}") from None
+    out = Truth(
+        {str(k): float(v) for k, v in raw.items()},
+        t.number("mass", required=True, positive=True),
+        t.string("source", required=True),
     )
     t.done()
     return out
@@ -352,6 +395,8 @@ def parse_protocol(text: str, source: str = "<text>") -> Protocol:
         degree = peer_t.integer("degree", peer.degree)
         if not 1 <= degree <= 5:
             raise peer_t.error("degree", f"must lie between 1 and 5, got {degree}")
+        if any(x >= 1 for x in thresholds):
+            raise peer_t.error("thresholds", "are fractions of the largest coefficient: each must be below 1")
         peer = PeerSettings(degree, peer_t.boolean("friction", peer.friction), tuple(float(x) for x in thresholds))
         peer_t.done()
     pipelines = PipelineSettings(
@@ -392,6 +437,7 @@ def parse_protocol(text: str, source: str = "<text>") -> Protocol:
         published=published,
         not_comparable=tuple(left_out),
         text=text,
+        truth=_truth(root),
     )
     b.done()
     root.done()
