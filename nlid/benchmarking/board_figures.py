@@ -98,6 +98,8 @@ def write_figures(folder: Path, protocols: Mapping[str, Protocol], rows: Sequenc
     dict
         ``{(benchmark, test): svg text}`` (for the HTML page to inline).
     """
+    from matplotlib import rc_context
+
     out: dict[tuple[str, str], str] = {}
     for bench, test, group in groups(rows):
         protocol = protocols.get(bench)
@@ -110,7 +112,8 @@ def write_figures(folder: Path, protocols: Mapping[str, Protocol], rows: Sequenc
         stem = folder / figure_name(bench, test)
         fig.savefig(stem.with_suffix(".png"), dpi=110)
         buffer = io.StringIO()
-        fig.savefig(buffer, format="svg", metadata={"Date": None})
+        with rc_context({"svg.hashsalt": stem.name}):  # ids from the content, not from a random salt
+            fig.savefig(buffer, format="svg", metadata={"Date": None})
         svg = buffer.getvalue()
         stem.with_suffix(".svg").write_text(svg)
         out[(bench, test)] = svg[svg.index("<svg") :]

@@ -337,7 +337,8 @@ def table_markdown(rows: Sequence[Mapping[str, Any]]) -> list[str]:
         rmse = num(r["rmse"])
         lines.append(
             f"| {rank} | {_esc(_md_who(r, sources))} | {knew} | {rmse} | {num(r['nrmse_percent'])} "
-            f"| {num(r['fit_percent'])} | {integer(r['parameters'])} | {seconds(r['seconds'])} | {_esc(remark(r))} |"
+            f"| {num(r['fit_percent'])} | {integer(r['parameters'])} | {seconds(r['seconds'])} "
+            f"| {_esc(remark(r)).replace('other rule:', '**other rule**:')} |"
         )
     used = legend(shown)
     if used:
@@ -373,10 +374,12 @@ def markdown_tables(
     rows: Sequence[Mapping[str, Any]],
     level: int = 3,
     figures: str | None = None,
+    models: bool = True,
 ) -> list[str]:
     """Markdown: per benchmark a heading, per test set its rule, figure and table, the models, the figures left out.
 
     ``figures`` is the folder (relative to the Markdown file) of the test sets' figures; ``None``: no figures.
+    ``models``: list the model behind each row once per benchmark.
     """
     lines: list[str] = []
     hashes = "#" * level
@@ -401,9 +404,9 @@ def markdown_tables(
                 lines += [f"![RMSE of every row, log axis]({figures}/{figure_name(p.name, test)}.png)", ""]
             lines += table_markdown(group)
             lines.append("")
-        models = _models([r for _, g in by_bench.get(name, []) for r in g])
-        if models:
-            lines += ["Models behind the rows (fitted on the estimation part):", "", *models, ""]
+        behind = _models([r for _, g in by_bench.get(name, []) for r in g]) if models else []
+        if behind:
+            lines += ["Models behind the rows (fitted on the estimation part):", "", *behind, ""]
         if p.not_comparable:
             lines += ["Published figures not shown:", ""]
             lines += [f"- {_esc(n.what)}: {n.why}." for n in p.not_comparable]

@@ -21,24 +21,27 @@ def _run(protocol, files, pipelines):
 def test_changing_the_test_output_changes_no_choice_only_the_scores(toy, perturb, tmp_path):
     text, est, test, _ = toy
     protocol = parse_protocol(text)
-    pipelines = parse_pipelines("rfs, discover, discover --refine, pysindy")
+    pipelines = parse_pipelines("rfs, linear, discover, discover --refine, pysindy, linear-ss")
     other = perturb(test, tmp_path / "test_perturbed.csv")
     first = _run(protocol, {"toy:estimation": str(est), "toy:independent": str(test)}, pipelines)
     second = _run(protocol, {"toy:estimation": str(est), "toy:independent": str(other)}, pipelines)
 
-    assert [f["pipeline"] for f in first["fits"]] == ["rfs", "discover", "discover-refine", "pysindy"]
+    assert [f["pipeline"] for f in first["fits"]] == ["rfs", "linear", "discover", "discover-refine", "pysindy", "linear-ss"]
     for a, b in zip(first["fits"], second["fits"], strict=True):
         # every decision (terms, discovery steps, coefficients to the last bit, peer hyper-parameters) is the same
         assert json.dumps(a["choices"], sort_keys=True) == json.dumps(b["choices"], sort_keys=True), a["pipeline"]
         assert a.get("coefficients") == b.get("coefficients")
         assert a["parameters"] == b["parameters"]
     # discover found the missing cubic spring on the estimation part (so there was a choice to make)
-    discover = first["fits"][1]["choices"]
+    discover = first["fits"][2]["choices"]
     assert [s["effect"] for s in discover["steps"]][:1] == ["cubic-stiffness"]
     # and only the scores moved
     rmse_a = {r["pipeline"]: r["rmse"] for r in first["rows"]}
     rmse_b = {r["pipeline"]: r["rmse"] for r in second["rows"]}
-    assert set(rmse_a) == {"rfs", "discover", "discover-refine", "pysindy"}
+    assert set(rmse_a) == {"rfs", "linear", "discover", "discover-refine", "pysindy", "linear-ss"}
+    # the peers chose their hyper-parameters on the end of the estimation part, and say so
+    peers = {f["pipeline"]: f["details"]["selection"] for f in first["fits"] if f["kind"] == "peer"}
+    assert peers["pysindy"]["holdout_rule"] == "window:20" and peers["linear-ss"]["holdout_fraction"] == 0.25
     for name in rmse_a:
         assert np.isfinite(rmse_a[name]) and np.isfinite(rmse_b[name])
         assert abs(rmse_b[name] - rmse_a[name]) > 0.05 * rmse_a[name], name
