@@ -16,7 +16,7 @@ from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
-from .leaderboard import figure_name, groups, rule_text, who
+from .board_rows import figure_name, groups, rule_text, who
 from .protocol import Protocol
 
 __all__ = ["STYLES", "table_figure", "write_figures"]

@@ -15,7 +15,7 @@ from collections.abc import Mapping, Sequence
 from typing import Any
 
 from .board_figures import STYLES
-from .leaderboard import (
+from .board_rows import (
     badges,
     groups,
     integer,
@@ -26,6 +26,8 @@ from .leaderboard import (
     rule_text,
     scored,
     seconds,
+    source_of,
+    sources,
     unscored,
     who,
 )
@@ -114,10 +116,10 @@ def _number(x: Any, text: str) -> str:
     return f'<td class="num"{v}>{_e(text)}</td>'
 
 
-def _who_cell(r: Mapping[str, Any], sources: Sequence[Mapping[str, Any]]) -> str:
+def _who_cell(r: Mapping[str, Any], cited: Sequence[tuple[str, str, str]]) -> str:
     kind = {"nlid": "nlid", "peer": "peer", "published": "published", "truth": "truth", "reference": ""}[r["kind"]]
     name = who(r).split(" ", 1)[1] if r["kind"] in ("nlid", "peer", "published") else who(r)
-    mark = f" [{list(sources).index(r) + 1}]" if r in sources else ""
+    mark = f" [{list(cited).index(source_of(r)) + 1}]" if r["kind"] == "published" and source_of(r) in cited else ""
     label = f'<span class="kind">{_e(kind)}</span>' if kind else ""
     title = f' title="{_e(r.get("method") or "")}"' if r.get("method") else ""
     return f'<td{title}>{label}<span class="who">{_e(name)}</span>{_e(mark)}</td>'
@@ -127,7 +129,7 @@ def table_html(rows: Sequence[Mapping[str, Any]], caption: str) -> str:
     """The sortable table of one test set, its legend, what was not scored and the published rows' sources."""
     unit = rows[0]["unit"]
     shown = scored(rows)
-    sources = [r for r in shown if r["kind"] == "published"]
+    cited = sources(shown)
     head = ["#", "row", "knew", f"RMSE ({unit})", "NRMSE %", "fit %", "parameters", "time (s)", "model", "notes"]
     out = [
         '<table class="board">',
@@ -139,7 +141,7 @@ def table_html(rows: Sequence[Mapping[str, Any]], caption: str) -> str:
         classes = [f"kind-{r['kind']}"] + ([] if r.get("same_rule", True) else ["other-rule"])
         cells = [
             _number(rank if rank != "-" else None, rank),
-            _who_cell(r, sources),
+            _who_cell(r, cited),
             f"<td>{_badges(badges(r))}</td>",
             _number(r["rmse"], num(r["rmse"])),
             _number(r["nrmse_percent"], num(r["nrmse_percent"])),
@@ -160,14 +162,9 @@ def table_html(rows: Sequence[Mapping[str, Any]], caption: str) -> str:
         by_note.setdefault(str(r.get("note", "")), []).append(str(r["pipeline"]))
     for note, names in by_note.items():
         out.append(f'<p class="notes">Not scored ({_e(", ".join(names))}): {_e(note)}</p>')
-    if sources:
+    if cited:
         out.append('<ol class="notes">')
-        for r in sources:
-            status = str(r.get("status", "")).replace("published ", "").strip("()")
-            note = f" {r['note']}." if r.get("note") else ""
-            out.append(
-                f"<li>{_e(r['method'])}; {_e(r['model'])}; checked in {_e(r['source'])} ({_e(status)}).{_e(note)}</li>"
-            )
+        out += [f"<li>{_e(paper)}; checked in {_e(where)} ({_e(status)}).</li>" for paper, where, status in cited]
         out.append("</ol>")
     return "\n".join(out)
 

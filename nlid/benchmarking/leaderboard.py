@@ -19,8 +19,27 @@ from collections.abc import Iterable, Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
-from ..formatting import sig
-from .prior import LEGEND, Prior, prior_from_row
+from .board_rows import (
+    KINDS,
+    UNSCORED,
+    badges,
+    figure_name,
+    groups,
+    integer,
+    legend,
+    num,
+    ranks,
+    remark,
+    rule_text,
+    scored,
+    seconds,
+    source_of,
+    sources,
+    unscored,
+    who,
+)
+from .board_rows import value as _nan
+from .prior import Prior
 from .protocol import Protocol
 
 __all__ = [
@@ -64,17 +83,6 @@ COLUMNS = (
     "note",
     "source",
 )
-#: Row kinds, in the order a tie is broken: nlid's pipelines, the true model, peers, published, references.
-KINDS = ("nlid", "truth", "peer", "published", "reference")
-#: Statuses of rows that carry no figure (they are listed under the table, not in it).
-UNSCORED = ("not run", "skipped")
-
-
-def _nan(x: Any) -> float:
-    try:
-        return float(x) if x is not None else math.nan
-    except (TypeError, ValueError):
-        return math.nan
 
 
 def leaderboard_rows(protocols: Mapping[str, Protocol], records: Iterable[Mapping[str, Any]]) -> list[dict[str, Any]]:
@@ -197,119 +205,12 @@ def _row(p: Protocol, test: str, declared: str, **values: Any) -> dict[str, Any]
     return row
 
 
-# --------------------------------------------------------------------------- shared by the renderers
-def groups(rows: Sequence[Mapping[str, Any]]) -> list[tuple[str, str, list[Mapping[str, Any]]]]:
-    """``(benchmark, test, rows)`` per table, in the rows' order."""
-    out: list[tuple[str, str, list[Mapping[str, Any]]]] = []
-    for r in rows:
-        if not out or (out[-1][0], out[-1][1]) != (r["benchmark"], r["test"]):
-            out.append((r["benchmark"], r["test"], []))
-        out[-1][2].append(r)
-    return out
-
-
-def figure_name(benchmark: str, test: str) -> str:
-    """The stem of a test set's figure (``figures/<stem>.png``)."""
-    return f"{benchmark}--{test}"
-
-
-def scored(rows: Sequence[Mapping[str, Any]]) -> list[Mapping[str, Any]]:
-    """The rows a table shows (those with a figure, or failed), in rank order."""
-    return [r for r in rows if r.get("status") not in UNSCORED]
-
-
-def unscored(rows: Sequence[Mapping[str, Any]]) -> list[Mapping[str, Any]]:
-    """The rows not in the table (the test set could not be read, an optional peer is not installed)."""
-    return [r for r in rows if r.get("status") in UNSCORED]
-
-
-def who(r: Mapping[str, Any]) -> str:
-    """The row's name, saying whose it is: ``nlid rfs``, ``peer pysindy``, ``published PNLSS``, ``true model``."""
-    kind = r["kind"]
-    if kind == "nlid":
-        return f"nlid {r['pipeline']}"
-    if kind == "peer":
-        return f"peer {r['pipeline']}"
-    if kind == "truth":
-        return "true model"
-    if kind == "reference":
-        return str(r["pipeline"])
-    return f"published {r['pipeline']}"
-
-
-def badges(r: Mapping[str, Any]) -> list[str]:
-    """The row's prior-knowledge badges (none for a reference line such as the noise floor or a failed job)."""
-    if r["kind"] == "reference" or not r.get("prior_structure"):
-        return []
-    return prior_from_row(r).badges()
-
-
-def rule_text(rows: Sequence[Mapping[str, Any]]) -> str:
-    """The rule of a table, said once: the declared spelling and what it means, from the rows scored under it."""
-    texts: list[str] = []
-    for kinds in (("nlid", "truth"), ("peer",)):  # in the scorer's words; a peer's own words only without them
-        texts = sorted({str(r["rule"]) for r in rows if r["kind"] in kinds and r.get("same_rule") and r.get("rule")})
-        if texts:
-            break
-    declared = rows[0]["rule_declared"]
-    return f"`{declared}`" + (f": {'; '.join(texts)}" if texts else "")
-
-
-def legend(rows: Sequence[Mapping[str, Any]]) -> list[tuple[str, str]]:
-    """``(badge, meaning)`` of the badges the rows use, in :data:`~nlid.benchmarking.prior.LEGEND` order."""
-    used = {b for r in rows for b in badges(r)}
-    return [(b, text) for b, text in LEGEND.items() if b in used]
-
-
-def ranks(rows: Sequence[Mapping[str, Any]]) -> list[str]:
-    """Rank of each row by RMSE (``"-"`` for a reference line or a row without a figure)."""
-    out, k = [], 0
-    for r in rows:
-        if r["kind"] == "reference" or math.isnan(_nan(r["rmse"])):
-            out.append("-")
-        else:
-            k += 1
-            out.append(str(k))
-    return out
-
-
-def remark(r: Mapping[str, Any]) -> str:
-    """What the table's notes column says of a row: another rule, a failure, a note."""
-    notes = []
-    if r.get("status") not in (*UNSCORED, "failed") and not r.get("same_rule", True):
-        notes.append(f"other rule: {r['rule']}")
-    if r["kind"] != "published":
-        if r.get("status") not in ("ok", None):
-            notes.append(str(r["status"]))
-        if r.get("note"):
-            notes.append(str(r["note"]))
-    return "; ".join(notes)
-
-
 # --------------------------------------------------------------------------- Markdown
-def num(x: Any, digits: int = 3) -> str:
-    """``x`` to ``digits`` significant digits, ``-`` when missing."""
-    x = _nan(x)
-    return "-" if math.isnan(x) else sig(x, digits)
-
-
-def integer(x: Any) -> str:
-    """``x`` rounded, ``-`` when missing."""
-    x = _nan(x)
-    return "-" if math.isnan(x) else str(int(round(x)))
-
-
-def seconds(x: Any) -> str:
-    """Seconds to 0.1 s, ``-`` when missing."""
-    x = _nan(x)
-    return "-" if math.isnan(x) else f"{x:.1f}"
-
-
 def _esc(text: str) -> str:
     return str(text).replace("|", "\\|")
 
 
-def _md_who(r: Mapping[str, Any], sources: Sequence[Mapping[str, Any]]) -> str:
+def _md_who(r: Mapping[str, Any], cited: Sequence[tuple[str, str, str]]) -> str:
     kind = r["kind"]
     if kind == "nlid":
         return f"**nlid** `{r['pipeline']}`"
@@ -319,7 +220,7 @@ def _md_who(r: Mapping[str, Any], sources: Sequence[Mapping[str, Any]]) -> str:
         return "*true model*"
     if kind == "reference":
         return f"*{r['pipeline']}*"
-    mark = f" [{list(sources).index(r) + 1}]" if r in sources else ""
+    mark = f" [{list(cited).index(source_of(r)) + 1}]" if source_of(r) in cited else ""
     return f"published: {r['pipeline']}{mark}"
 
 
@@ -327,7 +228,7 @@ def table_markdown(rows: Sequence[Mapping[str, Any]]) -> list[str]:
     """The Markdown table of one benchmark and test set, its legend, what was not scored and the sources."""
     unit = rows[0]["unit"]
     shown = scored(rows)
-    sources = [r for r in shown if r["kind"] == "published"]
+    cited = sources(shown)
     lines = [
         f"| # | row | knew | RMSE ({unit}) | NRMSE % | fit % | parameters | time (s) | notes |",
         "| --- | --- | --- | --- | --- | --- | --- | --- | --- |",
@@ -336,7 +237,7 @@ def table_markdown(rows: Sequence[Mapping[str, Any]]) -> list[str]:
         knew = " · ".join(badges(r)) or "-"
         rmse = num(r["rmse"])
         lines.append(
-            f"| {rank} | {_esc(_md_who(r, sources))} | {knew} | {rmse} | {num(r['nrmse_percent'])} "
+            f"| {rank} | {_esc(_md_who(r, cited))} | {knew} | {rmse} | {num(r['nrmse_percent'])} "
             f"| {num(r['fit_percent'])} | {integer(r['parameters'])} | {seconds(r['seconds'])} "
             f"| {_esc(remark(r)).replace('other rule:', '**other rule**:')} |"
         )
@@ -349,10 +250,8 @@ def table_markdown(rows: Sequence[Mapping[str, Any]]) -> list[str]:
         by_note.setdefault(str(r.get("note", "")), []).append(f"`{r['pipeline']}`")
     for note, names in by_note.items():
         lines += ["", f"Not scored ({', '.join(names)}): {note}"]
-    for i, r in enumerate(sources, 1):
-        note = f" {r['note']}." if r.get("note") else ""
-        status = str(r.get("status", "")).replace("published ", "").strip("()")
-        lines += ["", f"[{i}] {r['method']}; {r['model']}; checked in {r['source']} ({status}).{note}"]
+    for i, (paper, where, status) in enumerate(cited, 1):
+        lines += ["", f"[{i}] {paper}; checked in {where} ({status})."]
     return lines
 
 

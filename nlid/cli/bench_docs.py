@@ -251,7 +251,13 @@ def _discover_block(
 
 def _best(rows: Sequence[Mapping[str, Any]], keep: Any) -> Mapping[str, Any] | None:
     """The row of least RMSE among those ``keep`` accepts (scored, with a figure), or ``None``."""
-    found = [r for r in rows if keep(r) and r.get("status") == "ok" and not math.isnan(float(r["rmse"]))]
+    found = [
+        r
+        for r in rows
+        if keep(r)
+        and (r.get("status") == "ok" or str(r.get("status", "")).startswith("published"))
+        and not math.isnan(float(r["rmse"]))
+    ]
     return min(found, key=lambda r: float(r["rmse"])) if found else None
 
 
