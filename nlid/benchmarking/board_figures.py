@@ -25,7 +25,7 @@ __all__ = ["STYLES", "table_figure", "write_figures"]
 STYLES: dict[str, dict[str, str]] = {
     "nlid": {"marker": "o", "color": "#1f5fa8", "label": "nlid"},
     "truth": {"marker": "*", "color": "#2a8a3e", "label": "true model"},
-    "peer": {"marker": "s", "color": "#d9730d", "label": "peer (other tool, run on the estimation part)"},
+    "peer": {"marker": "s", "color": "#d9730d", "label": "peer (another tool)"},
     "published": {"marker": "D", "color": "#6b6b6b", "label": "published"},
 }
 
@@ -47,12 +47,9 @@ def table_figure(rows: Sequence[Mapping[str, Any]], caption: str) -> Any:
         return None
     points = sorted(points, key=lambda r: _value(r["rmse"]))
     fig, ax = new_figure(width=7.2, height=1.6 + 0.32 * len(points))
-    seen: set[str] = set()
     for i, r in enumerate(points):
         style = STYLES[r["kind"]]
         hollow = not r.get("same_rule", True)
-        label = style["label"] if r["kind"] not in seen else None
-        seen.add(r["kind"])
         ax.plot(
             [_value(r["rmse"])],
             [i],
@@ -61,10 +58,9 @@ def table_figure(rows: Sequence[Mapping[str, Any]], caption: str) -> Any:
             markersize=11 if r["kind"] == "truth" else 8,
             markerfacecolor="white" if hollow else style["color"],
             markeredgecolor=style["color"],
-            label=label,
         )
     for r in floors:
-        ax.axvline(_value(r["rmse"]), color="#999999", linestyle="--", linewidth=1.0, label=str(r["pipeline"]))
+        ax.axvline(_value(r["rmse"]), color="#999999", linestyle="--", linewidth=1.0)
     from matplotlib.ticker import NullFormatter
 
     values = [_value(r["rmse"]) for r in points] + [_value(r["rmse"]) for r in floors]
@@ -76,9 +72,31 @@ def table_figure(rows: Sequence[Mapping[str, Any]], caption: str) -> Any:
     ax.set_ylim(len(points) - 0.5, -0.5)
     ax.grid(True, axis="x", which="both", color="#e5e5e5")
     ax.set_xlabel(f"free-run RMSE ({points[0]['unit']}), log axis")
-    ax.legend(loc="lower left", bbox_to_anchor=(0.0, 1.01), ncol=3, fontsize="small", frameon=False)
+    handles = _legend(points, floors)
+    ax.legend(
+        handles=handles, loc="lower left", bbox_to_anchor=(0.0, 1.01), ncol=min(4, len(handles)), fontsize="small"
+    )
+    ax.get_legend().set_frame_on(False)
     fig.supxlabel(textwrap.fill(caption, 110), fontsize="small", x=0.01, ha="left")
     return fig
+
+
+def _legend(points: Sequence[Mapping[str, Any]], floors: Sequence[Mapping[str, Any]]) -> list[Any]:
+    """One entry per kind of row shown (filled), one for a hollow marker and one for a noise floor when shown."""
+    from matplotlib.lines import Line2D
+
+    kinds = [k for k in STYLES if any(r["kind"] == k for r in points)]
+    handles = [
+        Line2D([], [], linestyle="none", marker=STYLES[k]["marker"], color=STYLES[k]["color"], label=STYLES[k]["label"])
+        for k in kinds
+    ]
+    if any(not r.get("same_rule", True) for r in points):
+        handles.append(
+            Line2D([], [], linestyle="none", marker="o", color="#6b6b6b", markerfacecolor="white", label="other rule")
+        )
+    if floors:
+        handles.append(Line2D([], [], color="#999999", linestyle="--", label=str(floors[0]["pipeline"])))
+    return handles
 
 
 def caption(protocol: Protocol, test: str, rows: Sequence[Mapping[str, Any]]) -> str:
@@ -112,7 +130,7 @@ def write_figures(folder: Path, protocols: Mapping[str, Protocol], rows: Sequenc
         stem = folder / figure_name(bench, test)
         fig.savefig(stem.with_suffix(".png"), dpi=110)
         buffer = io.StringIO()
-        with rc_context({"svg.hashsalt": stem.name}):  # ids from the content, not from a random salt
+        with rc_context({"svg.hashsalt": stem.name, "svg.fonttype": "none"}):  # stable ids; text as text
             fig.savefig(buffer, format="svg", metadata={"Date": None})
         svg = buffer.getvalue()
         stem.with_suffix(".svg").write_text(svg)
