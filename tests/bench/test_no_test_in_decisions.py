@@ -48,3 +48,20 @@ def test_changing_the_test_output_changes_no_choice_only_the_scores(toy, perturb
         assert abs(rmse_b[name] - rmse_a[name]) > 0.05 * rmse_a[name], name
     # the estimation offsets come from the estimation part alone
     assert first["offsets"] == second["offsets"]
+
+
+def test_the_peers_choose_their_settings_on_the_estimation_part_only(toy, perturb, tmp_path):
+    """A changed test set moves the peers' scores and none of their choices (the fast check, peers only)."""
+    text, est, test, _ = toy
+    protocol = parse_protocol(text)
+    pipelines = parse_pipelines("pysindy, linear-ss")
+    other = perturb(test, tmp_path / "test_perturbed.csv")
+    first = _run(protocol, {"toy:estimation": str(est), "toy:independent": str(test)}, pipelines)
+    second = _run(protocol, {"toy:estimation": str(est), "toy:independent": str(other)}, pipelines)
+    for a, b in zip(first["fits"], second["fits"], strict=True):
+        assert json.dumps(a["choices"], sort_keys=True) == json.dumps(b["choices"], sort_keys=True), a["pipeline"]
+        assert a["details"]["selection"] == b["details"]["selection"]
+        # each choice was made on the end of the estimation part, under the benchmark's window rule
+        assert a["details"]["selection"]["holdout_fraction"] == 0.25
+        assert a["details"]["selection"]["holdout_rule"] == "window:20"
+    assert [r["rmse"] for r in first["rows"]] != [r["rmse"] for r in second["rows"]]
