@@ -37,6 +37,19 @@ __all__ = ["BenchJob", "BenchRun", "score_model"]
 
 #: Job kind in a spec's JSON (:meth:`BenchJob.to_dict`).
 KIND = "bench"
+#: Optional packages by the pipeline that needs them: a job records whether each is installed, so
+#: installing one makes a job that skipped its row run again.
+OPTIONAL = {"sysidentpy": "sysidentpy"}
+
+
+def _installed(pipelines: tuple[PipelineSpec, ...]) -> dict[str, bool]:
+    import importlib.util
+
+    return {
+        package: importlib.util.find_spec(package) is not None
+        for name, package in OPTIONAL.items()
+        if any(p.name == name for p in pipelines)
+    }
 
 
 def _score(fit: Any, record: Record, rule: str) -> tuple[Any, str, str, int]:
@@ -108,6 +121,8 @@ class BenchJob:
         ``{"benchmark:test": sha256}`` of those files (part of the digest).
     timeout
         Seconds before the job is stopped.
+    installed
+        ``{package: installed}`` of the optional packages its pipelines need (part of the digest).
     """
 
     run_id: str
@@ -118,6 +133,7 @@ class BenchJob:
     files: Mapping[str, str] = field(default_factory=dict)
     checksums: Mapping[str, str] = field(default_factory=dict)
     timeout: float = 1800.0
+    installed: Mapping[str, bool] = field(default_factory=dict)
 
     @classmethod
     def make(
@@ -141,6 +157,7 @@ class BenchJob:
             dict(mine),
             {k: _sha256(v) for k, v in mine.items()},
             float(timeout),
+            _installed(pipelines),
         )
 
     # -- the JSON a child process reads (nlid.study.worker) and the digest
@@ -156,6 +173,7 @@ class BenchJob:
             "files": dict(self.files),
             "checksums": dict(self.checksums),
             "timeout": self.timeout,
+            "installed": dict(self.installed),
         }
 
     @classmethod
@@ -170,6 +188,7 @@ class BenchJob:
             dict(data.get("files") or {}),
             dict(data.get("checksums") or {}),
             float(data.get("timeout", 1800.0)),
+            dict(data.get("installed") or {}),
         )
 
     def digest(self) -> str:

@@ -135,3 +135,21 @@ def test_pipelines_are_parsed_once(monkeypatch):
     assert [s.name for s in specs] == ["rfs", "discover", "discover-refine", "pysindy"]
     with pytest.raises(InputError, match="names no pipeline"):
         parse_pipelines(" , ", identifiers=["rfs"])
+
+
+def test_installing_an_optional_peer_makes_its_job_run_again(toy, monkeypatch):
+    """A job records whether the optional package its pipeline needs is installed (its digest follows)."""
+    import importlib.util
+
+    text, _, _, _ = toy
+    protocol = parse_protocol(text)
+    specs = tuple(parse_pipelines(["sysidentpy"]))
+    here = BenchJob.make(protocol, specs)
+    assert here.installed == {"sysidentpy": importlib.util.find_spec("sysidentpy") is not None}
+    monkeypatch.setattr(importlib.util, "find_spec", lambda name, *a: None if name == "sysidentpy" else object())
+    missing = BenchJob.make(protocol, specs)
+    assert missing.installed == {"sysidentpy": False}
+    monkeypatch.setattr(importlib.util, "find_spec", lambda name, *a: object())
+    present = BenchJob.make(protocol, specs)
+    assert present.digest() != missing.digest()
+    assert BenchJob.make(protocol, tuple(parse_pipelines(["rfs"]))).installed == {}
