@@ -200,7 +200,7 @@ def compare(
         ``"first-sample"``, ``"window:50"``, ``"periodic"``, ``"periodic:8192"``
         or a rule); default: the held-out record's own
         (:func:`nlid.scoring.default_rule`). The ``freerun_rmse`` row's
-        ``note`` names the rule when it is not the first-sample one.
+        ``note`` names the rule it was computed under.
         An unknown method name is refused before anything runs
         (:class:`~nlid.errors.InputError`, with a suggestion), whatever ``errors``.
 

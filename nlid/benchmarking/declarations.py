@@ -19,6 +19,7 @@ from ..validate import did_you_mean
 
 __all__ = [
     "Protocol",
+    "Truth",
     "Part",
     "TestSet",
     "UserFile",
@@ -27,7 +28,6 @@ __all__ = [
     "PeerSettings",
     "Published",
     "NotComparable",
-    "Truth",
     "STATUSES",
     "UNITS",
 ]
@@ -232,30 +232,34 @@ class Published:
 
 
 @dataclass(frozen=True)
+class NotComparable:
+    """A published figure deliberately left out of the leaderboard, and why."""
+
+    what: str
+    why: str
+
+
+@dataclass(frozen=True)
 class Truth:
-    """The benchmark's own model, where it is known (a simulated benchmark): the "true model" row.
+    """The system that generated a simulated benchmark's data, declared in its file (``[truth]``).
 
     Attributes
     ----------
     coefficients
-        ``{term: coefficient}`` in nlid's term language (the coefficients of ``R(z, v) = f - m a``).
+        ``{term: value}``: the coefficients of the terms of ``R = f - m z''`` (SI units).
     mass
-        The true mass (kg).
+        The mass (kg).
     source
-        Where the model and its parameters come from.
+        Where the system is published.
     """
 
     coefficients: Mapping[str, float]
     mass: float
     source: str
 
-
-@dataclass(frozen=True)
-class NotComparable:
-    """A published figure deliberately left out of the leaderboard, and why."""
-
-    what: str
-    why: str
+    def as_mapping(self) -> dict[str, Any]:
+        """``{"coefficients", "mass"}``, as :func:`nlid.reference.true_model` reads it."""
+        return {"coefficients": dict(self.coefficients), "mass": self.mass}
 
 
 @dataclass(frozen=True)
@@ -292,10 +296,10 @@ class Protocol:
         What the pipelines are given.
     published, not_comparable
         Published figures shown, and those left out with the reason.
-    truth
-        The benchmark's own model when it is known (:class:`Truth`), else ``None``.
     text
         The TOML text it was read from.
+    truth
+        The system that generated the data, when the benchmark is simulated and declares it (``[truth]``).
     """
 
     name: str

@@ -32,6 +32,7 @@ from ..record import Record
 from .data import load_estimation, load_test, noise_floor
 from .pipelines import PEER, Fitted, PipelineSpec, fit_pipelines
 from .protocol import Protocol, TestSet, parse_protocol
+from .truth import TRUTH_KIND
 
 __all__ = ["BenchJob", "BenchRun", "score_model"]
 
@@ -231,7 +232,7 @@ class BenchJob:
         # only now are the test sets read: every decision above was made without them
         rows: list[dict[str, Any]] = []
         for spec, why in skipped:
-            if spec.kind != "truth":  # no truth declared: the benchmark's truth is unknown, no row is missing
+            if spec.kind != TRUTH_KIND:  # no truth declared: the benchmark's truth is unknown, no row is missing
                 rows += [_skipped_row(protocol, test, spec.name, spec.kind, why) for test in protocol.tests]
         floors: dict[str, float] = {}
         for test in protocol.tests:
@@ -307,7 +308,7 @@ def _skipped_row(protocol: Protocol, test: TestSet, pipeline: str, kind: str, wh
     return {
         "benchmark": protocol.name,
         "test": test.name,
-        "kind": "truth" if kind == "truth" else ("peer" if kind == "peer" else "nlid"),
+        "kind": "peer" if kind == "peer" else "nlid",
         "pipeline": pipeline,
         "method": "",
         "model": "",
@@ -362,7 +363,7 @@ def _fit_dict(fitted: Fitted) -> dict[str, Any]:
         "details": fitted.details,
     }
     out["prior"] = fitted.prior.to_row()
-    if fitted.kind in ("nlid", "truth"):
+    if fitted.kind in ("nlid", TRUTH_KIND):  # the true system's coefficients are shown as a fit's
         fit = fitted.model
         se = fit.standard_errors or {}
         out["coefficients"] = {k: float(v) for k, v in fit.coefficients.items()}

@@ -26,12 +26,13 @@ from __future__ import annotations
 import re
 import time
 from collections.abc import Iterable, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from typing import Any
 
 from ..errors import DataError, InputError
 from ..record import Record
 from ..validate import did_you_mean
+from .fitted import Fitted
 from .prior import Prior, given_shapes
 from .protocol import PipelineSettings, Protocol
 
@@ -125,43 +126,6 @@ def parse_pipelines(names: str | Iterable[str], identifiers: Sequence[str] | Non
     return out
 
 
-@dataclass
-class Fitted:
-    """One fitted model of a pipeline, and the choices it made (all on the estimation part).
-
-    Attributes
-    ----------
-    pipeline
-        The pipeline's name.
-    kind
-        ``"nlid"``, ``"peer"`` or ``"truth"``.
-    method
-        What fitted it, in words (``"rfs"``, ``"discover (rfs), refit on the estimation part"``...).
-    model
-        The :class:`~nlid.identified.IdentifiedModel` or the :class:`~nlid.benchmarking.peer.PeerModel`.
-    parameters
-        Fitted parameters: coefficients, the mass when estimated, shape parameters chosen from data.
-    seconds
-        Wall time of the pipeline (its share, when two pipelines share a discovery).
-    choices
-        Every decision (terms, steps, coefficients, hyper-parameters): what must not depend on the test sets.
-    details
-        For the report (discovery steps and their hold-out scores, equations).
-    prior
-        What the pipeline was given (:class:`~nlid.benchmarking.prior.Prior`).
-    """
-
-    pipeline: str
-    kind: str
-    method: str
-    model: Any
-    parameters: int
-    seconds: float
-    choices: dict[str, Any] = field(default_factory=dict)
-    details: dict[str, Any] = field(default_factory=dict)
-    prior: Prior = field(default_factory=Prior)
-
-
 def _identified_choices(fit: Any) -> dict[str, Any]:
     return {
         "terms": list(fit.terms),
@@ -247,18 +211,6 @@ def _linear(record: Record, settings: PipelineSettings) -> Fitted:
     )
 
 
-def _truth(protocol: Protocol) -> Fitted | None:
-    from .truth import true_model
-
-    model = true_model(protocol)
-    if model is None:
-        return None
-    truth = protocol.truth
-    assert truth is not None
-    prior = Prior("given", "true model", "given", truth.source)
-    return Fitted(TRUTH, "truth", "the benchmark's own model", model, 0, 0.0, {}, {"source": truth.source}, prior)
-
-
 def _stage(stage: Any, label: str, terms: Sequence[str]) -> dict[str, Any]:
     s = stage.scores
     return {
@@ -291,6 +243,7 @@ def _discover(record: Record, settings: PipelineSettings, specs: Sequence[Pipeli
         "steps": stages,
         "stop_reason": result.stop_reason,
         "holdout": result.info.get("holdout", ""),
+        "freerun_rule_holdout": result.info.get("freerun_rule", ""),
         "estimation_samples": record.n,
         "selection_samples": int(round(record.n * (1 - settings.holdout))),
         "final_terms": list(final.identified.terms),
@@ -428,8 +381,10 @@ def fit_pipelines(record: Record, protocol: Protocol, specs: Sequence[PipelineSp
             except DataError as exc:  # an optional peer that is not installed
                 out.append(str(exc))
         elif spec.kind == "truth":
-            truth = _truth(protocol)
-            out.append(truth if truth is not None else f"benchmark {protocol.name} declares no true model")
+            from .truth import true_fitted
+
+            truth = true_fitted(protocol)
+            out.append(truth[0] if truth else f"benchmark {protocol.name} declares no true model")
         else:  # pragma: no cover - parse_pipelines makes only these
             raise InputError(f"unknown pipeline kind {spec.kind!r}")
     return out

@@ -31,10 +31,10 @@ says, for one benchmark:
     nothing else is accepted, so no unverified figure reaches a leaderboard).
 ``[[not_comparable]]``
     published figures that are *not* shown, and why (another test set, in-sample, no source).
-``[truth]``
-    optional: the benchmark's own model when it is known (a simulated benchmark): ``coefficients``
-    (``{term = value}`` in nlid's terms), ``mass`` and ``source``; the leaderboard then shows a
-    "true model" row, scored like every other.
+``[truth]`` (optional)
+    for a simulated benchmark, the system that generated its data: ``coefficients`` (a table
+    ``{term = value}`` of the terms of ``R = f - m z''``), ``mass`` (kg) and ``source``; the bench
+    scores it on every test set beside the fitted models (:mod:`nlid.benchmarking.truth`).
 
 :func:`load_protocol` reads a file or a built-in name; :func:`builtin_benchmarks` lists the
 built-in ones. What they return is a frozen dataclass (:mod:`nlid.benchmarking.declarations`, whose
@@ -259,31 +259,27 @@ def _structure(t: _Table) -> str:
     return value
 
 
-def _truth(root: _Table) -> Truth | None:
-    t = root.table("truth")
+def _truth(t: _Table | None) -> Truth | None:
+    """The ``[truth]`` table: the system that generated a simulated benchmark's data."""
     if t is None:
         return None
     raw = t._get("coefficients", None, True)
-    if (
-        not isinstance(raw, Mapping)
-        or not raw
-        or not all(isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v) for v in raw.values())
-    ):
-        raise t.error("coefficients", "must be a table of finite numbers: { term = value, ... }")
-    from ..errors import TermError
-    from ..terms import Model
-
-    try:
-        Model.from_spec(list(raw), defaults=False)
-    except TermError as exc:
-        raise t.error("coefficients", f"names a term nlid cannot read: {exc}") from None
-    out = Truth(
-        {str(k): float(v) for k, v in raw.items()},
-        t.number("mass", required=True, positive=True),
-        t.string("source", required=True),
-    )
+    if not isinstance(raw, Mapping) or not raw:
+        raise t.error("coefficients", "must be a table {term = value} of the true system's coefficients")
+    coefficients = {}
+    for term, value in raw.items():
+        if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+            raise t.error("coefficients", f"the coefficient of {term!r} must be a number, got {value!r}")
+        coefficients[str(term)] = float(value)
+    truth = Truth(coefficients, t.number("mass", required=True, positive=True), t.string("source", required=True))
     t.done()
-    return out
+    try:  # the terms are read once here, so that a misspelled one fails when the file is read
+        from ..terms import Model
+
+        Model.from_spec(list(coefficients), defaults=False)
+    except InputError as exc:
+        raise t.error("coefficients", str(exc)) from None
+    return truth
 
 
 def parse_protocol(text: str, source: str = "<text>") -> Protocol:
@@ -415,6 +411,7 @@ def parse_protocol(text: str, source: str = "<text>") -> Protocol:
     for t in root.tables("not_comparable"):
         left_out.append(NotComparable(t.string("what", required=True), t.string("why", required=True)))
         t.done()
+    truth = _truth(root.table("truth"))
     proto = Protocol(
         name=name,
         title=b.string("title", required=True),
@@ -437,7 +434,7 @@ def parse_protocol(text: str, source: str = "<text>") -> Protocol:
         published=published,
         not_comparable=tuple(left_out),
         text=text,
-        truth=_truth(root),
+        truth=truth,
     )
     b.done()
     root.done()

@@ -1,33 +1,38 @@
-"""The "true model" row: a benchmark's own model, scored by the same scorer as every other row.
+"""The true system's row: a simulated benchmark's declared system, scored like any fitted model.
 
-Where a benchmark's truth is known (a simulated benchmark such as Bouc-Wen; its file's ``[truth]``),
-the leaderboard shows the true model under the scorer it uses for every row. That row measures the
-scorer as much as the models: a true model that scores worse than a fitted one says the scorer (the
-force's interpolation between samples, the transient rule) is coarser than the models it ranks.
-
-:func:`true_model` is the one place that turns a ``[truth]`` into a model the scorer runs. It builds
-an :class:`~nlid.identified.IdentifiedModel` from the declared coefficients and mass; a finer
-"true model under this scorer" (the scorer's own force interpolation, its integrator) replaces this
-function and every leaderboard follows.
+A benchmark whose data were simulated (Bouc-Wen) declares the system that generated them
+(``[truth]`` in its file: :class:`~nlid.benchmarking.declarations.Truth`). Scored on a test set
+under the test set's rule by the one scorer every row goes through
+(:func:`nlid.benchmarking.jobs.score_model`), it is the figure a perfect model reaches with
+nlid's scorer: the floor of that table, and a check of the instrument itself (a scorer that
+gives the truth more than a fitted model is coarser than the models it ranks). It is the
+``truth`` pipeline (:mod:`nlid.benchmarking.pipelines`): one row per test set, whatever else runs.
 """
 
 from __future__ import annotations
 
-from typing import Any
+from ..reference import Reference
+from .fitted import Fitted
+from .prior import Prior
+from .protocol import Protocol
 
-from .declarations import Protocol
+__all__ = ["true_fitted", "TRUTH_KIND", "TRUTH_PIPELINE"]
 
-__all__ = ["true_model"]
+#: The ``kind`` of the true system's rows (beside ``"nlid"``, ``"peer"``, ``"published"``, ``"reference"``).
+TRUTH_KIND = "truth"
+#: The pipeline name of the true system's rows.
+TRUTH_PIPELINE = "true system"
 
 
-def true_model(protocol: Protocol) -> Any:
-    """The benchmark's own model as an :class:`~nlid.identified.IdentifiedModel`, or ``None`` when unknown."""
-    truth = protocol.truth
-    if truth is None:
-        return None
-    from ..identified import IdentifiedModel
-    from ..terms import Model
+def true_fitted(protocol: Protocol) -> list[Fitted]:
+    """The declared true system of a benchmark as a fitted model (none when the benchmark declares none).
 
-    coefficients = dict(truth.coefficients)
-    model = Model.from_spec(list(coefficients), defaults=False)
-    return IdentifiedModel(model, coefficients, truth.mass, "truth")
+    Nothing is fitted: ``parameters`` is 0 and ``choices`` is empty (no decision is made on any data).
+    It knew everything: the mass, the terms and their shapes (:class:`~nlid.benchmarking.prior.Prior`).
+    """
+    if protocol.truth is None:
+        return []
+    model = Reference.from_mapping(protocol.truth.as_mapping()).true_model(f"benchmark {protocol.name}'s [truth]")
+    method = f"the system that generated the data ({protocol.truth.source})"
+    prior = Prior("given", "true model", "given", protocol.truth.source)
+    return [Fitted(TRUTH_PIPELINE, TRUTH_KIND, method, model, 0, 0.0, prior=prior)]

@@ -54,7 +54,7 @@ def test_every_row_kind_states_its_prior_knowledge(toy_rows):
         ("nlid", "linear"): ("given", "declared", "none"),
         ("peer", "pysindy"): ("none", "library", "none"),
         ("peer", "linear-ss"): ("none", "black box", "none"),
-        ("truth", "truth"): ("given", "true model", "given"),
+        ("truth", "true system"): ("given", "true model", "given"),
         ("published", "a made-up figure"): ("none", "black box", "none"),
     }
     for key, (mass, structure, shape) in expected.items():
@@ -62,7 +62,7 @@ def test_every_row_kind_states_its_prior_knowledge(toy_rows):
         assert (r["prior_mass"], r["prior_structure"], r["prior_shape"]) == (mass, structure, shape), key
         assert r["prior"] == Prior(mass, structure, shape).text(), key
     assert by[("nlid", "rfs")]["prior"] == "mass given · terms given"
-    assert by[("truth", "truth")]["prior"] == "true model"
+    assert by[("truth", "true system")]["prior"] == "true model"
     assert {"prior", "prior_mass", "prior_structure", "prior_shape"} <= set(COLUMNS)
 
 
