@@ -4,9 +4,12 @@ A benchmark is declared as data (:mod:`nlid.benchmarking.protocol`; the built-in
 ``nlid/benchmarking/protocols/*.toml``): its estimation part, its test sets with their transient rules
 (an initialisation window, periodic steady state, from the first sample), the metric and unit,
 and the published figures with their source, rule and how they were verified. :func:`bench`
-runs pipelines (identifiers by name, ``discover``, ``discover --refine``, the pysindy peer) on
-each benchmark through the study executors, persisting each job as it finishes, and writes a
-leaderboard (CSV, Markdown, HTML) with nlid's rows beside the peer's and the published ones.
+runs pipelines (identifiers by name, nlid's ``linear`` model, ``discover``, ``discover --refine``,
+the peers ``pysindy``, ``sysidentpy`` and ``linear-ss``, the ``truth`` where known) on each
+benchmark through the study executors, persisting each job as it finishes, and writes a
+leaderboard (CSV, Markdown, a sortable HTML page, a figure per test set) with nlid's rows beside
+the peers', the published ones and the true model's, each row saying what it knew
+(:mod:`nlid.benchmarking.prior`).
 
 The test sets never take part in a decision: a pipeline is given the estimation part only
 (:func:`nlid.benchmarking.pipelines.fit_pipelines`), the test sets are read after it has finished.
@@ -22,7 +25,8 @@ Example::
 from .data import SOURCES, load_estimation, load_test
 from .jobs import BenchJob, BenchRun
 from .leaderboard import COLUMNS, leaderboard_rows, write_leaderboard
-from .pipelines import PipelineSpec, fit_pipelines, parse_pipelines
+from .pipelines import PEERS, PipelineSpec, fit_pipelines, parse_pipelines
+from .prior import Prior
 from .protocol import Protocol, Published, TestSet, builtin_benchmarks, load_protocol, parse_protocol
 from .run import BENCH_OUTPUTS, DEFAULT_BENCHMARKS, DEFAULT_PIPELINES, BenchOutcome, bench, default_pipelines
 
@@ -43,6 +47,8 @@ __all__ = [
     "load_test",
     "SOURCES",
     "PipelineSpec",
+    "PEERS",
+    "Prior",
     "parse_pipelines",
     "fit_pipelines",
     "BenchJob",

@@ -133,11 +133,24 @@ class TestSet:
 
 @dataclass(frozen=True)
 class PeerSettings:
-    """The pysindy peer's settings on this benchmark (:mod:`nlid.benchmarking.peer`)."""
+    """The pysindy peer's settings on this benchmark (:mod:`nlid.benchmarking.peer`).
+
+    Attributes
+    ----------
+    degree
+        Degree of the polynomial library in ``(z, v)``.
+    friction
+        Whether ``sign(v)`` is in the library.
+    thresholds
+        The STLSQ thresholds tried, as fractions of the largest coefficient of the
+        column-normalised least-squares fit (pysindy's ``normalize_columns=True``): the
+        threshold pysindy is given is this fraction times that coefficient, so one grid
+        means the same on a record in volts and one in metres.
+    """
 
     degree: int = 3
     friction: bool = True
-    thresholds: tuple[float, ...] = (0.0, 0.01, 0.1)
+    thresholds: tuple[float, ...] = (0.0, 1e-4, 1e-3, 1e-2)
 
 
 @dataclass(frozen=True)
@@ -200,6 +213,9 @@ class Published:
         Where it was verified, and how (:data:`STATUSES`).
     note
         Anything that limits the comparison.
+    structure
+        What the published model knew (:data:`nlid.benchmarking.prior.STRUCTURES`; ``"black box"``
+        unless the file says otherwise).
     """
 
     test: str
@@ -216,6 +232,7 @@ class Published:
     fit_percent: float | None = None
     parameters: int | None = None
     note: str = ""
+    structure: str = "black box"
 
 
 @dataclass(frozen=True)

@@ -30,14 +30,27 @@ from ..errors import DataError, NlidError
 from ..interface import to_jsonable
 from ..record import Record
 from .data import load_estimation, load_test, noise_floor
-from .pipelines import Fitted, PipelineSpec, fit_pipelines
+from .pipelines import PEER, Fitted, PipelineSpec, fit_pipelines
 from .protocol import Protocol, TestSet, parse_protocol
-from .truth import TRUTH_KIND, true_fitted
+from .truth import TRUTH_KIND
 
 __all__ = ["BenchJob", "BenchRun", "score_model"]
 
 #: Job kind in a spec's JSON (:meth:`BenchJob.to_dict`).
 KIND = "bench"
+#: Optional packages by the pipeline that needs them: a job records whether each is installed, so
+#: installing one makes a job that skipped its row run again.
+OPTIONAL = {"sysidentpy": "sysidentpy"}
+
+
+def _installed(pipelines: tuple[PipelineSpec, ...]) -> dict[str, bool]:
+    import importlib.util
+
+    return {
+        package: importlib.util.find_spec(package) is not None
+        for name, package in OPTIONAL.items()
+        if any(p.name == name for p in pipelines)
+    }
 
 
 def _score(fit: Any, record: Record, rule: str) -> tuple[Any, str, str, int]:
@@ -52,7 +65,7 @@ def _score(fit: Any, record: Record, rule: str) -> tuple[Any, str, str, int]:
 
 def score_model(fitted: Fitted, record: Record, rule: str) -> dict[str, Any]:
     """The free-run scores of one fitted model on one test record under ``rule`` (RMSE in the unit of ``z``)."""
-    if fitted.kind == "peer":
+    if fitted.kind == "peer":  # every peer model has free_run(record, rule) -> PeerScore
         s = fitted.model.free_run(record, rule)
         return {
             "rmse": s.rmse,
@@ -109,6 +122,8 @@ class BenchJob:
         ``{"benchmark:test": sha256}`` of those files (part of the digest).
     timeout
         Seconds before the job is stopped.
+    installed
+        ``{package: installed}`` of the optional packages its pipelines need (part of the digest).
     """
 
     run_id: str
@@ -119,6 +134,7 @@ class BenchJob:
     files: Mapping[str, str] = field(default_factory=dict)
     checksums: Mapping[str, str] = field(default_factory=dict)
     timeout: float = 1800.0
+    installed: Mapping[str, bool] = field(default_factory=dict)
 
     @classmethod
     def make(
@@ -142,6 +158,7 @@ class BenchJob:
             dict(mine),
             {k: _sha256(v) for k, v in mine.items()},
             float(timeout),
+            _installed(pipelines),
         )
 
     # -- the JSON a child process reads (nlid.study.worker) and the digest
@@ -157,6 +174,7 @@ class BenchJob:
             "files": dict(self.files),
             "checksums": dict(self.checksums),
             "timeout": self.timeout,
+            "installed": dict(self.installed),
         }
 
     @classmethod
@@ -171,6 +189,7 @@ class BenchJob:
             dict(data.get("files") or {}),
             dict(data.get("checksums") or {}),
             float(data.get("timeout", 1800.0)),
+            dict(data.get("installed") or {}),
         )
 
     def digest(self) -> str:
@@ -207,9 +226,14 @@ class BenchJob:
         estimation, offsets = load_estimation(
             protocol, source=self.source, path=self.files.get(f"{protocol.name}:estimation")
         )
-        fits = fit_pipelines(estimation, protocol.pipelines, self.pipelines) + true_fitted(protocol)
+        outcomes = fit_pipelines(estimation, protocol, self.pipelines)
+        fits = [f for f in outcomes if isinstance(f, Fitted)]
+        skipped = [(spec, why) for spec, why in zip(self.pipelines, outcomes, strict=True) if isinstance(why, str)]
         # only now are the test sets read: every decision above was made without them
         rows: list[dict[str, Any]] = []
+        for spec, why in skipped:
+            if spec.kind != TRUTH_KIND:  # no truth declared: the benchmark's truth is unknown, no row is missing
+                rows += [_skipped_row(protocol, test, spec.name, spec.kind, why) for test in protocol.tests]
         floors: dict[str, float] = {}
         for test in protocol.tests:
             if test.noise_floor is not None:
@@ -231,6 +255,7 @@ class BenchJob:
         result = {
             "rows": rows,
             "fits": [_fit_dict(f) for f in fits],
+            "skipped": {spec.name: why for spec, why in skipped},
             "noise_floors": floors,
             "estimation": {"samples": estimation.n, "source": estimation.meta.get("source", "")},
             "offsets": {"f": offsets.f, "z": offsets.z},
@@ -256,6 +281,7 @@ class BenchJob:
     ) -> dict[str, Any]:
         s = dict(scores or {})
         return {
+            **fitted.prior.to_row(),
             "benchmark": protocol.name,
             "test": test.name,
             "kind": fitted.kind,
@@ -277,6 +303,30 @@ class BenchJob:
         }
 
 
+def _skipped_row(protocol: Protocol, test: TestSet, pipeline: str, kind: str, why: str) -> dict[str, Any]:
+    """The row of a pipeline that could not run here (an optional peer not installed, no truth declared)."""
+    return {
+        "benchmark": protocol.name,
+        "test": test.name,
+        "kind": "peer" if kind == "peer" else "nlid",
+        "pipeline": pipeline,
+        "method": "",
+        "model": "",
+        "rmse": np.nan,
+        "nrmse_percent": np.nan,
+        "fit_percent": np.nan,
+        "parameters": None,
+        "seconds": None,
+        "rule": "",
+        "rule_applied": "",
+        "rule_declared": test.rule,
+        "scored_samples": None,
+        "status": "skipped",
+        "note": why,
+        "data": "",
+    }
+
+
 def _where(record: Record) -> str:
     """Where a record was read from, with the data folder written as ``$NLID_DATA_DIR`` (no machine's path)."""
     import os
@@ -292,7 +342,10 @@ def _where(record: Record) -> str:
 
 def _model_text(fitted: Fitted, mass_unit: str = "kg") -> str:
     if fitted.kind == "peer":
-        return f"{fitted.parameters} non-zero coefficients in (z', v')"
+        equations = list(getattr(fitted.model, "equations", []) or [])
+        if fitted.pipeline == PEER:
+            return f"{fitted.parameters} non-zero coefficients in (z', v')"
+        return equations[0] if equations else ""
     fit = fitted.model
     how = "estimated" if fit.mass_estimated else "given"
     mass = f"m = {fit.mass:.4g} {mass_unit} ({how})" if fit.mass is not None else ""
@@ -309,6 +362,7 @@ def _fit_dict(fitted: Fitted) -> dict[str, Any]:
         "choices": fitted.choices,
         "details": fitted.details,
     }
+    out["prior"] = fitted.prior.to_row()
     if fitted.kind in ("nlid", TRUTH_KIND):  # the true system's coefficients are shown as a fit's
         fit = fitted.model
         se = fit.standard_errors or {}

@@ -1,25 +1,59 @@
-"""The leaderboard: nlid's rows beside the peer's and the published ones, per benchmark and test set.
+"""The leaderboard: nlid's rows beside the peers', the published ones and the true model, per test set.
 
 :func:`leaderboard_rows` turns the stored jobs and the benchmark files into rows (one table per
-benchmark and test set); :func:`write_leaderboard` writes them as ``leaderboard.csv`` (every
-row, the columns of :data:`COLUMNS`), ``leaderboard.md`` and ``leaderboard.html`` (a table per
-benchmark and test set, the rule stated above each table, rows scored under another rule
-marked). RMSE is in the benchmark's unit; NRMSE = RMSE / std(z over the scored samples) in %;
-fit % is MATLAB ``compare``'s ``100 (1 - |z - z_sim| / |z - mean z|)``.
+benchmark and test set); :func:`write_leaderboard` writes them as ``leaderboard.csv`` (every row,
+the columns of :data:`COLUMNS`), ``leaderboard.md`` (:func:`markdown_tables`), a self-contained
+``leaderboard.html`` (styled, sortable: :mod:`nlid.benchmarking.board_html`) and a figure per test
+set (``figures/BENCHMARK--TEST.png`` and ``.svg``: :mod:`nlid.benchmarking.board_figures`).
+
+Every table says its transient rule once, above it; every row says what it knew (its prior
+knowledge, :mod:`nlid.benchmarking.prior`) as badges, explained once under the table. RMSE is in
+the benchmark's unit; NRMSE = RMSE / std(z over the scored samples) in %; fit % is MATLAB
+``compare``'s ``100 (1 - |z - z_sim| / |z - mean z|)``.
 """
 
 from __future__ import annotations
 
-import html
 import math
 from collections.abc import Iterable, Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
-from ..formatting import sig
+from .board_rows import (
+    KINDS,
+    UNSCORED,
+    badges,
+    figure_name,
+    groups,
+    integer,
+    legend,
+    num,
+    ranks,
+    remark,
+    rule_text,
+    scored,
+    seconds,
+    source_of,
+    sources,
+    unscored,
+    who,
+)
+from .board_rows import value as _nan
+from .prior import Prior
 from .protocol import Protocol
 
-__all__ = ["COLUMNS", "leaderboard_rows", "write_leaderboard", "markdown_tables", "table_markdown", "read_leaderboard"]
+__all__ = [
+    "COLUMNS",
+    "KINDS",
+    "leaderboard_rows",
+    "write_leaderboard",
+    "markdown_tables",
+    "table_markdown",
+    "read_leaderboard",
+    "groups",
+    "figure_name",
+    "who",
+]
 
 #: The leaderboard's columns, in order.
 COLUMNS = (
@@ -30,6 +64,11 @@ COLUMNS = (
     "kind",
     "pipeline",
     "method",
+    "prior",
+    "prior_mass",
+    "prior_structure",
+    "prior_shape",
+    "prior_detail",
     "model",
     "rmse",
     "unit",
@@ -44,14 +83,6 @@ COLUMNS = (
     "note",
     "source",
 )
-_KIND_ORDER = {"nlid": 0, "peer": 1, "published": 2, "reference": 3, "truth": 4}
-
-
-def _nan(x: Any) -> float:
-    try:
-        return float(x) if x is not None else math.nan
-    except (TypeError, ValueError):
-        return math.nan
 
 
 def leaderboard_rows(protocols: Mapping[str, Protocol], records: Iterable[Mapping[str, Any]]) -> list[dict[str, Any]]:
@@ -84,7 +115,7 @@ def leaderboard_rows(protocols: Mapping[str, Protocol], records: Iterable[Mappin
             out["rmse"] = _nan(r.get("rmse")) * p.scale
             out["unit"] = p.unit
             out["official"] = p.official
-            out["same_rule"] = r.get("status") == "not run" or r.get("rule_applied") == r.get("rule_declared")
+            out["same_rule"] = r.get("status") in UNSCORED or r.get("rule_applied") == r.get("rule_declared")
             out["source"] = r.get("data", "")
             rows.append(out)
     for p in protocols.values():
@@ -125,6 +156,7 @@ def leaderboard_rows(protocols: Mapping[str, Protocol], records: Iterable[Mappin
                         note=pub.note,
                         source=pub.source,
                         model=f"{pub.value:g} {pub.unit} as published",
+                        **Prior("none", pub.structure, "none", f"published {pub.year}").to_row(),
                     )
                 )
     for bench, message in failed:
@@ -145,7 +177,7 @@ def leaderboard_rows(protocols: Mapping[str, Protocol], records: Iterable[Mappin
             tests.index(r["test"]) if r["test"] in tests else 99,
             math.isnan(rmse),
             rmse if not math.isnan(rmse) else 0.0,
-            _KIND_ORDER.get(r["kind"], 9),
+            KINDS.index(r["kind"]) if r["kind"] in KINDS else 9,
         )
 
     rows.sort(key=key)
@@ -167,107 +199,91 @@ def _row(p: Protocol, test: str, declared: str, **values: Any) -> dict[str, Any]
         source="",
         model="",
         method="",
+        prior="",
     )
     row.update(values)
     return row
 
 
-# --------------------------------------------------------------------------- text
-def _num(x: Any, digits: int = 3) -> str:
-    x = _nan(x)
-    return "-" if math.isnan(x) else sig(x, digits)
-
-
-def _int(x: Any) -> str:
-    x = _nan(x)
-    return "-" if math.isnan(x) else str(int(round(x)))
-
-
-def _seconds(x: Any) -> str:
-    x = _nan(x)
-    return "-" if math.isnan(x) else f"{x:.1f}"
-
-
-def _who(r: Mapping[str, Any], sources: Sequence[Mapping[str, Any]] = ()) -> str:
-    kind = r["kind"]
-    if kind == "nlid":
-        return f"nlid `{r['pipeline']}`"
-    if kind == "peer":
-        return f"peer: {r['method']}"
-    if kind == "reference":
-        return "noise floor"
-    if kind == "truth":
-        return "true system (the data's generator, under this scorer)"
-    mark = f" [{list(sources).index(r) + 1}]" if r in sources else ""
-    return f"published: {r['pipeline']}{mark}"
-
-
-def _remark(r: Mapping[str, Any]) -> str:
-    notes = []
-    if r.get("status") != "not run" and not r.get("same_rule", True):
-        notes.append(f"**other rule**: {r['rule']}")
-    if r["kind"] == "published":
-        return "; ".join(notes)
-    if r.get("status") not in ("ok", None):
-        notes.append(str(r["status"]))
-    if r.get("note"):
-        notes.append(str(r["note"]))
-    return "; ".join(notes)
-
-
+# --------------------------------------------------------------------------- Markdown
 def _esc(text: str) -> str:
     return str(text).replace("|", "\\|")
 
 
+def _md_who(r: Mapping[str, Any], cited: Sequence[tuple[str, str, str]]) -> str:
+    kind = r["kind"]
+    if kind == "nlid":
+        return f"**nlid** `{r['pipeline']}`"
+    if kind == "peer":
+        return f"peer `{r['pipeline']}`"
+    if kind == "truth":
+        return "*true model*"
+    if kind == "reference":
+        return f"*{r['pipeline']}*"
+    mark = f" [{list(cited).index(source_of(r)) + 1}]" if source_of(r) in cited else ""
+    return f"published: {r['pipeline']}{mark}"
+
+
 def table_markdown(rows: Sequence[Mapping[str, Any]]) -> list[str]:
-    """The Markdown table of one benchmark and test set, then what was not run and the published rows' sources."""
+    """The Markdown table of one benchmark and test set, its legend, what was not scored and the sources."""
     unit = rows[0]["unit"]
-    shown = [r for r in rows if r.get("status") != "not run"]
-    sources = [r for r in shown if r["kind"] == "published"]
+    shown = scored(rows)
+    cited = sources(shown)
     lines = [
-        f"| | RMSE ({unit}) | NRMSE % | fit % | parameters | time (s) | model | notes |",
-        "| --- | --- | --- | --- | --- | --- | --- | --- |",
+        f"| # | row | knew | RMSE ({unit}) | NRMSE % | fit % | parameters | time (s) | notes |",
+        "| --- | --- | --- | --- | --- | --- | --- | --- | --- |",
     ]
-    for r in shown:
+    for rank, r in zip(ranks(shown), shown, strict=True):
+        knew = " · ".join(badges(r)) or "-"
+        rmse = num(r["rmse"])
         lines.append(
-            f"| {_esc(_who(r, sources))} | {_num(r['rmse'])} | {_num(r['nrmse_percent'])} | {_num(r['fit_percent'])} "
-            f"| {_int(r['parameters'])} | {_seconds(r['seconds'])} | {_esc(r.get('model') or '')} "
-            f"| {_esc(_remark(r))} |"
+            f"| {rank} | {_esc(_md_who(r, cited))} | {knew} | {rmse} | {num(r['nrmse_percent'])} "
+            f"| {num(r['fit_percent'])} | {integer(r['parameters'])} | {seconds(r['seconds'])} "
+            f"| {_esc(remark(r)).replace('other rule:', '**other rule**:')} |"
         )
-    skipped = [r for r in rows if r.get("status") == "not run"]
-    if skipped:
-        names = ", ".join(f"`{r['pipeline']}`" for r in skipped)
-        lines += ["", f"Not scored ({names}): {skipped[0].get('note', '')}"]
-    for i, r in enumerate(sources, 1):
-        note = f" {r['note']}." if r.get("note") else ""
-        status = str(r.get("status", "")).replace("published ", "").strip("()")
-        lines += ["", f"[{i}] {r['method']}; {r['model']}; checked in {r['source']} ({status}).{note}"]
+    used = legend(shown)
+    if used:
+        lines += ["", "Knew: " + "; ".join(f"**{b}**: {text}" for b, text in used) + "."]
+    missing = unscored(rows)
+    by_note: dict[str, list[str]] = {}
+    for r in missing:
+        by_note.setdefault(str(r.get("note", "")), []).append(f"`{r['pipeline']}`")
+    for note, names in by_note.items():
+        lines += ["", f"Not scored ({', '.join(names)}): {note}"]
+    for i, (paper, where, status) in enumerate(cited, 1):
+        lines += ["", f"[{i}] {paper}; checked in {where} ({status})."]
     return lines
 
 
-def _groups(rows: Sequence[Mapping[str, Any]]) -> list[tuple[str, str, list[Mapping[str, Any]]]]:
-    out: list[tuple[str, str, list[Mapping[str, Any]]]] = []
+def _models(rows: Sequence[Mapping[str, Any]]) -> list[str]:
+    """One line per fitted pipeline of a benchmark: its model and what it was given."""
+    seen: dict[str, Mapping[str, Any]] = {}
     for r in rows:
-        if not out or (out[-1][0], out[-1][1]) != (r["benchmark"], r["test"]):
-            out.append((r["benchmark"], r["test"], []))
-        out[-1][2].append(r)
+        if r["kind"] in ("nlid", "peer", "truth") and r.get("status") not in UNSCORED and r.get("model"):
+            seen.setdefault(who(r), r)
+    out = []
+    for name, r in seen.items():
+        detail = f" ({r['prior_detail']})" if r.get("prior_detail") and r["kind"] != "truth" else ""
+        out.append(f"- {name}: {_esc(str(r['model']))}{_esc(detail)}")
     return out
 
 
-def _rule_line(rows: Sequence[Mapping[str, Any]]) -> str:
-    texts = sorted(
-        {str(r["rule"]) for r in rows if r["kind"] in ("nlid", "peer") and r.get("same_rule") and r.get("rule")}
-    )
-    declared = rows[0]["rule_declared"]
-    return f"Rule: `{declared}`" + (f" — {'; '.join(texts)}" if texts else "")
+def markdown_tables(
+    protocols: Mapping[str, Protocol],
+    rows: Sequence[Mapping[str, Any]],
+    level: int = 3,
+    figures: str | None = None,
+    models: bool = True,
+) -> list[str]:
+    """Markdown: per benchmark a heading, per test set its rule, figure and table, the models, the figures left out.
 
-
-def markdown_tables(protocols: Mapping[str, Protocol], rows: Sequence[Mapping[str, Any]], level: int = 3) -> list[str]:
-    """Markdown: per benchmark a heading, per test set its rule and table, and the figures left out."""
+    ``figures`` is the folder (relative to the Markdown file) of the test sets' figures; ``None``: no figures.
+    ``models``: list the model behind each row once per benchmark.
+    """
     lines: list[str] = []
     hashes = "#" * level
     by_bench: dict[str, list] = {}
-    for bench, test, group in _groups(rows):
+    for bench, test, group in groups(rows):
         by_bench.setdefault(bench, []).append((test, group))
     for name, p in protocols.items():
         lines += [f"{hashes} {p.title}", ""]
@@ -281,12 +297,15 @@ def markdown_tables(protocols: Mapping[str, Protocol], rows: Sequence[Mapping[st
         for test, group in by_bench.get(name, []):
             t = p.test(test)
             lines += [f"{hashes}# `{p.name}` — test `{test}`", ""]
-            lines += [
-                f"{t.source.description or test}. {_rule_line(group)}" + (f" ({t.rule_note})." if t.rule_note else "."),
-                "",
-            ]
+            lines += [f"{t.source.description or test}.", ""]
+            lines += [f"Rule {rule_text(group)}" + (f" ({t.rule_note})." if t.rule_note else "."), ""]
+            if figures is not None and any(not math.isnan(_nan(r["rmse"])) for r in group):
+                lines += [f"![RMSE of every row, log axis]({figures}/{figure_name(p.name, test)}.png)", ""]
             lines += table_markdown(group)
             lines.append("")
+        behind = _models([r for _, g in by_bench.get(name, []) for r in g]) if models else []
+        if behind:
+            lines += ["Models behind the rows (fitted on the estimation part):", "", *behind, ""]
         if p.not_comparable:
             lines += ["Published figures not shown:", ""]
             lines += [f"- {_esc(n.what)}: {n.why}." for n in p.not_comparable]
@@ -294,79 +313,27 @@ def markdown_tables(protocols: Mapping[str, Protocol], rows: Sequence[Mapping[st
     return lines
 
 
-def _html_table(rows: Sequence[Mapping[str, Any]]) -> str:
-    unit = rows[0]["unit"]
-    head = ["", f"RMSE ({unit})", "NRMSE %", "fit %", "parameters", "time (s)", "model", "rule", "notes"]
-    out = ["<table>", "<tr>" + "".join(f"<th>{html.escape(h)}</th>" for h in head) + "</tr>"]
-    for r in rows:
-        if r.get("status") == "not run":
-            continue
-        remark = _remark(r).replace("**", "")
-        if r["kind"] == "published":
-            remark = "; ".join(x for x in (remark, f"{r['method']}; checked in {r['source']}", r.get("note")) if x)
-        cells = [
-            _who(r).replace("`", ""),
-            _num(r["rmse"]),
-            _num(r["nrmse_percent"]),
-            _num(r["fit_percent"]),
-            _int(r["parameters"]),
-            _seconds(r["seconds"]),
-            r.get("model") or "",
-            r.get("rule") or "",
-            remark,
-        ]
-        cls = ' class="other-rule"' if not r.get("same_rule", True) else ""
-        out.append(f"<tr{cls}>" + "".join(f"<td>{html.escape(str(c))}</td>" for c in cells) + "</tr>")
-    out.append("</table>")
-    skipped = [r for r in rows if r.get("status") == "not run"]
-    if skipped:
-        names = ", ".join(str(r["pipeline"]) for r in skipped)
-        out.append(f"<p>Not scored ({html.escape(names)}): {html.escape(str(skipped[0].get('note', '')))}</p>")
-    return "\n".join(out)
-
-
+# --------------------------------------------------------------------------- files
 def write_leaderboard(folder: Path, protocols: Mapping[str, Protocol], rows: Sequence[Mapping[str, Any]]) -> list[Path]:
-    """Write ``leaderboard.csv``, ``leaderboard.md`` and ``leaderboard.html`` into ``folder``."""
+    """Write ``leaderboard.csv``, ``leaderboard.md``, ``leaderboard.html`` and ``figures/`` into ``folder``."""
     import pandas as pd
+
+    from .board_figures import write_figures
+    from .board_html import leaderboard_html
 
     frame = pd.DataFrame([{c: r.get(c) for c in COLUMNS} for r in rows], columns=list(COLUMNS))
     csv = folder / "leaderboard.csv"
     csv.write_text(frame.to_csv(index=False, float_format="%.6g"))
+    svgs = write_figures(folder / "figures", protocols, rows)
     md = folder / "leaderboard.md"
     md.write_text(
-        "\n".join(["# nlid bench: leaderboard", "", *markdown_tables(protocols, rows, level=2)]).rstrip() + "\n"
+        "\n".join(
+            ["# nlid bench: leaderboard", "", *markdown_tables(protocols, rows, level=2, figures="figures")]
+        ).rstrip()
+        + "\n"
     )
-    parts = [
-        "<!DOCTYPE html>",
-        '<html><head><meta charset="utf-8"><title>nlid bench: leaderboard</title>',
-        "<style>body{font-family:sans-serif;max-width:80em;margin:auto}table{border-collapse:collapse;margin:1em 0}"
-        "td,th{border:1px solid #ccc;padding:3px 6px;text-align:left}tr.other-rule td{color:#777}</style>",
-        "</head><body>",
-        "<h1>nlid bench: leaderboard</h1>",
-    ]
-    for name, p in protocols.items():
-        parts.append(f"<h2>{html.escape(p.title)}</h2>")
-        parts.append(
-            f"<p>Benchmark <code>{html.escape(p.name)}</code>: "
-            f"{'the benchmark' + chr(39) + 's split' if p.official else '<b>nlid' + chr(39) + 's own protocol</b>'}: "
-            f"{html.escape(p.protocol)}.</p>"
-        )
-        for bench, test, group in _groups(rows):
-            if bench != name:
-                continue
-            t = p.test(test)
-            parts.append(f"<h3>test <code>{html.escape(test)}</code></h3>")
-            parts.append(
-                f"<p>{html.escape(t.source.description or test)}. {html.escape(_rule_line(group).replace('`', ''))}</p>"
-            )
-            parts.append(_html_table(group))
-        if p.not_comparable:
-            parts.append("<p>Published figures not shown:</p><ul>")
-            parts += [f"<li>{html.escape(n.what)}: {html.escape(n.why)}.</li>" for n in p.not_comparable]
-            parts.append("</ul>")
-    parts.append("</body></html>")
     page = folder / "leaderboard.html"
-    page.write_text("\n".join(parts) + "\n")
+    page.write_text(leaderboard_html(protocols, rows, svgs))
     return [csv, md, page]
 
 
@@ -377,7 +344,7 @@ def read_leaderboard(path: str | Path) -> list[dict[str, Any]]:
     frame = pd.read_csv(path, keep_default_na=False, na_values={"rmse": [""], "nrmse_percent": [""]})
     rows = []
     for rec in frame.to_dict("records"):
-        r = {c: rec.get(c) for c in COLUMNS}
+        r = {c: rec.get(c, "") for c in COLUMNS}
         for c in ("rmse", "nrmse_percent", "fit_percent", "seconds", "parameters", "scored_samples"):
             r[c] = _nan(r[c]) if r[c] not in ("", None) else math.nan
         for c in ("official", "same_rule"):

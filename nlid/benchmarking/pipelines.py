@@ -1,4 +1,4 @@
-"""What ``nlid bench`` runs on a benchmark: identifiers by name, ``discover``, ``discover --refine``, the pysindy peer.
+"""What ``nlid bench`` runs on a benchmark: identifiers by name, ``linear``, ``discover``, the peers, the true model.
 
 Every pipeline is given the *estimation part only* (:func:`fit_pipelines` has no other record):
 the test sets take no part in any decision. ``discover`` selects the structure with its
@@ -7,12 +7,20 @@ hold-out taken from the end of the estimation part (the benchmark file's ``holdo
 part, then the final model is **refitted on the whole estimation part** with the same
 identifier; ``discover --refine`` runs its own search, whose candidates are judged by the
 refining identifier's (``oe``) fits, and refines the structure it chose on the whole estimation
-part, started from the same identifier (``discover-refine``). The pysindy
-peer chooses its hyper-parameters on the end of the estimation part and refits on all of it.
+part, started from the same identifier (``discover-refine``). The peers
+choose their hyper-parameters on the end of the estimation part and refit on all of it.
 
-Pipeline names: any installed identifier (``rfs``, ``sindy``, ``oe``...), ``discover``,
-``discover-refine`` (``discover`` then its refinement; spelled ``discover --refine`` too), and
-``pysindy`` (the peer).
+Pipeline names (:data:`PEERS` are other tools, each run as a competent user of it would):
+
+* any installed identifier (``rfs``, ``sindy``, ``oe``...): the benchmark's model (``terms``);
+* ``linear``: the default identifier on the linear terms of the declared model (``1, z, v``);
+* ``discover``, ``discover-refine`` (``discover`` then its refinement; spelled ``discover --refine`` too);
+* ``pysindy`` (:mod:`nlid.benchmarking.peer`), ``sysidentpy`` (polynomial NARX, FROLS) and
+  ``linear-ss`` (a linear state space by output error) (:mod:`nlid.benchmarking.blackbox`);
+* ``truth``: the benchmark's own model where its file declares it (``[truth]``), fitted to nothing.
+
+Every :class:`Fitted` carries its :class:`~nlid.benchmarking.prior.Prior`, derived here from what the
+pipeline was given.
 """
 
 from __future__ import annotations
@@ -20,26 +28,44 @@ from __future__ import annotations
 import re
 import time
 from collections.abc import Iterable, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from typing import Any
 
-from ..errors import InputError
+from ..errors import DataError, InputError
 from ..record import Record
 from ..validate import did_you_mean
-from .protocol import PipelineSettings
+from .fitted import Fitted
+from .prior import Prior, given_shapes
+from .protocol import PipelineSettings, Protocol
 
-__all__ = ["PipelineSpec", "Fitted", "parse_pipelines", "fit_pipelines", "PEER", "DISCOVER", "REFINE"]
+__all__ = [
+    "PipelineSpec",
+    "Fitted",
+    "parse_pipelines",
+    "fit_pipelines",
+    "PEER",
+    "PEERS",
+    "DISCOVER",
+    "REFINE",
+    "LINEAR",
+    "TRUTH",
+    "linear_terms",
+]
 
 DISCOVER = "discover"
 REFINE = "discover-refine"
 PEER = "pysindy"
+LINEAR = "linear"
+TRUTH = "truth"
+#: The peers (other tools) by pipeline name.
+PEERS = (PEER, "sysidentpy", "linear-ss")
 _ALIASES = {"peer": PEER}
 _OPTION = re.compile(r"\s+-{1,2}")  # "discover --refine" -> "discover-refine"
 
 
 @dataclass(frozen=True)
 class PipelineSpec:
-    """One pipeline: its name and kind (``"identify"``, ``"discover"``, ``"peer"``)."""
+    """One pipeline: its name and kind (``"identify"``, ``"linear"``, ``"discover"``, ``"peer"``, ``"truth"``)."""
 
     name: str
     kind: str
@@ -86,50 +112,20 @@ def parse_pipelines(names: str | Iterable[str], identifiers: Sequence[str] | Non
             spec = PipelineSpec(DISCOVER, "discover")
         elif name == REFINE:
             spec = PipelineSpec(REFINE, "discover", refine=True)
-        elif name == PEER:
-            spec = PipelineSpec(PEER, "peer")
+        elif name in PEERS:
+            spec = PipelineSpec(name, "peer")
+        elif name == LINEAR:
+            spec = PipelineSpec(LINEAR, "linear")
+        elif name == TRUTH:
+            spec = PipelineSpec(TRUTH, "truth")
         elif name in identifiers:
             spec = PipelineSpec(name, "identify", method=name)
         else:
-            known = [*identifiers, DISCOVER, REFINE, PEER]
+            known = [*identifiers, LINEAR, DISCOVER, REFINE, *PEERS, TRUTH]
             raise InputError(f"unknown pipeline {raw!r}{did_you_mean(raw, known)}; choose from {', '.join(known)}")
         if spec not in out:
             out.append(spec)
     return out
-
-
-@dataclass
-class Fitted:
-    """One fitted model of a pipeline, and the choices it made (all on the estimation part).
-
-    Attributes
-    ----------
-    pipeline
-        The pipeline's name.
-    kind
-        ``"nlid"`` or ``"peer"``.
-    method
-        What fitted it, in words (``"rfs"``, ``"discover (rfs), refit on the estimation part"``...).
-    model
-        The :class:`~nlid.identified.IdentifiedModel` or the :class:`~nlid.benchmarking.peer.PeerModel`.
-    parameters
-        Fitted parameters: coefficients, the mass when estimated, shape parameters chosen from data.
-    seconds
-        Wall time of the pipeline (its share, when two pipelines share a discovery).
-    choices
-        Every decision (terms, steps, coefficients, hyper-parameters): what must not depend on the test sets.
-    details
-        For the report (discovery steps and their hold-out scores, equations).
-    """
-
-    pipeline: str
-    kind: str
-    method: str
-    model: Any
-    parameters: int
-    seconds: float
-    choices: dict[str, Any] = field(default_factory=dict)
-    details: dict[str, Any] = field(default_factory=dict)
 
 
 def _identified_choices(fit: Any) -> dict[str, Any]:
@@ -151,6 +147,10 @@ def _parameters(fit: Any, chosen_shapes: int = 0) -> int:
     return len(fit.terms) + int(bool(fit.mass_estimated)) + max(_fitted_shapes(fit), chosen_shapes)
 
 
+def _mass_prior(settings: PipelineSettings) -> str:
+    return "estimated" if settings.mass is None else "given"
+
+
 def _identify(record: Record, settings: PipelineSettings, method: str) -> Fitted:
     from ..pipeline import identify
 
@@ -164,7 +164,53 @@ def _identify(record: Record, settings: PipelineSettings, method: str) -> Fitted
         options=dict(settings.options.get(method, {})),
     )
     seconds = time.perf_counter() - start
-    return Fitted(method, "nlid", method, fit, _parameters(fit), seconds, _identified_choices(fit))
+    shapes = given_shapes(fit.terms)
+    prior = Prior(
+        _mass_prior(settings),
+        "declared",
+        "given" if shapes and not _fitted_shapes(fit) else ("fitted" if _fitted_shapes(fit) else "none"),
+        f"shape given: {', '.join(shapes)}" if shapes else "",
+    )
+    return Fitted(method, "nlid", method, fit, _parameters(fit), seconds, _identified_choices(fit), prior=prior)
+
+
+def linear_terms(settings: PipelineSettings) -> list[str]:
+    """The linear terms (``1``, ``z``, ``v``) of the declared model: what the ``linear`` pipeline fits."""
+    from ..terms import Model
+
+    terms = [t.name for t in Model.from_spec(settings.declared, defaults=False).terms if t.name in ("1", "z", "v")]
+    if not terms:
+        raise InputError(f"the declared model {settings.declared!r} has no linear term (1, z, v) to fit")
+    return terms
+
+
+def _linear(record: Record, settings: PipelineSettings) -> Fitted:
+    from ..methods import choose_method
+    from ..pipeline import identify
+    from ..terms import Model
+
+    method, _ = choose_method(None)
+    terms = linear_terms(settings)
+    start = time.perf_counter()
+    fit = identify(
+        record,
+        Model.from_spec(terms, defaults=False),
+        method,
+        mass=settings.mass,
+        options=dict(settings.options.get(method, {})),
+    )
+    seconds = time.perf_counter() - start
+    prior = Prior(_mass_prior(settings), "declared", "none", "")
+    return Fitted(
+        LINEAR,
+        "nlid",
+        f"{method} on {', '.join(terms)}",
+        fit,
+        _parameters(fit),
+        seconds,
+        _identified_choices(fit),
+        prior=prior,
+    )
 
 
 def _stage(stage: Any, label: str, terms: Sequence[str]) -> dict[str, Any]:
@@ -223,62 +269,110 @@ def _discover(record: Record, settings: PipelineSettings, spec: PipelineSpec) ->
         "steps": [{"effect": step.effect, "terms": list(step.terms)} for step in result.steps],
         "selected": _identified_choices(final.identified),
     }
+    shapes = given_shapes(settings.declared)
+    prior = Prior(
+        _mass_prior(settings),
+        "discovered",
+        "fitted" if chosen_shapes else ("given" if shapes else "none"),
+        f"started from {', '.join(result.declared)}; added: {', '.join(s.effect for s in result.steps) or 'nothing'}",
+    )
     if not spec.refine:
         # the whole estimation part, with the input path the search found
         refit = identify(record, final.model, method, mass=final.given_mass, input_path=final.path)
         seconds = time.perf_counter() - start
         how = f"discover ({method}), refit on the estimation part"
         return Fitted(DISCOVER, "nlid", how, refit, _parameters(refit, chosen_shapes), seconds,
-                      {**choices, "refit": _identified_choices(refit)}, details)  # fmt: skip
+                      {**choices, "refit": _identified_choices(refit)}, details, prior)  # fmt: skip
     refiner = choose_refiner()
     options = {**dict(settings.options.get(refiner, {})), "init": method}
     refined = identify(record, final.model, refiner, mass=final.given_mass, options=options, input_path=final.path)
     seconds = time.perf_counter() - start
     how = f"discover ({method}, judged by {refiner}'s fits) + {refiner} on the estimation part"
     choices = {**choices, "refined": _identified_choices(refined), "refiner": refiner}
-    return Fitted(REFINE, "nlid", how, refined, _parameters(refined, chosen_shapes), seconds, choices, details)
+    return Fitted(REFINE, "nlid", how, refined, _parameters(refined, chosen_shapes), seconds, choices, details, prior)
 
 
-def _peer(record: Record, settings: PipelineSettings) -> Fitted:
-    from .peer import fit_peer
+def _peer(record: Record, protocol: Protocol, name: str) -> Fitted:
+    """A peer fitted on the estimation record; its hyper-parameters chosen on the record's end."""
+    from .peer import selection_rule
 
-    peer = fit_peer(record, settings.peer, holdout=settings.holdout)
-    choices = {
-        "differentiation": peer.differentiation,
-        "threshold": peer.threshold,
-        "coefficients": peer.coefficients.tolist(),
-        "features": peer.names,
-    }
+    settings = protocol.pipelines
+    rule = selection_rule([t.rule for t in protocol.tests])
+    if name == PEER:
+        from .peer import fit_peer
+
+        peer = fit_peer(record, settings.peer, holdout=settings.holdout, rule=rule)
+        choices = {
+            "differentiation": peer.differentiation,
+            "threshold": peer.threshold,
+            "coefficients": peer.coefficients.tolist(),
+            "features": peer.names,
+        }
+        library = f"polynomial degree {settings.peer.degree} in z, v; u" + (
+            ", sign(v)" if settings.peer.friction else ""
+        )
+        method = (
+            f"pysindy {_version('pysindy')} SINDy ({peer.differentiation}, normalised columns, STLSQ threshold "
+            f"{peer.selection.get('threshold', 0):g} of the largest coefficient)"
+        )
+        prior = Prior("none", "library", "none", f"library: {library}")
+    elif name == "linear-ss":
+        from .blackbox import fit_linear
+
+        peer = fit_linear(record, holdout=settings.holdout, rule=rule)
+        choices = {"order": peer.order, "b": peer.b.tolist(), "f": peer.f.tolist(), "u_mean": peer.u_mean}
+        method = f"linear state space, order {peer.order} (output error)"
+        prior = Prior("none", "black box", "none", "order chosen on the estimation part")
+    else:
+        from .blackbox import fit_narx
+
+        peer = fit_narx(record, holdout=settings.holdout, rule=rule)
+        choices = {k: v for k, v in peer.selection.items() if k in ("degree", "lags", "terms")}
+        choices["regressors"] = [str(r) for r in getattr(peer.model, "final_model", [])]
+        choices["theta"] = [float(x) for x in getattr(peer.model, "theta", []).ravel()]
+        method = f"sysidentpy {_version('sysidentpy')} FROLS, polynomial NARX degree {peer.degree}, lags {peer.lag}"
+        prior = Prior("none", "library", "none", "degree, lags and terms chosen on the estimation part")
     details = {"equations": peer.equations, "selection": peer.selection}
-    method = f"pysindy {_pysindy_version()} SINDy ({peer.differentiation}, STLSQ threshold {peer.threshold:g})"
-    return Fitted(PEER, "peer", method, peer, peer.parameters, peer.seconds, choices, details)
+    return Fitted(name, "peer", method, peer, peer.parameters, peer.seconds, choices, details, prior)
 
 
-def _pysindy_version() -> str:
+def _version(package: str) -> str:
     try:
         from importlib.metadata import version
 
-        return version("pysindy")
+        return version(package)
     except Exception:  # noqa: BLE001 - a version string is cosmetic
         return ""
 
 
-def fit_pipelines(record: Record, settings: PipelineSettings, specs: Sequence[PipelineSpec]) -> list[Fitted]:
+def fit_pipelines(record: Record, protocol: Protocol, specs: Sequence[PipelineSpec]) -> list[Fitted | str]:
     """Fit every pipeline on the estimation record (``discover`` and ``discover --refine`` each run their own search).
 
     Returns
     -------
-    list of Fitted
-        In the order of ``specs``.
+    list
+        In the order of ``specs``: a :class:`Fitted`, or the reason in words when the pipeline
+        cannot run here (an optional peer not installed, no truth declared).
     """
-    out = []
+    settings = protocol.pipelines
+    out: list[Fitted | str] = []
     for spec in specs:
         if spec.kind == "identify":
             out.append(_identify(record, settings, spec.method or spec.name))
+        elif spec.kind == "linear":
+            out.append(_linear(record, settings))
         elif spec.kind == "discover":
             out.append(_discover(record, settings, spec))
         elif spec.kind == "peer":
-            out.append(_peer(record, settings))
+            try:
+                out.append(_peer(record, protocol, spec.name))
+            except DataError as exc:  # an optional peer that is not installed
+                out.append(str(exc))
+        elif spec.kind == "truth":
+            from .truth import true_fitted
+
+            truth = true_fitted(protocol)
+            out.append(truth[0] if truth else f"benchmark {protocol.name} declares no true model")
         else:  # pragma: no cover - parse_pipelines makes only these
             raise InputError(f"unknown pipeline kind {spec.kind!r}")
     return out

@@ -246,9 +246,19 @@ def _published(t: _Table, tests: list[str]) -> Published:
         fit_percent=fit,
         parameters=parameters,
         note=t.string("note"),
+        structure=_structure(t),
     )
     t.done()
     return out
+
+
+def _structure(t: _Table) -> str:
+    from .prior import STRUCTURES
+
+    value = t.string("structure", "black box")
+    if value not in STRUCTURES:
+        raise t.error("structure", f"must be one of {', '.join(STRUCTURES)}, got {value!r}")
+    return value
 
 
 def _truth(t: _Table | None) -> Truth | None:
@@ -383,6 +393,8 @@ def parse_protocol(text: str, source: str = "<text>") -> Protocol:
         degree = peer_t.integer("degree", peer.degree)
         if not 1 <= degree <= 5:
             raise peer_t.error("degree", f"must lie between 1 and 5, got {degree}")
+        if any(x >= 1 for x in thresholds):
+            raise peer_t.error("thresholds", "are fractions of the largest coefficient: each must be below 1")
         peer = PeerSettings(degree, peer_t.boolean("friction", peer.friction), tuple(float(x) for x in thresholds))
         peer_t.done()
     # the rule of discover's prediction check on blocks of the estimation part: the tests' window rule when they

@@ -30,11 +30,12 @@ __all__ = [
 ]
 
 #: Entries ``nlid bench`` writes at the top of its output folder (:func:`nlid.outputs.output_folder`).
-BENCH_OUTPUTS = ("runs", "arrays", "bench.json", "leaderboard.csv", "leaderboard.md", "leaderboard.html")
+BENCH_OUTPUTS = ("runs", "arrays", "figures", "bench.json", "leaderboard.csv", "leaderboard.md", "leaderboard.html")
 #: The benchmarks run when none is named (those whose data ``nlid data`` lists, with their local test sets).
 DEFAULT_BENCHMARKS = ("emps-internal", "silverbox", "bouc-wen")
-#: The pipelines run when none is named, after the default identifier (:func:`default_pipelines`).
-DEFAULT_PIPELINES = ("discover", "discover-refine", "pysindy")
+#: The pipelines run when none is named, after the default identifier (:func:`default_pipelines`): nlid's
+#: linear model and discovery, the peers (``sysidentpy`` only where installed) and the true model where known.
+DEFAULT_PIPELINES = ("linear", "discover", "discover-refine", "pysindy", "sysidentpy", "linear-ss", "truth")
 
 
 def default_pipelines() -> tuple[str, ...]:
@@ -47,7 +48,7 @@ def default_pipelines() -> tuple[str, ...]:
 
 
 #: Expected relative cost of a job (longest first: the executors start jobs in order).
-_COST = {"discover": 3, "peer": 1, "identify": 1}
+_COST = {"discover": 3, "peer": 1, "identify": 1, "linear": 1, "truth": 0}
 
 
 @dataclass

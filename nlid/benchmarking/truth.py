@@ -5,13 +5,15 @@ A benchmark whose data were simulated (Bouc-Wen) declares the system that genera
 under the test set's rule by the one scorer every row goes through
 (:func:`nlid.benchmarking.jobs.score_model`), it is the figure a perfect model reaches with
 nlid's scorer: the floor of that table, and a check of the instrument itself (a scorer that
-gives the truth more than a fitted model is coarser than the models it ranks).
+gives the truth more than a fitted model is coarser than the models it ranks). It is the
+``truth`` pipeline (:mod:`nlid.benchmarking.pipelines`): one row per test set, whatever else runs.
 """
 
 from __future__ import annotations
 
 from ..reference import Reference
-from .pipelines import Fitted
+from .fitted import Fitted
+from .prior import Prior
 from .protocol import Protocol
 
 __all__ = ["true_fitted", "TRUTH_KIND", "TRUTH_PIPELINE"]
@@ -26,9 +28,11 @@ def true_fitted(protocol: Protocol) -> list[Fitted]:
     """The declared true system of a benchmark as a fitted model (none when the benchmark declares none).
 
     Nothing is fitted: ``parameters`` is 0 and ``choices`` is empty (no decision is made on any data).
+    It knew everything: the mass, the terms and their shapes (:class:`~nlid.benchmarking.prior.Prior`).
     """
     if protocol.truth is None:
         return []
     model = Reference.from_mapping(protocol.truth.as_mapping()).true_model(f"benchmark {protocol.name}'s [truth]")
     method = f"the system that generated the data ({protocol.truth.source})"
-    return [Fitted(TRUTH_PIPELINE, TRUTH_KIND, method, model, 0, 0.0)]
+    prior = Prior("given", "true model", "given", protocol.truth.source)
+    return [Fitted(TRUTH_PIPELINE, TRUTH_KIND, method, model, 0, 0.0, prior=prior)]

@@ -17,20 +17,25 @@ pipeline sees only the estimation part (discover takes its hold-out from its end
 the final model is refitted on all of it), then every test set is scored under its
 transient rule (initialisation window, periodic steady state, from the first
 sample). Jobs run in their own processes (local or Dask), are saved as they finish,
-and a second run resumes. Writes leaderboard.csv, leaderboard.md, leaderboard.html
-(nlid's rows beside the pysindy peer's and the verified published figures, with
-each row's rule, parameters and time) and bench.json.
+and a second run resumes. Writes leaderboard.csv, leaderboard.md, a sortable
+self-contained leaderboard.html, a figure per test set (figures/) and bench.json:
+nlid's rows beside the peers' (pysindy, sysidentpy, a linear state space), the
+verified published figures and the true model where it is known, each row saying
+what it knew (mass, terms, shape given; discovered; a library; a black box).
 """
 
 EPILOG = """\
 pipelines (--pipeline, comma-separated): any installed identifier (rfs, sindy, oe...),
-  discover, discover-refine (discover, then refined by oe: "discover --refine" works too), pysindy (the peer).
+  linear (the default identifier on the declared model's linear terms), discover, discover-refine
+  (discover, then refined by oe: "discover --refine" works too), the peers pysindy, sysidentpy
+  (polynomial NARX; pip install 'nlid[bench]') and linear-ss (a linear state space, output error),
+  and truth (the benchmark's own model, where its file declares it).
 
 benchmarks (--benchmark, comma-separated): emps, emps-internal, silverbox, bouc-wen, or a
   .toml benchmark file; 'nlid bench --list' shows their test sets and rules.
 
 examples:
-  nlid bench                                        # emps-internal, silverbox, bouc-wen; rfs, discover, refine, peer
+  nlid bench                                        # emps-internal, silverbox, bouc-wen; every pipeline
   nlid bench --benchmark silverbox --pipeline "rfs, discover-refine" --jobs 2 --out out/sb
   nlid bench --benchmark bouc-wen --test-file bouc-wen:multisine=uval_multisine.mat
   nlid bench --benchmark emps --test-file emps:pulses=DATA_EMPS_PULSES.mat
@@ -57,7 +62,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         action="append",
         metavar="NAMES",
         help="pipelines (comma-separated or repeated; default: the default identifier of nlid methods, "
-        "rfs with the built-in plugins, then discover, discover-refine, pysindy)",
+        "rfs with the built-in plugins, then linear, discover, discover-refine, pysindy, sysidentpy, linear-ss, truth)",
     )
     p.add_argument("--out", metavar="DIR", default="nlid-bench", help="output folder (default: nlid-bench)")
     p.add_argument("--jobs", type=int, metavar="N", help="jobs at the same time (default: every core)")

@@ -22,6 +22,7 @@ def test_bench_writes_the_leaderboard_and_resumes(toy, tmp_path, capsys):
     first = nlid.bench([str(folder / "toy.toml")], ["rfs", "pysindy"], out=out, jobs=2, files=files, progress=False)
     assert first.executed == 2 and first.skipped == 0
     assert {p.name for p in first.paths} == {"leaderboard.csv", "leaderboard.md", "leaderboard.html", "bench.json"}
+    assert (out / "figures" / "toy--independent.png").is_file() and (out / "figures" / "toy--independent.svg").is_file()
     rows = {(r["kind"], r["pipeline"]): r for r in first.rows}
     assert set(rows) == {("nlid", "rfs"), ("peer", "pysindy"), ("published", "a made-up figure")}
     rfs = rows[("nlid", "rfs")]
@@ -31,8 +32,8 @@ def test_bench_writes_the_leaderboard_and_resumes(toy, tmp_path, capsys):
     published = rows[("published", "a made-up figure")]
     assert published["rmse"] == pytest.approx(0.5) and not published["same_rule"]
     md = (out / "leaderboard.md").read_text()
-    assert "Rule: `window:20`" in md and "**other rule**: from rest" in md
-    assert "<table>" in (out / "leaderboard.html").read_text()
+    assert "Rule `window:20`" in md and "**other rule**: from rest" in md
+    assert '<table class="board">' in (out / "leaderboard.html").read_text()
     info = json.loads((out / "bench.json").read_text())
     from nlid.cli.bench_docs import command
 
@@ -134,3 +135,21 @@ def test_pipelines_are_parsed_once(monkeypatch):
     assert [s.name for s in specs] == ["rfs", "discover", "discover-refine", "pysindy"]
     with pytest.raises(InputError, match="names no pipeline"):
         parse_pipelines(" , ", identifiers=["rfs"])
+
+
+def test_installing_an_optional_peer_makes_its_job_run_again(toy, monkeypatch):
+    """A job records whether the optional package its pipeline needs is installed (its digest follows)."""
+    import importlib.util
+
+    text, _, _, _ = toy
+    protocol = parse_protocol(text)
+    specs = tuple(parse_pipelines(["sysidentpy"]))
+    here = BenchJob.make(protocol, specs)
+    assert here.installed == {"sysidentpy": importlib.util.find_spec("sysidentpy") is not None}
+    monkeypatch.setattr(importlib.util, "find_spec", lambda name, *a: None if name == "sysidentpy" else object())
+    missing = BenchJob.make(protocol, specs)
+    assert missing.installed == {"sysidentpy": False}
+    monkeypatch.setattr(importlib.util, "find_spec", lambda name, *a: object())
+    present = BenchJob.make(protocol, specs)
+    assert present.digest() != missing.digest()
+    assert BenchJob.make(protocol, tuple(parse_pipelines(["rfs"]))).installed == {}

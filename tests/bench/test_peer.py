@@ -2,11 +2,13 @@
 
 from __future__ import annotations
 
+import warnings
+
 import numpy as np
 import pytest
 
 from nlid import InputError
-from nlid.benchmarking.peer import PeerModel, _fit, fit_peer
+from nlid.benchmarking.peer import DIFFERENTIATION, PeerModel, _fit, fit_peer
 from nlid.benchmarking.protocol import PeerSettings
 from nlid.record import Record
 
@@ -33,7 +35,7 @@ def test_peer_free_run_equals_pysindy_simulate():
     # the same pysindy model, fitted and simulated by pysindy itself (its default cubic interpolation of u)
     model = ps.SINDy(
         feature_library=_library(PeerSettings(degree=2, friction=False)),
-        optimizer=ps.STLSQ(threshold=0.05),
+        optimizer=ps.STLSQ(threshold=0.05, normalize_columns=True),
         differentiation_method=ps.FiniteDifference(),
     )
     z, v = rec.z, ps.FiniteDifference()(rec.z, 1 / rec.fs)
@@ -56,9 +58,8 @@ def test_peer_threshold_is_chosen_on_the_estimation_record():
     est = _oscillator(seed=1)
     peer = fit_peer(est, PeerSettings(degree=1, friction=False, thresholds=(0.0, 0.5)))
     assert peer.selection["threshold"] in (0.0, 0.5)
-    assert set(peer.selection["holdout_rmse"]) == {
-        f"{d}, threshold {t:g}" for d in ("FiniteDifference", "SmoothedFiniteDifference") for t in (0.0, 0.5)
-    }
+    assert set(peer.selection["holdout_rmse"]) == {f"{d}, threshold {t:g}" for d in DIFFERENTIATION for t in (0.0, 0.5)}
+    assert peer.selection["threshold_absolute"] == pytest.approx(peer.selection["threshold"] * peer.scale)
     z_row, v_row = peer.coefficients
     assert z_row[2] == pytest.approx(1.0, abs=1e-6)  # z' = v
     assert v_row[1] == pytest.approx(-400, rel=0.02) and v_row[3] == pytest.approx(1.0, rel=0.05)
@@ -95,3 +96,53 @@ def test_peer_rules_give_the_true_model_its_noise_floor():
     assert periodic.rmse == pytest.approx(sigma, rel=0.1)
     with pytest.raises(InputError, match="not whole periods"):
         peer.free_run(settled[:-7], f"periodic:{period}")
+
+
+def test_the_peer_normalises_its_columns_so_a_record_in_volts_keeps_its_cubic_spring():
+    """Silverbox's scales (50 mV, a 'mass' of 5e-6 s^2): raw columns let STLSQ's ridge term eat the cubic spring.
+
+    The record is one steady-state period of a multisine (its spectral derivative is exact), so the
+    only error left is the regression's.
+    """
+    import pysindy as ps
+
+    from nlid.identified import IdentifiedModel
+    from nlid.simulation import simulate_segments
+    from nlid.terms import Model
+
+    fs, period, mass = 610.0, 2048, 5.36e-6
+    coefficients = {"z": 0.989, "z^3": 3.86, "v": 2.26e-4}
+    truth = IdentifiedModel(Model.from_spec(list(coefficients), defaults=False), coefficients, mass, "truth")
+    bins = np.arange(period // 2 + 1) * fs / period
+    spectrum = np.zeros(bins.size, complex)
+    band = (bins > 1.0) & (bins < 150.0)
+    spectrum[band] = np.exp(2j * np.pi * np.random.default_rng(3).random(band.sum()))
+    one = np.fft.irfft(spectrum, period)
+    force = np.tile(one * (0.03 / one.std()), 6)
+    state = np.zeros((1, 2))
+    z = simulate_segments(
+        truth.model, truth.theta, mass, force, fs, [0], state, force_hold="zoh", sensitivities=False
+    ).z
+    rec = Record(f=force[-period:], z=z[-period:], fs=fs)
+    settings = PeerSettings(degree=3, friction=False, thresholds=(0.0,))
+    peer = _fit(rec, settings, 0.0, "SpectralDerivative")
+    cubic = peer.names.index("z^3")
+    assert peer.coefficients[1, cubic] == pytest.approx(-coefficients["z^3"] / mass, rel=0.05)
+    # the same fit on raw columns (pysindy's default) loses most of the cubic spring to the ridge term
+    raw = ps.SINDy(
+        feature_library=peer_library(settings),
+        optimizer=ps.STLSQ(threshold=0.0),
+        differentiation_method=ps.SpectralDerivative(),
+    )
+    v = np.asarray(ps.SpectralDerivative()(rec.z, 1 / fs)).ravel()
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", UserWarning)
+        raw.fit(np.column_stack([rec.z, v]), t=1 / fs, u=rec.f, feature_names=["z", "v", "u"])
+    assert abs(raw.coefficients()[1, cubic] / peer.coefficients[1, cubic] - 1) > 0.2
+
+
+def peer_library(settings):
+    """The peer's feature library (pysindy's objects)."""
+    from nlid.benchmarking.peer import _library
+
+    return _library(settings)
