@@ -15,7 +15,7 @@ from .api import load
 from .digest import record_sha256
 from .errors import InputError
 from .identified import IdentifiedModel
-from .io import file_sha256
+from .io import check_path, file_sha256
 from .pipeline import identify
 
 __all__ = ["identify_again"]
@@ -52,7 +52,7 @@ def identify_again(provenance: Mapping[str, Any], source: Any = None) -> Identif
         source = data.get("source")
         if not source or (data.get("sha256_of") != "file" and not str(source).startswith("dataset:")):
             raise InputError(f"the data came from {source or 'Python'}, not a file: give it as source=")
-        if data.get("sha256_of") == "file" and file_sha256(source) != data["sha256"]:
+        if data.get("sha256_of") == "file" and file_sha256(check_path(source)) != data["sha256"]:
             raise InputError(f"{source} has changed since the model was identified (its SHA-256 differs)")
     if str(source).startswith("dataset:"):
         record = load(source)

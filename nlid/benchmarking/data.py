@@ -33,7 +33,7 @@ import numpy as np
 
 from .. import datasets
 from ..errors import DataError, InputError
-from ..io import read_table
+from ..io import check_path, read_table
 from ..record import Record
 from .protocol import NoiseFloor, Part, Protocol, TestSet, UserFile
 
@@ -379,7 +379,13 @@ def check_user_files(protocols: Mapping[str, Protocol], files: Mapping[str, str]
                 f"test file {key!r}: {test!r} is read from $NLID_DATA_DIR, not from a file you give; "
                 f"{protocol.name}'s user-supplied sets: {', '.join(user) or 'none'}"
             )
-        if not Path(path).expanduser().exists():
+        given = Path(path).expanduser()
+        if not given.exists():
             raise InputError(f"test file for {key}: {path} does not exist")
-        out[key] = str(Path(path).expanduser().resolve())
+        if not given.is_dir():  # a folder holds the benchmark's files; anything else is one regular file
+            try:
+                check_path(given, what="test file")
+            except DataError as exc:
+                raise InputError(f"test file for {key}: {exc}") from None
+        out[key] = str(given.resolve())
     return out

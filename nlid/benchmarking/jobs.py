@@ -28,6 +28,7 @@ import numpy as np
 from .. import scoring
 from ..errors import DataError, NlidError
 from ..interface import to_jsonable
+from ..io import check_path, file_sha256
 from ..record import Record
 from .data import load_estimation, load_test, noise_floor
 from .pipelines import Fitted, PipelineSpec, fit_pipelines
@@ -79,11 +80,7 @@ def _sha256(path: str) -> str:
     p = Path(path)
     if p.is_dir():
         return "folder:" + ",".join(sorted(f"{c.name}={_sha256(str(c))}" for c in p.iterdir() if c.is_file()))
-    digest = hashlib.sha256()
-    with open(p, "rb") as fh:
-        while block := fh.read(1 << 20):
-            digest.update(block)
-    return digest.hexdigest()
+    return file_sha256(check_path(p, what="test file"))
 
 
 @dataclass(frozen=True)

@@ -47,7 +47,8 @@ from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
-from ..errors import InputError
+from ..errors import DataError, InputError
+from ..io import TEXT_LIMIT, check_path, read_text_file
 from ..validate import did_you_mean
 from .declarations import (
     STATUSES,
@@ -425,15 +426,17 @@ def load_protocol(name_or_path: str | Path) -> Protocol:
         path = builtins[text_name]
     else:
         path = Path(text_name).expanduser()
+        if path.suffix == ".toml" and (path.exists() or path.is_symlink()):
+            check_path(path, what="benchmark file", max_bytes=TEXT_LIMIT)  # a folder, a pipe, a device: refused
         if not path.suffix == ".toml" or not path.is_file():
             raise InputError(
                 f"unknown benchmark {text_name!r}{did_you_mean(text_name, builtins)}; built-in: "
                 f"{', '.join(builtins)} (or the path of a benchmark .toml file)"
             )
     try:
-        text = path.read_text(encoding="utf-8")
-    except (OSError, UnicodeDecodeError) as exc:
-        raise InputError(f"cannot read the benchmark file {path}: {exc}") from None
+        text = read_text_file(path, "benchmark file")
+    except DataError as exc:
+        raise InputError(str(exc)) from None
     protocol = parse_protocol(text, str(path))
     if text_name in builtins and protocol.name != text_name:
         raise InputError(f"benchmark file {path}: its name {protocol.name!r} differs from the file's")

@@ -1,0 +1,322 @@
+"""Hostile probe, round three (issue 34): bounded reads, bench and compare hardened, the model JSON, signals.
+
+One regression test (or more) per defect of the issue, under the class it belongs to:
+
+``A``  reads and allocations bounded by what the input is, not by what it claims: files that declare more
+       than they hold (read in a child process under a memory limit), DOF numbers, special files, sparse CSVs;
+``B``  ``nlid bench`` as hardened as ``identify``: benchmark files of one's own, empty lists, bad test files,
+       ``--render-docs`` input, the package's loader functions as an allow-list;
+``C``  ``nlid compare`` and the CLI's small inconsistencies;
+``D``  the model file format (a versioned schema validated on load) and provenance replay;
+``E``  signals, crashes, symlinks, the dependency floor and the Dask scheduler's warning.
+
+CLI cases check what ``tests/test_hostile.py`` checks: the exit status and exactly one line on stderr
+starting ``nlid``, holding the fragment, never a traceback.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import io
+import json
+import os
+import signal
+import struct
+import subprocess
+import sys
+import zipfile
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+from scipy import io as sio
+
+import nlid
+from nlid.cli.main import main
+from nlid.errors import DataError, InputError
+
+ROOT = Path(__file__).resolve().parents[1]
+N = 1000
+#: The address-space limit the bounded reads run under (the issue's ``ulimit -v 1572864``).
+MEMORY_LIMIT = 1536 << 20
+
+
+def _run(argv: list[str]) -> tuple[int, str, str]:
+    """``nlid ARGV`` in this process: status, stdout, stderr."""
+    out, err = io.StringIO(), io.StringIO()
+    with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
+        try:
+            status = main(list(argv))
+        except SystemExit as exc:  # argparse's own usage errors
+            status = exc.code
+    return status, out.getvalue(), err.getvalue()
+
+
+def _one_error_line(err: str) -> str:
+    lines = [line for line in err.splitlines() if line.strip()]
+    assert len(lines) == 1, f"expected one line on stderr, got {len(lines)}: {err[-2000:]}"
+    assert lines[0].startswith(("nlid ", "nlid:")), lines[0]
+    assert "Traceback" not in err and ": internal error:" not in lines[0], err[-2000:]
+    return lines[0]
+
+
+def _refused(argv: list[str], fragment: str, status: int = 2) -> str:
+    got, _, err = _run(argv)
+    assert got == status, f"exit {got}, expected {status}; stderr: {err[-2000:]}"
+    line = _one_error_line(err)
+    assert fragment in line, line
+    return line
+
+
+@contextlib.contextmanager
+def _deadline(seconds: int):
+    """Fail instead of hanging (a FIFO opened for reading blocks until a writer comes)."""
+
+    def expired(signum, frame):
+        raise TimeoutError(f"still running after {seconds} s: the path was read, not refused")
+
+    previous = signal.signal(signal.SIGALRM, expired)
+    signal.alarm(seconds)
+    try:
+        yield
+    finally:
+        signal.alarm(0)
+        signal.signal(signal.SIGALRM, previous)
+
+
+def _signals(n: int = N) -> dict[str, np.ndarray]:
+    rng = np.random.default_rng(34)
+    f = rng.standard_normal(n)
+    return {"t": np.arange(n) / 100.0, "f": f, "z": np.cumsum(f) * 1e-3}
+
+
+# ============================================================================ A: bounded reads
+def _mat5_forged(path: Path) -> Path:
+    """A MAT v5 file with t, f, z and a variable ``big`` declaring 3e8 doubles (2.4 GB) that holds 16 bytes."""
+    sio.savemat(path, _signals(), do_compression=False)
+
+    def sub(kind: int, payload: bytes) -> bytes:
+        return struct.pack("<II", kind, len(payload)) + payload + b"\0" * ((-len(payload)) % 8)
+
+    declared = 300_000_000 * 8
+    body = sub(6, struct.pack("<II", 6, 0)) + sub(5, struct.pack("<ii", 300_000_000, 1)) + sub(1, b"big")
+    element = body + struct.pack("<II", 9, declared) + b"\0" * 16  # miDOUBLE, cut short
+    with open(path, "ab") as fh:
+        fh.write(struct.pack("<II", 14, len(body) + 8 + declared) + element)
+    return path
+
+
+def _npz_forged(path: Path) -> Path:
+    """An NPZ archive with t, f, z and ``big.npy`` whose header declares 3e8 doubles and that holds 16 bytes."""
+    np.savez(path, **_signals())
+    member = io.BytesIO()
+    np.lib.format.write_array_header_1_0(member, {"descr": "<f8", "fortran_order": False, "shape": (300_000_000,)})
+    with zipfile.ZipFile(path, "a") as archive:
+        archive.writestr("big.npy", member.getvalue() + b"\0" * 16)
+    return path
+
+
+def _h5_forged(path: Path, matlab: bool = False) -> Path:
+    """HDF5 (or MATLAB v7.3) with t, z and a chunked ``f`` of 2e9 doubles (16 GB) of which 1000 are written."""
+    import h5py
+
+    data = _signals()
+    with h5py.File(path, "w", userblock_size=512 if matlab else 0) as h:
+        for name in ("t", "z"):
+            h[name] = data[name][:, None] if matlab else data[name]
+        f = h.create_dataset("f", shape=(2_000_000_000, 1) if matlab else (2_000_000_000,), chunks=True, dtype="f8")
+        f[:N] = data["f"][:, None] if matlab else data["f"]
+        if matlab:
+            for name in ("t", "z", "f"):
+                h[name].attrs["MATLAB_class"] = np.bytes_("double")
+    if matlab:
+        header = b"MATLAB 7.3 MAT-file, Platform: GLNXA64, Created on: Mon Jan  1 00:00:00 2024 HDF5 schema 1.00 ."
+        with open(path, "r+b") as handle:
+            handle.write(header.ljust(116, b" ") + b"\0" * 8 + b"\x00\x02IM")
+    return path
+
+
+_BOUNDED_READS = """
+import json, sys
+import nlid
+out = {}
+for name, columns in json.loads(sys.argv[1]).items():
+    try:
+        record = nlid.load(name.strip(), columns=columns)
+        out[name] = ["ok", record.n]
+    except Exception as exc:
+        out[name] = [type(exc).__name__, str(exc)]
+print(json.dumps(out))
+"""
+
+
+def _limit_memory() -> None:
+    import resource
+
+    resource.setrlimit(resource.RLIMIT_AS, (MEMORY_LIMIT, MEMORY_LIMIT))
+
+
+def _load_under_memory_limit(folder: Path, cases: dict[str, str | None]) -> dict[str, list]:
+    if not sys.platform.startswith("linux"):
+        pytest.skip("RLIMIT_AS bounds the address space on Linux")
+    env = {**os.environ, "OPENBLAS_NUM_THREADS": "1", "OMP_NUM_THREADS": "1", "MKL_NUM_THREADS": "1"}
+    env["PYTHONPATH"] = os.pathsep.join([str(ROOT), str(ROOT / "plugins"), env.get("PYTHONPATH", "")])
+    done = subprocess.run(
+        [sys.executable, "-c", _BOUNDED_READS, json.dumps(cases)],
+        cwd=folder,
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=300,
+        preexec_fn=_limit_memory,
+    )
+    assert done.returncode == 0, done.stderr[-3000:]
+    return json.loads(done.stdout.strip().splitlines()[-1])
+
+
+def test_a_every_reader_refuses_a_file_that_declares_more_than_it_holds_under_a_memory_limit(tmp_path):
+    """MAT v5, NPZ, HDF5 and MATLAB v7.3: a variable declaring gigabytes is never allocated.
+
+    Unused, it is not read at all (only the mapped variables are); mapped, the refusal names what it
+    declares and what the file holds. The child runs under ``ulimit -v 1.5 GB``: reading what the
+    files declare would end in ``MemoryError``.
+    """
+    pytest.importorskip("h5py")
+    _mat5_forged(tmp_path / "big.mat")
+    _npz_forged(tmp_path / "big.npz")
+    _h5_forged(tmp_path / "big.h5")
+    _h5_forged(tmp_path / "big73.mat", matlab=True)
+    got = _load_under_memory_limit(
+        tmp_path,
+        {
+            "big.mat": None,  # the unused 2.4 GB variable is not read
+            "big.npz": None,
+            "big.mat ": "t=big, f=big, z=big",  # (a trailing space repeats a file; the child strips it)
+            "big.npz ": "t=big, f=big, z=big",
+            "big.h5": "f=f, z=z",  # f declares 2e9 samples, z 1000: refused before reading either
+            "big73.mat": "t=t, f=f, z=z",
+            "big.h5 ": "t=f, f=f, z=f",  # consistent lengths, but the file holds 1000 of the 2e9 samples
+        },
+    )
+    assert got["big.mat"] == ["ok", N] and got["big.npz"] == ["ok", N]
+    for name in ("big.mat ", "big.npz "):
+        kind, message = got[name]
+        assert kind == "SizeError", got[name]
+        assert "declares 300 000 000 values (2.4 GB) but the file holds" in message, message
+        assert message.split("holds ")[1].split(" ")[1] == "bytes", message  # its header and 16 bytes: no kB
+    for name in ("big.h5", "big73.mat"):
+        kind, message = got[name]
+        assert kind == "DataError" and "declares 2 000 000 000 values" in message, got[name]
+        assert "1 000" in message and "nothing was read" in message, message
+    kind, message = got["big.h5 "]
+    assert kind == "SizeError" and "declares 2 000 000 000 values (16 GB)" in message, got["big.h5 "]
+
+
+def test_a_a_compressed_mat_variable_is_bounded_by_deflate_s_ratio(tmp_path):
+    """A compressed variable may expand at most 1032 times (deflate's limit): a forged ratio is refused."""
+    from nlid.filetables import MAX_COMPRESSION, _bounded
+
+    _bounded("x", "f.mat", 1000, 8, 8, True)  # small: read whatever the file holds
+    with pytest.raises(DataError, match=r"declares 300 000 000 values \(2.4 GB\) but the file holds 1 kB compressed"):
+        _bounded("x", "f.mat", 300_000_000, 8, 1000, True)
+    _bounded("x", "f.mat", 1000 * MAX_COMPRESSION, 1, 1000, True)  # at the limit: read
+
+
+def test_a_mat_logical_arrays_are_booleans_and_only_mapped_variables_are_read(tmp_path, monkeypatch):
+    from scipy import io as scipy_io
+
+    data = _signals()
+    path = tmp_path / "m.mat"
+    scipy_io.savemat(path, {**data, "flag": data["f"] > 0, "other": np.arange(5.0)})
+    names = []
+    real = scipy_io.loadmat
+
+    def loadmat(*args, **kwargs):
+        names.extend(kwargs.get("variable_names") or ["<every variable>"])
+        return real(*args, **kwargs)
+
+    monkeypatch.setattr(scipy_io, "loadmat", loadmat)
+    assert nlid.load(path).n == N
+    assert sorted(names) == ["f", "t", "z"]  # never "other", never every variable
+    with pytest.raises(DataError, match="column 'flag' in .*m.mat holds booleans"):
+        nlid.load(path, columns="f=flag, z=z")
+
+
+def test_a_dof_numbers_have_an_upper_bound(tmp_path):
+    data = _signals(64)
+    frame = pd.DataFrame({"t": data["t"], "f1": data["f"], "z1": data["z"], "z99999999999": data["z"]})
+    frame.to_csv(tmp_path / "dof.csv", index=False)
+    with _deadline(60):
+        with pytest.raises(DataError, match=r"column 'z99999999999' names DOF 99999999999; a structure has at most"):
+            nlid.load(tmp_path / "dof.csv")
+        with pytest.raises(InputError, match=r"column map: channel 'z99999999999' names DOF 99999999999"):
+            nlid.load(tmp_path / "dof.csv", columns="f1=f1, z1=z1, z99999999999=z1")
+    _refused(["identify", str(tmp_path / "dof.csv"), "--terms", "z1^3"], "names DOF 99999999999")
+
+
+@pytest.fixture
+def fifo(tmp_path):
+    if not hasattr(os, "mkfifo"):
+        pytest.skip("no named pipes on this platform")
+    path = tmp_path / "pipe.csv"
+    os.mkfifo(path)
+    return path
+
+
+@pytest.fixture
+def fit_json(tmp_path, short_record):
+    """A model JSON of a record read from a file (its provenance names the file)."""
+    path = tmp_path / "x.csv"
+    nlid.io.write_csv(short_record, path)
+    fit = nlid.identify(nlid.load(path), "z^3, z^2, v*|v|", "rfs", mass=0.2)
+    (tmp_path / "fit.json").write_text(json.dumps(fit.to_dict(), allow_nan=False))
+    return tmp_path / "fit.json"
+
+
+@pytest.mark.parametrize("special", ["fifo", "/dev/zero"])
+def test_a_special_files_are_refused_by_bench_compare_and_replay(special, fifo, fit_json, monkeypatch):
+    """The three readers that bypassed nlid.io's path check now go through it (none hangs or reads forever)."""
+    from nlid.replay import identify_again
+
+    if special == "/dev/zero" and not Path(special).exists():
+        pytest.skip("no /dev/zero")
+    path = str(fifo) if special == "fifo" else special
+    monkeypatch.chdir(fit_json.parent)
+    what = "a named pipe (FIFO)" if special == "fifo" else "a device"
+    with _deadline(120):
+        _refused(["compare", "x.csv", "--terms", "z^3", "--mass", "0.2", "--reference", path], what)
+        _refused(["bench", "--benchmark", "bouc-wen", "--test-file", f"bouc-wen:multisine={path}", "--out", "b"], what)
+        provenance = json.loads(fit_json.read_text())["provenance"]
+        provenance["data"]["source"] = path
+        with pytest.raises(DataError, match=what.replace("(", r"\(").replace(")", r"\)")):
+            identify_again(provenance)
+    assert not Path("b").exists()  # refused before the output folder was made
+
+
+def test_a_a_sparse_csv_is_refused_before_pandas_reads_it(tmp_path):
+    path = tmp_path / "sparse.csv"
+    path.write_text("t,f,z\n")
+    with open(path, "r+b") as fh:
+        fh.truncate(2 << 30)  # 2 GiB of holes
+    if os.stat(path).st_blocks * 512 > 1 << 20:
+        pytest.skip("this file system does not make sparse files")
+    with _deadline(60):
+        _refused(["identify", str(path), "--terms", "z^3"], "is 2.15 GB long but holds only")
+
+
+def test_a_a_csv_or_parquet_that_would_not_fit_in_memory_is_refused_naming_its_size(tmp_path, monkeypatch):
+    from nlid import filetables
+
+    data = _signals()
+    pd.DataFrame(data).to_csv(tmp_path / "x.csv", index=False)
+    monkeypatch.setattr(filetables, "memory_limit", lambda: 40_000)
+    with pytest.raises(DataError, match=r"x.csv is .* kB: read as a table it needs up to .*, more than the 40 kB"):
+        nlid.load(tmp_path / "x.csv")
+    pytest.importorskip("pyarrow")
+    pd.DataFrame(data).to_parquet(tmp_path / "x.parquet")
+    monkeypatch.setattr(filetables, "memory_limit", lambda: 4_000)
+    with pytest.raises(DataError, match=r"column 't' in .*x.parquet declares 1 000 rows \(8 kB\), more than the 4 kB"):
+        nlid.load(tmp_path / "x.parquet")
+    monkeypatch.undo()
+    assert nlid.load(tmp_path / "x.parquet").n == N  # read column by column
