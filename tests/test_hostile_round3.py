@@ -320,3 +320,196 @@ def test_a_a_csv_or_parquet_that_would_not_fit_in_memory_is_refused_naming_its_s
         nlid.load(tmp_path / "x.parquet")
     monkeypatch.undo()
     assert nlid.load(tmp_path / "x.parquet").n == N  # read column by column
+
+
+# ============================================================================ B: nlid bench as hardened as identify
+PROBE = """
+[benchmark]
+name = "probe"
+title = "a benchmark of one's own"
+citation = "nlid test suite"
+dataset = "probe"
+official = false
+protocol = "nlid tests"
+unit = "mm"
+scale = 1000.0
+fs = 1024.0
+
+[estimation]
+description = "6 s of the single-well case"
+
+[estimation.file]
+names = ["est.csv"]
+columns = "f=f, z=z"
+
+[[tests]]
+name = "independent"
+rule = "window:20"
+description = "2 s of another force"
+
+[tests.file]
+names = ["test.csv"]
+columns = "f=f, z=z"
+
+[pipelines]
+terms = "z^3"
+declared = "1, z, v"
+mass = 0.2
+"""
+
+
+@pytest.fixture(scope="module")
+def probe(tmp_path_factory):
+    """A benchmark file of one's own (``probe.toml``), its estimation and test CSVs, and hostile test files."""
+    from nlid.discovery.cases import build_case
+    from nlid.io import write_csv
+
+    folder = tmp_path_factory.mktemp("probe")
+    preset, _ = build_case("single", "cubic-stiffness")
+    write_csv(preset.with_overrides(duration=6.0).simulate(1, noise=0.01, channels=("z",)), folder / "est.csv")
+    test = preset.with_overrides(duration=2.0).simulate(2, noise=0.01, channels=("z",))
+    write_csv(test, folder / "test.csv")
+    (folder / "probe.toml").write_text(PROBE)
+    frame = pd.read_csv(folder / "test.csv")
+    frame.iloc[:100].to_csv(folder / "short.csv", index=False)
+    nan = frame.copy()
+    nan.loc[5, "z"] = np.nan
+    nan.to_csv(folder / "nan.csv", index=False)
+    huge = frame.copy()
+    huge["f"] = huge["f"] * 1e300
+    huge.to_csv(folder / "huge.csv", index=False)
+    return folder
+
+
+def _bench(probe: Path, test: str, out: str, *extra: str) -> list[str]:
+    return [
+        "bench",
+        "--benchmark",
+        str(probe / "probe.toml"),
+        "--pipeline",
+        "rfs",
+        "--jobs",
+        "1",
+        "--test-file",
+        f"probe:estimation={probe / 'est.csv'}",
+        "--test-file",
+        f"probe:independent={probe / test}",
+        "--out",
+        out,
+        *extra,
+    ]
+
+
+def test_b_a_benchmark_file_of_ones_own_ends_with_its_leaderboard_in_text_mode(probe, tmp_path):
+    """The protocols are kept by the name the rows carry, not reloaded by that name (it is not a built-in)."""
+    status, out, err = _run(_bench(probe, "test.csv", str(tmp_path / "o"), "--no-progress"))
+    assert status == 0, err[-2000:]
+    assert "Benchmark `probe`" in out and "nlid `rfs`" in out, out
+    assert "unknown benchmark" not in err and "Traceback" not in err
+
+
+@pytest.mark.parametrize("flag", ["--benchmark", "--pipeline"])
+@pytest.mark.parametrize("value", ["", ",", " , "])
+def test_b_an_empty_list_of_benchmarks_or_pipelines_is_refused(flag, value, tmp_path):
+    """Not silently the three default benchmarks (or the default pipelines)."""
+    _refused(["bench", flag, value, "--out", str(tmp_path / "o")], f"{flag} names nothing")
+    assert not (tmp_path / "o").exists()
+
+
+@pytest.mark.parametrize(
+    "name, fragment",
+    [
+        ("short.csv", "probe test set 'independent': record too short for a filtered force balance: 100 samples"),
+        ("nan.csv", "channel 'z' has a non-finite value (nan) at index 5"),
+        ("huge.csv", "its f reaches 7.33e+301 N: the sum of its squares overflows a float64"),
+    ],
+)
+def test_b_a_test_file_that_no_job_could_use_is_refused_before_any_job_runs(probe, tmp_path, name, fragment):
+    _refused(_bench(probe, name, str(tmp_path / "o")), fragment)
+    assert not (tmp_path / "o").exists()  # no job ran, no folder was made
+
+
+def test_b_a_test_file_shorter_than_the_benchmark_declares_or_its_rule_needs_is_refused(probe, tmp_path):
+    from nlid.benchmarking import parse_protocol
+    from nlid.benchmarking.data import check_user_files
+
+    declared = parse_protocol(PROBE.replace('rule = "window:20"', 'rule = "window:20"\nsamples = 4096'))
+    with pytest.raises(DataError, match="2048 samples, the benchmark declares 4096"):
+        check_user_files({"probe": declared}, {"probe:independent": str(probe / "test.csv")})
+    window = parse_protocol(PROBE.replace('rule = "window:20"', 'rule = "window:2047"'))
+    with pytest.raises(DataError, match="2048 samples, too few to score after its initialisation window of 2047"):
+        check_user_files({"probe": window}, {"probe:independent": str(probe / "test.csv")})
+    periodic = parse_protocol(PROBE.replace('rule = "window:20"', 'rule = "periodic:4096"'))
+    with pytest.raises(DataError, match="2048 samples, less than the period of 4096 samples"):
+        check_user_files({"probe": periodic}, {"probe:independent": str(probe / "test.csv")})
+
+
+@pytest.fixture
+def docs(tmp_path):
+    """A copy of the docs pages the benchmark blocks are generated into, with their data."""
+    import shutil
+
+    folder = tmp_path / "docs"
+    shutil.copytree(ROOT / "docs" / "_data", folder / "_data")
+    for page in ("results.md", "discover.md"):
+        shutil.copy(ROOT / "docs" / page, folder / page)
+    return folder
+
+
+@pytest.mark.parametrize(
+    "text, fragment",
+    [
+        ("{", "bench.json: not JSON"),
+        ('{"benchmarks": ["bouc-wen"], "jobs": [1]}', "not the bench.json of an nlid bench run (AttributeError"),
+        ('{"benchmarks": ["bouc-wen"], "run": ' + "[" * 900 + "]" * 900 + "}", "not the bench.json of an nlid"),
+        ('{"benchmarks": ["bouc-wen"], "run": ' + "[" * 100_000 + "]" * 100_000 + "}", "nested too deeply"),
+        ("[1]", "no list of benchmarks"),
+        ('{"benchmarks": ["bouc-wen"], "run": {"load_average": ["a", "b"]}}', "not the bench.json of an nlid"),
+    ],
+)
+def test_b_render_docs_checks_the_folder_before_replacing_anything(docs, tmp_path, text, fragment):
+    bad = tmp_path / "bad"
+    bad.mkdir()
+    (bad / "leaderboard.csv").write_bytes((docs / "_data" / "leaderboard.csv").read_bytes())
+    (bad / "bench.json").write_text(text)
+    before = {p.name: p.read_bytes() for p in (docs / "_data").iterdir()}
+    pages = {p: (docs / p).read_bytes() for p in ("results.md", "discover.md")}
+    _refused(["bench", "--render-docs", "--from", str(bad), "--docs", str(docs)], fragment)
+    assert {p.name: p.read_bytes() for p in (docs / "_data").iterdir()} == before
+    assert {p: (docs / p).read_bytes() for p in pages} == pages
+
+
+def test_b_render_docs_from_the_docs_own_data_regenerates_the_same_pages(docs):
+    pages = {p: (docs / p).read_text() for p in ("results.md", "discover.md")}
+    status, _, err = _run(["bench", "--render-docs", "--from", str(docs / "_data"), "--docs", str(docs)])
+    assert status == 0, err
+    assert {p: (docs / p).read_text() for p in pages} == pages
+
+
+def test_b_a_benchmark_file_names_only_a_loader_of_the_package_never_other_code(monkeypatch, tmp_path):
+    """``package.function`` is an allow-list of the package's loaders, looked up by name in its module.
+
+    A stub package exposing ``os`` showed that a walk of attributes could call ``os.abort``.
+    """
+    import types
+
+    from nlid.benchmarking import data as bench_data
+    from nlid.benchmarking import parse_protocol
+    from nlid.benchmarking.protocol import PACKAGE_FUNCTIONS
+
+    called = []
+    stub = types.ModuleType("nonlinear_benchmarks")
+    stub.os = types.SimpleNamespace(abort=lambda: called.append("abort"))
+    stub.Silverbox = print  # a builtin, not a function of the package: refused, never called
+    monkeypatch.setitem(sys.modules, "nonlinear_benchmarks", stub)
+    base = PROBE.replace("fs = 1024.0\n", 'fs = 1024.0\n\n[benchmark.package]\nfunction = "{}"\n')
+    for name in ("os.abort", "os", "__class__", "Silverbox.__call__", "not_splitted_benchmarks.os.abort"):
+        with pytest.raises(InputError, match="must name one of the nonlinear-benchmarks package's loaders"):
+            parse_protocol(base.replace("{}", name))
+        with pytest.raises(DataError, match="is not a loader of the nonlinear-benchmarks package nlid knows"):
+            bench_data._package_function(name)
+    assert "EMPS" in PACKAGE_FUNCTIONS and "not_splitted_benchmarks.BoucWen" in PACKAGE_FUNCTIONS
+    assert parse_protocol(base.replace("{}", "Silverbox")).package_function == "Silverbox"
+    with pytest.raises(DataError, match="nonlinear_benchmarks.Silverbox is not a function"):
+        bench_data._package_function("Silverbox")
+    assert not called
