@@ -58,10 +58,18 @@ def test_a_missing_user_test_set_says_how_to_give_it(monkeypatch):
 
 
 def test_check_user_files(tmp_path):
+    from scipy.io import savemat
+
     protocols = {"bouc-wen": load_protocol("bouc-wen")}
-    path = tmp_path / "u.mat"
-    path.write_bytes(b"")
+    rng = np.random.default_rng(6)
+    path = tmp_path / "uval_multisine.mat"
+    savemat(path, {"uval_multisine": rng.standard_normal((1, 8192))})
+    savemat(tmp_path / "yval_multisine.mat", {"yval_multisine": 1e-4 * rng.standard_normal((1, 8192))})
     assert check_user_files(protocols, {"bouc-wen:multisine": str(path)}) == {"bouc-wen:multisine": str(path)}
+    empty = tmp_path / "u.mat"
+    empty.write_bytes(b"")
+    with pytest.raises(DataError, match="u.mat"):  # each file is read before any job runs: an empty one is refused
+        check_user_files(protocols, {"bouc-wen:multisine": str(empty)})
     with pytest.raises(InputError, match="is read from \\$NLID_DATA_DIR, not from a file you give"):
         check_user_files(protocols, {"bouc-wen:sinesweep": str(path)})
     with pytest.raises(InputError, match="name it BENCHMARK:TEST"):
@@ -103,7 +111,8 @@ def test_loading_through_the_nonlinear_benchmarks_package(monkeypatch, toy_text)
         .replace('[estimation.file]\nnames = ["toy_estimation.mat"]\ncolumns = "f=force, z=disp"\n', "")
         .replace('name = "independent"\n', 'name = "independent"\npackage = "test:1"\n')
         .replace(
-            "remove_means = true\n", 'remove_means = true\n\n[benchmark.package]\nfunction = "Silverbox"\nforce_scale = 2.0\n'
+            "remove_means = true\n",
+            'remove_means = true\n\n[benchmark.package]\nfunction = "Silverbox"\nforce_scale = 2.0\n',
         )
     )
     protocol = parse_protocol(text)
