@@ -513,3 +513,117 @@ def test_b_a_benchmark_file_names_only_a_loader_of_the_package_never_other_code(
     with pytest.raises(DataError, match="nonlinear_benchmarks.Silverbox is not a function"):
         bench_data._package_function("Silverbox")
     assert not called
+
+
+# ============================================================================ C: nlid compare and the CLI's odd ends
+@pytest.fixture(scope="module")
+def structure_csv(tmp_path_factory):
+    """8 s of the 3dof-cubic structure (its truth in the sidecar), as nlid simulate writes it."""
+    from nlid.io import write_csv
+    from nlid.presets import get_preset
+
+    folder = tmp_path_factory.mktemp("structure")
+    record = get_preset("3dof-cubic").with_overrides(duration=8.0).simulate(0)
+    return write_csv(record, folder / "s3.csv")
+
+
+def test_c_compare_accepts_a_structure(structure_csv):
+    """Elements on connections, the linear modes and each DOF's residual, against the structure's truth."""
+    status, out, err = _run(["compare", str(structure_csv), "--terms", "z3^3", "--methods", "rfs", "--json"])
+    assert status == 0, err
+    rows = {(r["quantity"], r["name"]): r for r in json.loads(out)}
+    coef = rows[("coefficient", "z3^3")]
+    assert coef["method"] == "rfs" and coef["unit"] == "N/m^3" and coef["reference"] == 5e9
+    assert abs(coef["error_pct"]) < 5, coef
+    assert {("fn_hz", "m1"), ("zeta", "m3"), ("eps_percent", "z2"), ("seconds", "identification")} <= set(rows)
+    assert abs(rows[("fn_hz", "m1")]["error_pct"]) < 1
+    frame = nlid.compare(nlid.load(structure_csv), "z3^3", ["rfs"], reference={"z3^3": 4e9})
+    assert frame.set_index("name").loc["z3^3", "reference"] == 4e9
+
+
+@pytest.mark.parametrize(
+    "terms, fragment",
+    [
+        ("z^3", "name the degree of freedom: write z1, v2 or a difference"),
+        ("z9^3", "DOF"),
+    ],
+)
+def test_c_compare_refuses_a_structure_s_bad_elements_before_running(structure_csv, terms, fragment):
+    _refused(["compare", str(structure_csv), "--terms", terms, "--methods", "rfs"], fragment)
+
+
+@pytest.mark.parametrize(
+    "text, fragment",
+    [
+        ('{"z^3": NaN}', "reference coefficient 'z^3' must be a finite number, got nan"),
+        ('{"coefficients": {"z^3": 1e6}, "mass": NaN}', "reference mass must be a finite number of kg, got nan"),
+        ('{"mass": 1e400}', "must be a finite number of kg, got inf"),
+        ('{"equilibria": [NaN]}', "reference equilibria must be a list of finite numbers, got nan"),
+        ('{"modal": [{"fn_hz": NaN, "zeta": 0.1}]}', "reference modes' fn_hz must be a finite number"),
+        ('{"z^3": true}', "reference coefficient 'z^3' must be a number, got True"),
+        ('{"terms": [[1]]}', "reference terms must be a list of terms"),
+        ('{"z^3": ' + "[" * 900 + "]" * 900 + "}", "(1 800 characters)"),
+        ('{"coefficients": ' + "[" * 900 + "]" * 900 + "}", "reference coefficients must map term names"),
+        ("[" * 100_000 + "]" * 100_000, "nested too deeply"),
+    ],
+)
+def test_c_a_reference_with_a_nan_or_nested_deeply_is_one_line(tmp_path, short_record, text, fragment, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    nlid.io.write_csv(short_record, "x.csv")
+    Path("r.json").write_text(text)
+    _refused(
+        ["compare", "x.csv", "--terms", "z^3", "--mass", "0.2", "--methods", "rfs", "--reference", "r.json"], fragment
+    )
+
+
+@pytest.mark.parametrize(
+    "setting, fragment",
+    [
+        ("rfs.cutoff=abc", "rfs: option 'cutoff' expects a number or 'auto', got 'abc'"),
+        ("rfs.decimate=0", "decimate"),
+        ("rfs.nope=1", "unknown option 'nope'"),
+    ],
+)
+def test_c_compare_refuses_bad_option_values_before_running(tmp_path, short_record, setting, fragment, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    nlid.io.write_csv(short_record, "x.csv")
+    _refused(
+        ["compare", "x.csv", "--terms", "z^3", "--mass", "0.2", "--methods", "rfs,sindy", "--set", setting], fragment
+    )
+    with pytest.raises(InputError, match=fragment.split(":")[-1].strip()[:20].replace("(", r"\(")):
+        nlid.compare(short_record, "z^3", ["rfs"], mass=0.2, options={"rfs": dict([setting[4:].split("=")])})
+
+
+def test_c_methods_refuses_an_unknown_name_with_json_too():
+    _refused(["methods", "nope", "--json"], "unknown method 'nope'")
+    status, out, _ = _run(["methods", "rfs", "--json"])
+    assert status == 0 and list(json.loads(out)["methods"]) == ["rfs"]
+
+
+def test_c_units_of_a_structure_s_dofs_are_accepted_on_the_command_line(structure_csv):
+    """``--units z2=um`` as the column map (``z2[um]=z2``) and the API already accept it."""
+    from nlid.cli.common import load_data
+
+    args = dict(data=str(structure_csv), columns=None, fs=None, force_hold=None)
+    converted = load_data(__import__("argparse").Namespace(**args, units="z2=um"))
+    plain = nlid.load(structure_csv)
+    np.testing.assert_allclose(converted.z[:, 1], plain.z[:, 1] * 1e-6)
+    np.testing.assert_array_equal(converted.z[:, 0], plain.z[:, 0])
+    mapped = nlid.load(structure_csv, columns="f1=f1, z1=z1, z2[um]=z2, z3=z3")
+    np.testing.assert_array_equal(converted.z, mapped.z)
+    _refused(["identify", str(structure_csv), "--terms", "z3^3", "--units", "z2=kg"], "unknown unit 'kg'")
+
+
+def test_c_mat_v5_logical_arrays_are_refused_as_every_format_s_booleans(tmp_path):
+    data = _signals()
+    sio.savemat(tmp_path / "b.mat", {**data, "flag": data["f"] > 0})
+    with pytest.raises(DataError, match="column 'flag' in .*b.mat holds booleans"):
+        nlid.load(tmp_path / "b.mat", columns="t=t, f=flag, z=z")
+    _refused(["identify", str(tmp_path / "b.mat"), "--terms", "z^3", "--columns", "f=flag"], "holds booleans")
+
+
+def test_c_identify_without_none_removes_nothing(short_record):
+    fit = nlid.identify(short_record, "z^3", "rfs", mass=0.2, without=None)
+    assert fit.terms == nlid.identify(short_record, "z^3", "rfs", mass=0.2).terms == ("1", "z", "z^3", "v")
+    frame = nlid.compare(short_record, "z^3", ["rfs"], mass=0.2, without=None)
+    assert "failed" not in set(frame["quantity"])

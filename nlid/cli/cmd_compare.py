@@ -132,6 +132,7 @@ def _reference(path: str | None) -> Any:
         return None
     from ..identified import IdentifiedModel
     from ..io import read_text_file
+    from ..mdof.identified import SCHEMA as STRUCTURE_SCHEMA
 
     text = read_text_file(path, "reference JSON")
     try:
@@ -142,6 +143,10 @@ def _reference(path: str | None) -> Any:
         raise DataError(f"--reference {path}: nested too deeply to be a reference") from None
     if not isinstance(data, dict):
         raise DataError(f"--reference {path}: expected a JSON object, got {type(data).__name__}")
+    if data.get("schema") == STRUCTURE_SCHEMA:  # nlid identify --json of a structure
+        from ..mdof.identified import IdentifiedStructure
+
+        return IdentifiedStructure.from_dict(data)
     if {"terms", "coefficients", "method"} <= set(data):  # nlid identify --json
         return IdentifiedModel.from_dict(data)
     return data
