@@ -627,3 +627,136 @@ def test_c_identify_without_none_removes_nothing(short_record):
     assert fit.terms == nlid.identify(short_record, "z^3", "rfs", mass=0.2).terms == ("1", "z", "z^3", "v")
     frame = nlid.compare(short_record, "z^3", ["rfs"], mass=0.2, without=None)
     assert "failed" not in set(frame["quantity"])
+
+
+# ============================================================================ D: the model file format and replay
+@pytest.fixture(scope="module")
+def model_dict():
+    record = nlid.simulate("paper-numerical", seed=3, duration=4.0)
+    return nlid.identify(record, "z^3, z^2, v*|v|", "rfs", mass=0.2).to_dict()
+
+
+def _deep(levels: int) -> list:
+    return json.loads("[" * levels + "]" * levels)
+
+
+@pytest.mark.parametrize(
+    "field, value, fragment",
+    [
+        ("coefficients", "abc", "model JSON: coefficients: must be an object of finite numbers, got 'abc'"),
+        ("equilibria", "none", "model JSON: equilibria: must be {stable, unstable} or null, got 'none'"),
+        ("standard_errors", {"z": "x"}, "model JSON: standard_errors.z: must be a number or null, got 'x'"),
+        ("provenance", "abc", "model JSON: provenance: must be a provenance object or null, got 'abc'"),
+        ("provenance", _deep(900), "model JSON: provenance[0][0][0]...: nested deeper than 32 levels"),
+        ("method", 42, "model JSON: method: must be a string, got 42"),
+        ("mass", -0.2, "model JSON: mass: must be a positive number or null, got -0.2"),
+        ("modal", [1], "model JSON: modal[0]: must be {equilibrium, fn_hz, zeta, ...}, got 1"),
+        ("scores", {"samples": "many"}, "model JSON: scores.samples: must be a whole number or null"),
+        ("z_range", [0.1], "model JSON: z_range: must be two finite numbers or null, got a list of 1"),
+        ("diagnostics", {"x": {1, 2}}, "model JSON: diagnostics.x: set is not a JSON value"),
+        ("coeficients", {}, "model JSON: coeficients: not a field of this layout (did you mean 'coefficients'?)"),
+    ],
+)
+def test_d_from_dict_checks_every_field_and_names_the_first_misfit(model_dict, field, value, fragment):
+    data = json.loads(json.dumps(model_dict))
+    data[field] = value
+    with pytest.raises(InputError) as info:
+        nlid.IdentifiedModel.from_dict(data)
+    assert fragment in str(info.value) and "\n" not in str(info.value), str(info.value)
+
+
+def test_d_version_1_is_today_s_layout_and_reads_back(model_dict):
+    from nlid.modelschema import MODEL_FIELDS
+
+    assert model_dict["schema"] == "nlid.IdentifiedModel/1"
+    assert set(model_dict) <= {f.name for f in MODEL_FIELDS}  # every field to_dict writes is declared
+    again = nlid.IdentifiedModel.from_dict(json.loads(json.dumps(model_dict)))
+    assert again.to_dict() == model_dict
+    bare = {k: v for k, v in model_dict.items() if k != "schema"}  # no "schema": read as version 1
+    assert nlid.IdentifiedModel.from_dict(bare).coefficients == again.coefficients
+    with pytest.raises(InputError, match="unknown identified-model layout 'nlid.IdentifiedModel/2'"):
+        nlid.IdentifiedModel.from_dict({**model_dict, "schema": "nlid.IdentifiedModel/2"})
+
+
+def test_d_a_structure_s_json_is_checked_against_its_schema(structure_csv):
+    from nlid.mdof.identified import IdentifiedStructure
+    from nlid.modelschema import STRUCTURE_FIELDS
+
+    fit = nlid.identify(nlid.load(structure_csv), "z3^3", "rfs")
+    data = json.loads(json.dumps(fit.to_dict()))
+    assert set(data) <= {f.name for f in STRUCTURE_FIELDS}
+    assert IdentifiedStructure.from_dict(data).to_dict() == fit.to_dict()
+    for field, value, fragment in [
+        ("method", 42, "model JSON: method: must be a string, got 42"),
+        ("eps_percent", "low", "model JSON: eps_percent: must be a list or null"),
+        ("structure", {**data["structure"], "M": [["a"]]}, "model JSON: structure.M[0][0]: must be a finite number"),
+        ("provenance", _deep(900), "nested deeper than 32 levels"),
+    ]:
+        with pytest.raises(InputError, match=fragment.replace("(", r"\(").replace("[", r"\[")):
+            IdentifiedStructure.from_dict({**data, field: value})
+
+
+def test_d_compare_reference_with_a_damaged_model_json_is_one_line(tmp_path, short_record, model_dict, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    nlid.io.write_csv(short_record, "x.csv")
+    Path("m.json").write_text(json.dumps({**model_dict, "provenance": _deep(900)}))
+    argv = ["compare", "x.csv", "--terms", "z^3", "--mass", "0.2", "--methods", "rfs", "--reference", "m.json"]
+    _refused(argv, "model JSON: provenance[0][0][0]...: nested deeper than 32 levels")
+
+
+def test_d_identify_again_turns_every_bad_provenance_into_one_error(fit_json, monkeypatch):
+    from nlid.replay import identify_again
+
+    monkeypatch.chdir(fit_json.parent)
+    good = json.loads(fit_json.read_text())["provenance"]
+    assert (
+        identify_again(good).coefficients
+        == nlid.IdentifiedModel.from_dict(json.loads(fit_json.read_text())).coefficients
+    )
+    Path("folder").mkdir()
+
+    def changed(part: str, key: str, value) -> dict:
+        out = json.loads(json.dumps(good))
+        out[part][key] = value
+        return out
+
+    cases = [
+        (changed("data", "source", "missing.csv"), DataError, "file not found: missing.csv"),
+        (changed("data", "source", "folder"), DataError, "folder is a folder, not a data file"),
+        (changed("data", "units", "mm"), InputError, "provenance.data.units: must be an object of units, got 'mm'"),
+        (changed("data", "units", ["mm"]), InputError, "provenance.data.units: must be an object of units"),
+        (changed("identify", "px_tol", "abc"), InputError, "provenance.identify.px_tol: must be a positive number"),
+        (changed("identify", "terms", "z^3"), InputError, "provenance.identify.terms: must be a list of strings"),
+        (None, InputError, "the provenance lacks its 'data' or 'identify' part"),
+        ("abc", InputError, "the provenance lacks its 'data' or 'identify' part"),
+        (changed("data", "source", "dataset:nope"), InputError, "unknown dataset 'nope'"),
+    ]
+    for provenance, kind, fragment in cases:
+        with pytest.raises(kind) as info:
+            identify_again(provenance)
+        assert fragment in str(info.value), (fragment, str(info.value))
+    # a bundled dataset is loaded as such even when the provenance says its hash is a file's (no open("dataset:..."))
+    monkeypatch.delenv("NLID_DATA_DIR", raising=False)
+    bundled = changed("data", "source", "dataset:emps")
+    with pytest.raises(DataError, match="set NLID_DATA_DIR"):
+        identify_again(bundled)
+
+
+def test_d_the_docs_write_down_every_field_of_the_schema():
+    import re
+
+    from nlid.modelschema import MODEL_FIELDS, PROVENANCE_FIELDS, STRUCTURE_FIELDS, Obj
+
+    page = (ROOT / "docs" / "model-json.md").read_text()
+    names = []
+    todo = [f for f in (*MODEL_FIELDS, *STRUCTURE_FIELDS, *PROVENANCE_FIELDS) if f.name != "scores"]
+    while todo:
+        field = todo.pop()
+        names.append(field.name)
+        kind = getattr(field.kind, "kind", field.kind)  # inside a Nullable
+        kind = getattr(kind, "item", kind)  # inside a list or a map
+        if isinstance(kind, Obj):
+            todo += list(kind.fields)
+    missing = sorted({n for n in names if not re.search(rf"`[^`]*\b{re.escape(n)}\b[^`]*`", page)})
+    assert not missing, f"fields of nlid.modelschema not in docs/model-json.md: {missing}"
+    assert "nlid.IdentifiedModel/1" in page and "nlid.IdentifiedStructure/1" in page
