@@ -24,6 +24,7 @@ import signal
 import struct
 import subprocess
 import sys
+import time
 import zipfile
 from pathlib import Path
 
@@ -760,3 +761,290 @@ def test_d_the_docs_write_down_every_field_of_the_schema():
     missing = sorted({n for n in names if not re.search(rf"`[^`]*\b{re.escape(n)}\b[^`]*`", page)})
     assert not missing, f"fields of nlid.modelschema not in docs/model-json.md: {missing}"
     assert "nlid.IdentifiedModel/1" in page and "nlid.IdentifiedStructure/1" in page
+
+
+# ============================================================================ E: signals, crashes and symlinks
+R3_PLUGINS = '''
+import os
+import signal
+import time
+from pathlib import Path
+
+from nlid.plugin import Estimate, Identifier, hookimpl
+
+TRUTH = {"1": 1.962, "z": -500.0, "z^2": 5000.0, "z^3": 1e6, "v": 1.0, "v*|v|": 5.0}
+
+
+def kill_server():
+    """A target for run_in_child: kill the fork server that forked this child (the OOM killer's doing)."""
+    os.kill(os.getppid(), signal.SIGKILL)
+    time.sleep(60)
+
+
+class Sleepy(Identifier):
+    name = "r3-sleepy"
+    summary = "sleeps NLID_R3_SLEEP seconds, then returns the truth (test plugin)"
+
+    def identify(self, record, model, *, mass=None):
+        time.sleep(float(os.environ.get("NLID_R3_SLEEP", "0")))
+        return Estimate(coefficients={n: TRUTH.get(n, 0.0) for n in model.names})
+
+
+class KillServer(Identifier):
+    name = "r3-kill-server"
+    summary = "kills its fork server while the count in NLID_R3_KILLS lasts, then returns the truth (test plugin)"
+
+    def identify(self, record, model, *, mass=None):
+        path = Path(os.environ["NLID_R3_KILLS"])
+        left = int(path.read_text())
+        if left > 0:
+            path.write_text(str(left - 1))
+            kill_server()
+        return Estimate(coefficients={n: TRUTH.get(n, 0.0) for n in model.names})
+
+
+@hookimpl
+def nlid_identifiers():
+    return [Sleepy, KillServer]
+'''
+
+STUDY = """
+[study]
+name = "r3"
+seed = 7
+repetitions = {repetitions}
+timeout = 120
+identifiers = [{identifiers}]
+
+[[datasets]]
+name = "short"
+preset = "paper-numerical"
+overrides = {{ duration = 2 }}
+channels = ["z", "v", "a"]
+terms = "z^3, z^2, v*|v|"
+mass = "known"
+holdout = "none"
+"""
+
+
+@pytest.fixture(scope="module")
+def r3_plugins(tmp_path_factory):
+    """The E-class test plugins in a folder with their ``.dist-info`` (nothing installed), on ``sys.path``."""
+    from plugin_dist import write_distribution
+
+    from nlid.registry import default_registry, registry_for
+
+    folder = tmp_path_factory.mktemp("r3plugins")
+    write_distribution(folder, "nlid-r3", {"nlid_r3_plugins": R3_PLUGINS}, {"r3": "nlid_r3_plugins"})
+
+    def forget():
+        sys.modules.pop("nlid_r3_plugins", None)
+        default_registry.cache_clear()
+        registry_for.cache_clear()
+
+    with pytest.MonkeyPatch.context() as mp:
+        mp.syspath_prepend(str(folder))
+        forget()
+        yield folder
+    forget()
+
+
+def _study(folder: Path, identifiers: str, repetitions: int = 1) -> Path:
+    path = folder / "r3.toml"
+    path.write_text(STUDY.format(identifiers=identifiers, repetitions=repetitions))
+    return path
+
+
+def _child_env(plugins: Path, **extra: str) -> dict[str, str]:
+    env = {**os.environ, **extra}
+    env["PYTHONPATH"] = os.pathsep.join([str(plugins), str(ROOT), str(ROOT / "plugins"), env.get("PYTHONPATH", "")])
+    return env
+
+
+def _temporary_files(folder: Path) -> list[str]:
+    return sorted(str(p.relative_to(folder)) for p in folder.rglob("*") if ".tmp" in p.name)
+
+
+def test_e_ctrl_c_on_a_running_study_prints_one_line_and_the_study_resumes(r3_plugins, tmp_path):
+    """The terminal's Ctrl-C reaches the whole foreground process group: the fork server no longer is in it."""
+    study = _study(tmp_path, '"r3-sleepy"', repetitions=2)
+    env = _child_env(r3_plugins, NLID_R3_SLEEP="30")
+    argv = [sys.executable, "-m", "nlid.cli.main", "study", "run", str(study), "--out", "out", "--jobs", "2"]
+    proc = subprocess.Popen(argv, cwd=tmp_path, env=env, stderr=subprocess.PIPE, text=True, start_new_session=True)
+    first = proc.stderr.readline()  # the study has started: the fork server runs, the runs are on their way
+    assert first.startswith("nlid study r3: 2 runs"), first
+    for _ in range(300):  # the fork server and the two sleeping runs it forked
+        if len(_descendants(proc.pid)) >= 3:
+            break
+        time.sleep(0.2)
+    time.sleep(1.0)
+    os.killpg(proc.pid, signal.SIGINT)  # what Ctrl-C does: SIGINT to the terminal's foreground process group
+    rest = proc.stderr.read()
+    proc.stderr.close()
+    assert proc.wait(timeout=60) == 130
+    lines = [line for line in rest.splitlines() if line.strip()]
+    assert lines == ["nlid: interrupted"], rest[-3000:]
+    assert _temporary_files(tmp_path / "out") == []
+    done = subprocess.run(
+        argv, cwd=tmp_path, env={**env, "NLID_R3_SLEEP": "0"}, capture_output=True, text=True, timeout=300
+    )
+    assert done.returncode == 0, done.stderr[-3000:]
+    assert "0 already done, 2 to run" in done.stderr, done.stderr  # the interrupted runs were not stored as done
+
+
+def _descendants(pid: int) -> list[int]:
+    from nlid.runtime.process import descendants_of
+
+    return descendants_of(pid)
+
+
+_INTERRUPT_BETWEEN_WRITE_AND_RENAME = """
+import os, signal, sys
+real = os.replace
+def replace(src, dst, *args, **kwargs):
+    if ".tmp" in str(src) and "runs" in str(src) and os.environ.get("NLID_R3_SIGNAL"):
+        os.kill(os.getpid(), getattr(signal, os.environ.pop("NLID_R3_SIGNAL")))  # written, not yet renamed
+    return real(src, dst, *args, **kwargs)
+os.replace = replace
+from nlid.cli.main import main
+sys.exit(main(sys.argv[1:]))
+"""
+
+
+@pytest.mark.parametrize("sig", ["SIGTERM", "SIGKILL"])
+def test_e_a_signal_between_write_and_rename_leaves_no_temporary_file_after_the_next_run(r3_plugins, tmp_path, sig):
+    """SIGTERM: the temporary file is removed at once; SIGKILL (no handler can run): the next run sweeps it."""
+    study = _study(tmp_path, '"r3-sleepy"', repetitions=2)
+    env = _child_env(r3_plugins, NLID_R3_SIGNAL=sig)
+    argv = [sys.executable, "-c", _INTERRUPT_BETWEEN_WRITE_AND_RENAME, "study", "run", str(study), "--out", "out"]
+    first = subprocess.run([*argv, "--jobs", "1"], cwd=tmp_path, env=env, capture_output=True, text=True, timeout=300)
+    assert first.returncode == (130 if sig == "SIGTERM" else -signal.SIGKILL), first.stderr[-3000:]
+    if sig == "SIGTERM":
+        assert "Traceback" not in first.stderr and first.stderr.rstrip().endswith("nlid: interrupted"), first.stderr
+        assert _temporary_files(tmp_path / "out") == []
+    else:
+        assert _temporary_files(tmp_path / "out"), "the kill did not land between the write and the rename"
+    env.pop("NLID_R3_SIGNAL")
+    again = subprocess.run([*argv, "--jobs", "1"], cwd=tmp_path, env=env, capture_output=True, text=True, timeout=300)
+    assert again.returncode == 0, again.stderr[-3000:]
+    assert _temporary_files(tmp_path / "out") == []
+    assert len(list((tmp_path / "out" / "runs").glob("*.json"))) == 2
+
+
+def test_e_an_interrupted_atomic_write_removes_its_temporary_file(tmp_path, monkeypatch):
+    from nlid import outputs
+
+    path = tmp_path / "x.json"
+    path.write_text("old")
+
+    def interrupted(src, dst):
+        raise KeyboardInterrupt  # nlid's SIGTERM handlers raise it
+
+    monkeypatch.setattr(outputs.os, "replace", interrupted)
+    with pytest.raises(KeyboardInterrupt):
+        outputs.atomic_write(path, b"new")
+    monkeypatch.undo()
+    assert path.read_text() == "old" and _temporary_files(tmp_path) == []
+    stale = tmp_path / f".x.json.{2**22 + 12345}.tmp"  # a process id no system hands out: its writer is gone
+    stale.write_text("half")
+    mine = tmp_path / "keep.tmp"
+    mine.write_text("not nlid's")  # not nlid's pattern: never touched
+    assert outputs.sweep_temporary(tmp_path) == [stale]
+    assert mine.exists()
+
+
+def test_e_a_dead_fork_server_is_infrastructure_not_the_identifier_s_crash(r3_plugins, tmp_path, monkeypatch):
+    """The run is tried again at once; if the server dies again, the run is not stored and a resume runs it."""
+    from nlid.runtime.isolation import IsolationError, run_in_child
+
+    if not sys.platform.startswith("linux"):
+        pytest.skip("the fork server's children die with it on Linux (parent-death signal)")
+    import nlid_r3_plugins
+
+    outcome = run_in_child(nlid_r3_plugins.kill_server, method="forkserver", timeout=60)
+    assert outcome.status == "lost" and outcome.infrastructure, outcome
+    assert "nlid's fork server ended while it ran" in outcome.describe("identifier 'x'")
+    with pytest.raises(IsolationError, match="not the identifier's failure"):
+        outcome.answer("identifier 'x'", 60, "")
+    kills = tmp_path / "kills"
+    monkeypatch.setenv("NLID_R3_KILLS", str(kills))
+    study = _study(tmp_path, '"r3-kill-server"')
+    kills.write_text("2")  # the run and its immediate retry both lose their server
+    from nlid.study import LocalExecutor, load_study, run_study
+
+    def run(log):
+        config = load_study(study)
+        return run_study(config, tmp_path / "out", executor=LocalExecutor(1), report=False, progress=False, log=log)
+
+    log = io.StringIO()
+    first = run(log)
+    assert first.executed == 1 and not list((tmp_path / "out" / "runs").glob("*.json")), "a lost run was stored"
+    assert "not saved: it runs again on resume" in log.getvalue(), log.getvalue()
+    assert "crashed" not in log.getvalue()
+    kills.write_text("1")  # on resume: lost once, then retried on a new server
+    again = run(io.StringIO())
+    assert again.executed == 1 and again.skipped == 0
+    (stored,) = [json.loads(p.read_text()) for p in (tmp_path / "out" / "runs").glob("*.json")]
+    assert stored["row"]["status"] == "ok", stored["row"]
+
+
+def test_e_a_report_of_many_identifiers_issues_no_raw_matplotlib_warning(tmp_path):
+    """A legend taller than its axes collapses constrained layout: matplotlib's default layout is kept, silently."""
+    import warnings
+
+    from nlid.plotting import new_figure, save_figure
+
+    fig, ax = new_figure(width=4.0, height=3.0)
+    for i in range(60):
+        ax.plot([0, 1], [i, i + 1], label=f"identifier-with-a-long-name-{i}")
+    ax.legend(fontsize=8)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        paths = save_figure(fig, tmp_path / "many")
+    assert [p.suffix for p in paths] == [".png", ".svg"] and all(p.stat().st_size > 0 for p in paths)
+
+
+def test_e_simulate_does_not_write_through_a_sidecar_that_is_a_symlink(tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    Path("other.json").write_text('{"source": "precious"}')
+    os.symlink("other.json", "x.csv.meta.json")
+    argv = ["simulate", "--preset", "paper-numerical", "--duration", "2", "--out", "x.csv", "--force"]
+    _refused(argv, "x.csv.meta.json is a symbolic link (to other.json); nlid does not write through it")
+    assert Path("other.json").read_text() == '{"source": "precious"}' and not Path("x.csv").exists()
+
+
+@pytest.mark.parametrize(
+    "argv",
+    [
+        ["bench", "--benchmark", "bouc-wen", "--out", "link"],
+        ["study", "run", "paper-numerical", "--out", "link"],
+        ["simulate", "--preset", "paper-numerical", "--duration", "2", "--out", "link.csv"],
+        ["compare", "x.csv", "--terms", "z^3", "--mass", "0.2", "--methods", "rfs", "--out", "link.csv"],
+    ],
+)
+def test_e_a_dangling_out_symlink_is_refused_and_its_target_never_created(tmp_path, short_record, monkeypatch, argv):
+    monkeypatch.chdir(tmp_path)
+    nlid.io.write_csv(short_record, "x.csv")
+    name = argv[argv.index("--out") + 1]
+    os.symlink(tmp_path / "elsewhere" / "target", name)
+    _refused(argv, f"{name} is a symbolic link to {tmp_path / 'elsewhere' / 'target'}, which does not exist")
+    assert not (tmp_path / "elsewhere").exists()
+
+
+def test_e_the_parquet_floor_excludes_the_versions_with_cve_2023_47248():
+    try:
+        import tomllib
+    except ModuleNotFoundError:  # Python 3.10
+        import tomli as tomllib
+    project = tomllib.loads((ROOT / "pyproject.toml").read_text())["project"]
+    specs = [*project["optional-dependencies"]["parquet"], *project["optional-dependencies"]["test"]]
+    floors = [s for s in specs if s.startswith("pyarrow")]
+    assert floors and all(s == "pyarrow>=14.0.1" for s in floors), floors
+
+
+@pytest.mark.parametrize("command", [["study", "run"], ["bench"]])
+def test_e_the_scheduler_help_says_an_untrusted_scheduler_gets_code_execution(command, capsys):
+    with pytest.raises(SystemExit):
+        main([*command, "--help"])
+    text = " ".join(capsys.readouterr().out.split())
+    assert "a scheduler you do not trust gets code execution on this machine" in text
