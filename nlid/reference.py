@@ -163,10 +163,11 @@ class Reference:
                 or not all(isinstance(m, Mapping) for m in self.modes)
             ):
                 raise InputError("reference modes must be a list of {fn_hz, zeta} mappings")
-            for m in self.modes:
+            for m in self.modes:  # numbers (NaN: not known), never text or lists
                 for key in ("fn_hz", "zeta"):
-                    if key in m:
-                        _finite(m[key], f"modes' {key}")
+                    value = m.get(key)
+                    if value is not None and not (isinstance(value, numbers.Real) and not isinstance(value, bool)):
+                        raise InputError(f"reference modes' {key} must be a number, got {brief(value, 60)}")
             set_(self, "modes", tuple(FrozenDict(m) for m in self.modes))
         if self.terms is not None:
             if isinstance(self.terms, str) or not all(isinstance(t, str) for t in self.terms):

@@ -557,10 +557,12 @@ def test_c_compare_refuses_a_structure_s_bad_elements_before_running(structure_c
     "text, fragment",
     [
         ('{"z^3": NaN}', "reference coefficient 'z^3' must be a finite number, got nan"),
+        # was an internal error (LinAlgError) when the reference's equilibria were solved
+        ('{"coefficients": {"z^3": 1e6, "z": NaN}, "mass": 0.2}', "reference coefficient 'z' must be a finite number"),
         ('{"coefficients": {"z^3": 1e6}, "mass": NaN}', "reference mass must be a finite number of kg, got nan"),
         ('{"mass": 1e400}', "must be a finite number of kg, got inf"),
         ('{"equilibria": [NaN]}', "reference equilibria must be a list of finite numbers, got nan"),
-        ('{"modal": [{"fn_hz": NaN, "zeta": 0.1}]}', "reference modes' fn_hz must be a finite number"),
+        ('{"modal": [{"fn_hz": "fast", "zeta": 0.1}]}', "reference modes' fn_hz must be a number, got 'fast'"),
         ('{"z^3": true}', "reference coefficient 'z^3' must be a number, got True"),
         ('{"terms": [[1]]}', "reference terms must be a list of terms"),
         ('{"z^3": ' + "[" * 900 + "]" * 900 + "}", "(1 800 characters)"),
