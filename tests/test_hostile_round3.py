@@ -36,11 +36,18 @@ from scipy import io as sio
 import nlid
 from nlid.cli.main import main
 from nlid.errors import DataError, InputError
+from nlid.io import write_csv
 
 ROOT = Path(__file__).resolve().parents[1]
 N = 1000
 #: The address-space limit the bounded reads run under (the issue's ``ulimit -v 1572864``).
 MEMORY_LIMIT = 1536 << 20
+
+
+def _short(value: object) -> str:
+    """A test id for a parameter: long texts (100 000 nested brackets) cut to a readable size."""
+    text = str(value)
+    return text if len(text) <= 40 else f"{text[:30]}...({len(text)})"
 
 
 def _run(argv: list[str]) -> tuple[int, str, str]:
@@ -269,7 +276,7 @@ def fifo(tmp_path):
 def fit_json(tmp_path, short_record):
     """A model JSON of a record read from a file (its provenance names the file)."""
     path = tmp_path / "x.csv"
-    nlid.io.write_csv(short_record, path)
+    write_csv(short_record, path)
     fit = nlid.identify(nlid.load(path), "z^3, z^2, v*|v|", "rfs", mass=0.2)
     (tmp_path / "fit.json").write_text(json.dumps(fit.to_dict(), allow_nan=False))
     return tmp_path / "fit.json"
@@ -363,7 +370,6 @@ mass = 0.2
 def probe(tmp_path_factory):
     """A benchmark file of one's own (``probe.toml``), its estimation and test CSVs, and hostile test files."""
     from nlid.discovery.cases import build_case
-    from nlid.io import write_csv
 
     folder = tmp_path_factory.mktemp("probe")
     preset, _ = build_case("single", "cubic-stiffness")
@@ -467,6 +473,7 @@ def docs(tmp_path):
         ("[1]", "no list of benchmarks"),
         ('{"benchmarks": ["bouc-wen"], "run": {"load_average": ["a", "b"]}}', "not the bench.json of an nlid"),
     ],
+    ids=_short,
 )
 def test_b_render_docs_checks_the_folder_before_replacing_anything(docs, tmp_path, text, fragment):
     bad = tmp_path / "bad"
@@ -520,7 +527,6 @@ def test_b_a_benchmark_file_names_only_a_loader_of_the_package_never_other_code(
 @pytest.fixture(scope="module")
 def structure_csv(tmp_path_factory):
     """8 s of the 3dof-cubic structure (its truth in the sidecar), as nlid simulate writes it."""
-    from nlid.io import write_csv
     from nlid.presets import get_preset
 
     folder = tmp_path_factory.mktemp("structure")
@@ -569,10 +575,11 @@ def test_c_compare_refuses_a_structure_s_bad_elements_before_running(structure_c
         ('{"coefficients": ' + "[" * 900 + "]" * 900 + "}", "reference coefficients must map term names"),
         ("[" * 100_000 + "]" * 100_000, "nested too deeply"),
     ],
+    ids=_short,
 )
 def test_c_a_reference_with_a_nan_or_nested_deeply_is_one_line(tmp_path, short_record, text, fragment, monkeypatch):
     monkeypatch.chdir(tmp_path)
-    nlid.io.write_csv(short_record, "x.csv")
+    write_csv(short_record, "x.csv")
     Path("r.json").write_text(text)
     _refused(
         ["compare", "x.csv", "--terms", "z^3", "--mass", "0.2", "--methods", "rfs", "--reference", "r.json"], fragment
@@ -589,7 +596,7 @@ def test_c_a_reference_with_a_nan_or_nested_deeply_is_one_line(tmp_path, short_r
 )
 def test_c_compare_refuses_bad_option_values_before_running(tmp_path, short_record, setting, fragment, monkeypatch):
     monkeypatch.chdir(tmp_path)
-    nlid.io.write_csv(short_record, "x.csv")
+    write_csv(short_record, "x.csv")
     _refused(
         ["compare", "x.csv", "--terms", "z^3", "--mass", "0.2", "--methods", "rfs,sindy", "--set", setting], fragment
     )
@@ -701,7 +708,7 @@ def test_d_a_structure_s_json_is_checked_against_its_schema(structure_csv):
 
 def test_d_compare_reference_with_a_damaged_model_json_is_one_line(tmp_path, short_record, model_dict, monkeypatch):
     monkeypatch.chdir(tmp_path)
-    nlid.io.write_csv(short_record, "x.csv")
+    write_csv(short_record, "x.csv")
     Path("m.json").write_text(json.dumps({**model_dict, "provenance": _deep(900)}))
     argv = ["compare", "x.csv", "--terms", "z^3", "--mass", "0.2", "--methods", "rfs", "--reference", "m.json"]
     _refused(argv, "model JSON: provenance[0][0][0]...: nested deeper than 32 levels")
@@ -1026,7 +1033,7 @@ def test_e_simulate_does_not_write_through_a_sidecar_that_is_a_symlink(tmp_path,
 )
 def test_e_a_dangling_out_symlink_is_refused_and_its_target_never_created(tmp_path, short_record, monkeypatch, argv):
     monkeypatch.chdir(tmp_path)
-    nlid.io.write_csv(short_record, "x.csv")
+    write_csv(short_record, "x.csv")
     name = argv[argv.index("--out") + 1]
     os.symlink(tmp_path / "elsewhere" / "target", name)
     _refused(argv, f"{name} is a symbolic link to {tmp_path / 'elsewhere' / 'target'}, which does not exist")
