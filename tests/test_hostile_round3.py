@@ -773,7 +773,7 @@ def test_d_the_docs_write_down_every_field_of_the_schema():
 
 
 # ============================================================================ E: signals, crashes and symlinks
-R3_PLUGINS = '''
+R3_PLUGINS = """
 import os
 import signal
 import time
@@ -782,12 +782,6 @@ from pathlib import Path
 from nlid.plugin import Estimate, Identifier, hookimpl
 
 TRUTH = {"1": 1.962, "z": -500.0, "z^2": 5000.0, "z^3": 1e6, "v": 1.0, "v*|v|": 5.0}
-
-
-def kill_server():
-    """A target for run_in_child: kill the fork server that forked this child (the OOM killer's doing)."""
-    os.kill(os.getppid(), signal.SIGKILL)
-    time.sleep(60)
 
 
 class Sleepy(Identifier):
@@ -808,14 +802,15 @@ class KillServer(Identifier):
         left = int(path.read_text())
         if left > 0:
             path.write_text(str(left - 1))
-            kill_server()
+            os.kill(os.getppid(), signal.SIGKILL)  # its fork server (the OOM killer's doing)
+            time.sleep(60)
         return Estimate(coefficients={n: TRUTH.get(n, 0.0) for n in model.names})
 
 
 @hookimpl
 def nlid_identifiers():
     return [Sleepy, KillServer]
-'''
+"""
 
 STUDY = """
 [study]
@@ -962,15 +957,19 @@ def test_e_an_interrupted_atomic_write_removes_its_temporary_file(tmp_path, monk
     assert mine.exists()
 
 
+def kill_fork_server() -> None:
+    """A target for ``run_in_child``: kill the fork server that forked this child (the OOM killer's doing)."""
+    os.kill(os.getppid(), signal.SIGKILL)
+    time.sleep(60)
+
+
 def test_e_a_dead_fork_server_is_infrastructure_not_the_identifier_s_crash(r3_plugins, tmp_path, monkeypatch):
     """The run is tried again at once; if the server dies again, the run is not stored and a resume runs it."""
     from nlid.runtime.isolation import IsolationError, run_in_child
 
     if not sys.platform.startswith("linux"):
         pytest.skip("the fork server's children die with it on Linux (parent-death signal)")
-    import nlid_r3_plugins
-
-    outcome = run_in_child(nlid_r3_plugins.kill_server, method="forkserver", timeout=60)
+    outcome = run_in_child(kill_fork_server, method="forkserver", timeout=60)
     assert outcome.status == "lost" and outcome.infrastructure, outcome
     assert "nlid's fork server ended while it ran" in outcome.describe("identifier 'x'")
     with pytest.raises(IsolationError, match="not the identifier's failure"):
