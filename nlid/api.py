@@ -253,8 +253,8 @@ def compare(
             except PluginError:  # the plugin itself is broken: that method's row says so
                 pass
     if structure:
-        if holdout is not None or rule is not None:
-            raise InputError("holdout= and rule= are not scored for a structure of several DOFs")
+        if holdout is not None or rule is not None or px_roots is not None:
+            raise InputError("holdout=, rule= and px_roots= do not apply to a structure of several DOFs")
         from .mdof.compare import compare_structure
 
         rows, fits = compare_structure(

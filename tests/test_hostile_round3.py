@@ -423,6 +423,12 @@ def test_b_an_empty_list_of_benchmarks_or_pipelines_is_refused(flag, value, tmp_
     assert not (tmp_path / "o").exists()
 
 
+@pytest.mark.parametrize("value", ["-1", "0", "nan"])
+def test_b_a_bad_time_limit_is_refused_before_the_output_folder_is_made(probe, tmp_path, value):
+    _refused([*_bench(probe, "test.csv", str(tmp_path / "o")), f"--timeout={value}"], "--timeout must be a number")
+    assert not (tmp_path / "o").exists()
+
+
 @pytest.mark.parametrize(
     "name, fragment",
     [
@@ -549,14 +555,16 @@ def test_c_compare_accepts_a_structure(structure_csv):
 
 
 @pytest.mark.parametrize(
-    "terms, fragment",
+    "extra, fragment",
     [
-        ("z^3", "name the degree of freedom: write z1, v2 or a difference"),
-        ("z9^3", "DOF"),
+        (["--terms", "z^3"], "name the degree of freedom: write z1, v2 or a difference"),
+        (["--terms", "z9^3"], "DOF"),
+        (["--terms", "z3^3", "--holdout", "0.25"], "--holdout, --rule and --px-roots do not apply to a structure"),
+        (["--terms", "z3^3", "--px-roots=-0.1,0.1"], "do not apply to a structure of several DOFs"),
     ],
 )
-def test_c_compare_refuses_a_structure_s_bad_elements_before_running(structure_csv, terms, fragment):
-    _refused(["compare", str(structure_csv), "--terms", terms, "--methods", "rfs"], fragment)
+def test_c_compare_refuses_a_structure_s_bad_elements_before_running(structure_csv, extra, fragment):
+    _refused(["compare", str(structure_csv), *extra, "--methods", "rfs"], fragment)
 
 
 @pytest.mark.parametrize(

@@ -126,7 +126,16 @@ class BenchJob:
         files: Mapping[str, str] | None = None,
         timeout: float = 1800.0,
     ) -> BenchJob:
-        """A job for one benchmark; ``files`` are the user files of *this* benchmark."""
+        """A job for one benchmark; ``files`` are the user files of *this* benchmark.
+
+        Raises
+        ------
+        InputError
+            A time limit that is not a positive number of seconds (refused before anything runs).
+        """
+        from ..pipeline import check_timeout
+
+        timeout = check_timeout(timeout)
         mine = {k: v for k, v in (files or {}).items() if k.split(":", 1)[0] == protocol.name}
         run_id = f"{protocol.name}/{'+'.join(p.name.replace(' ', '') for p in pipelines)}"
         return cls(

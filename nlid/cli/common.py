@@ -45,6 +45,7 @@ FLAGS: dict[str, str] = {
     "px_max_iter": "--set px_max_iter",
     "cutoff": "--cutoff",
     "holdout": "--holdout",
+    "rule": "--rule",
     "methods": "--methods",
     "reference": "--reference",
     "jobs": "--jobs",
