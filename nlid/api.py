@@ -200,7 +200,7 @@ def compare(
         ``"first-sample"``, ``"window:50"``, ``"periodic"``, ``"periodic:8192"``
         or a rule); default: the held-out record's own
         (:func:`nlid.scoring.default_rule`). The ``freerun_rmse`` row's
-        ``note`` names the rule when it is not the first-sample one.
+        ``note`` names the rule it was computed under.
         An unknown method name, or an option value a method refuses, is refused before
         anything runs (:class:`~nlid.errors.InputError`, with a suggestion), whatever ``errors``.
 
@@ -208,7 +208,7 @@ def compare(
     connections (``"z3^3, (z1-z2)^3"``, checked before any method runs) and the rows are
     each element's coefficient, the underlying linear modes (``m1``, ``m2``...) and each
     DOF's residual against the structure's reference (:mod:`nlid.mdof.compare`);
-    ``holdout`` and ``rule`` do not apply.
+    ``holdout``, ``rule`` and ``px_roots`` do not apply.
 
     Returns
     -------

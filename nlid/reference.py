@@ -52,16 +52,26 @@ from ._frozen import FrozenDict
 from .errors import InputError, NlidError, brief
 from .identified import IdentifiedModel
 from .record import Record
-from .scoring import FromFirstSample
 from .terms import Model
 
 if TYPE_CHECKING:  # pragma: no cover
     import pandas as pd
 
-__all__ = ["Reference", "Comparison", "compare", "match_equilibria", "FRAME_COLUMNS", "META_KEY"]
+__all__ = [
+    "Reference",
+    "Comparison",
+    "compare",
+    "true_model",
+    "match_equilibria",
+    "FRAME_COLUMNS",
+    "META_KEY",
+    "TRUE_MODEL",
+]
 
 #: The key of ``Record.meta`` that holds a record's reference values.
 META_KEY = "reference"
+#: The ``method`` of the model :func:`true_model` builds (the system that generated the data).
+TRUE_MODEL = "true model"
 #: Earlier name of :data:`META_KEY` (simulated records before issue 22), still read.
 META_ALIASES = ("truth",)
 #: Columns of :meth:`Comparison.to_frame` (and of :func:`nlid.compare`).
@@ -296,6 +306,23 @@ class Reference:
         names = self.terms or (list(self.coefficients) if self.coefficients else None)
         return None if not names else Model.from_spec(list(names), defaults=False, px_roots=self.px_roots)
 
+    def true_model(self, source: str = "the reference") -> IdentifiedModel:
+        """The reference as a model the scores read like any fit (``fit.score(record, rule=...)``).
+
+        For a reference that is the system which generated the data (a simulation's truth, a simulated
+        benchmark's published system): scored under a rule, it gives the figure a perfect model reaches
+        with nlid's scorer (:func:`true_model`).
+
+        Raises
+        ------
+        InputError
+            No coefficients or no mass.
+        """
+        model = self.model()
+        if model is None or not self.coefficients or self.mass is None:
+            raise InputError(f"{source} needs its coefficients and mass to be run as a model")
+        return IdentifiedModel(model, dict(self.coefficients), self.mass, TRUE_MODEL)
+
     def solved(self, z_range: Sequence[float] | None) -> Reference:
         """With stable equilibria and modes solved from the coefficients when the reference gives no equilibria.
 
@@ -500,7 +527,7 @@ class Comparison:
             add("eps_percent", "holdout", held.eps_percent, "%")
             add("force_residual_percent", "holdout", held.force_residual_percent, "%")
             add("freerun_rmse", "holdout", held.freerun_rmse, self.holdout.units.get("z", "m"))
-            if held.freerun_rule not in ("", FromFirstSample().describe()):  # the first-sample rule goes unsaid
+            if held.freerun_rule:  # every free-run figure states its rule
                 rows[-1]["note"] = f"free run: {held.freerun_rule}"
         if fit.seconds is not None:
             add("seconds", "identification", fit.seconds, "s")
@@ -511,6 +538,35 @@ class Comparison:
         import pandas as pd
 
         return pd.DataFrame([{"note": "", **r} for r in self.records()], columns=FRAME_COLUMNS)
+
+
+def true_model(record: Record, truth: Reference | Mapping[str, Any] | None = None) -> IdentifiedModel | None:
+    """The system that generated a record, as a model (``method`` :data:`TRUE_MODEL`), when it is known.
+
+    Parameters
+    ----------
+    record
+        A simulated record carries its truth (``meta["reference"]`` of a record whose ``meta["preset"]`` names
+        the preset that made it); a measured record's reference holds published estimates, not the truth.
+    truth
+        The true system when the caller knows it (a simulated benchmark's declared system:
+        :attr:`nlid.benchmarking.Protocol.truth`); it takes precedence over the record's.
+
+    Returns
+    -------
+    IdentifiedModel or None
+        ``None`` when the truth is not known. Score it as any fit: ``true_model(record).score(record,
+        rule=...)`` is the figure a perfect model reaches under that rule with nlid's scorer.
+    """
+    if truth is not None:
+        ref = truth if isinstance(truth, Reference) else Reference.from_mapping(truth)
+        return ref.true_model("the declared truth")
+    if not record.meta.get("preset"):
+        return None
+    ref = Reference.from_meta(record.meta)
+    if not ref.coefficients or ref.mass is None:
+        return None
+    return ref.true_model(f"the truth of {record.meta.get('source') or 'the record'}")
 
 
 def compare(

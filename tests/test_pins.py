@@ -15,8 +15,10 @@ from __future__ import annotations
 import json
 import math
 from pathlib import Path
+from typing import Any
 
 import pytest
+from pinning import Tolerances, assert_pinned, leaves
 
 import nlid
 from nlid.bayes import sample_posterior
@@ -28,75 +30,112 @@ from nlid.study.execute import LocalExecutor
 from nlid.study.store import ResultStore
 
 PINS = json.loads((Path(__file__).parent / "data" / "pins_before_issue12.json").read_text())
-REL = 1e-6
-
-
-def _close(new, old, rel=REL, where=""):
-    if old is None:
-        assert new is None or (isinstance(new, float) and math.isnan(new)), where
-    elif isinstance(old, dict):
-        for key, value in old.items():
-            _close(new[key], value, rel, f"{where}.{key}")
-    elif isinstance(old, list):
-        assert len(new) == len(old), where
-        for i, (a, b) in enumerate(zip(new, old, strict=True)):
-            _close(a, b, rel, f"{where}[{i}]")
-    elif isinstance(old, float):
-        assert new == pytest.approx(old, rel=rel, abs=1e-12), where
-    else:
-        assert new == old, where
+#: This file's entry in ``tests/data/pin_tolerances.json`` (``tests/pinning.py``).
+SUITE = "issue12"
 
 
 @pytest.fixture(scope="module")
-def record():
+def tolerances() -> Tolerances:
+    return Tolerances(SUITE)
+
+
+def pinned_record():
+    """paper-numerical, 10 s, seed 3, 2 % noise on z and a: the record the identifications and the posterior use."""
     pre = get_preset("paper-numerical").with_overrides(duration=10.0)
     return pre.simulate(3, noise={"z": 0.02, "a": 0.02}, channels=("z", "a"))
 
 
-KEYS = ("coefficients", "standard_errors", "mass", "eps_percent", "force_residual_percent", "equilibria")
+@pytest.fixture(scope="module")
+def record():
+    return pinned_record()
 
 
-@pytest.mark.parametrize(
-    "name, kwargs",
-    [("rfs_known", {"method": "rfs", "mass": 0.2}), ("rfs_est", {"method": "rfs"}), ("sindy_known", {"method": "sindy", "mass": 0.2})],
-)
-def test_identify_json_unchanged(record, name, kwargs):
-    out = nlid.identify(record, "z^3, z^2, v*|v|", **kwargs).to_dict()
-    old = PINS[name]
-    _close({k: out[k] for k in KEYS}, {k: old[k] for k in KEYS}, where=name)
-    for new, ref in zip(out["modal"], old["modal"], strict=True):
-        _close({k: new[k] for k in ref}, ref, where=f"{name}.modal")
+KEYS = ("coefficients", "standard_errors", "mass", "eps_percent", "force_residual_percent", "equilibria", "modal")
+IDENTIFY = {
+    "rfs_known": {"method": "rfs", "mass": 0.2},
+    "rfs_est": {"method": "rfs"},
+    "sindy_known": {"method": "sindy", "mass": 0.2},
+}
 
 
-def test_posterior_unchanged(record):
+def collect_identify(record, name: str) -> dict[str, Any]:
+    """The pinned fields of one identification's ``--json`` object."""
+    out = nlid.identify(record, "z^3, z^2, v*|v|", **IDENTIFY[name]).to_dict()
+    return {k: out[k] for k in KEYS}
+
+
+def pinned_identify(name: str) -> dict[str, Any]:
+    return {k: PINS[name][k] for k in KEYS}
+
+
+@pytest.mark.parametrize("name", list(IDENTIFY))
+def test_identify_json_unchanged(record, name, tolerances):
+    assert_pinned(leaves(collect_identify(record, name), name), leaves(pinned_identify(name), name), tolerances, name)
+
+
+def test_posterior_unchanged(record, tolerances):
     """The same posterior, to Monte Carlo precision.
 
-    The chain itself is not bit-reproducible across numpy/emcee releases (their random streams and
-    reductions change): on numpy 2.4 / emcee 3.1.6 every pinned figure moved by about 0.03 posterior sd
-    while the deterministic fit stayed identical. So the target distribution is checked: means and
-    quantiles within 0.1 posterior sd of the pins, the sd within 5 %. A change of the likelihood, the
+    The chain itself is not bit-reproducible: a last-bit change anywhere (numpy/emcee releases, another
+    BLAS kernel, records perturbed by 1e-15) flips an accept/reject step and gives another chain. So the
+    target distribution is checked: means and 5/50/95 % quantiles within ``shift_sd`` posterior sd of the
+    pins, the sd within ``sd_rel``, limits measured by ``benchmarks/pin_spreads.py`` as 3 x the largest
+    deviation of the chains of 13 configurations (``tests/data/pin_tolerances.json``: 0.03-0.11 sd, so
+    0.4 sd; the 0.1 sd this test had failed under the Prescott kernel). A change of the likelihood, the
     bias correction or the priors moves them by far more (the bias correction alone moves ``v`` by 3 sd).
     """
+    limits = tolerances.posterior
+    for term, (shift, sd_ratio) in posterior_shifts(record).items():
+        assert abs(sd_ratio - 1.0) <= limits["sd_rel"], (term, "sd / pinned sd", sd_ratio)
+        assert shift <= limits["shift_sd"], (term, "largest shift of the mean and quantiles, in posterior sd", shift)
+
+
+def posterior_shifts(record) -> dict[str, tuple[float, float]]:
+    """Per pinned term: the largest shift of the mean and the 5/50/95 % quantiles from the pins, in pinned
+    posterior sd, and the ratio of the sd to the pinned one."""
     fit = nlid.identify(record, "z^3, z^2, v*|v|", "rfs", mass=0.2)
-    post = sample_posterior(record, fit, params="damping", seed=0)
-    new = post.summary_dict()
+    new = sample_posterior(record, fit, params="damping", seed=0).summary_dict()
+    out = {}
     for term, old in PINS["posterior"].items():
-        sd = old["sd"]
-        assert new[term]["sd"] == pytest.approx(sd, rel=0.05), term
-        for key in ("mean", "q05", "q50", "q95"):
-            assert abs(new[term][key] - old[key]) <= 0.1 * sd, (term, key, new[term][key], old[key])
+        shift = max(abs(new[term][key] - old[key]) for key in ("mean", "q05", "q50", "q95")) / old["sd"]
+        out[term] = (shift, new[term]["sd"] / old["sd"])
+    return out
 
 
-def test_discover_unchanged_and_its_free_run_is_the_study_number():
+DISCOVER_KEYS = (
+    "eps_initial",
+    "eps_final",
+    "eps_initial_holdout",
+    "eps_final_holdout",
+    "force_residual_initial",
+    "force_residual_final",
+    "final_terms",
+    "coefficients",
+    "mass",
+)
+
+
+def run_discover():
     preset, declared = build_case("single", "coulomb")
     rec = preset.simulate(0, noise={"z": 0.01}, channels=("z",))
-    res = discover(rec, declared, "rfs", mass=preset.mass, simulate=True, views=False)
+    return rec, discover(rec, declared, "rfs", mass=preset.mass, simulate=True, views=False)
+
+
+def collect_discover(res) -> dict[str, Any]:
+    """The pinned fields of the discovery's result (the effects it accepted, in order, as ``effects``)."""
     out = res.to_dict()
-    old = PINS["discover"]
-    assert [s["effect"] for s in out["steps"]] == old["effects"]
-    for key in ("eps_initial", "eps_final", "eps_initial_holdout", "eps_final_holdout", "force_residual_initial",
-                "force_residual_final", "final_terms", "coefficients", "mass"):
-        _close(out[key], old[key], where=f"discover.{key}")
+    return {"effects": [s["effect"] for s in out["steps"]], **{k: out[k] for k in DISCOVER_KEYS}}
+
+
+def pinned_discover() -> dict[str, Any]:
+    return {k: PINS["discover"][k] for k in ("effects", *DISCOVER_KEYS)}
+
+
+def test_discover_unchanged_and_its_free_run_is_the_study_number(tolerances):
+    rec, res = run_discover()
+    assert_pinned(
+        leaves(collect_discover(res), "discover"), leaves(pinned_discover(), "discover"), tolerances, "discover"
+    )
     # one model, one record, one number: discovery's free run is the scoring path's
     _, held = rec.split(0.25)
     for stage in res.states:
@@ -122,23 +161,29 @@ noise = { z = 0.02 }
 """
 
 
-def test_study_rows_unchanged(tmp_path):
+def collect_study(folder: Path) -> dict[str, dict[str, Any]]:
+    """Every row of the small study, by run id (a NaN is read as ``None``)."""
     config = parse_study(STUDY)
-    outcome = run_study(config, tmp_path, executor=LocalExecutor(jobs=1), report=False, progress=False)
-    df = ResultStore(tmp_path).results(outcome.runs)
-    for _, row in df.iterrows():
-        old = PINS["study"][row["run_id"]]
-        for key, value in old.items():
-            new = row[key]
-            if isinstance(value, str):
-                assert new == value or (value == "" and (new is None or new != new)), (row["run_id"], key)
-            else:
-                _close(None if isinstance(new, float) and math.isnan(new) else new, value, where=f"{row['run_id']}.{key}")
+    # two runs at a time: each is its own process with its seed from the spec, so the rows are the same
+    outcome = run_study(config, folder, executor=LocalExecutor(jobs=2), report=False, progress=False)
+    df = ResultStore(folder).results(outcome.runs)
+    rows = {}
+    for row in df.to_dict(orient="records"):
+        rows[str(row["run_id"])] = {
+            k: None if isinstance(v, float) and math.isnan(v) else (v.item() if hasattr(v, "item") else v)
+            for k, v in row.items()
+        }
+    return rows
 
 
-@pytest.mark.slow
-def test_builtin_study_rows_unchanged():
-    """The first records of the built-in paper-numerical study (rfs, sindy), row by row.
+def test_study_rows_unchanged(tmp_path, tolerances):
+    rows = collect_study(tmp_path)
+    assert sorted(rows) == sorted(PINS["study"])
+    assert_pinned(leaves(rows, "study"), leaves(PINS["study"], "study"), tolerances, "study")
+
+
+def collect_builtin() -> dict[str, dict[str, Any]]:
+    """The pinned first records of the built-in paper-numerical study (rfs, sindy), row by row.
 
     The pins were written when the study gave sindy the model's terms only (``library = "terms"``); since
     issue 17 the study has sindy select from its automatic library, so its run is replayed with the option
@@ -152,11 +197,41 @@ def test_builtin_study_rows_unchanged():
     old_rows = PINS["builtin_paper_numerical"]
     runs = [r for r in plan_study(load_study("paper-numerical")) if r.run_id in old_rows]
     assert len(runs) == len(old_rows)
+    rows = {}
     for run in runs:
         spec = run.spec
         if spec.method == "sindy":
             assert spec.options["library"] == "automatic"
             spec = dataclasses.replace(spec, options={**spec.options, "library": "terms"})
-        row = execute_run(spec)["row"]
-        for key, value in old_rows[run.run_id].items():
-            _close(row[key], value, where=f"{run.run_id}.{key}")
+        rows[run.run_id] = execute_run(spec)["row"]
+    return rows
+
+
+@pytest.mark.slow
+def test_builtin_study_rows_unchanged(tolerances):
+    """The first records of the built-in paper-numerical study, row by row (:func:`collect_builtin`)."""
+    new = leaves(collect_builtin(), "builtin_paper_numerical")
+    assert_pinned(new, leaves(PINS["builtin_paper_numerical"], "builtin_paper_numerical"), tolerances, "builtin")
+
+
+def collect_leaves(folder: Path) -> dict[str, Any]:
+    """Every leaf this module pins, computed now (the posterior aside: it is checked in posterior sd)."""
+    record = pinned_record()
+    out: dict[str, Any] = {}
+    for name in IDENTIFY:
+        out.update(leaves(collect_identify(record, name), name))
+    out.update(leaves(collect_discover(run_discover()[1]), "discover"))
+    out.update(leaves(collect_study(folder), "study"))
+    out.update(leaves(collect_builtin(), "builtin_paper_numerical"))
+    return out
+
+
+def pinned_leaves_all() -> dict[str, Any]:
+    """Every leaf :func:`collect_leaves` computes, as pinned."""
+    out: dict[str, Any] = {}
+    for name in IDENTIFY:
+        out.update(leaves(pinned_identify(name), name))
+    out.update(leaves(pinned_discover(), "discover"))
+    out.update(leaves(PINS["study"], "study"))
+    out.update(leaves(PINS["builtin_paper_numerical"], "builtin_paper_numerical"))
+    return out

@@ -15,11 +15,19 @@ refactor. It holds, for the records built below:
   a posterior, an independent held-out record).
 
 Wall times (``seconds`` and friends) are left out: they are not results. The
-test compares text exactly and numbers to 1e-9 relative (the last bits of a
-float may differ between CPUs' BLAS kernels; on one machine the outputs are
-byte-identical, which ``python tests/test_pins_spine.py --check`` shows by
-diffing the JSON text). Keys added later (new columns, new JSON fields) are
-allowed; keys pinned here must keep their values.
+test compares text exactly and each number to the tolerance measured for its
+group (``tests/pinning.py``, ``tests/data/pin_tolerances.json``): the last bits
+of a float differ between CPUs' BLAS kernels, and what they become after an
+eigendecomposition or an iterative fit depends on its conditioning, so
+``python benchmarks/pin_spreads.py`` measured the spread of every leaf across
+the kernels of one CPU and under last-bit perturbations of the records (1e-9
+relative where it is reproducible to the last bits, up to 3e-4 for an
+ill-conditioned diagnostic). The posterior columns come from an MCMC chain
+whose convergence verdict flips with the last bits (:func:`posterior_outcome`).
+On the machine that wrote them the outputs are byte-identical, which ``python
+tests/test_pins_spine.py --check`` shows by diffing the JSON text. Keys added
+later (new columns, new JSON fields) are allowed; keys pinned here must keep
+their values.
 """
 
 from __future__ import annotations
@@ -31,9 +39,11 @@ from pathlib import Path
 from typing import Any
 
 import pytest
+from pinning import Tolerances, assert_pinned, csv_leaves, leaves
 
 PINS_PATH = Path(__file__).parent / "data" / "pins_before_issue22.json"
-REL = 1e-9
+#: This file's entry in ``tests/data/pin_tolerances.json``.
+SUITE = "issue22"
 #: Values that are wall times or memory readings, not results.
 VOLATILE = ("seconds", "peak_memory_mb", "method_seconds", "posterior:seconds", "timings_s")
 
@@ -70,6 +80,48 @@ channels = ["z", "a"]
 terms = "z^3, z^2, sign(v)*|px(z)|, v*|px(z)|"
 holdout = "none"
 """
+
+
+#: The study's posterior columns (their values come from the MCMC chain, or from the posterior's bias check).
+POSTERIOR_COLUMNS = ("ci_lo:", "ci_hi:", "ci_width:", "ci_covers:", "posterior:")
+#: How a row's warnings say that the posterior's chains did not converge.
+NOT_CONVERGED = "posterior: the chains did not converge in "
+
+
+def posterior_outcome(new: dict[str, Any], old: dict[str, Any]) -> tuple[dict[str, Any], dict[str, Any], list[str]]:
+    """The study leaves to compare once the posterior's convergence verdict is allowed to flip.
+
+    The study's posterior (16 walkers, at most 300 steps, a convergence check at steps 250 and 300) has
+    converged when ``300 >= 50 tau`` and ``tau`` moved by at most 10 % since step 250. Its ``tau`` is 4.5 to
+    8 steps on these records, so the verdict sits on the edge and flips with the last bits of the chain:
+    ``python benchmarks/pin_spreads.py`` found the pinned "converged" in only 7 to 10 of 14 configurations
+    of this machine per run, "did not converge" in the others (the pins were written where all three
+    converged). That is a decision between near-equal options, not a number to pin, so a run whose chains
+    did not converge must say exactly that in its warnings and leave every posterior column empty; its
+    other columns, and its warnings without that sentence, are compared as usual. A converged posterior is
+    compared with the pins to its Monte Carlo tolerance (``tests/data/pin_tolerances.json``) and must cover
+    the truth as the pins do (``ci_covers``).
+
+    Returns the leaves of ``new`` and ``old`` to compare, and what breaks the rule.
+    """
+    new, old, problems = dict(new), dict(old), []
+    runs = {path.split(".")[1] for path in old if path.startswith("study.")}
+    for run in sorted(runs):
+        prefix = f"study.{run}."
+        posterior = [p for p in old if p.startswith(prefix) and p[len(prefix) :].startswith(POSTERIOR_COLUMNS)]
+        for path in posterior:  # a column no row of the study filled is not in the frame at all
+            new.setdefault(path, None)
+        warnings = new.get(prefix + "warnings")
+        if not (isinstance(warnings, str) and NOT_CONVERGED in warnings):
+            continue
+        filled = [p for p in posterior if new[p] is not None]
+        if filled:
+            problems.append(f"study.{run}: the chains did not converge, yet {', '.join(filled)} are filled")
+        for path in posterior:
+            new.pop(path), old.pop(path)
+        kept = [w for w in warnings.split(" | ") if not w.startswith(NOT_CONVERGED)]
+        new[prefix + "warnings"] = " | ".join(kept)
+    return new, old, problems
 
 
 def _drop_volatile(value: Any) -> Any:
@@ -116,9 +168,7 @@ def collect_compare() -> dict[str, str]:
 
     record, other, _ = _records()
     out = {}
-    out["truth_holdout"] = _frame_text(
-        nlid.compare(record, TERMS, ["rfs", "sindy", "nsi-ip"], mass=0.2, holdout=other)
-    )
+    out["truth_holdout"] = _frame_text(nlid.compare(record, TERMS, ["rfs", "sindy", "nsi-ip"], mass=0.2, holdout=other))
     out["estimated_mass"] = _frame_text(nlid.compare(record, TERMS, ["rfs"]))
     fit = nlid.identify(other, TERMS, method="rfs", mass=0.2)
     out["reference_fit"] = _frame_text(nlid.compare(record, TERMS, ["rfs", "sindy"], mass=0.2, reference=fit))
@@ -134,7 +184,8 @@ def collect_study(folder: Path) -> dict[str, dict[str, Any]]:
     from nlid.study.store import ResultStore
 
     config = parse_study(STUDY)
-    outcome = run_study(config, folder, executor=LocalExecutor(jobs=1), report=False, progress=False)
+    # two runs at a time: each is its own process with its seed from the spec, so the rows are the same
+    outcome = run_study(config, folder, executor=LocalExecutor(jobs=2), report=False, progress=False)
     frame = ResultStore(folder).results(outcome.runs)
     rows: dict[str, dict[str, Any]] = {}
     for record in frame.to_dict(orient="records"):
@@ -151,43 +202,35 @@ def collect_study(folder: Path) -> dict[str, dict[str, Any]]:
     return rows
 
 
-def _close(new: Any, old: Any, where: str) -> None:
-    if isinstance(old, dict):
-        assert isinstance(new, dict), where
-        for key, value in old.items():
-            assert key in new, f"{where}: key {key!r} is gone"
-            _close(new[key], value, f"{where}.{key}")
-    elif isinstance(old, list):
-        assert isinstance(new, list) and len(new) == len(old), where
-        for i, (a, b) in enumerate(zip(new, old, strict=True)):
-            _close(a, b, f"{where}[{i}]")
-    elif isinstance(old, bool) or old is None or isinstance(old, str):
-        if old is None and isinstance(new, float) and math.isnan(new):
-            return
-        assert new == old, f"{where}: {new!r} != {old!r}"
-    elif isinstance(old, (int, float)):
-        assert isinstance(new, (int, float)) and not isinstance(new, bool), f"{where}: {new!r}"
-        assert new == pytest.approx(old, rel=REL, abs=1e-300), f"{where}: {new!r} != {old!r}"
-    else:  # pragma: no cover - the pins hold JSON values only
-        raise AssertionError(f"{where}: unexpected pinned value {old!r}")
+def pinned_leaves(pins: dict[str, Any], section: str) -> dict[str, Any]:
+    """The pinned leaves of one section (``identify``, ``compare`` or ``study``) of the pin file."""
+    if section != "compare":
+        return leaves(pins[section], section)
+    out: dict[str, Any] = {}
+    for name, text in pins["compare"].items():
+        # issue 25 changed one thing on purpose: an unknown method name is now refused before anything runs
+        # (tests/test_hostile_round2.py), where it used to give a "failed" row; the pinned row is left out
+        text = "".join(line for line in text.splitlines(keepends=True) if not line.startswith("no-such-method,"))
+        out.update(csv_leaves(text, f"compare.{name}"))
+    return out
 
 
-def _csv_close(new: str, old: str, where: str) -> None:
-    """Two CSV texts: the same cells, numbers to :data:`REL`."""
-    new_lines, old_lines = new.splitlines(), old.splitlines()
-    assert len(new_lines) == len(old_lines), f"{where}: {len(new_lines)} lines, pinned {len(old_lines)}"
-    import csv
+def new_leaves(section: str) -> dict[str, Any]:
+    """The same leaves computed now (the study runs in a temporary folder)."""
+    if section == "identify":
+        return leaves(collect_identify(), "identify")
+    if section == "compare":
+        out: dict[str, Any] = {}
+        for name, text in collect_compare().items():
+            # issue 31: every free-run figure states its rule, the first-sample one included (the pinned
+            # freerun_rmse rows' note was empty for it); the note is left out of the comparison on those rows
+            text = text.replace(",free run: from the record's first sample", ",")
+            out.update(csv_leaves(text, f"compare.{name}"))
+        return out
+    import tempfile
 
-    for i, (a, b) in enumerate(zip(csv.reader(new_lines), csv.reader(old_lines), strict=True)):
-        assert len(a) == len(b), f"{where} line {i}"
-        for x, y in zip(a, b, strict=True):
-            if x == y:
-                continue
-            try:
-                fx, fy = float(x), float(y)
-            except ValueError:
-                raise AssertionError(f"{where} line {i}: {x!r} != {y!r}") from None
-            assert fx == pytest.approx(fy, rel=REL), f"{where} line {i}: {x} != {y}"
+    with tempfile.TemporaryDirectory() as tmp:
+        return leaves(collect_study(Path(tmp)), "study")
 
 
 @pytest.fixture(scope="module")
@@ -195,29 +238,28 @@ def pins() -> dict[str, Any]:
     return json.loads(PINS_PATH.read_text())
 
 
-@pytest.mark.slow
-def test_identify_json_unchanged(pins):
-    new = collect_identify()
-    for name, old in pins["identify"].items():
-        _close(new[name], old, f"identify.{name}")
+@pytest.fixture(scope="module")
+def tolerances() -> Tolerances:
+    return Tolerances(SUITE)
 
 
 @pytest.mark.slow
-def test_compare_frames_unchanged(pins):
-    new = collect_compare()
-    for name, old in pins["compare"].items():
-        # issue 25 changed one thing on purpose: an unknown method name is now refused before anything runs
-        # (tests/test_hostile_round2.py), where it used to give a "failed" row; the pinned row is left out
-        old = "".join(line for line in old.splitlines(keepends=True) if not line.startswith("no-such-method,"))
-        _csv_close(new[name], old, f"compare.{name}")
+def test_identify_json_unchanged(pins, tolerances):
+    assert_pinned(new_leaves("identify"), pinned_leaves(pins, "identify"), tolerances, "identify")
 
 
 @pytest.mark.slow
-def test_study_rows_unchanged(pins, tmp_path):
-    new = collect_study(tmp_path)
-    assert sorted(new) == sorted(pins["study"])
-    for run_id, old in pins["study"].items():
-        _close(new[run_id], old, f"study.{run_id}")
+def test_compare_frames_unchanged(pins, tolerances):
+    assert_pinned(new_leaves("compare"), pinned_leaves(pins, "compare"), tolerances, "compare")
+
+
+@pytest.mark.slow
+def test_study_rows_unchanged(pins, tolerances, tmp_path):
+    rows = collect_study(tmp_path)
+    assert sorted(rows) == sorted(pins["study"])
+    new, old, problems = posterior_outcome(leaves(rows, "study"), pinned_leaves(pins, "study"))
+    assert not problems, "\n".join(problems)
+    assert_pinned(new, old, tolerances, "study")
 
 
 def _collect_all() -> dict[str, Any]:

@@ -24,6 +24,7 @@ from nlid.physics import equilibria
 from nlid.presets import get_preset
 from nlid.record import Record
 from nlid.scoring import FromFirstSample, InitWindow, PeriodicSteadyState, default_rule, detect_period, rule_from_spec
+from nlid.scoring.periods import multisine_lines
 from nlid.simulation import random_force, simulate_segments
 from nlid.terms import Model
 
@@ -266,9 +267,48 @@ def test_from_the_first_sample_a_steady_state_period_is_far_off(bouc_wen, period
     assert run.rmse > 2.0 * sigma  # the hysteretic state starts at 0, the velocity from the record's edge
 
 
+def test_one_period_of_a_multisine_is_scored_in_periodic_steady_state_and_says_so(bouc_wen, periodic_records):
+    """A validation record that is one period of a multisine, not declared: its force's lines give it away."""
+    three, _, sigma = periodic_records
+    one = Record(f=three.f[-1024:], z=three.z[-1024:], fs=FS, meta={"force_hold": "zoh", "mass": 2.0})
+    assert "periodic" not in one.meta and detect_period(one.f) is None
+    assert multisine_lines(one.f) is not None
+    assert default_rule(one) == PeriodicSteadyState(None)
+    run = scoring.free_run_error(bouc_wen, one)
+    assert run.rule.startswith("periodic steady state (period 1024 samples, whole periods of a multisine, detected")
+    assert_noise_floor(run, sigma)
+    assert scoring.free_run_error(bouc_wen, one, "first-sample").rmse > 2.0 * sigma  # what scoring from rest gave
+
+
+@pytest.mark.parametrize(
+    "force",
+    [
+        random_force(4096, FS, 1.0, np.random.default_rng(7)),  # white
+        random_force(4096, FS, 1.0, np.random.default_rng(8), band=(5.0, 150.0)),  # band-limited
+        np.sin(2 * np.pi * (5.0 + 20.0 * np.arange(4096) / FS) * np.arange(4096) / FS),  # a sweep
+        np.tile(_multisine(1024, 3), 2)[:1536],  # a multisine cut at 1.5 periods
+        np.sin(2 * np.pi * 10.3 * np.arange(1000) / 1000),  # a sine cut at 10.3 periods
+    ],
+    ids=["white", "band-limited", "sweep", "1.5 periods", "sine off the grid"],
+)
+def test_a_force_that_is_not_whole_periods_of_a_multisine_is_not_called_one(force):
+    assert multisine_lines(force) is None
+    record = Record(f=force, z=np.sin(np.arange(force.size) / 7.0), fs=FS)
+    assert default_rule(record) == FromFirstSample()
+
+
+def test_whole_periods_of_a_multisine_are_recognised_generated_or_measured():
+    odd = np.zeros(2049, complex)
+    odd[1:800:2] = np.exp(2j * np.pi * np.random.default_rng(9).random(400))
+    force = np.fft.irfft(odd, 4096)
+    assert multisine_lines(force) == 400
+    noisy = force + 1e-3 * force.std() * np.random.default_rng(10).standard_normal(force.size)
+    assert multisine_lines(noisy) == 400  # a measured one: its empty bins at the noise floor, 60 dB down
+
+
 def test_periodic_needs_a_period(bouc_wen, cut_record):
     record, _, _ = cut_record
-    with pytest.raises(InputError, match="does not repeat"):
+    with pytest.raises(InputError, match="neither repeats"):
         scoring.free_run_error(bouc_wen, record, "periodic")
     with pytest.raises(InputError, match="whole period"):
         scoring.free_run_error(bouc_wen, record[:500], "periodic:600")
@@ -308,6 +348,8 @@ def test_study_and_compare_take_the_rule(bouc_wen, periodic_records):
     frame = compare(bouc_wen, None, three).to_frame()
     note = frame.loc[frame["quantity"] == "freerun_rmse", "note"].item()
     assert note.startswith("free run: periodic steady state (period 1024 samples, detected")
+    frame = compare(bouc_wen, None, three, rule="first-sample").to_frame()  # every rule is stated, this one too
+    assert frame.loc[frame["quantity"] == "freerun_rmse", "note"].item() == "free run: from the record's first sample"
 
 
 @pytest.mark.parametrize("rule", ["window:50", "periodic:8192", "first-sample"])

@@ -19,6 +19,7 @@ from ..validate import did_you_mean
 
 __all__ = [
     "Protocol",
+    "Truth",
     "Part",
     "TestSet",
     "UserFile",
@@ -222,6 +223,29 @@ class NotComparable:
 
 
 @dataclass(frozen=True)
+class Truth:
+    """The system that generated a simulated benchmark's data, declared in its file (``[truth]``).
+
+    Attributes
+    ----------
+    coefficients
+        ``{term: value}``: the coefficients of the terms of ``R = f - m z''`` (SI units).
+    mass
+        The mass (kg).
+    source
+        Where the system is published.
+    """
+
+    coefficients: Mapping[str, float]
+    mass: float
+    source: str
+
+    def as_mapping(self) -> dict[str, Any]:
+        """``{"coefficients", "mass"}``, as :func:`nlid.reference.true_model` reads it."""
+        return {"coefficients": dict(self.coefficients), "mass": self.mass}
+
+
+@dataclass(frozen=True)
 class Protocol:
     """One benchmark's protocol (see the module docstring).
 
@@ -257,6 +281,8 @@ class Protocol:
         Published figures shown, and those left out with the reason.
     text
         The TOML text it was read from.
+    truth
+        The system that generated the data, when the benchmark is simulated and declares it (``[truth]``).
     """
 
     name: str
@@ -280,6 +306,7 @@ class Protocol:
     published: tuple[Published, ...]
     not_comparable: tuple[NotComparable, ...]
     text: str
+    truth: Truth | None = None
 
     @property
     def mass_unit(self) -> str:

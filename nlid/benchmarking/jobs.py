@@ -33,6 +33,7 @@ from ..record import Record
 from .data import load_estimation, load_test, noise_floor
 from .pipelines import Fitted, PipelineSpec, fit_pipelines
 from .protocol import Protocol, TestSet, parse_protocol
+from .truth import TRUTH_KIND, true_fitted
 
 __all__ = ["BenchJob", "BenchRun", "score_model"]
 
@@ -212,7 +213,7 @@ class BenchJob:
         estimation, offsets = load_estimation(
             protocol, source=self.source, path=self.files.get(f"{protocol.name}:estimation")
         )
-        fits = fit_pipelines(estimation, protocol.pipelines, self.pipelines)
+        fits = fit_pipelines(estimation, protocol.pipelines, self.pipelines) + true_fitted(protocol)
         # only now are the test sets read: every decision above was made without them
         rows: list[dict[str, Any]] = []
         floors: dict[str, float] = {}
@@ -314,7 +315,7 @@ def _fit_dict(fitted: Fitted) -> dict[str, Any]:
         "choices": fitted.choices,
         "details": fitted.details,
     }
-    if fitted.kind == "nlid":
+    if fitted.kind in ("nlid", TRUTH_KIND):  # the true system's coefficients are shown as a fit's
         fit = fitted.model
         se = fit.standard_errors or {}
         out["coefficients"] = {k: float(v) for k, v in fit.coefficients.items()}

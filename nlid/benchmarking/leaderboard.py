@@ -44,7 +44,7 @@ COLUMNS = (
     "note",
     "source",
 )
-_KIND_ORDER = {"nlid": 0, "peer": 1, "published": 2, "reference": 3}
+_KIND_ORDER = {"nlid": 0, "peer": 1, "published": 2, "reference": 3, "truth": 4}
 
 
 def _nan(x: Any) -> float:
@@ -196,6 +196,8 @@ def _who(r: Mapping[str, Any], sources: Sequence[Mapping[str, Any]] = ()) -> str
         return f"peer: {r['method']}"
     if kind == "reference":
         return "noise floor"
+    if kind == "truth":
+        return "true system (the data's generator, under this scorer)"
     mark = f" [{list(sources).index(r) + 1}]" if r in sources else ""
     return f"published: {r['pipeline']}{mark}"
 

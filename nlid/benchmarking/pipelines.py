@@ -197,6 +197,7 @@ def _discover(record: Record, settings: PipelineSettings, specs: Sequence[Pipeli
         "steps": stages,
         "stop_reason": result.stop_reason,
         "holdout": result.info.get("holdout", ""),
+        "freerun_rule_holdout": result.info.get("freerun_rule", ""),
         "estimation_samples": record.n,
         "selection_samples": int(round(record.n * (1 - settings.holdout))),
         "final_terms": list(final.identified.terms),

@@ -31,6 +31,10 @@ says, for one benchmark:
     nothing else is accepted, so no unverified figure reaches a leaderboard).
 ``[[not_comparable]]``
     published figures that are *not* shown, and why (another test set, in-sample, no source).
+``[truth]`` (optional)
+    for a simulated benchmark, the system that generated its data: ``coefficients`` (a table
+    ``{term = value}`` of the terms of ``R = f - m z''``), ``mass`` (kg) and ``source``; the bench
+    scores it on every test set beside the fitted models (:mod:`nlid.benchmarking.truth`).
 
 :func:`load_protocol` reads a file or a built-in name; :func:`builtin_benchmarks` lists the
 built-in ones. What they return is a frozen dataclass (:mod:`nlid.benchmarking.declarations`, whose
@@ -61,6 +65,7 @@ from .declarations import (
     Protocol,
     Published,
     TestSet,
+    Truth,
     UserFile,
 )
 
@@ -79,6 +84,7 @@ __all__ = [
     "PeerSettings",
     "Published",
     "NotComparable",
+    "Truth",
     "load_protocol",
     "parse_protocol",
     "builtin_benchmarks",
@@ -260,6 +266,29 @@ def _published(t: _Table, tests: list[str]) -> Published:
     return out
 
 
+def _truth(t: _Table | None) -> Truth | None:
+    """The ``[truth]`` table: the system that generated a simulated benchmark's data."""
+    if t is None:
+        return None
+    raw = t._get("coefficients", None, True)
+    if not isinstance(raw, Mapping) or not raw:
+        raise t.error("coefficients", "must be a table {term = value} of the true system's coefficients")
+    coefficients = {}
+    for term, value in raw.items():
+        if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+            raise t.error("coefficients", f"the coefficient of {term!r} must be a number, got {value!r}")
+        coefficients[str(term)] = float(value)
+    truth = Truth(coefficients, t.number("mass", required=True, positive=True), t.string("source", required=True))
+    t.done()
+    try:  # the terms are read once here, so that a misspelled one fails when the file is read
+        from ..terms import Model
+
+        Model.from_spec(list(coefficients), defaults=False)
+    except InputError as exc:
+        raise t.error("coefficients", str(exc)) from None
+    return truth
+
+
 def parse_protocol(text: str, source: str = "<text>") -> Protocol:
     """A :class:`Protocol` from the text of a benchmark file.
 
@@ -389,6 +418,7 @@ def parse_protocol(text: str, source: str = "<text>") -> Protocol:
     for t in root.tables("not_comparable"):
         left_out.append(NotComparable(t.string("what", required=True), t.string("why", required=True)))
         t.done()
+    truth = _truth(root.table("truth"))
     proto = Protocol(
         name=name,
         title=b.string("title", required=True),
@@ -411,6 +441,7 @@ def parse_protocol(text: str, source: str = "<text>") -> Protocol:
         published=published,
         not_comparable=tuple(left_out),
         text=text,
+        truth=truth,
     )
     b.done()
     root.done()

@@ -197,6 +197,8 @@ def _discover_block(
                 f"| {step['model']}: `{terms}` | {_num(step.get('eps_holdout'))} % | "
                 f"{_num(step.get('force_residual_holdout'))} % | {_num(None if sim is None else sim * scale)} |"
             )
+        if d.get("freerun_rule_holdout"):
+            lines += ["", f"Free runs on the held-out part: {d['freerun_rule_holdout']}."]
         lines += ["", f"Stop: {d.get('stop_reason', '')}", ""]
         for pipe in ("discover", "discover-refine"):
             fit = fits.get(pipe)

@@ -244,6 +244,8 @@ def run(args: argparse.Namespace) -> int:
 
 def _refined_lines(result) -> str:
     """What the refinement (by a refining identifier, e.g. oe) changed: free-run errors before and after, terms."""
+    from ..discovery.report import freerun_rules
+
     unit = result.info.get("units", {}).get("z", "")
     before, after = result.final, result.refined
 
@@ -254,6 +256,7 @@ def _refined_lines(result) -> str:
     lines = ["", f"refined with {refiner} (output error on the free run, started from {result.method}):"]
     if result.info.get("refined_on"):
         lines.append(f"  fitted on {result.info['refined_on']}")
+    lines += [f"  {line}" for line in freerun_rules(result)]
     lines.append(f"  free-run RMS error held-out: {fmt(before.sim_rms_holdout)} -> {fmt(after.sim_rms_holdout)}")
     if before.validation is not None:
         lines.append(

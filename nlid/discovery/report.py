@@ -154,6 +154,14 @@ def _coefficient_rows(fit: StageLike, units: dict[str, str]) -> tuple[list[str],
     return headers, rows
 
 
+def freerun_rules(result: Result) -> list[str]:
+    """The transient rule of each record's free-run figures, one line each (held-out, and validation if any)."""
+    lines = [f"free run held-out: {result.info.get('freerun_rule') or 'not computed'}"]
+    if result.info.get("validation"):
+        lines.append(f"free run validation: {result.info.get('freerun_rule_validation') or 'not computed'}")
+    return lines
+
+
 def discovery_summary(result: Result) -> Summary:
     """The before/after table ``nlid discover`` prints, as a :class:`~nlid.summary.Summary`."""
     units = result.info.get("units", {})
@@ -168,9 +176,7 @@ def discovery_summary(result: Result) -> Summary:
         ],
         separator="   ",
     )
-    rule = result.info.get("freerun_rule") or ""
-    if rule and not rule.startswith("from the record's first sample"):  # the default rule goes unsaid (JSON: info)
-        out.add_text(f"free run: {rule}", width=TERMINAL_WIDTH)
+    out.add_text(*freerun_rules(result), width=TERMINAL_WIDTH, subsequent="  ")
     _add_table(out, *_model_rows(result))
     out.add_text(_MODEL_NOTE, width=TERMINAL_WIDTH)
     out.add_text(
@@ -370,6 +376,7 @@ def _write_report(result: Result, out: Path) -> list[Path]:
         "error is the RMS difference between the measured displacement of the held-out record and the "
         "model's simulated response to its measured force."
     )
+    doc.items(freerun_rules(result))
     doc.table(*_model_rows(result))
     doc.images([("figures/progress.png", "residuals after each step")])
 

@@ -28,7 +28,9 @@ Scores (:class:`Scores`, from :func:`score`):
     match; ``100 - freerun_nrmse_percent`` up to rounding). The default rule is
     the one a benchmark paper would use for the record
     (:func:`default_rule`): a declared benchmark's own, periodic steady state
-    for a periodic record, else from the record's first sample (``z[0]`` and
+    for a periodic record (declared, a force that repeats with a response that
+    does, or one period of a multisine: :mod:`nlid.scoring.periods`), else
+    from the record's first sample (``z[0]`` and
     the velocity at ``t = 0``, measured or differentiated through the shared
     filter at its suggested cut-off: a property of the record alone, so the
     number does not depend on who asks). It is not reported for a model that
@@ -43,6 +45,7 @@ Scores (:class:`Scores`, from :func:`score`):
 
 The package holds one job per module: :mod:`~nlid.scoring.scores` (the
 scores), :mod:`~nlid.scoring.rules` (the transient rules),
+:mod:`~nlid.scoring.periods` (the period of a record),
 :mod:`~nlid.scoring.prediction` (``k``-step-ahead prediction) and
 :mod:`~nlid.scoring.surface` (slices of the restoring surface).
 """
@@ -57,6 +60,7 @@ from .rules import (
     TransientRule,
     default_rule,
     detect_period,
+    multisine_lines,
     record_period,
     rule_from_spec,
 )
@@ -104,6 +108,7 @@ __all__ = [
     "PeriodicSteadyState",
     "TransientRule",
     "detect_period",
+    "multisine_lines",
     "record_period",
     "default_rule",
     "rule_from_spec",

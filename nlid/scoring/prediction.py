@@ -30,7 +30,15 @@ import numpy as np
 
 from ..errors import InputError
 from ..record import Record
-from .rules import InitWindow, PeriodicSteadyState, TransientRule, data_velocity, error_metrics, resolve_rule
+from .rules import (
+    InitWindow,
+    PeriodicSteadyState,
+    TransientRule,
+    data_velocity,
+    error_metrics,
+    periodic_fine_force,
+    resolve_rule,
+)
 
 __all__ = ["Prediction", "predict"]
 
@@ -136,7 +144,10 @@ def predict(
         period = rule.period if rule.period is not None else detect_period(record.f)
     states = np.column_stack([record.z, data_velocity(record), _memory_states(fit, record, period)])
     q = FREE_RUN_OVERSAMPLE
-    fine = fine_force(record.f, record.force_hold, q)
+    if period is None:
+        fine = fine_force(record.f, record.force_hold, q)
+    else:
+        fine = periodic_fine_force(record.f, period, record.force_hold, q)
     predicted = np.full(n, np.nan)
     for offset in range(k):  # partition r: segments start at r, r + k, ... (and a lead-in [0, r) not used)
         starts = np.arange(offset, n, k)

@@ -22,7 +22,8 @@ seconds. Benchmark papers therefore state a *transient rule*; nlid knows three:
     PNLSS and frequency-domain toolboxes prepend one or two periods; the
     settle check goes further and reports how many were needed). The period is
     declared (``period=``, or ``record.meta["periodic"]``) or detected from the
-    force (:func:`detect_period`, at least two whole periods).
+    force (:mod:`nlid.scoring.periods`: a force that repeats at least twice, or one
+    whose spectrum is the lines of a multisine cut at whole periods).
 
 :func:`default_rule` gives the rule a benchmark paper would use for a record;
 :func:`rule_from_spec` reads the spelling of the command line and of study files.
@@ -41,6 +42,7 @@ from .. import derivatives
 from ..errors import InputError
 from ..record import Record
 from ..validate import Interval, did_you_mean
+from .periods import RESPONSE_REPEAT, detect_period, multisine_lines, record_period
 
 __all__ = [
     "FromFirstSample",
@@ -56,14 +58,12 @@ __all__ = [
     "error_metrics",
     "SPELLINGS",
     "RESPONSE_REPEAT",
+    "multisine_lines",
+    "periodic_fine_force",
 ]
 
 #: The spellings :func:`rule_from_spec` reads (``N``, ``P``: numbers of samples).
 SPELLINGS = ("first-sample", "window:N", "periodic", "periodic:P")
-#: A force detected as periodic sets the default rule only if its response repeats too: consecutive periods of
-#: ``z`` differ by at most this fraction of ``std(z)`` (RMS), and the first pair by at most twice the last
-#: (a record that starts from rest with a periodic force is not in steady state).
-RESPONSE_REPEAT = 0.1
 
 _SAMPLES = Interval(1, None, "left", "a positive whole number of samples", integer=True)
 _PERIOD = Interval(2, None, "left", "a whole number of samples, at least 2", integer=True)
@@ -123,8 +123,8 @@ class PeriodicSteadyState:
     Parameters
     ----------
     period
-        The period in samples; ``None``: detected from the force (:func:`detect_period`, which needs at least
-        two whole periods in the record).
+        The period in samples; ``None``: detected from the force (:func:`record_period`: two whole periods
+        in the record, or one period of a multisine).
     max_periods
         Most preceding periods simulated.
     tol
@@ -182,87 +182,14 @@ class Start:
     description: str
 
 
-# --------------------------------------------------------------------------- periods
-def detect_period(force: np.ndarray, *, rtol: float = 1e-6) -> int | None:
-    """The period of a force in samples, if it repeats at least twice within the record.
-
-    The smallest ``P`` (``2 <= P <= n / 2``) with ``max |f[i + P] - f[i]| <= rtol max |f|`` over the record.
-    Candidates come from the record's autocorrelation (computed with the FFT); each is then checked
-    sample by sample.
-
-    Parameters
-    ----------
-    force
-        The force samples.
-    rtol
-        Largest difference between periods, relative to ``max |f|`` (a generated multisine repeats exactly;
-        a measured force does not, and is not called periodic).
-
-    Returns
-    -------
-    int or None
-        The period, or ``None`` when the force does not repeat twice.
-    """
-    f = np.asarray(force, dtype=float).ravel()
-    n = f.size
-    top = float(np.max(np.abs(f))) if n else 0.0
-    if n < 4 or top == 0.0:
-        return None
-    half = n // 2
-    spectrum = np.fft.rfft(f, 2 * n)
-    corr = np.fft.irfft(np.abs(spectrum) ** 2, 2 * n)[: half + 1]  # corr[P] = sum_i f[i] f[i + P]
-    energy = np.concatenate([[0.0], np.cumsum(f * f)])
-    lags = np.arange(2, half + 1)
-    ssd = energy[n - lags] + (energy[n] - energy[lags]) - 2.0 * corr[lags]  # sum (f[i + P] - f[i])^2
-    rms = np.sqrt(energy[n] / n)
-    rel = np.sqrt(np.maximum(ssd, 0.0) / (n - lags)) / rms
-    for lag in lags[rel < 1e-3][:64]:  # the FFT's rounding leaves ~1e-7 of a true period; checked exactly below
-        if np.max(np.abs(f[lag:] - f[:-lag])) <= rtol * top:
-            return int(lag)
-    return None
-
-
-def _response_repeats(z: np.ndarray, period: int) -> bool:
-    """Whether consecutive periods of ``z`` repeat (:data:`RESPONSE_REPEAT`): the record is in steady state."""
-    k = z.size // period
-    if k < 2:
-        return False
-    blocks = z[: k * period].reshape(k, period)
-    moves = np.sqrt(np.mean(np.diff(blocks, axis=0) ** 2, axis=1))
-    scale = float(np.std(z))
-    if scale == 0.0 or moves.max() > RESPONSE_REPEAT * scale:
-        return False
-    return bool(moves[0] <= 2.0 * moves[-1] + 1e-12 * scale)
-
-
-def record_period(record: Record, *, response: bool = True) -> tuple[int | None, str]:
-    """The period of a record in periodic steady state, and how it is known (``"declared"``, ``"detected..."``).
-
-    ``record.meta["periodic"]`` declares it (``True``: the record is whole periods of its own length; an
-    integer: the period in samples; ``False``: not periodic). Otherwise a force that repeats at least twice
-    (:func:`detect_period`) whose response repeats too (:data:`RESPONSE_REPEAT`; not checked with
-    ``response=False``) is periodic. ``(None, "")`` when the record is not periodic.
-    """
-    declared = record.meta.get("periodic")
-    if declared is True:
-        return record.n, "declared"
-    if declared is not None and declared is not False:
-        return int(declared), "declared"
-    if declared is False:
-        return None, ""
-    period = detect_period(record.f)
-    if period is not None and (not response or _response_repeats(record.z, period)):
-        return period, "detected from the force"
-    return None, ""
-
-
 def default_rule(record: Record) -> TransientRule:
     """The transient rule a benchmark paper would use for a record.
 
     1. ``record.meta["protocol"]["rule"]`` when a declared benchmark gives one;
     2. ``record.meta["periodic"]`` (``True``, or a period in samples): :class:`PeriodicSteadyState` of that period;
-    3. a force detected as periodic (at least two whole periods) with a response in steady state
-       (:func:`record_period`): :class:`PeriodicSteadyState` with the period detected;
+    3. a force detected as periodic (:func:`record_period`: at least two whole periods with a response in
+       steady state, or one period of a multisine, its spectrum lines with empty bins between):
+       :class:`PeriodicSteadyState` with the period detected, which the rule as applied states;
     4. else :class:`FromFirstSample` (simulated presets start at rest).
     """
     protocol = record.meta.get("protocol")
@@ -438,6 +365,25 @@ def _fit_window(fit: Any, record: Record, samples: int, fine: np.ndarray, q: int
     return np.asarray(found.x, dtype=float)
 
 
+def periodic_fine_force(force: np.ndarray, period: int, force_hold: str, oversample: int) -> np.ndarray:
+    """The sub-step force (:func:`nlid.simulation.fine_force`) over a record in periodic steady state.
+
+    Whole periods are interpolated by the FFT; otherwise the record is continued by its own period on each
+    side (``f[i - P] = f[i]`` before it, ``f[i + P] = f[i]`` after it) for the interpolator's taps.
+    """
+    from ..simulation import INTERPOLATION_TAPS, fine_force
+
+    f = np.asarray(force, dtype=float)
+    n, q = f.size, int(oversample)
+    if n % period == 0:
+        return fine_force(f, force_hold, q, periodic=True)
+    guard = np.arange(INTERPOLATION_TAPS)
+    before = f[(guard - INTERPOLATION_TAPS) % period]  # the first period's end
+    after = f[n - period + guard % period]  # the last period's start
+    extended = np.concatenate([before, f, after])
+    return fine_force(extended, force_hold, q)[INTERPOLATION_TAPS * q : (INTERPOLATION_TAPS + n) * q]
+
+
 def _periodic_start(fit: Any, record: Record, rule: PeriodicSteadyState, q: int, guess: np.ndarray) -> Start:
     """Simulate preceding periods of the force until the state at a period start settles."""
     from ..simulation import fine_force, simulate_segments
@@ -447,20 +393,16 @@ def _periodic_start(fit: Any, record: Record, rule: PeriodicSteadyState, q: int,
         period, how = record_period(record, response=False)
         if period is None:
             raise InputError(
-                "periodic steady state: the force does not repeat twice within the record; declare the period "
-                "(period=, or the record's meta['periodic'])"
+                "periodic steady state: the force neither repeats twice within the record nor is whole periods "
+                "of a multisine; declare the period (period=, or the record's meta['periodic'])"
             )
     else:
         period, how = rule.period, "declared"
     if period > n:
         raise InputError(f"periodic steady state needs a whole period ({period} samples) in a record of {n} samples")
-    # the force before sample 0 is the record's first period (f[i - P] = f[i]); after the end, its last one
-    guard = min(period, 64)
     f = record.f
-    extended = np.concatenate([f[period - guard : period], f[:period], f, f[n - period : n - period + guard]])
-    fine_all = fine_force(extended, record.force_hold, q)
-    one = fine_all[guard * q : (guard + period) * q]
-    fine = fine_all[(guard + period) * q : (guard + period + n) * q]
+    one = fine_force(f[:period], record.force_hold, q, periodic=True)
+    fine = periodic_fine_force(f, period, record.force_hold, q)
     model, theta, mass = fit.model, fit.theta, float(fit.mass)
     state = guess.copy()
     moves: list[float] = []

@@ -30,7 +30,7 @@ The package holds one job per module:
 from __future__ import annotations
 
 from .encode import encode_memory, encode_model
-from .excitation import fine_force, random_force
+from .excitation import INTERPOLATION_BETA, INTERPOLATION_TAPS, fine_force, random_force
 from .kernels import FREE_RUN_OVERSAMPLE, SimulationError, free_run, simulate
 from .sensitivity import SegmentRun, sensitivity_columns, simulate_segments
 
@@ -38,6 +38,8 @@ __all__ = [
     "simulate",
     "free_run",
     "fine_force",
+    "INTERPOLATION_TAPS",
+    "INTERPOLATION_BETA",
     "simulate_segments",
     "SegmentRun",
     "sensitivity_columns",

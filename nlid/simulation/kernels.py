@@ -387,45 +387,6 @@ def simulate(
     return z, v, a
 
 
-def random_force(
-    n: int,
-    fs: float,
-    rms: float,
-    rng: np.random.Generator,
-    band: Sequence[float] | None = None,
-) -> np.ndarray:
-    """Zero-mean Gaussian random force with a given RMS.
-
-    Parameters
-    ----------
-    n
-        Number of samples.
-    fs
-        Sampling frequency in Hz.
-    rms
-        Target RMS in N (met exactly on the generated record).
-    rng
-        Random generator (``numpy.random.default_rng(seed)``).
-    band
-        ``(low, high)`` in Hz for a band-limited force (zero-phase
-        Butterworth band-pass of order 4); ``None`` for white.
-    """
-    x = rng.standard_normal(n)
-    if band is not None:
-        from scipy import signal
-
-        low, high = float(band[0]), float(band[1])
-        if not (0 <= low < high < fs / 2):
-            raise InputError(f"force band must satisfy 0 <= low < high < fs/2, got {band}")
-        if low > 0:
-            sos = signal.butter(4, [low, high], btype="band", fs=fs, output="sos")
-        else:
-            sos = signal.butter(4, high, btype="low", fs=fs, output="sos")
-        x = signal.sosfiltfilt(sos, x)
-    x -= x.mean()
-    return x * (rms / np.sqrt(np.mean(x**2)))
-
-
 def free_run(
     model: Model,
     coefficients: dict[str, float] | np.ndarray,
@@ -444,10 +405,10 @@ def free_run(
     a whole interval, which delays the force by half a sample (at 70 Hz and
     610 Hz sampling that is a phase lag of 0.36 rad). Here each sample
     interval is split into ``oversample`` RK4 sub-steps and the force of each
-    sub-step is its band-limited (polyphase) interpolation at the sub-step's
-    midpoint, which removes the delay and the discretisation error of one
-    step per sample. A force that really was held (``force_hold="zoh"``, as
-    in the presets) is held exactly.
+    sub-step is the force interpolated within its band, its hold compensated
+    (:func:`~nlid.simulation.fine_force`), which removes the delay and the
+    discretisation error of one step per sample. A force that really was held
+    (``force_hold="zoh"``, as in the presets) is held exactly.
 
     Parameters
     ----------

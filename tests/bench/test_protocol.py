@@ -103,3 +103,30 @@ def test_benchmark_files_ship_as_package_data():
     assert '"benchmarking/protocols/*.toml"' in text
     for path in builtin_benchmarks().values():
         assert path.parent == root / "nlid" / "benchmarking" / "protocols"
+
+
+def test_a_simulated_benchmark_declares_its_true_system_and_the_bench_scores_it(toy_text):
+    """Bouc-Wen's [truth] is its published system; the bench scores it like any fit (kind "truth")."""
+    import numpy as np
+
+    from nlid.benchmarking.jobs import score_model
+    from nlid.benchmarking.truth import TRUTH_KIND, true_fitted
+    from nlid.datasets import BOUC_WEN_REFERENCE
+    from nlid.record import Record
+
+    bw = load_protocol("bouc-wen")
+    assert bw.truth is not None and dict(bw.truth.coefficients) == BOUC_WEN_REFERENCE["coefficients"]
+    assert bw.truth.mass == BOUC_WEN_REFERENCE["mass"]
+    (fitted,) = true_fitted(bw)
+    assert fitted.kind == TRUTH_KIND and fitted.parameters == 0 and not fitted.choices
+    force = np.sin(2 * np.pi * 20.0 * np.arange(1500) / 750.0) * 10.0
+    own = fitted.model.simulate(force, 750.0)  # its own response (free run from rest): scored at zero
+    record = Record(f=force, z=own.z, v=own.v, fs=750.0, meta={"force_hold": "sampled"})
+    scored = score_model(fitted, record, "first-sample")
+    assert scored["rule"] == "from the record's first sample" and scored["rmse"] < 1e-9 * np.std(own.z)
+    assert true_fitted(parse_protocol(toy_text)) == []  # a measured benchmark declares none
+    bad = toy_text + '\n[truth]\ncoefficients = { zz = 1.0 }\nmass = 1.0\nsource = "x"\n'
+    with pytest.raises(InputError, match="truth.coefficients: unknown name 'zz'"):
+        parse_protocol(bad, "toy.toml")
+    with pytest.raises(InputError, match="truth.mass: is required"):
+        parse_protocol(toy_text + '\n[truth]\ncoefficients = { z = 1.0 }\nsource = "x"\n', "toy.toml")

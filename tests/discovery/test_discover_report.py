@@ -41,6 +41,23 @@ def test_summary_table(run):
     assert "declared:" in text and "+ coulomb: sign(v)" in text and "stopped:" in text and "sign(v)" in text
 
 
+def test_every_free_run_figure_states_its_rule(run, make_case, tmp_path):
+    """The terminal table, the Markdown report and the JSON name the rule of the held-out (and validation) runs."""
+    assert "free run held-out: from the record's first sample" in summary_table(run)
+    assert run.to_dict()["info"]["freerun_rule"] == "from the record's first sample"
+    record, declared = make_case("single", "coulomb", ("z",), 22)
+    est, val = record.split(0.3)
+    with_validation = discover(est, declared, "rfs", candidates="coulomb", validation=val, freerun_rule="window:30")
+    text = summary_table(with_validation)
+    assert "free run held-out: initialisation window of 30 samples" in text
+    assert "free run validation: initialisation window of 30 samples" in text
+    write_report(with_validation, tmp_path)
+    md = (tmp_path / "report.md").read_text()
+    assert "- free run validation: initialisation window of 30 samples" in md
+    info = json.loads((tmp_path / "result.json").read_text())["info"]
+    assert info["freerun_rule_validation"].startswith("initialisation window of 30 samples")
+
+
 def test_json_contract(run):
     out = run.to_dict()
     required = {
