@@ -115,6 +115,14 @@ def _mat5_forged(path: Path) -> Path:
     return path
 
 
+def _mat4_forged(path: Path) -> Path:
+    """A MAT v4 file with t, f, z and a variable ``big`` whose header declares 3e8 doubles, holding 16 bytes."""
+    sio.savemat(path, _signals(), format="4")
+    with open(path, "ab") as fh:  # type 0000 (little-endian doubles), 3e8 x 1, real, a 4-byte name
+        fh.write(struct.pack("<5i", 0, 300_000_000, 1, 0, 4) + b"big\0" + b"\0" * 16)
+    return path
+
+
 def _npz_forged(path: Path) -> Path:
     """An NPZ archive with t, f, z and ``big.npy`` whose header declares 3e8 doubles and that holds 16 bytes."""
     np.savez(path, **_signals())
@@ -184,7 +192,7 @@ def _load_under_memory_limit(folder: Path, cases: dict[str, str | None]) -> dict
 
 
 def test_a_every_reader_refuses_a_file_that_declares_more_than_it_holds_under_a_memory_limit(tmp_path):
-    """MAT v5, NPZ, HDF5 and MATLAB v7.3: a variable declaring gigabytes is never allocated.
+    """MAT v4 and v5, NPZ, HDF5 and MATLAB v7.3: a variable declaring gigabytes is never allocated.
 
     Unused, it is not read at all (only the mapped variables are); mapped, the refusal names what it
     declares and what the file holds. The child runs under ``ulimit -v 1.5 GB``: reading what the
@@ -192,6 +200,7 @@ def test_a_every_reader_refuses_a_file_that_declares_more_than_it_holds_under_a_
     """
     pytest.importorskip("h5py")
     _mat5_forged(tmp_path / "big.mat")
+    _mat4_forged(tmp_path / "big4.mat")
     _npz_forged(tmp_path / "big.npz")
     _h5_forged(tmp_path / "big.h5")
     _h5_forged(tmp_path / "big73.mat", matlab=True)
@@ -199,20 +208,23 @@ def test_a_every_reader_refuses_a_file_that_declares_more_than_it_holds_under_a_
         tmp_path,
         {
             "big.mat": None,  # the unused 2.4 GB variable is not read
+            "big4.mat": None,
             "big.npz": None,
             "big.mat ": "t=big, f=big, z=big",  # (a trailing space repeats a file; the child strips it)
+            "big4.mat ": "t=big, f=big, z=big",
             "big.npz ": "t=big, f=big, z=big",
             "big.h5": "f=f, z=z",  # f declares 2e9 samples, z 1000: refused before reading either
             "big73.mat": "t=t, f=f, z=z",
             "big.h5 ": "t=f, f=f, z=f",  # consistent lengths, but the file holds 1000 of the 2e9 samples
         },
     )
-    assert got["big.mat"] == ["ok", N] and got["big.npz"] == ["ok", N]
-    for name in ("big.mat ", "big.npz "):
+    assert got["big.mat"] == got["big4.mat"] == got["big.npz"] == ["ok", N], got
+    for name in ("big.mat ", "big4.mat ", "big.npz "):
         kind, message = got[name]
         assert kind == "SizeError", got[name]
         assert "declares 300 000 000 values (2.4 GB) but the file holds" in message, message
-        assert message.split("holds ")[1].split(" ")[1] == "bytes", message  # its header and 16 bytes: no kB
+        held = message.split("holds ")[1].split(" ")[1]  # v5 and NPZ: the variable's own bytes; v4: the file's
+        assert held == ("kB" if name == "big4.mat " else "bytes"), message
     for name in ("big.h5", "big73.mat"):
         kind, message = got[name]
         assert kind == "DataError" and "declares 2 000 000 000 values" in message, got[name]
