@@ -153,7 +153,7 @@ def compare(
     reference: Mapping[str, Any] | IdentifiedModel | Reference | None = None,
     holdout: Record | str | Path | float | None = None,
     options: Mapping[str, Mapping[str, Any]] | None = None,
-    without: str | Iterable[str] = (),
+    without: str | Iterable[str] | None = (),
     px_roots: Sequence[float] | None = None,
     errors: str = "record",
     rule: TransientRule | str | Mapping[str, Any] | None = None,
@@ -201,8 +201,14 @@ def compare(
         or a rule); default: the held-out record's own
         (:func:`nlid.scoring.default_rule`). The ``freerun_rmse`` row's
         ``note`` names the rule it was computed under.
-        An unknown method name is refused before anything runs
-        (:class:`~nlid.errors.InputError`, with a suggestion), whatever ``errors``.
+        An unknown method name, or an option value a method refuses, is refused before
+        anything runs (:class:`~nlid.errors.InputError`, with a suggestion), whatever ``errors``.
+
+    On a :class:`~nlid.mdof.StructureRecord` (several DOFs) ``terms`` are elements on
+    connections (``"z3^3, (z1-z2)^3"``, checked before any method runs) and the rows are
+    each element's coefficient, the underlying linear modes (``m1``, ``m2``...) and each
+    DOF's residual against the structure's reference (:mod:`nlid.mdof.compare`);
+    ``holdout``, ``rule`` and ``px_roots`` do not apply.
 
     Returns
     -------
@@ -219,11 +225,13 @@ def compare(
     record = as_record(record)
     import pandas as pd
 
+    from .errors import PluginError
     from .registry import default_registry
 
     if errors not in ("record", "raise"):
         raise InputError(f"errors must be 'record' or 'raise', got {errors!r}")
-    model = as_model(terms, without=without, px_roots=px_roots)
+    structure = not isinstance(record, Record)  # several DOFs: elements on connections
+    model = None if structure else as_model(terms, without=without, px_roots=px_roots)
     if isinstance(methods, str):
         methods = [m.strip() for m in methods.split(",") if m.strip()]
     registry = default_registry()
@@ -238,6 +246,23 @@ def compare(
     stray = [k for k in (options or {}) if k not in names]
     if stray:
         raise InputError(f"options= are given for {brief(stray[0])}, which is not among the methods compared ({names})")
+    for name, given in (options or {}).items():  # option values are user input too: refused before anything runs
+        if name in registry.identifiers:
+            try:
+                registry.create(name, given)
+            except PluginError:  # the plugin itself is broken: that method's row says so
+                pass
+    if structure:
+        if holdout is not None or rule is not None or px_roots is not None:
+            raise InputError("holdout=, rule= and px_roots= do not apply to a structure of several DOFs")
+        from .mdof.compare import compare_structure
+
+        rows, fits = compare_structure(
+            record, terms, names, mass=mass, reference=reference, options=options, without=without, errors=errors
+        )
+        frame = pd.DataFrame(rows, columns=FRAME_COLUMNS)
+        frame.attrs["models"] = fits
+        return frame
     ref = Reference.of(record, reference)
     rule = None if rule is None else rule_from_spec(rule)
     if holdout is not None and not isinstance(holdout, Record):
@@ -251,6 +276,7 @@ def compare(
             record, holdout, _ = Split(holdout=float(holdout)).divide(record)
     rows: list[dict[str, Any]] = []
     fits: dict[str, IdentifiedModel] = {}
+    assert model is not None
     for name in names:
         try:
             fit = identify(record, model, name, mass=mass, options=(options or {}).get(name))

@@ -71,7 +71,7 @@ from typing import Any
 
 import numpy as np
 
-from .errors import DataError, InputError, brief, listing
+from .errors import DataError, InputError, _count, brief, listing
 from .units import INDEXED
 
 __all__ = [
@@ -86,10 +86,13 @@ __all__ = [
     "split_indexed",
     "uses_indexed",
     "structure_arrays",
+    "MAX_DOFS",
 ]
 
 #: Channels a column map can name: the time ``t`` and the channels of a record.
 MAP_CHANNELS = ("t", "f", "z", "v", "a")
+#: Largest DOF number an indexed channel may name (``z1000``): a structure's matrices grow as its square.
+MAX_DOFS = 1000
 #: An operand: a number, a name (letters of any script, digits, ``_``; not starting with a digit) or quoted text.
 _OPERAND = re.compile(
     r"""\s*(?:(?P<number>[0-9]*\.?[0-9]+(?:[eE][+-]?[0-9]+)?)(?![^\W\d])|(?P<name>[^\W\d]\w*)"""
@@ -234,6 +237,57 @@ def split_indexed(channel: str) -> tuple[str, int] | None:
     return None if m is None else (m.group(1), int(m.group(2)))
 
 
+def _check_dof(name: str, what: str, error: type[Exception]) -> None:
+    """Refuse an indexed channel naming a DOF beyond :data:`MAX_DOFS` (before any list of DOFs is built)."""
+    parts = split_indexed(name)
+    if parts is not None and parts[1] > MAX_DOFS:
+        raise error(f"{what} {_excerpt(name)} names DOF {brief(parts[1], 30)}; a structure has at most {MAX_DOFS}")
+
+
+def _shape_of(table: Mapping[str, Any], name: str) -> tuple[int, ...] | None:
+    """The shape of column ``name``: a file's table says what it declares without reading it (``None``: no array)."""
+    declared = getattr(table, "shape_of", None)
+    return declared(name) if declared is not None else np.shape(table[name])
+
+
+def _size_of(table: Mapping[str, Any], name: str) -> int | None:
+    shape = _shape_of(table, name)
+    return None if shape is None else int(np.prod(shape, dtype=float))
+
+
+def _is_column(table: Mapping[str, Any], name: str) -> bool:
+    """True when ``table`` has ``name`` with more than one value (a column, not a scalar)."""
+    if name not in table:
+        return False
+    n = _size_of(table, name)
+    return n is None or n > 1  # unknown (not an array): read, and named for what it holds
+
+
+#: Values a column may declare and be read before its length is compared with the other columns' (1 MiB of floats).
+_READ_FREELY = 1 << 17
+
+
+def _check_lengths(table: Mapping[str, Any], exprs: Mapping[str, ColumnExpr], source: str) -> None:
+    """Refuse a large column of a file table whose declared length differs from the others', before reading it.
+
+    (Smaller columns are read and named for what they hold: text, booleans, another length.)
+    """
+    if getattr(table, "shape_of", None) is None:
+        return  # in memory already: the record compares the lengths
+    sizes: dict[str, int] = {}
+    for e in exprs.values():
+        name = e.column if e.column in table else e.column.lstrip("/")
+        shape = _shape_of(table, name) if name in table else None
+        if shape is not None and sum(1 for n in shape if n > 1) == 1:  # a vector (a matrix is refused when read)
+            sizes[name] = max(shape)
+    if len(set(sizes.values())) > 1 and max(sizes.values()) > _READ_FREELY:
+        (small, a), (large, b) = min(sizes.items(), key=lambda kv: kv[1]), max(sizes.items(), key=lambda kv: kv[1])
+        raise DataError(
+            f"column {large!r} in {source} declares {_count(b)} values and column {small!r} {_count(a)}: "
+            "a record's channels have one length (nothing was read)"
+        )
+
+
 def _parse_key(key: str) -> tuple[str, str | None]:
     """``"z[mm]"`` -> ``("z", "mm")``; the unit is checked against the vocabulary."""
     from .units import unit_of
@@ -248,6 +302,7 @@ def _parse_key(key: str) -> tuple[str, str | None]:
         )
     if m is None:
         raise InputError(f"column map: {_excerpt(key)} must be a channel with an optional unit, e.g. z or z[mm]")
+    _check_dof(channel, "column map: channel", InputError)
     unit = m.group("unit")
     if unit is None:
         return channel, None
@@ -346,7 +401,7 @@ def channel_arrays(
             "StructureRecord (read them with nlid.load or nlid.mdof.StructureRecord.from_table)"
         )
     for channel in MAP_CHANNELS:
-        if channel not in exprs and channel in table and np.asarray(table[channel]).size > 1:
+        if channel not in exprs and _is_column(table, channel):
             exprs[channel] = ColumnExpr(channel)
     for required in ("f", "z"):
         if required not in exprs and required in table:
@@ -357,6 +412,7 @@ def channel_arrays(
                 f"{source}: no column for channel {required!r}; map one with columns= "
                 f"(e.g. {required}=NAME); the {noun} has: {listing(sorted(table))}"
             )
+    _check_lengths(table, exprs, source)
     arrays = {c: e.evaluate(table, source).ravel() for c, e in exprs.items()}
     return arrays, _sampling(arrays, table, fs, source)
 
@@ -369,7 +425,7 @@ def _sampling(
         if fs is not None:
             raise InputError("give either a time column or fs=, not both")
         return None
-    if fs is None and "fs" in table and np.asarray(table["fs"]).size == 1:
+    if fs is None and "fs" in table and _size_of(table, "fs") == 1:
         fs = float(_real(table["fs"], "fs", source, "variable").ravel()[0])
     if fs is None:
         raise DataError(
@@ -428,9 +484,11 @@ def structure_arrays(
     exprs = parse_columns(columns)
     for name in table:
         key = str(name)
-        if key not in exprs and split_indexed(key) and np.asarray(table[name]).size > 1:
-            exprs[key] = ColumnExpr(key)
-    if "t" not in exprs and "t" in table and np.asarray(table["t"]).size > 1:
+        if key not in exprs and split_indexed(key):
+            _check_dof(key, f"{source}: column", DataError)
+            if _is_column(table, name):
+                exprs[key] = ColumnExpr(key)
+    if "t" not in exprs and _is_column(table, "t"):
         exprs["t"] = ColumnExpr("t")
     dofs: dict[str, list[int]] = {g: [] for g in "fzva"}
     for channel in exprs:
@@ -451,6 +509,7 @@ def structure_arrays(
         raise DataError(f"{source}: channel {beyond[0]} names DOF {beyond[0][1:]} but the displacements are z1..z{n}")
     if not dofs["f"]:
         raise DataError(f"{source}: no force column; map at least one (e.g. f1=NAME)")
+    _check_lengths(table, exprs, source)
     arrays = {c: e.evaluate(table, source).ravel() for c, e in exprs.items()}
     return arrays, _sampling(arrays, table, fs, source)
 

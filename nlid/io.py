@@ -60,8 +60,9 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from .columnmap import ColumnExpr, frame_table, parse_columns, uses_indexed
+from .columnmap import ColumnExpr, parse_columns, uses_indexed
 from .errors import DataError, InputError
+from .filetables import SizeError, open_file_table, size_text
 from .interface import to_jsonable
 from .outputs import META_KEYS, check_sidecar, sidecar_path
 from .record import Record
@@ -74,6 +75,10 @@ __all__ = [
     "parse_columns",
     "read_record",
     "read_table",
+    "open_table",
+    "check_path",
+    "read_text_file",
+    "TEXT_LIMIT",
     "file_sha256",
     "write_csv",
     "write_npz",
@@ -82,10 +87,10 @@ __all__ = [
     "sidecar_path",
 ]
 
+#: Largest configuration or JSON file nlid reads (a study, a benchmark file, a model JSON, a sidecar): 64 MiB.
+TEXT_LIMIT = 64 << 20
 #: File types understood by :func:`read_record`.
 SUFFIXES = (".csv", ".txt", ".npz", ".mat", ".h5", ".hdf5", ".parquet", ".pq")
-_HDF5 = (".h5", ".hdf5")
-_PARQUET = (".parquet", ".pq")
 
 
 def read_table(path: str | Path) -> dict[str, np.ndarray]:
@@ -102,22 +107,36 @@ def read_table(path: str | Path) -> dict[str, np.ndarray]:
         optional package that is not installed.
     """
     out = {}
-    with _open_table(path) as table:
+    with open_table(path) as table:
         for name in table:
             try:
                 out[name] = np.asarray(table[name])
-            except DataError:
+            except SizeError:
+                raise
+            except DataError:  # not an array (a sparse matrix, a MATLAB object)
                 continue
     return out
 
 
 @contextlib.contextmanager
-def _open_table(path: str | Path) -> Iterator[Mapping[str, Any]]:
-    """The table of a file; for HDF5 files a lazy one, open while the ``with`` block runs."""
-    path = _check_path(path)
+def open_table(path: str | Path) -> Iterator[Mapping[str, Any]]:
+    """The table of a data file, open while the ``with`` block runs (:mod:`nlid.filetables`).
+
+    MATLAB, NPZ, HDF5 and Parquet files are read lazily: a variable is read
+    when it is asked for, and only if the file holds the bytes it declares;
+    the table's ``shape_of(name)`` gives the shape a variable declares
+    without reading it. The path goes through :func:`check_path`.
+
+    Raises
+    ------
+    DataError
+        If the file is missing, not a regular file, unreadable or of an
+        unknown type, or needs an optional package that is not installed.
+    """
+    path = check_path(path)
     handle: Any = None
     try:
-        handle, table = _read(path)
+        handle, table = open_file_table(path, SUFFIXES)
     except DataError:
         raise
     except ValueError as exc:
@@ -127,158 +146,119 @@ def _open_table(path: str | Path) -> Iterator[Mapping[str, Any]]:
     except Exception as exc:  # noqa: BLE001 - any reader failure is a data error
         raise DataError(f"cannot read {path}: {type(exc).__name__}: {exc}") from None
     try:
-        yield table
+        yield _Reading(table, path)
     finally:
         if handle is not None:
             handle.close()
 
 
-def _read(path: Path) -> tuple[Any, Mapping[str, Any]]:
-    """``(open file handle or None, table)`` of a file, by its suffix."""
-    suffix = path.suffix.lower()
-    if suffix in (".csv", ".txt"):
-        import pandas as pd
+class _Reading(Mapping):
+    """A file's table whose reads turn a reader's own failure into one :class:`DataError` naming the file."""
 
-        frame = pd.read_csv(path, sep=None if suffix == ".txt" else ",", engine="python" if suffix == ".txt" else "c")
-        return None, frame_table(frame, str(path))
-    if suffix == ".npz":
-        import zipfile
+    def __init__(self, table: Mapping[str, Any], path: Path) -> None:
+        self.table, self.path = table, path
 
-        if not zipfile.is_zipfile(path):
-            raise DataError(f"cannot read {path}: not an NPZ (zip) archive")
-        with np.load(path, allow_pickle=False) as data:
-            return None, {k: np.asarray(data[k]) for k in data.files}
-    if suffix == ".mat":
-        from scipy import io as sio
+    def shape_of(self, key: str) -> tuple[int, ...] | None:
+        """The shape ``key`` declares, without reading it (``None``: not an array)."""
+        shape_of = getattr(self.table, "shape_of", None)
+        return shape_of(key) if shape_of is not None else np.shape(self.table[key])
 
+    def __getitem__(self, key: str) -> Any:
         try:
-            data = sio.loadmat(path)
-        except NotImplementedError:  # v7.3: HDF5
-            return _open_hdf5(path, "MATLAB v7.3 (HDF5) .mat files")
-        return None, {
-            k: np.asarray(v).squeeze() if np.asarray(v).ndim > 1 else np.asarray(v)
-            for k, v in data.items()
-            if not k.startswith("__")
-        }
-    if suffix in _HDF5:
-        return _open_hdf5(path, "HDF5 files")
-    if suffix in _PARQUET:
-        try:
-            import pyarrow.parquet as pq
-        except ImportError:
-            raise DataError(
-                f"cannot read {path}: Parquet files need the optional package pyarrow (pip install 'nlid[parquet]')"
-            ) from None
-        return None, frame_table(pq.read_table(path).to_pandas(), str(path))
-    raise DataError(f"cannot read {path}: unknown file type {suffix!r} (use {', '.join(SUFFIXES)})")
+            return self.table[key]
+        except (DataError, KeyError, MemoryError):
+            raise
+        except ValueError as exc:
+            if "pickle" in str(exc).lower():
+                raise DataError(f"{self.path}: contains pickled objects, which nlid never loads") from None
+            raise DataError(f"cannot read {key!r} from {self.path}: {exc}") from None
+        except Exception as exc:  # noqa: BLE001 - any reader failure is a data error
+            raise DataError(f"cannot read {key!r} from {self.path}: {type(exc).__name__}: {exc}") from None
+
+    def __contains__(self, key: object) -> bool:
+        return key in self.table
+
+    def __iter__(self) -> Iterator[str]:
+        return iter(self.table)
+
+    def __len__(self) -> int:
+        return len(self.table)
 
 
-def _open_hdf5(path: Path, what: str) -> tuple[Any, Mapping[str, Any]]:
+def _kind(path: Path) -> str:
+    """What a path that is neither a file nor a folder is: ``"a named pipe (FIFO)"``, ``"a device"``..."""
+    import stat
+
     try:
-        import h5py
-    except ImportError:
-        raise DataError(
-            f"cannot read {path}: {what} need the optional package h5py (pip install 'nlid[hdf5]')"
-        ) from None
-    handle = h5py.File(path, "r")
-    try:
-        return handle, _HDF5Table(handle, str(path))
-    except BaseException:
-        handle.close()
-        raise
+        mode = path.stat().st_mode
+    except OSError:
+        return "not a regular file"
+    if stat.S_ISFIFO(mode):
+        return "a named pipe (FIFO)"
+    if stat.S_ISSOCK(mode):
+        return "a socket"
+    if stat.S_ISCHR(mode) or stat.S_ISBLK(mode):
+        return "a device"
+    return "not a regular file"
 
 
-def _check_path(path: str | Path) -> Path:
+def check_path(path: str | Path, *, what: str = "data file", max_bytes: int | None = None) -> Path:
+    """The one check of every path a user names for nlid to read: a regular file, of a sane name and size.
+
+    Folders, FIFOs, sockets and devices (``/dev/zero``) are refused: reading
+    them would hang or never end. Symbolic links are followed.
+
+    Parameters
+    ----------
+    path
+        The path as given.
+    what
+        What the file is, for the messages (``"data file"``, ``"model JSON"``).
+    max_bytes
+        Largest size accepted (``None``: any; data files are bounded by their readers).
+
+    Raises
+    ------
+    DataError
+        A name longer than file systems allow, a missing path, a folder, a
+        special file or a file larger than ``max_bytes``.
+    """
     path = Path(path)
     if len(path.name) > 255 or len(str(path)) > 4095:  # longer than file systems allow (is_dir() would raise)
         raise DataError(f"cannot read {reprlib.repr(str(path))}: not a file name (too long)")
-    if path.is_dir():
-        raise DataError(f"{path} is a folder, not a data file")
-    if not path.is_file():
-        raise DataError(f"file not found: {path}" if not path.exists() else f"{path} is not a regular file")
+    try:
+        is_dir, is_file = path.is_dir(), path.is_file()
+    except OSError as exc:
+        raise DataError(f"cannot read {path}: {exc.strerror or exc}") from None
+    if is_dir:
+        raise DataError(f"{path} is a folder, not a {what}")
+    if not is_file:
+        if not path.exists():
+            broken = " (a symbolic link to a missing file)" if path.is_symlink() else ""
+            raise DataError(f"file not found: {path}{broken}")
+        raise DataError(f"{path} is {_kind(path)}, not a {what}: nlid reads only regular files")
+    if max_bytes is not None:
+        size = path.stat().st_size
+        if size > max_bytes:
+            raise DataError(f"{path} is {size_text(size)}; a {what} is at most {size_text(max_bytes)}")
     return path
 
 
-#: MATLAB classes whose values are numbers (``char`` is text, ``cell`` references; others are objects).
-_MATLAB_NUMERIC = frozenset(
-    ("double", "single", "logical", "int8", "uint8", "int16", "uint16", "int32", "uint32", "int64", "uint64")
-)
-#: Groups of a MATLAB v7.3 file that hold MATLAB's own bookkeeping, not variables.
-_MATLAB_INTERNAL = ("#refs#", "#subsystem#")
+def read_text_file(path: str | Path, what: str) -> str:
+    """The UTF-8 text of a small file the user named (a study, a benchmark file, a JSON), after :func:`check_path`.
 
-
-def _attr(obj: Any, name: str) -> Any:
-    value = obj.attrs.get(name)
-    return value.decode() if isinstance(value, bytes) else value
-
-
-class _HDF5Table(Mapping):
-    """The datasets of an open HDF5 file (a MATLAB v7.3 file among them), read when asked for.
-
-    Keys are paths without the leading ``/``. A dataset with a ``MATLAB_class``
-    attribute is MATLAB's: transposed back to MATLAB's shape, text decoded,
-    and a struct's fields keyed ``struct/field``.
+    Raises
+    ------
+    DataError
+        Not a regular file, larger than :data:`TEXT_LIMIT`, unreadable, or not UTF-8 text.
     """
-
-    def __init__(self, handle: Any, source: str) -> None:
-        import h5py
-
-        self._source = source
-        self._items: dict[str, Any] = {}
-        skip = list(_MATLAB_INTERNAL)  # and the insides of sparse matrices
-
-        def visit(name: str, obj: Any) -> None:
-            if any(name == k or name.startswith(k + "/") for k in skip):
-                return
-            if isinstance(obj, h5py.Dataset):
-                self._items[name] = obj
-            elif _attr(obj, "MATLAB_sparse") is not None:
-                self._items[name] = obj
-                skip.append(name)
-
-        handle.visititems(visit)
-
-    def __getitem__(self, key: str) -> np.ndarray:
-        return _read_dataset(self._items[key], key, self._source)
-
-    def __contains__(self, key: object) -> bool:
-        return key in self._items
-
-    def __iter__(self) -> Iterator[str]:
-        return iter(self._items)
-
-    def __len__(self) -> int:
-        return len(self._items)
-
-
-def _read_dataset(obj: Any, name: str, source: str) -> np.ndarray:
-    """One dataset as an array in the orientation its writer meant (MATLAB's arrays transposed back)."""
-    import h5py
-
-    matlab = _attr(obj, "MATLAB_class")
-    if _attr(obj, "MATLAB_sparse") is not None:
-        raise DataError(f"variable {name!r} in {source} is a sparse matrix; save it with full() first")
-    if not isinstance(obj, h5py.Dataset):
-        raise DataError(f"{name!r} in {source} is not an array")
-    if _attr(obj, "MATLAB_empty"):
-        return np.zeros(0)
-    if h5py.check_dtype(ref=obj.dtype) is not None:
-        return np.empty(obj.shape, dtype=object)  # a cell array (references): refused as objects when used
-    if h5py.check_string_dtype(obj.dtype) is not None:
-        return np.asarray(obj.asstr()[()], dtype=str)
-    if matlab is not None and matlab not in _MATLAB_NUMERIC and matlab != "char":
-        raise DataError(f"variable {name!r} in {source} is a MATLAB {matlab}, not an array of numbers")
-    data = np.asarray(obj[()])
-    if data.dtype.names and {"real", "imag"} <= set(data.dtype.names):
-        data = data["real"] + 1j * data["imag"]
-    if matlab is None:
-        return data
-    data = data.T  # MATLAB writes column-major arrays: HDF5 holds them transposed
-    if matlab == "char":
-        return np.asarray("".join(map(chr, data.ravel(order="F"))))
-    if matlab == "logical":
-        return data.astype(bool)
-    return data
+    checked = check_path(path, what=what, max_bytes=TEXT_LIMIT)
+    try:
+        return checked.read_text(encoding="utf-8")
+    except OSError as exc:
+        raise DataError(f"cannot read the {what} {checked}: {exc.strerror or exc}") from None
+    except UnicodeDecodeError as exc:
+        raise DataError(f"the {what} {checked} is not UTF-8 text (byte {exc.start})") from None
 
 
 def file_sha256(path: str | Path) -> str:
@@ -295,8 +275,10 @@ def _read_sidecar(path: Path) -> dict[str, Any]:
     if not side.is_file():
         return {}
     try:
-        data = json.loads(side.read_text())
-    except (OSError, ValueError, RecursionError) as exc:
+        data = json.loads(read_text_file(side, "metadata file"))
+    except DataError:
+        raise
+    except (ValueError, RecursionError) as exc:
         raise DataError(f"cannot read the metadata file {side}: {exc}") from None
     if not isinstance(data, dict):
         raise DataError(f"{side}: expected a JSON object")
@@ -352,7 +334,7 @@ def read_record(
         A malformed column map, or a unit outside the vocabulary.
     """
     path = Path(path)
-    with _open_table(path) as table:
+    with open_table(path) as table:
         meta = {"source": str(path), **_read_sidecar(path), **dict(meta or {})}
         meta["loaded"] = {**dict(meta.get("loaded") or {}), "sha256": file_sha256(path)}
         if uses_indexed(table, columns):

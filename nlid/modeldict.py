@@ -19,6 +19,7 @@ import numpy as np
 from .errors import InputError, brief
 from .estimate import to_jsonable
 from .inputpath import InputPath
+from .modelschema import check_model
 from .physics import Equilibria
 from .scoring import Scores
 from .terms import Model, parse_term
@@ -81,14 +82,16 @@ def model_from_dict(cls: type[IdentifiedModel], data: Mapping[str, Any]) -> Iden
     Raises
     ------
     InputError
-        If the dictionary lacks the terms or coefficients, they do not match, or a coefficient
-        is not a finite number (NaN, infinity, a string...).
+        If the dictionary does not fit the layout's schema (:mod:`nlid.modelschema`: a field of the
+        wrong type, an unknown field, nesting deeper than it allows), lacks the terms or coefficients,
+        they do not match, or a coefficient is not a finite number (NaN, infinity, a string...).
     """
     if not isinstance(data, Mapping):
         raise InputError(f"expected a dictionary from IdentifiedModel.to_dict(), got {type(data).__name__}")
     schema = data.get("schema", SCHEMA)
     if schema != SCHEMA:
-        raise InputError(f"unknown identified-model layout {schema!r}; this nlid reads {SCHEMA!r}")
+        raise InputError(f"unknown identified-model layout {brief(schema, 60)}; this nlid reads {SCHEMA!r}")
+    check_model(data)  # every field against the layout's schema (nlid.modelschema), one line naming the first misfit
     try:
         terms = list(data["terms"])
         coefficients = dict(data["coefficients"])

@@ -26,12 +26,26 @@ Files (:func:`check_new_file`)
 
 Study folders written before the manifest existed are recognised by their
 ``runs/`` records and adopted, so interrupted studies still resume.
+
+Temporary files (:func:`temporary`, :func:`atomic_write`)
+    A file nlid replaces is written beside it as ``.<name>.<pid>.tmp`` and
+    renamed over it. An error or a signal between the write and the rename
+    removes the temporary file; one left by a process that was killed
+    outright (``SIGKILL``) is removed by the next writer of the folder, under
+    its lock (:func:`sweep_temporary`).
+
+Links
+    An output folder or file that is a dangling symbolic link is refused (its
+    target would be created wherever it points), and so is a metadata sidecar
+    that is a link (nlid would write through it into a file nobody named).
 """
 
 from __future__ import annotations
 
+import contextlib
 import json
 import os
+import re
 import time
 from collections.abc import Iterable, Iterator, Sequence
 from contextlib import contextmanager
@@ -52,6 +66,9 @@ __all__ = [
     "sidecar_path",
     "META_KEYS",
     "FolderBusyError",
+    "temporary",
+    "atomic_write",
+    "sweep_temporary",
 ]
 
 #: The manifest nlid writes into every folder it owns.
@@ -99,6 +116,71 @@ META_KEYS = (
 )
 
 _OWN = (MARKER, LOCK, WRITER)
+#: The name of a temporary file nlid writes before renaming it: ``.<name>.<pid>.tmp`` (``.tmp.npz`` for arrays).
+_TEMPORARY = re.compile(r"^\..+\.(?P<pid>[0-9]+)\.tmp(\.npz)?$")
+
+
+@contextmanager
+def temporary(path: str | os.PathLike[str], suffix: str = "") -> Iterator[Path]:
+    """A temporary name beside ``path`` (``.<name>.<pid>.tmp<suffix>``), removed if the block does not end normally.
+
+    The block writes the temporary file and renames it over ``path`` (``os.replace``); an exception or a
+    signal turned into one (``KeyboardInterrupt``: nlid's ``SIGTERM`` handlers raise it) removes it.
+    """
+    path = Path(path)
+    stem = path.stem if suffix else path.name
+    tmp = path.with_name(f".{stem}.{os.getpid()}.tmp{suffix}")
+    try:
+        yield tmp
+    except BaseException:
+        with contextlib.suppress(OSError):
+            tmp.unlink()
+        raise
+
+
+def atomic_write(path: str | os.PathLike[str], data: bytes) -> None:
+    """Write ``data`` to ``path`` atomically: a temporary file, flushed to disk, renamed over it."""
+    with temporary(path) as tmp:
+        with open(tmp, "wb") as fh:
+            fh.write(data)
+            fh.flush()
+            os.fsync(fh.fileno())
+        os.replace(tmp, path)
+
+
+def _alive(pid: int) -> bool:
+    if pid == os.getpid():
+        return False  # our own are stale too: this writer has not started writing
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except OSError:  # not ours to signal: it exists
+        return True
+    return True
+
+
+def sweep_temporary(folder: str | os.PathLike[str], entries: Iterable[str] = ()) -> list[Path]:
+    """Remove the temporary files nlid left in ``folder`` and in its sub-folders ``entries`` (killed writers').
+
+    Only names of nlid's own pattern (``.<name>.<pid>.tmp``) whose process is gone are removed; call it
+    holding the folder's lock. Returns what was removed.
+    """
+    folder = Path(folder)
+    places = [folder] + [folder / e for e in entries if (folder / e).is_dir() and not (folder / e).is_symlink()]
+    removed = []
+    for place in places:
+        try:
+            names = list(place.iterdir())
+        except OSError:
+            continue
+        for path in names:
+            m = _TEMPORARY.match(path.name)
+            if m and not _alive(int(m.group("pid"))) and path.is_file() and not path.is_symlink():
+                with contextlib.suppress(OSError):
+                    path.unlink()
+                    removed.append(path)
+    return removed
 
 
 class FolderBusyError(InputError):
@@ -125,9 +207,9 @@ def _write_manifest(folder: Path, entries: Iterable[str]) -> None:
         "entries": sorted(set(entries)),
         "updated": time.strftime("%Y-%m-%dT%H:%M:%S"),
     }
-    tmp = folder / f".{MARKER}.{os.getpid()}.tmp"
-    tmp.write_text(json.dumps(data, indent=1) + "\n", encoding="utf-8")
-    os.replace(tmp, folder / MARKER)
+    with temporary(folder / MARKER) as tmp:
+        tmp.write_text(json.dumps(data, indent=1) + "\n", encoding="utf-8")
+        os.replace(tmp, folder / MARKER)
 
 
 def _legacy_study(folder: Path) -> bool:
@@ -247,6 +329,7 @@ def output_folder(folder: str | os.PathLike[str], outputs: Sequence[str], *, for
         Another process is writing into it.
     """
     path = Path(folder)
+    _refuse_dangling(path, "output folder")
     if path.exists() and not path.is_dir():
         raise InputError(f"the output folder {path} exists and is not a folder")
     if path.exists():
@@ -261,8 +344,19 @@ def output_folder(folder: str | os.PathLike[str], outputs: Sequence[str], *, for
         else:
             _record(path, set(outputs))
     with _lock(path):
-        _record(path, _owned(path, outputs, force) | set(outputs))
+        owned = _owned(path, outputs, force) | set(outputs)
+        sweep_temporary(path, owned)  # what a killed writer left between a write and its rename
+        _record(path, owned)
         yield path
+
+
+def _refuse_dangling(path: Path, what: str) -> None:
+    """Refuse a symbolic link whose target does not exist: writing there would create the target, wherever it is."""
+    if path.is_symlink() and not path.exists():
+        raise InputError(
+            f"the {what} {path} is a symbolic link to {os.readlink(path)}, which does not exist; nlid does not "
+            "create a link's target: remove the link or give the target's path"
+        )
 
 
 def check_new_file(path: str | os.PathLike[str], *, force: bool = False) -> Path:
@@ -275,6 +369,7 @@ def check_new_file(path: str | os.PathLike[str], *, force: bool = False) -> Path
         and ``force`` is not given.
     """
     path = Path(path)
+    _refuse_dangling(path, "output file")
     if path.is_dir():
         raise InputError(f"{path} is a folder; give a file name")
     parent = path.parent if str(path.parent) else Path(".")
@@ -296,11 +391,19 @@ def check_sidecar(path: str | os.PathLike[str]) -> None:
     """Refuse to replace a metadata sidecar ``<file>.meta.json`` that nlid did not write.
 
     A sidecar is nlid's when it is a JSON object whose keys are all keys
-    nlid writes (:data:`META_KEYS`).
+    nlid writes (:data:`META_KEYS`). A sidecar that is a symbolic link, or not
+    a regular file, is refused: nlid would write through it into another file.
     """
     side = sidecar_path(path)
+    if side.is_symlink():
+        raise InputError(
+            f"{side} is a symbolic link (to {os.readlink(side)}); nlid does not write through it: remove it before "
+            f"writing {Path(path).name}"
+        )
     if not side.exists():
         return
+    if not side.is_file():
+        raise InputError(f"{side} exists and is not a regular file; move it away before writing {Path(path).name}")
     try:
         data = json.loads(side.read_text(encoding="utf-8"))
     except (OSError, ValueError, RecursionError):

@@ -62,7 +62,7 @@ def _estimated_model(estimate: Estimate, model: Model) -> Model:
 def as_model(
     terms: str | Iterable[str | Term] | Model,
     *,
-    without: str | Iterable[str] = (),
+    without: str | Iterable[str] | None = (),
     px_roots: Sequence[float] | None = None,
 ) -> Model:
     """A :class:`Model` from a term list (defaults added) or a model.
@@ -74,6 +74,7 @@ def as_model(
     """
     if terms is None:
         raise InputError("terms are missing: give the model's terms, e.g. 'z^3, v*|v|' ('' for just 1, z, v)")
+    without = () if without is None else without  # None: nothing removed
     if isinstance(terms, Model):
         model = terms.with_terms(remove=without) if without else terms
         return model if px_roots is None else model.with_px_roots(px_roots)
@@ -169,7 +170,7 @@ def identify(
     *,
     mass: float | str | Any | None = None,
     options: Mapping[str, Any] | None = None,
-    without: str | Iterable[str] = (),
+    without: str | Iterable[str] | None = (),
     px_roots: Sequence[float] | None = None,
     px_tol: float = 1e-4,
     px_max_iter: int = 30,
@@ -209,7 +210,7 @@ def identify(
     options
         Identifier options (validated against its declaration).
     without
-        Default terms to remove.
+        Default terms to remove (``None``: none).
     px_roots
         ``(z-, z+)`` for ``px(z)``; default: iterate on the identified
         stiffness (see module docstring).
@@ -259,6 +260,7 @@ def identify(
     record = as_record(record)
     if isinstance(mass, str) and mass.strip().lower() == ESTIMATE and isinstance(record, Record):
         mass = None  # one DOF: None already asks the method to estimate it
+    without = () if without is None else without  # None: nothing removed
     path = to_input_path(input_path, getattr(record, "fs", None))
     if method is None:
         method = choose_method(None if isinstance(mass, str) and mass == ESTIMATE else mass, registry)[0]

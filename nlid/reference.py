@@ -39,14 +39,17 @@ differently, on purpose, and each keeps the numbers its output always had:
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping, Sequence
+import numbers
+from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass, replace
 from typing import TYPE_CHECKING, Any
+
+import numpy as np
 
 from . import columns as col
 from . import physics
 from ._frozen import FrozenDict
-from .errors import InputError, NlidError
+from .errors import InputError, NlidError, brief
 from .identified import IdentifiedModel
 from .record import Record
 from .terms import Model
@@ -79,6 +82,19 @@ _STRUCTURE = ("coefficients", "mass", "equilibria", "modal", "modes", "terms", "
 NAN = float("nan")
 
 
+def _finite(value: Any, what: str, unit: str = "") -> float:
+    """``value`` as a finite float; a NaN, an infinity, a bool, text or a list is refused naming ``what``."""
+    if isinstance(value, (bool, np.bool_)) or not isinstance(value, numbers.Real):
+        raise InputError(f"reference {what} must be a number{unit}, got {brief(value, 60)}")
+    try:
+        out = float(value)
+    except OverflowError:
+        out = math.inf
+    if not math.isfinite(out):
+        raise InputError(f"reference {what} must be a finite number{unit}, got {brief(value, 60)}")
+    return out
+
+
 def _canonical(coefficients: Mapping[str, Any]) -> dict[str, float]:
     """Coefficients by canonical term name; names that are not terms are left out."""
     out: dict[str, float] = {}
@@ -87,20 +103,27 @@ def _canonical(coefficients: Mapping[str, Any]) -> dict[str, float]:
             name = Model.from_spec([k], defaults=False).names[0]
         except NlidError:
             continue
-        try:
-            out[name] = float(v)
-        except (TypeError, ValueError):
-            raise InputError(f"reference coefficient {k!r} must be a number, got {v!r}") from None
+        out[name] = _finite(v, f"coefficient {brief(str(k), 40)}")
     return out
 
 
 def _floats(values: Any, what: str) -> tuple[float, ...] | None:
     if values is None:
         return None
-    try:
-        return tuple(float(x) for x in values)
-    except (TypeError, ValueError):
-        raise InputError(f"reference {what} must be a list of numbers, got {values!r}") from None
+    values = list(values) if isinstance(values, Iterable) and not isinstance(values, (str, Mapping)) else values
+    if not isinstance(values, list) or not all(
+        isinstance(x, numbers.Real) and not isinstance(x, (bool, np.bool_)) for x in values
+    ):
+        raise InputError(f"reference {what} must be a list of numbers, got {brief(values, 60)}")
+    out = []
+    for x in values:
+        try:
+            out.append(float(x))
+        except OverflowError:
+            out.append(math.inf)
+        if not math.isfinite(out[-1]):
+            raise InputError(f"reference {what} must be a list of finite numbers, got {brief(x, 60)}")
+    return tuple(out)
 
 
 @dataclass(frozen=True)
@@ -141,17 +164,25 @@ class Reference:
                 )
             set_(self, "coefficients", FrozenDict(_canonical(self.coefficients)))
         if self.mass is not None:
-            try:
-                set_(self, "mass", float(self.mass))
-            except (TypeError, ValueError):
-                raise InputError(f"reference mass must be a number of kg, got {self.mass!r}") from None
+            set_(self, "mass", _finite(self.mass, "mass", " of kg"))
         set_(self, "equilibria", _floats(self.equilibria, "equilibria"))
         if self.modes is not None:
-            if isinstance(self.modes, Mapping) or not all(isinstance(m, Mapping) for m in self.modes):
+            if (
+                isinstance(self.modes, (str, Mapping))
+                or not isinstance(self.modes, Iterable)
+                or not all(isinstance(m, Mapping) for m in self.modes)
+            ):
                 raise InputError("reference modes must be a list of {fn_hz, zeta} mappings")
+            for m in self.modes:  # numbers (NaN: not known), never text or lists
+                for key in ("fn_hz", "zeta"):
+                    value = m.get(key)
+                    if value is not None and not (isinstance(value, numbers.Real) and not isinstance(value, bool)):
+                        raise InputError(f"reference modes' {key} must be a number, got {brief(value, 60)}")
             set_(self, "modes", tuple(FrozenDict(m) for m in self.modes))
         if self.terms is not None:
-            set_(self, "terms", tuple(str(t) for t in self.terms))
+            if isinstance(self.terms, str) or not all(isinstance(t, str) for t in self.terms):
+                raise InputError(f"reference terms must be a list of terms, got {brief(self.terms, 60)}")
+            set_(self, "terms", tuple(self.terms))
         set_(self, "px_roots", _floats(self.px_roots, "px_roots"))
 
     # ------------------------------------------------------------------ constructors

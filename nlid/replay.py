@@ -15,7 +15,8 @@ from .api import load
 from .digest import record_sha256
 from .errors import InputError
 from .identified import IdentifiedModel
-from .io import file_sha256
+from .io import check_path, file_sha256
+from .modelschema import check_provenance
 from .pipeline import identify
 
 __all__ = ["identify_again"]
@@ -41,18 +42,25 @@ def identify_again(provenance: Mapping[str, Any], source: Any = None) -> Identif
     Raises
     ------
     InputError
-        A provenance without the data's source, or data whose SHA-256 is not
-        the recorded one (another file, or a record changed after loading).
+        A provenance that does not fit its schema (:data:`nlid.modelschema.PROVENANCE_FIELDS`: one line
+        naming the field), a structure's provenance, a provenance without the data's source, or data whose
+        SHA-256 is not the recorded one (another file, or a record changed after loading).
+    DataError
+        The recorded file is missing, a folder or not a regular file, or cannot be read.
     """
-    data, call = dict(provenance.get("data") or {}), dict(provenance.get("identify") or {})
-    if not data or not call:
+    if not isinstance(provenance, Mapping) or not provenance.get("data") or not provenance.get("identify"):
         raise InputError("the provenance lacks its 'data' or 'identify' part: it was not written by nlid.identify")
+    check_provenance(provenance)
+    data, call = dict(provenance["data"]), dict(provenance["identify"])
+    if "elements" in call:
+        raise InputError("this is a structure's provenance: identify_again replays one-DOF models (nlid.identify)")
     declared = {c: u["unit"] for c, u in (data.get("units") or {}).items() if u.get("factor") != 1.0}
     if source is None:
         source = data.get("source")
-        if not source or (data.get("sha256_of") != "file" and not str(source).startswith("dataset:")):
+        bundled = str(source or "").startswith("dataset:")
+        if not source or (data.get("sha256_of") != "file" and not bundled):
             raise InputError(f"the data came from {source or 'Python'}, not a file: give it as source=")
-        if data.get("sha256_of") == "file" and file_sha256(source) != data["sha256"]:
+        if data.get("sha256_of") == "file" and not bundled and file_sha256(check_path(source)) != data["sha256"]:
             raise InputError(f"{source} has changed since the model was identified (its SHA-256 differs)")
     if str(source).startswith("dataset:"):
         record = load(source)
@@ -77,4 +85,5 @@ def identify_again(provenance: Mapping[str, Any], source: Any = None) -> Identif
         px_tol=float(call.get("px_tol", 1e-4)),
         px_max_iter=int(call.get("px_max_iter", 30)),
         cutoff=call.get("cutoff"),
+        input_path=call.get("input_path"),
     )

@@ -23,6 +23,7 @@ from __future__ import annotations
 
 import functools
 import importlib
+import inspect
 import os
 from collections.abc import Mapping
 from dataclasses import dataclass
@@ -32,10 +33,11 @@ from typing import Any
 import numpy as np
 
 from .. import datasets
+from ..balance import settled_samples, suggested_cutoff
 from ..errors import DataError, InputError
-from ..io import read_table
+from ..io import check_path, read_table
 from ..record import Record
-from .protocol import NoiseFloor, Part, Protocol, TestSet, UserFile
+from .protocol import PACKAGE_FUNCTIONS, NoiseFloor, Part, Protocol, TestSet, UserFile
 
 __all__ = ["SOURCES", "Offsets", "load_estimation", "load_test", "noise_floor", "read_user_file", "package_record"]
 
@@ -97,18 +99,24 @@ def _slice(record: Record, part: Part, protocol: Protocol) -> Record:
 
 # --------------------------------------------------------------------------- nonlinear-benchmarks
 def _package_function(name: str) -> Any:
+    """One of the package's loaders (:data:`~nlid.benchmarking.protocol.PACKAGE_FUNCTIONS`), looked up by name.
+
+    Never a walk of attributes from the benchmark file's text: the name must be in the allow-list, its
+    module is imported by its full name, and the object found there under that name must be a function.
+    """
+    if name not in PACKAGE_FUNCTIONS:
+        raise DataError(f"{name!r} is not a loader of the nonlinear-benchmarks package nlid knows")
+    module_name, _, function = ("." + name).rpartition(".")
     try:
-        module: Any = importlib.import_module("nonlinear_benchmarks")
+        module: Any = importlib.import_module("nonlinear_benchmarks" + module_name)
     except ImportError:
         raise DataError(
             "the nonlinear-benchmarks package is not installed (pip install nonlinear-benchmarks)"
         ) from None
-    obj = module
-    for attr in name.split("."):
-        obj = getattr(obj, attr, None)
-        if obj is None:
-            raise DataError(f"nonlinear_benchmarks has no {name!r} (an older or newer version?)")
-    if not callable(obj):
+    obj = vars(module).get(function)
+    if obj is None:
+        raise DataError(f"nonlinear_benchmarks has no {name!r} (an older or newer version?)")
+    if not inspect.isfunction(obj):
         raise DataError(f"nonlinear_benchmarks.{name} is not a function")
     return obj
 
@@ -223,6 +231,40 @@ def _check_samples(record: Record, part: Part, what: str) -> Record:
     return record
 
 
+def _check_values(record: Record, what: str) -> Record:
+    """Refuse a part whose force or displacement squares overflow: no fit or RMSE can be computed from it."""
+    for channel in ("f", "z"):
+        x = getattr(record, channel)
+        with np.errstate(over="ignore"):
+            total = float(np.dot(x, x))
+        if not np.isfinite(total):
+            unit = record.units.get(channel, "")
+            raise DataError(
+                f"{what}: its {channel} reaches {np.max(np.abs(x)):.3g} {unit}: the sum of its squares overflows a "
+                "float64, so no model can be fitted or scored on it (a unit error?)"
+            )
+    return record
+
+
+def _check_rule(record: Record, test: TestSet, what: str) -> Record:
+    """Refuse a test set too short to be scored: for its transient rule (what :func:`nlid.scoring.rules.start`
+    refuses), or for the filtered force balance its residuals are computed on (:func:`nlid.balance.settled_samples`).
+    """
+    kind, _, value = test.rule.partition(":")
+    if kind == "window" and int(value) >= record.n - 1:
+        raise DataError(
+            f"{what}: {record.n} samples, too few to score after its initialisation window of {value} samples"
+        )
+    if kind == "periodic" and value and int(value) > record.n:
+        raise DataError(f"{what}: {record.n} samples, less than the period of {value} samples its rule scores")
+    if record.v is None or record.a is None:  # scored on a filtered force balance (v or a estimated)
+        try:
+            settled_samples(record.n, record.fs, suggested_cutoff(record), 1)
+        except DataError as exc:
+            raise DataError(f"{what}: {exc}") from None
+    return record
+
+
 def _read(protocol: Protocol, part: Part, source: str, what: str) -> Record:
     errors = []
     if source in ("auto", "local") and part.part is not None:
@@ -261,6 +303,7 @@ def load_estimation(
     record = _check_samples(
         _slice(record, protocol.estimation, protocol) if path is not None else record, protocol.estimation, what
     )
+    _check_values(record, what)
     offsets = Offsets(float(record.f.mean()), float(record.z.mean())) if protocol.remove_means else Offsets()
     record = offsets.apply(record).with_meta(
         part="estimation", benchmark=protocol.name, force_hold=record.meta.get("force_hold", protocol.force_hold)
@@ -304,7 +347,7 @@ def load_test(
                 f"{exc}; give its file in files= with the key '{protocol.name}:{test.name}'"
                 + (f" ({test.file.hint})" if test.file.hint else "")
             ) from None
-    record = _check_samples(record, test.source, what)
+    record = _check_rule(_check_values(_check_samples(record, test.source, what), what), test, what)
     meta: dict[str, Any] = {
         "part": test.name,
         "benchmark": protocol.name,
@@ -354,12 +397,19 @@ def user_file_key(protocol: Protocol, test: TestSet) -> str:
 
 
 def check_user_files(protocols: Mapping[str, Protocol], files: Mapping[str, str]) -> dict[str, str]:
-    """``files`` checked against the benchmarks: each key names one test set of one chosen benchmark.
+    """``files`` checked against the benchmarks, before any job runs: each key names one set of a chosen benchmark.
+
+    Each file is read as its job will read it (:func:`load_estimation`, :func:`load_test`): a file that
+    cannot be read, holds a NaN, has another number of samples than the benchmark declares, is too short
+    for its test set's transient rule, or whose values overflow is refused here, not reported as a failed
+    row after the pipelines have run.
 
     Raises
     ------
     InputError
         A key that is not ``BENCHMARK:TEST`` of a chosen benchmark, or a path that does not exist.
+    DataError
+        A file that is not a regular file (a pipe, a device), or that its job could not use.
     """
     out = {}
     for key, path in files.items():
@@ -379,7 +429,17 @@ def check_user_files(protocols: Mapping[str, Protocol], files: Mapping[str, str]
                 f"test file {key!r}: {test!r} is read from $NLID_DATA_DIR, not from a file you give; "
                 f"{protocol.name}'s user-supplied sets: {', '.join(user) or 'none'}"
             )
-        if not Path(path).expanduser().exists():
+        given = Path(path).expanduser()
+        if not given.exists():
             raise InputError(f"test file for {key}: {path} does not exist")
-        out[key] = str(Path(path).expanduser().resolve())
+        if not given.is_dir():  # a folder holds the benchmark's files; anything else is one regular file
+            try:
+                check_path(given, what="test file")
+            except DataError as exc:
+                raise InputError(f"test file for {key}: {exc}") from None
+        out[key] = str(given.resolve())
+        if test == "estimation":
+            load_estimation(protocol, path=out[key])
+        else:
+            load_test(protocol, protocol.test(test), Offsets(), path=out[key])
     return out

@@ -28,6 +28,7 @@ import numpy as np
 from .. import scoring
 from ..errors import DataError, NlidError
 from ..interface import to_jsonable
+from ..io import check_path, file_sha256
 from ..record import Record
 from .data import load_estimation, load_test, noise_floor
 from .pipelines import PEER, Fitted, PipelineSpec, fit_pipelines
@@ -93,11 +94,7 @@ def _sha256(path: str) -> str:
     p = Path(path)
     if p.is_dir():
         return "folder:" + ",".join(sorted(f"{c.name}={_sha256(str(c))}" for c in p.iterdir() if c.is_file()))
-    digest = hashlib.sha256()
-    with open(p, "rb") as fh:
-        while block := fh.read(1 << 20):
-            digest.update(block)
-    return digest.hexdigest()
+    return file_sha256(check_path(p, what="test file"))
 
 
 @dataclass(frozen=True)
@@ -146,7 +143,16 @@ class BenchJob:
         files: Mapping[str, str] | None = None,
         timeout: float = 1800.0,
     ) -> BenchJob:
-        """A job for one benchmark; ``files`` are the user files of *this* benchmark."""
+        """A job for one benchmark; ``files`` are the user files of *this* benchmark.
+
+        Raises
+        ------
+        InputError
+            A time limit that is not a positive number of seconds (refused before anything runs).
+        """
+        from ..pipeline import check_timeout
+
+        timeout = check_timeout(timeout)
         mine = {k: v for k, v in (files or {}).items() if k.split(":", 1)[0] == protocol.name}
         run_id = f"{protocol.name}/{'+'.join(p.name.replace(' ', '') for p in pipelines)}"
         return cls(

@@ -51,7 +51,8 @@ from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
-from ..errors import InputError
+from ..errors import DataError, InputError, brief
+from ..io import TEXT_LIMIT, check_path, read_text_file
 from ..validate import did_you_mean
 from .declarations import (
     STATUSES,
@@ -87,6 +88,7 @@ __all__ = [
     "load_protocol",
     "parse_protocol",
     "builtin_benchmarks",
+    "PACKAGE_FUNCTIONS",
     "STATUSES",
     "UNITS",
 ]
@@ -94,7 +96,22 @@ __all__ = [
 _RULE = re.compile(r"^(first-sample|window:[1-9][0-9]*|periodic(:[1-9][0-9]*)?)$")
 _PACKAGE_PART = re.compile(r"^(train|test|test:[0-9]+|all:[0-9]+)$")
 _NAME = re.compile(r"^[a-z0-9][a-z0-9_.+-]*$")
-_FUNCTION = re.compile(r"^[A-Za-z_][A-Za-z0-9_]*(\.[A-Za-z_][A-Za-z0-9_]*)?$")
+#: The loader functions of the ``nonlinear-benchmarks`` package a benchmark file may name (``[benchmark.package]
+#: function``): a benchmark declared as data names one of them, never other code of the package.
+PACKAGE_FUNCTIONS = frozenset(
+    (
+        "EMPS",
+        "CED",
+        "Cascaded_Tanks",
+        "Silverbox",
+        "WienerHammerBenchMark",
+        "not_splitted_benchmarks.BoucWen",
+        "not_splitted_benchmarks.WienerHammerstein_Process_Noise",
+        "not_splitted_benchmarks.ParWHF",
+        "not_splitted_benchmarks.F16",
+        "not_splitted_benchmarks.Industrial_robot",
+    )
+)
 
 
 # --------------------------------------------------------------------------- reading
@@ -313,9 +330,11 @@ def parse_protocol(text: str, source: str = "<text>") -> Protocol:
     function, force_scale, output_scale = None, 1.0, 1.0
     if pkg is not None:
         function = pkg.string("function", required=True)
-        if not _FUNCTION.match(function):
+        if function not in PACKAGE_FUNCTIONS:
             raise pkg.error(
-                "function", f"must be a function of nonlinear_benchmarks (Name or module.Name), got {function!r}"
+                "function",
+                f"must name one of the nonlinear-benchmarks package's loaders ({', '.join(sorted(PACKAGE_FUNCTIONS))})"
+                f", got {brief(function, 60)}{did_you_mean(function, sorted(PACKAGE_FUNCTIONS))}",
             )
         force_scale = pkg.number("force_scale", 1.0, positive=True)
         output_scale = pkg.number("output_scale", 1.0, positive=True)
@@ -475,15 +494,17 @@ def load_protocol(name_or_path: str | Path) -> Protocol:
         path = builtins[text_name]
     else:
         path = Path(text_name).expanduser()
+        if path.suffix == ".toml" and (path.exists() or path.is_symlink()):
+            check_path(path, what="benchmark file", max_bytes=TEXT_LIMIT)  # a folder, a pipe, a device: refused
         if not path.suffix == ".toml" or not path.is_file():
             raise InputError(
                 f"unknown benchmark {text_name!r}{did_you_mean(text_name, builtins)}; built-in: "
                 f"{', '.join(builtins)} (or the path of a benchmark .toml file)"
             )
     try:
-        text = path.read_text(encoding="utf-8")
-    except (OSError, UnicodeDecodeError) as exc:
-        raise InputError(f"cannot read the benchmark file {path}: {exc}") from None
+        text = read_text_file(path, "benchmark file")
+    except DataError as exc:
+        raise InputError(str(exc)) from None
     protocol = parse_protocol(text, str(path))
     if text_name in builtins and protocol.name != text_name:
         raise InputError(f"benchmark file {path}: its name {protocol.name!r} differs from the file's")

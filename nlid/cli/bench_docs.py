@@ -24,6 +24,7 @@ from ..benchmarking.leaderboard import groups, markdown_tables, read_leaderboard
 from ..benchmarking.protocol import Protocol, load_protocol
 from ..errors import InputError
 from ..formatting import sig
+from ..io import TEXT_LIMIT, check_path, read_text_file
 from .common import to_cli
 
 __all__ = ["render_docs", "BLOCKS", "DATA_FILES", "replace_block", "copy_data", "command", "figures_outside_blocks"]
@@ -335,14 +336,30 @@ def _data_block(protocols: Mapping[str, Protocol], rows: Sequence[Mapping[str, A
 
 
 def _load(data: Path) -> tuple[dict[str, Protocol], list[dict[str, Any]], dict[str, Any]]:
-    missing = [f for f in DATA_FILES if not (data / f).is_file()]
+    """The protocols, leaderboard rows and ``bench.json`` of an ``nlid bench`` output (checked: one line if not)."""
+    missing = [f for f in DATA_FILES if not (data / f).exists()]
     if missing:
         raise InputError(
             f"{data} lacks {', '.join(missing)} (an nlid bench output: nlid bench --render-docs --from DIR)"
         )
-    info = json.loads((data / "bench.json").read_text())
-    rows = read_leaderboard(data / "leaderboard.csv")
-    protocols = {name: load_protocol(name) for name in info.get("benchmarks", [])}
+    source = data / "bench.json"
+    try:
+        info = json.loads(read_text_file(source, "bench.json"))
+    except ValueError as exc:
+        raise InputError(f"{source}: not JSON ({exc})") from None
+    except RecursionError:
+        raise InputError(f"{source}: nested too deeply to be the bench.json of an nlid bench run") from None
+    names = info.get("benchmarks") if isinstance(info, dict) else None
+    if not isinstance(names, list) or not all(isinstance(n, str) for n in names):
+        raise InputError(f"{source}: not the bench.json of an nlid bench run (no list of benchmarks)")
+    board = check_path(data / "leaderboard.csv", what="leaderboard", max_bytes=TEXT_LIMIT)
+    try:
+        rows = read_leaderboard(board)
+    except (ValueError, KeyError, TypeError) as exc:
+        raise InputError(
+            f"{board}: not the leaderboard.csv of an nlid bench run ({type(exc).__name__}: {exc})"
+        ) from None
+    protocols = {name: load_protocol(name) for name in names}
     return protocols, rows, info
 
 
@@ -353,29 +370,49 @@ def copy_data(source: str | Path, docs: str | Path) -> list[Path]:
     if missing:
         raise InputError(f"{src} is not an nlid bench output folder: {', '.join(missing)} missing")
     dst.mkdir(parents=True, exist_ok=True)
+    if src.resolve() == dst.resolve():  # --from docs/_data: the files are there already
+        return [dst / f for f in DATA_FILES]
     return [Path(shutil.copyfile(src / f, dst / f)) for f in DATA_FILES]
 
 
-def render_docs(docs: str | Path = "docs", *, write: bool = True) -> dict[Path, str]:
+def render_docs(docs: str | Path = "docs", *, write: bool = True, data: str | Path | None = None) -> dict[Path, str]:
     """The generated pages from ``docs/_data`` (written when ``write``): ``{path: text}``.
+
+    Parameters
+    ----------
+    docs
+        The docs folder.
+    write
+        Write the pages (else only return them).
+    data
+        Where ``leaderboard.csv`` and ``bench.json`` are (default ``docs/_data``): ``nlid bench
+        --render-docs --from DIR`` renders from DIR before copying anything.
 
     Raises
     ------
     InputError
-        ``docs/_data`` lacks its files, or a page lacks its block markers.
+        The data folder lacks its files or they are not an ``nlid bench`` output's, or a page lacks its
+        block markers.
     """
     folder = Path(docs)
-    protocols, rows, info = _load(folder / "_data")
-    bodies = {
-        "results": _results_block(protocols, rows, info),
-        "discover": _discover_block(protocols, rows, info),
-        "data": _data_block(protocols, rows, info),
-        "readme": _readme_block(protocols, rows, info),
-    }
+    source = Path(data) if data is not None else folder / "_data"
+    protocols, rows, info = _load(source)
+    try:
+        bodies = {
+            "results": _results_block(protocols, rows, info),
+            "discover": _discover_block(protocols, rows, info),
+            "data": _data_block(protocols, rows, info),
+            "readme": _readme_block(protocols, rows, info),
+        }
+    except (AttributeError, KeyError, TypeError, ValueError, IndexError, RecursionError) as exc:
+        # bench.json is read as nlid bench writes it: a field of another shape means another file
+        raise InputError(
+            f"{source / 'bench.json'}: not the bench.json of an nlid bench run ({type(exc).__name__}: {exc})"
+        ) from None
     out: dict[Path, str] = {}
     for page, names in BLOCKS.items():
         path = folder / page
-        text = path.read_text(encoding="utf-8")
+        text = read_text_file(path, "docs page")
         for name in names:
             text = replace_block(text, name, bodies[name], str(path))
         out[path] = text

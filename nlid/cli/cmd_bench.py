@@ -7,7 +7,7 @@ import io
 import signal
 import sys
 
-from ..errors import InputError
+from ..errors import InputError, brief
 from .common import print_json, to_cli
 
 DESCRIPTION = """\
@@ -67,7 +67,12 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--out", metavar="DIR", default="nlid-bench", help="output folder (default: nlid-bench)")
     p.add_argument("--jobs", type=int, metavar="N", help="jobs at the same time (default: every core)")
     p.add_argument("--executor", choices=("local", "dask"), default="local", help="local processes (default) or Dask")
-    p.add_argument("--scheduler", metavar="ADDR", help="Dask scheduler address (default: a LocalCluster)")
+    p.add_argument(
+        "--scheduler",
+        metavar="ADDR",
+        help="Dask scheduler address (default: a LocalCluster). Dask sends work as pickles: a scheduler you do not "
+        "trust gets code execution on this machine, so name only your own",
+    )
     p.add_argument(
         "--source",
         choices=("auto", "local", "package"),
@@ -105,10 +110,14 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.set_defaults(func=run)
 
 
-def _split(values: list[str] | None) -> list[str] | None:
-    if not values:
+def _split(values: list[str] | None, flag: str) -> list[str] | None:
+    """The names of a repeatable comma-separated flag; ``None`` when it is not given, refused when it names none."""
+    if values is None:
         return None
-    return [item.strip() for value in values for item in value.split(",") if item.strip()]
+    names = [item.strip() for value in values for item in value.split(",") if item.strip()]
+    if not names:
+        raise InputError(f"{flag} names nothing (got {brief(','.join(values), 40)}); leave it out for the default")
+    return names
 
 
 def _files(items: list[str] | None) -> dict[str, str]:
@@ -159,10 +168,13 @@ def _list(as_json: bool) -> int:
 def _render(args: argparse.Namespace) -> int:
     from .bench_docs import copy_data, render_docs
 
+    # every page is rendered from DIR's files first: nothing of docs/ is replaced unless all of it can be
+    pages = render_docs(args.docs, write=False, data=args.source_dir)
     if args.source_dir:
         copied = copy_data(args.source_dir, args.docs)
         print(f"nlid bench: copied {', '.join(str(p) for p in copied)}", file=sys.stderr)
-    for path in render_docs(args.docs):
+    for path, text in pages.items():
+        path.write_text(text, encoding="utf-8")
         print(f"nlid bench: wrote {path}", file=sys.stderr)
     return 0
 
@@ -178,9 +190,13 @@ def run(args: argparse.Namespace) -> int:
         return _render(args)
     if args.source_dir:
         raise InputError("--from applies to --render-docs")
-    from ..benchmarking import DEFAULT_BENCHMARKS, bench
+    from ..benchmarking import DEFAULT_BENCHMARKS, bench, load_protocol
     from ..benchmarking.leaderboard import markdown_tables
 
+    benchmarks = _split(args.benchmark, "--benchmark") or list(DEFAULT_BENCHMARKS)
+    pipelines = _split(args.pipeline, "--pipeline")
+    # the protocols by the names the rows carry: a benchmark file of one's own is named by its path, not its name
+    protocols = {p.name: p for p in map(load_protocol, benchmarks)}
     if args.executor == "local":
         from ..isolation import start_fork_server
 
@@ -188,8 +204,8 @@ def run(args: argparse.Namespace) -> int:
     previous = signal.signal(signal.SIGTERM, _terminate)  # stop children and keep what is saved
     try:
         outcome = bench(
-            _split(args.benchmark) or DEFAULT_BENCHMARKS,
-            _split(args.pipeline) or None,
+            benchmarks,
+            pipelines,
             out=args.out,
             jobs=args.jobs,
             executor=args.executor,
@@ -207,10 +223,8 @@ def run(args: argparse.Namespace) -> int:
     if args.json:
         print_json(outcome.rows)
     else:
-        from ..benchmarking import load_protocol
-
-        protocols = {name: load_protocol(name) for name in dict.fromkeys(r["benchmark"] for r in outcome.rows)}
-        print(to_cli("\n".join(markdown_tables(protocols, outcome.rows, level=2)).rstrip()))
+        shown = {name: protocols[name] for name in dict.fromkeys(r["benchmark"] for r in outcome.rows)}
+        print(to_cli("\n".join(markdown_tables(shown, outcome.rows, level=2)).rstrip()))
     if not args.quiet:
         print(
             f"nlid bench: {outcome.executed} job(s) run, {outcome.skipped} reused, {outcome.seconds:.0f} s; "

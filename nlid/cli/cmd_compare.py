@@ -139,14 +139,22 @@ def _reference(path: str | None) -> Any:
     if path is None:
         return None
     from ..identified import IdentifiedModel
+    from ..io import read_text_file
+    from ..mdof.identified import SCHEMA as STRUCTURE_SCHEMA
 
+    text = read_text_file(path, "reference JSON")
     try:
-        with open(path, encoding="utf-8") as handle:
-            data = json.load(handle)
-    except (UnicodeDecodeError, json.JSONDecodeError) as exc:
+        data = json.loads(text)
+    except json.JSONDecodeError as exc:
         raise DataError(f"--reference {path}: not a JSON file ({exc})") from None
+    except RecursionError:
+        raise DataError(f"--reference {path}: nested too deeply to be a reference") from None
     if not isinstance(data, dict):
         raise DataError(f"--reference {path}: expected a JSON object, got {type(data).__name__}")
+    if data.get("schema") == STRUCTURE_SCHEMA:  # nlid identify --json of a structure
+        from ..mdof.identified import IdentifiedStructure
+
+        return IdentifiedStructure.from_dict(data)
     if {"terms", "coefficients", "method"} <= set(data):  # nlid identify --json
         return IdentifiedModel.from_dict(data)
     return data

@@ -35,6 +35,10 @@ def run(args: argparse.Namespace) -> int:
     from ..registry import default_registry
 
     reg = default_registry()
+    unknown = [n for n in args.names if n not in reg.identifiers]
+    if unknown:  # with --json too: a misspelt name is refused, not answered with every method
+        reg.get(unknown[0])  # raises the registry's error, with a suggestion
+        raise InputError(f"unknown identifier {brief(unknown[0])}")
     if args.json:
         print_json(
             {
@@ -46,16 +50,13 @@ def run(args: argparse.Namespace) -> int:
                         "options": [o.describe() for o in cls.options],
                     }
                     for name, cls in sorted(reg.identifiers.items())
+                    if not args.names or name in args.names
                 },
                 "failures": reg.failures,
                 "notes": reg.notes,
             }
         )
         return 0
-    unknown = [n for n in args.names if n not in reg.identifiers]
-    if unknown:
-        reg.get(unknown[0])  # raises the registry's error, with a suggestion
-        raise InputError(f"unknown identifier {brief(unknown[0])}")
     if not reg.identifiers:
         print("no identifiers installed")
     detailed = set(args.names) if args.names else set(reg.names()) if args.all else set()

@@ -57,7 +57,10 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         help="local: processes on this machine (default); dask: a Dask cluster (needs nlid[dask])",
     )
     run.add_argument(
-        "--scheduler", metavar="ADDR", help="Dask scheduler address; without it --executor dask starts a LocalCluster"
+        "--scheduler",
+        metavar="ADDR",
+        help="Dask scheduler address; without it --executor dask starts a LocalCluster. Dask sends work as pickles: "
+        "a scheduler you do not trust gets code execution on this machine, so name only your own",
     )
     run.add_argument("--jobs", type=int, metavar="N", help="runs at the same time (default: every core)")
     run.add_argument("--rerun", action="store_true", help="run everything again, even runs already saved")

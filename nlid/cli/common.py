@@ -47,6 +47,7 @@ FLAGS: dict[str, str] = {
     "px_max_iter": "--set px_max_iter",
     "cutoff": "--cutoff",
     "holdout": "--holdout",
+    "rule": "--rule",
     "methods": "--methods",
     "reference": "--reference",
     "jobs": "--jobs",
@@ -192,7 +193,7 @@ def load_data(args: argparse.Namespace) -> Record:
     from ..api import load
     from ..units import parse_units
 
-    units = parse_units(getattr(args, "units", None), where="--units") or None
+    units = parse_units(getattr(args, "units", None), where="--units", indexed=True) or None
     if str(args.data).startswith("dataset:") and (args.columns or args.fs or units):
         raise InputError("--columns, --fs and --units do not apply to bundled datasets")
     return load(args.data, columns=args.columns, fs=args.fs, force_hold=getattr(args, "force_hold", None), units=units)

@@ -35,7 +35,7 @@ def as_elements(
     terms: Any,
     n_dofs: int,
     *,
-    without: str | Iterable[str] = (),
+    without: str | Iterable[str] | None = (),
     px_roots: Mapping[Connection, Any] | None = None,
 ) -> ElementSet:
     """The :class:`ElementSet` to identify on ``n_dofs`` DOFs from terms on connections or an element set.
@@ -51,7 +51,7 @@ def as_elements(
         raise InputError(
             "terms are missing: give the elements, e.g. '(z1-z2)^3, z3^3' ('' for the linear system alone)"
         )
-    removed = [without] if isinstance(without, str) else list(without)
+    removed = [] if without is None else [without] if isinstance(without, str) else list(without)
     removed = [t.strip() for item in removed for t in str(item).split(",") if t.strip()]
     if any(t != "1" for t in removed):
         raise InputError(

@@ -27,9 +27,10 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from .. import numerics
-from ..errors import IdentificationError, InputError, NlidError
+from ..errors import IdentificationError, InputError, NlidError, brief
 from ..frozen import FrozenDict, freeze
 from ..interface import to_jsonable
+from ..modelschema import check_structure
 from ..summary import Column, Summary
 from .balance import StructureResidual, residual
 from .estimate import StructureEstimate
@@ -342,9 +343,10 @@ class IdentifiedStructure:
             raise InputError(f"expected a dictionary from IdentifiedStructure.to_dict(), got {type(data).__name__}")
         schema = data.get("schema")
         if schema != SCHEMA:
-            raise InputError(f"unknown identified-structure layout {schema!r}; this nlid reads {SCHEMA!r}")
+            raise InputError(f"unknown identified-structure layout {brief(schema, 60)}; this nlid reads {SCHEMA!r}")
         if not isinstance(data.get("structure"), Mapping):
             raise InputError("an identified structure needs 'structure'")
+        check_structure(data)  # every field against the layout's schema (nlid.modelschema)
         eq = data.get("equilibria")
         return cls(
             structure=StructuralModel.from_dict(data["structure"]),

@@ -21,7 +21,9 @@ folder is):
 
 It ends, killing every run's process group, when the parent closes its end of
 the socket or dies (the socket closes; on Linux the parent-death signal says
-so as well). On Linux it is also a *child subreaper*: a grandchild that left
+so as well). It runs in a session of its own and ignores ``SIGINT``: the
+terminal's Ctrl-C reaches nlid alone, which ends the server (no traceback
+from it). On Linux it is also a *child subreaper*: a grandchild that left
 its run's process group is re-parented to the server, which kills it when
 the run ends.
 
@@ -167,6 +169,7 @@ class _Server:
 
 def main(fd: int) -> None:
     """Serve run requests on the socket ``fd`` (see the module docstring)."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl-C is nlid's to handle: it ends the server by closing the socket
     parent = os.getppid()
     if os.environ.get(PIN_ENV) == "1":
         pin_threads(os.environ)

@@ -196,12 +196,15 @@ class _ForkServer:
         env[PRELOAD_ENV] = preload
         err = _stderr_fd()
         try:
+            # a session of its own: the terminal's Ctrl-C (SIGINT to the foreground process group) stops nlid,
+            # which then ends the server; the server never sees it (no KeyboardInterrupt traceback from it)
             self.proc = subprocess.Popen(
                 [sys.executable, "-m", "nlid.runtime.forkserver", str(theirs.fileno())],
                 pass_fds=(theirs.fileno(),),
                 stdin=subprocess.DEVNULL,
                 stdout=err if err is not None else subprocess.DEVNULL,
                 env=env,
+                start_new_session=True,
             )
         except OSError as exc:
             mine.close()
@@ -401,6 +404,10 @@ def _run_forked(payload: bytes, timeout: float | None, pinned: bool) -> ChildRes
             status.settimeout(END_LIMIT)  # a child that replied ends itself at once
             with contextlib.suppress(OSError):
                 exitcode, ended = _exit_code(status), True
+        # the server reports every child's exit code; a closed status socket without one means the server died
+        lost = ended and exitcode is None and not timed_out
+        if lost:
+            server.broken = True
     finally:
         if not ended:
             _kill(pid, "group")  # interrupted (Ctrl-C) or the end was not reported: stop it and its group
@@ -408,7 +415,7 @@ def _run_forked(payload: bytes, timeout: float | None, pinned: bool) -> ChildRes
             _LIVE.pop(pid, None)
         status.close()
         data.close()
-    return result_from_reply(reply, exitcode, time.perf_counter() - start, timed_out, pid)
+    return result_from_reply(reply, exitcode, time.perf_counter() - start, timed_out, pid, lost)
 
 
 def _recv_exact(sock: socket.socket, size: int) -> bytes | None:

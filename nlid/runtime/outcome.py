@@ -97,8 +97,11 @@ class ChildResult:
         ``"ok"`` (it returned :attr:`value`), ``"raised"`` (it raised
         :attr:`kind`; :attr:`error` says what), ``"timeout"`` (killed at the
         time limit), ``"died"`` (its process ended without replying:
-        :attr:`exitcode`) or ``"unsent"`` (it returned a value that could
-        not be sent back: :attr:`error`).
+        :attr:`exitcode`), ``"unsent"`` (it returned a value that could
+        not be sent back: :attr:`error`) or ``"lost"`` (nlid's fork server
+        ended while the call ran, e.g. killed by the out-of-memory killer:
+        the call's process went with it, and nothing is known of the call:
+        not the target's failure, see :attr:`infrastructure`).
     value
         The function's return value (``status == "ok"``).
     exitcode
@@ -128,10 +131,20 @@ class ChildResult:
     threads: tuple[str, ...] = field(default=())
     pid: int | None = None
 
+    @property
+    def infrastructure(self) -> bool:
+        """True when nlid's own machinery failed (the fork server died), not the call: it may simply be run again."""
+        return self.status == "lost"
+
     def describe(self, label: str, timeout: float | None = None) -> str:
         """One line saying what went wrong, starting with ``label`` (e.g. ``"identifier 'x'"``)."""
         if self.status == "ok":
             return f"{label} finished"
+        if self.status == "lost":
+            return (
+                f"{label} was cut short: nlid's fork server ended while it ran (killed from outside, e.g. by the "
+                "out-of-memory killer); not the identifier's failure"
+            )
         if self.status == "timeout":
             limit = f" of {timeout:g} s" if timeout is not None and math.isfinite(timeout) else ""
             return f"{label} did not finish within the time limit{limit} and was stopped"
@@ -151,6 +164,8 @@ class ChildResult:
         """
         if self.status == "timeout":
             raise IdentificationError(f"{self.describe(label, timeout)} ({hint})")
+        if self.infrastructure:
+            raise IsolationError(self.describe(label, timeout))
         if self.status != "ok":
             raise PluginError(self.describe(label, timeout))
         kind, *rest = self.value
@@ -220,9 +235,12 @@ def describe_exit(exitcode: int | None) -> str:
 
 
 def result_from_reply(
-    reply: bytes | None, exitcode: int | None, seconds: float, timed_out: bool, pid: int
+    reply: bytes | None, exitcode: int | None, seconds: float, timed_out: bool, pid: int, lost: bool = False
 ) -> ChildResult:
     """The :class:`ChildResult` of a call: from the child's pickled reply, or from how it ended without one.
+
+    ``lost``: the fork server that started the child ended without reporting the child's exit (the server
+    died, and the child with it): a reply-less end is then ``"lost"``, not the child's own ``"died"``.
 
     Raises
     ------
@@ -232,7 +250,7 @@ def result_from_reply(
     if timed_out:
         return ChildResult("timeout", exitcode=exitcode, seconds=seconds, pid=pid)
     if reply is None:
-        return ChildResult("died", exitcode=exitcode, seconds=seconds, pid=pid)
+        return ChildResult("lost" if lost else "died", exitcode=exitcode, seconds=seconds, pid=pid)
     try:
         data = pickle.loads(reply)
     except Exception as exc:  # noqa: BLE001 - e.g. a class the child could import and this process cannot

@@ -10,6 +10,7 @@ from pathlib import Path
 from typing import Any, TextIO
 
 from ..outputs import STUDY_OUTPUTS, output_folder
+from . import columns as col
 from .config import StudyConfig
 from .execute import LocalExecutor
 from .plan import Run, plan_study
@@ -194,7 +195,10 @@ def _run_study(
 
     def on_done(run: Run, payload: dict[str, Any]) -> None:
         try:
-            store.save(run, payload)
+            if not store.save(run, payload):  # nlid's fork server died under it: not the run's result
+                why = payload["row"].get(col.ERROR.key(), "")
+                clear = "\r\x1b[2K" if bar.enabled else ""
+                log.write(f"{clear}nlid study: {run.run_id}: {why}; not saved: it runs again on resume\n")
         except (TypeError, ValueError, OverflowError, RecursionError, KeyError) as exc:
             # a result that cannot be stored (e.g. an object among a plugin's diagnostics) is that run's failure
             why = f"identifier {run.spec.method!r} returned a result that cannot be stored: {type(exc).__name__}: {exc}"

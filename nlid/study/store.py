@@ -11,7 +11,9 @@ A run's JSON is written to a temporary file in the same folder, flushed to
 disk and renamed over the final name (atomic on POSIX), after its arrays: a
 killed study loses at most the runs in flight, never leaves half a file, and
 a run counts as done only when its JSON exists with the digest of the current
-spec (so a changed configuration re-runs what it changed).
+spec (so a changed configuration re-runs what it changed). A temporary file
+is removed when the write fails or is interrupted, and one a killed study
+left is removed by the next run (:func:`nlid.outputs.sweep_temporary`).
 """
 
 from __future__ import annotations
@@ -28,12 +30,17 @@ import numpy as np
 
 from ..errors import InputError
 from ..interface import to_jsonable
+from ..outputs import atomic_write, temporary
 from .plan import Run
 
 if TYPE_CHECKING:
     import pandas as pd
 
-__all__ = ["ResultStore", "safe_name"]
+__all__ = ["ResultStore", "safe_name", "INFRASTRUCTURE"]
+
+#: Key of a payload set when nlid's own machinery failed under the run (its fork server died): such a payload is
+#: not stored, so the run counts as not done and a resume runs it again.
+INFRASTRUCTURE = "infrastructure"
 
 _UNSAFE = re.compile(r"[^A-Za-z0-9_.+-]+")
 
@@ -45,12 +52,7 @@ def safe_name(run_id: str) -> str:
 
 
 def _atomic_write(path: Path, data: bytes) -> None:
-    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
-    with open(tmp, "wb") as fh:
-        fh.write(data)
-        fh.flush()
-        os.fsync(fh.fileno())
-    os.replace(tmp, path)
+    atomic_write(path, data)  # a temporary file renamed over it; removed on an error or a signal
 
 
 class ResultStore:
@@ -91,15 +93,21 @@ class ResultStore:
         stored = self.load(run.run_id)
         return stored is not None and stored.get("digest") == run.digest
 
-    def save(self, run: Run, payload: dict[str, Any]) -> None:
-        """Persist a finished run (arrays first, then the JSON that marks it done)."""
+    def save(self, run: Run, payload: dict[str, Any]) -> bool:
+        """Persist a finished run (arrays first, then the JSON that marks it done); ``False`` when not stored.
+
+        A payload marked :data:`INFRASTRUCTURE` (nlid's fork server died under the run) is not stored: the
+        run is not the identifier's failure, and a resume runs it again.
+        """
+        if payload.get(INFRASTRUCTURE):
+            return False
         arrays = payload.get("arrays") or {}
         name = safe_name(run.run_id)
         if arrays:
             npz = self.arrays_dir / f"{name}.npz"
-            tmp = npz.with_name(f".{npz.stem}.{os.getpid()}.tmp.npz")
-            np.savez(tmp, **{k: np.asarray(v) for k, v in arrays.items()})
-            os.replace(tmp, npz)
+            with temporary(npz, ".npz") as tmp:
+                np.savez(tmp, **{k: np.asarray(v) for k, v in arrays.items()})
+                os.replace(tmp, npz)
         record = {
             "run_id": run.run_id,
             "digest": run.digest,
@@ -111,6 +119,7 @@ class ResultStore:
         }
         text = json.dumps(to_jsonable(record), allow_nan=False, indent=1)
         _atomic_write(self.path(run.run_id), text.encode())
+        return True
 
     def records(self, runs: Iterable[Run]) -> list[dict[str, Any]]:
         """Stored records of the given runs (in their order), skipping missing or stale ones."""

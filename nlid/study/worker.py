@@ -47,6 +47,7 @@ from . import columns as col
 from . import metrics
 from .data import build_data
 from .plan import RunSpec
+from .store import INFRASTRUCTURE
 
 __all__ = ["execute_run", "run_isolated", "kill_children", "failure_payload", "json_problem"]
 
@@ -237,6 +238,10 @@ def run_isolated(spec: RunSpec, timeout: float | None = None, *, use_subprocess:
         The run's payload (:func:`execute_run`), or a failure payload saying
         why the run produced nothing.
 
+        A run whose fork server died under it (twice: it is tried again at once) has the status
+        ``"lost"`` and ``payload[INFRASTRUCTURE]`` set: nlid's failure, not the run's, which
+        :meth:`nlid.study.store.ResultStore.save` does not store.
+
     Raises
     ------
     IsolationError
@@ -244,9 +249,16 @@ def run_isolated(spec: RunSpec, timeout: float | None = None, *, use_subprocess:
     """
     timeout = float(spec.timeout if timeout is None else timeout)
     label = f"identifier {spec.method!r}" if isinstance(spec, RunSpec) else f"job {spec.run_id!r}"
-    outcome = isolation.run_in_child(
-        execute_run, (spec,), timeout=timeout, pin_threads=True, method="spawn" if use_subprocess else None
-    )
+    for _attempt in range(2):  # a fork server that died under the run (the OOM killer): once more, on a new one
+        outcome = isolation.run_in_child(
+            execute_run, (spec,), timeout=timeout, pin_threads=True, method="spawn" if use_subprocess else None
+        )
+        if not outcome.infrastructure:
+            break
+    if outcome.infrastructure:  # not the run's result: not stored (ResultStore.save), so a resume runs it again
+        payload = failure_payload(spec, "lost", outcome.describe(label, timeout))
+        payload[INFRASTRUCTURE] = True
+        return payload
     if outcome.status == "ok":
         payload = outcome.value
     elif outcome.status == "timeout":

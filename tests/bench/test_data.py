@@ -58,10 +58,18 @@ def test_a_missing_user_test_set_says_how_to_give_it(monkeypatch):
 
 
 def test_check_user_files(tmp_path):
+    from scipy.io import savemat
+
     protocols = {"bouc-wen": load_protocol("bouc-wen")}
-    path = tmp_path / "u.mat"
-    path.write_bytes(b"")
+    rng = np.random.default_rng(6)
+    path = tmp_path / "uval_multisine.mat"
+    savemat(path, {"uval_multisine": rng.standard_normal((1, 8192))})
+    savemat(tmp_path / "yval_multisine.mat", {"yval_multisine": 1e-4 * rng.standard_normal((1, 8192))})
     assert check_user_files(protocols, {"bouc-wen:multisine": str(path)}) == {"bouc-wen:multisine": str(path)}
+    empty = tmp_path / "u.mat"
+    empty.write_bytes(b"")
+    with pytest.raises(DataError, match="u.mat"):  # each file is read before any job runs: an empty one is refused
+        check_user_files(protocols, {"bouc-wen:multisine": str(empty)})
     with pytest.raises(InputError, match="is read from \\$NLID_DATA_DIR, not from a file you give"):
         check_user_files(protocols, {"bouc-wen:sinesweep": str(path)})
     with pytest.raises(InputError, match="name it BENCHMARK:TEST"):
@@ -89,7 +97,7 @@ def _fake_package(monkeypatch, n=1000, fs=1024.0):
         return train, (_IO(u[n : 2 * n], y[n : 2 * n], 1 / fs), _IO(u[2 * n :], y[2 * n :], 1 / fs))
 
     module = types.ModuleType("nonlinear_benchmarks")
-    module.Toy = toy
+    module.Silverbox = toy  # a loader of the package's allow-list (nlid.benchmarking.protocol.PACKAGE_FUNCTIONS)
     monkeypatch.setitem(sys.modules, "nonlinear_benchmarks", module)
     bench_data._package_result.cache_clear()
     return u, y, calls
@@ -103,7 +111,8 @@ def test_loading_through_the_nonlinear_benchmarks_package(monkeypatch, toy_text)
         .replace('[estimation.file]\nnames = ["toy_estimation.mat"]\ncolumns = "f=force, z=disp"\n', "")
         .replace('name = "independent"\n', 'name = "independent"\npackage = "test:1"\n')
         .replace(
-            "remove_means = true\n", 'remove_means = true\n\n[benchmark.package]\nfunction = "Toy"\nforce_scale = 2.0\n'
+            "remove_means = true\n",
+            'remove_means = true\n\n[benchmark.package]\nfunction = "Silverbox"\nforce_scale = 2.0\n',
         )
     )
     protocol = parse_protocol(text)
@@ -113,7 +122,7 @@ def test_loading_through_the_nonlinear_benchmarks_package(monkeypatch, toy_text)
     test = load_test(protocol, protocol.test("independent"), offsets, source="package")
     # the test set is the package's second test set, with the *estimation* means removed
     assert np.allclose(test.z, y[2000:] - y[:1000].mean()) and np.allclose(test.f, 2.0 * u[2000:] - offsets.f)
-    assert test.meta["source"] == "nonlinear-benchmarks: Toy() test:1"
+    assert test.meta["source"] == "nonlinear-benchmarks: Silverbox() test:1"
     assert len(calls) == 1, "the package function is called once per process"
     # a sampling time other than the benchmark file's is refused
     bad = parse_protocol(text.replace("fs = 1024.0", "fs = 1000.0"))
@@ -125,9 +134,9 @@ def test_loading_through_the_nonlinear_benchmarks_package(monkeypatch, toy_text)
     def broken():
         raise ConnectionError("no network")
 
-    sys.modules["nonlinear_benchmarks"].Toy = broken
+    sys.modules["nonlinear_benchmarks"].Silverbox = broken
     bench_data._package_result.cache_clear()
-    with pytest.raises(DataError, match="nonlinear_benchmarks.Toy\\(\\) failed: ConnectionError: no network"):
+    with pytest.raises(DataError, match="nonlinear_benchmarks.Silverbox\\(\\) failed: ConnectionError: no network"):
         load_estimation(protocol, source="package")
     bench_data._package_result.cache_clear()
 

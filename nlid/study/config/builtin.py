@@ -52,6 +52,8 @@ def resolve_study_path(name_or_path: str | os.PathLike[str]) -> Path:
         if path.is_dir():
             raise InputError(f"study file {text} is a folder, not a .toml file")
         if not path.is_file():
+            if path.exists():  # a pipe, a socket or a device
+                raise InputError(f"study file {text} is not a regular file")
             raise InputError(f"study file {text} not found")
         return path
     studies = builtin_studies()

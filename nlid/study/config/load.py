@@ -7,6 +7,7 @@ from dataclasses import replace
 from pathlib import Path
 
 from ...errors import InputError, NlidError
+from ...io import TEXT_LIMIT, check_path
 from ...registry import Registry
 from ..values import BenchmarkSource, ConfigError, FileSource, KnownMass, PresetSource, Where
 from .builtin import resolve_study_path
@@ -35,6 +36,7 @@ def load_study(name_or_path: str | os.PathLike[str], *, registry: Registry | Non
         For anything invalid, naming the file and key.
     """
     path = resolve_study_path(name_or_path)
+    check_path(path, what="study file", max_bytes=TEXT_LIMIT)  # a pipe or a device is refused, not read forever
     try:
         raw = path.read_bytes()
     except OSError as exc:

@@ -9,13 +9,13 @@ from __future__ import annotations
 
 import hashlib
 import json
-import os
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 import pandas as pd
 
+from ...outputs import atomic_write
 from ...plotting import save_figure
 from .. import columns as col
 
@@ -128,6 +128,4 @@ class FigureCache:
             return
         self.folder.mkdir(parents=True, exist_ok=True)
         path = self.folder / self.INDEX
-        tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
-        tmp.write_text(json.dumps(self.current, indent=1, sort_keys=True))
-        os.replace(tmp, path)
+        atomic_write(path, json.dumps(self.current, indent=1, sort_keys=True).encode())
