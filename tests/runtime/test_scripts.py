@@ -61,7 +61,7 @@ def test_the_readme_python_section_runs_as_a_script_and_prints_once(tmp_path):
     )
     assert proc.returncode == 0, proc.stderr[-3000:]
     assert proc.stdout.count("held-out epsilon") == 1, proc.stdout
-    assert proc.stdout.count("['quadratic-stiffness', 'quadratic-damping']") == 1
+    assert proc.stdout.count("['quadratic-damping', 'quadratic-stiffness']") == 1
     assert proc.stderr.count("nlid study small: 4 runs") == 1, proc.stderr
     assert "Traceback" not in proc.stderr and "FolderBusyError" not in proc.stderr
     assert (tmp_path / "small-study" / "results.csv").is_file()
