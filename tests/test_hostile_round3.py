@@ -423,7 +423,7 @@ def test_b_a_benchmark_file_of_ones_own_ends_with_its_leaderboard_in_text_mode(p
     """The protocols are kept by the name the rows carry, not reloaded by that name (it is not a built-in)."""
     status, out, err = _run(_bench(probe, "test.csv", str(tmp_path / "o"), "--no-progress"))
     assert status == 0, err[-2000:]
-    assert "Benchmark `probe`" in out and "nlid `rfs`" in out, out
+    assert "Benchmark `probe`" in out and "**nlid** `rfs`" in out, out
     assert "unknown benchmark" not in err and "Traceback" not in err
 
 
@@ -476,8 +476,9 @@ def docs(tmp_path):
 
     folder = tmp_path / "docs"
     shutil.copytree(ROOT / "docs" / "_data", folder / "_data")
-    for page in ("results.md", "discover.md"):
+    for page in ("results.md", "discover.md", "data.md"):
         shutil.copy(ROOT / "docs" / page, folder / page)
+    shutil.copy(ROOT / "README.md", tmp_path / "README.md")  # the results block of the README (--docs DIR/..)
     return folder
 
 
@@ -506,7 +507,7 @@ def test_b_render_docs_checks_the_folder_before_replacing_anything(docs, tmp_pat
 
 
 def test_b_render_docs_from_the_docs_own_data_regenerates_the_same_pages(docs):
-    pages = {p: (docs / p).read_text() for p in ("results.md", "discover.md")}
+    pages = {p: (docs / p).read_text() for p in ("results.md", "discover.md", "data.md", "../README.md")}
     status, _, err = _run(["bench", "--render-docs", "--from", str(docs / "_data"), "--docs", str(docs)])
     assert status == 0, err
     assert {p: (docs / p).read_text() for p in pages} == pages
