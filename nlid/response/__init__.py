@@ -1,0 +1,1 @@
+"""What an identified model predicts: nonlinear frequency responses by harmonic balance and continuation."""

@@ -1,0 +1,183 @@
+"""The harmonic-balance equations of a system, their Jacobian, and Hill's stability of a solution.
+
+With the motion ``z(tau) = X phi(tau)`` (``X`` of shape ``(n, P)``, one row
+per DOF) and ``tau = omega t``, the residual of the equations of motion
+projected on the basis is
+
+    r(X, omega) = omega^2 M X D^2' + omega C X D' + K X + s e_0' + sum_c b_c F_c(X) - F e_f e_1'
+
+(``e_f`` the force pattern, ``F`` its amplitude, the force ``F cos omega t``).
+:class:`Balance` evaluates ``r``, ``dr/dX`` (exact: the AFT Jacobians of
+:mod:`nlid.response.aft`), ``dr/domega`` and ``dr/dF``.
+
+Stability (:meth:`Balance.floquet`) is Hill's method on the first-order form
+of the equations linearised along the periodic solution: the perturbation
+``e^(lambda t) p(t)`` with ``p`` periodic gives the eigenproblem
+``lambda p = (A - omega D) p`` in the coefficients, ``A`` the AFT of the
+state matrix ``[[0, I], [-M^-1 K_t(t), -M^-1 C_t(t)]]`` (a memory state adds
+its own rows: ``w' = h(w, v)``). Of its ``d (2H + 1)`` eigenvalues the
+``d`` of least imaginary part are the Floquet exponents (the others are
+copies shifted by ``i k omega``, with the same real part, or artefacts of the
+truncation at the highest harmonics); the multipliers are ``exp(lambda T)``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .aft import Evaluator, GroupForce
+from .harmonics import Harmonics
+from .system import HarmonicSystem
+
+__all__ = ["Balance", "Floquet"]
+
+
+@dataclass(frozen=True)
+class Floquet:
+    """Hill's verdict on one periodic solution.
+
+    Attributes
+    ----------
+    exponents
+        The Floquet exponents (1/s), ``d`` of them.
+    stable
+        ``True`` when every exponent has a negative real part.
+    multiplier
+        The largest modulus of the multipliers ``exp(lambda T)``.
+    kind
+        Which way the critical multiplier leaves the unit circle when it is
+        unstable: ``"real"`` (through +1: a fold or a branch point),
+        ``"flip"`` (through -1: period doubling) or ``"complex"`` (a pair:
+        Neimark-Sacker, quasi-periodic motion); ``""`` when stable.
+    """
+
+    exponents: np.ndarray
+    stable: bool
+    multiplier: float
+    kind: str = ""
+
+
+class Balance:
+    """The harmonic-balance equations of a :class:`HarmonicSystem` (module docstring).
+
+    Parameters
+    ----------
+    system
+        The equations of motion.
+    harmonics
+        Number of harmonics ``H``.
+    force
+        The force pattern per DOF (unit amplitude).
+    samples, memory_samples
+        Quadrature sizes (:class:`~nlid.response.aft.Evaluator`).
+    """
+
+    def __init__(
+        self,
+        system: HarmonicSystem,
+        harmonics: int,
+        force: np.ndarray,
+        samples: int | None = None,
+        memory_samples: int | None = None,
+    ):
+        self.system = system
+        self.basis = Harmonics(int(harmonics))
+        self.evaluator = Evaluator(system, self.basis, samples, memory_samples)
+        self.pattern = np.asarray(force, dtype=float)
+        n, P = system.n, self.basis.P
+        self.n, self.P = n, P
+        D = self.basis.D
+        self.D, self.D2 = D, D @ D
+        self.linear = (np.kron(system.M, self.D2), np.kron(system.C, D), np.kron(system.K, np.eye(P)))
+        self.unit = np.zeros((n, P))
+        self.unit[:, 1] = self.pattern  # F cos(omega t)
+
+    @property
+    def size(self) -> int:
+        """Number of unknown coefficients, ``n P``."""
+        return self.n * self.P
+
+    def evaluate(self, X: np.ndarray, omega: float, amplitude: float) -> tuple:
+        """``(r, dr/dX, dr/domega, dr/dF, forces)`` at flat coefficients ``X`` (``n P``)."""
+        sys_ = self.system
+        Xm = X.reshape(self.n, self.P)
+        Mlin, Clin, Klin = self.linear
+        MX = sys_.M @ Xm
+        CX = sys_.C @ Xm
+        r = (omega**2) * (MX @ self.D2.T) + omega * (CX @ self.D.T) + sys_.K @ Xm
+        r[:, 0] += sys_.static
+        r -= amplitude * self.unit
+        J = (omega**2) * Mlin + omega * Clin + Klin
+        dw = (2 * omega * (MX @ self.D2.T) + CX @ self.D.T).ravel()
+        forces = self.evaluator.forces(Xm, omega)
+        one = self.n == 1
+        for g, f in zip(sys_.groups, forces, strict=True):
+            b = g.b
+            Jg = f.Jx + omega * (f.Jv @ self.D) if g.uses_velocity else f.Jx
+            if one:
+                r[0] += f.F
+                J += Jg
+                if g.uses_velocity:
+                    dw += f.Jv @ (self.D @ Xm[0])
+                continue
+            r += np.outer(b, f.F)
+            J += np.kron(np.outer(b, b), Jg)
+            if g.uses_velocity:
+                dw += np.outer(b, f.Jv @ (self.D @ (b @ Xm))).ravel()
+        return r.ravel(), J, dw, -self.unit.ravel(), forces
+
+    # ------------------------------------------------------------------ stability
+    def floquet(self, X: np.ndarray, omega: float, forces: list[GroupForce]) -> Floquet:
+        """Hill's method at a solution (module docstring); ``forces`` from :meth:`evaluate` at the same point."""
+        sys_ = self.system
+        n, P = self.n, self.P
+        I = np.eye(P)
+        Kt = np.kron(sys_.K, I)
+        Ct = np.kron(sys_.C, I)
+        memory = []
+        for g, f in zip(sys_.groups, forces, strict=True):
+            if f.hill is not None:
+                memory.append((g, f.hill))
+            elif n == 1:
+                Kt += f.Jx
+                Ct += f.Jv
+            else:
+                BB = np.outer(g.b, g.b)
+                Kt += np.kron(BB, f.Jx)
+                Ct += np.kron(BB, f.Jv)
+        Minv = np.kron(np.linalg.inv(sys_.M), I)
+        m = len(memory)
+        size = (2 * n + m) * P
+        A = np.zeros((size, size))
+        nP = n * P
+        A[:nP, nP : 2 * nP] = np.eye(nP)
+        A[nP : 2 * nP, :nP] = -Minv @ Kt
+        A[nP : 2 * nP, nP : 2 * nP] = -Minv @ Ct
+        for k, (g, (theta, Hw, Hv, _)) in enumerate(memory):
+            rows = slice(2 * nP + k * P, 2 * nP + (k + 1) * P)
+            A[nP : 2 * nP, rows] = -Minv @ np.kron(theta * g.b[:, None], I)
+            A[rows, rows] = Hw
+            A[rows, nP : 2 * nP] = np.kron(g.b[None, :], Hv)
+        for k in range(2 * n + m):
+            A[k * P : (k + 1) * P, k * P : (k + 1) * P] -= omega * self.D
+        lam = np.linalg.eigvals(A)
+        d = 2 * n + m
+        chosen = np.argsort(np.abs(lam.imag), kind="stable")[:d]
+        exps = lam[chosen]
+        top = float(np.max(exps.real))
+        period = 2 * np.pi / omega
+        tol = 1e-9 * max(omega, 1.0)
+        stable = top < tol
+        kind = ""
+        if not stable:
+            worst = exps[np.argmax(exps.real)]
+            im = abs(worst.imag) % omega
+            if min(im, omega - im) < 1e-6 * omega:
+                kind = "real"
+            elif abs(im - omega / 2) < 1e-6 * omega:
+                kind = "flip"
+            else:
+                kind = "complex"
+        return Floquet(exps, stable, float(np.exp(top * period)), kind)
