@@ -91,6 +91,8 @@ class Continuation:
         Stop when a scaled unknown exceeds this.
     tol
         Newton's tolerance on the scaled residual.
+    stop
+        ``y -> reason or None``: stops the continuation after a point (e.g. an amplitude reached).
     """
 
     def __init__(
@@ -106,6 +108,7 @@ class Continuation:
         max_points: int = 2000,
         limit: float = 1e3,
         tol: float = 1e-9,
+        stop: Callable[[np.ndarray], str | None] | None = None,
     ):
         self.problem = problem
         self.scale = np.asarray(scale, dtype=float)
@@ -115,6 +118,7 @@ class Continuation:
         self.max_points = int(max_points)
         self.limit = float(limit)
         self.tol = float(tol)
+        self.stop = stop
         self.calls = 0
 
     # ------------------------------------------------------------------ pieces
@@ -168,19 +172,22 @@ class Continuation:
             return (ys, r, J, aux), iters
         return None, iters
 
-    def solve_at(self, y: np.ndarray) -> tuple | None:
-        """Newton with the parameter held at its value in ``y``: ``(y, r, J, aux)`` scaled, or ``None``."""
+    def solve_at(self, y: np.ndarray, fix: int = -1) -> tuple | None:
+        """Newton with unknown ``fix`` (default: the parameter) held at its value in ``y``: ``(y, r, J, aux)``
+        scaled, or ``None``."""
         ys = np.asarray(y, dtype=float) / self.scale
-        out, _ = self._correct(ys, np.zeros_like(ys), fix=ys.size - 1, iters=30)
+        out, _ = self._correct(ys, np.zeros_like(ys), fix=int(fix) % ys.size, iters=30)
         return out
 
     # ------------------------------------------------------------------ the march
-    def run(self, start: tuple, direction: float = 1.0) -> Branch:
-        """Continue from a solved point (:meth:`solve_at`), the parameter first moving in ``direction``."""
+    def run(self, start: tuple, direction: float = 1.0, guide: np.ndarray | None = None) -> Branch:
+        """Continue from a solved point (:meth:`solve_at`), the parameter first moving in ``direction``
+        (or along ``guide``, a vector of the unknowns and the parameter)."""
         ys, _, J, aux = start
         branch = Branch()
         m = J.shape[0]
-        guide = np.r_[np.zeros(m), float(np.sign(direction) or 1.0)]
+        if guide is None:
+            guide = np.r_[np.zeros(m), float(np.sign(direction) or 1.0)]
         t = self._tangent(J, guide)
         det = self._det(J, t)
         self._keep(branch, ys, t, aux)
@@ -226,6 +233,10 @@ class Continuation:
             detn = self._det(Jn, tn)
             self._check_events(branch, ys, t, det, yn, tn, detn, h)
             self._keep(branch, yn, tn, auxn)
+            reason = self.stop(yn * self.scale) if self.stop is not None else None
+            if reason:
+                branch.stopped = reason
+                return branch
             ys, t, det = yn, tn, detn
             h = min(self.h_max, h * (1.6 if iters <= 3 else (1.0 if iters <= 6 else 0.6)))
 

@@ -224,6 +224,10 @@ def continue_frequency(
     )
     guess = np.r_[_linear_guess(system, balance, start, lo, force), lo]
     first = cont.solve_at(guess)
+    if first is None:  # grow the force from a hundredth at the band's low end (past folds in the force, if any)
+        ramp = continue_force(system, lo / (2 * np.pi), (0.01 * force, force), start, settings, pattern)
+        if ramp.force[-1] >= force * (1 - 1e-9):
+            first = cont.solve_at(np.r_[ramp.coefficients[-1].ravel(), lo])
     if first is None:
         raise InputError(
             f"no periodic response found at {band_hz[0]:g} Hz for force {force:g} N from the equilibrium "

@@ -125,15 +125,25 @@ def first_harmonic(z: np.ndarray, steps: int, periods: int) -> tuple[np.ndarray,
 
 
 def envelope(phase: np.ndarray, z: np.ndarray, rate_sign: float, f0: float, rate: float, t: np.ndarray) -> tuple:
-    """Cycle-by-cycle first-harmonic amplitude of a sweep: ``(frequency_hz, amplitude (cycles, n))``."""
-    cycle = np.floor(phase / (2 * np.pi)).astype(int)
+    """Cycle-by-cycle first-harmonic amplitude of a sweep: ``(frequency_hz, amplitude (cycles, n))``.
+
+    Each whole cycle of the force's phase is projected on ``cos`` and ``sin`` of that phase (after removing
+    the cycle's mean).
+    """
+    cycle = np.floor(phase / (2 * np.pi)).astype(np.int64)
     edges = np.flatnonzero(np.diff(cycle)) + 1
-    freqs, amps = [], []
-    for a, b in zip(edges[:-1], edges[1:], strict=True):
-        seg = z[a:b]
-        ph = phase[a:b]
-        basis = np.column_stack([np.ones(b - a), np.cos(ph), np.sin(ph)])
-        coef, *_ = np.linalg.lstsq(basis, seg, rcond=None)
-        amps.append(np.hypot(coef[1], coef[2]))
-        freqs.append(f0 + rate_sign * rate * 0.5 * (t[a] + t[b - 1]))
-    return np.array(freqs), np.array(amps)
+    if edges.size < 2:
+        return np.empty(0), np.empty((0, z.shape[1]))
+    starts = edges[:-1]
+    counts = np.diff(edges)[:, None]
+    part = slice(edges[0], edges[-1])
+    zz, ph = z[part], phase[part]
+    at = starts - edges[0]
+    mean = np.add.reduceat(zz, at, axis=0) / counts
+    c = np.add.reduceat(zz * np.cos(ph)[:, None], at, axis=0)
+    s = np.add.reduceat(zz * np.sin(ph)[:, None], at, axis=0)
+    c -= mean * np.add.reduceat(np.cos(ph), at)[:, None]
+    s -= mean * np.add.reduceat(np.sin(ph), at)[:, None]
+    amp = 2 * np.hypot(c, s) / counts
+    mid = 0.5 * (t[starts] + t[edges[1:] - 1])
+    return f0 + rate_sign * rate * mid, amp

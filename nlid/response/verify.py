@@ -299,12 +299,23 @@ def _jump(freq: np.ndarray, amp: np.ndarray) -> float:
 
 
 def _fold(curve: ResponseCurve, direction: str, near: float) -> float:
-    """The frequency where the continuation's sweep path in ``direction`` jumps, nearest to ``near``."""
+    """Where the continuation's sweep path in ``direction`` leaves the curve (a jump), nearest to ``near``.
+
+    The path leaves it where it skips points (it jumps over an unstable stretch to a later stable point) or
+    where it ends before the curve's far end (the curve turns back: the sweep lands somewhere else).
+    """
     idx = curve.sweep(direction)
-    gaps = np.flatnonzero(np.abs(np.diff(idx)) > 1)
-    if gaps.size == 0:
+    if idx.size == 0:
         return float("nan")
-    candidates = curve.frequency_hz[idx[gaps]]
+    f = curve.frequency_hz
+    gaps = list(idx[np.flatnonzero(np.abs(np.diff(idx)) > 1)])
+    end = f[idx[-1]]
+    far = f.max() if direction == "up" else f.min()
+    if abs(end - far) > 1e-9 * max(abs(far), 1.0):
+        gaps.append(idx[-1])
+    if not gaps:
+        return float("nan")
+    candidates = f[np.array(gaps)]
     if not np.isfinite(near):
         return float(candidates[0])
     return float(candidates[np.argmin(np.abs(candidates - near))])

@@ -1,0 +1,245 @@
+"""The entry points: :func:`frequency_response`, :func:`force_response` and :func:`backbone`.
+
+Each takes a fitted model (:class:`nlid.IdentifiedModel`,
+:class:`nlid.mdof.IdentifiedStructure` or :class:`nlid.mdof.StructuralModel`),
+checks its arguments once, and runs the harmonic balance with one BLAS thread
+(the matrices are small: a thread pool only adds waiting).
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from collections.abc import Sequence
+from typing import Any
+
+import numpy as np
+
+from ..errors import InputError
+from .backbone import Backbone, backbones
+from .curves import ResponseCurve
+from .harmonics import default_samples
+from .result import FrequencyResponse
+from .solve import Settings, continue_force, continue_frequency, equilibria_of
+from .system import HarmonicSystem
+
+__all__ = ["frequency_response", "force_response", "backbone", "check_band", "check_forces"]
+
+#: Most harmonics.
+MAX_HARMONICS = 64
+
+
+def check_band(band: Sequence[float] | str) -> tuple[float, float]:
+    """``(low, high)`` in Hz from a pair or ``"5:30"``, with ``0 < low < high``."""
+    if isinstance(band, str):
+        parts = band.replace(",", ":").split(":")
+        try:
+            band = tuple(float(p) for p in parts)
+        except ValueError:
+            raise InputError(f"band= must be 'low:high' in Hz, got {band!r}") from None
+    try:
+        lo, hi = (float(x) for x in band)
+    except (TypeError, ValueError):
+        raise InputError(f"band= must be (low, high) in Hz, got {band!r}") from None
+    if not (math.isfinite(lo) and math.isfinite(hi) and 0 < lo < hi):
+        raise InputError(f"band= must satisfy 0 < low < high (Hz), got ({lo:g}, {hi:g})")
+    return lo, hi
+
+
+def check_forces(force: float | Sequence[float] | str) -> tuple[float, ...]:
+    """Force amplitudes (N) from a number, a sequence or ``"0.5,1,2"``; each positive and finite."""
+    if isinstance(force, str):
+        try:
+            force = [float(x) for x in force.split(",") if x.strip()]
+        except ValueError:
+            raise InputError(f"force= must be amplitudes in N such as '0.5,1,2', got {force!r}") from None
+    values = [force] if isinstance(force, (int, float, np.floating)) else list(force)
+    out = []
+    for x in values:
+        if isinstance(x, bool) or not isinstance(x, (int, float, np.floating)) or not math.isfinite(x) or x <= 0:
+            raise InputError(f"force= amplitudes must be positive numbers of N, got {x!r}")
+        out.append(float(x))
+    if not out:
+        raise InputError("force= needs at least one amplitude")
+    return tuple(out)
+
+
+def _settings(harmonics: int, settings: Settings | None) -> Settings:
+    if isinstance(harmonics, bool) or not isinstance(harmonics, (int, np.integer)) or not 1 <= harmonics <= MAX_HARMONICS:
+        raise InputError(f"harmonics= must be an integer from 1 to {MAX_HARMONICS}, got {harmonics!r}")
+    base = settings or Settings()
+    import dataclasses
+
+    return dataclasses.replace(base, harmonics=int(harmonics))
+
+
+def _notes(system: HarmonicSystem, settings: Settings) -> tuple[str, ...]:
+    out = []
+    n = settings.samples or default_samples(settings.harmonics)
+    if system.jumps:
+        out.append(
+            f"jumping terms (Coulomb sign factors) integrated exactly between the crossings of the motion "
+            f"(composite Gauss rule, {n} intervals per period), no regularisation; a sticking phase is not represented"
+        )
+    elif not system.smooth:
+        out.append(f"non-smooth terms integrated between their kinks (composite Gauss rule, {n} intervals per period)")
+    if system.uses_memory:
+        m = settings.memory_samples or default_samples(settings.harmonics, memory=True)
+        out.append(f"memory states integrated to their periodic regime along {m} samples per period")
+    return tuple(out)
+
+
+def _starts(fitted, system: HarmonicSystem, starts) -> tuple[list[np.ndarray], list[np.ndarray], list[np.ndarray]]:
+    stable, unstable = equilibria_of(fitted, system)
+    if starts is None:
+        chosen = stable or [np.zeros(system.n)]
+    else:
+        chosen = [np.atleast_1d(np.asarray(s, dtype=float)).reshape(system.n) for s in np.atleast_1d(starts)] if system.n == 1 else [
+            np.asarray(s, dtype=float).reshape(system.n) for s in starts
+        ]
+    return chosen, stable, unstable
+
+
+def frequency_response(
+    model: Any,
+    force: float | Sequence[float] | str,
+    band: Sequence[float] | str,
+    *,
+    harmonics: int = 7,
+    dof: int | Sequence[float] | None = None,
+    starts: Sequence[Any] | None = None,
+    backbone: bool = True,
+    settings: Settings | None = None,
+) -> FrequencyResponse:
+    """The periodic response to ``F cos(2 pi f t)`` for each force amplitude ``F`` over a frequency band.
+
+    Parameters
+    ----------
+    model
+        An :class:`nlid.IdentifiedModel` (with its mass), an :class:`nlid.mdof.IdentifiedStructure` or
+        an :class:`nlid.mdof.StructuralModel`.
+    force
+        Force amplitudes (N): a number, a sequence or ``"0.5,1,2"``. For a base-excited rig
+        (``f = -m b''``) the amplitude is ``m`` times that of the base acceleration.
+    band
+        ``(low, high)`` Hz or ``"5:30"``; each curve is continued from ``low`` to ``high``.
+    harmonics
+        Number of harmonics ``H`` (the constant term is always included).
+    dof
+        Where the force acts on a structure: a DOF number (default 1) or a weight per DOF.
+    starts
+        Equilibria to start from (default: every stable one, so a double well gets a curve per well).
+    backbone
+        Also compute the backbones of the conservative part (:func:`backbone`).
+    settings
+        Quadrature sizes and continuation steps (:class:`~nlid.response.solve.Settings`).
+
+    Returns
+    -------
+    FrequencyResponse
+
+    Raises
+    ------
+    InputError
+        A bad argument, or no periodic solution at the band's low end.
+    """
+    from threadpoolctl import threadpool_limits
+
+    forces = check_forces(force)
+    lo, hi = check_band(band)
+    settings = _settings(harmonics, settings)
+    system = HarmonicSystem.of(model)
+    pattern = system.force_vector(dof)
+    chosen, stable, unstable = _starts(model, system, starts)
+    saddles = tuple(float(u[0]) for u in unstable) if system.n == 1 else ()
+    wells = tuple(float(s[0]) for s in stable) if system.n == 1 else ()
+    t0 = time.perf_counter()
+    curves: list[ResponseCurve] = []
+    with threadpool_limits(limits=1):
+        for F in forces:
+            for z0 in chosen:
+                curves.append(
+                    continue_frequency(system, F, (lo, hi), z0, settings, pattern, saddles=saddles, wells=wells)
+                )
+        bbs: list[Backbone] = []
+        if backbone:
+            top = max(float(np.max(c.basis.amplitude(c.coefficients))) for c in curves)
+            bbs = backbones(
+                system, stable or chosen, unstable, 1.2 * top, harmonics=settings.harmonics, samples=settings.samples
+            )
+    return FrequencyResponse(
+        curves=tuple(curves),
+        band_hz=(lo, hi),
+        harmonics=settings.harmonics,
+        samples=settings.samples or default_samples(settings.harmonics),
+        dofs=system.dofs,
+        forced=tuple(float(x) for x in pattern),
+        notes=_notes(system, settings),
+        backbones=tuple(bbs),
+        seconds=time.perf_counter() - t0,
+        model=model,
+        settings=settings,
+    )
+
+
+def force_response(
+    model: Any,
+    frequency_hz: float,
+    forces: Sequence[float],
+    *,
+    harmonics: int = 7,
+    dof: int | Sequence[float] | None = None,
+    starts: Sequence[Any] | None = None,
+    settings: Settings | None = None,
+) -> FrequencyResponse:
+    """The response at one frequency continued in the force amplitude from ``forces[0]`` to ``forces[1]`` (N)."""
+    from threadpoolctl import threadpool_limits
+
+    if not (isinstance(frequency_hz, (int, float)) and math.isfinite(frequency_hz) and frequency_hz > 0):
+        raise InputError(f"frequency_hz= must be a positive number of Hz, got {frequency_hz!r}")
+    settings = _settings(harmonics, settings)
+    system = HarmonicSystem.of(model)
+    pattern = system.force_vector(dof)
+    chosen, stable, unstable = _starts(model, system, starts)
+    saddles = tuple(float(u[0]) for u in unstable) if system.n == 1 else ()
+    wells = tuple(float(s[0]) for s in stable) if system.n == 1 else ()
+    t0 = time.perf_counter()
+    with threadpool_limits(limits=1):
+        curves = [
+            continue_force(system, frequency_hz, forces, z0, settings, pattern, saddles=saddles, wells=wells)
+            for z0 in chosen
+        ]
+    return FrequencyResponse(
+        curves=tuple(curves),
+        band_hz=(float(frequency_hz), float(frequency_hz)),
+        harmonics=settings.harmonics,
+        samples=settings.samples or default_samples(settings.harmonics),
+        dofs=system.dofs,
+        forced=tuple(float(x) for x in pattern),
+        notes=_notes(system, settings),
+        seconds=time.perf_counter() - t0,
+        model=model,
+        settings=settings,
+    )
+
+
+def backbone(
+    model: Any, amplitude: float, *, harmonics: int = 7, modes: Sequence[int] | None = None, step: float = 0.02
+) -> list[Backbone]:
+    """The backbone curves of a model's conservative part up to a first-harmonic ``amplitude`` (m).
+
+    One per linear mode (``modes=``, 1-based) at each stable equilibrium, and for a one-DOF double well
+    the cross-well backbone too (:mod:`nlid.response.backbone`).
+    """
+    from threadpoolctl import threadpool_limits
+
+    if not (isinstance(amplitude, (int, float)) and math.isfinite(amplitude) and amplitude > 0):
+        raise InputError(f"amplitude= must be a positive number of m, got {amplitude!r}")
+    settings = _settings(harmonics, None)
+    system = HarmonicSystem.of(model)
+    stable, unstable = equilibria_of(model, system)
+    with threadpool_limits(limits=1):
+        return backbones(
+            system, stable or [np.zeros(system.n)], unstable, float(amplitude), harmonics=settings.harmonics,
+            modes=modes, step=step,
+        )
