@@ -100,6 +100,18 @@ def _starts(fitted, system: HarmonicSystem, starts) -> tuple[list[np.ndarray], l
     return chosen, stable, unstable
 
 
+def _modes_in(system: HarmonicSystem, stable: list[np.ndarray], band: tuple[float, float]) -> list[int]:
+    """The linear modes (1-based) whose frequency at some stable equilibrium lies within the band widened by half."""
+    from scipy.linalg import eigh
+
+    out = set()
+    for z0 in stable:
+        w2 = eigh(system.stiffness(z0), system.M, eigvals_only=True)
+        f = np.sqrt(np.abs(w2)) / (2 * np.pi)
+        out |= {j + 1 for j, x in enumerate(f) if 0.5 * band[0] <= x <= 1.5 * band[1]}
+    return sorted(out) or [1]
+
+
 def frequency_response(
     model: Any,
     force: float | Sequence[float] | str,
@@ -162,10 +174,16 @@ def frequency_response(
                     continue_frequency(system, F, (lo, hi), z0, settings, pattern, saddles=saddles, wells=wells)
                 )
         bbs: list[Backbone] = []
-        if backbone:
+        if backbone and not system.uses_memory:  # a hysteretic (memory) term has no conservative part
             top = max(float(np.max(c.basis.amplitude(c.coefficients))) for c in curves)
             bbs = backbones(
-                system, stable or chosen, unstable, 1.2 * top, harmonics=settings.harmonics, samples=settings.samples
+                system,
+                stable or chosen,
+                unstable,
+                1.2 * top,
+                harmonics=settings.harmonics,
+                modes=_modes_in(system, stable or chosen, (lo, hi)),
+                samples=settings.samples,
             )
     return FrequencyResponse(
         curves=tuple(curves),

@@ -169,7 +169,7 @@ def _branch(
         amp = np.abs(c[:, 1])
         if np.max(amp) > limit:
             return f"reached the largest amplitude asked ({limit:.4g} m)"
-        if H > 1 and np.max(np.abs(c[:, -1]) - TRUNCATION * amp) > 0:
+        if H > 1 and np.max(np.abs(c[:, -1])) > TRUNCATION * np.max(amp):
             return f"the harmonics stopped converging (the {H}th above {TRUNCATION:g} of the first): more harmonics="
         if saddles:
             z = c[0] @ np.cos(np.outer(np.arange(H + 1), np.linspace(0, np.pi, 129)))

@@ -21,7 +21,7 @@ from ..interface import to_jsonable
 from ..summary import Column, Summary
 from .backbone import Backbone
 from .curves import ResponseCurve
-from .verify import PointCheck, SweepCheck
+from .verify import BackboneCheck, PointCheck, SweepCheck
 
 if TYPE_CHECKING:  # pragma: no cover
     import pandas as pd
@@ -89,6 +89,7 @@ class FrequencyResponse:
     backbones: tuple[Backbone, ...] = ()
     checks: tuple[PointCheck, ...] = ()
     sweeps: tuple[SweepCheck, ...] = ()
+    backbone_checks: tuple[BackboneCheck, ...] = ()
     uncertainty: ResponseBand | None = None
     measured: MeasuredResponse | None = None
     seconds: float = 0.0
@@ -138,14 +139,15 @@ class FrequencyResponse:
         sweep_rate
             Also simulate sweeps up and down at this rate (Hz/s) and put their jumps beside the folds.
         """
-        from .verify import check_points, check_sweeps
+        from .verify import check_backbones, check_points, check_sweeps
 
         pattern = np.asarray(self.forced)
         checks = check_points(self.model, self.curves, pattern, points=points, unstable=unstable)
         sweeps: list[SweepCheck] = []
         if sweep_rate is not None:
             sweeps = check_sweeps(self.model, self.curves, pattern, self.band_hz, float(sweep_rate), dof=self._lead + 1)
-        return dataclasses.replace(self, checks=tuple(checks), sweeps=tuple(sweeps))
+        bb = check_backbones(self.model, self.backbones) if self.backbones else []
+        return dataclasses.replace(self, checks=tuple(checks), sweeps=tuple(sweeps), backbone_checks=tuple(bb))
 
     def with_posterior(self, posterior, draws: int = 100, *, level: float = 0.9, seed: int = 0, jobs: int | None = None):
         """The band of the response over posterior draws (:func:`nlid.response.bands.response_band`)."""
@@ -194,6 +196,7 @@ class FrequencyResponse:
                 "max_error_percent": self.max_error_percent,
                 "unstable_reached": self.unstable_reached,
                 "sweeps": [s.to_dict() for s in self.sweeps],
+                "backbone_checks": [c.to_dict() for c in self.backbone_checks],
                 "uncertainty": None if self.uncertainty is None else self.uncertainty.to_dict(),
                 "measured": None if self.measured is None else self.measured.to_dict(),
                 "seconds": self.seconds,
@@ -273,6 +276,14 @@ class FrequencyResponse:
                         f"{len(tried)} tried from 1 % away: {self.unstable_reached} reached by time integration",
                     )
                 )
+        if self.backbone_checks:
+            worst = max(c.error_percent for c in self.backbone_checks)
+            lines.append(
+                (
+                    "backbones against free runs",
+                    f"{len(self.backbone_checks)} points, largest difference {worst:.3g} % (every DOF)",
+                )
+            )
         for s in self.sweeps:
             lines.append(
                 (

@@ -59,12 +59,33 @@ def equilibria_of(fitted, system: HarmonicSystem) -> tuple[list[np.ndarray], lis
             eq = physics.equilibria(fitted.model, fitted.theta, fitted.z_range)
         return [np.array([z]) for z in eq.stable], [np.array([z]) for z in eq.unstable]
     eq = getattr(fitted, "equilibria", None)
-    if callable(eq):  # a StructuralModel
-        eq = eq()
+    z_range = getattr(fitted, "z_range", None)
+    if callable(eq):  # a StructuralModel: searched in its range if it has one, else by Newton from rest
+        eq = None
+    if eq is None and z_range is not None:
+        eq = getattr(fitted, "structure", fitted).equilibria(z_range)
     if eq is None:
-        structure = getattr(fitted, "structure", fitted)
-        eq = structure.equilibria(getattr(fitted, "z_range", None))
+        z = _newton_rest(system)
+        if z is None:
+            return [], []
+        stable = bool(np.all(np.linalg.eigvalsh(0.5 * (system.stiffness(z) + system.stiffness(z).T)) > 0))
+        return ([z], []) if stable else ([], [z])
     return [np.array(p, dtype=float) for p in eq.stable], [np.array(p, dtype=float) for p in eq.unstable]
+
+
+def _newton_rest(system: HarmonicSystem) -> np.ndarray | None:
+    """The equilibrium Newton's method reaches from ``z = 0`` (``None`` if it does not converge)."""
+    z = np.zeros(system.n)
+    for _ in range(100):
+        r = system.elastic(z)
+        try:
+            dz = np.linalg.solve(system.stiffness(z), -r)
+        except np.linalg.LinAlgError:
+            return None
+        z = z + dz
+        if np.max(np.abs(dz)) <= 1e-14 * max(1.0, float(np.max(np.abs(z)))):
+            return z
+    return None
 
 
 def _linear_guess(system: HarmonicSystem, balance: Balance, z0: np.ndarray, omega: float, force: float) -> np.ndarray:

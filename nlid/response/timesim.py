@@ -21,7 +21,7 @@ import numpy as np
 
 from ..errors import InputError
 
-__all__ = ["Simulator", "first_harmonic", "envelope", "STEPS"]
+__all__ = ["Simulator", "first_harmonic", "envelope", "conservative", "STEPS"]
 
 #: RK4 steps per period of the force.
 STEPS = 512
@@ -112,6 +112,29 @@ class Simulator:
         force = amplitude * np.cos(phase(t + 0.5 * dt))[:, None] * pattern[None, :]
         z, _ = self.run(force, 1.0 / dt, z0, np.zeros_like(z0))
         return t, phase(t), z
+
+
+def conservative(fitted):
+    """The fitted model without damping: no velocity-dependent or memory term, ``C = 0`` (for backbone checks)."""
+    from ..identified import IdentifiedModel
+    from ..terms import Model
+
+    if isinstance(fitted, IdentifiedModel):
+        keep = [t for t in fitted.model.terms if t.family == "stiffness"]
+        model = Model(tuple(keep), fitted.model.px_roots)
+        coefficients = {t.name: fitted.coefficients[t.name] for t in keep}
+        return IdentifiedModel(model=model, coefficients=coefficients, mass=fitted.mass, method=fitted.method)
+    from ..mdof.elements import ElementSet
+    from ..mdof.model import StructuralModel
+
+    structure = getattr(fitted, "structure", fitted)
+    elements = structure.elements
+    keep = [e for e in elements if e.family == "stiffness"]
+    spec = ElementSet(tuple(keep), elements.n_dofs, elements.static, elements.px_roots)
+    theta = dict(structure.coefficients)
+    return StructuralModel(
+        structure.M, np.zeros_like(structure.C), structure.K, spec, {e.name: theta[e.name] for e in keep}, structure.static
+    )
 
 
 def first_harmonic(z: np.ndarray, steps: int, periods: int) -> tuple[np.ndarray, np.ndarray]:

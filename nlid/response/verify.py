@@ -27,10 +27,11 @@ from typing import Any
 
 import numpy as np
 
+from .backbone import Backbone
 from .curves import ResponseCurve
-from .timesim import STEPS, Simulator, envelope, first_harmonic
+from .timesim import STEPS, Simulator, conservative, envelope, first_harmonic
 
-__all__ = ["PointCheck", "SweepCheck", "check_points", "check_sweeps", "REACHED_PERCENT"]
+__all__ = ["PointCheck", "SweepCheck", "BackboneCheck", "check_points", "check_sweeps", "check_backbones", "REACHED_PERCENT"]
 
 #: An unstable point counts as reached when a run from near it settles within this distance (percent).
 REACHED_PERCENT = 0.5
@@ -319,3 +320,51 @@ def _fold(curve: ResponseCurve, direction: str, near: float) -> float:
     if not np.isfinite(near):
         return float(candidates[0])
     return float(candidates[np.argmin(np.abs(candidates - near))])
+
+
+@dataclass(frozen=True)
+class BackboneCheck:
+    """A backbone point against a free run of the conservative model.
+
+    Attributes
+    ----------
+    backbone, index
+        The backbone (its position) and the point.
+    frequency_hz
+        The backbone's frequency there.
+    balance, simulated
+        First-harmonic amplitude per DOF: harmonic balance, and the free run from the point's state projected
+        on the backbone's frequency over its last period (a wrong frequency shows as a phase drift) (m).
+    error_percent
+        The largest difference over the DOFs, in percent of the largest amplitude.
+    """
+
+    backbone: int
+    index: int
+    frequency_hz: float
+    balance: tuple[float, ...]
+    simulated: tuple[float, ...]
+    error_percent: float
+
+    def to_dict(self) -> dict[str, Any]:
+        """Plain data."""
+        return {**self.__dict__, "balance": list(self.balance), "simulated": list(self.simulated)}
+
+
+def check_backbones(fitted, backbones: Sequence[Backbone], *, points: int = 4, periods: int = 20) -> list[BackboneCheck]:
+    """Integrate the conservative model freely from sampled backbone points for ``periods`` periods."""
+    sim = Simulator(conservative(fitted))
+    out = []
+    for bi, b in enumerate(backbones):
+        if len(b.frequency_hz) < 2:
+            continue
+        for i in np.unique(np.linspace(1, len(b.frequency_hz) - 1, points).round().astype(int)):
+            c = b.coefficients[i]
+            omega = 2 * np.pi * b.frequency_hz[i]
+            z0 = c[:, 0] + c[:, 1::2].sum(axis=1)
+            z, _, _ = sim.harmonic(omega, 0.0, np.zeros(c.shape[0]), z0, np.zeros(c.shape[0]), periods)
+            _, amp = first_harmonic(z, STEPS, 1)
+            hb = b.basis.amplitude(c)
+            err = float(np.max(np.abs(amp - hb)) / max(float(np.max(hb)), 1e-300)) * 100
+            out.append(BackboneCheck(bi, int(i), float(b.frequency_hz[i]), tuple(map(float, hb)), tuple(map(float, amp)), err))
+    return out
