@@ -35,6 +35,7 @@ import numpy as np
 
 from ..terms.slopes import slopes
 from .harmonics import Harmonics, crossings, default_samples
+from .memory import memory_force
 from .system import Group, HarmonicSystem
 
 __all__ = ["Evaluator", "GroupForce"]
@@ -103,9 +104,8 @@ class Evaluator:
             x = g.b @ X
             V = omega * (D @ x)
             if g.memory:
-                from .memory import memory_force
-
-                out.append(memory_force(self, k, g, x, V))
+                F, Jx, hill = memory_force(self, k, g, x, V)
+                out.append(GroupForce(F, Jx, np.zeros_like(Jx), hill))
             else:
                 out.append(self._plain(g, sw, terms, x, V))
         return out
@@ -118,10 +118,14 @@ class Evaluator:
         else:
             found = []
             breaks = []
-            for var, level, _ in sw:
-                coeffs = x if var == "z" else V
-                tau_b, slope_b = crossings(basis, coeffs, level, 2 * self.samples)
-                found.append((var, level, tau_b, slope_b))
+            for var in ("z", "v"):
+                levels = [level for v, level, _ in sw if v == var]
+                if not levels:
+                    continue
+                tau_b, slope_b, which = crossings(basis, x if var == "z" else V, np.array(levels), 2 * self.samples)
+                for k, level in enumerate(levels):
+                    mine = which == k
+                    found.append((var, level, tau_b[mine], slope_b[mine]))
                 breaks.append(tau_b)
             _, w, E = basis.composite(self.samples, np.concatenate(breaks) if breaks else np.empty(0))
         xs = E @ x
@@ -129,8 +133,9 @@ class Evaluator:
         val = np.zeros_like(xs)
         gz = np.zeros_like(xs)
         gv = np.zeros_like(xs)
+        cache: dict = {}
         for t, th, _ in terms:
-            a, bz, bv = slopes(t, xs, vs, g.pxc)
+            a, bz, bv = slopes(t, xs, vs, g.pxc, cache)
             val += th * a
             gz += th * bz
             gv += th * bv

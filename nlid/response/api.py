@@ -20,7 +20,8 @@ from .backbone import Backbone, backbones
 from .curves import ResponseCurve
 from .harmonics import default_samples
 from .result import FrequencyResponse
-from .solve import Settings, continue_force, continue_frequency, equilibria_of
+from .fitted import Fitted, as_fitted
+from .solve import Settings, continue_force, continue_frequency
 from .system import HarmonicSystem
 
 __all__ = ["frequency_response", "force_response", "backbone", "check_band", "check_forces"]
@@ -73,13 +74,19 @@ def _settings(harmonics: int, settings: Settings | None) -> Settings:
     return dataclasses.replace(base, harmonics=int(harmonics))
 
 
-def _notes(system: HarmonicSystem, settings: Settings) -> tuple[str, ...]:
+def _notes(system: HarmonicSystem, settings: Settings, curves: Sequence[ResponseCurve] = ()) -> tuple[str, ...]:
     out = []
+    for i, c in enumerate(curves):
+        if "regularisation" in c.meta:
+            eps, why = c.meta["regularisation"]
+            reason = "as asked" if why == "asked" else f"where the exact sign failed, a sticking phase ({why})"
+            out.append(f"curve {i}: sign(v) regularised as tanh(v/{eps:.3g} m/s), {reason}")
     n = settings.samples or default_samples(settings.harmonics)
     if system.jumps:
+        some = " except where a curve above says otherwise" if out else ""
         out.append(
             f"jumping terms (Coulomb sign factors) integrated exactly between the crossings of the motion "
-            f"(composite Gauss rule, {n} intervals per period), no regularisation; a sticking phase is not represented"
+            f"(composite Gauss rule, {n} intervals per period), no regularisation{some}"
         )
     elif not system.smooth:
         out.append(f"non-smooth terms integrated between their kinks (composite Gauss rule, {n} intervals per period)")
@@ -89,8 +96,8 @@ def _notes(system: HarmonicSystem, settings: Settings) -> tuple[str, ...]:
     return tuple(out)
 
 
-def _starts(fitted, system: HarmonicSystem, starts) -> tuple[list[np.ndarray], list[np.ndarray], list[np.ndarray]]:
-    stable, unstable = equilibria_of(fitted, system)
+def _starts(fitted: Fitted, system: HarmonicSystem, starts) -> tuple[list[np.ndarray], list[np.ndarray], list[np.ndarray]]:
+    stable, unstable = fitted.stable_unstable()
     if starts is None:
         chosen = stable or [np.zeros(system.n)]
     else:
@@ -160,9 +167,10 @@ def frequency_response(
     forces = check_forces(force)
     lo, hi = check_band(band)
     settings = _settings(harmonics, settings)
-    system = HarmonicSystem.of(model)
+    fitted = as_fitted(model)
+    system = fitted.system()
     pattern = system.force_vector(dof)
-    chosen, stable, unstable = _starts(model, system, starts)
+    chosen, stable, unstable = _starts(fitted, system, starts)
     saddles = tuple(float(u[0]) for u in unstable) if system.n == 1 else ()
     wells = tuple(float(s[0]) for s in stable) if system.n == 1 else ()
     t0 = time.perf_counter()
@@ -192,10 +200,10 @@ def frequency_response(
         samples=settings.samples or default_samples(settings.harmonics),
         dofs=system.dofs,
         forced=tuple(float(x) for x in pattern),
-        notes=_notes(system, settings),
+        notes=_notes(system, settings, curves),
         backbones=tuple(bbs),
         seconds=time.perf_counter() - t0,
-        model=model,
+        model=fitted,
         settings=settings,
     )
 
@@ -216,9 +224,10 @@ def force_response(
     if not (isinstance(frequency_hz, (int, float)) and math.isfinite(frequency_hz) and frequency_hz > 0):
         raise InputError(f"frequency_hz= must be a positive number of Hz, got {frequency_hz!r}")
     settings = _settings(harmonics, settings)
-    system = HarmonicSystem.of(model)
+    fitted = as_fitted(model)
+    system = fitted.system()
     pattern = system.force_vector(dof)
-    chosen, stable, unstable = _starts(model, system, starts)
+    chosen, stable, unstable = _starts(fitted, system, starts)
     saddles = tuple(float(u[0]) for u in unstable) if system.n == 1 else ()
     wells = tuple(float(s[0]) for s in stable) if system.n == 1 else ()
     t0 = time.perf_counter()
@@ -234,9 +243,9 @@ def force_response(
         samples=settings.samples or default_samples(settings.harmonics),
         dofs=system.dofs,
         forced=tuple(float(x) for x in pattern),
-        notes=_notes(system, settings),
+        notes=_notes(system, settings, curves),
         seconds=time.perf_counter() - t0,
-        model=model,
+        model=fitted,
         settings=settings,
     )
 
@@ -254,8 +263,9 @@ def backbone(
     if not (isinstance(amplitude, (int, float)) and math.isfinite(amplitude) and amplitude > 0):
         raise InputError(f"amplitude= must be a positive number of m, got {amplitude!r}")
     settings = _settings(harmonics, None)
-    system = HarmonicSystem.of(model)
-    stable, unstable = equilibria_of(model, system)
+    fitted = as_fitted(model)
+    system = fitted.system()
+    stable, unstable = fitted.stable_unstable()
     with threadpool_limits(limits=1):
         return backbones(
             system, stable or [np.zeros(system.n)], unstable, float(amplitude), harmonics=settings.harmonics,

@@ -119,19 +119,38 @@ class Harmonics:
         return self._cache[key]
 
     def composite(self, n: int, breaks: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """``(tau, weights, basis)`` of the composite Gauss-Legendre rule: ``n`` intervals cut at ``breaks``."""
-        grid = 2 * np.pi * np.arange(n + 1) / n
-        edges = np.unique(np.concatenate([grid, np.mod(np.asarray(breaks, dtype=float), 2 * np.pi)]))
-        if edges[-1] < 2 * np.pi:
-            edges = np.append(edges, 2 * np.pi)
-        lo, hi = edges[:-1], edges[1:]
-        keep = hi - lo > 1e-14
-        lo, hi = lo[keep], hi[keep]
+        """``(tau, weights, basis)`` of the composite Gauss-Legendre rule: ``n`` intervals cut at ``breaks``.
+
+        The nodes of the intervals without a break are cached; only the cut intervals are built anew.
+        """
+        key = ("composite", n)
+        if key not in self._cache:
+            h = 2 * np.pi / n
+            xi, wi = _gauss(GAUSS_NODES)
+            lo = h * np.arange(n)
+            tau = (lo + 0.5 * h)[:, None] + 0.5 * h * xi[None, :]
+            w = np.broadcast_to(0.5 * h * wi, tau.shape).copy()
+            self._cache[key] = (tau, w, self.values(tau.ravel()).reshape(n, GAUSS_NODES, self.P))
+        tau0, w0, E0 = self._cache[key]
+        breaks = np.mod(np.asarray(breaks, dtype=float), 2 * np.pi)
+        if breaks.size == 0:
+            return tau0.ravel(), w0.ravel(), E0.reshape(-1, self.P)
+        h = 2 * np.pi / n
+        cut = np.unique(np.minimum((breaks // h).astype(int), n - 1))
+        keep = np.ones(n, dtype=bool)
+        keep[cut] = False
+        edges = [np.unique(np.concatenate([[h * k, h * (k + 1)], breaks[(breaks > h * k) & (breaks < h * (k + 1))]])) for k in cut]
+        lo = np.concatenate([e[:-1] for e in edges])
+        hi = np.concatenate([e[1:] for e in edges])
         xi, wi = _gauss(GAUSS_NODES)
         half = 0.5 * (hi - lo)
-        tau = (lo + half)[:, None] + half[:, None] * xi[None, :]
-        w = half[:, None] * wi[None, :]
-        return tau.ravel(), w.ravel(), self.values(tau.ravel())
+        tau = ((lo + half)[:, None] + half[:, None] * xi[None, :]).ravel()
+        w = (half[:, None] * wi[None, :]).ravel()
+        return (
+            np.concatenate([tau0[keep].ravel(), tau]),
+            np.concatenate([w0[keep].ravel(), w]),
+            np.concatenate([E0[keep].reshape(-1, self.P), self.values(tau)]),
+        )
 
     def project(self, weights: np.ndarray, basis: np.ndarray, samples: np.ndarray) -> np.ndarray:
         """The coefficients of ``samples`` (at the rule's phases) on the basis; ``samples`` may be ``(N,)`` or ``(N, m)``."""
@@ -156,46 +175,52 @@ def _gauss(q: int) -> tuple[np.ndarray, np.ndarray]:
     return _GAUSS[q]
 
 
-def crossings(basis: Harmonics, coefficients: np.ndarray, level: float, n: int) -> tuple[np.ndarray, np.ndarray]:
-    """Phases in ``[0, 2 pi)`` where the series of ``coefficients`` crosses ``level``, and its slope there.
+def crossings(
+    basis: Harmonics, coefficients: np.ndarray, level: float | np.ndarray, n: int
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Phases in ``[0, 2 pi)`` where the series of ``coefficients`` crosses each level, and its slope there.
 
-    Sign changes on ``n`` uniform phases are refined by safeguarded Newton
-    steps (the bracket is kept). A tangency without a sign change is not a
-    crossing.
+    Sign changes on ``n`` uniform phases are refined by safeguarded Newton steps (the bracket is kept). A
+    tangency without a sign change is not a crossing.
 
     Returns
     -------
-    tau, slope : numpy.ndarray
-        The crossing phases and ``dx/dtau`` at each.
+    tau, slope, which : numpy.ndarray
+        The crossing phases, ``dx/dtau`` at each, and the index of the level each belongs to.
     """
+    levels = np.atleast_1d(np.asarray(level, dtype=float))
     tau, _, E = basis.uniform(n)
-    s = E @ coefficients - level
-    nxt = np.roll(s, -1)
-    idx = np.nonzero((s == 0.0) | (np.sign(s) * np.sign(nxt) < 0))[0]
+    x = E @ coefficients
+    s = x[None, :] - levels[:, None]
+    nxt = np.concatenate([s[:, 1:], s[:, :1]], axis=1)
+    which, idx = np.nonzero((s == 0.0) | (np.sign(s) * np.sign(nxt) < 0))
     if idx.size == 0:
-        return np.empty(0), np.empty(0)
+        return np.empty(0), np.empty(0), np.empty(0, dtype=int)
     h = 2 * np.pi / n
     lo = tau[idx]
     hi = lo + h
-    slo, shi = s[idx], nxt[idx]
+    slo, shi = s[which, idx], nxt[which, idx]
+    lev = levels[which]
     exact = slo == 0.0
-    t = np.where(exact, lo, lo - slo * (hi - lo) / np.where(shi - slo == 0.0, 1.0, shi - slo))
+    t = np.where(exact, lo, lo - slo * h / np.where(shi == slo, 1.0, shi - slo))
     dc = basis.D @ coefficients
-    for _ in range(8):
+    tol = 1e-15 * max(float(np.max(np.abs(x))), 1e-300)
+    for _ in range(10):
         E_t = basis.values(t)
-        f = E_t @ coefficients - level
+        f = E_t @ coefficients - lev
+        if np.all(np.abs(f) <= tol):
+            break
         d = E_t @ dc
-        step = np.where(d != 0.0, f / np.where(d == 0.0, 1.0, d), 0.0)
-        new = t - step
-        bad = ~((new >= lo) & (new <= hi)) & ~exact
-        # keep the bracket: bisect where Newton leaves it
-        fl = np.sign(f) == np.sign(slo)
-        lo = np.where(fl & ~exact, t, lo)
-        hi = np.where(~fl & ~exact, t, hi)
+        same = np.sign(f) == np.sign(slo)
+        lo = np.where(same & ~exact, t, lo)
+        hi = np.where(~same & ~exact, t, hi)
+        new = t - np.where(d != 0.0, f / np.where(d == 0.0, 1.0, d), 0.0)
+        bad = ~((new >= lo) & (new <= hi))
         new = np.where(bad, 0.5 * (lo + hi), new)
-        done = np.abs(new - t) < 1e-14
-        t = np.where(exact, t, new)
-        if np.all(done | exact):
+        new = np.where(exact, t, new)
+        done = np.all(np.abs(new - t) < 1e-13)
+        t = new
+        if done:
             break
     slope = basis.values(t) @ dc
-    return np.mod(t, 2 * np.pi), slope
+    return np.mod(t, 2 * np.pi), slope, which

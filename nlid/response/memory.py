@@ -128,10 +128,8 @@ def _rates(law: str, params: tuple[float, ...], w: np.ndarray, v: np.ndarray) ->
     return -np.abs(v) / rho, (1.0 - w * np.sign(v)) / rho
 
 
-def memory_force(evaluator, index: int, group: Group, x: np.ndarray, V: np.ndarray):
-    """The force ``theta w`` of a memory group (:class:`~nlid.response.aft.GroupForce`), with Hill's blocks."""
-    from .aft import GroupForce
-
+def memory_force(evaluator, index: int, group: Group, x: np.ndarray, V: np.ndarray) -> tuple:
+    """The force ``theta w`` of a memory group: ``(F, dF/dx, Hill's blocks (theta, Hw, Hv, converged))``."""
     basis = evaluator.basis
     _, wts, E = basis.uniform(evaluator.memory_samples)
     term = group.terms[0]
@@ -146,4 +144,4 @@ def memory_force(evaluator, index: int, group: Group, x: np.ndarray, V: np.ndarr
     hw, hv = _rates(law, params, w, E @ V)
     Hw = norms[:, None] * (E.T @ ((wts * hw)[:, None] * E))
     Hv = norms[:, None] * (E.T @ ((wts * hv)[:, None] * E))
-    return GroupForce(F, Jx, np.zeros_like(Jx), hill=(theta, Hw, Hv, ok))
+    return F, Jx, (theta, Hw, Hv, ok)

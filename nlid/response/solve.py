@@ -21,7 +21,7 @@ from .continuation import Branch, Continuation
 from .curves import ResponseCurve, SpecialPoint, motion_labels
 from .system import HarmonicSystem
 
-__all__ = ["Settings", "continue_frequency", "continue_force", "equilibria_of"]
+__all__ = ["Settings", "continue_frequency", "continue_force"]
 
 
 @dataclass(frozen=True)
@@ -38,6 +38,11 @@ class Settings:
         Samples per period along which a memory state is integrated; ``None``: the default.
     step, max_points
         Largest continuation step (scaled arclength) and most points per curve.
+    regularisation
+        ``None``: Coulomb signs exactly, and where that fails (a sticking phase) the curve is computed
+        again with ``sign(v)`` replaced by ``tanh(v / eps)``, ``eps`` :data:`REGULARISATION` times the
+        largest linearised velocity amplitude in the band, which the result states; a number: that
+        ``eps`` (m/s) for every curve; ``0``: never.
     """
 
     harmonics: int = 7
@@ -45,47 +50,11 @@ class Settings:
     memory_samples: int | None = None
     step: float = 0.05
     max_points: int = 2000
+    regularisation: float | None = None
 
 
-def equilibria_of(fitted, system: HarmonicSystem) -> tuple[list[np.ndarray], list[np.ndarray]]:
-    """The stable and unstable equilibria (vectors of ``n``) of a fitted model, as its own physics found them."""
-    from ..identified import IdentifiedModel
-
-    if isinstance(fitted, IdentifiedModel):
-        eq = fitted.equilibria
-        if eq is None:
-            from .. import physics
-
-            eq = physics.equilibria(fitted.model, fitted.theta, fitted.z_range)
-        return [np.array([z]) for z in eq.stable], [np.array([z]) for z in eq.unstable]
-    eq = getattr(fitted, "equilibria", None)
-    z_range = getattr(fitted, "z_range", None)
-    if callable(eq):  # a StructuralModel: searched in its range if it has one, else by Newton from rest
-        eq = None
-    if eq is None and z_range is not None:
-        eq = getattr(fitted, "structure", fitted).equilibria(z_range)
-    if eq is None:
-        z = _newton_rest(system)
-        if z is None:
-            return [], []
-        stable = bool(np.all(np.linalg.eigvalsh(0.5 * (system.stiffness(z) + system.stiffness(z).T)) > 0))
-        return ([z], []) if stable else ([], [z])
-    return [np.array(p, dtype=float) for p in eq.stable], [np.array(p, dtype=float) for p in eq.unstable]
-
-
-def _newton_rest(system: HarmonicSystem) -> np.ndarray | None:
-    """The equilibrium Newton's method reaches from ``z = 0`` (``None`` if it does not converge)."""
-    z = np.zeros(system.n)
-    for _ in range(100):
-        r = system.elastic(z)
-        try:
-            dz = np.linalg.solve(system.stiffness(z), -r)
-        except np.linalg.LinAlgError:
-            return None
-        z = z + dz
-        if np.max(np.abs(dz)) <= 1e-14 * max(1.0, float(np.max(np.abs(z)))):
-            return z
-    return None
+#: The regularisation scale of a sticking Coulomb term, as a fraction of the largest linearised velocity amplitude.
+REGULARISATION = 1e-3
 
 
 def _linear_guess(system: HarmonicSystem, balance: Balance, z0: np.ndarray, omega: float, force: float) -> np.ndarray:
@@ -230,11 +199,37 @@ def continue_frequency(
 ) -> ResponseCurve:
     """The response to ``force cos(omega t)`` over ``band_hz`` from the equilibrium ``start`` (module docstring).
 
+    A system with Coulomb signs is regularised where the exact computation fails (:class:`Settings`);
+    ``curve.meta["regularisation"]`` then holds the scale and why.
+
     Raises
     ------
     InputError
         When Newton's method finds no periodic solution at the band's low end.
     """
+    eps = settings.regularisation
+    lo, hi = 2 * np.pi * float(band_hz[0]), 2 * np.pi * float(band_hz[1])
+    if eps is None or eps == 0 or not system.jumps:
+        curve, why = _frequency_curve(system, force, band_hz, start, settings, pattern, saddles, wells)
+        if not (system.jumps and eps is None and why):
+            if curve is None:
+                raise InputError(why)
+            return curve
+        probe = Balance(system, 1, pattern)
+        eps = REGULARISATION * hi * _scale(system, probe, start, (lo, hi), force)
+        why = why or curve.stopped
+    else:
+        why = "asked"
+    curve, failed = _frequency_curve(system.regularised(eps), force, band_hz, start, settings, pattern, saddles, wells)
+    if curve is None:
+        raise InputError(failed)
+    curve.meta["regularisation"] = (float(eps), why)
+    return curve
+
+
+def _frequency_curve(system, force, band_hz, start, settings, pattern, saddles, wells):
+    """``(curve, "")``; ``(None, why)`` when no start is found; ``(curve, why)`` when a Coulomb system's corrector
+    failed before the band's end (the caller may regularise)."""
     balance = Balance(system, settings.harmonics, pattern, settings.samples, settings.memory_samples)
     lo, hi = 2 * np.pi * float(band_hz[0]), 2 * np.pi * float(band_hz[1])
     x_ref = _scale(system, balance, start, (lo, hi), force)
@@ -246,11 +241,14 @@ def continue_frequency(
     guess = np.r_[_linear_guess(system, balance, start, lo, force), lo]
     first = cont.solve_at(guess)
     if first is None:  # grow the force from a hundredth at the band's low end (past folds in the force, if any)
-        ramp = continue_force(system, lo / (2 * np.pi), (0.01 * force, force), start, settings, pattern)
-        if ramp.force[-1] >= force * (1 - 1e-9):
+        try:
+            ramp = continue_force(system, lo / (2 * np.pi), (0.01 * force, force), start, settings, pattern)
+        except InputError:
+            ramp = None
+        if ramp is not None and ramp.force[-1] >= force * (1 - 1e-9):
             first = cont.solve_at(np.r_[ramp.coefficients[-1].ravel(), lo])
     if first is None:
-        raise InputError(
+        return None, (
             f"no periodic response found at {band_hz[0]:g} Hz for force {force:g} N from the equilibrium "
             f"{np.round(start, 6).tolist()} (try another band=, or more harmonics=)"
         )
@@ -258,7 +256,8 @@ def continue_frequency(
     labels = (lambda c: motion_labels(c[:, 0, :], saddles, wells)) if system.n == 1 else (lambda c: [""] * len(c))
     curve = _curve(balance, branch, "frequency", force, start, labels)
     curve.meta.update(calls=cont.calls, x_ref=x_ref)
-    return curve
+    failed = system.jumps and branch.stopped.startswith("the step fell")
+    return curve, (branch.stopped if failed else "")
 
 
 def continue_force(

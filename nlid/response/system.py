@@ -29,6 +29,14 @@ __all__ = ["Group", "HarmonicSystem"]
 PXC = tuple[float, float, float, float]
 
 
+def _smoothed(term: Term, scale: float) -> Term:
+    """``term`` with a bare ``sign(v)`` factor replaced by ``tanh(v / scale)``."""
+    if term.memory is not None or term.v != (0, 1):
+        return term
+    special = tuple(sorted((*term.special, ("tanh", "v", float(scale), 1))))
+    return Term(z=term.z, v=(0, 0), px=term.px, special=special)
+
+
 @dataclass(frozen=True)
 class Group:
     """The terms on one connection, with their coefficients.
@@ -65,10 +73,18 @@ class Group:
 
     @property
     def switches(self) -> list[tuple[str, float, bool]]:
-        """Where the group's force is not smooth (:func:`nlid.terms.slopes.switches`), each level once."""
+        """Where the group's force is not smooth (:func:`nlid.terms.slopes.switches`), each level once.
+
+        A ``tanh(x/c)`` factor is smooth, but steep when ``c`` is small against the motion: its
+        centre and ``+-c``, ``+-3c`` are added as breaks, so that the quadrature resolves it.
+        """
         seen: dict[tuple[str, float], bool] = {}
         for t in self.terms:
-            for var, level, jumps in switches(t, self.pxc):
+            found = list(switches(t, self.pxc))
+            for kind, var, scale, _ in t.special:
+                if kind == "tanh":
+                    found += [(var, level, False) for level in (0.0, scale, -scale, 3 * scale, -3 * scale)]
+            for var, level, jumps in found:
                 key = (var, level)
                 seen[key] = seen.get(key, False) or jumps
         return [(var, level, jumps) for (var, level), jumps in seen.items()]
@@ -180,32 +196,6 @@ class HarmonicSystem:
             dofs,
         )
 
-    @classmethod
-    def of(cls, fitted) -> HarmonicSystem:
-        """The system of an :class:`nlid.IdentifiedModel`, an :class:`nlid.mdof.IdentifiedStructure` or a
-        :class:`nlid.mdof.StructuralModel`.
-
-        Raises
-        ------
-        InputError
-            Another type, or a one-DOF model without its mass.
-        """
-        from ..identified import IdentifiedModel
-        from ..mdof.identified import IdentifiedStructure
-        from ..mdof.model import StructuralModel
-
-        if isinstance(fitted, IdentifiedModel):
-            if fitted.mass is None:
-                raise InputError("the response needs the mass: the model has none (give mass= when identifying)")
-            return cls.from_model(fitted.model, fitted.theta, fitted.mass)
-        if isinstance(fitted, IdentifiedStructure):
-            return cls.from_structure(fitted.structure)
-        if isinstance(fitted, StructuralModel):
-            return cls.from_structure(fitted)
-        raise InputError(
-            f"model must be an IdentifiedModel, an IdentifiedStructure or a StructuralModel, got {type(fitted).__name__}"
-        )
-
     # ------------------------------------------------------------------ derived systems
     def conservative(self) -> HarmonicSystem:
         """Without damping: ``C = 0`` and no velocity-dependent or memory term (the backbone's system)."""
@@ -217,6 +207,14 @@ class HarmonicSystem:
             if keep:
                 groups.append(replace(g, terms=tuple(g.terms[k] for k in keep), theta=g.theta[keep]))
         return replace(self, C=np.zeros_like(self.C), groups=tuple(groups))
+
+    def regularised(self, scale: float) -> HarmonicSystem:
+        """Every Coulomb sign of the velocity, ``sign(v)``, replaced by ``tanh(v / scale)`` (``scale`` in m/s)."""
+        groups = []
+        for g in self.groups:
+            terms = tuple(_smoothed(t, scale) for t in g.terms)
+            groups.append(replace(g, terms=terms))
+        return replace(self, groups=tuple(groups))
 
     def force_vector(self, at: int | Sequence[float] | np.ndarray | None = None) -> np.ndarray:
         """The unit force pattern: ``at`` a DOF number (1-based), a vector per DOF, or ``None`` (DOF 1)."""

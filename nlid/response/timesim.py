@@ -20,8 +20,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import InputError
+from .fitted import Fitted
 
-__all__ = ["Simulator", "first_harmonic", "envelope", "conservative", "STEPS"]
+__all__ = ["Simulator", "first_harmonic", "envelope", "STEPS"]
 
 #: RK4 steps per period of the force.
 STEPS = 512
@@ -29,37 +30,29 @@ STEPS = 512
 
 @dataclass(frozen=True)
 class Simulator:
-    """Integrates a fitted model (one DOF or a structure) under a given force."""
+    """Integrates a fitted model (:class:`~nlid.response.fitted.Fitted`: one DOF or a structure) under a force."""
 
-    fitted: object
+    fitted: Fitted
 
     @property
     def n(self) -> int:
         """Number of DOFs."""
-        from ..identified import IdentifiedModel
-
-        if isinstance(self.fitted, IdentifiedModel):
-            return 1
-        return int(getattr(self.fitted, "structure", self.fitted).n_dofs)
+        return self.fitted.n
 
     def run(
         self, force: np.ndarray, fs: float, z0: Sequence[float], v0: Sequence[float]
     ) -> tuple[np.ndarray, np.ndarray]:
         """Displacement and velocity ``(N, n)`` under ``force`` ``(N, n)`` held over each step of ``1/fs``."""
-        from ..identified import IdentifiedModel
-
         force = np.ascontiguousarray(force, dtype=float)
-        if isinstance(self.fitted, IdentifiedModel):
+        f = self.fitted
+        if f.structure is None:
             from ..simulation import simulate
 
-            if self.fitted.mass is None:
-                raise InputError("time integration needs the mass: the model has none")
-            z, v, _ = simulate(self.fitted.model, self.fitted.theta, self.fitted.mass, force[:, 0], fs, (z0[0], v0[0]))
+            z, v, _ = simulate(f.model, f.theta, f.mass, force[:, 0], fs, (float(z0[0]), float(v0[0])))
             return z[:, None], v[:, None]
         from ..mdof.simulation import simulate as simulate_structure
 
-        structure = getattr(self.fitted, "structure", self.fitted)
-        z, v, _ = simulate_structure(structure, force, fs, x0=(np.asarray(z0), np.asarray(v0)))
+        z, v, _ = simulate_structure(f.structure, force, fs, x0=(np.asarray(z0), np.asarray(v0)))
         return z, v
 
     def harmonic(
@@ -112,29 +105,6 @@ class Simulator:
         force = amplitude * np.cos(phase(t + 0.5 * dt))[:, None] * pattern[None, :]
         z, _ = self.run(force, 1.0 / dt, z0, np.zeros_like(z0))
         return t, phase(t), z
-
-
-def conservative(fitted):
-    """The fitted model without damping: no velocity-dependent or memory term, ``C = 0`` (for backbone checks)."""
-    from ..identified import IdentifiedModel
-    from ..terms import Model
-
-    if isinstance(fitted, IdentifiedModel):
-        keep = [t for t in fitted.model.terms if t.family == "stiffness"]
-        model = Model(tuple(keep), fitted.model.px_roots)
-        coefficients = {t.name: fitted.coefficients[t.name] for t in keep}
-        return IdentifiedModel(model=model, coefficients=coefficients, mass=fitted.mass, method=fitted.method)
-    from ..mdof.elements import ElementSet
-    from ..mdof.model import StructuralModel
-
-    structure = getattr(fitted, "structure", fitted)
-    elements = structure.elements
-    keep = [e for e in elements if e.family == "stiffness"]
-    spec = ElementSet(tuple(keep), elements.n_dofs, elements.static, elements.px_roots)
-    theta = dict(structure.coefficients)
-    return StructuralModel(
-        structure.M, np.zeros_like(structure.C), structure.K, spec, {e.name: theta[e.name] for e in keep}, structure.static
-    )
 
 
 def first_harmonic(z: np.ndarray, steps: int, periods: int) -> tuple[np.ndarray, np.ndarray]:

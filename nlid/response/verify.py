@@ -29,7 +29,8 @@ import numpy as np
 
 from .backbone import Backbone
 from .curves import ResponseCurve
-from .timesim import STEPS, Simulator, conservative, envelope, first_harmonic
+from .fitted import Fitted
+from .timesim import STEPS, Simulator, envelope, first_harmonic
 
 __all__ = ["PointCheck", "SweepCheck", "BackboneCheck", "check_points", "check_sweeps", "check_backbones", "REACHED_PERCENT"]
 
@@ -168,14 +169,14 @@ def _periods(multiplier: float, factor: float) -> int:
 
 
 def check_points(
-    fitted, curves: Sequence[ResponseCurve], pattern: np.ndarray, *, points: int = 8, unstable: int = 3
+    fitted: Fitted, curves: Sequence[ResponseCurve], pattern: np.ndarray, *, points: int = 8, unstable: int = 3
 ) -> list[PointCheck]:
     """Compare sampled points of each curve with time integration (module docstring).
 
     Parameters
     ----------
     fitted
-        The model (what :class:`~nlid.response.timesim.Simulator` integrates).
+        The model (:class:`~nlid.response.fitted.Fitted`, what :class:`~nlid.response.timesim.Simulator` integrates).
     curves
         The continued curves.
     pattern
@@ -254,7 +255,7 @@ def _check(
 
 
 def check_sweeps(
-    fitted,
+    fitted: Fitted,
     curves: Sequence[ResponseCurve],
     pattern: np.ndarray,
     band_hz: Sequence[float],
@@ -351,9 +352,9 @@ class BackboneCheck:
         return {**self.__dict__, "balance": list(self.balance), "simulated": list(self.simulated)}
 
 
-def check_backbones(fitted, backbones: Sequence[Backbone], *, points: int = 4, periods: int = 20) -> list[BackboneCheck]:
+def check_backbones(fitted: Fitted, backbones: Sequence[Backbone], *, points: int = 4, periods: int = 20) -> list[BackboneCheck]:
     """Integrate the conservative model freely from sampled backbone points for ``periods`` periods."""
-    sim = Simulator(conservative(fitted))
+    sim = Simulator(fitted.conservative())
     out = []
     for bi, b in enumerate(backbones):
         if len(b.frequency_hz) < 2:

@@ -81,6 +81,7 @@ def slopes(
     z: Array,
     v: Array | None = None,
     pxc: tuple[float, float, float, float] | None = None,
+    cache: dict | None = None,
 ) -> tuple[Array, Array, Array]:
     """``g``, ``dg/dz`` and ``dg/dv`` of a term on samples (arrays of one shape).
 
@@ -93,6 +94,8 @@ def slopes(
     pxc
         The coefficients ``(alpha, beta, gamma, delta)`` of ``px(z)``
         (:func:`nlid.terms.px_coefficients`), if the term uses it.
+    cache
+        A dictionary shared by terms evaluated on the same samples: ``px(z)`` and the parts are computed once.
 
     Raises
     ------
@@ -102,18 +105,28 @@ def slopes(
     if term.memory is not None:
         raise ValueError(f"term {term.name!r} is a memory term: its state follows the path of z, not a slope")
     z = np.asarray(z, dtype=float)
+    cache = {} if cache is None else cache
     factors: list[tuple[Array, Array, str]] = []  # (value, derivative, "z" or "v")
+
+    def part(name: str, x: Array, p: tuple[int, int]) -> tuple[Array, Array]:
+        key = (name, p)
+        if key not in cache:
+            cache[key] = _part(x, *p)
+        return cache[key]
+
     if term.z != (0, 0):
-        factors.append((*_part(z, *term.z), "z"))
+        factors.append((*part("z", z, term.z), "z"))
     if term.v != (0, 0):
         if v is None:
             raise ValueError(f"term {term.name!r} needs v")
-        factors.append((*_part(np.asarray(v, dtype=float), *term.v), "v"))
+        factors.append((*part("v", np.asarray(v, dtype=float), term.v), "v"))
     if term.px != (0, 0):
         if pxc is None:
             raise ValueError(f"term {term.name!r} needs the coefficients of px(z)")
-        px, dpx = px_slope(pxc, z)
-        value, slope = _part(px, *term.px)
+        if "px" not in cache:
+            cache["px"] = px_slope(pxc, z)
+        px, dpx = cache["px"]
+        value, slope = part("px", px, term.px)
         factors.append((value, slope * dpx, "z"))
     for kind, var, scale, mult in term.special:
         x = z if var == "z" else v
