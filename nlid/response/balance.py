@@ -181,3 +181,53 @@ class Balance:
             else:
                 kind = "complex"
         return Floquet(exps, stable, float(np.exp(top * period)), kind)
+
+
+def time_residual(
+    system: HarmonicSystem,
+    X: np.ndarray,
+    omega: float,
+    amplitude: float,
+    pattern: np.ndarray,
+    basis: Harmonics,
+    measure: str = "motion",
+) -> float:
+    """How far a truncated solution is from solving the equations between the harmonics it balances.
+
+    The equations of motion are evaluated on ``16 (2H + 1)`` phases of the truncated motion ``X``
+    (``(n, P)``); the balance makes their first ``H`` harmonics vanish, and what is left is the
+    truncation's error (NaN for a memory term, whose force needs the path):
+
+    * ``measure="motion"``: each harmonic ``k > H`` left, ``r_k``, would move DOF ``i`` by about
+      ``r_k / (k^2 omega^2 M_ii)`` (inertia dominates there); the RMS of those displacements over the
+      harmonics, relative to the largest first-harmonic amplitude. A non-smooth force (``v|v|``,
+      ``sign(v)``) leaves harmonics that fall slowly, but the motion they cause falls ``1/k^2`` faster:
+      this measures the error of the motion.
+    * ``measure="force"``: ``max |residual| / max |M z''|`` over the phases, which is what a free motion
+      near a separatrix is sensitive to (its period depends on the energy without bound).
+    """
+    if system.uses_memory:
+        return float("nan")
+    from ..terms.slopes import slopes
+
+    n_phase = 16 * basis.P
+    tau, _, E = basis.uniform(n_phase)
+    Z = X @ E.T  # (n, N)
+    V = omega * (X @ basis.D.T) @ E.T
+    A = omega**2 * (X @ (basis.D @ basis.D).T) @ E.T
+    r = system.M @ A + system.C @ V + system.K @ Z + system.static[:, None]
+    r -= amplitude * np.outer(pattern, np.cos(tau))
+    for g in system.groups:
+        x, xd = g.b @ Z, g.b @ V
+        cache: dict = {}
+        force = sum(th * slopes(t, x, xd, g.pxc, cache)[0] for t, th in zip(g.terms, g.theta, strict=True))
+        r += np.outer(g.b, force)
+    if measure == "force":
+        inertia = float(np.max(np.abs(system.M @ A)))
+        return float(np.max(np.abs(r)) / inertia) if inertia > 0 else float("nan")
+    spectrum = np.abs(np.fft.rfft(r, axis=1)) * (2.0 / n_phase)
+    k = np.arange(spectrum.shape[1])
+    high = k > basis.H
+    moved = spectrum[:, high] / (k[high] ** 2 * omega**2 * np.diag(system.M)[:, None])
+    first = float(np.max(basis.amplitude(X)))
+    return float(np.sqrt(np.sum(moved**2)) / first) if first > 0 else float("nan")

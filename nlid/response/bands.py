@@ -313,3 +313,62 @@ def response_band(
                 low[r, k], mid[r, k], high[r, k] = np.quantile(vals, q)
         bands.append(BandCurve(float(c.force[0]), c.start, grid_hz, count, low, mid, high))
     return ResponseBand(tuple(bands), float(level), int(draws), len(errors), dof, time.perf_counter() - t0, errors)
+
+
+@dataclass(frozen=True)
+class SavedPosterior:
+    """Posterior samples read back from the files of ``nlid posterior --out`` (:func:`load_posterior`)."""
+
+    model: Any
+    mass: float
+    names: tuple[str, ...]
+    samples: np.ndarray
+    fixed: dict[str, float]
+
+    def full_samples(self, draws: int | None = None, rng: np.random.Generator | None = None) -> np.ndarray:
+        """Full coefficient vectors in model order (the unsampled ones at their saved estimates)."""
+        samples = self.samples
+        if draws is not None and draws < samples.shape[0]:
+            rng = rng if rng is not None else np.random.default_rng(0)
+            samples = samples[rng.choice(samples.shape[0], size=draws, replace=False)]
+        theta = np.array(self.fixed_vector)
+        full = np.tile(theta, (samples.shape[0], 1))
+        full[:, [self.model.index(n) for n in self.names]] = samples
+        return full
+
+    @property
+    def fixed_vector(self) -> np.ndarray:
+        """The model's coefficients with the unsampled ones at their saved estimates."""
+        return self.model.vector({n: self.fixed.get(n, 0.0) for n in self.model.names})
+
+
+def load_posterior(path: Any, fitted: Fitted) -> SavedPosterior:
+    """The samples that ``nlid posterior --out DIR`` saved (the folder, its ``posterior.json`` or its
+    ``posterior_samples.npz``), on the model ``fitted`` holds (the one the posterior was sampled for).
+
+    Raises
+    ------
+    InputError
+        No samples file, or sampled terms the model does not have.
+    """
+    from pathlib import Path
+
+    p = Path(path)
+    npz = p / "posterior_samples.npz" if p.is_dir() else p.with_name("posterior_samples.npz")
+    if not npz.is_file():
+        raise InputError(f"no posterior samples at {npz} (write them with nlid posterior's out= folder)")
+    if not fitted.one_dof:
+        raise InputError("the posterior band is for a one-DOF model's response")
+    with np.load(npz, allow_pickle=False) as data:
+        names = tuple(str(x) for x in data["names"])
+        samples = np.asarray(data["samples"], dtype=float)
+        fixed_names = [str(x) for x in data["not_sampled_names"]]
+        fixed_values = np.asarray(data["not_sampled_estimates"], dtype=float)
+    model = fitted.model
+    missing = [n for n in names if n not in model]
+    if missing:
+        raise InputError(f"the posterior samples {', '.join(missing)}, which the model ({model}) does not have")
+    fixed = {model.terms[model.index(n)].name: float(x) for n, x in zip(fixed_names, fixed_values, strict=True)}
+    base = dict(zip(model.names, np.asarray(fitted.theta, dtype=float), strict=True))
+    base.update(fixed)
+    return SavedPosterior(model, float(fitted.mass), tuple(model.terms[model.index(n)].name for n in names), samples, base)

@@ -86,6 +86,10 @@ class ResponseCurve:
         The DOF names.
     newton, rejected
         Corrector iterations and rejected steps.
+    truncation
+        Per point, how far the truncated motion misses the equations between its harmonics
+        (:func:`nlid.response.balance.time_residual`; NaN with a memory term): above ``1e-3`` more
+        harmonics would change the answer.
     """
 
     parameter: str
@@ -102,6 +106,7 @@ class ResponseCurve:
     dofs: tuple[str, ...] = ("z",)
     newton: int = 0
     rejected: int = 0
+    truncation: np.ndarray | None = None
     meta: dict = field(default_factory=dict)
 
     @property
@@ -196,6 +201,7 @@ class ResponseCurve:
             "labels": list(self.labels),
             "coefficients": self.coefficients.tolist(),
             "events": [e.to_dict() for e in self.events],
+            "truncation": None if self.truncation is None else self.truncation.tolist(),
             "stopped": self.stopped,
             "dofs": list(self.dofs),
         }

@@ -33,6 +33,8 @@ __all__ = ["FrequencyResponse", "FRAME_COLUMNS", "SCHEMA"]
 
 #: Identifies the JSON layout of :meth:`FrequencyResponse.to_dict`.
 SCHEMA = "nlid.FrequencyResponse/1"
+#: A point whose truncation residual (:func:`nlid.response.balance.time_residual`) is above this is flagged.
+TRUNCATION_WARN = 1e-3
 #: The columns of :meth:`FrequencyResponse.to_frame`.
 FRAME_COLUMNS = (
     "curve",
@@ -45,6 +47,7 @@ FRAME_COLUMNS = (
     "stable",
     "multiplier",
     "motion",
+    "truncation",
     "point",
 )
 
@@ -171,10 +174,11 @@ class FrequencyResponse:
         for i, c in enumerate(self.curves):
             for d, name in enumerate(c.dofs):
                 amp, off, peak = c.amplitude(d + 1), c.offset(d + 1), c.peak(d + 1)
+                trunc = c.truncation if c.truncation is not None else np.full(len(c), np.nan)
                 for k in range(len(c)):
                     rows.append(
                         (i, c.force[k], c.frequency_hz[k], name, amp[k], off[k], peak[k], bool(c.stable[k]))
-                        + (c.multiplier[k], c.labels[k], k)
+                        + (c.multiplier[k], c.labels[k], trunc[k], k)
                     )
         return pd.DataFrame(rows, columns=list(FRAME_COLUMNS))
 
@@ -258,6 +262,13 @@ class FrequencyResponse:
                 gap=True,
             )
         lines: list[tuple[str, str]] = []
+        worst = [float(np.nanmax(c.truncation)) for c in self.curves if c.truncation is not None and np.isfinite(c.truncation).any()]
+        if worst:
+            many = sum(int(np.sum(c.truncation > TRUNCATION_WARN)) for c in self.curves if c.truncation is not None)
+            text = f"the equations miss by at most {max(worst):.2g} of the inertia force between the harmonics"
+            if many:
+                text += f"; {many} point(s) above {TRUNCATION_WARN:g}: more harmonics= would change them"
+            lines.append(("truncation", text))
         if self.checks:
             stable = [c for c in self.checks if c.stable]
             tried = [c for c in self.checks if not c.stable]
@@ -299,6 +310,31 @@ class FrequencyResponse:
         lines.append(("time", f"{self.seconds:.3g} s"))
         out.add_fields(lines, gap=True)
         return out
+
+    def save(self, out_dir: Any, *, figure: bool = True, force: bool = False) -> list:
+        """Write ``response.json`` (:meth:`to_dict`), ``response.csv`` (:meth:`to_frame`), ``response.md``
+        (:meth:`summary`), ``response.png`` (:meth:`plot`) and, with measured points, ``measured.csv``.
+
+        nlid writes only into folders it created or that were empty; ``force=True`` writes beside files
+        it did not write, never replacing them (:mod:`nlid.outputs`).
+        """
+        import json
+
+        from ..outputs import RESPONSE_OUTPUTS, output_folder
+
+        with output_folder(out_dir, RESPONSE_OUTPUTS, force=force) as out:
+            paths = [out / "response.json", out / "response.csv", out / "response.md"]
+            paths[0].write_text(json.dumps(self.to_dict(), allow_nan=False) + "\n")
+            self.to_frame().to_csv(paths[1], index=False)
+            paths[2].write_text(self.summary().as_markdown() + "\n")
+            if self.measured is not None:
+                paths.append(out / "measured.csv")
+                self.measured.to_frame().to_csv(paths[-1], index=False)
+            if figure:
+                from ..plotting import save_figure
+
+                paths += save_figure(self.plot().figure, out / "response", formats=("png",))
+        return paths
 
     def __repr__(self) -> str:
         return (

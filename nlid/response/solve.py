@@ -16,7 +16,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import InputError
-from .balance import Balance
+from .balance import Balance, time_residual
 from .continuation import Branch, Continuation
 from .curves import ResponseCurve, SpecialPoint, motion_labels
 from .system import HarmonicSystem
@@ -127,6 +127,10 @@ def _curve(balance: Balance, branch: Branch, parameter: str, fixed: float, start
             kind = "flip" if kinds[i - 1] == "flip" else "torus"
             events.append(SpecialPoint(kind, float(omega[i] / (2 * np.pi)), float(force[i]), tuple(amp1[i]), i))
     events.sort(key=lambda e: e.index)
+    sys_ = balance.system
+    miss = np.array(
+        [time_residual(sys_, coeffs[k], omega[k], force[k], balance.pattern, balance.basis) for k in range(len(par))]
+    )
     return ResponseCurve(
         parameter=parameter,
         frequency_hz=omega / (2 * np.pi),
@@ -142,6 +146,7 @@ def _curve(balance: Balance, branch: Branch, parameter: str, fixed: float, start
         dofs=balance.system.dofs,
         newton=branch.newton,
         rejected=branch.rejected,
+        truncation=miss,
     )
 
 
