@@ -175,12 +175,18 @@ def frequency_response(
     wells = tuple(float(s[0]) for s in stable) if system.n == 1 else ()
     t0 = time.perf_counter()
     curves: list[ResponseCurve] = []
+    missing: list[str] = []
     with threadpool_limits(limits=1):
         for F in forces:
             for z0 in chosen:
-                curves.append(
-                    continue_frequency(system, F, (lo, hi), z0, settings, pattern, saddles=saddles, wells=wells)
-                )
+                try:
+                    curves.append(
+                        continue_frequency(system, F, (lo, hi), z0, settings, pattern, saddles=saddles, wells=wells)
+                    )
+                except InputError as exc:
+                    missing.append(str(exc))
+        if not curves:
+            raise InputError(missing[0])
         bbs: list[Backbone] = []
         if backbone and not system.uses_memory:  # a hysteretic (memory) term has no conservative part
             top = max(float(np.max(c.basis.amplitude(c.coefficients))) for c in curves)
@@ -200,7 +206,7 @@ def frequency_response(
         samples=settings.samples or default_samples(settings.harmonics),
         dofs=system.dofs,
         forced=tuple(float(x) for x in pattern),
-        notes=_notes(system, settings, curves),
+        notes=tuple(f"no curve: {m}" for m in missing) + _notes(system, settings, curves),
         backbones=tuple(bbs),
         seconds=time.perf_counter() - t0,
         model=fitted,

@@ -287,7 +287,7 @@ def _cross_well(cons, reduced: _Reduced, stable, unstable, amplitude: float, ste
     wells = [float(s[0]) for s in stable]
     saddle = float(unstable[0][0])
     span = max(abs(w - saddle) for w in wells)
-    if amplitude <= span:  # no cross-well motion of that amplitude
+    if amplitude <= 0.5 * span:  # no cross-well motion of that amplitude
         return None
     A = max(1.6 * span, 0.5 * amplitude)
     # one harmonic: c0 and omega for the amplitude A (Newton on two equations), then all harmonics

@@ -15,10 +15,11 @@ of the equations linearised along the periodic solution: the perturbation
 ``e^(lambda t) p(t)`` with ``p`` periodic gives the eigenproblem
 ``lambda p = (A - omega D) p`` in the coefficients, ``A`` the AFT of the
 state matrix ``[[0, I], [-M^-1 K_t(t), -M^-1 C_t(t)]]`` (a memory state adds
-its own rows: ``w' = h(w, v)``). Of its ``d (2H + 1)`` eigenvalues the
-``d`` of least imaginary part are the Floquet exponents (the others are
-copies shifted by ``i k omega``, with the same real part, or artefacts of the
-truncation at the highest harmonics); the multipliers are ``exp(lambda T)``.
+its own rows: ``w' = h(w, v)``). Of its ``d (2H + 1)`` eigenvalues, each
+Floquet exponent appears with its copies shifted by ``i k omega`` (the same
+multiplier); the truncation adds eigenvalues without copies. The exponents
+are the ``d`` largest groups of copies (:func:`_exponents`); the multipliers
+are ``exp(lambda T)``.
 """
 
 from __future__ import annotations
@@ -163,9 +164,7 @@ class Balance:
         for k in range(2 * n + m):
             A[k * P : (k + 1) * P, k * P : (k + 1) * P] -= omega * self.D
         lam = np.linalg.eigvals(A)
-        d = 2 * n + m
-        chosen = np.argsort(np.abs(lam.imag), kind="stable")[:d]
-        exps = lam[chosen]
+        exps = _exponents(lam, omega, 2 * n + m, P)
         top = float(np.max(exps.real))
         period = 2 * np.pi / omega
         tol = 1e-9 * max(omega, 1.0)
@@ -181,6 +180,41 @@ class Balance:
             else:
                 kind = "complex"
         return Floquet(exps, stable, float(np.exp(top * period)), kind)
+
+
+def _exponents(lam: np.ndarray, omega: float, d: int, P: int) -> np.ndarray:
+    """The ``d`` Floquet exponents among the eigenvalues of a truncated Hill matrix.
+
+    Each exponent appears with its copies ``lambda + i k omega`` (one per harmonic, ``P`` in all), all
+    with one multiplier ``exp(lambda T)``; the truncation adds eigenvalues that have no such copies.
+    The eigenvalues are grouped by ``(Re lambda, Im lambda mod omega)``; the ``d`` largest groups are the
+    exponents (a group of twice the size counts twice), each represented by its member of least
+    ``|Im|``. (Choosing the ``d`` eigenvalues of least ``|Im|`` instead fails when two exponents share
+    ``Im = omega / 2``, as after a period doubling.)
+    """
+    re, im = lam.real, np.mod(lam.imag + 0.5 * omega, omega) - 0.5 * omega
+    tol = 1e-3 * omega
+    group = -np.ones(lam.size, dtype=int)
+    members: list[list[int]] = []
+    for i in np.argsort(np.abs(lam.imag), kind="stable"):
+        for g, ids in enumerate(members):
+            j = ids[0]
+            d_im = abs(im[i] - im[j])
+            if abs(re[i] - re[j]) <= tol + 1e-3 * abs(re[j]) and min(d_im, omega - d_im) <= tol:
+                ids.append(int(i))
+                group[i] = g
+                break
+        else:
+            group[i] = len(members)
+            members.append([int(i)])
+    order = sorted(range(len(members)), key=lambda g: (-len(members[g]), abs(lam[members[g][0]].imag)))
+    out: list[complex] = []
+    for g in order:
+        slots = max(1, int(round(len(members[g]) / P)))
+        out += [lam[members[g][0]]] * slots
+        if len(out) >= d:
+            break
+    return np.array(out[:d])
 
 
 def time_residual(

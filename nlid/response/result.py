@@ -265,7 +265,7 @@ class FrequencyResponse:
         worst = [float(np.nanmax(c.truncation)) for c in self.curves if c.truncation is not None and np.isfinite(c.truncation).any()]
         if worst:
             many = sum(int(np.sum(c.truncation > TRUNCATION_WARN)) for c in self.curves if c.truncation is not None)
-            text = f"the equations miss by at most {max(worst):.2g} of the inertia force between the harmonics"
+            text = f"the harmonics left out would move the response by at most {max(worst):.2g} of its amplitude"
             if many:
                 text += f"; {many} point(s) above {TRUNCATION_WARN:g}: more harmonics= would change them"
             lines.append(("truncation", text))

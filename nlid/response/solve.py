@@ -243,26 +243,54 @@ def _frequency_curve(system, force, band_hz, start, settings, pattern, saddles, 
     cont = Continuation(
         problem, scale, max(abs(force), 1e-12), (lo, hi), h_max=settings.step, max_points=settings.max_points
     )
-    guess = np.r_[_linear_guess(system, balance, start, lo, force), lo]
-    first = cont.solve_at(guess)
-    if first is None:  # grow the force from a hundredth at the band's low end (past folds in the force, if any)
-        try:
-            ramp = continue_force(system, lo / (2 * np.pi), (0.01 * force, force), start, settings, pattern)
-        except InputError:
-            ramp = None
-        if ramp is not None and ramp.force[-1] >= force * (1 - 1e-9):
-            first = cont.solve_at(np.r_[ramp.coefficients[-1].ravel(), lo])
+    first, top = None, False
+    for omega in (lo, hi):  # from the low end; failing that, from the high end (downwards)
+        first = _start(cont, system, balance, start, omega, force, settings, pattern)
+        if first is not None:
+            top = omega == hi
+            break
     if first is None:
         return None, (
-            f"no periodic response found at {band_hz[0]:g} Hz for force {force:g} N from the equilibrium "
-            f"{np.round(start, 6).tolist()} (try another band=, or more harmonics=)"
+            f"no periodic response found at {band_hz[0]:g} Hz or {band_hz[1]:g} Hz for force {force:g} N from the "
+            f"equilibrium {np.round(start, 6).tolist()} (try another band=, or more harmonics=)"
         )
-    branch = _finish(cont.run(first, +1.0))
+    branch = _finish(cont.run(first, -1.0 if top else +1.0))
+    if top:
+        branch = _reversed(branch)
     labels = (lambda c: motion_labels(c[:, 0, :], saddles, wells)) if system.n == 1 else (lambda c: [""] * len(c))
     curve = _curve(balance, branch, "frequency", force, start, labels)
     curve.meta.update(calls=cont.calls, x_ref=x_ref)
     failed = system.jumps and branch.stopped.startswith("the step fell")
     return curve, (branch.stopped if failed else "")
+
+
+def _start(cont: Continuation, system, balance, start, omega: float, force: float, settings, pattern):
+    """A solved first point at ``omega``: Newton from the linearised response, else after a ramp of the force."""
+    first = cont.solve_at(np.r_[_linear_guess(system, balance, start, omega, force), omega])
+    if first is None:  # grow the force from a hundredth at this frequency (past folds in the force, if any)
+        try:
+            ramp = continue_force(system, omega / (2 * np.pi), (0.01 * force, force), start, settings, pattern)
+        except InputError:
+            ramp = None
+        if ramp is not None and ramp.force[-1] >= force * (1 - 1e-9):
+            first = cont.solve_at(np.r_[ramp.coefficients[-1].ravel(), omega])
+    return first
+
+
+def _reversed(branch: Branch) -> Branch:
+    """A branch continued from the high end, put in the order of increasing frequency at its start."""
+    n = len(branch.y)
+    out = Branch(
+        y=branch.y[::-1],
+        tangents=[-t for t in branch.tangents[::-1]],
+        aux=branch.aux[::-1],
+        folds=[n - 1 - i for i in branch.folds],
+        stopped=branch.stopped.replace("turned back to the start", "reached the start of the range from its end"),
+        newton=branch.newton,
+        rejected=branch.rejected,
+    )
+    out.events = [type(e)(e.kind, max(0, n - 1 - e.index if e.kind == "fold" else n - e.index), e.y) for e in branch.events]
+    return out
 
 
 def continue_force(
