@@ -16,7 +16,7 @@ from typing import Any
 import numpy as np
 
 from ..errors import InputError
-from .backbone import Backbone, backbones
+from .backbone import TRUNCATION, Backbone, backbones
 from .curves import ResponseCurve
 from .harmonics import default_samples
 from .result import FrequencyResponse
@@ -257,12 +257,19 @@ def force_response(
 
 
 def backbone(
-    model: Any, amplitude: float, *, harmonics: int = 7, modes: Sequence[int] | None = None, step: float = 0.02
+    model: Any,
+    amplitude: float,
+    *,
+    harmonics: int = 7,
+    modes: Sequence[int] | None = None,
+    step: float = 0.02,
+    truncation: float | None = TRUNCATION,
 ) -> list[Backbone]:
     """The backbone curves of a model's conservative part up to a first-harmonic ``amplitude`` (m).
 
     One per linear mode (``modes=``, 1-based) at each stable equilibrium, and for a one-DOF double well
-    the cross-well backbone too (:mod:`nlid.response.backbone`).
+    the cross-well backbone too (:mod:`nlid.response.backbone`). Each stops where its harmonics no longer
+    hold (``truncation=``, :data:`~nlid.response.backbone.TRUNCATION`; ``None``: only at the amplitude).
     """
     from threadpoolctl import threadpool_limits
 
@@ -275,5 +282,5 @@ def backbone(
     with threadpool_limits(limits=1):
         return backbones(
             system, stable or [np.zeros(system.n)], unstable, float(amplitude), harmonics=settings.harmonics,
-            modes=modes, step=step,
+            modes=modes, step=step, truncation=truncation,
         )

@@ -156,6 +156,7 @@ def _branch(
     step: float,
     guides,
     saddles: Sequence[float] = (),
+    truncation: float | None = TRUNCATION,
 ) -> list[tuple[list[np.ndarray], str]]:
     """Solve at ``y0`` with unknown ``fix`` held, then continue along each guide; ``[(points, stopped)]``.
 
@@ -172,10 +173,12 @@ def _branch(
         amp = np.abs(c[:, 1])
         if np.max(amp) > limit:
             return f"reached the largest amplitude asked ({limit:.4g} m)"
-        miss = time_residual(
-            reduced.balance.system, reduced.full(y[:-1]).reshape(n, -1), y[-1], 0.0, zero, basis, measure="force"
+        miss = (
+            time_residual(reduced.balance.system, reduced.full(y[:-1]).reshape(n, -1), y[-1], 0.0, zero, basis, "force")
+            if truncation is not None
+            else 0.0
         )
-        if miss > TRUNCATION:
+        if truncation is not None and miss > truncation:
             return f"the {H} harmonics no longer hold (the equations miss by {miss:.1g} between them): more harmonics="
         if saddles:
             z = c[0] @ np.cos(np.outer(np.arange(H + 1), np.linspace(0, np.pi, 129)))
@@ -216,6 +219,7 @@ def backbones(
     modes: Sequence[int] | None = None,
     samples: int | None = None,
     step: float = 0.02,
+    truncation: float | None = TRUNCATION,
 ) -> list[Backbone]:
     """The backbones of the conservative part up to a first-harmonic ``amplitude`` (m) (module docstring).
 
@@ -235,6 +239,9 @@ def backbones(
         Quadrature size.
     step
         Largest continuation step.
+    truncation
+        Stop where the harmonics no longer hold (:data:`TRUNCATION`); ``None``: continue to the amplitude
+        asked whatever the truncation (one harmonic, the textbook approximation, always does).
     """
     if not amplitude > 0:
         raise InputError(f"the backbone needs a positive amplitude, got {amplitude}")
@@ -242,6 +249,8 @@ def backbones(
     balance = Balance(cons, harmonics, np.zeros(cons.n), samples)
     reduced = _Reduced(balance)
     n, H = cons.n, balance.basis.H
+    if H == 1:
+        truncation = None
     out = []
     for z0 in stable:
         K = cons.stiffness(z0)
@@ -265,7 +274,7 @@ def backbones(
             guide = np.zeros(y0.size)
             guide[fix] = np.sign(shape[lead])
             saddles = [float(u[0]) for u in unstable] if n == 1 else []
-            found = _branch(reduced, y0, fix, amplitude, w, amplitude, step, [guide], saddles)
+            found = _branch(reduced, y0, fix, amplitude, w, amplitude, step, [guide], saddles, truncation)
             if not found:
                 continue
             points, stopped = found[0]
@@ -275,13 +284,15 @@ def backbones(
             )
             out.append(Backbone(label, tuple(float(x) for x in z0), j, f, c, stopped, cons.dofs))
     if n == 1 and unstable and len(stable) >= 2:
-        cross = _cross_well(cons, reduced, stable, unstable, amplitude, step)
+        cross = _cross_well(cons, reduced, stable, unstable, amplitude, step, truncation)
         if cross is not None:
             out.append(cross)
     return out
 
 
-def _cross_well(cons, reduced: _Reduced, stable, unstable, amplitude: float, step: float) -> Backbone | None:
+def _cross_well(
+    cons, reduced: _Reduced, stable, unstable, amplitude: float, step: float, truncation: float | None
+) -> Backbone | None:
     """The cross-well backbone of a one-DOF double well, continued down and up from an enclosing motion."""
     H = reduced.balance.basis.H
     wells = [float(s[0]) for s in stable]
@@ -310,7 +321,7 @@ def _cross_well(cons, reduced: _Reduced, stable, unstable, amplitude: float, ste
     fix = 1
     down, up = np.zeros(y0.size), np.zeros(y0.size)
     down[fix], up[fix] = -1.0, 1.0
-    found = _branch(reduced, y0, fix, max(amplitude, A), w, max(amplitude, 1.05 * A), step, [down, up])
+    found = _branch(reduced, y0, fix, max(amplitude, A), w, max(amplitude, 1.05 * A), step, [down, up], (), truncation)
     if not found:
         return None
     (low, why_low), (high, _) = found

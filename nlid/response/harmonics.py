@@ -104,7 +104,7 @@ class Harmonics:
 
     def slopes(self, tau: np.ndarray) -> np.ndarray:
         """``d/dtau`` of the basis at phases ``tau``: shape ``(len(tau), P)``."""
-        return self.values(tau) @ self.D.T
+        return self.values(tau) @ self.D
 
     def uniform(self, n: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """``(tau, weights, basis)`` of the uniform rule with ``n`` samples (cached)."""

@@ -4,8 +4,8 @@
 
 * from each sampled *stable* point's own state (the folds excepted), for as
   many periods as its Floquet multiplier needs to shrink an error a million
-  times, then in blocks until the first-harmonic amplitude settles (two
-  blocks agree to 1e-5), and reports the difference from the harmonic
+  times, then in blocks until the first-harmonic amplitude and the offset settle
+  (two blocks agree to 1e-5 of the amplitude), and reports the difference from the harmonic
   balance in percent of its amplitude, per DOF;
 * from *unstable* points perturbed by 1 % of their amplitude (both ways), for
   as many periods as the multiplier needs to grow the perturbation a
@@ -149,14 +149,22 @@ def _settle(
     last = None
     done = 0
     periods = max(BLOCK, min(int(first), MAX_PERIODS))
+    last_offset = None
+    memory = sim.fitted.system().uses_memory  # the integrator starts a memory state at 0: one run from the start
+    start = (z0, v0)
     while done < MAX_PERIODS:
-        z, z0, v0 = sim.harmonic(omega, force, pattern, z0, v0, periods)
+        if memory:
+            z, _, _ = sim.harmonic(omega, force, pattern, *start, done + periods)
+        else:
+            z, z0, v0 = sim.harmonic(omega, force, pattern, z0, v0, periods)
         done += periods
-        periods = BLOCK
-        _, amp = first_harmonic(z, STEPS, 4)
-        if last is not None and np.all(np.abs(amp - last) <= 1e-5 * max(float(np.max(amp)), 1e-300)):
+        periods = done if memory else BLOCK
+        offset, amp = first_harmonic(z, STEPS, 4)
+        tol = 1e-5 * max(float(np.max(amp)), 1e-300)
+        # the offset too: a memory state that started away from its periodic regime drifts it slowly
+        if last is not None and np.all(np.abs(amp - last) <= tol) and np.all(np.abs(offset - last_offset) <= tol):
             return amp, True
-        last = amp
+        last, last_offset = amp, offset
     return last, False
 
 
