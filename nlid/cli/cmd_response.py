@@ -107,11 +107,11 @@ def run(args: argparse.Namespace) -> int:
     if args.band is None and measured is None:
         raise InputError("give --band LOW:HIGH (Hz) or a --measured record to take it from")
     force = args.force if args.force is not None else [round(float(sorted(measured.force)[len(measured) // 2]), 6)]
-    band = args.band if args.band is not None else (float(measured.frequency_hz.min()), float(measured.frequency_hz.max()))
-    fit = _model(args)
-    resp = frequency_response(
-        fit, force, band, harmonics=args.harmonics, dof=args.dof, backbone=not args.no_backbone
+    band = (
+        args.band if args.band is not None else (float(measured.frequency_hz.min()), float(measured.frequency_hz.max()))
     )
+    fit = _model(args)
+    resp = frequency_response(fit, force, band, harmonics=args.harmonics, dof=args.dof, backbone=not args.no_backbone)
     if not args.no_verify:
         resp = resp.verify(sweep_rate=args.sweep_rate)
     if args.posterior:

@@ -18,9 +18,9 @@ import numpy as np
 from ..errors import InputError
 from .backbone import TRUNCATION, Backbone, backbones
 from .curves import ResponseCurve
+from .fitted import Fitted, as_fitted
 from .harmonics import default_samples
 from .result import FrequencyResponse
-from .fitted import Fitted, as_fitted
 from .solve import Settings, continue_force, continue_frequency
 from .system import HarmonicSystem
 
@@ -66,7 +66,11 @@ def check_forces(force: float | Sequence[float] | str) -> tuple[float, ...]:
 
 
 def _settings(harmonics: int, settings: Settings | None) -> Settings:
-    if isinstance(harmonics, bool) or not isinstance(harmonics, (int, np.integer)) or not 1 <= harmonics <= MAX_HARMONICS:
+    if (
+        isinstance(harmonics, bool)
+        or not isinstance(harmonics, (int, np.integer))
+        or not 1 <= harmonics <= MAX_HARMONICS
+    ):
         raise InputError(f"harmonics= must be an integer from 1 to {MAX_HARMONICS}, got {harmonics!r}")
     base = settings or Settings()
     import dataclasses
@@ -96,14 +100,18 @@ def _notes(system: HarmonicSystem, settings: Settings, curves: Sequence[Response
     return tuple(out)
 
 
-def _starts(fitted: Fitted, system: HarmonicSystem, starts) -> tuple[list[np.ndarray], list[np.ndarray], list[np.ndarray]]:
+def _starts(
+    fitted: Fitted, system: HarmonicSystem, starts
+) -> tuple[list[np.ndarray], list[np.ndarray], list[np.ndarray]]:
     stable, unstable = fitted.stable_unstable()
     if starts is None:
         chosen = stable or [np.zeros(system.n)]
     else:
-        chosen = [np.atleast_1d(np.asarray(s, dtype=float)).reshape(system.n) for s in np.atleast_1d(starts)] if system.n == 1 else [
-            np.asarray(s, dtype=float).reshape(system.n) for s in starts
-        ]
+        chosen = (
+            [np.atleast_1d(np.asarray(s, dtype=float)).reshape(system.n) for s in np.atleast_1d(starts)]
+            if system.n == 1
+            else [np.asarray(s, dtype=float).reshape(system.n) for s in starts]
+        )
     return chosen, stable, unstable
 
 
@@ -281,6 +289,12 @@ def backbone(
     stable, unstable = fitted.stable_unstable()
     with threadpool_limits(limits=1):
         return backbones(
-            system, stable or [np.zeros(system.n)], unstable, float(amplitude), harmonics=settings.harmonics,
-            modes=modes, step=step, truncation=truncation,
+            system,
+            stable or [np.zeros(system.n)],
+            unstable,
+            float(amplitude),
+            harmonics=settings.harmonics,
+            modes=modes,
+            step=step,
+            truncation=truncation,
         )

@@ -279,8 +279,10 @@ def backbones(
                 continue
             points, stopped = found[0]
             f, c = _pack(reduced, points)
-            label = f"in-well z*={z0[0]:.4g}" if n == 1 and unstable else (
-                "backbone" if n == 1 else f"mode {j} at z*=({', '.join(f'{x:.3g}' for x in z0)})"
+            label = (
+                f"in-well z*={z0[0]:.4g}"
+                if n == 1 and unstable
+                else ("backbone" if n == 1 else f"mode {j} at z*=({', '.join(f'{x:.3g}' for x in z0)})")
             )
             out.append(Backbone(label, tuple(float(x) for x in z0), j, f, c, stopped, cons.dofs))
     if n == 1 and unstable and len(stable) >= 2:

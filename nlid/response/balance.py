@@ -134,9 +134,9 @@ class Balance:
         """Hill's method at a solution (module docstring); ``forces`` from :meth:`evaluate` at the same point."""
         sys_ = self.system
         n, P = self.n, self.P
-        I = np.eye(P)
-        Kt = np.kron(sys_.K, I)
-        Ct = np.kron(sys_.C, I)
+        eye = np.eye(P)
+        Kt = np.kron(sys_.K, eye)
+        Ct = np.kron(sys_.C, eye)
         memory = []
         for g, f in zip(sys_.groups, forces, strict=True):
             if f.hill is not None:
@@ -148,7 +148,7 @@ class Balance:
                 BB = np.outer(g.b, g.b)
                 Kt += np.kron(BB, f.Jx)
                 Ct += np.kron(BB, f.Jv)
-        Minv = np.kron(np.linalg.inv(sys_.M), I)
+        Minv = np.kron(np.linalg.inv(sys_.M), eye)
         m = len(memory)
         size = (2 * n + m) * P
         A = np.zeros((size, size))
@@ -158,7 +158,7 @@ class Balance:
         A[nP : 2 * nP, nP : 2 * nP] = -Minv @ Ct
         for k, (g, (theta, Hw, Hv, _)) in enumerate(memory):
             rows = slice(2 * nP + k * P, 2 * nP + (k + 1) * P)
-            A[nP : 2 * nP, rows] = -Minv @ np.kron(theta * g.b[:, None], I)
+            A[nP : 2 * nP, rows] = -Minv @ np.kron(theta * g.b[:, None], eye)
             A[rows, rows] = Hw
             A[rows, nP : 2 * nP] = np.kron(g.b[None, :], Hv)
         for k in range(2 * n + m):

@@ -21,7 +21,6 @@ Draws run in parallel processes (``jobs``, default every core).
 
 from __future__ import annotations
 
-from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -147,9 +146,7 @@ class ResponseBand:
             hits = []
             for g in np.flatnonzero(band.resolved):
                 a = amps[g]
-                ok = len(a) == band.count[g] and all(
-                    band.low[k, g] <= x <= band.high[k, g] for k, x in enumerate(a)
-                )
+                ok = len(a) == band.count[g] and all(band.low[k, g] <= x <= band.high[k, g] for k, x in enumerate(a))
                 hits.append(ok)
             out.append(float(np.mean(hits)) if hits else float("nan"))
         return out
@@ -371,4 +368,6 @@ def load_posterior(path: Any, fitted: Fitted) -> SavedPosterior:
     fixed = {model.terms[model.index(n)].name: float(x) for n, x in zip(fixed_names, fixed_values, strict=True)}
     base = dict(zip(model.names, np.asarray(fitted.theta, dtype=float), strict=True))
     base.update(fixed)
-    return SavedPosterior(model, float(fitted.mass), tuple(model.terms[model.index(n)].name for n in names), samples, base)
+    return SavedPosterior(
+        model, float(fitted.mass), tuple(model.terms[model.index(n)].name for n in names), samples, base
+    )

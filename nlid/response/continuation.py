@@ -228,7 +228,8 @@ class Continuation:
                 branch.rejected += 1
                 continue
             if np.max(np.abs(yn[:-1])) > self.limit:
-                branch.stopped = f"the response grew beyond {self.limit:g} times its scale (at parameter {yn[-1] * self.scale[-1]:.6g})"
+                where = yn[-1] * self.scale[-1]
+                branch.stopped = f"the response grew beyond {self.limit:g} times its scale (at parameter {where:.6g})"
                 return branch
             detn = self._det(Jn, tn)
             self._check_events(branch, ys, t, det, yn, tn, detn, h)

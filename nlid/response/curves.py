@@ -176,17 +176,86 @@ class ResponseCurve:
                 last = sign * f[i]
         return np.array(out, dtype=int)
 
+    def along(
+        self, frequency_hz: np.ndarray, direction: str = "up", dof: int | str = 1
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """First-harmonic amplitude and offset a slow sweep in ``direction`` reads at each frequency (NaN outside).
+
+        Between two points of the sweep path that follow each other on the curve, linear interpolation;
+        across a jump, the branch the sweep lands on (between the landing point and its neighbour).
+        """
+        f = np.atleast_1d(np.asarray(frequency_hz, dtype=float))
+        amp, off = np.full(f.size, np.nan), np.full(f.size, np.nan)
+        idx = self.sweep(direction)
+        a_all, o_all, fr = self.amplitude(dof), self.offset(dof), self.frequency_hz
+        slack = 1e-9 * max(float(np.max(np.abs(fr))), 1.0)  # the band's ends, to the rounding of 2 pi
+        for a, b in zip(idx[:-1], idx[1:], strict=True):
+            lo, hi = sorted((fr[a], fr[b]))
+            inside = (f >= lo - slack) & (f <= hi + slack)
+            if not inside.any():
+                continue
+            if abs(int(b) - int(a)) > 1:  # a jump at a's frequency: the landing branch, from b back towards a
+                a = b - 1 if b > a else b + 1
+            x0, x1 = fr[a], fr[b]
+            w = np.zeros(f.size) if x1 == x0 else (f - x0) / (x1 - x0)
+            amp[inside] = ((1 - w) * a_all[a] + w * a_all[b])[inside]
+            off[inside] = ((1 - w) * o_all[a] + w * o_all[b])[inside]
+        return amp, off
+
+    def stable_segments(self) -> list[np.ndarray]:
+        """The runs of consecutive stable points (indices), each a stretch of one branch."""
+        out, run = [], []
+        for k, s in enumerate(self.stable):
+            if s:
+                run.append(k)
+            elif run:
+                out.append(np.array(run))
+                run = []
+        if run:
+            out.append(np.array(run))
+        return [r for r in out if r.size >= 2]
+
+    def follow(self, frequency_hz: np.ndarray, dof: int | str = 1, start_amplitude: float | None = None) -> np.ndarray:
+        """The first-harmonic amplitude a slow test reads at a sequence of frequencies, in the order played.
+
+        The test stays on the stable stretch it is on while the frequency stays within it; where the
+        stretch ends (a fold, or a loss of stability), it lands on the stable stretch at the new
+        frequency whose amplitude is nearest the last one it read (the other branch). It starts on the
+        stable solution nearest ``start_amplitude`` (default: the smallest, as from rest). NaN where no
+        stable solution is known.
+        """
+        f = np.atleast_1d(np.asarray(frequency_hz, dtype=float))
+        amp = self.amplitude(dof)
+        fr = self.frequency_hz
+        segments = self.stable_segments()
+
+        def value(seg: np.ndarray, x: float) -> float:
+            order = np.argsort(fr[seg], kind="stable")
+            xs, ys = fr[seg][order], amp[seg][order]
+            slack = 1e-9 * max(abs(xs[-1]), 1.0)  # the band's ends, to the rounding of 2 pi
+            return float(np.interp(x, xs, ys)) if xs[0] - slack <= x <= xs[-1] + slack else float("nan")
+
+        out = np.full(f.size, np.nan)
+        current = None
+        for k, x in enumerate(f):
+            if current is not None and np.isfinite(value(segments[current], x)):
+                out[k] = value(segments[current], x)
+                continue
+            options = [(i, value(seg, x)) for i, seg in enumerate(segments)]
+            options = [(i, y) for i, y in options if np.isfinite(y)]
+            if not options:
+                current = None
+                continue
+            target = out[k - 1] if k and np.isfinite(out[k - 1]) else start_amplitude
+            if target is None:
+                current, out[k] = min(options, key=lambda o: o[1])
+            else:
+                current, out[k] = min(options, key=lambda o: abs(o[1] - target))
+        return out
+
     def at(self, frequency_hz: float, direction: str = "up", dof: int | str = 1) -> float:
         """The first-harmonic amplitude a slow sweep in ``direction`` reads at a frequency (NaN outside the curve)."""
-        idx = self.sweep(direction)
-        if idx.size < 2:
-            return float("nan")
-        f, a = self.frequency_hz[idx], self.amplitude(dof)[idx]
-        if direction == "down":
-            f, a = f[::-1], a[::-1]
-        if not f[0] <= frequency_hz <= f[-1]:
-            return float("nan")
-        return float(np.interp(frequency_hz, f, a))
+        return float(self.along(np.array([frequency_hz]), direction, dof)[0][0])
 
     def to_dict(self) -> dict[str, Any]:
         """Plain data (the coefficients as nested lists)."""

@@ -139,7 +139,10 @@ class Harmonics:
         cut = np.unique(np.minimum((breaks // h).astype(int), n - 1))
         keep = np.ones(n, dtype=bool)
         keep[cut] = False
-        edges = [np.unique(np.concatenate([[h * k, h * (k + 1)], breaks[(breaks > h * k) & (breaks < h * (k + 1))]])) for k in cut]
+        edges = [
+            np.unique(np.concatenate([[h * k, h * (k + 1)], breaks[(breaks > h * k) & (breaks < h * (k + 1))]]))
+            for k in cut
+        ]
         lo = np.concatenate([e[:-1] for e in edges])
         hi = np.concatenate([e[1:] for e in edges])
         xi, wi = _gauss(GAUSS_NODES)
@@ -153,7 +156,7 @@ class Harmonics:
         )
 
     def project(self, weights: np.ndarray, basis: np.ndarray, samples: np.ndarray) -> np.ndarray:
-        """The coefficients of ``samples`` (at the rule's phases) on the basis; ``samples`` may be ``(N,)`` or ``(N, m)``."""
+        """The coefficients of ``samples`` (at the rule's phases, ``(N,)`` or ``(N, m)``) on the basis."""
         return self.norms[:, None] * (basis.T @ (weights[:, None] * samples.reshape(len(weights), -1)))
 
     def amplitude(self, coefficients: np.ndarray, order: int = 1) -> np.ndarray:

@@ -17,11 +17,13 @@ amplitude, the displacement's first-harmonic amplitude and offset, and the
 direction the frequency was moving.
 
 :func:`score` puts the points beside a prediction
-(:class:`~nlid.response.FrequencyResponse`): for each point the curve of the
-same force whose offset there is nearest the measured one (the well it was
-measured in), read along the path a slow sweep in the point's direction
-follows (:meth:`~nlid.response.ResponseCurve.at`), and reports the prediction
-error ``100 |predicted - measured| / |measured|`` (norms over the points).
+(:class:`~nlid.response.FrequencyResponse`): the curve of the same force whose
+offset at the first point is nearest the measured one (the well the test was
+in), read along the frequencies in the order they were played, staying on a
+branch while it lasts and landing on the other one where it ends
+(:meth:`~nlid.response.ResponseCurve.follow`: the hysteresis of a slow test),
+and reports the prediction error ``100 |predicted - measured| / |measured|``
+(norms over the points).
 """
 
 from __future__ import annotations
@@ -122,7 +124,12 @@ class MeasuredResponse:
             k = np.array([d == direction for d in self.direction])
             if k.any():
                 ax.plot(
-                    self.frequency_hz[k], self.amplitude[k], marker, mfc="none", color="k", ms=4,
+                    self.frequency_hz[k],
+                    self.amplitude[k],
+                    marker,
+                    mfc="none",
+                    color="k",
+                    ms=4,
                     label=f"measured ({direction})",
                 )
 
@@ -247,7 +254,8 @@ def score(response, measured, *, direction: str | None = None) -> MeasuredRespon
     measured
         A :class:`MeasuredResponse` or a record (read by :func:`measure`).
     direction
-        ``"up"`` or ``"down"`` to read every point along that sweep path (default: each point's own).
+        ``"up"`` or ``"down"`` to read every point along that sweep path from the band's end; default:
+        the points in the order played (:meth:`~nlid.response.ResponseCurve.follow`).
 
     Raises
     ------
@@ -260,34 +268,42 @@ def score(response, measured, *, direction: str | None = None) -> MeasuredRespon
         raise InputError(f"direction= must be 'up' or 'down', got {direction!r}")
     curves = [c for c in response.curves if c.parameter == "frequency"]
     d = response._lead
+    forces = sorted({round(float(F), 12) for F in measured.force})
     predicted = np.full(len(measured), np.nan)
-    for k in range(len(measured)):
-        F = measured.force[k]
+    for F in (
+        {float(np.median(measured.force))} if np.ptp(measured.force) <= 0.05 * np.median(measured.force) else forces
+    ):
         near = [c for c in curves if abs(c.force[0] - F) <= 0.05 * F]
         if not near:
-            forces = ", ".join(f"{c.force[0]:.4g}" for c in curves)
+            shown = ", ".join(f"{c.force[0]:.4g}" for c in curves)
             raise InputError(
-                f"the measured force is {F:.4g} N but the response has curves at {forces} N: "
+                f"the measured force is {F:.4g} N but the response has curves at {shown} N: "
                 "compute it at the measured force (force=)"
             )
-        way = direction or measured.direction[k]
-        best = np.inf
-        for c in near:
-            idx = c.sweep(way)
-            if idx.size < 2:
-                continue
-            fr, amp, off = c.frequency_hz[idx], c.amplitude(d + 1)[idx], c.offset(d + 1)[idx]
-            order = np.argsort(fr, kind="stable")
-            fr, amp, off = fr[order], amp[order], off[order]
-            if not fr[0] <= measured.frequency_hz[k] <= fr[-1]:
-                continue
-            a = float(np.interp(measured.frequency_hz[k], fr, amp))
-            o = float(np.interp(measured.frequency_hz[k], fr, off))
-            gap = abs(o - measured.offset[k])
-            if gap < best:
-                best, predicted[k] = gap, a
+        mine = np.abs(measured.force - F) <= 0.05 * F
+        # the curve of the well the test was in: the offset of its first point
+        first = int(np.flatnonzero(mine)[0])
+        curve = min(
+            near,
+            key=lambda c: abs(
+                float(
+                    np.interp(
+                        measured.frequency_hz[first],
+                        np.sort(c.frequency_hz),
+                        c.offset(d + 1)[np.argsort(c.frequency_hz)],
+                    )
+                )
+                - measured.offset[first]
+            ),
+        )
+        if direction is None:
+            predicted[mine] = curve.follow(measured.frequency_hz[mine], d + 1, measured.amplitude[first])
+        else:
+            predicted[mine] = curve.along(measured.frequency_hz[mine], direction, d + 1)[0]
     ok = np.isfinite(predicted)
     err = None
     if ok.any():
-        err = float(100 * np.linalg.norm(predicted[ok] - measured.amplitude[ok]) / np.linalg.norm(measured.amplitude[ok]))
+        err = float(
+            100 * np.linalg.norm(predicted[ok] - measured.amplitude[ok]) / np.linalg.norm(measured.amplitude[ok])
+        )
     return dataclasses.replace(measured, predicted=predicted, error_percent=err)

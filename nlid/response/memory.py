@@ -41,7 +41,7 @@ def _step(law, w, dz, p1, p2):
 
 @numba.njit(cache=True)
 def _periodic(z, E, law, p1, p2, w0, out_w, out_S):
-    """The periodic state along the closed path ``z`` and ``dw/dc``; returns the Newton iterations used (-1: none converged)."""
+    """The periodic state along the closed path ``z`` and ``dw/dc``; the Newton iterations used (-1: no fixed point)."""
     n = z.size
     P = E.shape[1]
     used = -1

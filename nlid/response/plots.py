@@ -52,7 +52,9 @@ def _values(curve, quantity: str, d: int) -> np.ndarray:
     raise ValueError(f"quantity must be 'amplitude' or 'peak', got {quantity!r}")
 
 
-def plot_response(response: FrequencyResponse, ax: Any = None, *, dof: int | str | None = None, quantity: str = "amplitude") -> Any:
+def plot_response(
+    response: FrequencyResponse, ax: Any = None, *, dof: int | str | None = None, quantity: str = "amplitude"
+) -> Any:
     """Draw a :class:`~nlid.response.result.FrequencyResponse` (module docstring); returns the axes.
 
     Parameters
@@ -78,7 +80,9 @@ def plot_response(response: FrequencyResponse, ax: Any = None, *, dof: int | str
         y = _values(curve, quantity, d)
         label = None
         if float(curve.force[0]) not in shown:
-            label = f"F = {curve.force[0]:.3g} N" if curve.parameter == "frequency" else f"{curve.frequency_hz[0]:.4g} Hz"
+            label = (
+                f"F = {curve.force[0]:.3g} N" if curve.parameter == "frequency" else f"{curve.frequency_hz[0]:.4g} Hz"
+            )
             shown.add(float(curve.force[0]))
         for s in _segments(curve.stable):
             ax.plot(x[s], y[s], "-", color=colour, lw=1.6, label=label)
@@ -96,7 +100,14 @@ def plot_response(response: FrequencyResponse, ax: Any = None, *, dof: int | str
         ax.plot([], [], "k.", ms=3, label="cross-well")
     for b in response.backbones:
         yb = b.amplitude(d + 1) if quantity == "amplitude" else b.peak(d + 1)
-        ax.plot(b.frequency_hz, yb, "-.", color="0.45", lw=1.0, label="backbone" if b.label == "backbone" else f"backbone, {b.label}")
+        ax.plot(
+            b.frequency_hz,
+            yb,
+            "-.",
+            color="0.45",
+            lw=1.0,
+            label="backbone" if b.label == "backbone" else f"backbone, {b.label}",
+        )
     if response.uncertainty is not None:
         response.uncertainty.draw(ax, d, colours)
     if response.measured is not None:
@@ -126,7 +137,15 @@ def _jumps(ax: Any, curve, y: np.ndarray, colour: str) -> None:
             # the landing amplitude at the fold's frequency, between b and its neighbour towards a
             c = b - 1 if b > a else b + 1
             lo, hi = sorted((f[c], f[b]))
-            land = y[b] if hi == lo or not lo <= f[a] <= hi else float(np.interp(f[a], [f[c], f[b]][:: 1 if f[c] < f[b] else -1], [y[c], y[b]][:: 1 if f[c] < f[b] else -1]))
+            land = (
+                y[b]
+                if hi == lo or not lo <= f[a] <= hi
+                else float(
+                    np.interp(
+                        f[a], [f[c], f[b]][:: 1 if f[c] < f[b] else -1], [y[c], y[b]][:: 1 if f[c] < f[b] else -1]
+                    )
+                )
+            )
             ax.annotate(
                 "",
                 xy=(f[a], land),

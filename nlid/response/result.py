@@ -152,7 +152,9 @@ class FrequencyResponse:
         bb = check_backbones(self.model, self.backbones) if self.backbones else []
         return dataclasses.replace(self, checks=tuple(checks), sweeps=tuple(sweeps), backbone_checks=tuple(bb))
 
-    def with_posterior(self, posterior, draws: int = 100, *, level: float = 0.9, seed: int = 0, jobs: int | None = None):
+    def with_posterior(
+        self, posterior, draws: int = 100, *, level: float = 0.9, seed: int = 0, jobs: int | None = None
+    ):
         """The band of the response over posterior draws (:func:`nlid.response.bands.response_band`)."""
         from .bands import response_band
 
@@ -248,7 +250,12 @@ class FrequencyResponse:
         events = [(i, e) for i, c in enumerate(self.curves) for e in c.events]
         if events:
             out.add_table(
-                [Column("curve"), Column("point"), Column("Hz", "right"), Column(f"amplitude {self.dofs[k]} m", "right")],
+                [
+                    Column("curve"),
+                    Column("point"),
+                    Column("Hz", "right"),
+                    Column(f"amplitude {self.dofs[k]} m", "right"),
+                ],
                 [[str(i), e.kind, f"{e.frequency_hz:.5g}", f"{e.amplitude[k]:.4g}"] for i, e in events],
                 gap=True,
             )
@@ -256,13 +263,22 @@ class FrequencyResponse:
             out.add_table(
                 [Column("backbone"), Column("points", "right"), Column("Hz", "right"), Column("stopped")],
                 [
-                    [b.label, str(b.frequency_hz.size), f"{b.frequency_hz.min():.4g}-{b.frequency_hz.max():.4g}", b.stopped]
+                    [
+                        b.label,
+                        str(b.frequency_hz.size),
+                        f"{b.frequency_hz.min():.4g}-{b.frequency_hz.max():.4g}",
+                        b.stopped,
+                    ]
                     for b in self.backbones
                 ],
                 gap=True,
             )
         lines: list[tuple[str, str]] = []
-        worst = [float(np.nanmax(c.truncation)) for c in self.curves if c.truncation is not None and np.isfinite(c.truncation).any()]
+        worst = [
+            float(np.nanmax(c.truncation))
+            for c in self.curves
+            if c.truncation is not None and np.isfinite(c.truncation).any()
+        ]
         if worst:
             many = sum(int(np.sum(c.truncation > TRUNCATION_WARN)) for c in self.curves if c.truncation is not None)
             text = f"the harmonics left out would move the response by at most {max(worst):.2g} of its amplitude"

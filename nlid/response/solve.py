@@ -289,7 +289,9 @@ def _reversed(branch: Branch) -> Branch:
         newton=branch.newton,
         rejected=branch.rejected,
     )
-    out.events = [type(e)(e.kind, max(0, n - 1 - e.index if e.kind == "fold" else n - e.index), e.y) for e in branch.events]
+    out.events = [
+        type(e)(e.kind, max(0, n - 1 - e.index if e.kind == "fold" else n - e.index), e.y) for e in branch.events
+    ]
     return out
 
 

@@ -136,7 +136,7 @@ class HarmonicSystem:
     # ------------------------------------------------------------------ construction
     @classmethod
     def from_model(cls, model: Model, theta: np.ndarray | Mapping[str, float], mass: float) -> HarmonicSystem:
-        """A one-DOF model ``m z'' + R(z, z') = f``: ``z``, ``v``, ``1`` to ``K``, ``C``, ``s``; the rest to the ground."""
+        """A one-DOF model ``m z'' + R = f``: ``z``, ``v``, ``1`` to ``K``, ``C``, ``s``; the rest to the ground."""
         theta = model.vector(dict(theta) if isinstance(theta, Mapping) else theta)
         k = c = s = 0.0
         plain: list[tuple[Term, float]] = []

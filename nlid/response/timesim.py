@@ -90,7 +90,7 @@ class Simulator:
         z0: np.ndarray,
         steps: int = 128,
     ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """A linear sweep from ``f0`` to ``f1`` Hz at ``rate`` Hz/s: ``(t, phase, z)``, ``steps`` per period at the top."""
+        """A linear sweep from ``f0`` to ``f1`` Hz at ``rate`` Hz/s: ``(t, phase, z)``, ``steps`` per top period."""
         duration = abs(f1 - f0) / rate
         dt = 1.0 / (steps * max(f0, f1))
         n = int(np.ceil(duration / dt))

@@ -32,7 +32,15 @@ from .curves import ResponseCurve
 from .fitted import Fitted
 from .timesim import STEPS, Simulator, envelope, first_harmonic
 
-__all__ = ["PointCheck", "SweepCheck", "BackboneCheck", "check_points", "check_sweeps", "check_backbones", "REACHED_PERCENT"]
+__all__ = [
+    "PointCheck",
+    "SweepCheck",
+    "BackboneCheck",
+    "check_points",
+    "check_sweeps",
+    "check_backbones",
+    "REACHED_PERCENT",
+]
 
 #: An unstable point counts as reached when a run from near it settles within this distance (percent).
 REACHED_PERCENT = 0.5
@@ -199,7 +207,11 @@ def check_points(
             folds = {e.index for e in curve.folds}
             idx = np.array([k for k in np.flatnonzero(curve.stable == stable) if k not in folds], dtype=int)
             if not stable:  # unstable points an amplitude cannot tell from a stable one (next to a fold) are not tried
-                apart = [k for k in idx if _nearest_stable(curves, curve, k, curve.basis.amplitude(curve.coefficients[k])) > 2]
+                apart = [
+                    k
+                    for k in idx
+                    if _nearest_stable(curves, curve, k, curve.basis.amplitude(curve.coefficients[k])) > 2
+                ]
                 idx = np.array(apart, dtype=int) if apart else idx
             if idx.size == 0 or want <= 0:
                 continue
@@ -360,7 +372,9 @@ class BackboneCheck:
         return {**self.__dict__, "balance": list(self.balance), "simulated": list(self.simulated)}
 
 
-def check_backbones(fitted: Fitted, backbones: Sequence[Backbone], *, points: int = 4, periods: int = 20) -> list[BackboneCheck]:
+def check_backbones(
+    fitted: Fitted, backbones: Sequence[Backbone], *, points: int = 4, periods: int = 20
+) -> list[BackboneCheck]:
     """Integrate the conservative model freely from sampled backbone points for ``periods`` periods."""
     sim = Simulator(fitted.conservative())
     out = []
@@ -375,5 +389,7 @@ def check_backbones(fitted: Fitted, backbones: Sequence[Backbone], *, points: in
             _, amp = first_harmonic(z, STEPS, 1)
             hb = b.basis.amplitude(c)
             err = float(np.max(np.abs(amp - hb)) / max(float(np.max(hb)), 1e-300)) * 100
-            out.append(BackboneCheck(bi, int(i), float(b.frequency_hz[i]), tuple(map(float, hb)), tuple(map(float, amp)), err))
+            out.append(
+                BackboneCheck(bi, int(i), float(b.frequency_hz[i]), tuple(map(float, hb)), tuple(map(float, amp)), err)
+            )
     return out

@@ -48,3 +48,16 @@ def bouc_wen() -> IdentifiedModel:
     """A softening Bouc-Wen oscillator (weak hysteresis) with a fold near 14 Hz at 3 N."""
     spec = "bouc_wen(20, 200)"
     return oscillator(spec, {spec: 5e3, "z": 5e3, "v": 1.0, "1": 0.0})
+
+
+@pytest.fixture
+def cli(capfd):
+    """Run ``nlid ARGS...`` in-process; returns ``(exit status, stdout, stderr)``."""
+    from nlid.cli.main import main
+
+    def run(*argv: str) -> tuple[int, str, str]:
+        status = main(list(argv))
+        out = capfd.readouterr()
+        return status, out.out, out.err
+
+    return run

@@ -39,7 +39,10 @@ def test_the_jacobian_is_the_derivative_of_the_residual(spec):
     _, J, dw, _, _ = balance.evaluate(X, omega, 1.0)
     h = 1e-9
     fd = np.column_stack(
-        [(balance.evaluate(X + h * e, omega, 1.0)[0] - balance.evaluate(X - h * e, omega, 1.0)[0]) / (2 * h) for e in np.eye(X.size)]
+        [
+            (balance.evaluate(X + h * e, omega, 1.0)[0] - balance.evaluate(X - h * e, omega, 1.0)[0]) / (2 * h)
+            for e in np.eye(X.size)
+        ]
     )
     dfd = (balance.evaluate(X, omega + 1e-6, 1.0)[0] - balance.evaluate(X, omega - 1e-6, 1.0)[0]) / 2e-6
     assert np.max(np.abs(J - fd)) <= 1e-5 * np.max(np.abs(fd))

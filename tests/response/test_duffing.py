@@ -1,4 +1,4 @@
-"""Duffing (hardening): the textbook backbone, harmonic convergence, folds, stability and jumps, against time integration."""
+"""Duffing (hardening): the textbook backbone, harmonic convergence, folds, stability and jumps, in time too."""
 
 from __future__ import annotations
 
@@ -46,7 +46,7 @@ def test_two_folds_and_unstable_between_them(response):
     assert curve.stable[outside].all()
     # a slow sweep up leaves the upper branch at the upper fold; down, the lower one at the lower fold
     up, down = curve.sweep("up"), curve.sweep("down")
-    assert curve.frequency_hz[up[np.argmax(np.diff(up)) ]] == pytest.approx(high.frequency_hz)
+    assert curve.frequency_hz[up[np.argmax(np.diff(up))]] == pytest.approx(high.frequency_hz)
     assert curve.frequency_hz[down[np.argmax(np.abs(np.diff(down)))]] == pytest.approx(low.frequency_hz)
 
 
