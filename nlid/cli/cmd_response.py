@@ -16,8 +16,8 @@ amplitude F (harmonic balance with H harmonics and a constant term, pseudo-arcle
 stability by Hill's method). Prints the curves, their turning points (where a slow sweep jumps) and the
 backbones of the conservative part; by default also checks sampled points against long time integration.
 
-The model is an 'nlid identify --json' (or structure) file, or a data file identified first with --terms,
---mass and --method as 'nlid identify' does.
+The model is an 'nlid identify --json' (or structure) file, the result.json of 'nlid discover --out' (its
+final model), or a data file identified first with --terms, --mass and --method as 'nlid identify' does.
 
 --posterior DIR adds the 90 % band over posterior draws (the folder 'nlid posterior --out DIR' wrote, on the
 same model); --measured FILE reads a stepped- or swept-sine record, extracts its first-harmonic amplitude per
@@ -70,6 +70,8 @@ def _model(args: argparse.Namespace):
             data = json.loads(path.read_text())
         except json.JSONDecodeError as exc:
             raise InputError(f"{path} is not JSON ({exc.msg} at line {exc.lineno})") from None
+        if isinstance(data, dict) and isinstance(data.get("final_model"), dict):  # an 'nlid discover' result
+            data = data["final_model"]
         schema = str(data.get("schema", "")) if isinstance(data, dict) else ""
         if schema.startswith("nlid.IdentifiedStructure"):
             from ..mdof.identified import IdentifiedStructure

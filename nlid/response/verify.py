@@ -120,7 +120,7 @@ class SweepCheck:
     rate_hz_s
         Sweep rate (Hz/s).
     jump_hz
-        Where the simulated amplitude jumps (NaN: no jump found).
+        Where the simulated amplitude jumps: the onset of its steepest change (NaN: no jump found).
     fold_hz
         Where the continuation's path in that direction jumps (NaN: it does not).
     difference_percent
@@ -306,18 +306,26 @@ def check_sweeps(
 
 
 def _jump(freq: np.ndarray, amp: np.ndarray) -> float:
-    """The frequency of the steepest cycle-to-cycle change of the amplitude, if it stands out (else NaN)."""
+    """Where the amplitude jumps: the onset of its steepest cycle-to-cycle change, if that stands out (else NaN).
+
+    The onset is the last cycle before the steepest one whose change is under a tenth of the steepest: a
+    sweep leaves the branch at the fold and falls (or rises) ever faster, so the steepest cycle lies some
+    cycles past the fold, its onset next to it.
+    """
     if amp.size < 8:
         return float("nan")
     skip = max(4, amp.size // 50)  # the start-up transient
     a = amp[skip:]
     f = freq[skip:]
-    d = np.abs(np.diff(a))
-    k = int(np.argmax(d))
-    typical = float(np.median(d)) + 1e-300
-    if d[k] < 20 * typical or d[k] < 0.02 * float(np.max(a)):
+    d = np.diff(a)
+    k = int(np.argmax(np.abs(d)))
+    typical = float(np.median(np.abs(d))) + 1e-300
+    if abs(d[k]) < 20 * typical or abs(d[k]) < 0.02 * float(np.max(a)):
         return float("nan")
-    return float(0.5 * (f[k] + f[k + 1]))
+    j = k
+    while j > 0 and np.sign(d[j - 1]) == np.sign(d[k]) and abs(d[j - 1]) >= 0.1 * abs(d[k]):
+        j -= 1
+    return float(f[j])
 
 
 def _fold(curve: ResponseCurve, direction: str, near: float) -> float:
