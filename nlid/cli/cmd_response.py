@@ -81,16 +81,16 @@ def _model(args: argparse.Namespace):
 
         return IdentifiedModel.from_dict(data)
     from ..api import load
+    from ..mdof.record import StructureRecord
     from ..pipeline import as_model, identify
 
     record = load(args.source)
-    return identify(
-        record,
-        as_model(args.terms, without=args.without, px_roots=parse_px_roots(args.px_roots)),
-        args.method,
-        mass=args.mass,
-        options=parse_settings(args.set),
-    )
+    extra: dict = {}
+    if isinstance(record, StructureRecord):  # elements on connections, parsed on the record's DOFs by identify
+        model, extra["without"] = args.terms, args.without or ()
+    else:
+        model = as_model(args.terms, without=args.without, px_roots=parse_px_roots(args.px_roots))
+    return identify(record, model, args.method, mass=args.mass, options=parse_settings(args.set), **extra)
 
 
 def run(args: argparse.Namespace) -> int:

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 
+import numpy as np
 import pytest
 
 from nlid.errors import InputError
@@ -84,3 +85,22 @@ def test_the_command_line(duffing, tmp_path, cli):
     assert status == 2 and "--band" in err and "Traceback" not in err
     status, _, err = cli("response", str(model), "--band", "12:28")
     assert status == 2 and "--force" in err
+
+
+def test_the_command_line_scores_a_measured_stepped_sine(duffing, tmp_path, cli):
+    import pandas as pd
+
+    from nlid.simulation import SineTest, simulate
+
+    f, _ = SineTest("stepped", 1.0, (14.0, 20.0), steps=7, periods=40, directions="up").force(512.0)
+    z, _, _ = simulate(duffing.model, duffing.theta, duffing.mass, f, 512.0)
+    data = tmp_path / "stepped.csv"
+    pd.DataFrame({"t": np.arange(f.size) / 512.0, "load": f, "x": z}).to_csv(data, index=False)
+    model = tmp_path / "model.json"
+    model.write_text(json.dumps(duffing.to_dict()))
+    status, out, _ = cli(
+        "response", str(model), "--measured", str(data), "--measured-columns", "f=load,z=x", "--no-verify", "--json"
+    )
+    assert status == 0
+    measured = json.loads(out)["measured"]
+    assert len(measured["frequency_hz"]) == 7 and measured["error_percent"] < 1.0
