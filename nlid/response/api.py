@@ -73,6 +73,19 @@ def _settings(harmonics: int, settings: Settings | None) -> Settings:
     ):
         raise InputError(f"harmonics= must be an integer from 1 to {MAX_HARMONICS}, got {harmonics!r}")
     base = settings or Settings()
+    if not isinstance(base, Settings):
+        raise InputError(f"settings= must be nlid.response.Settings, got {type(base).__name__}")
+    for name, low in (("samples", 8), ("memory_samples", 8)):
+        value = getattr(base, name)
+        if value is not None and (isinstance(value, bool) or not isinstance(value, int) or value < low):
+            raise InputError(f"settings= {name} must be an integer of at least {low} (or None), got {value!r}")
+    if not (isinstance(base.step, (int, float)) and 0 < base.step <= 1):
+        raise InputError(f"settings= step must be in (0, 1], got {base.step!r}")
+    if isinstance(base.max_points, bool) or not isinstance(base.max_points, int) or base.max_points < 2:
+        raise InputError(f"settings= max_points must be an integer of at least 2, got {base.max_points!r}")
+    eps = base.regularisation
+    if eps is not None and not (isinstance(eps, (int, float)) and math.isfinite(eps) and eps >= 0):
+        raise InputError(f"settings= regularisation must be a velocity scale >= 0 (m/s) or None, got {eps!r}")
     import dataclasses
 
     return dataclasses.replace(base, harmonics=int(harmonics))
@@ -107,11 +120,16 @@ def _starts(
     if starts is None:
         chosen = stable or [np.zeros(system.n)]
     else:
-        chosen = (
-            [np.atleast_1d(np.asarray(s, dtype=float)).reshape(system.n) for s in np.atleast_1d(starts)]
-            if system.n == 1
-            else [np.asarray(s, dtype=float).reshape(system.n) for s in starts]
-        )
+        try:
+            chosen = (
+                [np.atleast_1d(np.asarray(s, dtype=float)).reshape(system.n) for s in np.atleast_1d(starts)]
+                if system.n == 1
+                else [np.asarray(s, dtype=float).reshape(system.n) for s in starts]
+            )
+        except (TypeError, ValueError):
+            raise InputError(f"starts= must be equilibria of {system.n} displacement(s) each, got {starts!r}") from None
+        if not chosen or not all(np.all(np.isfinite(s)) for s in chosen):
+            raise InputError(f"starts= must be finite equilibria, got {starts!r}")
     return chosen, stable, unstable
 
 

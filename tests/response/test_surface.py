@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from nlid.errors import InputError
-from nlid.response import FrequencyResponse, force_response, frequency_response
+from nlid.response import FrequencyResponse, Settings, force_response, frequency_response
 from nlid.response.result import FRAME_COLUMNS
 
 
@@ -60,6 +60,9 @@ def test_the_response_saves_its_files(response, tmp_path):
         ({"force": 1.0, "band": "a:b"}, "band="),
         ({"force": 1.0, "band": (10, 20), "harmonics": 0}, "harmonics="),
         ({"force": "1,x", "band": (10, 20)}, "force="),
+        ({"force": 1.0, "band": (10, 20), "starts": [[1.0, 2.0]]}, "starts="),
+        ({"force": 1.0, "band": (10, 20), "settings": Settings(step=0.0)}, "step"),
+        ({"force": 1.0, "band": (10, 20), "dof": 2}, "dof="),
     ],
 )
 def test_bad_arguments_name_the_parameter(duffing, kwargs, match):
