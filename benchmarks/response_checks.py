@@ -86,9 +86,8 @@ def run(name: str, model, force: float, band, harmonics: int, rate: float) -> li
         )
     )
     bb = max((c.error_percent for c in checked.backbone_checks), default=float("nan"))
-    trunc = (
-        max(float(np.nanmax(c.truncation)) for c in resp.curves) if resp.curves[0].truncation is not None else np.nan
-    )
+    finite = [c.truncation[np.isfinite(c.truncation)] for c in resp.curves if c.truncation is not None]
+    trunc = max((float(t.max()) for t in finite if t.size), default=np.nan)
     return [
         name,
         f"{force:g} N, {band[0]:g}-{band[1]:g} Hz, H={harmonics}",

@@ -194,19 +194,18 @@ def _exponents(lam: np.ndarray, omega: float, d: int, P: int) -> np.ndarray:
     """
     re, im = lam.real, np.mod(lam.imag + 0.5 * omega, omega) - 0.5 * omega
     tol = 1e-3 * omega
-    group = -np.ones(lam.size, dtype=int)
     members: list[list[int]] = []
+    heads: list[int] = []
     for i in np.argsort(np.abs(lam.imag), kind="stable"):
-        for g, ids in enumerate(members):
-            j = ids[0]
-            d_im = abs(im[i] - im[j])
-            if abs(re[i] - re[j]) <= tol + 1e-3 * abs(re[j]) and min(d_im, omega - d_im) <= tol:
-                ids.append(int(i))
-                group[i] = g
-                break
-        else:
-            group[i] = len(members)
-            members.append([int(i)])
+        if heads:
+            h = np.array(heads)
+            d_im = np.abs(im[i] - im[h])
+            near = (np.abs(re[i] - re[h]) <= tol + 1e-3 * np.abs(re[h])) & (np.minimum(d_im, omega - d_im) <= tol)
+            if near.any():
+                members[int(np.argmax(near))].append(int(i))
+                continue
+        heads.append(int(i))
+        members.append([int(i)])
     order = sorted(range(len(members)), key=lambda g: (-len(members[g]), abs(lam[members[g][0]].imag)))
     out: list[complex] = []
     for g in order:
