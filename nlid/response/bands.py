@@ -16,12 +16,13 @@ and the result says which frequencies they are. :meth:`ResponseBand.coverage`
 tells whether another response (the truth's) lies inside the band at the
 resolved frequencies.
 
-Draws run in parallel processes (``jobs``, default every core).
+Draws run in parallel processes (``jobs``, default every core). Draws of a model with Coulomb signs are
+all regularised alike (:func:`_regularisation`).
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Any
 
 import numpy as np
@@ -209,13 +210,30 @@ def _draw_curves(args: tuple) -> tuple[list[list[list[float]]] | None, str]:
             saddles = tuple(float(u[0]) for u in unstable)
             wells = tuple(float(s[0]) for s in stable)
             out = []
-            for force, start, band in requests:
+            for force, start, band, eps in requests:
                 z0 = min(stable, key=lambda s: float(np.sum((s - np.asarray(start)) ** 2)))
-                curve = continue_frequency(system, force, band, z0, settings, pattern, saddles=saddles, wells=wells)
+                mine = settings if eps is None else replace(settings, regularisation=eps)
+                curve = continue_frequency(system, force, band, z0, mine, pattern, saddles=saddles, wells=wells)
                 out.append(stable_amplitudes(curve, grid, dof))
             return out, ""
     except (NlidError, np.linalg.LinAlgError, FloatingPointError) as exc:
         return None, str(exc)
+
+
+def _regularisation(curve: ResponseCurve, hi_hz: float) -> float | None:
+    """The Coulomb regularisation every draw of a curve uses: the curve's own, or the one it would have had.
+
+    Draws of a model with Coulomb signs are all regularised alike (:data:`nlid.response.solve.REGULARISATION`
+    times the nominal curve's largest linearised velocity amplitude), so that a draw is never computed
+    exactly while its neighbour sticks, and no draw spends a continuation finding that out.
+    """
+    from .solve import REGULARISATION
+
+    if "regularisation" in curve.meta:
+        return float(curve.meta["regularisation"][0])
+    if not curve.meta.get("jumps"):
+        return None
+    return REGULARISATION * 2 * np.pi * hi_hz * float(curve.meta["x_ref"])
 
 
 def _pool(jobs: int):
@@ -282,7 +300,7 @@ def response_band(
     base = Fitted(model=model, theta=np.asarray(samples[0]), mass=float(mass), z_range=fitted.z_range)
     lo, hi = response.band_hz
     grid_hz = np.linspace(lo, hi, int(grid))
-    requests = [(float(c.force[0]), c.start, (lo, hi)) for c in response.curves]
+    requests = [(float(c.force[0]), c.start, (lo, hi), _regularisation(c, hi)) for c in response.curves]
     dof = response._lead
     tasks = [(base, theta, requests, response.settings, np.asarray(response.forced), grid_hz, dof) for theta in samples]
     n = workers() if jobs is None else max(1, int(jobs))

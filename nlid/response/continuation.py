@@ -103,7 +103,7 @@ class Continuation:
         bounds: tuple[float, float],
         *,
         h0: float = 0.02,
-        h_min: float = 1e-7,
+        h_min: float = 1e-6,
         h_max: float = 0.05,
         max_points: int = 2000,
         limit: float = 1e3,
@@ -142,12 +142,22 @@ class Continuation:
         t /= np.linalg.norm(t)
         return t if t @ guide >= 0 else -t
 
-    def _correct(self, ys: np.ndarray, t: np.ndarray, fix: int | None = None, iters: int = 12):
-        """Newton from the scaled ``ys``: with the arclength condition (``fix=None``) or with unknown ``fix`` held."""
+    def _correct(self, ys: np.ndarray, t: np.ndarray, fix: int | None = None, iters: int = 10):
+        """Newton from the scaled ``ys``: with the arclength condition (``fix=None``) or with unknown ``fix`` held.
+
+        Along the curve (``fix=None``) a corrector whose residual grows twice in a row is given up at once.
+        """
         anchor = ys.copy()
+        growing = 0
+        last = np.inf
         for k in range(iters):
             r, J, aux = self._eval(ys * self.scale)
             m = J.shape[0]
+            size = float(np.max(np.abs(r)))
+            growing = growing + 1 if size > last else 0
+            if growing >= 2 and fix is None:  # diverging: give up early, the caller shortens the step
+                return None, k + 1
+            last = size
             if fix is None:
                 A = np.vstack([J, t])
                 rhs = -np.r_[r, t @ (ys - anchor)]

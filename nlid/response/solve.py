@@ -259,7 +259,7 @@ def _frequency_curve(system, force, band_hz, start, settings, pattern, saddles, 
         branch = _reversed(branch)
     labels = (lambda c: motion_labels(c[:, 0, :], saddles, wells)) if system.n == 1 else (lambda c: [""] * len(c))
     curve = _curve(balance, branch, "frequency", force, start, labels)
-    curve.meta.update(calls=cont.calls, x_ref=x_ref)
+    curve.meta.update(calls=cont.calls, x_ref=x_ref, jumps=system.jumps)
     failed = system.jumps and branch.stopped.startswith("the step fell")
     return curve, (branch.stopped if failed else "")
 
