@@ -10,6 +10,7 @@
     resp.to_frame()                   # one row per point and DOF
     resp.plot()                       # stable/unstable branches, folds and jumps, backbones
     checked = resp.verify(sweep_rate=0.02)   # stable points and jumps against time integration
+    scored = resp.compare(nlid.load("stepped.csv"))   # measured stepped-sine points: the prediction error
 
 One job per module: the basis and quadratures (``harmonics``), the equations
 (``system``), the AFT of the terms with exact Jacobians (``aft``, memory
@@ -23,7 +24,9 @@ measured stepped and swept sines (``measured``, ``sine``), the result
 
 from .api import backbone, force_response, frequency_response
 from .backbone import Backbone
+from .bands import ResponseBand
 from .curves import ResponseCurve, SpecialPoint
+from .measured import MeasuredResponse, measure
 from .result import FrequencyResponse
 from .solve import Settings
 from .verify import PointCheck, SweepCheck
@@ -32,6 +35,7 @@ __all__ = [
     "frequency_response",
     "force_response",
     "backbone",
+    "measure",
     "FrequencyResponse",
     "ResponseCurve",
     "SpecialPoint",
@@ -39,4 +43,6 @@ __all__ = [
     "Settings",
     "PointCheck",
     "SweepCheck",
+    "ResponseBand",
+    "MeasuredResponse",
 ]

@@ -11,7 +11,6 @@ plain data (:meth:`~FrequencyResponse.to_dict`), a
 from __future__ import annotations
 
 import dataclasses
-from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
@@ -366,9 +365,3 @@ class FrequencyResponse:
         from .plots import plot_response
 
         return plot_response(self, ax=ax, dof=dof, quantity=quantity)
-
-
-def _dofs_of(names: Sequence[str], dof: int | str | None, default: int) -> int:
-    if dof is None:
-        return default
-    return names.index(dof) if isinstance(dof, str) else int(dof) - 1
