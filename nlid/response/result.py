@@ -251,7 +251,7 @@ class FrequencyResponse:
             out.add_table(
                 [
                     Column("curve"),
-                    Column("point"),
+                    Column("special point"),
                     Column("Hz", "right"),
                     Column(f"amplitude {self.dofs[k]} m", "right"),
                 ],
