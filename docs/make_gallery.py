@@ -112,6 +112,22 @@ def main() -> None:
     save(trace, "posterior_trace")
     save(damping, "posterior_damping")
 
+    # [response]
+    resp = fit.frequency_response(force=[0.5, 0.8], band=(4, 12), starts=[fit.equilibria.stable[1]])
+    ax = resp.plot()  # stable solid, unstable dashed, folds and the jumps of slow sweeps, the backbone
+    # [/response]
+    save(ax, "response")
+    # [response_band]
+    record_x = get_preset("paper-numerical").with_overrides(duration=20.0).simulate(seed=2, noise={"z": 0.02})
+    fit_x = nlid.identify(record_x, "z^3, z^2, z, 1, v, v*|v|", "rfs", mass=preset.mass)
+    post_x = nlid.posterior(record_x, fit_x, params="all", seed=2)
+    banded = fit_x.frequency_response(force=0.8, band=(4, 12)).with_posterior(post_x, draws=40)
+    test = {"kind": "stepped", "amplitude": 0.8, "band": (4.0, 12.0), "steps": 33, "periods": 40}
+    measured = nlid.simulate("paper-numerical-stepped", sine=test, x0=(0.0173, 0.0))  # in the right well
+    ax = banded.compare(measured).plot()  # the 90 % band (hatched: unresolved), measured points
+    # [/response_band]
+    save(ax, "response_band")
+
     here = Path.cwd()
     with tempfile.TemporaryDirectory() as tmp:
         os.chdir(tmp)  # the reports below are written into a temporary folder

@@ -484,6 +484,24 @@ class IdentifiedModel:
         }
         return Record(f=force, z=z, v=v, a=a, fs=float(fs), meta=meta)
 
+    # ------------------------------------------------------------------ what it predicts
+    def frequency_response(self, force: Any, band: Any, *, harmonics: int = 7, **options: Any) -> Any:
+        """The periodic response to ``F cos(2 pi f t)`` over a band, by harmonic balance and continuation.
+
+        ``force``: amplitudes (N); ``band``: ``(low, high)`` Hz; ``options``: those of
+        :func:`nlid.response.frequency_response` (``starts``, ``backbone``, ``settings``). Returns a
+        :class:`~nlid.response.FrequencyResponse` (``to_frame()``, ``plot(ax=)``, ``verify()``...).
+        """
+        from .response import frequency_response
+
+        return frequency_response(self, force, band, harmonics=harmonics, **options)
+
+    def backbone(self, amplitude: float, *, harmonics: int = 7) -> Any:
+        """The backbone curves of the conservative part up to ``amplitude`` (m) (:func:`nlid.response.backbone`)."""
+        from .response import backbone
+
+        return backbone(self, amplitude, harmonics=harmonics)
+
     # ------------------------------------------------------------------ plain data
     def to_dict(self) -> dict[str, Any]:
         """JSON-serialisable dictionary (without :attr:`arrays`); :meth:`from_dict` reverses it."""

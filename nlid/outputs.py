@@ -60,6 +60,7 @@ __all__ = [
     "STUDY_OUTPUTS",
     "POSTERIOR_OUTPUTS",
     "DISCOVERY_OUTPUTS",
+    "RESPONSE_OUTPUTS",
     "output_folder",
     "check_new_file",
     "check_sidecar",
@@ -100,6 +101,8 @@ POSTERIOR_OUTPUTS = (
 )
 #: Entries :func:`nlid.discovery.write_report` writes.
 DISCOVERY_OUTPUTS = ("figures", "report.md", "report.html", "result.json", "models.csv")
+#: Files :meth:`nlid.response.FrequencyResponse.save` writes.
+RESPONSE_OUTPUTS = ("response.json", "response.csv", "response.md", "response.png", "measured.csv")
 #: Metadata keys written to and read from the ``.meta.json`` sidecar of a data file (:mod:`nlid.io`).
 META_KEYS = (
     "source",
@@ -113,6 +116,7 @@ META_KEYS = (
     "reference",
     "truth",
     "periodic",
+    "signal",
 )
 
 _OWN = (MARKER, LOCK, WRITER)

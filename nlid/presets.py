@@ -80,6 +80,10 @@ class Preset:
         Initial displacement and velocity.
     reference
         Where the preset comes from.
+    sine
+        A stepped- or swept-sine test instead of the random force: the fields of
+        :class:`nlid.simulation.SineTest` (``kind``, ``amplitude``, ``band``...); the record's length
+        is then the test's, and ``meta["signal"]`` describes it (the steps' frequencies and samples).
     """
 
     name: str
@@ -95,6 +99,7 @@ class Preset:
     excitation: str = "force"
     x0: tuple[float, float] = (0.0, 0.0)
     reference: str = ""
+    sine: Mapping[str, Any] | None = None
 
     def __post_init__(self) -> None:
         for name, rule in (("mass", MASS), ("fs", FS), ("duration", DURATION)):
@@ -138,7 +143,9 @@ class Preset:
 
     @property
     def n(self) -> int:
-        """Number of samples."""
+        """Number of samples (a sine test's own length)."""
+        if self.sine is not None:
+            return int(self.force(0).size)
         return int(round(self.duration * self.fs))
 
     def model(self) -> Model:
@@ -203,13 +210,23 @@ class Preset:
         return replace(self, coefficients=coeffs, **new)
 
     def force(self, seed: int) -> np.ndarray:
-        """The force record of a seed (N)."""
+        """The force record of a seed (N); a sine test's does not depend on the seed."""
         import numpy as np
 
         from .simulation import random_force
 
         streams = np.random.SeedSequence(check_seed(seed)).spawn(4)
+        if self.sine is not None:
+            return self.sine_test().force(self.fs)[0]
         return random_force(self.n, self.fs, self.force_rms, np.random.default_rng(streams[0]), self.band)
+
+    def sine_test(self) -> Any:
+        """The :class:`nlid.simulation.SineTest` of a sine preset (``None`` for a random force)."""
+        if self.sine is None:
+            return None
+        from .simulation import SineTest
+
+        return SineTest(**{k: tuple(v) if isinstance(v, list) else v for k, v in dict(self.sine).items()})
 
     def simulate(
         self,
@@ -240,7 +257,7 @@ class Preset:
         import numpy as np
 
         from .record import Record
-        from .simulation import random_force, simulate
+        from .simulation import simulate
 
         seed = check_seed(seed)
         channels = tuple(dict.fromkeys(("z", *channels)))
@@ -250,7 +267,7 @@ class Preset:
         levels = check_noise(noise, channels)
         model = self.model()
         streams = np.random.SeedSequence(seed).spawn(4)
-        f = random_force(self.n, self.fs, self.force_rms, np.random.default_rng(streams[0]), self.band)
+        f = self.force(seed)
         z, v, a = simulate(model, dict(self.coefficients), self.mass, f, self.fs, self.x0)
         exact = {"z": z, "v": v, "a": a}
         out = {}
@@ -272,6 +289,15 @@ class Preset:
             "force_hold": "zoh",
             "reference": self.truth(),
         }
+        test = self.sine_test()
+        if test is not None:
+            meta["signal"] = {
+                "kind": f"{test.kind}-sine",
+                "amplitude": test.amplitude,
+                "band": list(test.band),
+                "directions": test.directions,
+                "steps": test.force(self.fs)[1],
+            }
         return Record(f=f, fs=self.fs, meta=meta, **out)
 
 
@@ -322,6 +348,34 @@ PRESETS: dict[str, Preset | StructurePreset] = {
             band=(0.0, 100.0),
             excitation="base",
             reference="Zhu et al., Sec. 4 and Tables 5-7",
+        ),
+        Preset(
+            name="paper-numerical-stepped",
+            description="paper-numerical under a stepped sine of 2 N, 4-20 Hz up then down (measured FRF points)",
+            terms="z^3, z^2, v*|v|",
+            coefficients={"z^3": 1e6, "z^2": 5e3, "z": -500.0, "v": 1.0, "v*|v|": 5.0, "1": 0.2 * _G},
+            mass=0.2,
+            g=_G,
+            fs=512.0,
+            duration=268.0,
+            force_rms=2.0 / math.sqrt(2.0),
+            x0=(-0.0266, 0.0),
+            sine={"kind": "stepped", "amplitude": 2.0, "band": (4.0, 20.0), "steps": 33, "periods": 40},
+            reference="Zhu et al., Sec. 3 (the oscillator); a stepped-sine test of it",
+        ),
+        Preset(
+            name="paper-numerical-swept",
+            description="paper-numerical under a sine of 2 N swept 4-20 Hz at 0.05 Hz/s, up then down",
+            terms="z^3, z^2, v*|v|",
+            coefficients={"z^3": 1e6, "z^2": 5e3, "z": -500.0, "v": 1.0, "v*|v|": 5.0, "1": 0.2 * _G},
+            mass=0.2,
+            g=_G,
+            fs=512.0,
+            duration=640.0,
+            force_rms=2.0 / math.sqrt(2.0),
+            x0=(-0.0266, 0.0),
+            sine={"kind": "swept", "amplitude": 2.0, "band": (4.0, 20.0), "rate": 0.05},
+            reference="Zhu et al., Sec. 3 (the oscillator); a swept-sine test of it",
         ),
     )
 }

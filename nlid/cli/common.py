@@ -57,6 +57,10 @@ FLAGS: dict[str, str] = {
     "force=True": "--force",
     "timeout": "--timeout",
     "files": "--test-file",
+    "band": "--band",
+    "harmonics": "--harmonics",
+    "draws": "--draws",
+    "dof": "--dof",
 }
 _PARAM = re.compile(
     r"(?<![\w.-])(" + "|".join(sorted(map(re.escape, FLAGS), key=len, reverse=True)) + r")=(?=[\s),;:]|$)"

@@ -28,6 +28,7 @@ from . import (
     cmd_identify,
     cmd_methods,
     cmd_posterior,
+    cmd_response,
     cmd_simulate,
     cmd_study,
     cmd_terms,
@@ -44,6 +45,7 @@ COMMANDS = (
     cmd_compare,
     cmd_discover,
     cmd_posterior,
+    cmd_response,
     cmd_simulate,
     cmd_methods,
     cmd_terms,
@@ -65,6 +67,7 @@ examples:
   nlid compare x.csv --methods rfs,sindy --terms "z^3,z^2,v*|v|" --mass 0.2
   nlid discover dataset:emps --declared "v, 1"
   nlid posterior x.csv --terms "z^3,z^2,v*|v|" --mass 0.2 --params damping
+  nlid response model.json --force 0.5,1,2 --band 4:20   # a model's nonlinear frequency response
   nlid data                       # the measured benchmarks: where to get them, which files are here
 """
 

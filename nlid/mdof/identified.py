@@ -303,6 +303,22 @@ class IdentifiedStructure:
         }
         return StructureRecord(f=f.reshape(len(z), -1), z=z, v=v, a=a, fs=float(fs), meta=meta)
 
+    # ------------------------------------------------------------------ what it predicts
+    def frequency_response(self, force: Any, band: Any, *, harmonics: int = 7, **options: Any) -> Any:
+        """The periodic response of every DOF to ``F cos(2 pi f t)`` on a DOF (``dof=``, default 1) over a band.
+
+        As :meth:`nlid.IdentifiedModel.frequency_response` (:func:`nlid.response.frequency_response`).
+        """
+        from ..response import frequency_response
+
+        return frequency_response(self, force, band, harmonics=harmonics, **options)
+
+    def backbone(self, amplitude: float, *, harmonics: int = 7, modes: Sequence[int] | None = None) -> Any:
+        """The backbone of each mode (``modes=``) of the conservative part up to ``amplitude`` (m)."""
+        from ..response import backbone
+
+        return backbone(self, amplitude, harmonics=harmonics, modes=modes)
+
     # ------------------------------------------------------------------ plain data
     def to_dict(self) -> dict[str, Any]:
         """JSON-serialisable dictionary (without :attr:`arrays`); :meth:`from_dict` reverses it."""

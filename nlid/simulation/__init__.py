@@ -21,7 +21,7 @@ The package holds one job per module:
 :mod:`~nlid.simulation.kernels`
     the compiled integrators (:func:`simulate`, :func:`free_run`);
 :mod:`~nlid.simulation.excitation`
-    the forces (:func:`random_force`, :func:`fine_force`);
+    the forces (:func:`random_force`, :class:`SineTest`, :func:`fine_force`);
 :mod:`~nlid.simulation.sensitivity`
     free runs of segments with their forward sensitivities
     (:func:`simulate_segments`), used by the scores and the output-error identifier.
@@ -30,7 +30,7 @@ The package holds one job per module:
 from __future__ import annotations
 
 from .encode import encode_memory, encode_model
-from .excitation import INTERPOLATION_BETA, INTERPOLATION_TAPS, fine_force, random_force
+from .excitation import INTERPOLATION_BETA, INTERPOLATION_TAPS, SineTest, fine_force, random_force
 from .kernels import FREE_RUN_OVERSAMPLE, SimulationError, free_run, simulate
 from .sensitivity import SegmentRun, sensitivity_columns, simulate_segments
 
@@ -46,6 +46,7 @@ __all__ = [
     "encode_model",
     "encode_memory",
     "random_force",
+    "SineTest",
     "SimulationError",
     "FREE_RUN_OVERSAMPLE",
 ]

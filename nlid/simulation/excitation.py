@@ -1,4 +1,4 @@
-"""Forces that drive the simulator: random excitation, and the force between the samples.
+"""Forces that drive the simulator: random excitation, stepped and swept sines, and the force between the samples.
 
 A *held* force (``force_hold="zoh"``, the presets') is constant over each sample
 interval, and the integrators read it as it is. A *sampled* force (a measured or
@@ -28,13 +28,14 @@ midpoint values leave 4e-5 at resonance (``benchmarks/accuracy_scorer.py``).
 from __future__ import annotations
 
 from collections.abc import Sequence
+from dataclasses import dataclass
 from functools import lru_cache
 
 import numpy as np
 
 from ..errors import InputError
 
-__all__ = ["random_force", "fine_force", "INTERPOLATION_TAPS", "INTERPOLATION_BETA"]
+__all__ = ["random_force", "fine_force", "SineTest", "INTERPOLATION_TAPS", "INTERPOLATION_BETA"]
 
 #: Samples on each side of the windowed-sinc interpolator of a sampled force (:func:`fine_force`).
 INTERPOLATION_TAPS = 32
@@ -178,3 +179,87 @@ def _interpolator(per: int, shift: float, hold: int) -> np.ndarray:
     taps /= taps.sum(axis=1, keepdims=True)
     taps.flags.writeable = False
     return taps
+
+
+@dataclass(frozen=True)
+class SineTest:
+    """A stepped-sine or swept-sine test: the force ``amplitude cos(phase(t))`` over a frequency band.
+
+    Attributes
+    ----------
+    kind
+        ``"stepped"`` (constant-frequency steps, the phase continuous from one step to the next) or
+        ``"swept"`` (a linear sweep).
+    amplitude
+        Force amplitude (N).
+    band
+        ``(low, high)`` frequencies (Hz).
+    steps
+        Stepped: frequencies per direction, evenly spaced over the band.
+    periods
+        Stepped: periods of the force per step (the first half is left for the transient).
+    rate
+        Swept: sweep rate (Hz/s).
+    directions
+        ``"up"``, ``"down"`` or ``"up-down"`` (up, then down from the top).
+    """
+
+    kind: str
+    amplitude: float
+    band: tuple[float, float]
+    steps: int = 41
+    periods: int = 80
+    rate: float = 0.05
+    directions: str = "up-down"
+
+    def __post_init__(self) -> None:
+        if self.kind not in ("stepped", "swept"):
+            raise InputError(f"a sine test is 'stepped' or 'swept', got {self.kind!r}")
+        if self.directions not in ("up", "down", "up-down"):
+            raise InputError(f"directions must be 'up', 'down' or 'up-down', got {self.directions!r}")
+        lo, hi = (float(x) for x in self.band)
+        if not (np.isfinite(lo) and np.isfinite(hi) and 0 < lo < hi):
+            raise InputError(f"the band of a sine test must satisfy 0 < low < high, got {self.band}")
+        if not (np.isfinite(self.amplitude) and self.amplitude > 0 and self.rate > 0):
+            raise InputError("a sine test needs a positive amplitude and rate")
+        if int(self.steps) < 2 or int(self.periods) < 4:
+            raise InputError("a stepped sine needs at least 2 steps of 4 periods")
+
+    def frequencies(self) -> np.ndarray:
+        """Stepped: the frequency of every step, in the order played."""
+        up = np.linspace(self.band[0], self.band[1], int(self.steps))
+        return {"up": up, "down": up[::-1], "up-down": np.concatenate([up, up[-2::-1]])}[self.directions]
+
+    def duration(self) -> float:
+        """Length of the test (s)."""
+        if self.kind == "stepped":
+            return float(np.sum(int(self.periods) / self.frequencies()))
+        span = self.band[1] - self.band[0]
+        return (2 if self.directions == "up-down" else 1) * span / self.rate
+
+    def force(self, fs: float) -> tuple[np.ndarray, list[list[float]]]:
+        """The force at ``fs`` (each sample the value at the middle of its interval, held over it) and the
+        segments ``[frequency (Hz), first sample, last sample + 1]`` of a stepped test (empty when swept)."""
+        dt = 1.0 / fs
+        if self.kind == "swept":
+            n = int(round(self.duration() * fs))
+            t = (np.arange(n) + 0.5) * dt
+            lo, hi = self.band
+            half = (hi - lo) / self.rate
+            if self.directions == "down":
+                f = hi - self.rate * t
+            elif self.directions == "up":
+                f = lo + self.rate * t
+            else:
+                f = np.where(t < half, lo + self.rate * t, hi - self.rate * (t - half))
+            phase = 2 * np.pi * np.cumsum(f) * dt
+            return self.amplitude * np.cos(phase), []
+        pieces, segments, phase0, start = [], [], 0.0, 0
+        for freq in self.frequencies():
+            n = int(round(int(self.periods) / freq * fs))
+            t = (np.arange(n) + 0.5) * dt
+            pieces.append(self.amplitude * np.cos(phase0 + 2 * np.pi * freq * t))
+            phase0 += 2 * np.pi * freq * n * dt
+            segments.append([float(freq), start, start + n])
+            start += n
+        return np.concatenate(pieces), segments
