@@ -289,8 +289,9 @@ def run_until_converged(
                 line.update(steps)
             tau = sampler.get_autocorr_time(tol=0, quiet=True)
             worst = float(np.max(tau))
-            if np.isfinite(worst):
-                line.update(steps, note=f"autocorrelation time {worst:.0f}, run needs {tau_multiple * worst:.0f}")
+            if np.isfinite(worst):  # drawn at once (once a chunk): a run shorter than the redraw interval shows it
+                note = f"autocorrelation time {worst:.0f}, run needs {tau_multiple * worst:.0f}"
+                line.update(steps, note=note, force=True)
             converged = steps >= tau_multiple * worst and abs(worst - previous) <= TAU_STABILITY * worst
             previous = worst
     if converged:
