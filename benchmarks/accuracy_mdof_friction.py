@@ -7,7 +7,7 @@ mass 1, 1 kHz) with a cubic spring ``(z2-z3)^3`` of 5e9 N/m^3 and a Coulomb fric
 the mass matrix is known (the record's ``meta['mass']``).
 
 1. **Joint least squares, true model** (both elements declared): the cubic's and the friction's error of
-   :func:`nlid.mdof.jointfit.fit_linear_elements` (the estimator behind ``discover``) and of ``rfs``.
+   :func:`nlid.estimation.joint.fit_linear_elements` (the estimator behind ``discover``) and of ``rfs``.
 2. **discover** with ``(z2-z3)^3`` declared (every candidate of the library on every connection, up to
    ``--steps`` steps): the connection and law it names, the fitted friction (truth 2 N), the cubic's error
    in the final model, and the time.
@@ -27,8 +27,8 @@ import time
 
 import nlid
 from nlid.discovery.structure import discover_structure
-from nlid.mdof.jointfit import fit_linear_elements
-from nlid.presets import get_preset
+from nlid.estimation.joint import fit_linear_elements
+from nlid.simulation.presets import get_preset
 
 CUBIC, FRICTION = "(z2-z3)^3", "sign(v1-v2)"
 TRUTH = {CUBIC: 5e9, FRICTION: 2.0}

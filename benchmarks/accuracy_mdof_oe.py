@@ -19,7 +19,7 @@ import time
 import numpy as np
 
 import nlid
-from nlid.presets import get_preset
+from nlid.simulation.presets import get_preset
 
 CASES = {
     "3dof-cubic": "z3^3",

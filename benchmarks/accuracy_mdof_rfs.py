@@ -30,8 +30,8 @@ import numpy as np
 import pandas as pd
 
 import nlid
-from nlid.mdof.studies import structure_metrics
-from nlid.presets import get_preset
+from nlid.simulation.presets import get_preset
+from nlid.study.structures import structure_metrics
 
 CASES = {
     "3dof-cubic": "z3^3",

@@ -17,8 +17,9 @@ import time
 
 import numpy as np
 
-from nlid import identify, physics
-from nlid.presets import get_preset
+from nlid import identify
+from nlid.model import physics
+from nlid.simulation.presets import get_preset
 
 TERMS = "z^3, z^2, v*|v|"
 COEFS = ["z^3", "z^2", "z", "v*|v|", "v", "1"]

@@ -22,8 +22,9 @@ from pathlib import Path
 
 import numpy as np
 
-from nlid import identify, physics
-from nlid.presets import get_preset
+from nlid import identify
+from nlid.model import physics
+from nlid.simulation.presets import get_preset
 
 TERMS = "z^3, z^2, sign(v)*|px(z)|, v*|px(z)|, v*|v|*|px(z)|, v^3*|px(z)|"
 SETTINGS = ("ignore", "fuse")

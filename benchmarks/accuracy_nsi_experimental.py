@@ -19,8 +19,9 @@ import time
 
 import numpy as np
 
-from nlid import identify, physics
-from nlid.presets import get_preset
+from nlid import identify
+from nlid.model import physics
+from nlid.simulation.presets import get_preset
 
 TERMS = "z^3, z^2, sign(v)*|px(z)|, v*|px(z)|, v*|v|*|px(z)|, v^3*|px(z)|"
 #: Record seeds of the built-in study ``studies/paper-experimental.toml`` (seed 2026, 3 repetitions).

@@ -6,7 +6,7 @@ Cases (paper-numerical, terms z^3, z^2, v*|v| plus 1, z, v):
 * ``noisy``: 2 % noise on z and a (velocity estimated), seeds 0-4;
 * ``band``: rfs on the noisy records, and on the same records without noise
   filtered in the same band, with the regressor band factor of
-  :func:`nlid.balance.regression_data` changed: this separates the two
+  :func:`nlid.estimation.balance.regression_data` changed: this separates the two
   biases of the damping coefficients (docs/rfs.md).
 
 Each case is run with the mass known and estimated; methods ``nsi-ip`` (for
@@ -29,8 +29,10 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from nlid import balance, identify, physics
-from nlid.presets import get_preset
+from nlid import identify
+from nlid.estimation import balance
+from nlid.model import physics
+from nlid.simulation.presets import get_preset
 
 TERMS = "z^3, z^2, v*|v|"
 METHODS = {

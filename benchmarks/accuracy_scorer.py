@@ -44,10 +44,10 @@ import time
 import numpy as np
 
 import nlid
-from nlid.identified import IdentifiedModel
+from nlid.identified.model import IdentifiedModel
+from nlid.model.terms import Model
 from nlid.scoring import free_run_error
 from nlid.simulation import FREE_RUN_OVERSAMPLE, fine_force, simulate
-from nlid.terms import Model
 
 FS = 750.0
 MASS, C, K, ALPHA, BETA, GAMMA, DELTA = 2.0, 10.0, 5e4, 5e4, 1e3, 0.8, -1.1
@@ -182,7 +182,7 @@ def _exact(samples_t: np.ndarray, force_at, t_end: float) -> np.ndarray:
 
 
 def part_simulated(exact: bool) -> None:
-    from nlid.record import Record
+    from nlid.data.record import Record
 
     fit = true_fit()
     rng = np.random.default_rng(31)

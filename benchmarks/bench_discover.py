@@ -26,7 +26,7 @@ from _common import median_time, peak_memory  # noqa: E402
 
 from nlid.discovery import discover  # noqa: E402
 from nlid.errors import DataError  # noqa: E402
-from nlid.presets import get_preset  # noqa: E402
+from nlid.simulation.presets import get_preset  # noqa: E402
 
 
 def cases():
@@ -36,7 +36,7 @@ def cases():
     record = preset.simulate(0, noise={"z": 0.02}, channels=("z",))
     yield "paper-numerical (z only)", record, "1, z, z^2, z^3, v", {}
     try:
-        from nlid.datasets import load
+        from nlid.data.datasets import load
 
         yield "emps", load("emps"), "v, 1", {}
         # the benchmark's estimation part; the arrow head (a test set) is scored as validation, never decides

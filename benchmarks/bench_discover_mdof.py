@@ -25,7 +25,7 @@ import time
 import numpy as np
 
 from nlid.discovery.structure import discover_structure
-from nlid.mdof.presets import STRUCTURE_PRESETS
+from nlid.simulation.structure_presets import STRUCTURE_PRESETS
 
 TRUTH = {"connection": (5, 0), "element": "z5^3", "coefficient": 3e8}
 

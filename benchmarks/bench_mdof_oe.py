@@ -20,7 +20,7 @@ import statistics
 import time
 
 import nlid
-from nlid.presets import get_preset
+from nlid.simulation.presets import get_preset
 
 ELEMENTS = "(z2-z3)^3, sign(v1-v2)"
 TRUTH = {"(z2-z3)^3": 5e9, "sign(v1-v2)": 2.0}

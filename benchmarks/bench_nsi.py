@@ -41,8 +41,8 @@ sys.path.insert(0, str(Path(__file__).parent))
 
 from _common import median_time  # noqa: E402
 
-from nlid.presets import get_preset  # noqa: E402
-from nlid.terms import Model  # noqa: E402
+from nlid.model.terms import Model  # noqa: E402
+from nlid.simulation.presets import get_preset  # noqa: E402
 from nlid_nsi import NSIInputPerturbation  # noqa: E402
 
 TERMS = "z^3, z^2, v*|v|"
@@ -66,7 +66,7 @@ _MEMORY = r"""
 import json, resource, sys, time, tracemalloc
 sys.path.insert(0, {bench!r})
 from bench_nsi import record, errors, TERMS
-from nlid.terms import Model
+from nlid.model.terms import Model
 from nlid_nsi import NSIInputPerturbation
 rec = record({n})
 model = Model.from_spec(TERMS)
@@ -149,9 +149,9 @@ import resource, sys, time
 t0, c0 = time.perf_counter(), time.process_time()
 import nlid.cli.main  # noqa: F401 - what the CLI imports
 from nlid import pipeline
-from nlid.identified import IdentifiedModel
-from nlid.io import read_record
-from nlid.registry import registry_for
+from nlid.identified.model import IdentifiedModel
+from nlid.data.io import read_record
+from nlid.contract.registry import registry_for
 registry_for("nsi-ip")
 t1, c1 = time.perf_counter(), time.process_time()
 rec = read_record(sys.argv[1])

@@ -27,7 +27,7 @@ sys.path.insert(0, str(Path(__file__).parent))
 from _common import median_time  # noqa: E402
 
 from nlid import identify  # noqa: E402
-from nlid.presets import get_preset  # noqa: E402
+from nlid.simulation.presets import get_preset  # noqa: E402
 
 TERMS = "z^3, z^2, sign(v)*|px(z)|, v*|px(z)|, v*|v|*|px(z)|, v^3*|px(z)|"
 CONFIGS = {

@@ -21,7 +21,7 @@ average at the start and end of the run, the kernel threads and the result::
     python benchmarks/bench_oe.py --case experimental --trees .
     python benchmarks/bench_oe.py --case discover --repeat 5 --trees /tmp/poe_base,.
 
-``NLID_WORKERS=1`` (or 2) fixes the kernel threads of :mod:`nlid.parallel` (the "after" tree only).
+``NLID_WORKERS=1`` (or 2) fixes the kernel threads of :mod:`nlid.runtime.parallel` (the "after" tree only).
 ``--busy 2`` keeps two other processes spinning while the runs are timed (the issue's "load 2")::
 
     python benchmarks/bench_oe.py --case numerical --seeds 0 --repeat 5 --busy 2
@@ -42,7 +42,7 @@ from pathlib import Path
 def _warm_up() -> None:
     """Load the compiled kernels (on-disk numba cache) with a short oe fit, outside the timing."""
     import nlid
-    from nlid.presets import get_preset
+    from nlid.simulation.presets import get_preset
     from nlid_oe import OutputError
 
     preset = get_preset("paper-numerical").with_overrides(duration=2.0)
@@ -57,7 +57,7 @@ def _errors(coefficients: dict[str, float], truth: dict[str, float]) -> dict[str
 def one(case: str, seed: int) -> dict:
     """One timed run in this process (the record and the start outside the timing)."""
     import nlid
-    from nlid.presets import get_preset
+    from nlid.simulation.presets import get_preset
     from nlid_oe import OutputError
 
     _warm_up()
@@ -89,7 +89,7 @@ def one(case: str, seed: int) -> dict:
                 threads=d.get("threads"),
             )
     elif case == "discover":
-        from nlid.datasets import load
+        from nlid.data.datasets import load
         from nlid.discovery import discover
 
         record, validation = load("bouc-wen"), load("bouc-wen", part="sinesweep")

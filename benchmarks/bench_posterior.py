@@ -30,10 +30,11 @@ sys.path.insert(0, str(Path(__file__).parent))
 import numpy as np  # noqa: E402
 from _common import median_time  # noqa: E402
 
-from nlid import balance, identify  # noqa: E402
+from nlid import identify  # noqa: E402
 from nlid.bayes import sample_posterior  # noqa: E402
 from nlid.bayes.likelihood import build_likelihood  # noqa: E402
-from nlid.presets import get_preset  # noqa: E402
+from nlid.estimation import balance
+from nlid.simulation.presets import get_preset  # noqa: E402
 
 LOOPS = 2000
 FRICTION = "sign(v)*|px(z)|, v*|px(z)|, v*|v|*|px(z)|, v^3*|px(z)|"

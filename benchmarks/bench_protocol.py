@@ -32,9 +32,9 @@ import numpy as np
 
 import nlid
 from nlid import scoring
-from nlid.datasets import BOUC_WEN_REFERENCE
-from nlid.identified import IdentifiedModel
-from nlid.terms import Model
+from nlid.data.datasets import BOUC_WEN_REFERENCE
+from nlid.identified.model import IdentifiedModel
+from nlid.model.terms import Model
 
 PERIOD = 8192
 

@@ -37,8 +37,8 @@ import pysindy as ps  # noqa: E402
 from _common import median_time, peak_memory  # noqa: E402
 
 from nlid import identify  # noqa: E402
-from nlid.presets import get_preset  # noqa: E402
-from nlid.terms import Model  # noqa: E402
+from nlid.model.terms import Model  # noqa: E402
+from nlid.simulation.presets import get_preset  # noqa: E402
 from nlid_rfs import RestoringForceSurface  # noqa: E402
 from nlid_sindy import SparseIdentification  # noqa: E402
 from nlid_sindy.identifier import FEATURE_NAMES, build_problem  # noqa: E402

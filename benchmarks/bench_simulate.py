@@ -26,8 +26,8 @@ sys.path.insert(0, str(Path(__file__).parent))
 
 from _common import median_time  # noqa: E402
 
-from nlid.presets import get_preset  # noqa: E402
 from nlid.simulation import simulate  # noqa: E402
+from nlid.simulation.presets import get_preset  # noqa: E402
 
 
 def profile(repeat: int = 21) -> None:
@@ -36,8 +36,8 @@ def profile(repeat: int = 21) -> None:
     import numpy as np
 
     import nlid.simulation as sim
+    from nlid.model.terms import Model
     from nlid.simulation import kernels
-    from nlid.terms import Model
 
     @numba.njit(cache=False)
     def linear_rk4(force, dt, mass, k, out_z, out_v, out_a):  # pragma: no cover - compiled

@@ -72,7 +72,7 @@ def replicate(preset_name: str, channels: str, noise: float, seed: int) -> list[
     from nlid import identify
     from nlid.bayes import sample_posterior
     from nlid.errors import NlidError
-    from nlid.presets import get_preset
+    from nlid.simulation.presets import get_preset
 
     preset = get_preset(preset_name)
     model = preset.model()

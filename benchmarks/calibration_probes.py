@@ -18,9 +18,9 @@ import time
 import numpy as np
 
 import nlid
-from nlid import derivatives
 from nlid.discovery.cases import build_case
 from nlid.discovery.probes import MIN_STRUCTURE, probe_residual
+from nlid.signal import derivatives
 
 
 def largest(well: str, noise: float, seed: int) -> tuple[float, str]:

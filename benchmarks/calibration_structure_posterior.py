@@ -47,7 +47,7 @@ def replicate(preset_name: str, cell: str, seed: int, duration: float) -> list[d
     """One record, one identification, one posterior: a row per element."""
     import nlid
     from nlid.bayes import sample_posterior
-    from nlid.presets import get_preset
+    from nlid.simulation.presets import get_preset
 
     preset = get_preset(preset_name).with_overrides(duration=duration)
     record = preset.simulate(seed, noise=CELLS[cell], channels=CHANNELS[cell])

@@ -24,10 +24,10 @@ sys.path.insert(0, str(Path(__file__).parent))
 import numpy as np  # noqa: E402
 
 import nlid  # noqa: E402
-from nlid import physics  # noqa: E402
-from nlid.identified import IdentifiedModel  # noqa: E402
-from nlid.presets import get_preset  # noqa: E402
+from nlid.identified.model import IdentifiedModel  # noqa: E402
+from nlid.model import physics  # noqa: E402
 from nlid.response import Settings  # noqa: E402
+from nlid.simulation.presets import get_preset  # noqa: E402
 
 TERMS = "z^3,z^2,sign(v)*|px(z)|,v*|px(z)|,v*|v|*|px(z)|,v^3*|px(z)|"
 

@@ -22,12 +22,12 @@ sys.path.insert(0, str(Path(__file__).parent))
 
 import numpy as np  # noqa: E402
 
-from nlid import physics  # noqa: E402
-from nlid.identified import IdentifiedModel  # noqa: E402
-from nlid.presets import get_preset  # noqa: E402
+from nlid.identified.model import IdentifiedModel  # noqa: E402
+from nlid.model import physics  # noqa: E402
+from nlid.model.terms import Model  # noqa: E402
 from nlid.response import backbone, frequency_response  # noqa: E402
 from nlid.response.backbone import duffing_exact, duffing_frequency  # noqa: E402
-from nlid.terms import Model  # noqa: E402
+from nlid.simulation.presets import get_preset  # noqa: E402
 
 OMEGA0, BETA = 100.0, 5e9
 

@@ -30,10 +30,10 @@ sys.path.insert(0, str(Path(__file__).parent))
 
 
 import nlid  # noqa: E402
-from nlid.identified import IdentifiedModel  # noqa: E402
-from nlid.presets import get_preset  # noqa: E402
+from nlid.identified.model import IdentifiedModel  # noqa: E402
+from nlid.model.terms import Model  # noqa: E402
 from nlid.response import Settings, frequency_response  # noqa: E402
-from nlid.terms import Model  # noqa: E402
+from nlid.simulation.presets import get_preset  # noqa: E402
 
 
 def _load() -> str:

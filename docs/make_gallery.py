@@ -50,7 +50,7 @@ def main() -> None:
     OUT.mkdir(parents=True, exist_ok=True)
     # [setup]
     import nlid
-    from nlid.presets import get_preset
+    from nlid.simulation.presets import get_preset
 
     preset = get_preset("paper-numerical").with_overrides(duration=10.0)
     record = preset.simulate(seed=1, noise={"z": 0.02})  # carries its truth: record.meta["reference"]
@@ -91,7 +91,7 @@ def main() -> None:
     # [/frf_nsi]
     save(ax, "frf_nsi")
     # [own_axes]
-    from nlid.plotting import new_figure
+    from nlid.report.plotting import new_figure
 
     fig, axes = new_figure(1, 2, width=10.0, height=3.6)
     fit.plot_stiffness(ax=axes[0])

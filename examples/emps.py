@@ -8,7 +8,7 @@ script says so and exits.
 import sys
 
 import nlid
-from nlid.datasets import EMPS_REFERENCE
+from nlid.data.datasets import EMPS_REFERENCE
 
 
 def main() -> int:

@@ -7,7 +7,7 @@ Run: ``python examples/simulate_identify_compare.py`` (about 10 s). Writes
 from pathlib import Path
 
 import nlid
-from nlid.plotting import new_figure, save_figure
+from nlid.report.plotting import new_figure, save_figure
 
 OUT = Path("example-output")
 

@@ -14,9 +14,9 @@ The Python API is a handful of verbs (:mod:`nlid.api`)::
 
 The core (this package) knows nothing about any one identification method: it
 holds the data model (:class:`Record`), the term language
-(:mod:`nlid.terms`), derivative estimation, the physics of an oscillator
-model (:mod:`nlid.physics`), the force balance identifiers build on
-(:mod:`nlid.balance`), the one scoring path (:mod:`nlid.scoring`), the
+(:mod:`nlid.model.terms`), derivative estimation, the physics of an oscillator
+model (:mod:`nlid.model.physics`), the force balance identifiers build on
+(:mod:`nlid.estimation.balance`), the one scoring path (:mod:`nlid.scoring`), the
 identified model (:class:`IdentifiedModel`), the simulator and its presets,
 and the plugin interface (:mod:`nlid.plugin`). Identifiers are plugins
 discovered through the entry-point group ``nlid.identifiers``.
@@ -43,17 +43,17 @@ _LAZY: dict[str, str] = {
     "discover": "nlid.api",
     "run_study": "nlid.api",
     "bench": "nlid.benchmarking",
-    "identify": "nlid.pipeline",
-    "IdentifiedModel": "nlid.identified",
-    "InputPath": "nlid.inputpath",
-    "Summary": "nlid.summary",
-    "Record": "nlid.record",
-    "Model": "nlid.terms",
-    "parse_term": "nlid.terms",
-    "Identifier": "nlid.interface",
-    "Estimate": "nlid.interface",
-    "Option": "nlid.interface",
-    "hookimpl": "nlid.hookspecs",
+    "identify": "nlid.identification.pipeline",
+    "IdentifiedModel": "nlid.identified.model",
+    "InputPath": "nlid.estimation.inputpath",
+    "Summary": "nlid.report.summary",
+    "Record": "nlid.data.record",
+    "Model": "nlid.model.terms",
+    "parse_term": "nlid.model.terms",
+    "Identifier": "nlid.contract.identifier",
+    "Estimate": "nlid.contract.estimate",
+    "Option": "nlid.contract.identifier",
+    "hookimpl": "nlid.contract.hookspecs",
 }
 
 __all__ = [

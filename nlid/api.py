@@ -3,7 +3,7 @@
 ============================  ==============================================================
 :func:`load`                  a record from a file or a bundled benchmark (``"dataset:emps"``)
 :func:`simulate`              a record simulated from a preset, with noise, in one call
-:func:`nlid.identify`         an :class:`~nlid.identified.IdentifiedModel` from a record
+:func:`nlid.identify`         an :class:`~nlid.identified.model.IdentifiedModel` from a record
 :func:`compare`               several methods on one record, as a tidy :class:`pandas.DataFrame`
 :func:`posterior`             posterior of chosen coefficients (emcee), from an identified model
 :func:`discover`              the residual -> missing-effect loop, as an object with its steps
@@ -22,14 +22,14 @@ from collections.abc import Iterable, Mapping, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
+from .data.record import Record
+from .data.sources import as_record
 from .errors import InputError, NlidError, brief
-from .identified import IdentifiedModel
-from .pipeline import as_model, identify
-from .record import Record
-from .reference import FRAME_COLUMNS, Reference
-from .reference import compare as compare_fit
+from .identification.pipeline import as_model, identify
+from .identified.model import IdentifiedModel
+from .identified.reference import FRAME_COLUMNS, Reference
+from .identified.reference import compare as compare_fit
 from .scoring import TransientRule, rule_from_spec
-from .sources import as_record
 
 if TYPE_CHECKING:  # pragma: no cover
     import pandas as pd
@@ -54,7 +54,7 @@ def load(
 
     Files and tables share one column map and one set of rules (a DataFrame
     written to CSV and loaded gives the same record as the DataFrame itself);
-    see :func:`nlid.sources.as_record`.
+    see :func:`nlid.data.sources.as_record`.
 
     Parameters
     ----------
@@ -63,12 +63,12 @@ def load(
         ``.mat`` (v7.3 too: ``nlid[hdf5]``), HDF5 ``.h5`` (``nlid[hdf5]``)
         or ``.parquet`` file (``nlid[parquet]``); ``"dataset:NAME[:PART]"`` for a measured benchmark
         read from ``$NLID_DATA_DIR`` (``dataset:emps``, ``dataset:silverbox``,
-        ``dataset:silverbox:arrow``; see :mod:`nlid.datasets`); a pandas
+        ``dataset:silverbox:arrow``; see :mod:`nlid.data.datasets`); a pandas
         DataFrame (a named index is one more column: an index named ``t``
-        is the time axis; see :meth:`Record.from_frame <nlid.record.Record.from_frame>`);
+        is the time axis; see :meth:`Record.from_frame <nlid.data.record.Record.from_frame>`);
         an xarray Dataset (its coordinates and variables are the columns;
         xarray is optional); a mapping such as ``{"t": t, "f": f, "z": z}``;
-        or a :class:`~nlid.record.Record`, returned as is.
+        or a :class:`~nlid.data.record.Record`, returned as is.
     columns
         Which columns are which channels, with optional scale factors, e.g.
         ``"f=vir*gtau,z=qm"`` or ``{"f": "vir*gtau", "z": "qm"}`` (channels
@@ -82,7 +82,7 @@ def load(
         ``.meta.json`` says.
     units
         The unit of each channel, ``{"z": "mm", "a": "g"}`` or ``"z=mm,a=g"``
-        (the vocabulary is :mod:`nlid.units`); converted to SI on the way in
+        (the vocabulary is :mod:`nlid.data.units`); converted to SI on the way in
         and kept in ``record.meta["input_units"]``. Default SI.
 
     Raises
@@ -111,7 +111,7 @@ def simulate(
     channels: str | Sequence[str] = ("z", "v", "a"),
     **overrides: Any,
 ) -> Record:
-    """A record simulated from a preset (:mod:`nlid.presets`), in one call.
+    """A record simulated from a preset (:mod:`nlid.simulation.presets`), in one call.
 
     Parameters
     ----------
@@ -134,7 +134,7 @@ def simulate(
     Record
         With the truth in ``meta["reference"]`` (also readable as ``meta["truth"]``).
     """
-    from .presets import get_preset
+    from .simulation.presets import get_preset
 
     p = get_preset(preset)
     if overrides:
@@ -175,8 +175,8 @@ def compare(
     reference
         True or reference values: ``{"coefficients": {...}, "mass": ...,
         "equilibria": [...], "modal": [...]}``, a bare ``{term: value}``, an
-        :class:`~nlid.identified.IdentifiedModel` or a
-        :class:`~nlid.reference.Reference` (:meth:`~nlid.reference.Reference.of`).
+        :class:`~nlid.identified.model.IdentifiedModel` or a
+        :class:`~nlid.identified.reference.Reference` (:meth:`~nlid.identified.reference.Reference.of`).
         Default: the record's ``meta["reference"]`` (simulated records carry
         their truth there, measured benchmarks their published values);
         equilibria and modes of the reference are computed from its
@@ -204,10 +204,10 @@ def compare(
         An unknown method name, or an option value a method refuses, is refused before
         anything runs (:class:`~nlid.errors.InputError`, with a suggestion), whatever ``errors``.
 
-    On a :class:`~nlid.mdof.StructureRecord` (several DOFs) ``terms`` are elements on
+    On a :class:`~nlid.data.structure_record.StructureRecord` (several DOFs) ``terms`` are elements on
     connections (``"z3^3, (z1-z2)^3"``, checked before any method runs) and the rows are
     each element's coefficient, the underlying linear modes (``m1``, ``m2``...) and each
-    DOF's residual against the structure's reference (:mod:`nlid.mdof.compare`);
+    DOF's residual against the structure's reference (:mod:`nlid.identification.structure_compare`);
     ``holdout``, ``rule`` and ``px_roots`` do not apply.
 
     Returns
@@ -225,8 +225,8 @@ def compare(
     record = as_record(record)
     import pandas as pd
 
+    from .contract.registry import default_registry
     from .errors import PluginError
-    from .registry import default_registry
 
     if errors not in ("record", "raise"):
         raise InputError(f"errors must be 'record' or 'raise', got {errors!r}")
@@ -255,7 +255,7 @@ def compare(
     if structure:
         if holdout is not None or rule is not None or px_roots is not None:
             raise InputError("holdout=, rule= and px_roots= do not apply to a structure of several DOFs")
-        from .mdof.compare import compare_structure
+        from .identification.structure_compare import compare_structure
 
         rows, fits = compare_structure(
             record, terms, names, mass=mass, reference=reference, options=options, without=without, errors=errors
@@ -269,8 +269,8 @@ def compare(
         if isinstance(holdout, (str, Path)):
             holdout = as_record(holdout)
         else:
+            from .base.validate import HOLDOUT_FRACTION
             from .discovery.inputs import Split
-            from .validate import HOLDOUT_FRACTION
 
             HOLDOUT_FRACTION.check(holdout, "holdout=")
             record, holdout, _ = Split(holdout=float(holdout)).divide(record)
@@ -302,7 +302,7 @@ def posterior(
     record
         The record the model was identified on.
     fit
-        The :class:`~nlid.identified.IdentifiedModel` (its mass is used).
+        The :class:`~nlid.identified.model.IdentifiedModel` (its mass is used).
     params
         ``"damping"`` (every velocity-dependent term), ``"all"`` or terms.
     **settings
@@ -324,21 +324,21 @@ def discover(
 ) -> DiscoveryResult:
     """Find the effects a declared model lacks (see :func:`nlid.discovery.discover` for the settings).
 
-    On a :class:`~nlid.mdof.StructureRecord` (several DOFs) this is
+    On a :class:`~nlid.data.structure_record.StructureRecord` (several DOFs) this is
     :func:`nlid.discovery.structure.discover_structure`: ``declared`` are the
     declared elements (``"tanh(v3/0.001)"``), the settings are its own, and the
-    result is a :class:`~nlid.discovery.structure.StructureDiscoveryResult`
+    result is a :class:`~nlid.discovery.structure_result.StructureDiscoveryResult`
     naming the connection that carries the missing element.
 
     Returns
     -------
     nlid.discovery.DiscoveryResult
         ``.steps`` (each accepted effect with the error before and after),
-        ``.final_model`` (an :class:`~nlid.identified.IdentifiedModel`),
+        ``.final_model`` (an :class:`~nlid.identified.model.IdentifiedModel`),
         ``.summary()``, ``.to_dict()``.
     """
     record = as_record(record)
-    from .mdof.record import StructureRecord
+    from .data.structure_record import StructureRecord
 
     if isinstance(record, StructureRecord):  # several DOFs: which connection lacks an element
         from .discovery.structure import discover_structure
@@ -385,7 +385,7 @@ def run_study(
         Show a progress line (default: when stderr is a terminal).
     force
         Write into a folder that holds files nlid did not write (never
-        replacing them; see :mod:`nlid.outputs`).
+        replacing them; see :mod:`nlid.runtime.outputs`).
     """
     from .study import load_study, make_executor
     from .study import run_study as _run

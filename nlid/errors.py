@@ -30,6 +30,7 @@ __all__ = [
     "one_line",
     "MAX_LINE",
     "PASS_THROUGH",
+    "grouped",
 ]
 
 #: Exceptions a plugin boundary lets through (the user pressed Ctrl-C): everything else a plugin
@@ -68,11 +69,11 @@ def brief(value: object, width: int = 80) -> str:
     if len(text) <= width:
         return text
     return (
-        f"{text[: max(width - 20, 10)]}... ({_count(len(value) if isinstance(value, str) else len(text))} characters)"
+        f"{text[: max(width - 20, 10)]}... ({grouped(len(value) if isinstance(value, str) else len(text))} characters)"
     )
 
 
-def _count(n: int) -> str:
+def grouped(n: int) -> str:
     """``99990`` as ``"99 990"`` (a thin grouping, readable in any locale)."""
     return f"{n:,}".replace(",", " ")
 
@@ -89,7 +90,7 @@ def listing(items: Iterable[object], limit: int = 10, width: int = 40, quote: bo
         brief(item, width) if quote or not isinstance(item, str) else one_line(item, width) for item in items[:limit]
     ]
     more = len(items) - len(shown)
-    return ", ".join(shown) + (f" ... and {_count(more)} more" if more > 0 else "")
+    return ", ".join(shown) + (f" ... and {grouped(more)} more" if more > 0 else "")
 
 
 #: Longest line the command line prints for one error or warning (characters).
@@ -109,10 +110,10 @@ def one_line(text: str, width: int = MAX_LINE) -> str:
     if len(text) <= width:
         return text
     if width < 200:  # a short value: its start is enough
-        return f"{text[: max(width - 20, 10)]}... ({_count(len(text))} characters)"
+        return f"{text[: max(width - 20, 10)]}... ({grouped(len(text))} characters)"
     tail = width // 4
     head = width - tail - 40
-    return f"{text[:head]} ... ({_count(len(text))} characters in all) ... {text[-tail:]}"
+    return f"{text[:head]} ... ({grouped(len(text))} characters in all) ... {text[-tail:]}"
 
 
 class NlidError(Exception):

@@ -25,14 +25,14 @@ The toolkit has four axes, which identifiers compose rather than re-implement:
   filtered design matrix of Eq. 25, shared by every method) and its default
   band :func:`suggested_cutoff` (computed once per record),
   :mod:`derivatives` (the zero-phase differentiating filter), the least-squares
-  helpers of :mod:`nlid.regression`;
+  helpers of :mod:`nlid.estimation.regression`;
 * **physics and simulation**: equilibria and modal parameters
   (:func:`equilibria`, :func:`modal`, :func:`stiffness_roots`), the simulator
   (:func:`simulate`, :func:`free_run`, and :func:`simulate_segments`: free
   runs of segments with their sensitivities, for output-error methods) and
   the scores (:func:`score`, :func:`initial_state`,
   :func:`predictability_horizon`), and :func:`kernel_threads` (the shared
-  pool of :mod:`nlid.parallel`: the compiled kernels on the pool's threads, BLAS
+  pool of :mod:`nlid.runtime.parallel`: the compiled kernels on the pool's threads, BLAS
   on one);
 * **other identifiers**: :func:`identify` (the core's :func:`nlid.identify`,
   e.g. for a method that starts from another method's estimate) and
@@ -47,43 +47,42 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING
 
-from . import derivatives
-from .balance import EDGE_PERIODS, REGRESSOR_BAND_FACTOR, RegressionData, regression_data, suggested_cutoff
+from .base.jsonable import to_jsonable
+from .contract.estimate import Estimate
+from .contract.hookspecs import hookimpl
+from .contract.identifier import FIGURE_KINDS, FigureArray, Identifier, Option, standard_figure_arrays
+from .contract.structure_estimate import StructureEstimate
+from .data.record import Record
+from .data.structure_record import StructureRecord
 from .errors import DataError, IdentificationError, InputError, NlidError, OptionError, TermError
-from .hookspecs import hookimpl
-from .interface import FIGURE_KINDS, Estimate, FigureArray, Identifier, Option, standard_figure_arrays, to_jsonable
-from .mdof.elements import Element, ElementSet
-from .mdof.estimate import StructureEstimate
-from .mdof.jointfit import JointSolution, joint_least_squares
-from .mdof.model import StructuralModel
-from .mdof.modes import StructureModes, linear_modes
-from .mdof.record import StructureRecord
-from .mdof.regression import (
-    StructureRegressionData,
-    check_elements_nonlinear,
-    dof_weights,
-    structure_regression_data,
-)
-from .mdof.regression import linear_design as structure_linear_design
-from .parallel import kernel_threads
-from .physics import Equilibria, Modal, equilibria, modal, stiffness_roots
-from .progress import ProgressLine, progress_line
-from .record import Record
-from .regression import (
+from .estimation.balance import EDGE_PERIODS, REGRESSOR_BAND_FACTOR, RegressionData, regression_data, suggested_cutoff
+from .estimation.joint import JointSolution, joint_least_squares
+from .estimation.regression import (
     collinearity_warnings,
     column_scale,
     least_squares,
     nonsmooth_warnings,
     triangular_factor,
 )
-from .terms import Model, Term, parse_term
+from .estimation.structure_regression import (
+    StructureRegressionData,
+    check_elements_nonlinear,
+    dof_weights,
+    structure_regression_data,
+)
+from .estimation.structure_regression import linear_design as structure_linear_design
+from .model.elements import Element, ElementSet
+from .model.modes import StructureModes, linear_modes
+from .model.physics import Equilibria, Modal, equilibria, modal, stiffness_roots
+from .model.structure import StructuralModel
+from .model.terms import Model, Term, parse_term
+from .runtime.parallel import kernel_threads
+from .runtime.progress import ProgressLine, progress_line
+from .signal import derivatives
 
 if TYPE_CHECKING:  # loaded on first use by __getattr__ below (the simulator compiles with numba)
-    from .mdof.sensitivity import structure_segments
-    from .mdof.simulation import free_run as structure_free_run
-    from .mdof.simulation import free_run_segments as structure_free_run_segments
-    from .methods import choose_method
-    from .pipeline import identify
+    from .contract.methods import choose_method
+    from .identification.pipeline import identify
     from .scoring import initial_state, predictability_horizon, score
     from .simulation import (
         FREE_RUN_OVERSAMPLE,
@@ -93,6 +92,9 @@ if TYPE_CHECKING:  # loaded on first use by __getattr__ below (the simulator com
         simulate,
         simulate_segments,
     )
+    from .simulation.structure import free_run as structure_free_run
+    from .simulation.structure import free_run_segments as structure_free_run_segments
+    from .simulation.structure_sensitivity import structure_segments
 
 __all__ = [
     "Identifier",
@@ -173,19 +175,19 @@ def __getattr__(name: str):  # the simulator (numba) and the scores are loaded o
 
         return getattr(scoring, name)
     if name in ("structure_free_run", "structure_free_run_segments"):
-        from .mdof import simulation
+        from .simulation import structure as simulation
 
         return simulation.free_run if name == "structure_free_run" else simulation.free_run_segments
     if name == "structure_segments":
-        from .mdof.sensitivity import structure_segments
+        from .simulation.structure_sensitivity import structure_segments
 
         return structure_segments
     if name == "identify":
-        from .pipeline import identify
+        from .identification.pipeline import identify
 
         return identify
     if name == "choose_method":
-        from .methods import choose_method
+        from .contract.methods import choose_method
 
         return choose_method
     raise AttributeError(f"module 'nlid.plugin' has no attribute {name!r}")

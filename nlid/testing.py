@@ -26,7 +26,7 @@ The checks (:data:`CHECKS`):
 
 ``check_attributes``
     ``name``, a one-line ``summary``, ``options`` (a tuple of
-    :class:`~nlid.interface.Option`), ``needs_mass`` (bool), ``identify``;
+    :class:`~nlid.contract.identifier.Option`), ``needs_mass`` (bool), ``identify``;
     and, when set, what the core tells users about the method:
     ``preference`` and ``advice_order`` (int or None), ``advice`` and
     ``docs`` (one line), ``refines`` (bool; a refining method declares a
@@ -38,8 +38,8 @@ The checks (:data:`CHECKS`):
 ``check_bad_option_value_rejected``
     ... and a value of the wrong type or outside the allowed choices.
 ``check_known_mass``
-    With the mass given: an :class:`~nlid.interface.Estimate` that passes the
-    core's own check (:func:`nlid.interface.check_estimate`: one finite real
+    With the mass given: an :class:`~nlid.contract.estimate.Estimate` that passes the
+    core's own check (:func:`nlid.contract.estimate.check_estimate`: one finite real
     coefficient per term in any order, no competing mass, standard errors,
     modal parameters and warnings of the right kind...).
 ``check_estimated_mass``
@@ -57,7 +57,7 @@ The checks (:data:`CHECKS`):
     (:class:`~nlid.errors.InputError`, :class:`~nlid.errors.DataError` or
     :class:`~nlid.errors.IdentificationError`), not a bare Python exception.
 ``check_core_round_trip``
-    Through :func:`nlid.identify`: the :class:`~nlid.identified.IdentifiedModel`
+    Through :func:`nlid.identify`: the :class:`~nlid.identified.model.IdentifiedModel`
     round-trips through JSON.
 ``check_accuracy`` (only with ``accuracy=``)
     Every coefficient within that relative error of the truth on exact data.
@@ -73,10 +73,12 @@ from typing import Any
 
 import numpy as np
 
+from .base.jsonable import to_jsonable
+from .contract.estimate import Estimate, check_estimate
+from .contract.identifier import Option
+from .data.record import Record
 from .errors import IdentificationError, InputError, NlidError, OptionError, PluginError, describe_exception
-from .interface import Estimate, Option, check_estimate, to_jsonable
-from .record import Record
-from .terms import Model
+from .model.terms import Model
 
 __all__ = [
     "CHECKS",
@@ -91,7 +93,7 @@ __all__ = [
 @functools.lru_cache(maxsize=4)
 def contract_record(duration: float = 10.0, seed: int = 0, channels: tuple[str, ...] = ("z", "v", "a")) -> Record:
     """A short noise-free ``paper-numerical`` record with exact channels (cached)."""
-    from .presets import get_preset
+    from .simulation.presets import get_preset
 
     return get_preset("paper-numerical").with_overrides(duration=duration).simulate(seed, channels=channels)
 
@@ -136,7 +138,7 @@ def _fail(message: str) -> AssertionError:
 
 
 def _check_estimate(estimate: Any, model: Model, who: str, mass: float | None = None) -> Estimate:
-    """The core's own check (:func:`nlid.interface.check_estimate`), its refusal as the failed rule."""
+    """The core's own check (:func:`nlid.contract.estimate.check_estimate`), its refusal as the failed rule."""
     try:
         return check_estimate(estimate, model, who, mass)
     except (PluginError, IdentificationError) as exc:
@@ -164,7 +166,7 @@ def check_attributes(s: _Setup) -> None:
 
 
 def _check_core_attributes(cls: type, name: str, options: tuple[Option, ...]) -> None:
-    """The optional attributes the core reads instead of naming plugins (:mod:`nlid.methods`)."""
+    """The optional attributes the core reads instead of naming plugins (:mod:`nlid.contract.methods`)."""
     for key in ("preference", "advice_order"):
         value = getattr(cls, key, None)
         if value is not None and (isinstance(value, bool) or not isinstance(value, int)):
@@ -262,7 +264,7 @@ def check_estimated_mass(s: _Setup) -> None:
 
 def check_px_model(s: _Setup) -> None:
     """A model with ``sign(v)*|px(z)|`` (roots set) is identified: one finite coefficient per term."""
-    from .physics import stiffness_roots
+    from .model.physics import stiffness_roots
 
     record = s.data()
     truth = record.meta.get("truth") or {}
@@ -288,7 +290,7 @@ def check_deterministic(s: _Setup) -> None:
 
 
 def check_diagnostics_jsonable(s: _Setup) -> None:
-    """``diagnostics`` and ``warnings`` serialise to JSON (after :func:`nlid.interface.to_jsonable`)."""
+    """``diagnostics`` and ``warnings`` serialise to JSON (after :func:`nlid.base.jsonable.to_jsonable`)."""
     model, mass = s.model(), s.mass()
     est = s.run(s.data(), model, mass)
     _check_estimate(est, model, s.cls.name, mass)
@@ -321,8 +323,8 @@ def check_bad_record(s: _Setup) -> None:
 
 def check_core_round_trip(s: _Setup) -> None:
     """Through :func:`nlid.identify`: the identified model's ``to_dict``/``from_dict`` round trip."""
-    from .identified import IdentifiedModel
-    from .pipeline import identify
+    from .identification.pipeline import identify
+    from .identified.model import IdentifiedModel
 
     try:
         fit = identify(s.data(), s.model(), s.instance(), mass=s.mass())

@@ -13,7 +13,7 @@ from pathlib import Path
 
 import pytest
 
-from nlid.presets import get_preset
+from nlid.simulation.presets import get_preset
 
 ROOT = Path(__file__).resolve().parents[1]
 DEFAULT_DATA = (ROOT / ".." / "shared" / "data").resolve()
@@ -72,8 +72,8 @@ def rfs_oe_registry():
 
     import nlid_oe
     import nlid_rfs
-    from nlid import hookspecs
-    from nlid.registry import load_registry
+    from nlid.contract import hookspecs
+    from nlid.contract.registry import load_registry
 
     def make():
         pm = pluggy.PluginManager(hookspecs.PROJECT)

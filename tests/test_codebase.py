@@ -15,7 +15,7 @@ from pathlib import Path
 import pytest
 
 import nlid
-from nlid import hookspecs
+from nlid.contract import hookspecs
 
 ROOT = Path(__file__).resolve().parents[1]
 FLAG = re.compile(r"(?:^|[\s('\"])--[a-z][a-z-]+")
@@ -211,7 +211,7 @@ def private_imports(root: Path) -> list[str]:
     or the package a private module sits in. Only that package's own modules may import it; its
     subpackages, its parent and every other package (plugins included) may not. Dunder names
     (``__all__``, ``__version__``) are not private. The imported dotted path is read whole:
-    ``from nlid.terms._kernels import f`` reaches ``_kernels`` of ``nlid.terms``.
+    ``from nlid.model.terms._kernels import f`` reaches ``_kernels`` of ``nlid.model.terms``.
     """
     packages = IMPORTS.packages(root)
     modules = {name: path for package in packages for name, path in IMPORTS.module_names(package).items()}
@@ -242,9 +242,9 @@ def _declared_keys() -> tuple[tuple[str, ...], set[str]]:
     :class:`nlid.IdentifiedModel` (``eps_percent``, ``seconds``...), which ``nlid.compare`` and reports use
     as their own vocabulary.
     """
-    from nlid import columns as col
-    from nlid.identified import IdentifiedModel
+    from nlid.identified.model import IdentifiedModel
     from nlid.scoring import Scores
+    from nlid.scoring import columns as col
 
     identity = (col.RUN_ID, col.DATASET, col.MODEL, col.METHOD, col.REPETITION, col.SEED, col.STATUS, col.ERROR)
     words = {f.name for f in (*identity, col.WARNINGS, col.MASS)}
@@ -261,13 +261,14 @@ SHARED_KEYS = {
 
 
 def column_key_literals(root: Path, shared: dict[tuple[str, str], str] | None = None) -> list[str]:
-    """String literals outside ``nlid/columns.py`` that spell a study-column key (see :func:`_declared_keys`)."""
+    """String literals outside ``nlid/scoring/columns.py`` that spell a study-column key (see
+    :func:`_declared_keys`)."""
     shared = SHARED_KEYS if shared is None else shared
     prefixes, metrics = _declared_keys()
     out = []
     for path in _sources(root):
         rel = path.relative_to(root).as_posix()
-        if rel == "nlid/columns.py":
+        if rel == "nlid/scoring/columns.py":
             continue
         for line, text in _strings(ast.parse(path.read_text())):
             if (text.startswith(prefixes) or text in metrics) and (rel, text) not in shared:
@@ -278,7 +279,7 @@ def column_key_literals(root: Path, shared: dict[tuple[str, str], str] | None = 
 def plugin_name_literals(root: Path, names: list[str]) -> list[str]:
     """String literals in the core (nlid/) equal to a built-in identifier's name.
 
-    The core picks identifiers by their attributes (:mod:`nlid.methods`), never by name. A literal
+    The core picks identifiers by their attributes (:mod:`nlid.contract.methods`), never by name. A literal
     *equal* to a name (``"rfs"``, ``registry.create("oe")``, a ``{"nsi-ip": ...}`` key) is a use as a
     method name; docstrings, comments, the built-in study files (data, not code) and prose or CLI
     examples that mention a name inside a longer text (``"nlid identify x.csv --method rfs"``) are not.
@@ -307,7 +308,7 @@ def test_bayes_never_imports_study():
 
 
 def test_no_study_column_key_is_spelled_outside_the_declarations():
-    """Producers and consumers build keys through nlid/columns.py (``COEF_ERROR.key(term)``)."""
+    """Producers and consumers build keys through nlid/scoring/columns.py (``COEF_ERROR.key(term)``)."""
     assert not column_key_literals(ROOT), "\n".join(column_key_literals(ROOT))
     assert all((ROOT / rel).is_file() for rel, _ in SHARED_KEYS)
 
@@ -375,7 +376,7 @@ def test_the_layer_rule_catches_bayes_reaching_study_through_another_module(tmp_
             "nlid/bayes/fit.py": "def f():\n    from ..helper import g\n",
             "nlid/bayes/study.py": "from ..columns import KEY\n",  # bayes' own module called study: fine
             "nlid/helper.py": "from .study.plan import p\n",
-            "nlid/columns.py": "",
+            "nlid/scoring/columns.py": "",
             "nlid/study/__init__.py": "",
             "nlid/study/plan.py": "",
         },
@@ -388,7 +389,7 @@ def test_the_column_rule_catches_a_key_spelled_outside_the_declarations(tmp_path
         tmp_path,
         {
             **CLEAN,
-            "nlid/columns.py": 'X = "coef_error_pct:"\n',  # the declarations themselves
+            "nlid/scoring/columns.py": 'X = "coef_error_pct:"\n',  # the declarations themselves
             "nlid/producer.py": '''\
                 """Writes coef_error_pct:<term> (a docstring may say so)."""
                 def row(t, x):
@@ -453,3 +454,337 @@ def test_the_private_rule_catches_a_private_name_imported_across_packages(tmp_pa
         "plugins/nlid_p/__init__.py:1: nlid.plugin._check (private to nlid)",
         "plugins/nlid_p/__init__.py:2: numpy._core (private to numpy)",
     ]
+
+
+# ============================================================================ the one house (issue 32)
+# nlid/ is a few top-level modules (the facades and the errors) and packages by job. Each package stands on a
+# floor of docs/architecture.md and imports only packages on the floors below it, so no two packages import
+# each other; an import by name (importlib.import_module) counts. A public name has one home: the module that
+# defines it, its own package's __init__, and the facades. Each rule is a checker over a source tree, shown
+# to fail on a synthetic violation below.
+
+#: The modules at the top of nlid/: the facades and the errors (everything else belongs to a package).
+TOP_LEVEL = {"__init__.py", "api.py", "errors.py", "plugin.py", "testing.py"}
+#: Modules whose ``__all__`` hands on names of other packages on purpose: the public facades.
+FACADES = {"nlid", "nlid.plugin", "nlid.testing"}
+#: Modules that hand on a name defined in another module (a second import path), each with the reason.
+SECOND_PATHS = {
+    "nlid.signal.derivatives": "plugins read the noise floor as an attribute of the module that nlid.plugin hands "
+    "them (derivatives.suggest_cutoff, derivatives.noise_sd...): it goes when the toolkit exports those names",
+}
+#: Modules that import a module of nlid by name (``importlib.import_module("nlid....")``) across the floors.
+BY_NAME = {
+    "nlid/runtime/preload.py": "the fork server warms the floors above it by name: the seam of issue 32 has the "
+    "callers hand it what to load",
+}
+#: The page that names every package and the floor it stands on.
+ARCHITECTURE = "docs/architecture.md"
+
+
+_CACHE: dict[tuple, object] = {}
+
+
+def _cached(kind: str, root: Path, make):
+    """``make()`` once per state of the tree's Python files (their paths, sizes and times)."""
+    files = tuple((str(p), p.stat().st_mtime_ns, p.stat().st_size) for p in sorted((root / "nlid").rglob("*.py")))
+    key = (kind, str(root), files)
+    if key not in _CACHE:
+        _CACHE[key] = make()
+    return _CACHE[key]
+
+
+def _module_name(root: Path, path: Path) -> str:
+    parts = list(path.relative_to(root).with_suffix("").parts)
+    if parts[-1] == "__init__":
+        parts.pop()
+    return ".".join(parts)
+
+
+def imports_by_name(root: Path) -> list[tuple[str, str, int, str]]:
+    """``(file, importer, line, module)`` of each ``importlib.import_module("nlid...")`` with a literal name."""
+    return _cached("by name", root, lambda: _imports_by_name(root))
+
+
+def _imports_by_name(root: Path) -> list[tuple[str, str, int, str]]:
+    out = []
+    for path in sorted((root / "nlid").rglob("*.py")):
+        for node in ast.walk(ast.parse(path.read_text())):
+            if not (isinstance(node, ast.Call) and node.args and isinstance(node.args[0], ast.Constant)):
+                continue
+            func = node.func
+            name = func.attr if isinstance(func, ast.Attribute) else getattr(func, "id", "")
+            target = node.args[0].value
+            if name in ("import_module", "__import__") and isinstance(target, str) and target.startswith("nlid"):
+                out.append((path.relative_to(root).as_posix(), _module_name(root, path), node.lineno, target))
+    return out
+
+
+def package_of(root: Path, module: str) -> str:
+    """``nlid.data`` for every module of ``nlid/data/``; a top-level module is its own."""
+    parts = module.split(".")
+    return ".".join(parts[:2]) if len(parts) > 1 and (root / "nlid" / parts[1]).is_dir() else module
+
+
+def package_graph(root: Path, by_name: dict[str, str] | None = None) -> dict[str, dict[str, list[str]]]:
+    """Package -> {package it imports: ["module -> module", ...]}, imports by name included (but ``by_name``'s)."""
+    by_name = BY_NAME if by_name is None else by_name
+    modules = _cached("graph", root, lambda: IMPORTS.import_graph(root / "nlid"))
+    edges = [(a, b) for a, targets in modules.items() for b in targets]
+    edges += [(a, t) for rel, a, _, t in imports_by_name(root) if rel not in by_name]
+    graph: dict[str, dict[str, list[str]]] = {package_of(root, m): {} for m in modules}
+    for a, b in edges:
+        pa, pb = package_of(root, a), package_of(root, b)
+        if pa != pb:
+            graph.setdefault(pa, {}).setdefault(pb, []).append(f"{a} -> {b}")
+    return graph
+
+
+def package_circles(root: Path, by_name: dict[str, str] | None = None) -> list[str]:
+    """Circles of packages (``a <-> b``), each import between two of them shown by one of its modules."""
+    graph = package_graph(root, by_name)
+    out = []
+    for circle in IMPORTS.circles({p: dict.fromkeys(t, [0]) for p, t in graph.items()}):
+        why = [f"{a} -> {b} ({min(ws)})" for a in circle for b, ws in sorted(graph[a].items()) if b in circle]
+        out.append(" <-> ".join(circle) + ": " + "; ".join(why))
+    return out
+
+
+def floors(text: str) -> dict[str, int]:
+    """``{package or top-level module: floor}`` from the floors table (``| 3 | `nlid/data/` ... |``)."""
+    out = {}
+    for line in text.splitlines():
+        row = re.match(r"^\|\s*(\d+)\s*\|([^|]*)\|", line)
+        if row:
+            for path in re.findall(r"`(nlid/[^`]*)`", row.group(2)):
+                out[path.rstrip("/").removesuffix(".py").replace("/", ".").removesuffix(".__init__")] = int(row[1])
+    return out
+
+
+def floor_violations(root: Path, by_name: dict[str, str] | None = None) -> list[str]:
+    """Imports from a package to one on its own floor or above (imports by name too)."""
+    floor = floors((root / ARCHITECTURE).read_text())
+    out = []
+    for a, targets in sorted(package_graph(root, by_name).items()):
+        for b, why in sorted(targets.items()):
+            if a in floor and b in floor and floor[a] <= floor[b]:
+                out.append(f"{a} (floor {floor[a]}) -> {b} (floor {floor[b]}): {sorted(why)[0]}")
+    return out
+
+
+def undocumented(root: Path) -> list[str]:
+    """Packages of nlid/ that the architecture page does not name, and top-level ones missing from its floors."""
+    text = (root / ARCHITECTURE).read_text()
+    floor = floors(text)
+    out = []
+    for init in sorted((root / "nlid").rglob("__init__.py")):
+        folder = init.parent.relative_to(root).as_posix()
+        if folder != "nlid" and f"`{folder}/`" not in text:
+            out.append(f"{folder}/ is not on {ARCHITECTURE}")
+    for path in sorted((root / "nlid").iterdir()):
+        top = (path / "__init__.py").is_file() or path.suffix == ".py"
+        if top and _module_name(root, path) not in floor:
+            out.append(f"{path.relative_to(root).as_posix()} has no floor on {ARCHITECTURE}")
+    return out
+
+
+def top_level_modules(root: Path) -> list[str]:
+    """Modules at the top of nlid/ that are not the facades or the errors."""
+    return sorted(p.name for p in (root / "nlid").glob("*.py") if p.name not in TOP_LEVEL)
+
+
+def _read(path: Path) -> tuple[set[str], dict[str, tuple[str, str]], list[str]]:
+    """What a module defines, imports (``local: (module, name)``, relative resolved later) and exports."""
+    defined: set[str] = set()
+    imported: dict[str, tuple[str, str]] = {}
+    exported: list[str] = []
+
+    def visit(body: list[ast.stmt]) -> None:
+        for node in body:
+            if isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef, ast.ClassDef)):
+                defined.add(node.name)
+            elif isinstance(node, (ast.Assign, ast.AnnAssign)):
+                targets = node.targets if isinstance(node, ast.Assign) else [node.target]
+                for t in targets:
+                    defined.update(n.id for n in ast.walk(t) if isinstance(n, ast.Name))
+                    if isinstance(t, ast.Name) and isinstance(node.value, (ast.List, ast.Tuple, ast.Dict)):
+                        if t.id == "__all__":
+                            exported.extend(e.value for e in node.value.elts if isinstance(e, ast.Constant))
+                        elif t.id == "_LAZY" and isinstance(node.value, ast.Dict):
+                            for k, v in zip(node.value.keys, node.value.values, strict=True):
+                                if isinstance(k, ast.Constant) and isinstance(v, ast.Constant):
+                                    exported.append(k.value)
+                                    imported[k.value] = ("=" + v.value, k.value)
+            elif isinstance(node, ast.ImportFrom):
+                for a in node.names:
+                    imported[a.asname or a.name] = ("." * node.level + (node.module or ""), a.name)
+            elif isinstance(node, (ast.If, ast.Try)):
+                visit(node.body)
+                visit(node.orelse)
+                for h in getattr(node, "handlers", []):
+                    visit(h.body)
+
+    visit(ast.parse(path.read_text()).body)
+    return defined, imported, exported
+
+
+def second_paths(root: Path, facades: set[str] | None = None, exempt: dict[str, str] | None = None) -> list[str]:
+    """Names a module exports (``__all__``, ``_LAZY``) that it neither defines nor holds as its package's face.
+
+    A name's home is the module that defines it; besides it, only the ``__init__`` of a package that holds
+    that module and the facades may list it. Any other module listing it (a sibling, another package, a
+    module kept under an old name) is a second import path.
+    """
+    facades = FACADES if facades is None else facades
+    exempt = SECOND_PATHS if exempt is None else exempt
+    paths = IMPORTS.module_names(root / "nlid")
+    read = _cached("read", root, lambda: {name: _read(path) for name, path in paths.items()})
+
+    def absolute(importer: str, spec: str) -> str:
+        if spec.startswith("="):
+            return spec[1:]
+        level = len(spec) - len(spec.lstrip("."))
+        if not level:
+            return spec
+        base = importer if paths[importer].name == "__init__.py" else importer.rpartition(".")[0]
+        anchor = base.split(".")[: len(base.split(".")) - (level - 1)]
+        return ".".join(anchor + ([spec.lstrip(".")] if spec.lstrip(".") else []))
+
+    def home(module: str, name: str, seen: frozenset = frozenset()) -> str:
+        if module not in read or (module, name) in seen or name in read[module][0]:
+            return module
+        if name not in read[module][1]:
+            return module
+        source, original = read[module][1][name]
+        source = absolute(module, source)
+        if f"{source}.{original}" in read or not source.startswith("nlid"):
+            return module  # a module handed on by name is the module; another library's name is not ours
+        return home(source, original, seen | {(module, name)})
+
+    out = []
+    for module, (_, _, exported) in sorted(read.items()):
+        if module in facades or module in exempt:
+            continue
+        for name in exported:
+            where = home(module, name)
+            face = paths[module].name == "__init__.py" and where.startswith(module + ".")
+            if where != module and not face:
+                out.append(f"{module}.{name}: a second path to {where}.{name}")
+    return out
+
+
+def private_imports_by_name(root: Path) -> list[str]:
+    """Imports by name (``importlib.import_module("nlid.x._y")``) of a private module of another package."""
+    out = []
+    for rel, importer, line, target in imports_by_name(root):
+        parts = target.split(".")
+        for k, part in enumerate(parts):
+            if _is_private(part) and package_of(root, ".".join(parts[:k])) != package_of(root, importer):
+                out.append(f"{rel}:{line}: {'.'.join(parts[: k + 1])}")
+                break
+    return out
+
+
+def test_nlid_top_level_holds_only_the_facades_and_the_errors():
+    assert not top_level_modules(ROOT), "give these a package: " + ", ".join(top_level_modules(ROOT))
+
+
+def test_no_import_circle_between_packages():
+    """Two packages never import each other, directly or through others (imports by name count)."""
+    assert not package_circles(ROOT), "\n".join(package_circles(ROOT))
+    assert all((ROOT / rel).is_file() for rel in BY_NAME), "an exemption names a module that is gone"
+    assert all(any(rel == r for r, *_ in imports_by_name(ROOT)) for rel in BY_NAME), "an exemption is not needed"
+
+
+def test_packages_import_only_the_floors_below():
+    """The floors of docs/architecture.md are the layering: up is never imported."""
+    assert not floor_violations(ROOT), "\n".join(floor_violations(ROOT))
+
+
+def test_every_package_is_on_the_architecture_page():
+    assert not undocumented(ROOT), "\n".join(undocumented(ROOT))
+
+
+def test_every_public_name_has_one_import_path():
+    assert not second_paths(ROOT), "\n".join(second_paths(ROOT))
+    modules = IMPORTS.module_names(ROOT / "nlid")
+    assert all(m in modules for m in SECOND_PATHS), "an exemption names a module that is gone"
+    for module in SECOND_PATHS:  # an exemption that no longer hands on a name goes
+        assert second_paths(ROOT, exempt={}) != second_paths(ROOT, exempt={module: ""}), module
+
+
+def test_no_private_module_is_imported_by_name_across_packages():
+    assert not private_imports_by_name(ROOT), "\n".join(private_imports_by_name(ROOT))
+
+
+# ---------------------------------------------------------------------------- the house rules fail on a violation
+HOUSE = {
+    "nlid/__init__.py": "",
+    "nlid/errors.py": "",
+    "nlid/base/__init__.py": "",
+    "nlid/base/frozen.py": "class FrozenDict: pass\n__all__ = ['FrozenDict']\n",
+    "nlid/data/__init__.py": "",
+    "nlid/data/record.py": "from ..base.frozen import FrozenDict\nclass Record: pass\n__all__ = ['Record']\n",
+    "nlid/study/__init__.py": "_LAZY = {'run': 'nlid.study.run'}\n",
+    "nlid/study/run.py": "from ..data.record import Record\ndef run(): pass\n__all__ = ['run']\n",
+    ARCHITECTURE: "| Floor | Packages |\n|---|---|\n| 3 | `nlid/study/` |\n| 2 | `nlid/data/` |\n"
+    "| 1 | `nlid/base/`, `nlid/errors.py` |\n| 4 | `nlid/__init__.py` |\n",
+    "plugins/nlid_p/__init__.py": "",
+}
+
+
+def test_the_package_rules_catch_a_circle_a_floor_and_a_page(tmp_path):
+    root = _tree(tmp_path, HOUSE)
+    assert package_circles(root) == [] and floor_violations(root) == [] and undocumented(root) == []
+    by_name = "def f():\n    import importlib\n    importlib.import_module('nlid.data.record')\n"
+    _tree(root, {"nlid/base/frozen.py": by_name})
+    assert package_circles(root, by_name={}) == [
+        "nlid.base <-> nlid.data: nlid.base -> nlid.data (nlid.base.frozen -> nlid.data.record); "
+        "nlid.data -> nlid.base (nlid.data.record -> nlid.base.frozen)"
+    ]
+    assert package_circles(root, by_name={"nlid/base/frozen.py": "why"}) == []
+    assert floor_violations(root, by_name={}) == [
+        "nlid.base (floor 1) -> nlid.data (floor 2): nlid.base.frozen -> nlid.data.record"
+    ]
+    _tree(root, {"nlid/scoring/__init__.py": "", "nlid/scoring/rules/__init__.py": "", "nlid/tools.py": ""})
+    assert undocumented(root) == [
+        "nlid/scoring/ is not on docs/architecture.md",
+        "nlid/scoring/rules/ is not on docs/architecture.md",
+        "nlid/scoring has no floor on docs/architecture.md",
+        "nlid/tools.py has no floor on docs/architecture.md",
+    ]
+    assert top_level_modules(root) == ["tools.py"]
+
+
+def test_the_one_path_rule_catches_a_second_path(tmp_path):
+    root = _tree(tmp_path, HOUSE)
+    assert second_paths(root, facades={"nlid"}, exempt={}) == []
+    _tree(
+        root,
+        {
+            "nlid/study/__init__.py": "_LAZY = {'Record': 'nlid.data.record', 'run': 'nlid.study.run'}\n",
+            "nlid/study/run.py": "from ..data.record import Record\ndef run(): pass\n__all__ = ['run', 'Record']\n",
+            "nlid/data/__init__.py": "from .record import Record\n__all__ = ['Record']\n",  # its own face: fine
+            "nlid/record.py": "from .data.record import *\nfrom .data.record import Record\n__all__ = ['Record']\n",
+        },
+    )
+    assert second_paths(root, facades={"nlid"}, exempt={}) == [
+        "nlid.record.Record: a second path to nlid.data.record.Record",
+        "nlid.study.Record: a second path to nlid.data.record.Record",
+        "nlid.study.run.Record: a second path to nlid.data.record.Record",
+    ]
+    assert second_paths(root, facades={"nlid", "nlid.study"}, exempt={"nlid.record": "why"}) == [
+        "nlid.study.run.Record: a second path to nlid.data.record.Record"
+    ]
+
+
+def test_the_private_rule_catches_an_import_by_name(tmp_path):
+    root = _tree(
+        tmp_path,
+        {
+            **HOUSE,
+            "nlid/base/_kernels.py": "",
+            "nlid/study/run.py": "import importlib\nk = importlib.import_module('nlid.base._kernels')\n",
+            "nlid/base/frozen.py": "import importlib\nk = importlib.import_module('nlid.base._kernels')\n",
+        },
+    )
+    assert private_imports_by_name(root) == ["nlid/study/run.py:2: nlid.base._kernels"]

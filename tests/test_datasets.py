@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from nlid import DataError, InputError, identify
-from nlid.datasets import SILVERBOX_ARROW, SILVERBOX_FS, load
+from nlid.data.datasets import SILVERBOX_ARROW, SILVERBOX_FS, load
 
 
 def test_emps(data_dir):
@@ -47,7 +47,7 @@ def test_missing_data_names_the_directory(tmp_path, monkeypatch):
 def _copy_benchmark_files(src, dst, names):
     import shutil
 
-    from nlid.datasets import BENCHMARKS
+    from nlid.data.datasets import BENCHMARKS
 
     for name in names:
         for f in BENCHMARKS[name].files:
@@ -56,7 +56,7 @@ def _copy_benchmark_files(src, dst, names):
 
 
 def test_check_reports_ok_missing_and_mismatch(data_dir, tmp_path):
-    from nlid.datasets import BENCHMARKS, check, sha256
+    from nlid.data.datasets import BENCHMARKS, check, sha256
 
     _copy_benchmark_files(data_dir, tmp_path, ["emps", "silverbox"])
     corrupt = tmp_path / "silverbox" / "Schroeder80mV.mat"
@@ -74,7 +74,7 @@ def test_check_hashes_a_file_it_was_given(tmp_path):
     """The checksum is SHA-256 of the bytes (a file of known content, no measured data needed)."""
     import hashlib
 
-    from nlid.datasets import BENCHMARKS, check
+    from nlid.data.datasets import BENCHMARKS, check
 
     path = tmp_path / BENCHMARKS["emps"].files[0].path
     path.parent.mkdir()

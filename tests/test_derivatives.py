@@ -3,7 +3,7 @@ import pytest
 from scipy import signal
 
 from nlid import InputError
-from nlid.derivatives import complementary, differentiate, integrate, lowpass, suggest_cutoff, zoh_equivalent
+from nlid.signal.derivatives import complementary, differentiate, integrate, lowpass, suggest_cutoff, zoh_equivalent
 
 
 def test_spectral_derivative_is_exact_in_band():
@@ -108,7 +108,7 @@ def _one_column(x, fs, cutoff, derivative=0, hold=False):
     """The filter of one column as nlid applied it before the batched transforms: 1-D FFTs, a fresh response."""
     from scipy import fft as sp_fft
 
-    from nlid import derivatives as d
+    from nlid.signal import derivatives as d
 
     n = x.size
     pad = d._pad_length(n, fs, cutoff)
@@ -127,7 +127,7 @@ def _one_column(x, fs, cutoff, derivative=0, hold=False):
 
 @pytest.mark.parametrize("block_bytes", [None, 2 * 8 * 4500])  # the default, and blocks of two columns
 def test_batched_column_filters_give_each_columns_numbers_to_the_bit(monkeypatch, block_bytes):
-    from nlid import derivatives as d
+    from nlid.signal import derivatives as d
 
     if block_bytes is not None:
         monkeypatch.setattr(d, "FILTER_BLOCK_BYTES", block_bytes)
@@ -145,7 +145,7 @@ def test_batched_column_filters_give_each_columns_numbers_to_the_bit(monkeypatch
 
 
 def test_lowpass_and_derivatives_share_one_transform_with_the_same_numbers():
-    from nlid.derivatives import lowpass_and_derivatives
+    from nlid.signal.derivatives import lowpass_and_derivatives
 
     rng = np.random.default_rng(5)
     fs, fc = 1000.0, 80.0
@@ -160,7 +160,7 @@ def test_lowpass_and_derivatives_share_one_transform_with_the_same_numbers():
 
 
 def test_filter_responses_are_kept_within_their_budget(monkeypatch):
-    from nlid import derivatives as d
+    from nlid.signal import derivatives as d
 
     monkeypatch.setattr(d, "_RESPONSES", type(d._RESPONSES)())
     monkeypatch.setattr(d, "RESPONSE_CACHE_BYTES", 3 * 16 * 1001)  # three responses of 1001 frequencies

@@ -120,7 +120,7 @@ def test_the_gallery_shows_every_figure_with_its_code():
     """docs/gallery.md: every marker it includes is in docs/make_gallery.py, every image it shows is committed,
     and every ``plot_*`` method of the identified model and every figure function of the posterior is shown."""
     from nlid.bayes import plots as posterior_plots
-    from nlid.identified import IdentifiedModel
+    from nlid.identified.model import IdentifiedModel
 
     page = (DOCS / "gallery.md").read_text()
     script = (DOCS / "make_gallery.py").read_text()

@@ -6,7 +6,7 @@ import math
 
 import pytest
 
-from nlid.formatting import column_digits, sig, spread_cell, spread_digits, text_table
+from nlid.base.formatting import column_digits, sig, spread_cell, spread_digits, text_table
 
 
 @pytest.mark.parametrize(

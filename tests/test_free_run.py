@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 
 from nlid.errors import InputError
+from nlid.model.terms import Model
 from nlid.simulation import free_run, simulate
-from nlid.terms import Model
 
 
 def test_a_held_force_matches_simulate():

@@ -23,8 +23,8 @@ from plugin_dist import write_distribution
 from scipy import io as sio
 
 from nlid.cli.main import main
-from nlid.presets import get_preset
-from nlid.registry import default_registry, registry_for
+from nlid.contract.registry import default_registry, registry_for
+from nlid.simulation.presets import get_preset
 
 TERMS = "z^3,z^2,v*|v|"
 NESTED = "(" * 500 + "z" + ")" * 500

@@ -4,7 +4,7 @@ Groups of issue 25 covered here (the process boundary, groups 1-2 and the crash 
 tested with ``nlid.runtime``):
 
 ``G4``  silent wrong from a plugin: everything an identifier returns is checked before use
-        (:func:`nlid.interface.check_estimate`); a hypothesis test drives the boundary with
+        (:func:`nlid.contract.estimate.check_estimate`); a hypothesis test drives the boundary with
         random return values.
 ``G35`` ``nlid methods``: a plugin printing at import, one with no hook, one slow to import.
 ``G6``  input accepted silently (boolean channels, ``**``, posterior slices and noise levels, the API).
@@ -34,13 +34,13 @@ from hypothesis import strategies as st
 from plugin_dist import write_distribution
 
 import nlid
-from nlid import registry as registry_module
 from nlid.cli.main import main
+from nlid.contract import registry as registry_module
+from nlid.contract.registry import default_registry, registry_for
+from nlid.data.record import Record
 from nlid.errors import DataError, InputError, NlidError, PluginError, brief, listing, one_line
-from nlid.identified import IdentifiedModel
-from nlid.presets import get_preset
-from nlid.record import Record
-from nlid.registry import default_registry, registry_for
+from nlid.identified.model import IdentifiedModel
+from nlid.simulation.presets import get_preset
 
 TERMS = "z^3,z^2,v*|v|"
 

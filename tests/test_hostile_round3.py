@@ -35,8 +35,8 @@ from scipy import io as sio
 
 import nlid
 from nlid.cli.main import main
+from nlid.data.io import write_csv
 from nlid.errors import DataError, InputError
-from nlid.io import write_csv
 
 ROOT = Path(__file__).resolve().parents[1]
 N = 1000
@@ -235,7 +235,7 @@ def test_a_every_reader_refuses_a_file_that_declares_more_than_it_holds_under_a_
 
 def test_a_a_compressed_mat_variable_is_bounded_by_deflate_s_ratio(tmp_path):
     """A compressed variable may expand at most 1032 times (deflate's limit): a forged ratio is refused."""
-    from nlid.filetables import MAX_COMPRESSION, _bounded
+    from nlid.data.filetables import MAX_COMPRESSION, _bounded
 
     _bounded("x", "f.mat", 1000, 8, 8, True)  # small: read whatever the file holds
     with pytest.raises(DataError, match=r"declares 300 000 000 values \(2.4 GB\) but the file holds 1 kB compressed"):
@@ -296,8 +296,8 @@ def fit_json(tmp_path, short_record):
 
 @pytest.mark.parametrize("special", ["fifo", "/dev/zero"])
 def test_a_special_files_are_refused_by_bench_compare_and_replay(special, fifo, fit_json, monkeypatch):
-    """The three readers that bypassed nlid.io's path check now go through it (none hangs or reads forever)."""
-    from nlid.replay import identify_again
+    """The three readers that bypassed nlid.data.io's path check now go through it (none hangs or reads forever)."""
+    from nlid.identification.replay import identify_again
 
     if special == "/dev/zero" and not Path(special).exists():
         pytest.skip("no /dev/zero")
@@ -326,7 +326,7 @@ def test_a_a_sparse_csv_is_refused_before_pandas_reads_it(tmp_path):
 
 
 def test_a_a_csv_or_parquet_that_would_not_fit_in_memory_is_refused_naming_its_size(tmp_path, monkeypatch):
-    from nlid import filetables
+    from nlid.data import filetables
 
     data = _signals()
     pd.DataFrame(data).to_csv(tmp_path / "x.csv", index=False)
@@ -546,7 +546,7 @@ def test_b_a_benchmark_file_names_only_a_loader_of_the_package_never_other_code(
 @pytest.fixture(scope="module")
 def structure_csv(tmp_path_factory):
     """8 s of the 3dof-cubic structure (its truth in the sidecar), as nlid simulate writes it."""
-    from nlid.presets import get_preset
+    from nlid.simulation.presets import get_preset
 
     folder = tmp_path_factory.mktemp("structure")
     record = get_preset("3dof-cubic").with_overrides(duration=8.0).simulate(0)
@@ -697,7 +697,7 @@ def test_d_from_dict_checks_every_field_and_names_the_first_misfit(model_dict, f
 
 
 def test_d_version_1_is_today_s_layout_and_reads_back(model_dict):
-    from nlid.modelschema import MODEL_FIELDS
+    from nlid.identified.fileformat import MODEL_FIELDS
 
     assert model_dict["schema"] == "nlid.IdentifiedModel/1"
     assert set(model_dict) <= {f.name for f in MODEL_FIELDS}  # every field to_dict writes is declared
@@ -710,8 +710,8 @@ def test_d_version_1_is_today_s_layout_and_reads_back(model_dict):
 
 
 def test_d_a_structure_s_json_is_checked_against_its_schema(structure_csv):
-    from nlid.mdof.identified import IdentifiedStructure
-    from nlid.modelschema import STRUCTURE_FIELDS
+    from nlid.identified.fileformat import STRUCTURE_FIELDS
+    from nlid.identified.structure import IdentifiedStructure
 
     fit = nlid.identify(nlid.load(structure_csv), "z3^3", "rfs")
     data = json.loads(json.dumps(fit.to_dict()))
@@ -736,7 +736,7 @@ def test_d_compare_reference_with_a_damaged_model_json_is_one_line(tmp_path, sho
 
 
 def test_d_identify_again_turns_every_bad_provenance_into_one_error(fit_json, monkeypatch):
-    from nlid.replay import identify_again
+    from nlid.identification.replay import identify_again
 
     monkeypatch.chdir(fit_json.parent)
     good = json.loads(fit_json.read_text())["provenance"]
@@ -776,7 +776,7 @@ def test_d_identify_again_turns_every_bad_provenance_into_one_error(fit_json, mo
 def test_d_the_docs_write_down_every_field_of_the_schema():
     import re
 
-    from nlid.modelschema import MODEL_FIELDS, PROVENANCE_FIELDS, STRUCTURE_FIELDS, Obj
+    from nlid.identified.fileformat import MODEL_FIELDS, PROVENANCE_FIELDS, STRUCTURE_FIELDS, Obj
 
     page = (ROOT / "docs" / "model-json.md").read_text()
     names = []
@@ -789,7 +789,7 @@ def test_d_the_docs_write_down_every_field_of_the_schema():
         if isinstance(kind, Obj):
             todo += list(kind.fields)
     missing = sorted({n for n in names if not re.search(rf"`[^`]*\b{re.escape(n)}\b[^`]*`", page)})
-    assert not missing, f"fields of nlid.modelschema not in docs/model-json.md: {missing}"
+    assert not missing, f"fields of nlid.identified.fileformat not in docs/model-json.md: {missing}"
     assert "nlid.IdentifiedModel/1" in page and "nlid.IdentifiedStructure/1" in page
 
 
@@ -857,7 +857,7 @@ def r3_plugins(tmp_path_factory):
     """The E-class test plugins in a folder with their ``.dist-info`` (nothing installed), on ``sys.path``."""
     from plugin_dist import write_distribution
 
-    from nlid.registry import default_registry, registry_for
+    from nlid.contract.registry import default_registry, registry_for
 
     folder = tmp_path_factory.mktemp("r3plugins")
     write_distribution(folder, "nlid-r3", {"nlid_r3_plugins": R3_PLUGINS}, {"r3": "nlid_r3_plugins"})
@@ -957,7 +957,7 @@ def test_e_a_signal_between_write_and_rename_leaves_no_temporary_file_after_the_
 
 
 def test_e_an_interrupted_atomic_write_removes_its_temporary_file(tmp_path, monkeypatch):
-    from nlid import outputs
+    from nlid.runtime import outputs
 
     path = tmp_path / "x.json"
     path.write_text("old")
@@ -986,7 +986,8 @@ def kill_fork_server() -> None:
 
 def test_e_a_dead_fork_server_is_infrastructure_not_the_identifier_s_crash(r3_plugins, tmp_path, monkeypatch):
     """The run is tried again at once; if the server dies again, the run is not stored and a resume runs it."""
-    from nlid.runtime.isolation import IsolationError, run_in_child
+    from nlid.runtime.isolation import run_in_child
+    from nlid.runtime.outcome import IsolationError
 
     if not sys.platform.startswith("linux"):
         pytest.skip("the fork server's children die with it on Linux (parent-death signal)")
@@ -1021,7 +1022,7 @@ def test_e_a_report_of_many_identifiers_issues_no_raw_matplotlib_warning(tmp_pat
     """A legend taller than its axes collapses constrained layout: matplotlib's default layout is kept, silently."""
     import warnings
 
-    from nlid.plotting import new_figure, save_figure
+    from nlid.report.plotting import new_figure, save_figure
 
     fig, ax = new_figure(width=4.0, height=3.0)
     for i in range(60):

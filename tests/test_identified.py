@@ -10,7 +10,8 @@ import numpy as np
 import pytest
 
 import nlid
-from nlid import IdentifiedModel, physics
+from nlid import IdentifiedModel
+from nlid.model import physics
 from nlid.scoring import free_run_error
 
 
@@ -127,7 +128,7 @@ def test_simulate_gives_a_record_the_model_reproduces(fit, record):
 
 
 def test_plots_draw_on_given_axes(fit, record):
-    from nlid.plotting import new_figure
+    from nlid.report.plotting import new_figure
 
     fig, axes = new_figure(2, 2)
     assert fit.plot_stiffness(ax=axes[0, 0]) is axes[0, 0]

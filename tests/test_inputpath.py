@@ -1,4 +1,4 @@
-"""The input path (nlid.inputpath): the force that acts, exactly, and applied the same way everywhere."""
+"""The input path (nlid.estimation.inputpath): the force that acts, exactly, and applied the same way everywhere."""
 
 from __future__ import annotations
 
@@ -7,7 +7,7 @@ import pytest
 
 import nlid
 from nlid.errors import InputError
-from nlid.inputpath import InputPath, acting_record, input_path
+from nlid.estimation.inputpath import InputPath, acting_record, input_path
 
 
 def _tones(n: int, fs: float, shift: float = 0.0) -> np.ndarray:

@@ -4,7 +4,8 @@ import json
 import pytest
 
 from nlid import Estimate, Option, OptionError
-from nlid.interface import resolve_options, to_jsonable
+from nlid.base.jsonable import to_jsonable
+from nlid.contract.identifier import resolve_options
 
 
 def test_option_parsing():

@@ -3,7 +3,8 @@ import pandas as pd
 import pytest
 
 from nlid import DataError, InputError
-from nlid.io import parse_columns, read_record, write_csv, write_npz
+from nlid.data.columnmap import parse_columns
+from nlid.data.io import read_record, write_csv, write_npz
 
 
 @pytest.fixture

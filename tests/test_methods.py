@@ -1,4 +1,5 @@
-"""The core picks identifiers by their attributes (nlid.methods), never by name; the built-ins state today's choices."""
+"""The core picks identifiers by their attributes (nlid.contract.methods), never by name; the built-ins state today's
+choices."""
 
 from __future__ import annotations
 
@@ -6,10 +7,10 @@ from pathlib import Path
 
 import pytest
 
+from nlid.contract.identifier import Identifier
+from nlid.contract.methods import advice_of, choose_method, choose_refiner, doc_pages, ranked
+from nlid.contract.registry import Registry, default_registry
 from nlid.errors import InputError
-from nlid.interface import Identifier
-from nlid.methods import advice_of, choose_method, choose_refiner, doc_pages, ranked
-from nlid.registry import Registry, default_registry
 
 ROOT = Path(__file__).resolve().parents[1]
 

@@ -9,9 +9,10 @@ fixed point on the px(z) roots converges.
 import numpy as np
 import pytest
 
-from nlid import identify, physics
-from nlid.presets import get_preset
-from nlid.registry import default_registry
+from nlid import identify
+from nlid.contract.registry import default_registry
+from nlid.model import physics
+from nlid.simulation.presets import get_preset
 
 FULL = "z^3, z^2, sign(v)*|px(z)|, v*|px(z)|, v*|v|*|px(z)|, v^3*|px(z)|"
 STIFFNESS_ONLY = "z^3, z^2"  # with 1, z, v: the paper's NSI always keeps the underlying-linear system

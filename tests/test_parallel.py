@@ -1,4 +1,4 @@
-"""The shared pool (nlid.parallel): its size follows the cores and the load; kernel_threads pins BLAS."""
+"""The shared pool (nlid.runtime.parallel): its size follows the cores and the load; kernel_threads pins BLAS."""
 
 from __future__ import annotations
 
@@ -6,7 +6,7 @@ import numba
 import pytest
 from threadpoolctl import threadpool_info
 
-from nlid import parallel
+from nlid.runtime import parallel
 
 
 def test_workers_are_every_core_or_the_cores_less_the_other_processes_load(monkeypatch):

@@ -1,10 +1,12 @@
 import numpy as np
 import pytest
 
-from nlid import balance, physics, scoring
+from nlid import scoring
 from nlid.errors import InputError
-from nlid.presets import get_preset
-from nlid.terms import Model
+from nlid.estimation import balance
+from nlid.model import physics
+from nlid.model.terms import Model
+from nlid.simulation.presets import get_preset
 
 
 def test_potential_is_integral_of_stiffness(numerical):
@@ -108,7 +110,7 @@ def test_damping_slice_of_a_filtered_balance_keeps_the_stiffness_out():
 
 def test_records_sharing_their_force_give_the_force_balances_they_give_alone(short_record, numerical):
     """share_channels re-uses the filtered force and acceleration of equal channels only, to the bit."""
-    from nlid.record import Record
+    from nlid.data.record import Record
 
     model = numerical.model()
     rng = np.random.default_rng(2)

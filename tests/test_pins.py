@@ -24,7 +24,7 @@ import nlid
 from nlid.bayes import sample_posterior
 from nlid.discovery import discover
 from nlid.discovery.cases import build_case
-from nlid.presets import get_preset
+from nlid.simulation.presets import get_preset
 from nlid.study import parse_study, run_study
 from nlid.study.execute import LocalExecutor
 from nlid.study.store import ResultStore

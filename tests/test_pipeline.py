@@ -2,7 +2,7 @@ import numpy as np
 import pytest
 
 from nlid import Estimate, IdentificationError, Identifier, PluginError, identify
-from nlid.presets import get_preset
+from nlid.simulation.presets import get_preset
 
 
 @pytest.fixture(scope="module")

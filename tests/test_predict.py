@@ -7,8 +7,8 @@ import pytest
 
 import nlid
 from nlid.errors import InputError
-from nlid.identified import IdentifiedModel
-from nlid.presets import get_preset
+from nlid.identified.model import IdentifiedModel
+from nlid.simulation.presets import get_preset
 
 
 def _truth(preset) -> IdentifiedModel:

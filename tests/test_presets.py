@@ -3,10 +3,11 @@
 import numpy as np
 import pytest
 
-from nlid import InputError, physics
-from nlid.presets import PRESETS, get_preset
+from nlid import InputError
+from nlid.model import physics
+from nlid.model.terms import Model
 from nlid.simulation import SimulationError, simulate
-from nlid.terms import Model
+from nlid.simulation.presets import PRESETS, get_preset
 
 
 def test_paper_numerical_physics_matches_the_paper(numerical):

@@ -23,12 +23,12 @@ from scipy import io as sio
 
 import nlid
 from nlid.cli.main import main
+from nlid.data.columnmap import ColumnExpr, parse_columns
 from nlid.errors import NlidError
-from nlid.io import ColumnExpr, parse_columns
+from nlid.model.terms import Model, parse_term
+from nlid.model.terms.term import MAX_POWER, VARIABLES
 from nlid.study import ConfigError, parse_study
 from nlid.study.config import resolve_study
-from nlid.terms import Model, parse_term
-from nlid.terms.term import MAX_POWER, VARIABLES
 
 SETTINGS = settings(
     max_examples=120,

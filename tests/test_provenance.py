@@ -16,8 +16,8 @@ import pytest
 import nlid
 from nlid import DataError, IdentifiedModel, InputError
 from nlid.cli.common import identify_command
-from nlid.digest import record_sha256
-from nlid.replay import identify_again
+from nlid.data.digest import record_sha256
+from nlid.identification.replay import identify_again
 
 TERMS = "z^3, z^2, v*|v|"
 COLUMNS = "t=time, f[kN]=load, z=disp, a=acc"

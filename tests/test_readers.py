@@ -13,7 +13,7 @@ import pytest
 
 import nlid
 from nlid import DataError, Record
-from nlid.io import read_record, read_table
+from nlid.data.io import read_record, read_table
 
 h5py = pytest.importorskip("h5py")
 pq = pytest.importorskip("pyarrow.parquet")

@@ -161,7 +161,7 @@ def test_the_stated_number_of_tests_is_the_collected_one():
 
 def test_dataset_lines_say_what_nlid_data_says():
     """Each benchmark's layout line names its files, and says "no loader yet" exactly when ``nlid data`` does."""
-    from nlid.datasets import BENCHMARKS
+    from nlid.data.datasets import BENCHMARKS
 
     section = _section("Measured data")
     layout = re.search(r"```\n(\$NLID_DATA_DIR/.*?)```", section, flags=re.S)

@@ -2,7 +2,7 @@ import numpy as np
 import pytest
 
 from nlid import DataError, InputError, Record
-from nlid.record import MIN_SAMPLES, TIME_TOLERANCE
+from nlid.data.checks import MIN_SAMPLES, TIME_TOLERANCE
 
 
 def _signals(n=1000, fs=100.0):

@@ -10,13 +10,14 @@ import pandas as pd
 import pytest
 
 import nlid
-from nlid import IdentifiedModel, Model, physics
+from nlid import IdentifiedModel, Model
+from nlid.data.io import read_record, write_npz
+from nlid.data.record import Record
 from nlid.errors import InputError
-from nlid.io import read_record, write_npz
-from nlid.physics import Equilibria
-from nlid.record import Record
-from nlid.reference import FRAME_COLUMNS, Comparison, Reference, compare
-from nlid.study import columns as col
+from nlid.identified.reference import FRAME_COLUMNS, Comparison, Reference, compare
+from nlid.model import physics
+from nlid.model.physics import Equilibria
+from nlid.scoring import columns as col
 from nlid.study.metrics import coefficient_metrics, equilibrium_metrics
 
 TERMS = "z^3, z^2, v*|v|"

@@ -10,7 +10,7 @@ import pytest
 from plugin_dist import write_distribution
 
 from nlid import InputError, PluginError, identify
-from nlid.registry import load_registry
+from nlid.contract.registry import load_registry
 
 GOOD = """
 import numpy as np

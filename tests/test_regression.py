@@ -1,10 +1,11 @@
-"""nlid.regression: least squares with honest standard errors, and collinearity."""
+"""nlid.estimation.regression: least squares with honest standard errors, and collinearity."""
 
 import numpy as np
 import pytest
 
-from nlid import IdentificationError, derivatives
-from nlid.regression import collinear_pairs, collinearity_warnings, least_squares
+from nlid import IdentificationError
+from nlid.estimation.regression import collinear_pairs, collinearity_warnings, least_squares
+from nlid.signal import derivatives
 
 
 def test_exact_solution_and_rank_deficiency():

@@ -13,16 +13,16 @@ import numpy as np
 import pytest
 
 import nlid
+from nlid.base.numerics import collect_warnings, describe_warnings
 from nlid.bayes import Posterior
 from nlid.bayes.priors import Normal, PriorConflictError, Uniform, prior_conflicts
 from nlid.bayes.sampler import Chains
+from nlid.contract.estimate import Estimate
+from nlid.data.record import Record
 from nlid.errors import IdentificationError, InputError, PluginError, describe_exception
-from nlid.identified import IdentifiedModel
-from nlid.interface import Estimate
-from nlid.numerics import collect_warnings, describe_warnings
-from nlid.outputs import MARKER, POSTERIOR_OUTPUTS, STUDY_OUTPUTS, check_new_file, output_folder
-from nlid.record import Record
-from nlid.terms import Model
+from nlid.identified.model import IdentifiedModel
+from nlid.model.terms import Model
+from nlid.runtime.outputs import MARKER, POSTERIOR_OUTPUTS, STUDY_OUTPUTS, check_new_file, output_folder
 
 
 # --------------------------------------------------------------------------- group 1
@@ -215,7 +215,7 @@ def test_a_named_file_is_replaced_only_with_force(tmp_path):
 
 
 def test_write_csv_never_replaces_a_foreign_sidecar(short_record, tmp_path):
-    from nlid.io import write_csv
+    from nlid.data.io import write_csv
 
     (tmp_path / "r.csv.meta.json").write_text("my notes, not JSON")
     with pytest.raises(InputError, match="was not written by nlid"):

@@ -10,9 +10,9 @@ from matplotlib.collections import PolyCollection
 from matplotlib.figure import Figure
 
 from nlid import identify
+from nlid.base.formatting import sig
 from nlid.errors import InputError
-from nlid.formatting import sig
-from nlid.presets import get_preset
+from nlid.simulation.presets import get_preset
 
 
 @pytest.fixture(scope="module")
@@ -60,7 +60,7 @@ def test_freerun_draws_measured_simulated_error_rule_and_unscored_window(fit, re
 
 
 def test_freerun_on_given_axes_draws_the_error_as_a_band(fit, record):
-    from nlid.plotting import new_figure
+    from nlid.report.plotting import new_figure
 
     _, given = new_figure()
     ax = fit.plot_freerun(record, ax=given)

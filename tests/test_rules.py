@@ -15,18 +15,18 @@ import pytest
 
 import nlid
 from nlid import scoring
-from nlid.datasets import BOUC_WEN_REFERENCE
+from nlid.base.jsonable import to_jsonable
+from nlid.data.datasets import BOUC_WEN_REFERENCE
+from nlid.data.record import Record
 from nlid.discovery import Split
 from nlid.errors import DataError, InputError
-from nlid.identified import IdentifiedModel
-from nlid.interface import to_jsonable
-from nlid.physics import equilibria
-from nlid.presets import get_preset
-from nlid.record import Record
+from nlid.identified.model import IdentifiedModel
+from nlid.model.physics import equilibria
+from nlid.model.terms import Model
 from nlid.scoring import FromFirstSample, InitWindow, PeriodicSteadyState, default_rule, detect_period, rule_from_spec
 from nlid.scoring.periods import multisine_lines
 from nlid.simulation import random_force, simulate_segments
-from nlid.terms import Model
+from nlid.simulation.presets import get_preset
 
 FS = 750.0
 NOISE = 0.02  # fraction of std(z)
@@ -44,7 +44,7 @@ def assert_noise_floor(run: scoring.FreeRun, sigma: float) -> None:
 
 @pytest.fixture(scope="module")
 def bouc_wen() -> IdentifiedModel:
-    """The Bouc-Wen benchmark's own model (m = 2 kg, nlid's terms, :data:`nlid.datasets.BOUC_WEN_REFERENCE`)."""
+    """The Bouc-Wen benchmark's own model (m = 2 kg, nlid's terms, :data:`nlid.data.datasets.BOUC_WEN_REFERENCE`)."""
     coefficients = BOUC_WEN_REFERENCE["coefficients"]
     return IdentifiedModel(Model.from_spec(list(coefficients), defaults=False), coefficients, 2.0, "truth")
 
@@ -171,7 +171,7 @@ def test_a_declared_period_survives_slicing_while_a_whole_period_remains():
 
 
 def test_the_period_is_written_to_the_sidecar_and_read_back(tmp_path):
-    from nlid.io import read_record, write_csv
+    from nlid.data.io import read_record, write_csv
 
     record = Record(f=np.tile(_multisine(100, 0), 3), z=np.cos(np.arange(300) / 5.0), fs=FS, meta={"periodic": 100})
     path = tmp_path / "x.csv"
@@ -339,7 +339,7 @@ def test_discover_holds_out_whole_periods_of_a_periodic_record(periodic_records)
 
 
 def test_study_and_compare_take_the_rule(bouc_wen, periodic_records):
-    from nlid.reference import compare
+    from nlid.identified.reference import compare
     from nlid.study import metrics
 
     three, _, _ = periodic_records

@@ -19,11 +19,11 @@ import numpy as np
 import pytest
 
 from nlid import scoring
-from nlid.identified import IdentifiedModel
-from nlid.record import Record
-from nlid.reference import true_model
+from nlid.data.record import Record
+from nlid.identified.model import IdentifiedModel
+from nlid.identified.reference import true_model
+from nlid.model.terms import Model
 from nlid.simulation import fine_force, simulate
-from nlid.terms import Model
 
 FS = 500.0
 Q = 64  # sub-steps per sample of the reference response

@@ -6,10 +6,10 @@ import numpy as np
 import pytest
 
 from nlid.errors import InputError
-from nlid.presets import get_preset
+from nlid.model.terms import Model, Term
 from nlid.scoring import predictability_horizon
 from nlid.simulation import free_run, sensitivity_columns, simulate_segments
-from nlid.terms import Model, Term
+from nlid.simulation.presets import get_preset
 
 CASES = [
     ("z^3, z^2, v*|v|", {"z^3": 1e6, "z^2": 5e3, "z": 200.0, "v": 1.0, "v*|v|": 5.0, "1": 1.0}, 0.2, 500.0, 20.0),

@@ -5,8 +5,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from nlid.model.terms import Model
 from nlid.simulation import simulate
-from nlid.terms import Model
 
 SPECS = [
     ("1, z, v, z^2, z^3, v*|v|", None),

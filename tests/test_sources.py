@@ -1,5 +1,5 @@
 """The data-source layer: files, DataFrames, xarray Datasets and mappings go through one column map
-(:mod:`nlid.columnmap`) into one Record, and anything else is refused with one line naming it."""
+(:mod:`nlid.data.columnmap`) into one Record, and anything else is refused with one line naming it."""
 
 from __future__ import annotations
 
@@ -9,7 +9,7 @@ import pytest
 
 import nlid
 from nlid import DataError, InputError, Record
-from nlid.sources import as_record
+from nlid.data.sources import as_record
 
 MAP = "t=time,f=load_N,z=disp_mm*0.001"
 

@@ -8,8 +8,8 @@ import numpy as np
 import pytest
 
 import nlid
-from nlid.formatting import text_table
-from nlid.summary import Column, Fields, Summary, Table, Text
+from nlid.base.formatting import text_table
+from nlid.report.summary import Column, Fields, Summary, Table, Text
 
 
 class _Balanced(HTMLParser):

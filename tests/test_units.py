@@ -13,9 +13,9 @@ import pytest
 
 import nlid
 from nlid import InputError, Record
-from nlid.columnmap import column_units, parse_columns
-from nlid.terms import parse_term
-from nlid.units import STANDARD_GRAVITY, VOCABULARY, coefficient_conversion, display_units, unit_of
+from nlid.data.columnmap import column_units, parse_columns
+from nlid.data.units import STANDARD_GRAVITY, VOCABULARY, coefficient_conversion, display_units, unit_of
+from nlid.model.terms import parse_term
 
 TERMS = "z^3, z^2, v*|v|"
 REL = 1e-9  # the conversion and its inverse round at the last bits; the fit is linear in the data

@@ -1,4 +1,4 @@
-"""The declared argument rules of nlid.validate: good values pass, each bad kind fails with one line naming it."""
+"""The declared argument rules of nlid.base.validate: good values pass, each bad kind fails with one line naming it."""
 
 from __future__ import annotations
 
@@ -6,10 +6,7 @@ import numpy as np
 import pytest
 
 import nlid
-from nlid import validate
-from nlid.errors import InputError
-from nlid.presets import get_preset
-from nlid.validate import (
+from nlid.base.validate import (
     MAX_SEED,
     Interval,
     Options,
@@ -21,6 +18,8 @@ from nlid.validate import (
     check_seed,
     did_you_mean,
 )
+from nlid.errors import InputError
+from nlid.simulation.presets import get_preset
 
 
 def _fails(call, *args, match: str, **kwargs) -> str:
@@ -96,7 +95,7 @@ def test_identify_and_the_identified_model_check_the_mass():
     record = nlid.simulate(duration=2.0, channels="z,a")
     _fails(nlid.identify, record, "z^3", mass=-1, match="^mass= must be a positive number of kg, got -1$")
     fit = nlid.identify(record, "z^3", mass=0.2)
-    # the model file is checked against its schema (nlid.modelschema), which names the field
+    # the model file is checked against its schema (nlid.identified.fileformat), which names the field
     _fails(nlid.IdentifiedModel.from_dict, {**fit.to_dict(), "mass": float("nan")}, match="mass: must be a positive")
 
 
@@ -116,8 +115,8 @@ def test_cutoff_without_a_record_is_only_positive():
 
 
 def test_every_core_entry_refuses_a_cutoff_above_nyquist():
-    from nlid import derivatives
     from nlid.bayes import PosteriorSampler
+    from nlid.signal import derivatives
 
     record = nlid.simulate(duration=1.0, channels="z")  # fs 2048 Hz
     _fails(derivatives.lowpass, record.z, record.fs, 5000.0, match="Nyquist frequency 1024 Hz, got 5000")
@@ -136,12 +135,6 @@ def test_seeds_are_integers_from_0_to_2_63_minus_1(good):
 def test_other_seeds_are_refused_not_truncated(bad):
     _fails(check_seed, bad, match=r"^seed must be an integer from 0 to 2\*\*63 - 1, got ")
     _fails(nlid.simulate, seed=bad, duration=1.0, match=r"^seed must be an integer")
-
-
-def test_the_seed_rule_is_the_one_numerics_exports():
-    from nlid import numerics
-
-    assert numerics.check_seed is validate.check_seed
 
 
 # --------------------------------------------------------------------------- durations and sampling frequencies

@@ -9,7 +9,7 @@ estimate, ``others="fixed"``)::
 
     result = identify(record, "z^3, z^2, v*|v|", "rfs", mass=0.2)
     post = sample_posterior(record, result, params="damping", seed=0)
-    print(post.summary())   # the table (a nlid.summary.Summary; .as_html(), .as_markdown())
+    print(post.summary())   # the table (a nlid.report.summary.Summary; .as_html(), .as_markdown())
     post.summary_dict()     # {term: {"mean", "sd", "q05", "q50", "q95"}}
     post.save("out/")       # table, JSON, samples (NPZ), corner/trace/damping figures
 

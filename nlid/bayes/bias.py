@@ -13,7 +13,7 @@ The correction is indirect inference (Gourieroux, Monfort & Renault 1993)
 with a binding function that is linear at each step: the identified model is
 simulated with the recorded force, noise of the level measured on the record
 is added to the channels the regressors are built from, and the same force
-balance (:func:`nlid.balance.regression_data`, same band) is formed. On a
+balance (:func:`nlid.estimation.balance.regression_data`, same band) is formed. On a
 simulated record the exact regressors ``G_ex`` (from the simulated ``z`` and
 ``v``, through the same low-pass) are known, and ``y = G_ex theta`` holds
 exactly when the acceleration is measured. Least squares on the noisy
@@ -33,7 +33,7 @@ driven by the same force gave corrections one standard deviation apart).
 point of the binding function) and propagates the covariance.
 
 Assumptions: the measurement noise on ``z`` (and on ``v`` when it is
-measured) is white and its level is the one :func:`nlid.derivatives.noise_sd`
+measured) is white and its level is the one :func:`nlid.signal.derivatives.noise_sd`
 reads from the record's noise floor (override it with ``noise``); the force
 is stationary (its circular shifts are equally likely excitations); the
 simulation starts from the record's first displacement at rest and holds the
@@ -50,12 +50,12 @@ from typing import Any
 
 import numpy as np
 
-from .. import derivatives
-from ..balance import RegressionData, regression_data, share_channels
+from ..data.record import Record
 from ..errors import IdentificationError, InputError
-from ..record import Record
+from ..estimation.balance import RegressionData, regression_data, share_channels
+from ..model.terms import Model
+from ..signal import derivatives
 from ..simulation import SimulationError, simulate
-from ..terms import Model
 from .noise import channel_noise
 
 __all__ = ["BiasCorrection", "simulate_bias", "indirect_inference", "regressor_noise"]

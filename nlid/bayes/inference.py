@@ -9,14 +9,14 @@ from typing import Any
 
 import numpy as np
 
-from .. import numerics
-from ..balance import regression_data
+from ..base import numerics
+from ..base.validate import Interval, Options, check_cutoff, check_noise_sd, check_seed
+from ..data.record import Record
 from ..errors import IdentificationError, InputError, NlidError
-from ..identified import IdentifiedModel
-from ..record import Record
-from ..reference import Reference
-from ..terms import Model, parse_term
-from ..validate import Interval, Options, check_cutoff, check_noise_sd, check_seed
+from ..estimation.balance import regression_data
+from ..identified.model import IdentifiedModel
+from ..identified.reference import Reference
+from ..model.terms import Model, parse_term
 from .likelihood import build_likelihood, check_identifiable
 from .priors import (
     Normal,
@@ -268,7 +268,7 @@ class PosteriorSampler:
 
     def _run(self, record: Record, fit: IdentifiedModel) -> tuple[Posterior, dict[str, float]]:
         start_time = time.perf_counter()
-        from ..mdof.identified import IdentifiedStructure
+        from ..identified.structure import IdentifiedStructure
 
         if isinstance(fit, IdentifiedStructure):
             return self._sample(self._prepare_structure(record, fit), start_time)
@@ -336,7 +336,7 @@ class PosteriorSampler:
 
     def _prepare_structure(self, record: Any, fit: Any) -> _Problem:
         """A structure's likelihood (:mod:`nlid.bayes.structure`): every DOF's balance, bias-corrected by simulation."""
-        from ..mdof.record import StructureRecord
+        from ..data.structure_record import StructureRecord
         from .structure import select_structure_params, structure_likelihood, structure_warnings
 
         if not isinstance(record, StructureRecord):
@@ -373,7 +373,8 @@ class PosteriorSampler:
         for name, prior in user_priors.items():
             _check_start(name, prior, theta0[parameters.index(name)], parameters.unit(name))
         reference = {}
-        truth = (record.meta or {}).get("reference") or {}  # a structure preset's truth (nlid.mdof.presets)
+        # a structure preset's truth (nlid.simulation.structure_presets)
+        truth = (record.meta or {}).get("reference") or {}
         for name, value in dict(truth.get("coefficients") or {}).items():
             try:
                 reference[parameters.canonical(name)] = float(value)

@@ -1,7 +1,7 @@
 """The likelihood of the coefficients: the restoring-force equation error, made honest.
 
 The data enter through the force balance of Eq. 25 as
-:func:`nlid.balance.regression_data` forms it (filtered in the equation band
+:func:`nlid.estimation.balance.regression_data` forms it (filtered in the equation band
 ``fc`` when a channel is estimated, edges trimmed)::
 
     y_k = f_k - m a_k = sum_i theta_i g_i(z_k, v_k) + e_k,   k = 1..N.
@@ -65,10 +65,10 @@ from typing import Any
 import emcee
 import numpy as np
 
-from ..balance import RegressionData, regression_data
+from ..data.record import Record
 from ..errors import DataError, InputError
-from ..record import Record
-from ..terms import Model
+from ..estimation.balance import RegressionData, regression_data
+from ..model.terms import Model
 from .bias import indirect_inference
 
 __all__ = [
@@ -362,7 +362,7 @@ def build_likelihood(
     mass
         Mass in kg (given or identified).
     cutoff
-        Equation band in Hz (default: :func:`nlid.derivatives.suggest_cutoff`).
+        Equation band in Hz (default: :func:`nlid.signal.derivatives.suggest_cutoff`).
     bias_correction
         Correct the errors-in-variables bias by simulation
         (:func:`nlid.bayes.bias.simulate_bias`).
@@ -418,7 +418,7 @@ def sandwich(
         The ``p`` coefficient names (for the diagnostics).
     group
         Consecutive rows that belong to one instant (a structure's DOFs,
-        interleaved sample by sample: :func:`nlid.mdof.regression.linear_design`).
+        interleaved sample by sample: :func:`nlid.estimation.structure_regression.linear_design`).
         Their scores are summed per instant and their residuals' long-run
         variances added before the batch means, so a batch never splits an
         instant. ``1`` for one DOF.

@@ -9,7 +9,7 @@ either given (``noise={"z": ..., "v": ...}``, SI units of the channel) or
 established from the record, each channel by the method that holds for it:
 
 ``z``: the noise floor
-    :func:`nlid.derivatives.noise_sd`: the median power spectral density
+    :func:`nlid.signal.derivatives.noise_sd`: the median power spectral density
     between 0.35 and 0.45 fs, where a displacement's motion has died away
     (it falls like ``f^-4`` above the resonances when the force is white,
     faster when it is band-limited). Measured on both presets at 1-5 % noise
@@ -66,11 +66,11 @@ from dataclasses import asdict, dataclass
 import numpy as np
 from scipy import signal
 
-from .. import derivatives
+from ..base.validate import NOISE_SD_CHANNELS, NOISE_UNITS, check_noise_sd
+from ..data.record import Record
 from ..errors import DataError, InputError
-from ..record import Record
-from ..terms import Model
-from ..validate import NOISE_SD_CHANNELS, NOISE_UNITS, check_noise_sd
+from ..model.terms import Model
+from ..signal import derivatives
 
 __all__ = [
     "NoiseLevel",

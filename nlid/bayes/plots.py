@@ -1,6 +1,6 @@
 """Figures of a posterior: corner plot, trace plot, damping-force bands (paper Fig. 21 b-d).
 
-Drawn with matplotlib's object-oriented API through :mod:`nlid.plotting`
+Drawn with matplotlib's object-oriented API through :mod:`nlid.report.plotting`
 (no pyplot); the corner plot is written here rather than taken from a
 dependency. The functions take the posterior (:class:`~nlid.bayes.Posterior`)
 and its bands (:class:`~nlid.bayes.DampingBand`) by their attributes: this
@@ -14,7 +14,7 @@ from typing import Any
 
 import numpy as np
 
-from ..plotting import new_figure
+from ..report.plotting import new_figure
 
 __all__ = ["corner_figure", "trace_figure", "damping_figure"]
 

@@ -24,7 +24,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import IdentificationError, InputError, brief
-from ..terms import parse_term
+from ..model.terms import parse_term
 from .likelihood import SufficientStatistics
 
 __all__ = [

@@ -10,13 +10,13 @@ from typing import Any
 
 import numpy as np
 
-from .. import physics
-from ..balance import RegressionData
+from ..base.jsonable import to_jsonable
 from ..errors import InputError
-from ..interface import to_jsonable
+from ..estimation.balance import RegressionData
+from ..model import physics
+from ..model.terms import Model, parse_term
+from ..report.summary import Column, Summary
 from ..scoring import damping_slice
-from ..summary import Column, Summary
-from ..terms import Model, parse_term
 from .likelihood import Likelihood
 from .noise import NoiseLevel
 from .sampler import Chains
@@ -102,7 +102,7 @@ class Posterior:
     warnings
         Things the user should know (e.g. numerical warnings while sampling).
     reference
-        The record's reference coefficients (``record.meta["reference"]``, :mod:`nlid.reference`), by
+        The record's reference coefficients (``record.meta["reference"]``, :mod:`nlid.identified.reference`), by
         term; empty when the record carries none. Drawn as the truth in the corner plot; not serialised.
     units
         SI unit of each coefficient when the names are not one-DOF terms (a structure's ``K[1,2]``...);
@@ -339,7 +339,7 @@ class Posterior:
     def summary(self) -> Summary:
         """The table ``nlid posterior`` prints: each sampled coefficient's mean, sd, quantiles, tau and ESS.
 
-        A :class:`~nlid.summary.Summary` (``print()`` it, or ``.as_markdown()`` /
+        A :class:`~nlid.report.summary.Summary` (``print()`` it, or ``.as_markdown()`` /
         ``.as_html()``); the numbers as a mapping are :meth:`summary_dict`.
         """
         out = Summary(f"posterior of {len(self.names)} coefficient(s); start: {self.method}, {self._mass_text()}")
@@ -490,9 +490,9 @@ class Posterior:
         bands), ``posterior_corner.png``, ``posterior_trace.png``,
         ``posterior_damping.png``. nlid writes only into folders it created or
         that were empty; ``force=True`` writes beside files it did not write,
-        never replacing them (:mod:`nlid.outputs`).
+        never replacing them (:mod:`nlid.runtime.outputs`).
         """
-        from ..outputs import POSTERIOR_OUTPUTS, output_folder
+        from ..runtime.outputs import POSTERIOR_OUTPUTS, output_folder
 
         with output_folder(out_dir, POSTERIOR_OUTPUTS, force=force) as out:
             return self._save(out, figures, slices)
@@ -525,7 +525,7 @@ class Posterior:
         np.savez(path, **arrays)
         paths.append(path)
         if figures:
-            from ..plotting import save_figure
+            from ..report.plotting import save_figure
             from .plots import corner_figure, damping_figure, trace_figure
 
             paths += save_figure(corner_figure(self), out / "posterior_corner", formats=("png",))

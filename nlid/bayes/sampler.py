@@ -32,7 +32,7 @@ import emcee
 import numpy as np
 
 from ..errors import IdentificationError, InputError
-from ..progress import progress_line
+from ..runtime.progress import progress_line
 
 __all__ = ["Chains", "ConvergenceError", "run_until_converged", "TAU_MULTIPLE", "MOVES"]
 
@@ -280,7 +280,7 @@ def run_until_converged(
     tau = np.full(ndim, np.nan)
     steps = 0
     converged = False
-    # a terminal-only line when the caller asked for progress (nlid.progress; emcee's own bar needs tqdm)
+    # a terminal-only line when the caller asked for progress (nlid.runtime.progress; emcee's own bar needs tqdm)
     with progress_line("posterior", total=max_steps, unit="steps") as line:
         while steps < max_steps and not converged:
             n = min(chunk, max_steps - steps)

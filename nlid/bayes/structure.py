@@ -2,7 +2,7 @@
 
 The one-DOF posterior (:mod:`nlid.bayes.inference`) samples the coefficients
 of Eq. 25's force balance. A structure's balance is the same regression per
-DOF, solved jointly (:func:`nlid.mdof.regression.linear_design`)::
+DOF, solved jointly (:func:`nlid.estimation.structure_regression.linear_design`)::
 
     f_k - (M a)_k = (K z)_k + (C v)_k + s_k + sum_e B_ke theta_e g_e(x_e, x_e'),   k = 1..n,
 
@@ -10,10 +10,10 @@ with every element coefficient ``theta_e`` shared by the two DOFs its element
 connects. The likelihood is built the same way, from the same pieces:
 
 1. the balance samples in one equation band for every DOF
-   (:func:`nlid.mdof.regression.structure_regression_data`; the cut-off the
+   (:func:`nlid.estimation.structure_regression.structure_regression_data`; the cut-off the
    identification's residual used, unless ``cutoff=`` is given);
 2. each DOF's equations weighted by the inverse of its first-pass residual
-   RMS (:func:`nlid.mdof.regression.dof_weights`, as ``rfs`` does), so one
+   RMS (:func:`nlid.estimation.structure_regression.dof_weights`, as ``rfs`` does), so one
    noise scale serves every equation;
 3. the sandwich covariance and effective sample size of
    :func:`nlid.bayes.likelihood.sandwich` with the DOFs of an instant kept
@@ -28,7 +28,7 @@ less), which biases the least-squares estimate. As for one DOF
 (:mod:`nlid.bayes.bias`), the bias is found by simulation: the structure at
 the current centre is run under the record's force, each DOF's displacement
 gets white noise at the level of its noise floor
-(:func:`nlid.derivatives.noise_sd`; antithetic pairs), the same weighted least
+(:func:`nlid.signal.derivatives.noise_sd`; antithetic pairs), the same weighted least
 squares is solved on every copy, and the centre is moved until the simulated
 estimates average to the record's (a fixed point, ``iterations`` steps). The
 Monte Carlo error of that average is added to the covariance. Noise on a
@@ -47,8 +47,8 @@ from ..errors import InputError
 from .likelihood import Likelihood, SufficientStatistics, sandwich
 
 if TYPE_CHECKING:  # pragma: no cover
-    from ..mdof.identified import IdentifiedStructure
-    from ..mdof.record import StructureRecord
+    from ..data.structure_record import StructureRecord
+    from ..identified.structure import IdentifiedStructure
 
 __all__ = [
     "ESTIMATED_VELOCITY",
@@ -94,7 +94,7 @@ def structure_warnings(record: StructureRecord, corrected: bool) -> tuple[str, .
 
 
 class StructureParameters:
-    """The unknowns of a structure's balance, in the role a :class:`~nlid.terms.Model` has for one DOF.
+    """The unknowns of a structure's balance, in the role a :class:`~nlid.model.terms.Model` has for one DOF.
 
     Names are the elements' canonical names, then ``K[i,j]``, ``C[i,j]`` and
     ``s[k]`` (1-based). :meth:`index` accepts any spelling of an element in
@@ -105,7 +105,7 @@ class StructureParameters:
     names
         The unknowns, in the order of the likelihood's coefficient vector.
     elements
-        The structure's :class:`~nlid.mdof.elements.ElementSet`.
+        The structure's :class:`~nlid.model.elements.ElementSet`.
     """
 
     def __init__(self, names: Sequence[str], elements: Any) -> None:
@@ -211,7 +211,7 @@ def check_structure_names(text: str) -> None:
     Each comma-separated name is a term on a connection (``(z1-z2)^3``,
     ``sign(v2-v1)``) or a linear unknown ``K[i,j]``, ``C[i,j]``, ``s[k]``.
     """
-    from ..mdof.spelling import rewrite
+    from ..model.spelling import rewrite
 
     for name in _split_names(text):
         compact = "".join(name.split())
@@ -241,7 +241,7 @@ def _split_names(text: str) -> list[str]:
 
 
 def _balance_design(record: Any, elements: Any, M: np.ndarray, form: str, cutoff: float | None) -> Any:
-    from ..mdof.regression import linear_design, structure_regression_data
+    from ..estimation.structure_regression import linear_design, structure_regression_data
 
     data = structure_regression_data(record, elements, cutoff=cutoff)
     return data, linear_design(data, elements, mass=M, stiffness=form)
@@ -271,11 +271,11 @@ def correct_bias(
     IdentificationError
         The fitted structure's free run under the record's force diverged.
     """
-    from .. import derivatives
+    from ..data.structure_record import StructureRecord as _Record
     from ..errors import IdentificationError, NlidError
-    from ..mdof.model import StructuralModel
-    from ..mdof.record import StructureRecord as _Record
-    from ..mdof.simulation import free_run
+    from ..model.structure import StructuralModel
+    from ..signal import derivatives
+    from ..simulation.structure import free_run
 
     rng = rng if rng is not None else np.random.default_rng(0)
     n, fs = record.n_dofs, record.fs
@@ -356,7 +356,7 @@ def structure_likelihood(
         The likelihood, its unknowns, the DOF weights, and the identification's
         estimate of every unknown (the walkers' start).
     """
-    from ..mdof.regression import dof_weights
+    from ..estimation.structure_regression import dof_weights
 
     structure = fit.structure
     elements = structure.elements

@@ -17,18 +17,19 @@ from __future__ import annotations
 from collections.abc import Mapping
 from typing import Any
 
-from .. import columns as col
+from ..data.record import Record
 from ..errors import InputError
-from ..identified import IdentifiedModel
-from ..record import Record
-from ..reference import Reference
+from ..identified.model import IdentifiedModel
+from ..identified.reference import Reference
+from ..scoring import columns as col
 from .inference import PosteriorSampler
 
 __all__ = ["study_metrics"]
 
 
 def _truth_coefficients(truth: Reference | Mapping[str, Any] | None) -> dict[str, float] | None:
-    """The known coefficients (:meth:`nlid.reference.Reference.from_mapping` reads a mapping), ``None`` if unknown."""
+    """The known coefficients (:meth:`nlid.identified.reference.Reference.from_mapping` reads a mapping), ``None`` if
+    unknown."""
     if truth is None:
         return None
     if not isinstance(truth, (Reference, Mapping)):
@@ -49,9 +50,9 @@ def study_metrics(
     ----------
     record, fit
         The data and the identified model of the run (or a structure record
-        and its :class:`~nlid.mdof.IdentifiedStructure`: :mod:`nlid.bayes.structure`).
+        and its :class:`~nlid.identified.structure.IdentifiedStructure`: :mod:`nlid.bayes.structure`).
     truth
-        The reference: a :class:`~nlid.reference.Reference`, true
+        The reference: a :class:`~nlid.identified.reference.Reference`, true
         coefficients (``{term: value}``, or a preset's ``truth()`` with a
         ``"coefficients"`` entry), or ``None`` when unknown.
     **options
@@ -67,7 +68,7 @@ def study_metrics(
         steps), ``"posterior:seconds"`` and ``"posterior:max_bias_shift_sd"``
         (the largest move of a sampled coefficient by the bias correction, in
         its standard deviations; 0 without the correction). The keys are
-        built through the declared column families (:mod:`nlid.columns`);
+        built through the declared column families (:mod:`nlid.scoring.columns`);
         the study summary turns the ``ci_*`` families into one table.
     """
     options = dict(options)

@@ -23,11 +23,12 @@ Example::
 """
 
 from .data import SOURCES, load_estimation, load_test
+from .declarations import Protocol, Published, TestSet
 from .jobs import BenchJob, BenchRun
 from .leaderboard import COLUMNS, leaderboard_rows, write_leaderboard
 from .pipelines import PEERS, PipelineSpec, fit_pipelines, parse_pipelines
 from .prior import Prior
-from .protocol import Protocol, Published, TestSet, builtin_benchmarks, load_protocol, parse_protocol
+from .protocol import builtin_benchmarks, load_protocol, parse_protocol
 from .run import BENCH_OUTPUTS, DEFAULT_BENCHMARKS, DEFAULT_PIPELINES, BenchOutcome, bench, default_pipelines
 
 __all__ = [

@@ -33,8 +33,8 @@ from typing import Any
 
 import numpy as np
 
+from ..data.record import Record
 from ..errors import DataError, InputError
-from ..record import Record
 from .peer import DIVERGED, MAX_PERIODS, PeerScore
 
 __all__ = ["LinearModel", "NarxModel", "fit_linear", "fit_narx", "LINEAR_ORDERS", "NARX_GRID", "NARX_TERMS"]

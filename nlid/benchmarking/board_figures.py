@@ -3,7 +3,7 @@
 nlid's rows are filled circles, the peers' squares, the published figures diamonds (hollow when
 scored under another rule), the true model a star; the noise floor is a dashed vertical line. The
 caption, under the axes, says the unit, the axis and the rule once. Figures are drawn with the
-object-oriented API (:mod:`nlid.plotting`: no ``pyplot``) and written as PNG and SVG (the SVG
+object-oriented API (:mod:`nlid.report.plotting`: no ``pyplot``) and written as PNG and SVG (the SVG
 without a date, so the same rows give the same file).
 """
 
@@ -17,7 +17,7 @@ from pathlib import Path
 from typing import Any
 
 from .board_rows import figure_name, groups, rule_text, who
-from .protocol import Protocol
+from .declarations import Protocol
 
 __all__ = ["STYLES", "table_figure", "write_figures"]
 
@@ -39,7 +39,7 @@ def _value(x: Any) -> float:
 
 def table_figure(rows: Sequence[Mapping[str, Any]], caption: str) -> Any:
     """The figure of one test set's rows (a :class:`matplotlib.figure.Figure`), or ``None`` with no figure to draw."""
-    from ..plotting import new_figure
+    from ..report.plotting import new_figure
 
     points = [r for r in rows if r["kind"] in STYLES and math.isfinite(_value(r["rmse"])) and _value(r["rmse"]) > 0]
     floors = [r for r in rows if r["kind"] == "reference" and math.isfinite(_value(r["rmse"]))]

@@ -31,7 +31,7 @@ from .board_rows import (
     unscored,
     who,
 )
-from .protocol import Protocol
+from .declarations import Protocol
 
 __all__ = ["leaderboard_html", "CSS", "SORT_SCRIPT"]
 

@@ -11,7 +11,7 @@ import math
 from collections.abc import Mapping, Sequence
 from typing import Any
 
-from ..formatting import sig
+from ..base.formatting import sig
 from .prior import LEGEND, prior_from_row
 
 __all__ = [

@@ -32,12 +32,13 @@ from typing import Any
 
 import numpy as np
 
-from .. import datasets
-from ..balance import settled_samples, suggested_cutoff
+from ..data import datasets
+from ..data.io import check_path, read_table
+from ..data.record import Record
 from ..errors import DataError, InputError
-from ..io import check_path, read_table
-from ..record import Record
-from .protocol import PACKAGE_FUNCTIONS, NoiseFloor, Part, Protocol, TestSet, UserFile
+from ..estimation.balance import settled_samples, suggested_cutoff
+from .declarations import NoiseFloor, Part, Protocol, TestSet, UserFile
+from .protocol import PACKAGE_FUNCTIONS
 
 __all__ = ["SOURCES", "Offsets", "load_estimation", "load_test", "noise_floor", "read_user_file", "package_record"]
 
@@ -74,7 +75,7 @@ def _checksums(dataset: str, folder: str) -> tuple[str, ...]:
 
 
 def _local(protocol: Protocol, part: Part) -> Record:
-    """A part read from ``$NLID_DATA_DIR`` through :func:`nlid.datasets.load`, after the checksum check."""
+    """A part read from ``$NLID_DATA_DIR`` through :func:`nlid.data.datasets.load`, after the checksum check."""
     folder = datasets.data_dir()
     bad = _checksums(protocol.dataset, str(folder))
     if bad:
@@ -248,7 +249,8 @@ def _check_values(record: Record, what: str) -> Record:
 
 def _check_rule(record: Record, test: TestSet, what: str) -> Record:
     """Refuse a test set too short to be scored: for its transient rule (what :func:`nlid.scoring.rules.start`
-    refuses), or for the filtered force balance its residuals are computed on (:func:`nlid.balance.settled_samples`).
+    refuses), or for the filtered force balance its residuals are computed on
+    (:func:`nlid.estimation.balance.settled_samples`).
     """
     kind, _, value = test.rule.partition(":")
     if kind == "window" and int(value) >= record.n - 1:

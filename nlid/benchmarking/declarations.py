@@ -14,8 +14,8 @@ from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any
 
+from ..base.validate import did_you_mean
 from ..errors import InputError
-from ..validate import did_you_mean
 
 __all__ = [
     "Protocol",
@@ -45,7 +45,7 @@ class Part:
     Attributes
     ----------
     part
-        The :func:`nlid.datasets.load` part (``None`` for a user-supplied file).
+        The :func:`nlid.data.datasets.load` part (``None`` for a user-supplied file).
     range
         ``(start, stop)`` sample indices into that part, or ``None`` for all of it.
     package
@@ -75,7 +75,7 @@ class UserFile:
         The benchmark's own file names (e.g. ``uval_multisine.mat``, ``yval_multisine.mat``):
         given one of them, or their folder, nlid reads them all with :attr:`columns`.
     columns
-        The column map (:mod:`nlid.columnmap`) of the benchmark's files. Any other file is
+        The column map (:mod:`nlid.data.columnmap`) of the benchmark's files. Any other file is
         read with nlid's default columns (``t, f, z``).
     hint
         Where to get it.
@@ -262,7 +262,7 @@ class Truth:
     source: str
 
     def as_mapping(self) -> dict[str, Any]:
-        """``{"coefficients", "mass"}``, as :func:`nlid.reference.true_model` reads it."""
+        """``{"coefficients", "mass"}``, as :func:`nlid.identified.reference.true_model` reads it."""
         return {"coefficients": dict(self.coefficients), "mass": self.mass}
 
 
@@ -275,7 +275,7 @@ class Protocol:
     name, title, citation
         What it is.
     dataset
-        The :mod:`nlid.datasets` name (files and checksums).
+        The :mod:`nlid.data.datasets` name (files and checksums).
     official
         True when the split is the benchmark's own; false for an nlid-internal split.
     protocol

@@ -23,7 +23,7 @@ class Fitted:
     method
         What fitted it, in words (``"rfs"``, ``"discover (rfs), refit on the estimation part"``...).
     model
-        The :class:`~nlid.identified.IdentifiedModel` or the :class:`~nlid.benchmarking.peer.PeerModel`.
+        The :class:`~nlid.identified.model.IdentifiedModel` or the :class:`~nlid.benchmarking.peer.PeerModel`.
     parameters
         Fitted parameters: coefficients, the mass when estimated, shape parameters chosen from data.
     seconds

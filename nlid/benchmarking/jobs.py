@@ -26,13 +26,15 @@ from typing import Any
 import numpy as np
 
 from .. import scoring
+from ..base.jsonable import to_jsonable
+from ..data.io import check_path, file_sha256
+from ..data.record import Record
 from ..errors import DataError, NlidError
-from ..interface import to_jsonable
-from ..io import check_path, file_sha256
-from ..record import Record
 from .data import load_estimation, load_test, noise_floor
-from .pipelines import PEER, Fitted, PipelineSpec, fit_pipelines
-from .protocol import Protocol, TestSet, parse_protocol
+from .declarations import Protocol, TestSet
+from .fitted import Fitted
+from .pipelines import PEER, PipelineSpec, fit_pipelines
+from .protocol import parse_protocol
 from .truth import TRUTH_KIND
 
 __all__ = ["BenchJob", "BenchRun", "score_model"]
@@ -150,7 +152,7 @@ class BenchJob:
         InputError
             A time limit that is not a positive number of seconds (refused before anything runs).
         """
-        from ..pipeline import check_timeout
+        from ..identification.pipeline import check_timeout
 
         timeout = check_timeout(timeout)
         mine = {k: v for k, v in (files or {}).items() if k.split(":", 1)[0] == protocol.name}

@@ -39,20 +39,16 @@ from .board_rows import (
     who,
 )
 from .board_rows import value as _nan
+from .declarations import Protocol
 from .prior import Prior
-from .protocol import Protocol
 
 __all__ = [
     "COLUMNS",
-    "KINDS",
     "leaderboard_rows",
     "write_leaderboard",
     "markdown_tables",
     "table_markdown",
     "read_leaderboard",
-    "groups",
-    "figure_name",
-    "who",
 ]
 
 #: The leaderboard's columns, in order.

@@ -51,9 +51,9 @@ from typing import Any
 import numba
 import numpy as np
 
+from ..data.record import Record
 from ..errors import DataError, InputError
-from ..record import Record
-from .protocol import PeerSettings
+from .declarations import PeerSettings
 
 __all__ = [
     "SindyPeer",

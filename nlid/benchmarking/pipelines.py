@@ -31,16 +31,15 @@ from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
 from typing import Any
 
+from ..base.validate import did_you_mean
+from ..data.record import Record
 from ..errors import DataError, InputError
-from ..record import Record
-from ..validate import did_you_mean
+from .declarations import PipelineSettings, Protocol
 from .fitted import Fitted
 from .prior import Prior, given_shapes
-from .protocol import PipelineSettings, Protocol
 
 __all__ = [
     "PipelineSpec",
-    "Fitted",
     "parse_pipelines",
     "fit_pipelines",
     "PEER",
@@ -102,7 +101,7 @@ def parse_pipelines(names: str | Iterable[str], identifiers: Sequence[str] | Non
     if not items:
         raise InputError("pipelines= names no pipeline; e.g. 'rfs, discover, discover-refine, pysindy'")
     if identifiers is None:
-        from ..registry import load_registry
+        from ..contract.registry import load_registry
 
         identifiers = load_registry().names()
     out: list[PipelineSpec] = []
@@ -152,7 +151,7 @@ def _mass_prior(settings: PipelineSettings) -> str:
 
 
 def _identify(record: Record, settings: PipelineSettings, method: str) -> Fitted:
-    from ..pipeline import identify
+    from ..identification.pipeline import identify
 
     start = time.perf_counter()
     fit = identify(
@@ -176,7 +175,7 @@ def _identify(record: Record, settings: PipelineSettings, method: str) -> Fitted
 
 def linear_terms(settings: PipelineSettings) -> list[str]:
     """The linear terms (``1``, ``z``, ``v``) of the declared model: what the ``linear`` pipeline fits."""
-    from ..terms import Model
+    from ..model.terms import Model
 
     terms = [t.name for t in Model.from_spec(settings.declared, defaults=False).terms if t.name in ("1", "z", "v")]
     if not terms:
@@ -185,9 +184,9 @@ def linear_terms(settings: PipelineSettings) -> list[str]:
 
 
 def _linear(record: Record, settings: PipelineSettings) -> Fitted:
-    from ..methods import choose_method
-    from ..pipeline import identify
-    from ..terms import Model
+    from ..contract.methods import choose_method
+    from ..identification.pipeline import identify
+    from ..model.terms import Model
 
     method, _ = choose_method(None)
     terms = linear_terms(settings)
@@ -230,9 +229,9 @@ def _discover(record: Record, settings: PipelineSettings, spec: PipelineSpec) ->
     ``discover`` and ``discover --refine`` run their own searches: a candidate is accepted when it improves
     the cross-fitted prediction of the model the row will report (an equation-error refit, or ``oe``).
     """
+    from ..contract.methods import choose_refiner
     from ..discovery import discover
-    from ..methods import choose_refiner
-    from ..pipeline import identify
+    from ..identification.pipeline import identify
 
     start = time.perf_counter()
     result = discover(

@@ -112,7 +112,7 @@ class Prior:
 
 def given_shapes(terms: str | Iterable[Any]) -> list[str]:
     """Names of the terms (a comma-separated spelling, or terms) that carry shape parameters."""
-    from ..terms import Model
+    from ..model.terms import Model
 
     model = Model.from_spec(terms if isinstance(terms, str) else list(terms), defaults=False)
     return [t.name for t in model.terms if t.shapes]

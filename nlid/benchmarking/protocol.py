@@ -4,14 +4,14 @@ A benchmark file (the built-in ones are ``nlid/benchmarking/protocols/*.toml``, 
 says, for one benchmark:
 
 ``[benchmark]``
-    its name, title, citation, the :mod:`nlid.datasets` name whose files (and SHA-256
+    its name, title, citation, the :mod:`nlid.data.datasets` name whose files (and SHA-256
     checksums, ``nlid data``) hold it, whether the split is the benchmark's own (``official``)
     or nlid's, the figure of merit (``metric = "rmse"`` of the displacement channel, reported
     in ``unit`` = the record's unit times ``scale``), the sampling frequency, whether the means
     of the estimation part are removed from every part, and ``[benchmark.package]``: where the
     optional ``nonlinear-benchmarks`` package has it.
 ``[estimation]``
-    the estimation part: a part of the dataset (:func:`nlid.datasets.load`), optionally a
+    the estimation part: a part of the dataset (:func:`nlid.data.datasets.load`), optionally a
     ``range = [start, stop]`` of it, and where the package has it (``package = "train"``); or,
     for a benchmark of your own, an ``[estimation.file]`` the user supplies (like a test set's).
 ``[[tests]]``
@@ -51,9 +51,9 @@ from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
+from ..base.validate import did_you_mean
+from ..data.io import TEXT_LIMIT, check_path, read_text_file
 from ..errors import DataError, InputError, brief
-from ..io import TEXT_LIMIT, check_path, read_text_file
-from ..validate import did_you_mean
 from .declarations import (
     STATUSES,
     UNITS,
@@ -75,22 +75,10 @@ else:  # pragma: no cover - exercised on 3.10 only
     import tomli as tomllib
 
 __all__ = [
-    "Protocol",
-    "Part",
-    "TestSet",
-    "UserFile",
-    "NoiseFloor",
-    "PipelineSettings",
-    "PeerSettings",
-    "Published",
-    "NotComparable",
-    "Truth",
     "load_protocol",
     "parse_protocol",
     "builtin_benchmarks",
     "PACKAGE_FUNCTIONS",
-    "STATUSES",
-    "UNITS",
 ]
 
 _RULE = re.compile(r"^(first-sample|window:[1-9][0-9]*|periodic(:[1-9][0-9]*)?)$")
@@ -293,7 +281,7 @@ def _truth(t: _Table | None) -> Truth | None:
     truth = Truth(coefficients, t.number("mass", required=True, positive=True), t.string("source", required=True))
     t.done()
     try:  # the terms are read once here, so that a misspelled one fails when the file is read
-        from ..terms import Model
+        from ..model.terms import Model
 
         Model.from_spec(list(coefficients), defaults=False)
     except InputError as exc:

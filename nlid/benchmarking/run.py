@@ -11,13 +11,14 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, TextIO
 
+from ..base.jsonable import to_jsonable
 from ..errors import InputError
-from ..interface import to_jsonable
 from .data import SOURCES, check_user_files
+from .declarations import Protocol
 from .jobs import BenchJob, BenchRun
 from .leaderboard import leaderboard_rows, write_leaderboard
 from .pipelines import PipelineSpec, parse_pipelines
-from .protocol import Protocol, load_protocol
+from .protocol import load_protocol
 
 __all__ = [
     "bench",
@@ -29,7 +30,7 @@ __all__ = [
     "plan_bench",
 ]
 
-#: Entries ``nlid bench`` writes at the top of its output folder (:func:`nlid.outputs.output_folder`).
+#: Entries ``nlid bench`` writes at the top of its output folder (:func:`nlid.runtime.outputs.output_folder`).
 BENCH_OUTPUTS = ("runs", "arrays", "figures", "bench.json", "leaderboard.csv", "leaderboard.md", "leaderboard.html")
 #: The benchmarks run when none is named (those whose data ``nlid data`` lists, with their local test sets).
 DEFAULT_BENCHMARKS = ("emps-internal", "silverbox", "bouc-wen")
@@ -39,9 +40,9 @@ DEFAULT_PIPELINES = ("linear", "discover", "discover-refine", "pysindy", "syside
 
 
 def default_pipelines() -> tuple[str, ...]:
-    """The pipelines run when none is named: the default identifier (:func:`nlid.methods.choose_method`;
+    """The pipelines run when none is named: the default identifier (:func:`nlid.contract.methods.choose_method`;
     ``rfs`` with the built-in plugins) and :data:`DEFAULT_PIPELINES`."""
-    from ..methods import choose_method
+    from ..contract.methods import choose_method
 
     name, _ = choose_method(None)
     return (name, *DEFAULT_PIPELINES)
@@ -190,7 +191,7 @@ def bench(
     InputError
         An unknown benchmark, pipeline, source or executor; a user file for an unknown set.
     """
-    from ..outputs import output_folder
+    from ..runtime.outputs import output_folder
     from ..study.execute import make_executor
     from ..study.runner import Progress
     from ..study.store import ResultStore

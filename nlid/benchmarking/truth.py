@@ -11,10 +11,10 @@ gives the truth more than a fitted model is coarser than the models it ranks). I
 
 from __future__ import annotations
 
-from ..reference import Reference
+from ..identified.reference import Reference
+from .declarations import Protocol
 from .fitted import Fitted
 from .prior import Prior
-from .protocol import Protocol
 
 __all__ = ["true_fitted", "TRUTH_KIND", "TRUTH_PIPELINE"]
 

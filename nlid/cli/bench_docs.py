@@ -20,11 +20,13 @@ from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
-from ..benchmarking.leaderboard import groups, markdown_tables, read_leaderboard
-from ..benchmarking.protocol import Protocol, load_protocol
+from ..base.formatting import sig
+from ..benchmarking.board_rows import groups
+from ..benchmarking.declarations import Protocol
+from ..benchmarking.leaderboard import markdown_tables, read_leaderboard
+from ..benchmarking.protocol import load_protocol
+from ..data.io import TEXT_LIMIT, check_path, read_text_file
 from ..errors import InputError
-from ..formatting import sig
-from ..io import TEXT_LIMIT, check_path, read_text_file
 from .common import to_cli
 
 __all__ = ["render_docs", "BLOCKS", "DATA_FILES", "replace_block", "copy_data", "command", "figures_outside_blocks"]

@@ -198,7 +198,7 @@ def run(args: argparse.Namespace) -> int:
     # the protocols by the names the rows carry: a benchmark file of one's own is named by its path, not its name
     protocols = {p.name: p for p in map(load_protocol, benchmarks)}
     if args.executor == "local":
-        from ..isolation import start_fork_server
+        from ..runtime.isolation import start_fork_server
 
         start_fork_server()  # it loads the plugins while this process reads the benchmarks
     previous = signal.signal(signal.SIGTERM, _terminate)  # stop children and keep what is saved

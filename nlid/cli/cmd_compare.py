@@ -8,7 +8,7 @@ import math
 from typing import Any
 
 from ..errors import DataError, InputError, brief
-from ..progress import showing
+from ..runtime.progress import showing
 from .common import (
     add_data_arguments,
     add_term_arguments,
@@ -138,9 +138,9 @@ def _reference(path: str | None) -> Any:
     """The ``--reference`` file: a model JSON (rebuilt as the model) or a mapping of reference values."""
     if path is None:
         return None
-    from ..identified import IdentifiedModel
-    from ..io import read_text_file
-    from ..mdof.identified import SCHEMA as STRUCTURE_SCHEMA
+    from ..data.io import read_text_file
+    from ..identified.model import IdentifiedModel
+    from ..identified.structure import SCHEMA as STRUCTURE_SCHEMA
 
     text = read_text_file(path, "reference JSON")
     try:
@@ -152,7 +152,7 @@ def _reference(path: str | None) -> Any:
     if not isinstance(data, dict):
         raise DataError(f"--reference {path}: expected a JSON object, got {type(data).__name__}")
     if data.get("schema") == STRUCTURE_SCHEMA:  # nlid identify --json of a structure
-        from ..mdof.identified import IdentifiedStructure
+        from ..identified.structure import IdentifiedStructure
 
         return IdentifiedStructure.from_dict(data)
     if {"terms", "coefficients", "method"} <= set(data):  # nlid identify --json
@@ -162,14 +162,14 @@ def _reference(path: str | None) -> Any:
 
 def frame_records(frame: Any) -> list[dict[str, Any]]:
     """The rows of :func:`nlid.compare`'s frame as JSON-ready records (NaN as ``None``)."""
-    from ..interface import to_jsonable
+    from ..base.jsonable import to_jsonable
 
     return to_jsonable(frame.to_dict(orient="records"))
 
 
 def run(args: argparse.Namespace) -> int:
     from ..api import compare
-    from ..outputs import check_new_file
+    from ..runtime.outputs import check_new_file
 
     methods = _methods(args.methods)
     options = parse_method_options(args.set, methods)

@@ -6,7 +6,7 @@ import argparse
 import os
 from pathlib import Path
 
-from ..formatting import TERMINAL_WIDTH, wrap
+from ..base.formatting import TERMINAL_WIDTH, wrap
 from .common import print_json
 
 DESCRIPTION = """\
@@ -41,7 +41,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from ..datasets import BENCHMARKS, DATA_ENV, check
+    from ..data.datasets import BENCHMARKS, DATA_ENV, check
 
     folder = Path(args.dir).expanduser() if args.dir else None
     where = str(folder) if folder is not None else os.environ.get(DATA_ENV)

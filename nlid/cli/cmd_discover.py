@@ -6,9 +6,9 @@ import argparse
 import sys
 from typing import Any
 
+from ..base.validate import ESTIMATE
 from ..errors import InputError, NlidError
-from ..progress import stderr_is_terminal
-from ..validate import ESTIMATE
+from ..runtime.progress import stderr_is_terminal
 from .common import add_data_arguments, add_mass_argument, load_data, mass_argument, parse_settings, print_json
 from .isolated import DISCOVER_TIMEOUT, add_timeout_argument, parse_timeout, plugin_warnings
 
@@ -176,7 +176,7 @@ class _SearchProgress:
     """The search's stages on one terminal line, redrawn in place; each accepted effect kept as a line of its own."""
 
     def __init__(self, show: bool) -> None:
-        from ..progress import ProgressLine
+        from ..runtime.progress import ProgressLine
 
         self.line = ProgressLine("nlid discover", enabled=show)  # the parent looked at its terminal
 
@@ -194,7 +194,7 @@ def _discover_in_child(record, declared, method, settings, show: bool = False) -
     stages, and the progress of a long identifier (``oe`` with ``--refine``), are then drawn on stderr.
     """
     from ..discovery import discover
-    from ..progress import showing
+    from ..runtime.progress import showing
 
     with showing(show):
         progress = _SearchProgress(show)
@@ -229,7 +229,7 @@ def run(args: argparse.Namespace) -> int:
     default_share = prediction.screen if prediction.enabled else AcceptanceRule().min_explained
     share = default_share if args.min_explained is None else args.min_explained
     rule = AcceptanceRule(min_explained=share, max_delta_bic=args.max_delta_bic)
-    from ..mdof.record import StructureRecord
+    from ..data.structure_record import StructureRecord
 
     if isinstance(record, StructureRecord):
         if args.min_explained is None:  # structures are judged by the equation error (issue 31 covers one DOF)
@@ -318,7 +318,8 @@ def _written(write: Any, result: Any, out: str, **options: Any) -> list:
 
 def _run_structure(args: argparse.Namespace, record, rule) -> int:
     """``nlid discover`` on a structure record: which connection carries the missing element."""
-    from ..discovery.structure import discover_structure, write_structure_report
+    from ..discovery.structure import discover_structure
+    from ..discovery.structure_result import write_structure_report
 
     unsupported = [
         flag

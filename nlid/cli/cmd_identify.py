@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import argparse
 
-from ..progress import showing
+from ..runtime.progress import showing
 from .common import (
     add_data_arguments,
     add_model_arguments,
@@ -50,12 +50,12 @@ def run(args: argparse.Namespace) -> int:
     timeout = parse_timeout(args.timeout)
 
     start_fork_server(pin_threads=False)  # it loads the pipeline while this process reads the data
-    from ..pipeline import identify
+    from ..identification.pipeline import identify
 
     record = load_data(args)
     path = None
     if args.input_path is not None:
-        from ..inputpath import InputPath
+        from ..estimation.inputpath import InputPath
 
         path = InputPath.from_spec(args.input_path, getattr(record, "fs", None))
     # a long identifier (oe) shows its progress on a terminal, never under --quiet or --json

@@ -8,8 +8,8 @@ from __future__ import annotations
 
 import argparse
 
+from ..base.formatting import TERMINAL_WIDTH, wrap
 from ..errors import InputError, brief, one_line
-from ..formatting import TERMINAL_WIDTH, wrap
 from .common import print_json
 
 
@@ -31,8 +31,8 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from ..methods import advice_of, ranked
-    from ..registry import default_registry
+    from ..contract.methods import advice_of, ranked
+    from ..contract.registry import default_registry
 
     reg = default_registry()
     unknown = [n for n in args.names if n not in reg.identifiers]

@@ -6,9 +6,9 @@ import argparse
 import math
 import sys
 
+from ..base.validate import NOISE_SD
 from ..errors import DataError, InputError, brief
-from ..progress import showing
-from ..validate import NOISE_SD
+from ..runtime.progress import showing
 from .common import (
     add_data_arguments,
     add_model_arguments,
@@ -163,8 +163,8 @@ def run(args: argparse.Namespace) -> int:
     from ..bayes.inference import check_params_spelling
     from ..bayes.noise import UNITS, UnknownNoiseError
     from ..bayes.priors import parse_prior_assignments
-    from ..mdof.record import StructureRecord
-    from ..pipeline import as_model, identify
+    from ..data.structure_record import StructureRecord
+    from ..identification.pipeline import as_model, identify
 
     if args.noise_z is not None:
         NOISE_SD["z"].check(args.noise_z, "--noise-z")

@@ -74,15 +74,15 @@ def _model(args: argparse.Namespace):
             data = data["final_model"]
         schema = str(data.get("schema", "")) if isinstance(data, dict) else ""
         if schema.startswith("nlid.IdentifiedStructure"):
-            from ..mdof.identified import IdentifiedStructure
+            from ..identified.structure import IdentifiedStructure
 
             return IdentifiedStructure.from_dict(data)
-        from ..identified import IdentifiedModel
+        from ..identified.model import IdentifiedModel
 
         return IdentifiedModel.from_dict(data)
     from ..api import load
-    from ..mdof.record import StructureRecord
-    from ..pipeline import as_model, identify
+    from ..data.structure_record import StructureRecord
+    from ..identification.pipeline import as_model, identify
 
     record = load(args.source)
     extra: dict = {}

@@ -5,10 +5,10 @@ from __future__ import annotations
 import argparse
 import sys
 
+from ..base.validate import DURATION, check_noise
 from ..errors import InputError, brief
-from ..outputs import check_new_file
-from ..presets import PRESETS, RESPONSE_CHANNELS, get_preset
-from ..validate import DURATION, check_noise
+from ..runtime.outputs import check_new_file
+from ..simulation.presets import PRESETS, RESPONSE_CHANNELS, get_preset
 from .common import parse_settings, print_json
 
 _FIELDS = {"mass": float, "force_rms": float, "fs": float, "duration": float, "g": float}
@@ -92,7 +92,7 @@ def simulation_summary(record, path: str | None = None) -> dict:
 
 
 def run(args: argparse.Namespace) -> int:
-    from ..io import write_csv, write_npz
+    from ..data.io import write_csv, write_npz
 
     preset = get_preset(args.preset)
     overrides: dict = {}

@@ -20,7 +20,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from ..terms import EXAMPLES, LANGUAGE, Model
+    from ..model.terms import EXAMPLES, LANGUAGE, Model
 
     if args.check:
         model = Model.from_spec(args.check, defaults=False)

@@ -12,7 +12,7 @@ from typing import TYPE_CHECKING, Any
 from ..errors import InputError, brief, one_line
 
 if TYPE_CHECKING:
-    from ..record import Record
+    from ..data.record import Record
 
 __all__ = [
     "Parser",
@@ -116,7 +116,7 @@ def parse_settings(items: Sequence[str] | None) -> dict[str, str]:
 
 def add_model_arguments(parser: argparse.ArgumentParser, method_help: str) -> None:
     """The model and identifier options: --method, --terms, --without, --mass, --px-roots, --set."""
-    parser.add_argument("--method", metavar="NAME", help=method_help)  # default: nlid.methods.choose_method
+    parser.add_argument("--method", metavar="NAME", help=method_help)  # default: nlid.contract.methods.choose_method
     add_term_arguments(
         parser,
         "known mass in kg; for a structure its matrix (default: estimated by the method; a structure's comes from "
@@ -150,8 +150,8 @@ def add_mass_argument(parser: argparse.ArgumentParser, mass_help: str) -> None:
 
 
 def mass_argument(text: str | None) -> Any:
-    """``--mass`` as the library's ``mass=`` (:func:`nlid.validate.parse_mass`), ``None`` when not given."""
-    from ..validate import parse_mass
+    """``--mass`` as the library's ``mass=`` (:func:`nlid.base.validate.parse_mass`), ``None`` when not given."""
+    from ..base.validate import parse_mass
 
     return None if text is None else parse_mass(text)
 
@@ -195,7 +195,7 @@ def add_data_arguments(parser: argparse.ArgumentParser) -> None:
 def load_data(args: argparse.Namespace) -> Record:
     """Read the record named by ``args.data`` (:func:`nlid.api.load`)."""
     from ..api import load
-    from ..units import parse_units
+    from ..data.units import parse_units
 
     units = parse_units(getattr(args, "units", None), where="--units", indexed=True) or None
     if str(args.data).startswith("dataset:") and (args.columns or args.fs or units):
@@ -205,7 +205,7 @@ def load_data(args: argparse.Namespace) -> Record:
 
 def print_json(obj: Any) -> None:
     """One JSON object on stdout (NaN/inf written as null)."""
-    from ..interface import to_jsonable
+    from ..base.jsonable import to_jsonable
 
     json.dump(to_jsonable(obj), sys.stdout, allow_nan=False)
     sys.stdout.write("\n")
@@ -225,7 +225,7 @@ def _setting(value: Any) -> str | None:
 
 
 def identify_command(provenance: Any) -> str | None:
-    """The ``nlid identify`` command that repeats a fit, from its provenance (:mod:`nlid.provenance`).
+    """The ``nlid identify`` command that repeats a fit, from its provenance (:mod:`nlid.identification.provenance`).
 
     Parameters
     ----------
@@ -244,7 +244,7 @@ def identify_command(provenance: Any) -> str | None:
     """
     import shlex
 
-    from ..columnmap import column_units
+    from ..data.columnmap import column_units
 
     data, call = dict(provenance.get("data") or {}), dict(provenance.get("identify") or {})
     source = str(data.get("source") or "")

@@ -68,7 +68,7 @@ def plugin_warnings(command: str) -> Iterator[None]:
 
     Other warnings are issued again, unchanged, when the block ends.
     """
-    from ..runtime.isolation import PluginWarning
+    from ..runtime.outcome import PluginWarning
 
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("default", PluginWarning)

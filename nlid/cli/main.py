@@ -92,7 +92,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         return 0
     if args.debug:
         return int(args.func(args) or 0)
-    from ..numerics import collect_warnings, describe_warnings  # numpy: not for --help
+    from ..base.numerics import collect_warnings, describe_warnings  # numpy: not for --help
 
     try:
         with collect_warnings() as numerical:

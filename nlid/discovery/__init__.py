@@ -5,7 +5,8 @@
 passes a stated rule (:mod:`nlid.discovery.evidence`), re-identifies and
 repeats; a candidate must also improve the cross-fitted held-out prediction
 (:mod:`nlid.discovery.crossfit`), and effects in the input path (a delay, a lag, the force's hold;
-:mod:`nlid.inputpath`) are candidates like the terms. :func:`write_report` writes the Markdown/HTML report with the
+:mod:`nlid.estimation.inputpath`) are candidates like the terms. :func:`write_report` writes the Markdown/HTML report
+with the
 residual figures (:mod:`nlid.discovery.plots`). The command line is
 ``nlid discover``; the documentation is ``docs/discover.md``.
 
@@ -15,7 +16,6 @@ residual figures (:mod:`nlid.discovery.plots`). The command line is
 are in :mod:`nlid.discovery.result`, the fits in :mod:`nlid.discovery.trials`.
 """
 
-from ..methods import choose_method
 from .crossfit import FoldPrediction, PredictionRule
 from .evidence import AcceptanceRule, Evidence, Scores
 from .inputs import CandidateLibrary, Split
@@ -35,7 +35,6 @@ __all__ = [
     "discovery_summary",
     "write_report",
     "summary_table",
-    "choose_method",
     "DiscoveryResult",
     "Stage",
     "Step",

@@ -22,7 +22,7 @@ import dataclasses
 
 import numpy as np
 
-from ..presets import Preset, get_preset
+from ..simulation.presets import Preset, get_preset
 
 __all__ = ["WELLS", "EFFECTS", "BOTH_WELLS", "OPEN_WORLD", "build_case", "build_open_case"]
 

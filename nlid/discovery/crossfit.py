@@ -38,8 +38,8 @@ from typing import Any
 
 import numpy as np
 
+from ..data.record import Record
 from ..errors import InputError, NlidError
-from ..record import Record
 from ..scoring import FromFirstSample, InitWindow, TransientRule, default_rule
 
 __all__ = [

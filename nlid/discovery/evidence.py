@@ -4,7 +4,7 @@ Why a rule beyond "is the new term significant": with a few hundred thousand
 samples every term a least-squares fit is given is "significant" by an
 ordinary F-test or an information criterion computed with ``N`` samples, and
 the residual of a force balance formed in a filtered band
-(:func:`nlid.balance.regression_data`) is strongly correlated, so ``N``
+(:func:`nlid.estimation.balance.regression_data`) is strongly correlated, so ``N``
 overstates the information by one to three orders of magnitude. The loop
 therefore asks two questions of every candidate, both answered with the
 residual of the force balance ``e = f - m a - G theta`` (Eq. 25-26):
@@ -184,7 +184,7 @@ class Evidence:
     mass
         The mass the ``mass`` candidate estimated (kg).
     input_path
-        The input path an input-path candidate fitted (:meth:`nlid.inputpath.InputPath.to_spec`).
+        The input path an input-path candidate fitted (:meth:`nlid.estimation.inputpath.InputPath.to_spec`).
     prediction_before, prediction_after
         The cross-fitted held-out prediction of the current model and of the model with the candidate
         (:meth:`nlid.discovery.crossfit.Prediction.to_dict`), when the candidate was judged by it.

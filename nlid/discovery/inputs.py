@@ -15,8 +15,8 @@ from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
 
+from ..data.record import Record
 from ..errors import DataError, InputError
-from ..record import Record
 from ..scoring import TransientRule, record_period, rule_from_spec
 from .library import Candidate, resolve_candidates
 from .paths import InputPathCandidate
@@ -53,7 +53,7 @@ class Split:
     Raises
     ------
     InputError
-        ``holdout`` is neither a number nor a :class:`~nlid.record.Record`, or the rule is not one.
+        ``holdout`` is neither a number nor a :class:`~nlid.data.record.Record`, or the rule is not one.
     DataError
         The held-out record has no sampling frequency.
     """

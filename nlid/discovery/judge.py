@@ -13,9 +13,9 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
-from ..pipeline import identify
-from ..record import Record
-from ..terms import Model
+from ..data.record import Record
+from ..identification.pipeline import identify
+from ..model.terms import Model
 from .crossfit import (
     FoldPrediction,
     Folds,

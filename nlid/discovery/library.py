@@ -1,7 +1,7 @@
 """Candidate effects: what the loop may add to a model.
 
 A :class:`Candidate` is a named set of terms of the restoring force
-``R(z, v) = f - m z''`` (the term language of :mod:`nlid.terms`), optionally
+``R(z, v) = f - m z''`` (the term language of :mod:`nlid.model.terms`), optionally
 with one shape parameter written ``{c}`` in its terms and chosen by the loop
 on a grid (:class:`Shape`). The built-in library (:data:`LIBRARY`) holds the
 effects the issue names:
@@ -31,7 +31,7 @@ name                           terms                           effect
 ``dahl-friction``              ``dahl(c)``                     Dahl pre-sliding friction (memory)
 =============================  ==============================  ===========================================
 
-Two more candidates are built by the loop itself (:mod:`nlid.discovery.loop`):
+Two more candidates are built by the loop itself (:mod:`nlid.discovery`):
 ``mass`` (when a mass was given: the same model with the mass estimated) and
 ``dictionary`` (terms chosen from an automatic dictionary of products of
 ``z``, ``|z|``, ``v``, ``|v|``, ``sign(v)`` and ``|px(z)|`` by sparse
@@ -49,7 +49,7 @@ friction plus quadratic damping, which the library already holds.
 
 Users add candidates as terms (:meth:`Candidate.from_spec`,
 ``nlid discover --candidate NAME=TERMS``) or through the plugin hook
-``nlid_candidates`` (:mod:`nlid.hookspecs`); :func:`resolve_candidates`
+``nlid_candidates`` (:mod:`nlid.contract.hookspecs`); :func:`resolve_candidates`
 gathers them.
 """
 
@@ -61,9 +61,9 @@ import re
 from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
 
+from ..base.validate import did_you_mean
 from ..errors import PASS_THROUGH, InputError, NlidError, brief, describe_exception
-from ..terms import Model, Term, parse_term, split_terms
-from ..validate import did_you_mean
+from ..model.terms import Model, Term, parse_term, split_terms
 from .paths import INPUT_PATH, InputPathCandidate
 
 __all__ = [
@@ -497,7 +497,7 @@ def plugin_candidates(pm=None) -> tuple[list[Candidate], dict[str, str]]:
     failures : dict
         ``{plugin name: error}``.
     """
-    from ..registry import plugin_manager
+    from ..contract.registry import plugin_manager
 
     failures: dict[str, str] = {}
     if pm is None:

@@ -1,4 +1,5 @@
-"""Candidate effects in the input path: the force acts delayed, lagged or held differently (:mod:`nlid.inputpath`).
+"""Candidate effects in the input path: the force acts delayed, lagged or held differently
+(:mod:`nlid.estimation.inputpath`).
 
 They add no term to the model: the loop fits the same model with the force passed through the path
 (:func:`nlid.discovery.trials.test_input_path`), and they are judged like the terms (the equation-error rule,
@@ -14,7 +15,8 @@ __all__ = ["InputPathCandidate", "INPUT_PATH", "INPUT_PATH_GRID"]
 
 @dataclass(frozen=True)
 class InputPathCandidate:
-    """An effect in the input path (:mod:`nlid.inputpath`): the force acts delayed, lagged or held differently.
+    """An effect in the input path (:mod:`nlid.estimation.inputpath`): the force acts delayed, lagged or held
+    differently.
 
     It adds no term: the loop fits the same model with the force passed through the path, the path's
     time chosen on a grid of multiples of the sampling interval by the estimation residual and refined

@@ -9,7 +9,7 @@ zero over a range of ``z`` (or ``v``) is a systematic effect the model lacks:
 an odd step at ``v = 0`` is dry friction, an S-shape in ``z`` a missing cubic
 spring, a constant shift an offset.
 
-Figures use :mod:`nlid.plotting` (object-oriented matplotlib, no pyplot). The
+Figures use :mod:`nlid.report.plotting` (object-oriented matplotlib, no pyplot). The
 functions read the views and the result by their attributes: this module
 imports nothing from :mod:`nlid.discovery.result` or the report, which use it.
 """
@@ -22,7 +22,7 @@ from typing import Any
 import numpy as np
 from scipy import signal
 
-from ..plotting import new_figure
+from ..report.plotting import new_figure
 from .probes import Remaining, describe_remaining
 
 __all__ = ["binned_mean", "binned_mean_2d", "residual_figure", "progress_figure", "remaining_figure", "CONFIDENCE_Z"]

@@ -156,7 +156,7 @@ def _legendre(x: np.ndarray, degrees: range) -> np.ndarray:
 
 def _play(z: np.ndarray, width: float) -> np.ndarray:
     """The play (backlash) operator of width ``width`` minus its input: a hysteretic feature in ``[-w, w]``."""
-    from ..terms.memory_kernels import play_loop
+    from ..model.terms.memory_kernels import play_loop
 
     z = np.ascontiguousarray(z, dtype=float)
     out = np.empty_like(z)

@@ -5,7 +5,7 @@ stages) by their attributes and import nothing from :mod:`nlid.discovery.result`
 which imports them (the result's :meth:`~nlid.discovery.result.DiscoveryResult.summary`
 and ``write_report``): one direction, no import circle.
 
-:func:`discovery_summary` (a :class:`~nlid.summary.Summary`; its text is
+:func:`discovery_summary` (a :class:`~nlid.report.summary.Summary`; its text is
 :func:`summary_table`) is what ``nlid discover`` prints: one row per model
 (the declared one, then one per accepted effect) with epsilon (Eq. 26) and
 the force residual on the estimation and held-out records and the free-run
@@ -35,10 +35,10 @@ from typing import Any
 
 import pandas as pd
 
-from ..formatting import TERMINAL_WIDTH
-from ..plotting import save_figure
-from ..summary import Column, Summary
-from ..terms import parse_term
+from ..base.formatting import TERMINAL_WIDTH
+from ..model.terms import parse_term
+from ..report.plotting import save_figure
+from ..report.summary import Column, Summary
 from .evidence import Evidence
 from .probes import describe_remaining
 
@@ -177,7 +177,7 @@ def freerun_rules(result: Result) -> list[str]:
 
 
 def discovery_summary(result: Result) -> Summary:
-    """The before/after table ``nlid discover`` prints, as a :class:`~nlid.summary.Summary`."""
+    """The before/after table ``nlid discover`` prints, as a :class:`~nlid.report.summary.Summary`."""
     units = result.info.get("units", {})
     final = result.final
     how = "estimated" if final.identified.mass_estimated else "given"
@@ -233,7 +233,7 @@ def _judged_text(ev: Evidence) -> str:
 
 
 def _add_table(out: Summary, headers: list[str], rows: list[list[str]]) -> None:
-    """A table as :func:`nlid.formatting.text_table` lays it out: labels left, figures right, within the width."""
+    """A table as :func:`nlid.base.formatting.text_table` lays it out: labels left, figures right, within the width."""
     columns = [Column(h, "left" if j == 0 else "right") for j, h in enumerate(headers)]
     out.add_table(columns, rows, rule=True, width=TERMINAL_WIDTH, keep=1)
 
@@ -357,9 +357,9 @@ def write_report(result: Result, out_dir: str | Path, *, force: bool = False) ->
     """Write the report (see the module docstring) and return the files written.
 
     nlid writes only into folders it created or that were empty; ``force=True``
-    writes beside files it did not write, never replacing them (:mod:`nlid.outputs`).
+    writes beside files it did not write, never replacing them (:mod:`nlid.runtime.outputs`).
     """
-    from ..outputs import DISCOVERY_OUTPUTS, output_folder
+    from ..runtime.outputs import DISCOVERY_OUTPUTS, output_folder
 
     with output_folder(out_dir, DISCOVERY_OUTPUTS, force=force) as out:
         return _write_report(result, out)

@@ -18,12 +18,12 @@ from typing import Any
 
 import numpy as np
 
-from ..identified import IdentifiedModel
-from ..inputpath import InputPath
-from ..interface import to_jsonable
+from ..base.jsonable import to_jsonable
+from ..estimation.inputpath import InputPath
+from ..identified.model import IdentifiedModel
+from ..model.terms import Model
+from ..report.summary import Summary
 from ..scoring import Scores as ScoreSet
-from ..summary import Summary
-from ..terms import Model
 from .crossfit import FoldPrediction
 from .evidence import AcceptanceRule, Evidence, Scores
 from .probes import Remaining
@@ -43,7 +43,7 @@ class Stage:
     Attributes
     ----------
     identified
-        The :class:`~nlid.identified.IdentifiedModel` (its ``scores`` are
+        The :class:`~nlid.identified.model.IdentifiedModel` (its ``scores`` are
         those on the estimation record).
     holdout
         Its scores on the held-out record (:meth:`nlid.IdentifiedModel.score`,
@@ -85,7 +85,7 @@ class Stage:
 
     @property
     def path(self) -> InputPath:
-        """The input path the force goes through in this model (:mod:`nlid.inputpath`)."""
+        """The input path the force goes through in this model (:mod:`nlid.estimation.inputpath`)."""
         return self.identified.input_path
 
     @property
@@ -301,7 +301,7 @@ class DiscoveryResult:
     def summary(self) -> Summary:
         """The table ``nlid discover`` prints: each model's errors, each step, the stop reason.
 
-        A :class:`~nlid.summary.Summary`: ``print()`` it (or ``str()``), or ``.as_markdown()`` / ``.as_html()``.
+        A :class:`~nlid.report.summary.Summary`: ``print()`` it (or ``str()``), or ``.as_markdown()`` / ``.as_html()``.
         """
         return discovery_summary(self)
 

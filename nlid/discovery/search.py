@@ -12,7 +12,7 @@
 
 The free-run simulation error on the held-out record is reported for the declared model and after each step:
 it is :func:`nlid.scoring.free_run_error` (with its chaos check), the same number ``nlid study`` reports for
-the same model and record. Every round runs on the shared pool (:func:`nlid.parallel.kernel_threads`).
+the same model and record. Every round runs on the shared pool (:func:`nlid.runtime.parallel.kernel_threads`).
 
 :class:`Discovery` holds the settings (as emcee's ``EnsembleSampler`` does); :meth:`Discovery.steps` is a
 generator that yields a :class:`SearchState` after each round, so that the caller shows progress or stops
@@ -36,18 +36,18 @@ from typing import Any
 
 import numpy as np
 
-from .. import derivatives
+from ..base.validate import check_cutoff, check_mass
+from ..contract.methods import choose_method, choose_refiner
+from ..contract.registry import Registry, default_registry
+from ..data.record import Record
 from ..errors import IdentificationError, InputError
-from ..methods import choose_method, choose_refiner
-from ..parallel import kernel_threads
-from ..record import Record
-from ..registry import Registry, default_registry
+from ..model.terms import Model
+from ..runtime.parallel import kernel_threads
 from ..scoring import TransientRule
-from ..terms import Model
-from ..validate import check_cutoff, check_mass
+from ..signal import derivatives
 from .crossfit import PredictionRule
 from .evidence import AcceptanceRule, Evidence, judge
-from .inputs import BUILTIN_CANDIDATES, DEFAULT_HOLDOUT, CandidateLibrary, Split
+from .inputs import DEFAULT_HOLDOUT, CandidateLibrary, Split
 from .judge import Judge
 from .library import Candidate
 from .paths import InputPathCandidate
@@ -74,13 +74,7 @@ from .trials import (
 )
 
 __all__ = [
-    "DEFAULT_HOLDOUT",
     "DEFAULT_MAX_STEPS",
-    "BUILTIN_CANDIDATES",
-    "Split",
-    "CandidateLibrary",
-    "SearchState",
-    "SearchSetup",
     "Discovery",
     "discover",
 ]
@@ -104,7 +98,7 @@ class Discovery:
     Parameters
     ----------
     method
-        Identifier name; default :func:`nlid.methods.choose_method` (the preferred installed one).
+        Identifier name; default :func:`nlid.contract.methods.choose_method` (the preferred installed one).
     mass
         Known mass (kg); ``None``: estimated by the identifier.
     split
@@ -116,7 +110,7 @@ class Discovery:
     max_steps
         Most effects to add.
     cutoff
-        Equation band (Hz) for estimated channels; default :func:`nlid.derivatives.suggest_cutoff` of
+        Equation band (Hz) for estimated channels; default :func:`nlid.signal.derivatives.suggest_cutoff` of
         the estimation record's displacement, used for both records.
     structure
         Cross-fitted held-out fraction of the residual variance a probe must predict to count as
@@ -489,7 +483,7 @@ def discover(
         The complete declared model, taken literally: ``"v, 1"`` is two terms
         (no default ``1, z, v`` are added).
     method
-        Identifier name; default :func:`nlid.methods.choose_method`.
+        Identifier name; default :func:`nlid.contract.methods.choose_method`.
     mass
         Known mass (kg); ``None``: estimated by the identifier.
     holdout
@@ -510,7 +504,7 @@ def discover(
         Most effects to add.
     cutoff
         Equation band (Hz) for estimated channels; default
-        :func:`nlid.derivatives.suggest_cutoff` of the estimation record's
+        :func:`nlid.signal.derivatives.suggest_cutoff` of the estimation record's
         displacement, used for both records.
     structure
         Cross-fitted held-out fraction of the residual variance a probe must

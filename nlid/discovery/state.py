@@ -9,7 +9,7 @@ from __future__ import annotations
 import dataclasses
 from dataclasses import dataclass
 
-from ..terms import Model
+from ..model.terms import Model
 from .evidence import Evidence
 from .inputs import CandidateLibrary
 from .judge import Judge

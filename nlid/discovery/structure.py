@@ -7,7 +7,7 @@
    which the errors before and after are reported.
 2. The declared model (the underlying linear system ``K``, ``C`` -- symmetric, every entry free --, a
    constant force per DOF and the declared elements, with the mass matrix known) is fitted by one joint
-   least squares of the force balance of every DOF (:mod:`nlid.mdof.jointfit`). Each DOF's equations are
+   least squares of the force balance of every DOF (:mod:`nlid.estimation.joint`). Each DOF's equations are
    weighted by the inverse of the declared model's residual variance on that DOF, so that a noisier DOF
    does not hide a quieter one.
 3. Every candidate of the one-DOF library (:mod:`nlid.discovery.library`: polynomial stiffness, friction and
@@ -24,7 +24,7 @@
    :data:`~nlid.discovery.evidence.PARSIMONY` of the best, the one with fewest parameters. The search then
    repeats on the model with the new element, up to ``max_steps``.
 5. For the declared model and after each step the test part gives the residual per DOF (epsilon, Eq. 26
-   per DOF) and the free-run error per DOF (:func:`nlid.mdof.simulation.free_run` from the test part's
+   per DOF) and the free-run error per DOF (:func:`nlid.simulation.structure.free_run` from the test part's
    first sample, force as recorded).
 6. *What remains*: on the final model, flexible functions of each connection's relative displacement
    (Legendre polynomials of degree 2-8), velocity (degree 2-7 and its sign) and history (play operators)
@@ -46,11 +46,11 @@ from typing import Any
 import numpy as np
 from numpy.polynomial import legendre
 
+from ..base.validate import HOLDOUT_FRACTION, check_cutoff
 from ..errors import InputError, NlidError
-from ..mdof.balance import residual_on
-from ..mdof.jointfit import Extra
-from ..terms import Term
-from ..validate import HOLDOUT_FRACTION, check_cutoff
+from ..estimation.joint import Extra
+from ..estimation.structure_balance import residual_on
+from ..model.terms import Term
 from .evidence import PARSIMONY, AcceptanceRule, integrated_time
 from .library import Candidate, Variant, dissipative, resolve_candidates
 from .probes import MIN_STRUCTURE, PLAY_WIDTHS
@@ -73,22 +73,13 @@ from .structure_result import (
     StructureStep,
     connection_name,
     parse_connections,
-    write_structure_report,
 )
 
 __all__ = [
     "DEFAULT_TEST",
     "DEFAULT_MAX_STEPS",
     "STRUCTURE_PROBES",
-    "ConnectionEvidence",
-    "StructureStage",
-    "StructureStep",
-    "ConnectionProbe",
-    "StructureRemaining",
-    "StructureDiscoveryResult",
     "discover_structure",
-    "parse_connections",
-    "write_structure_report",
 ]
 
 #: Fraction of the record kept at its end as the test part (reported on, never chosen on).
@@ -127,7 +118,7 @@ def _probe_columns(probe: str, x: np.ndarray, xd: np.ndarray, scale: tuple[float
         return _legendre(np.clip((x - mid) / half, -1, 1), range(2, 9))
     if probe == "v":
         return np.column_stack([_legendre(np.clip(xd / vhalf, -1, 1), range(2, 8)), np.sign(xd)])
-    from ..terms.memory_kernels import play_loop
+    from ..model.terms.memory_kernels import play_loop
 
     std = max(half / 2.0, 1e-300)
     cols = []
@@ -165,19 +156,19 @@ def discover_structure(
     Parameters
     ----------
     record
-        A :class:`~nlid.mdof.StructureRecord` (velocities and accelerations measured or estimated).
+        A :class:`~nlid.data.structure_record.StructureRecord` (velocities and accelerations measured or estimated).
     declared
         The declared elements, ``"tanh(v3/0.001)"`` (``""``: the underlying linear system alone); the
         linear ``K``, ``C`` and a constant force per DOF are always fitted.
     mass
-        The mass matrix (kg; a vector is lumped, or text: :func:`nlid.validate.parse_mass`); default the
+        The mass matrix (kg; a vector is lumped, or text: :func:`nlid.base.validate.parse_mass`); default the
         record's (``meta["mass"]``, a file's sidecar), read as ``identify`` reads it
-        (:func:`~nlid.mdof.model.structure_mass`).
+        (:func:`~nlid.model.structure.structure_mass`).
     holdout
         Fraction of the selection record held out (its last part), ``0 < holdout < 1``.
     test
         Fraction of the record kept at its end for the errors before and after, or a separate
-        :class:`~nlid.mdof.StructureRecord`.
+        :class:`~nlid.data.structure_record.StructureRecord`.
     connections
         The connections to test (:func:`parse_connections`; default every pair and every DOF to the ground).
     candidates, extra_candidates, plugins
@@ -188,8 +179,8 @@ def discover_structure(
         Most elements to add.
     cutoff
         Equation band (Hz) for estimated channels, one for every part (default
-        :meth:`~nlid.mdof.StructureRecord.suggest_cutoff` of the selection record;
-        :func:`nlid.mdof.regression.structure_regression_data`).
+        :meth:`~nlid.data.structure_record.StructureRecord.suggest_cutoff` of the selection record;
+        :func:`nlid.estimation.structure_regression.structure_regression_data`).
     structure
         Fraction a remaining-structure probe must predict to count as structure.
     simulate
@@ -206,10 +197,10 @@ def discover_structure(
     InputError
         Not a structure record, no mass matrix, bad elements, fractions, connections or candidates.
     """
-    from ..mdof.elements import Element, ElementSet
-    from ..mdof.model import structure_mass
-    from ..mdof.record import StructureRecord
-    from ..mdof.regression import structure_regression_data
+    from ..data.structure_record import StructureRecord
+    from ..estimation.structure_regression import structure_regression_data
+    from ..model.elements import Element, ElementSet
+    from ..model.structure import structure_mass
 
     say = progress or _quiet
     started = time.perf_counter()
@@ -246,7 +237,8 @@ def discover_structure(
         HOLDOUT_FRACTION.check(test, "test=")
         selection, test_record = record.split(float(test))
     estimation, held = selection.split(float(holdout))
-    # effects in the input path are for one degree of freedom (nlid.inputpath); a structure's candidates are terms
+    # effects in the input path are for one degree of freedom (nlid.estimation.inputpath); a structure's candidates are
+    # terms
     pool = [c for c in resolve_candidates(candidates, extra_candidates, plugins=plugins) if isinstance(c, Candidate)]
     fc = selection.suggest_cutoff() if cutoff is None else float(cutoff)  # one band for every part
 
@@ -351,8 +343,8 @@ def _stage(model, label: str, test_record, test_data, parts, simulate: bool) -> 
 
 
 def _free_run(model, record) -> tuple[tuple[float, ...], tuple[float, ...], str]:
-    from ..mdof.simulation import free_run
     from ..simulation import SimulationError
+    from ..simulation.structure import free_run
 
     n = model.n_dofs
     nan = tuple([float("nan")] * n)

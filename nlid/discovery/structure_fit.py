@@ -1,14 +1,14 @@
 """The fits behind discovery on a structure: the parts of the record, their joint least squares, scored columns.
 
-Every fit is the one joint least squares of a structure's force balance (:mod:`nlid.mdof.jointfit`) on the
-balance samples ``rfs`` uses (:func:`nlid.mdof.regression.structure_regression_data`), one cut-off for
+Every fit is the one joint least squares of a structure's force balance (:mod:`nlid.estimation.joint`) on the
+balance samples ``rfs`` uses (:func:`nlid.estimation.structure_regression.structure_regression_data`), one cut-off for
 every part. A candidate element or a probe is a function of a connection's relative coordinates; its
 columns are built on the same footing as the declared elements'
-(:meth:`~nlid.mdof.regression.StructureRegressionData.regressors`: evaluated on the motion in the wide
+(:meth:`~nlid.estimation.structure_regression.StructureRegressionData.regressors`: evaluated on the motion in the wide
 regressor band, then low-passed into the equation band), so that a candidate is judged on what it adds to
 ``f - M a``, not on a filtering mismatch. Each candidate is scored through :class:`NormalEquations`
 (sufficient statistics: refitting with a few more columns costs their products with the basis); a stage's
-model is :func:`~nlid.mdof.jointfit.joint_least_squares` on the selection record (the estimation and
+model is :func:`~nlid.estimation.joint.joint_least_squares` on the selection record (the estimation and
 held-out parts together), the estimate ``rfs`` gives with the same elements.
 """
 
@@ -21,10 +21,10 @@ from typing import Any
 import numpy as np
 
 from ..errors import InputError
-from ..mdof.elements import Element, ElementSet
-from ..mdof.jointfit import Extra, JointFit, NormalEquations, joint_least_squares
-from ..mdof.model import StructuralModel
-from ..mdof.regression import StructureRegressionData, stack_regression_data
+from ..estimation.joint import Extra, JointFit, NormalEquations, joint_least_squares
+from ..estimation.structure_regression import StructureRegressionData, stack_regression_data
+from ..model.elements import Element, ElementSet
+from ..model.structure import StructuralModel
 
 __all__ = [
     "Part",

@@ -8,7 +8,7 @@ from pathlib import Path
 from typing import Any
 
 from ..errors import InputError
-from ..terms import Term
+from ..model.terms import Term
 from .evidence import AcceptanceRule
 from .probes import MIN_STRUCTURE
 
@@ -162,7 +162,7 @@ class StructureStage:
     label
         ``declared model`` or ``after step k: EFFECT on CONNECTION``.
     model
-        The :class:`~nlid.mdof.StructuralModel` fitted on the selection record.
+        The :class:`~nlid.model.structure.StructuralModel` fitted on the selection record.
     eps_percent
         Epsilon per DOF on the test part, ``100 RMS(R_e - R_hat) / RMS(R_e)`` (Eq. 26 per DOF).
     eps_selection_percent
@@ -189,7 +189,7 @@ class StructureStage:
         return tuple(self.model.elements.names)
 
     def to_dict(self) -> dict[str, Any]:
-        """JSON-friendly dictionary (the model as :meth:`nlid.mdof.StructuralModel.to_dict`)."""
+        """JSON-friendly dictionary (the model as :meth:`nlid.model.structure.StructuralModel.to_dict`)."""
         return {
             "label": self.label,
             "elements": list(self.elements),
@@ -497,7 +497,7 @@ def write_structure_report(result: StructureDiscoveryResult, out: str | Path) ->
     """Write ``report.md`` and ``result.json`` into ``out`` (created); their paths."""
     import json
 
-    from ..interface import to_jsonable
+    from ..base.jsonable import to_jsonable
 
     folder = Path(out)
     folder.mkdir(parents=True, exist_ok=True)

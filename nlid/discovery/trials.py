@@ -10,7 +10,7 @@ candidate on top of the current model:
   parameter is chosen on its grid by the *estimation* residual, among
   physically admissible fits when there are any, then refined between the
   grid neighbours; ``px(z)`` terms take their roots from the current
-  stiffness estimate (:func:`nlid.physics.stiffness_roots`);
+  stiffness estimate (:func:`nlid.model.physics.stiffness_roots`);
 * :func:`test_mass`: the current model with the mass estimated instead of the one given;
 * :func:`test_dictionary`: terms of the automatic dictionary chosen by sparse
   regression on the residual;
@@ -32,14 +32,14 @@ from typing import Any
 import numpy as np
 from scipy import optimize
 
-from .. import physics
-from ..balance import regression_data
+from ..data.record import Record
 from ..errors import IdentificationError, InputError, NlidError
-from ..inputpath import InputPath
-from ..pipeline import identify
-from ..record import Record
+from ..estimation.balance import regression_data
+from ..estimation.inputpath import InputPath
+from ..identification.pipeline import identify
+from ..model import physics
+from ..model.terms import Model, Term
 from ..scoring import TransientRule
-from ..terms import Model, Term
 from .evidence import AcceptanceRule, Evidence, effective_sample_size
 from .library import Candidate, dictionary_terms
 from .paths import InputPathCandidate
@@ -112,7 +112,7 @@ def fit_stage(ctx: Context, model: Model, mass: float | None, path: InputPath | 
     """Identify ``model`` on the estimation record and score it on the held-out record (no free run).
 
     ``mass`` is the mass given to the identifier (kg), or ``None`` to estimate it; ``path`` the input path
-    the force goes through (:mod:`nlid.inputpath`; default: as recorded).
+    the force goes through (:mod:`nlid.estimation.inputpath`; default: as recorded).
     """
     identified = identify(ctx.estimation, model, ctx.identifier, mass=mass, cutoff=ctx.cutoff, input_path=path)
     if identified.mass is None or identified.scores is None:
@@ -470,7 +470,7 @@ def test_candidate(
 
 
 def test_input_path(ctx: Context, current: Stage, cand: InputPathCandidate) -> tuple[Evidence, Stage | None, str]:
-    """Fit the current model with the force through an input path (:mod:`nlid.inputpath`).
+    """Fit the current model with the force through an input path (:mod:`nlid.estimation.inputpath`).
 
     A delay (either sign: the force channel late or early) or a lag is chosen on the candidate's grid
     (multiples of the sampling interval) by the estimation record's force residual, then refined between the

@@ -4,7 +4,7 @@ For each group of terms on a connection (:class:`~nlid.response.system.Group`)
 the relative motion's coefficients ``x`` (displacement) and ``V`` (velocity,
 ``omega D x``) are turned into samples on a quadrature rule
 (:mod:`nlid.response.harmonics`), the force and its partial derivatives are
-evaluated there (:func:`nlid.terms.slopes.slopes`), and projected back:
+evaluated there (:func:`nlid.model.terms.slopes.slopes`), and projected back:
 
     F   = P[g(x(tau), v(tau))]
     Jx  = P[g_z(tau) E(tau)]      (dF/dx)
@@ -33,7 +33,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..terms.slopes import slopes
+from ..model.terms.slopes import slopes
 from .harmonics import Harmonics, crossings, default_samples
 from .memory import memory_force
 from .system import Group, HarmonicSystem
@@ -91,7 +91,7 @@ class Evaluator:
 
     @staticmethod
     def _jumps(term, group: Group) -> set[tuple[str, float]]:
-        from ..terms.slopes import switches
+        from ..model.terms.slopes import switches
 
         return {(var, level) for var, level, jumps in switches(term, group.pxc) if jumps}
 

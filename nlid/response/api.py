@@ -1,7 +1,7 @@
 """The entry points: :func:`frequency_response`, :func:`force_response` and :func:`backbone`.
 
 Each takes a fitted model (:class:`nlid.IdentifiedModel`,
-:class:`nlid.mdof.IdentifiedStructure` or :class:`nlid.mdof.StructuralModel`),
+:class:`nlid.identified.structure.IdentifiedStructure` or :class:`nlid.model.structure.StructuralModel`),
 checks its arguments once, and runs the harmonic balance with one BLAS thread
 (the matrices are small: a thread pool only adds waiting).
 """
@@ -161,8 +161,8 @@ def frequency_response(
     Parameters
     ----------
     model
-        An :class:`nlid.IdentifiedModel` (with its mass), an :class:`nlid.mdof.IdentifiedStructure` or
-        an :class:`nlid.mdof.StructuralModel`.
+        An :class:`nlid.IdentifiedModel` (with its mass), an :class:`nlid.identified.structure.IdentifiedStructure` or
+        an :class:`nlid.model.structure.StructuralModel`.
     force
         Force amplitudes (N): a number, a sequence or ``"0.5,1,2"``. For a base-excited rig
         (``f = -m b''``) the amplitude is ``m`` times that of the base acceleration.

@@ -241,7 +241,7 @@ def time_residual(
     """
     if system.uses_memory:
         return float("nan")
-    from ..terms.slopes import slopes
+    from ..model.terms.slopes import slopes
 
     n_phase = 16 * basis.P
     tau, _, E = basis.uniform(n_phase)

@@ -268,7 +268,7 @@ def response_band(
     seed
         Seed of the choice of draws.
     jobs
-        Worker processes (default :func:`nlid.parallel.workers`; 1 runs in this process).
+        Worker processes (default :func:`nlid.runtime.parallel.workers`; 1 runs in this process).
     grid
         Frequencies of the band's grid.
 
@@ -280,7 +280,7 @@ def response_band(
     """
     import time
 
-    from ..parallel import workers
+    from ..runtime.parallel import workers
 
     fitted: Fitted = response.model
     if not isinstance(fitted, Fitted) or not fitted.one_dof:

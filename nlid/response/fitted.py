@@ -2,8 +2,8 @@
 
 :func:`as_fitted` reads an :class:`nlid.IdentifiedModel` (its ``model``,
 ``theta``, ``mass``, ``equilibria`` and ``z_range``), an
-:class:`nlid.mdof.IdentifiedStructure` (its ``structure``, ``equilibria`` and
-``z_range``) or a bare :class:`nlid.mdof.StructuralModel` by what they hold,
+:class:`nlid.identified.structure.IdentifiedStructure` (its ``structure``, ``equilibria`` and
+``z_range``) or a bare :class:`nlid.model.structure.StructuralModel` by what they hold,
 not by their class: the identified models call this package from their own
 methods, so it must not import them back.
 """
@@ -16,8 +16,8 @@ from typing import Any
 import numpy as np
 
 from ..errors import InputError
-from ..mdof.model import StructuralModel
-from ..terms import Model
+from ..model.structure import StructuralModel
+from ..model.terms import Model
 from .system import HarmonicSystem
 
 __all__ = ["Fitted", "as_fitted"]
@@ -62,7 +62,7 @@ class Fitted:
         eq = self.equilibria
         if self.structure is None:
             if eq is None:
-                from .. import physics
+                from ..model import physics
 
                 eq = physics.equilibria(self.model, self.theta, self.z_range)
             return [np.array([z]) for z in eq.stable], [np.array([z]) for z in eq.unstable]
@@ -83,7 +83,7 @@ class Fitted:
             keep = [i for i, t in enumerate(self.model.terms) if t.family == "stiffness"]
             model = Model(tuple(self.model.terms[i] for i in keep), self.model.px_roots)
             return replace(self, model=model, theta=np.asarray(self.theta)[keep])
-        from ..mdof.elements import ElementSet
+        from ..model.elements import ElementSet
 
         s = self.structure
         keep = [e for e in s.elements if e.family == "stiffness"]

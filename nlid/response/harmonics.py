@@ -17,7 +17,7 @@ Two quadratures integrate a force over the period (:meth:`Harmonics.rule`):
   accurate for a smooth periodic integrand (exact for a polynomial of the
   motion when ``N`` exceeds ``(degree + 1) H``);
 * **composite**: the period cut into ``N`` equal intervals, and further at
-  given *breakpoints* (where a term has a kink or a jump: :func:`nlid.terms.slopes.switches`),
+  given *breakpoints* (where a term has a kink or a jump: :func:`nlid.model.terms.slopes.switches`),
   with :data:`GAUSS_NODES` Gauss-Legendre nodes on every piece, so that
   nothing non-smooth lies inside a piece.
 

@@ -193,7 +193,7 @@ def measure(record, *, settle: float = 0.5, cycles: int = 10) -> MeasuredRespons
     InputError
         A record without a force of at least 4 cycles, or without steps or windows to fit.
     """
-    from ..sources import as_record
+    from ..data.sources import as_record
 
     record = as_record(record)
     if not 0 <= settle < 1:

@@ -1,10 +1,10 @@
 """Memory terms in the harmonic balance: the hysteretic state integrated to its periodic regime.
 
-A memory law (Bouc-Wen, Dahl: :mod:`nlid.terms.memory`) is rate-independent,
+A memory law (Bouc-Wen, Dahl: :mod:`nlid.model.terms.memory`) is rate-independent,
 so its state ``w`` follows the path of the displacement. Inside each AFT step
 the relative displacement is sampled on the uniform rule (``N`` samples per
 period), and ``w`` is moved along it with the exact monotone steps of
-:mod:`nlid.terms.memory_kernels`. The periodic regime is the fixed point
+:mod:`nlid.model.terms.memory_kernels`. The periodic regime is the fixed point
 ``w(2 pi) = w(0)``, found by Newton's method on the one-period map (warm
 started from the previous solution; its slope ``dPhi/dw0 < 1`` for a
 dissipative law). Its sensitivities to the motion's coefficients are
@@ -22,7 +22,7 @@ from __future__ import annotations
 import numba
 import numpy as np
 
-from ..terms.memory_kernels import bouc_wen_step_d, dahl_step_d
+from ..model.terms.memory_kernels import bouc_wen_step_d, dahl_step_d
 from .system import Group
 
 __all__ = ["memory_force", "periodic_state"]

@@ -19,7 +19,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from ..plotting import new_figure
+from ..report.plotting import new_figure
 
 if TYPE_CHECKING:  # pragma: no cover
     from .result import FrequencyResponse

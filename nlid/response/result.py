@@ -5,7 +5,7 @@
 :meth:`~FrequencyResponse.compare`) return a new one. It renders as a tidy
 frame (:meth:`~FrequencyResponse.to_frame`: one row per point and DOF),
 plain data (:meth:`~FrequencyResponse.to_dict`), a
-:class:`~nlid.summary.Summary` and a figure (:meth:`~FrequencyResponse.plot`).
+:class:`~nlid.report.summary.Summary` and a figure (:meth:`~FrequencyResponse.plot`).
 """
 
 from __future__ import annotations
@@ -16,8 +16,8 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from ..interface import to_jsonable
-from ..summary import Column, Summary
+from ..base.jsonable import to_jsonable
+from ..report.summary import Column, Summary
 from .backbone import Backbone
 from .curves import ResponseCurve
 from .verify import BackboneCheck, PointCheck, SweepCheck
@@ -331,11 +331,11 @@ class FrequencyResponse:
         (:meth:`summary`), ``response.png`` (:meth:`plot`) and, with measured points, ``measured.csv``.
 
         nlid writes only into folders it created or that were empty; ``force=True`` writes beside files
-        it did not write, never replacing them (:mod:`nlid.outputs`).
+        it did not write, never replacing them (:mod:`nlid.runtime.outputs`).
         """
         import json
 
-        from ..outputs import RESPONSE_OUTPUTS, output_folder
+        from ..runtime.outputs import RESPONSE_OUTPUTS, output_folder
 
         with output_folder(out_dir, RESPONSE_OUTPUTS, force=force) as out:
             paths = [out / "response.json", out / "response.csv", out / "response.md"]
@@ -346,7 +346,7 @@ class FrequencyResponse:
                 paths.append(out / "measured.csv")
                 self.measured.to_frame().to_csv(paths[-1], index=False)
             if figure:
-                from ..plotting import save_figure
+                from ..report.plotting import save_figure
 
                 paths += save_figure(self.plot().figure, out / "response", formats=("png",))
         return paths

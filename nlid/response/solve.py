@@ -64,7 +64,7 @@ def _linear_guess(system: HarmonicSystem, balance: Balance, z0: np.ndarray, omeg
     for g in system.groups:
         if g.memory or not g.uses_velocity:
             continue
-        from ..terms.slopes import slopes
+        from ..model.terms.slopes import slopes
 
         x = np.atleast_1d(g.b @ z0)
         for t, th in zip(g.terms, g.theta, strict=True):

@@ -9,7 +9,7 @@ since it carries a state.
 
 A one-DOF model (:class:`nlid.IdentifiedModel`) becomes ``n = 1``: the terms
 ``z``, ``v`` and ``1`` are ``K``, ``C`` and ``s``; every other term is on the
-connection to the ground. A structure (:class:`nlid.mdof.StructuralModel`)
+connection to the ground. A structure (:class:`nlid.model.structure.StructuralModel`)
 brings its matrices and its elements grouped by connection.
 """
 
@@ -21,8 +21,8 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from ..errors import InputError
-from ..terms import Model, Term, px_coefficients
-from ..terms.slopes import switches
+from ..model.terms import Model, Term, px_coefficients
+from ..model.terms.slopes import switches
 
 __all__ = ["Group", "HarmonicSystem"]
 
@@ -73,7 +73,7 @@ class Group:
 
     @property
     def switches(self) -> list[tuple[str, float, bool]]:
-        """Where the group's force is not smooth (:func:`nlid.terms.slopes.switches`), each level once.
+        """Where the group's force is not smooth (:func:`nlid.model.terms.slopes.switches`), each level once.
 
         A ``tanh(x/c)`` factor is smooth, but steep when ``c`` is small against the motion: its
         centre and ``+-c``, ``+-3c`` are added as breaks, so that the quadrature resolves it.
@@ -165,7 +165,7 @@ class HarmonicSystem:
 
     @classmethod
     def from_structure(cls, structure) -> HarmonicSystem:
-        """A :class:`nlid.mdof.StructuralModel`: its matrices, and its elements grouped by connection."""
+        """A :class:`nlid.model.structure.StructuralModel`: its matrices, and its elements grouped by connection."""
         elements = structure.elements
         theta = structure.theta
         n = structure.n_dofs
@@ -234,7 +234,7 @@ class HarmonicSystem:
 
     def elastic(self, z: np.ndarray) -> np.ndarray:
         """The static restoring force ``K z + s + sum f_c(b_c^T z, 0)`` at displacements ``z`` of shape ``(n,)``."""
-        from ..terms.slopes import slopes
+        from ..model.terms.slopes import slopes
 
         out = self.K @ z + self.static
         for g in self.groups:
@@ -248,7 +248,7 @@ class HarmonicSystem:
 
     def stiffness(self, z: np.ndarray) -> np.ndarray:
         """``dR/dz`` at rest at ``z`` (memory terms by their initial slope)."""
-        from ..terms.slopes import slopes
+        from ..model.terms.slopes import slopes
 
         out = np.array(self.K, dtype=float)
         for g in self.groups:

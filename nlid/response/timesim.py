@@ -1,7 +1,7 @@
 """Time integration of a fitted model under a harmonic or swept force, for checking the harmonic balance.
 
 The integrators are nlid's own (:func:`nlid.simulation.simulate` for one DOF,
-:func:`nlid.mdof.simulation.simulate` for a structure): classical RK4 with the
+:func:`nlid.simulation.structure.simulate` for a structure): classical RK4 with the
 force held over each step. The force of a step is taken at the step's
 midpoint, so that holding it costs no delay; with :data:`STEPS` steps per
 period the error of the first-harmonic amplitude from the time step is about
@@ -50,7 +50,7 @@ class Simulator:
 
             z, v, _ = simulate(f.model, f.theta, f.mass, force[:, 0], fs, (float(z0[0]), float(v0[0])))
             return z[:, None], v[:, None]
-        from ..mdof.simulation import simulate as simulate_structure
+        from ..simulation.structure import simulate as simulate_structure
 
         z, v, _ = simulate_structure(f.structure, force, fs, x0=(np.asarray(z0), np.asarray(v0)))
         return z, v

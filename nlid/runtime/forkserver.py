@@ -46,10 +46,13 @@ import socket
 import struct
 import sys
 
-from .preload import PRELOAD_ENV, PRELOAD_LIMIT, warm_up_quietly
-from .process import _PR_SET_CHILD_SUBREAPER, THREAD_ENV, _prctl, children_of, die_with, pin_threads
+from .preload import PRELOAD_ENV, warm_up_quietly
+from .process import _PR_SET_CHILD_SUBREAPER, _prctl, children_of, die_with, pin_threads
 
-__all__ = ["THREAD_ENV", "PIN_ENV", "PRELOAD_ENV", "PRELOAD_LIMIT", "main", "die_with", "pin_threads"]
+__all__ = [
+    "PIN_ENV",
+    "main",
+]
 
 #: ``"1"``: pin the numerical libraries to one thread per run (studies).
 PIN_ENV = "NLID_PIN_THREADS"

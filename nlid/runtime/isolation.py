@@ -61,26 +61,15 @@ from typing import Any
 
 from ..errors import InputError
 from .child import HEADER, READY, frame
-from .forkserver import PIN_ENV, PRELOAD_ENV, PRELOAD_LIMIT, die_with, pin_threads
-from .outcome import (
-    _CATEGORIES,
-    ChildResult,
-    ChildWarning,
-    IsolationError,
-    PluginWarning,
-    describe_exit,
-    result_from_reply,
-)
+from .forkserver import PIN_ENV
+from .outcome import _CATEGORIES, ChildResult, IsolationError, result_from_reply
+from .preload import PRELOAD_ENV, PRELOAD_LIMIT
+from .process import die_with, pin_threads
 
 __all__ = [
-    "ChildResult",
-    "ChildWarning",
-    "PluginWarning",
-    "IsolationError",
     "run_in_child",
     "kill_children",
     "die_with_parent",
-    "describe_exit",
     "start_fork_server",
     "start_method",
     "track",
@@ -98,7 +87,7 @@ PARENT_ENV = "NLID_ISOLATION_PARENT"
 #: Environment variable set in the fork server to its own pid (kept for code that looked for it).
 FORKSERVER_ENV = "NLID_FORKSERVER_PID"
 #: What the fork server loads before serving (:mod:`nlid.runtime.preload`).
-PRELOAD = ("nlid.pipeline", "nlid.registry", "nlid.study.worker", "nlid.simulation")
+PRELOAD = ("nlid.identification.pipeline", "nlid.contract.registry", "nlid.study.worker", "nlid.simulation")
 #: Longest wait for the fork server to start a child (s): its preload is bounded by ``PRELOAD_LIMIT``.
 START_LIMIT = PRELOAD_LIMIT + 60.0
 #: After its reply (or after being killed), how long a child may take to be reported ended (s).

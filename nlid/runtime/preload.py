@@ -87,14 +87,14 @@ def warm_up(kind: str = "full") -> None:
     import numpy as np
 
     # by name: the runtime sits below the pipeline and the study, which call it (no import circle)
-    for name in ("scipy.fft", "scipy.signal", "nlid.pipeline", "nlid.scoring"):
+    for name in ("scipy.fft", "scipy.signal", "nlid.identification.pipeline", "nlid.scoring"):
         importlib.import_module(name)
     if kind != "full":
         return
-    importlib.import_module("nlid.registry").load_registry()
+    importlib.import_module("nlid.contract.registry").load_registry()
     importlib.import_module("nlid.study.worker")
     simulate = importlib.import_module("nlid.simulation").simulate
-    Model = importlib.import_module("nlid.terms").Model
+    Model = importlib.import_module("nlid.model.terms").Model
 
     model = Model.from_spec("z^3, sign(v)*|px(z)|").with_px_roots((-1.0, 1.0))
     force = np.zeros(64)

@@ -11,7 +11,7 @@ Scores (:class:`Scores`, from :func:`score`):
     The percentage RMS residual of the restoring-force surface (Eq. 26):
     ``100 RMS(R_e - R_hat) / RMS(R_e)`` with ``R_e = f - m a`` (Eq. 25),
     formed in the band of the shared differentiating filter when a channel
-    the model needs is estimated (:func:`nlid.balance.regression_data`).
+    the model needs is estimated (:func:`nlid.estimation.balance.regression_data`).
 ``force_residual_percent``
     The same residual relative to the force, ``100 RMS(f - m a - R_hat) /
     RMS(f)``: the "relative force residual" of inverse-dynamics benchmarks
@@ -52,37 +52,65 @@ scores), :mod:`~nlid.scoring.rules` (the transient rules),
 
 from __future__ import annotations
 
-from .prediction import Prediction, predict
-from .rules import (
-    FromFirstSample,
-    InitWindow,
-    PeriodicSteadyState,
-    TransientRule,
-    default_rule,
-    detect_period,
-    multisine_lines,
-    record_period,
-    rule_from_spec,
-)
-from .scores import (
-    HORIZON_STARTS,
-    SENSITIVITY_DELTA,
-    SENSITIVITY_LIMIT,
-    FreeRun,
-    FreeRunResponse,
-    ModelFit,
-    Residual,
-    Scores,
-    epsilon,
-    force_residual_percent,
-    free_run_error,
-    free_run_response,
-    initial_state,
-    predictability_horizon,
-    residual,
-    score,
-)
-from .surface import DampingSlice, damping_slice
+import importlib
+from typing import TYPE_CHECKING, Any
+
+if TYPE_CHECKING:  # loaded on first use by __getattr__ below: importing one submodule loads no other
+    from .periods import detect_period, multisine_lines, record_period
+    from .prediction import Prediction, predict
+    from .rules import FromFirstSample, InitWindow, PeriodicSteadyState, TransientRule, default_rule, rule_from_spec
+    from .scores import (
+        HORIZON_STARTS,
+        SENSITIVITY_DELTA,
+        SENSITIVITY_LIMIT,
+        FreeRun,
+        FreeRunResponse,
+        ModelFit,
+        Residual,
+        Scores,
+        epsilon,
+        force_residual_percent,
+        free_run_error,
+        free_run_response,
+        initial_state,
+        predictability_horizon,
+        residual,
+        score,
+    )
+    from .surface import DampingSlice, damping_slice
+
+#: Public name -> module that defines it (imported on first access).
+_LAZY: dict[str, str] = {
+    "Prediction": "nlid.scoring.prediction",
+    "predict": "nlid.scoring.prediction",
+    "FromFirstSample": "nlid.scoring.rules",
+    "InitWindow": "nlid.scoring.rules",
+    "PeriodicSteadyState": "nlid.scoring.rules",
+    "TransientRule": "nlid.scoring.rules",
+    "default_rule": "nlid.scoring.rules",
+    "detect_period": "nlid.scoring.periods",
+    "multisine_lines": "nlid.scoring.periods",
+    "record_period": "nlid.scoring.periods",
+    "rule_from_spec": "nlid.scoring.rules",
+    "HORIZON_STARTS": "nlid.scoring.scores",
+    "SENSITIVITY_DELTA": "nlid.scoring.scores",
+    "SENSITIVITY_LIMIT": "nlid.scoring.scores",
+    "FreeRun": "nlid.scoring.scores",
+    "FreeRunResponse": "nlid.scoring.scores",
+    "ModelFit": "nlid.scoring.scores",
+    "Residual": "nlid.scoring.scores",
+    "Scores": "nlid.scoring.scores",
+    "epsilon": "nlid.scoring.scores",
+    "force_residual_percent": "nlid.scoring.scores",
+    "free_run_error": "nlid.scoring.scores",
+    "free_run_response": "nlid.scoring.scores",
+    "initial_state": "nlid.scoring.scores",
+    "predictability_horizon": "nlid.scoring.scores",
+    "residual": "nlid.scoring.scores",
+    "score": "nlid.scoring.scores",
+    "DampingSlice": "nlid.scoring.surface",
+    "damping_slice": "nlid.scoring.surface",
+}
 
 __all__ = [
     "ModelFit",
@@ -115,3 +143,16 @@ __all__ = [
     "Prediction",
     "predict",
 ]
+
+
+def __getattr__(name: str) -> Any:
+    module = _LAZY.get(name)
+    if module is None:
+        raise AttributeError(f"module 'nlid.scoring' has no attribute {name!r}")
+    value = getattr(importlib.import_module(module), name)
+    globals()[name] = value  # later lookups skip this function
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(__all__))

@@ -18,7 +18,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..record import Record
+from ..data.record import Record
 
 __all__ = ["detect_period", "record_period", "multisine_lines", "RESPONSE_REPEAT", "LINE_GAP", "EMPTY_FRACTION"]
 

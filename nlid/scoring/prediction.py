@@ -10,7 +10,7 @@ force, from the state at ``i - k`` taken from the data:
 * ``z`` measured, ``v`` measured or differentiated through the shared filter
   (:func:`nlid.scoring.rules.data_velocity`);
 * each memory state (Bouc-Wen's, Dahl's) integrated along the measured ``z``
-  from 0 at the record's start (:func:`nlid.terms.memory.path`, as the force
+  from 0 at the record's start (:func:`nlid.model.terms.memory.path`, as the force
   balance does); for a periodic record, from its preceding period (the record's
   first period) so that the start does not matter.
 
@@ -28,9 +28,9 @@ from typing import Any
 
 import numpy as np
 
+from ..data.record import Record
 from ..errors import InputError
-from ..inputpath import acting_record
-from ..record import Record
+from ..estimation.inputpath import acting_record
 from .rules import (
     InitWindow,
     PeriodicSteadyState,
@@ -77,7 +77,7 @@ class Prediction:
 
 def _memory_states(fit: Any, record: Record, period: int | None) -> np.ndarray:
     """Each memory state along the measured ``z``, shape ``(n, M)`` (from 0, or from the preceding period)."""
-    from ..terms.memory import path
+    from ..model.terms.memory import path
 
     terms = [t for t in fit.model.terms if t.is_memory]
     z = record.z
@@ -146,7 +146,7 @@ def predict(
         raise InputError(f"nothing is left to score: the first {first} samples of {n} are not scored")
     period = None
     if isinstance(rule, PeriodicSteadyState):
-        from .rules import detect_period
+        from .periods import detect_period
 
         period = rule.period if rule.period is not None else detect_period(record.f)
     states = np.column_stack([record.z, data_velocity(record), _memory_states(fit, record, period)])

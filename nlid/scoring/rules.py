@@ -38,11 +38,11 @@ from typing import Any
 
 import numpy as np
 
-from .. import derivatives
+from ..base.validate import Interval, did_you_mean
+from ..data.record import Record
 from ..errors import InputError
-from ..record import Record
-from ..validate import Interval, did_you_mean
-from .periods import RESPONSE_REPEAT, detect_period, multisine_lines, record_period
+from ..signal import derivatives
+from .periods import record_period
 
 __all__ = [
     "FromFirstSample",
@@ -50,15 +50,11 @@ __all__ = [
     "PeriodicSteadyState",
     "TransientRule",
     "Start",
-    "detect_period",
-    "record_period",
     "default_rule",
     "rule_from_spec",
     "resolve_rule",
     "error_metrics",
     "SPELLINGS",
-    "RESPONSE_REPEAT",
-    "multisine_lines",
     "periodic_fine_force",
 ]
 
@@ -279,7 +275,7 @@ def data_velocity(record: Record) -> np.ndarray:
 
 def _memory_scales(model: Any, z_scale: float) -> np.ndarray:
     """The scale of each memory state: ``z_scale`` for a state in m (Bouc-Wen), 1 for a dimensionless one (Dahl)."""
-    from ..terms.memory import KINDS
+    from ..model.terms.memory import KINDS
 
     return np.array([z_scale if KINDS[t.memory[0]][1] == "m" else 1.0 for t in model.terms if t.is_memory])
 

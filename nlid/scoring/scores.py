@@ -8,13 +8,13 @@ from typing import Any, Protocol
 
 import numpy as np
 
-from .. import derivatives
-from ..balance import RegressionData, regression_data
+from ..data.record import Record
 from ..errors import DataError, InputError, NlidError
-from ..inputpath import acting_record
-from ..physics import Coefficients, dict_or_vector
-from ..record import Record
-from ..terms import Model
+from ..estimation.balance import RegressionData, regression_data
+from ..estimation.inputpath import acting_record
+from ..model.physics import Coefficients, dict_or_vector
+from ..model.terms import Model
+from ..signal import derivatives
 from .rules import FromFirstSample, TransientRule, error_metrics, resolve_rule
 from .rules import start as rule_start
 
@@ -50,7 +50,7 @@ NAN = float("nan")
 class ModelFit(Protocol):
     """What the scores read of a fitted model: its model, its coefficients in model order and its mass.
 
-    :class:`nlid.identified.IdentifiedModel` is one; the scores need nothing else of it (so this module,
+    :class:`nlid.identified.model.IdentifiedModel` is one; the scores need nothing else of it (so this module,
     which the identified model uses, does not import it).
     """
 
@@ -186,7 +186,7 @@ class Scores:
     predict_horizon: int | None = None
 
     def to_dict(self) -> dict[str, Any]:
-        """Plain dictionary (NaN kept; :func:`nlid.interface.to_jsonable` maps it to null)."""
+        """Plain dictionary (NaN kept; :func:`nlid.base.jsonable.to_jsonable` maps it to null)."""
         return asdict(self)
 
 
@@ -269,7 +269,7 @@ def initial_state(record: Record) -> tuple[float, float]:
 
     The velocity is the measured one when the record has it, else the
     derivative of ``z`` through the shared zero-phase filter at its
-    suggested cut-off (:func:`nlid.derivatives.differentiate`).
+    suggested cut-off (:func:`nlid.signal.derivatives.differentiate`).
     """
     if record.is_measured("v"):
         return float(record.z[0]), float(record.v[0])  # type: ignore[index]

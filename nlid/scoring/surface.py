@@ -6,10 +6,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..balance import RegressionData
 from ..errors import InputError
-from ..physics import Coefficients, damping, dict_or_vector
-from ..terms import Model
+from ..estimation.balance import RegressionData
+from ..model.physics import Coefficients, damping, dict_or_vector
+from ..model.terms import Model
 
 __all__ = ["DampingSlice", "damping_slice"]
 
@@ -56,7 +56,7 @@ def damping_slice(
     Parameters
     ----------
     data
-        From :func:`nlid.balance.regression_data` (needs velocity: the model
+        From :func:`nlid.estimation.balance.regression_data` (needs velocity: the model
         must have velocity terms).
     model, coefficients, mass
         The identified model.

@@ -29,10 +29,32 @@ The package holds one job per module:
 
 from __future__ import annotations
 
-from .encode import encode_memory, encode_model
-from .excitation import INTERPOLATION_BETA, INTERPOLATION_TAPS, SineTest, fine_force, random_force
-from .kernels import FREE_RUN_OVERSAMPLE, SimulationError, free_run, simulate
-from .sensitivity import SegmentRun, sensitivity_columns, simulate_segments
+import importlib
+from typing import TYPE_CHECKING, Any
+
+if TYPE_CHECKING:  # loaded on first use by __getattr__ below: importing one submodule loads no other
+    from .encode import encode_memory, encode_model
+    from .excitation import INTERPOLATION_BETA, INTERPOLATION_TAPS, SineTest, fine_force, random_force
+    from .kernels import FREE_RUN_OVERSAMPLE, SimulationError, free_run, simulate
+    from .sensitivity import SegmentRun, sensitivity_columns, simulate_segments
+
+#: Public name -> module that defines it (imported on first access).
+_LAZY: dict[str, str] = {
+    "encode_memory": "nlid.simulation.encode",
+    "encode_model": "nlid.simulation.encode",
+    "INTERPOLATION_BETA": "nlid.simulation.excitation",
+    "INTERPOLATION_TAPS": "nlid.simulation.excitation",
+    "SineTest": "nlid.simulation.excitation",
+    "fine_force": "nlid.simulation.excitation",
+    "random_force": "nlid.simulation.excitation",
+    "FREE_RUN_OVERSAMPLE": "nlid.simulation.kernels",
+    "SimulationError": "nlid.simulation.kernels",
+    "free_run": "nlid.simulation.kernels",
+    "simulate": "nlid.simulation.kernels",
+    "SegmentRun": "nlid.simulation.sensitivity",
+    "sensitivity_columns": "nlid.simulation.sensitivity",
+    "simulate_segments": "nlid.simulation.sensitivity",
+}
 
 __all__ = [
     "simulate",
@@ -50,3 +72,16 @@ __all__ = [
     "SimulationError",
     "FREE_RUN_OVERSAMPLE",
 ]
+
+
+def __getattr__(name: str) -> Any:
+    module = _LAZY.get(name)
+    if module is None:
+        raise AttributeError(f"module 'nlid.simulation' has no attribute {name!r}")
+    value = getattr(importlib.import_module(module), name)
+    globals()[name] = value  # later lookups skip this function
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(__all__))

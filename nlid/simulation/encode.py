@@ -10,7 +10,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..errors import InputError
-from ..terms import Model, px_coefficients
+from ..model.terms import Model, px_coefficients
 
 __all__ = ["encode_model", "encode_memory"]
 
@@ -25,7 +25,7 @@ def encode_memory(model: Model) -> np.ndarray:
     """The memory terms of a model for the compiled kernel: ``(law, p1, p2)`` per term (law 0: not memory).
 
     ``bouc_wen(a, b)`` is law 1 with ``(a, b)``; ``dahl(rho)`` law 2 with ``(rho, 0)``
-    (:mod:`nlid.terms.memory`).
+    (:mod:`nlid.model.terms.memory`).
     """
     out = np.zeros((len(model.terms), 3))
     for i, term in enumerate(model.terms):

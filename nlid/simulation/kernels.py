@@ -14,10 +14,10 @@ from collections.abc import Sequence
 import numba
 import numpy as np
 
+from ..base.validate import MASS
 from ..errors import InputError, NlidError
-from ..terms import Model
-from ..terms.memory_kernels import bouc_wen_step
-from ..validate import MASS
+from ..model.terms import Model
+from ..model.terms.memory_kernels import bouc_wen_step
 from .encode import encode_memory, encode_model
 from .excitation import fine_force
 
@@ -265,7 +265,7 @@ def _rk4(force, dt, mass, theta, parts, special, pxc, z0, v0, out_z, out_v, out_
 
 @numba.njit(cache=True, inline="always")
 def _memory_step(memory, w, dz, out):
-    """Every memory state after a monotone displacement step ``dz``, exactly (:mod:`nlid.terms.memory`).
+    """Every memory state after a monotone displacement step ``dz``, exactly (:mod:`nlid.model.terms.memory`).
 
     The laws are rate-independent, so a state follows the path of ``z``: the
     integrator moves it along each stage's displacement from the step's start
@@ -419,7 +419,7 @@ def free_run(
     fs
         Sampling frequency of ``force`` in Hz.
     force_hold
-        ``"sampled"`` or ``"zoh"`` (see :attr:`nlid.record.Record.force_hold`).
+        ``"sampled"`` or ``"zoh"`` (see :attr:`nlid.data.record.Record.force_hold`).
     x0
         Initial displacement and velocity.
     oversample
@@ -445,7 +445,8 @@ def free_run(
     return z[::q], v[::q], a[::q]
 
 
-# The evaluation of one term, shared with the integrator of several degrees of freedom (nlid.mdof.kernels), which
+# The evaluation of one term, shared with the integrator of several degrees of freedom
+# (nlid.simulation.structure_kernels), which
 # evaluates each element's term on its relative coordinate with exactly these functions.
 term_plan = _plan
 sign = _sign

@@ -15,10 +15,10 @@ from collections.abc import Sequence
 import numba
 import numpy as np
 
+from ..base.validate import MASS
 from ..errors import InputError
-from ..terms import Model
-from ..terms.memory_kernels import bouc_wen_step_d, dahl_step_d
-from ..validate import MASS
+from ..model.terms import Model
+from ..model.terms.memory_kernels import bouc_wen_step_d, dahl_step_d
 from .encode import encode_memory, encode_model
 from .excitation import fine_force
 from .kernels import FREE_RUN_OVERSAMPLE, SimulationError, _plan, _sign
@@ -26,7 +26,8 @@ from .kernels import FREE_RUN_OVERSAMPLE, SimulationError, _plan, _sign
 __all__ = ["simulate_segments", "SegmentRun", "sensitivity_columns"]
 
 # numba's on-disk cache of a kernel is invalidated by changes of its own file only: after editing _plan or
-# _sign in kernels.py (or the memory steps of nlid.terms), delete nlid/simulation/__pycache__/sensitivity.*.nb[ci].
+# _sign in kernels.py (or the memory steps of nlid.model.terms), delete
+# nlid/simulation/__pycache__/sensitivity.*.nb[ci].
 
 # --------------------------------------------------------------------------- segments with sensitivities
 #
@@ -36,8 +37,8 @@ __all__ = ["simulate_segments", "SegmentRun", "sensitivity_columns"]
 # scheme itself (forward mode, "internal differentiation"): every stage's state carries its derivatives,
 # so the sensitivities are those of the discrete free run, exact to rounding, not of an approximation of it.
 # Each term's derivatives with respect to z and v follow from its normal form (a product of signed powers
-# and special factors, :mod:`nlid.terms.term`); the memory states' from the exact steps
-# (:func:`nlid.terms.memory_kernels.bouc_wen_step_d`, ``dahl_step_d``).
+# and special factors, :mod:`nlid.model.terms.term`); the memory states' from the exact steps
+# (:func:`nlid.model.terms.memory_kernels.bouc_wen_step_d`, ``dahl_step_d``).
 
 
 @numba.njit(cache=True, inline="always")
@@ -548,7 +549,8 @@ def simulate_segments(
     )
 
 
-# public names of the pieces the structure's sensitivities (nlid.mdof.sensitivity) evaluate each element with
+# public names of the pieces the structure's sensitivities (nlid.simulation.structure_sensitivity) evaluate each
+# element with
 abs_powers = _powers
 signed_part_d = _part_d
 special_factor_d = _special_d

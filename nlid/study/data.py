@@ -3,8 +3,8 @@
 Simulated datasets are simulated from the preset with the run's seed (the
 held-out record, when ``holdout = "independent"``, with its own seed: an
 independent force of the same kind). Measured datasets are read through
-:func:`nlid.datasets.load` or :func:`nlid.io.read_record`. The reference
-("truth", :meth:`nlid.reference.Reference.from_truth`) is the preset's
+:func:`nlid.data.datasets.load` or :func:`nlid.data.io.read_record`. The reference
+("truth", :meth:`nlid.identified.reference.Reference.from_truth`) is the preset's
 (coefficients, mass, and the equilibria and modal parameters of the true
 model, Eq. 8 and 22), else the study's ``reference`` table, else the record's
 ``meta["reference"]`` (e.g. the EMPS benchmark's published values).
@@ -16,10 +16,10 @@ from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any
 
-from ..record import Record
-from ..reference import Reference
+from ..data.record import Record
+from ..identified.reference import Reference
+from ..model.terms import Model
 from ..scoring import record_period
-from ..terms import Model
 from .plan import RunSpec
 from .values import FractionHoldout, IndependentHoldout, PartHoldout, PresetSource
 
@@ -33,8 +33,8 @@ class RunData:
     Attributes
     ----------
     reference
-        The :class:`~nlid.reference.Reference` (any of its values may be
-        unknown); its :meth:`~nlid.reference.Reference.to_dict` is stored
+        The :class:`~nlid.identified.reference.Reference` (any of its values may be
+        unknown); its :meth:`~nlid.identified.reference.Reference.to_dict` is stored
         with the run.
     """
 
@@ -75,7 +75,7 @@ def build_data(spec: RunSpec) -> RunData:
 
 
 def dict_or_level(noise: Mapping[str, float] | float) -> dict[str, float] | float:
-    """A preset's noise setting as :meth:`nlid.presets.Preset.simulate` takes it."""
+    """A preset's noise setting as :meth:`nlid.simulation.presets.Preset.simulate` takes it."""
     return dict(noise) if isinstance(noise, Mapping) else float(noise)
 
 

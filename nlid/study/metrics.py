@@ -1,6 +1,6 @@
 """The metrics of one run: one flat row of numbers, flags and notes.
 
-Column names (each family declared once in :mod:`nlid.study.columns`;
+Column names (each family declared once in :mod:`nlid.scoring.columns`;
 errors are percentages, signed unless noted):
 
 ``eps_percent``
@@ -50,21 +50,20 @@ from typing import Any
 
 import numpy as np
 
-from .. import physics
-from ..balance import regression_data
+from ..data.record import Record
 from ..errors import NlidError
-from ..identified import IdentifiedModel
-from ..record import Record
-from ..reference import Reference, compare, match_equilibria
+from ..estimation.balance import regression_data
+from ..identified.model import IdentifiedModel
+from ..identified.reference import Reference, compare
+from ..model import physics
+from ..scoring import columns as col
 from ..scoring import damping_slice
-from . import columns as col
 
 __all__ = [
     "coefficient_metrics",
     "equilibrium_metrics",
     "holdout_metrics",
     "surface_metrics",
-    "match_equilibria",
 ]
 
 NAN = float("nan")
@@ -73,7 +72,7 @@ NAN = float("nan")
 def coefficient_metrics(result: IdentifiedModel, reference: Reference | Mapping[str, Any]) -> dict[str, float]:
     """``coef:<term>``, ``coef_error_pct:<term>``, ``mass`` and ``mass_error_pct``.
 
-    :meth:`nlid.reference.Comparison.coefficient_row`.
+    :meth:`nlid.identified.reference.Comparison.coefficient_row`.
     """
     return compare(result, reference).coefficient_row()
 
@@ -81,7 +80,8 @@ def coefficient_metrics(result: IdentifiedModel, reference: Reference | Mapping[
 def equilibrium_metrics(result: IdentifiedModel, reference: Reference | Mapping[str, Any]) -> dict[str, float]:
     """Equilibrium counts and errors, and the modal parameters at each matched equilibrium.
 
-    :meth:`nlid.reference.Comparison.equilibrium_row`: the reference's equilibria are the columns, the modes are
+    :meth:`nlid.identified.reference.Comparison.equilibrium_row`: the reference's equilibria are the columns, the modes
+    are
     matched to them by position.
     """
     return compare(result, reference).equilibrium_row()

@@ -27,8 +27,8 @@ from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import Any
 
-from ..frozen import FrozenDict, freeze
-from ..interface import to_jsonable
+from ..base.frozen import FrozenDict, freeze
+from ..base.jsonable import to_jsonable
 from .config import DatasetConfig, StudyConfig
 
 __all__ = ["Run", "RunSpec", "plan_study", "derive_seed", "record_key"]

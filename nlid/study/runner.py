@@ -9,8 +9,8 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, TextIO
 
-from ..outputs import STUDY_OUTPUTS, output_folder
-from . import columns as col
+from ..runtime.outputs import STUDY_OUTPUTS, output_folder
+from ..scoring import columns as col
 from .config import StudyConfig
 from .execute import LocalExecutor
 from .plan import Run, plan_study
@@ -92,7 +92,7 @@ class StudyOutcome:
         ``results`` holds the stored row of every run of the study (the rows of ``results.csv``, in plan
         order; a run without a stored result is left out).
         """
-        from ..interface import to_jsonable
+        from ..base.jsonable import to_jsonable
 
         rows = [record["row"] for record in ResultStore(self.folder).records(self.runs)]
         return to_jsonable(
@@ -129,7 +129,7 @@ def run_study(
     folder
         Output folder (created; results of earlier sessions are kept and
         reused). nlid writes only into folders it created or that were empty,
-        and locks the folder while the study runs (:mod:`nlid.outputs`).
+        and locks the folder while the study runs (:mod:`nlid.runtime.outputs`).
     executor
         :class:`~nlid.study.execute.LocalExecutor` (default) or
         :class:`~nlid.study.execute.DaskExecutor`.
@@ -144,7 +144,7 @@ def run_study(
     force
         Write into a folder that holds files nlid did not write. They are never
         replaced: a file with the name of an output stops the study before
-        anything is written (:data:`nlid.outputs.STUDY_OUTPUTS`).
+        anything is written (:data:`nlid.runtime.outputs.STUDY_OUTPUTS`).
     timeout
         Time limit of each run in seconds, instead of the study's
         ``timeout`` (600 s unless the study sets one); ``math.inf``: none.
@@ -177,7 +177,7 @@ def _run_study(
     runs = plan_study(config)
     todo = runs if rerun else [r for r in runs if not store.is_done(r)]
     if timeout is not None:
-        from ..pipeline import check_timeout
+        from ..identification.pipeline import check_timeout
 
         limit = check_timeout(timeout)
         todo = [dataclasses.replace(r, spec=dataclasses.replace(r.spec, timeout=limit)) for r in todo]

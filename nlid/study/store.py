@@ -13,7 +13,7 @@ killed study loses at most the runs in flight, never leaves half a file, and
 a run counts as done only when its JSON exists with the digest of the current
 spec (so a changed configuration re-runs what it changed). A temporary file
 is removed when the write fails or is interrupted, and one a killed study
-left is removed by the next run (:func:`nlid.outputs.sweep_temporary`).
+left is removed by the next run (:func:`nlid.runtime.outputs.sweep_temporary`).
 """
 
 from __future__ import annotations
@@ -28,9 +28,9 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from ..base.jsonable import to_jsonable
 from ..errors import InputError
-from ..interface import to_jsonable
-from ..outputs import atomic_write, temporary
+from ..runtime.outputs import atomic_write, temporary
 from .plan import Run
 
 if TYPE_CHECKING:

@@ -25,9 +25,9 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from ..base.frozen import FrozenDict
+from ..base.validate import NOISE_FRACTION, check_noise, did_you_mean
 from ..errors import InputError, NlidError, brief
-from ..frozen import FrozenDict
-from ..validate import NOISE_FRACTION, check_noise, did_you_mean
 
 __all__ = [
     "ConfigError",
@@ -119,7 +119,8 @@ class Where:
         return value
 
     def check(self, rule: Any, value: Any) -> Any:
-        """``value`` checked by a rule of :mod:`nlid.validate`, whose complaint becomes a :class:`ConfigError` here."""
+        """``value`` checked by a rule of :mod:`nlid.base.validate`, whose complaint becomes a :class:`ConfigError`
+        here."""
         why = rule.reason(value)
         if why is not None:
             raise self.error(why)
@@ -297,7 +298,7 @@ def plain(value: Any) -> Any:
 
 @dataclass(frozen=True)
 class PresetSource:
-    """Records simulated from a preset (:mod:`nlid.presets`).
+    """Records simulated from a preset (:mod:`nlid.simulation.presets`).
 
     Attributes
     ----------
@@ -329,11 +330,11 @@ class PresetSource:
     def from_toml(cls, entry: Mapping[str, Any], where: Where, base: str | os.PathLike[str] = ".") -> PresetSource:
         """The source of a dataset entry ``preset = "..."``: the preset exists, its overrides build a model.
 
-        Also checks the noise levels (:data:`nlid.validate.NOISE_FRACTION`, each on a recorded channel) and
+        Also checks the noise levels (:data:`nlid.base.validate.NOISE_FRACTION`, each on a recorded channel) and
         the channels (``z`` is always recorded). ``entry`` is the dataset's table, ``where`` its place in the
         file; ``base`` (the study file's folder) is for file sources only.
         """
-        from ..presets import RESPONSE_CHANNELS, get_preset
+        from ..simulation.presets import RESPONSE_CHANNELS, get_preset
 
         value = (where / "preset").string(entry["preset"])
         overrides = (where / "overrides").table(entry.get("overrides", {}))
@@ -362,7 +363,7 @@ class PresetSource:
                 noise = (where / "noise").check(NOISE_FRACTION, raw_noise)
         channels_raw = entry.get("channels", list(noise) if isinstance(noise, dict) else ["z"])
         if isinstance(channels_raw, list) and hasattr(preset, "elements"):  # a structure: z1..zn name z
-            from ..mdof.presets import StructurePreset
+            from ..simulation.structure_presets import StructurePreset
 
             try:
                 channels_raw = list(StructurePreset._groups(preset, channels_raw, preset.model().n_dofs))
@@ -399,8 +400,8 @@ class PresetSource:
         return preset.elements if hasattr(preset, "elements") else preset.terms
 
     def preset(self):
-        """The :class:`~nlid.presets.Preset` with the overrides applied."""
-        from ..presets import get_preset
+        """The :class:`~nlid.simulation.presets.Preset` with the overrides applied."""
+        from ..simulation.presets import get_preset
 
         preset = get_preset(self.name)
         overrides = dict(self.overrides)
@@ -411,7 +412,7 @@ class PresetSource:
 
 @dataclass(frozen=True)
 class BenchmarkSource:
-    """A bundled measured benchmark (:mod:`nlid.datasets`) and the part of it used."""
+    """A bundled measured benchmark (:mod:`nlid.data.datasets`) and the part of it used."""
 
     name: str
     part: str = "all"
@@ -421,8 +422,8 @@ class BenchmarkSource:
 
     @classmethod
     def from_toml(cls, entry: Mapping[str, Any], where: Where, base: str | os.PathLike[str] = ".") -> BenchmarkSource:
-        """The source of a dataset entry ``dataset = "..."`` (a benchmark :mod:`nlid.datasets` knows)."""
-        from .. import datasets
+        """The source of a dataset entry ``dataset = "..."`` (a benchmark :mod:`nlid.data.datasets` knows)."""
+        from ..data import datasets
 
         value = (where / "dataset").string(entry["dataset"])
         if value not in datasets.DATASETS:
@@ -444,14 +445,14 @@ class BenchmarkSource:
 
     def load(self, part: str | None = None):
         """The record of ``part`` (default: this source's part)."""
-        from .. import datasets
+        from ..data import datasets
 
         return datasets.load(self.name, part=self.part if part is None else part)
 
 
 @dataclass(frozen=True)
 class FileSource:
-    """A data file read with a column map (:func:`nlid.io.read_record`).
+    """A data file read with a column map (:func:`nlid.data.io.read_record`).
 
     Attributes
     ----------
@@ -473,7 +474,7 @@ class FileSource:
         A relative path is relative to ``base`` (the study file's folder). The file is not read here (the
         resolve step reads it); the column map is checked.
         """
-        from ..io import parse_columns
+        from ..data.columnmap import parse_columns
 
         value = (where / "file").string(entry["file"])
         expanded = os.path.expandvars(os.path.expanduser(value))
@@ -511,7 +512,7 @@ class FileSource:
 
     def load(self):
         """The record of the file."""
-        from ..io import read_record
+        from ..data.io import read_record
 
         return read_record(self.path, self.columns, fs=self.fs)
 

@@ -2,8 +2,8 @@
 
 :func:`execute_run` rebuilds the records from the run's spec, identifies
 (timing it and tracing its peak memory), computes the metrics
-(:mod:`nlid.study.metrics`, :meth:`nlid.reference.Comparison.to_row`; the
-columns are declared in :mod:`nlid.study.columns`) and, when the study has a
+(:mod:`nlid.study.metrics`, :meth:`nlid.identified.reference.Comparison.to_row`; the
+columns are declared in :mod:`nlid.scoring.columns`) and, when the study has a
 ``[posterior]`` table, adds ``nlid.bayes.study_metrics(record, result,
 reference, **options)`` to the row. It never raises: a failure is a payload with
 ``status = "failed"`` and the error message, and so is a result that could not
@@ -20,7 +20,7 @@ fault (SIGSEGV)"``), raises through everything, or returns what cannot be
 sent back is recorded as ``failed`` with that reason; warnings the plugin
 issued and threads it left running go to the row's ``warnings``. Only a
 failure of the machinery itself (no child could be started) raises
-(:class:`~nlid.runtime.isolation.IsolationError`), so a study never records
+(:class:`~nlid.runtime.outcome.IsolationError`), so a study never records
 every run as failed for a reason that is not theirs.
 A spec of another kind than a study's :class:`RunSpec` (``nlid bench``'s
 :class:`nlid.benchmarking.jobs.BenchJob`) runs itself through the same
@@ -37,13 +37,13 @@ from typing import Any
 
 import numpy as np
 
+from ..base.jsonable import to_jsonable
+from ..contract.registry import load_registry
 from ..errors import NlidError
-from ..interface import to_jsonable
-from ..pipeline import as_model, identify
-from ..reference import compare
-from ..registry import load_registry
+from ..identification.pipeline import as_model, identify
+from ..identified.reference import compare
 from ..runtime import isolation
-from . import columns as col
+from ..scoring import columns as col
 from . import metrics
 from .data import build_data
 from .plan import RunSpec
@@ -88,7 +88,7 @@ def execute_run(spec: RunSpec) -> dict[str, Any]:
     -------
     dict
         ``{"run_id", "row", "result", "reference", "arrays", "timings"}``: the
-        flat metrics row, the :class:`~nlid.identified.IdentifiedModel` as a
+        flat metrics row, the :class:`~nlid.identified.model.IdentifiedModel` as a
         dictionary, the reference values, the result's arrays, and the wall
         time in seconds of each part of the run (``data``, ``identify``,
         ``scores``, ``metrics``, ``posterior``, ``payload``; not stored: the
@@ -115,7 +115,7 @@ def execute_run(spec: RunSpec) -> dict[str, Any]:
 
 
 def json_problem(value: Any, where: str = "") -> str | None:
-    """Why ``value`` (after :func:`~nlid.interface.to_jsonable`) is not plain JSON, or ``None``.
+    """Why ``value`` (after :func:`~nlid.base.jsonable.to_jsonable`) is not plain JSON, or ``None``.
 
     ``"result['diagnostics']['fit'] is a Foo, not a JSON value"``: the first
     offending entry.
@@ -142,9 +142,9 @@ def json_problem(value: Any, where: str = "") -> str | None:
 
 def _execute(spec: RunSpec) -> dict[str, Any]:
     if spec.dataset.source.kind == "preset":
-        from ..mdof.studies import execute_structure_run, is_structure_preset
+        from .structures import execute_structure_run, is_structure_preset
 
-        if is_structure_preset(spec.dataset.source.name):  # several DOFs: nlid.mdof.studies
+        if is_structure_preset(spec.dataset.source.name):  # several DOFs: nlid.study.structures
             return execute_structure_run(spec, _base_row(spec))
     clock = [time.perf_counter()]
     timings: dict[str, float] = {}  # the run's fixed costs beside the identification (benchmarks/bench_scaling.py)
@@ -199,7 +199,7 @@ def _execute(spec: RunSpec) -> dict[str, Any]:
         except NlidError as exc:
             extra = {}
             _add_warning(row, f"posterior: {exc}")
-        row.update(extra)  # declared families (nlid.study.columns): they never collide with the columns above
+        row.update(extra)  # declared families (nlid.scoring.columns): they never collide with the columns above
         lap("posterior")
     payload = {
         "run_id": spec.run_id,

@@ -105,7 +105,7 @@ def _part(x: np.ndarray, part: tuple[int, int]) -> np.ndarray | None:
     return sx if p == 0 else sx * int_power(np.abs(x), p)
 
 
-#: Fields and special-factor kinds of :class:`nlid.terms.Term` that :func:`_fast_term_func` evaluates.
+#: Fields and special-factor kinds of :class:`nlid.model.terms.Term` that :func:`_fast_term_func` evaluates.
 _KNOWN_FIELDS = frozenset({"z", "v", "px", "special"})
 _KNOWN_SPECIAL = frozenset({"exp1", "exp2", "tanh"})
 

@@ -36,7 +36,7 @@ __all__ = [
 #: the cost grows as (2 i c)^3.
 DEFAULT_BLOCK_ROWS = 100
 #: Default cut-off of the velocity differentiator and of the de-noising
-#: low-pass: this multiple of :func:`nlid.derivatives.suggest_cutoff` of z (the
+#: low-pass: this multiple of :func:`nlid.signal.derivatives.suggest_cutoff` of z (the
 #: frequency where the displacement spectrum meets 100 x its noise floor),
 #: capped at 0.4 fs. Measured with nsi-ip on paper-numerical at 2 % noise
 #: (median of seeds 0-4, c_v / zeta-+ errors): 1.5 x (64 Hz) 0.80 / 0.65 / 0.72 %,
@@ -174,9 +174,9 @@ class Velocity:
 def default_cutoff(z: np.ndarray, fs: float, suggested: float | None = None) -> float:
     """Default cut-off of the velocity differentiator and the de-noising low-pass (Hz).
 
-    ``CUTOFF_FACTOR`` times :func:`nlid.derivatives.suggest_cutoff` of ``z``
+    ``CUTOFF_FACTOR`` times :func:`nlid.signal.derivatives.suggest_cutoff` of ``z``
     (``suggested``, when already known), capped at
-    ``nlid.derivatives.CUTOFF_MAX_FRACTION`` of fs.
+    ``nlid.signal.derivatives.CUTOFF_MAX_FRACTION`` of fs.
     """
     base = derivatives.suggest_cutoff(z, fs) if suggested is None else suggested
     return min(CUTOFF_FACTOR * base, derivatives.CUTOFF_MAX_FRACTION * fs)
@@ -371,7 +371,7 @@ def reconstruction(
 
     z = np.asarray(record.z, dtype=float)
     if record.a is not None and vel.differentiate is not None and opt["acceleration"] == "fuse":
-        # a crossover outside (0, fs/2) is refused by nlid.derivatives.complementary, naming the option
+        # a crossover outside (0, fs/2) is refused by nlid.signal.derivatives.complementary, naming the option
         rec = fuse_motion(z, record.a, record.f, f_held, record.dt, uls, opt["crossover"])
         return rec, None
     auto = vel.cutoff if vel.differentiate is not None and opt.get("velocity_cutoff") is None else None

@@ -22,7 +22,7 @@ Equations implemented (paper numbering)
   ``1 / Hbar = kbar - m w^2 + i c_v w`` fitted over the band;
 * Eq. 8 and Eq. 22: natural frequency ``sqrt(K'(z*) / m)`` and damping ratio
   ``zeta = zeta_bar wbar / w_n = c_v / (2 m w_n)`` at every stable equilibrium
-  of the identified ``K(z)`` (through :func:`nlid.physics.modal`, which uses
+  of the identified ``K(z)`` (through :func:`nlid.model.physics.modal`, which uses
   every term linear in v at rest; with ``v`` alone that is exactly Eq. 22).
 
 The constant term ``1`` (``m g`` on the paper's example) comes from the static

@@ -27,7 +27,7 @@ broadband force; with a band-limited force the completion is ~0 and harmless.
 
 With a measured acceleration (:func:`fuse_motion`)
     The same surrogate, but the residuals ``z - z_s`` and ``a - a_s`` are
-    fused by the complementary filter of :func:`nlid.derivatives.complementary`
+    fused by the complementary filter of :func:`nlid.signal.derivatives.complementary`
     (``z`` below a crossover, ``a`` above it) instead of low-passing ``z``
     alone: the high band then comes from the measured acceleration rather
     than from the linear surrogate. The crossover is where the two noise
@@ -252,7 +252,7 @@ def fuse_motion(
     force-driven motion exactly, in particular the held force's intersample
     response; the residuals ``rz = z - z_s`` and ``ra = a - a_s`` (``a_s =
     (f - c v_s - k z_s) / m`` at the samples, the convention of the measured
-    ``a``) are fused by :func:`nlid.derivatives.complementary`::
+    ``a``) are fused by :func:`nlid.signal.derivatives.complementary`::
 
         z_hat = z_s + L rz + (1 - L) I^2 ra,    v_hat = v_s + L D rz + (1 - L) I ra
 

@@ -40,7 +40,8 @@ Shapes
     ``diagnostics["shapes"]`` lists the fitted values and their standard errors.
 
 Several degrees of freedom (``dofs = "multi"``)
-    A :class:`~nlid.mdof.StructureRecord` is fitted on the free run of every DOF's displacement with the
+    A :class:`~nlid.data.structure_record.StructureRecord` is fitted on the free run of every DOF's displacement with
+    the
     structure simulator, from another identifier's estimate (:mod:`nlid_oe.structure`).
 """
 
@@ -224,7 +225,7 @@ class OutputError(Identifier):
                 raise InputError(f"oe: option 'outputs' asks for {c!r}, which the record does not measure")
         shaped = _shape_selection(self.settings["shapes"], model)
         start, method = self._start(record, model, mass)
-        # the segments' kernels on the shared pool (nlid.parallel.workers), BLAS on one thread: the matrices
+        # the segments' kernels on the shared pool (nlid.runtime.parallel.workers), BLAS on one thread: the matrices
         # between two free runs are small, and a BLAS pool spinning after its call takes the kernels' cores
         with kernel_threads() as threads:
             estimate = self._fit(record, model, mass, start, method, channels, shaped)
@@ -512,7 +513,7 @@ class OutputError(Identifier):
         lower, upper = problem.bounds(u0)
         tol = self.settings["tol"]
         limit = self.settings["max_nfev"]
-        # a terminal-only line when the caller asked for progress (nlid.progress): evaluations of the free run
+        # a terminal-only line when the caller asked for progress (nlid.runtime.progress): evaluations of the free run
         line = progress_line("oe", total=limit, unit="free runs")
         stage = f"{problem.K} segment(s)"
 

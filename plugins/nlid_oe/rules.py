@@ -33,7 +33,7 @@ HORIZON_QUANTILE = 0.25
 #: the short segments' answer is kept).
 WHOLE_RECORD_RATIO = 1.5
 #: Automatic multiple shooting whose RMS error exceeds this multiple of the measurement noise floor
-#: (:func:`nlid.derivatives.noise_sd`, relative to each channel's std) halves its segments and fits again,
+#: (:func:`nlid.signal.derivatives.noise_sd`, relative to each channel's std) halves its segments and fits again,
 #: at most :data:`MAX_HALVINGS` times.
 NOISE_RATIO = 1.25
 MAX_HALVINGS = 3

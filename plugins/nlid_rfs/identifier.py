@@ -8,11 +8,11 @@ instead (as the IDIM-LS reference method of the EMPS benchmark does).
 Derivatives come from the record when measured, otherwise from nlid's
 zero-phase differentiating filter; when a channel is estimated, the force, the
 acceleration and every regressor pass through the same zero-phase low-pass and
-the unsettled ends are dropped (:func:`nlid.physics.regression_data`), so no
+the unsettled ends are dropped (:func:`nlid.model.physics.regression_data`), so no
 phase error enters. ``decimate`` then keeps every q-th equation: the equations
 are already band-limited, so this only trades samples for speed.
 
-Standard errors (see :mod:`nlid.regression`): the reported ones are batch-means
+Standard errors (see :mod:`nlid.estimation.regression`): the reported ones are batch-means
 sandwich errors, valid for a stationary equation error that may be coloured
 (as it is after the low-pass) and heteroscedastic, with exact regressors. The
 classical ``s^2 (X^T X)^-1`` values, valid only for independent identically
@@ -24,10 +24,10 @@ evaluating a nonlinear damping term on a band-limited velocity; see
 Near-collinear terms (|correlation| >= 0.99 on the record) are reported as
 warnings naming the pair, and non-smooth velocity terms (``sign(v)``...) when
 the band-limited velocity misses a noticeable part of the velocity reversals
-(:func:`nlid.regression.nonsmooth_warnings`).
+(:func:`nlid.estimation.regression.nonsmooth_warnings`).
 
 Several degrees of freedom (``dofs = "multi"``): a
-:class:`~nlid.mdof.StructureRecord` is identified by one joint least squares
+:class:`~nlid.data.structure_record.StructureRecord` is identified by one joint least squares
 of every DOF's force balance, the element coefficients shared between the
 DOFs they connect and ``K``, ``C`` estimated with them
 (:mod:`nlid_rfs.structure`).

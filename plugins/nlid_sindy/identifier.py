@@ -17,7 +17,7 @@ and reported as a check only.
 
 Derivatives (default ``differentiation="nlid"``)
     pysindy is given ``x'`` estimated with nlid's shared filters
-    (:func:`nlid.physics.regression_data`): measured channels are used as
+    (:func:`nlid.model.physics.regression_data`): measured channels are used as
     they are; otherwise the force, the acceleration and every library column
     are brought to the same zero-phase band and the unsettled ends are
     passed as missing (NaN rows, which pysindy drops). ``"pysindy"`` uses
@@ -161,7 +161,7 @@ def build_problem(
     cutoff
         Equation band of nlid's filters (Hz); default from the noise floor.
     differentiation
-        ``"nlid"`` (shared filters, :func:`nlid.physics.regression_data`) or
+        ``"nlid"`` (shared filters, :func:`nlid.model.physics.regression_data`) or
         ``"pysindy"`` (``pysindy.SmoothedFiniteDifference``).
     """
     import pysindy as ps
@@ -421,7 +421,7 @@ def _standard_errors(fit, library_model: Model, support: list[int], mass: float 
     """Standard errors of the kept coefficients of R (and of the mass).
 
     Least squares on the kept columns is pysindy's own unbiasing step, so its
-    batch-means covariance (:func:`nlid.regression.least_squares`) is that of
+    batch-means covariance (:func:`nlid.estimation.regression.least_squares`) is that of
     ``xi``; ``theta_i = -m xi_i`` with the mass known, and with the mass
     estimated ``theta_i = -xi_i / xi_f``, ``m = 1 / xi_f`` (delta method).
     """

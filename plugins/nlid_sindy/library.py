@@ -1,6 +1,6 @@
 """A pysindy feature library that speaks nlid's term language.
 
-:class:`TermLibrary` turns an :class:`nlid.terms.Model` into a pysindy
+:class:`TermLibrary` turns an :class:`nlid.model.terms.Model` into a pysindy
 feature library, so that SINDy is given exactly the terms the user wrote for
 every other method. Its inputs are the columns pysindy passes to a library:
 the state ``[z, v]`` followed by the control inputs (the force). Its outputs
@@ -9,17 +9,17 @@ column unchanged.
 
 Filtered (weak) form
     Given ``fs`` and ``cutoff``, each model column is low-passed with nlid's
-    shared zero-phase filter (:func:`nlid.derivatives.lowpass`) after being
+    shared zero-phase filter (:func:`nlid.signal.derivatives.lowpass`) after being
     evaluated. Together with a force and an acceleration passed through the
-    same filter (:func:`nlid.physics.regression_data`), this states the
+    same filter (:func:`nlid.model.physics.regression_data`), this states the
     equation of motion in the filter band, where the estimated derivatives
     are accurate, instead of sample by sample - the same idea as pysindy's
     weak-form libraries, with nlid's filter as the test function. The filter
     needs the whole record, so give the library every sample: it returns NaN
     rows (every feature, the controls included) within
-    ``nlid.physics.EDGE_PERIODS`` cut-off periods of either end of each
+    ``nlid.model.physics.EDGE_PERIODS`` cut-off periods of either end of each
     trajectory, where the filter has not settled, and pysindy's optimizers
-    drop those rows - the samples :func:`nlid.physics.regression_data` trims.
+    drop those rows - the samples :func:`nlid.model.physics.regression_data` trims.
 
 :func:`auto_candidates` lists the terms of the automatic candidate library.
 """

@@ -2,7 +2,7 @@
 
 The library
     Every candidate is an element: a term of the one-DOF library evaluated on
-    the relative coordinate of a connection (:mod:`nlid.mdof.elements`).
+    the relative coordinate of a connection (:mod:`nlid.model.elements`).
     ``library = "terms"``: the elements given. ``library = "automatic"``: the
     elements given plus, on **every** connection (every pair ``(i, j)`` and
     every DOF to the ground), ``x^2 .. x^degree``, ``x'|x'|``, ``x'^3``,

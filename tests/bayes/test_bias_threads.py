@@ -5,11 +5,11 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from nlid import balance
 from nlid.bayes import bias
 from nlid.bayes.noise import channel_noise
 from nlid.errors import IdentificationError
-from nlid.presets import get_preset
+from nlid.estimation import balance
+from nlid.simulation.presets import get_preset
 
 
 @pytest.fixture(scope="module")

@@ -37,7 +37,7 @@ NOISE = (0.01, 0.02, 0.05)
 def _standardised_errors(name: str, channels: tuple[str, ...], noise: float, seed: int) -> list[float]:
     """(centre - truth) / sd of each damping coefficient in the likelihood's Gaussian limit, for one record."""
     from nlid.bayes import build_likelihood
-    from nlid.presets import get_preset
+    from nlid.simulation.presets import get_preset
 
     preset = get_preset(name)
     model = preset.model()
@@ -80,7 +80,7 @@ def _replicate(name: str, seed: int) -> dict[str, bool]:
     """Whether each damping coefficient's 90 % interval contains the truth, for one seed."""
     from nlid import identify
     from nlid.bayes import sample_posterior
-    from nlid.presets import get_preset
+    from nlid.simulation.presets import get_preset
 
     preset = get_preset(name)
     model = preset.model()
@@ -99,7 +99,7 @@ def test_ninety_percent_intervals_cover_the_truth(name):
         results = list(pool.map(_replicate, [name] * len(SEEDS), SEEDS))
     coverage = {term: float(np.mean([r[term] for r in results])) for term in results[0]}
     print(f"{name}: 90 % interval coverage over {len(SEEDS)} replicates: {coverage}")
-    from nlid.presets import get_preset
+    from nlid.simulation.presets import get_preset
 
     damping = [t.name for t in get_preset(name).model().terms if t.family == "damping"]
     assert sorted(coverage) == sorted(damping)

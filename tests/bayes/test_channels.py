@@ -7,7 +7,7 @@ import pytest
 
 from nlid import identify
 from nlid.bayes import PosteriorSampler, build_likelihood, sample_posterior, study_metrics
-from nlid.presets import get_preset
+from nlid.simulation.presets import get_preset
 
 CHANNEL_SETS = [("z",), ("z", "a"), ("z", "v"), ("z", "v", "a")]
 

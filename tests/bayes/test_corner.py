@@ -13,7 +13,7 @@ from matplotlib.text import Text
 from nlid import identify
 from nlid.bayes import sample_posterior
 from nlid.bayes.plots import corner_figure
-from nlid.presets import get_preset
+from nlid.simulation.presets import get_preset
 
 
 @pytest.fixture(scope="module")

@@ -16,8 +16,8 @@ from nlid.bayes import (
     study_metrics,
 )
 from nlid.errors import InputError
-from nlid.presets import get_preset
-from nlid.terms import Model
+from nlid.model.terms import Model
+from nlid.simulation.presets import get_preset
 
 
 @pytest.fixture(scope="module")

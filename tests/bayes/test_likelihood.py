@@ -3,7 +3,6 @@
 import numpy as np
 import pytest
 
-from nlid import balance
 from nlid.bayes.bias import simulate_bias
 from nlid.bayes.likelihood import (
     DegenerateParametersError,
@@ -12,7 +11,8 @@ from nlid.bayes.likelihood import (
     check_identifiable,
     long_run_covariance,
 )
-from nlid.presets import get_preset
+from nlid.estimation import balance
+from nlid.simulation.presets import get_preset
 
 
 def test_sufficient_statistics_reproduce_least_squares():

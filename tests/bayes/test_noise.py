@@ -5,11 +5,11 @@ import pickle
 import numpy as np
 import pytest
 
-from nlid import derivatives
 from nlid.bayes.noise import UnknownNoiseError, channel_noise, velocity_noise
+from nlid.data.record import Record
 from nlid.errors import DataError, InputError
-from nlid.presets import get_preset
-from nlid.record import Record
+from nlid.signal import derivatives
+from nlid.simulation.presets import get_preset
 
 
 @pytest.fixture(scope="module")

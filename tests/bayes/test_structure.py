@@ -11,8 +11,8 @@ import nlid
 from nlid.bayes import sample_posterior
 from nlid.bayes.structure import NO_CORRECTION, NOISY_VELOCITY, StructureParameters, select_structure_params
 from nlid.errors import InputError, NlidError
-from nlid.mdof.regression import unknown_names
-from nlid.presets import get_preset
+from nlid.estimation.structure_regression import unknown_names
+from nlid.simulation.presets import get_preset
 
 
 @pytest.fixture(scope="module")
@@ -73,7 +73,7 @@ def test_settings_a_structure_cannot_honour_are_refused(chain_noisy, chain_fit):
 
 
 def test_unknowns_are_named_in_any_spelling_of_their_orientation():
-    elements = nlid.mdof.fit.as_elements("(z1-z2)^3, (z1-z2)^2, (v1-v2)*|v1-v2|", 2)
+    elements = nlid.identification.structure_fit.as_elements("(z1-z2)^3, (z1-z2)^2, (v1-v2)*|v1-v2|", 2)
     unknowns = StructureParameters(unknown_names(elements), elements)
     assert unknowns.canonical("(z1 - z2)^3") == "(z1-z2)^3"
     assert unknowns.canonical("(v1-v2)*|v1-v2|") == "(v1-v2)*|v1-v2|"
@@ -111,7 +111,7 @@ def test_a_filtered_balance_counts_its_correlated_residual(chain):
     assert info["dof"] < info["samples"] / 2.0
     assert len(info["dof_weights"]) == 3 and max(info["dof_weights"]) == 1.0
     # the correction simulated each displacement's noise at its floor, which sees at least the noise the record
-    # was given (signal in the floor's band can only add to it: nlid.derivatives.noise_sd)
+    # was given (signal in the floor's band can only add to it: nlid.signal.derivatives.noise_sd)
     true_sd = 0.005 * record.z.std(axis=0)  # noise added relative to the clean channel's std (~ the noisy one's)
     assert info["bias_correction"] is True
     assert np.all(np.asarray(info["noise_sd"]) > 0.8 * true_sd)

@@ -5,8 +5,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from nlid.data.io import write_csv
 from nlid.discovery.cases import build_case
-from nlid.io import write_csv
 
 #: A benchmark of our own: single-well Duffing, the cubic spring missing from the declared model.
 PROTOCOL = """

@@ -95,7 +95,7 @@ def test_cli_bench_errors_are_one_line(argv, message, capsys, tmp_path):
 def test_the_scoring_adapter_applies_the_protocols_transient_rule(toy):
     """A window rule scores fewer samples than the first-sample rule, and says which rule it applied."""
     from nlid.benchmarking.data import load_estimation, load_test
-    from nlid.pipeline import identify
+    from nlid.identification.pipeline import identify
 
     text, est, test, _ = toy
     protocol = parse_protocol(text)

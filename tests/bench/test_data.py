@@ -13,7 +13,7 @@ from nlid import DataError, InputError
 from nlid.benchmarking import data as bench_data
 from nlid.benchmarking import load_estimation, load_protocol, load_test, parse_protocol
 from nlid.benchmarking.data import check_user_files, noise_floor, read_user_file
-from nlid.record import Record
+from nlid.data.record import Record
 
 
 def test_user_files_in_the_benchmarks_format_and_as_nlid_records(tmp_path):
@@ -146,7 +146,7 @@ def test_noise_floor_of_periodic_records():
     period, sigma = 512, 0.01
     clean = np.tile(np.sin(2 * np.pi * np.arange(period) / 64), 4)
     rec = Record(f=clean, z=clean + sigma * rng.standard_normal(clean.size), fs=100.0)
-    from nlid.benchmarking.protocol import NoiseFloor
+    from nlid.benchmarking.declarations import NoiseFloor
 
     assert noise_floor(rec, NoiseFloor(period, (2, 3, 4))) == pytest.approx(sigma, rel=0.1)
     with pytest.raises(DataError, match="ends after the estimation part"):

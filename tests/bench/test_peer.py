@@ -8,9 +8,9 @@ import numpy as np
 import pytest
 
 from nlid import InputError
+from nlid.benchmarking.declarations import PeerSettings
 from nlid.benchmarking.peer import DIFFERENTIATION, PeerModel, _fit, fit_peer
-from nlid.benchmarking.protocol import PeerSettings
-from nlid.record import Record
+from nlid.data.record import Record
 
 
 def _oscillator(n=3000, fs=200.0, seed=0, x0=(0.0, 0.0), force=None):
@@ -106,9 +106,9 @@ def test_the_peer_normalises_its_columns_so_a_record_in_volts_keeps_its_cubic_sp
     """
     import pysindy as ps
 
-    from nlid.identified import IdentifiedModel
+    from nlid.identified.model import IdentifiedModel
+    from nlid.model.terms import Model
     from nlid.simulation import simulate_segments
-    from nlid.terms import Model
 
     fs, period, mass = 610.0, 2048, 5.36e-6
     coefficients = {"z": 0.989, "z^3": 3.86, "v": 2.26e-4}

@@ -6,7 +6,7 @@ import pytest
 
 from nlid import InputError
 from nlid.benchmarking import builtin_benchmarks, load_protocol, parse_protocol
-from nlid.datasets import SILVERBOX_PARTS
+from nlid.data.datasets import SILVERBOX_PARTS
 
 
 def test_builtin_benchmarks_and_their_protocols():
@@ -111,8 +111,8 @@ def test_a_simulated_benchmark_declares_its_true_system_and_the_bench_scores_it(
 
     from nlid.benchmarking.jobs import score_model
     from nlid.benchmarking.truth import TRUTH_KIND, true_fitted
-    from nlid.datasets import BOUC_WEN_REFERENCE
-    from nlid.record import Record
+    from nlid.data.datasets import BOUC_WEN_REFERENCE
+    from nlid.data.record import Record
 
     bw = load_protocol("bouc-wen")
     assert bw.truth is not None and dict(bw.truth.coefficients) == BOUC_WEN_REFERENCE["coefficients"]

@@ -1,4 +1,5 @@
-"""Progress of long work: on a terminal only, when the caller asked, never with --json or --quiet (nlid.progress)."""
+"""Progress of long work: on a terminal only, when the caller asked, never with --json or --quiet
+(nlid.runtime.progress)."""
 
 from __future__ import annotations
 
@@ -8,8 +9,8 @@ import json
 import pytest
 
 import nlid
-import nlid.progress as progress
-from nlid.progress import ProgressLine, progress_line, showing
+import nlid.runtime.progress as progress
+from nlid.runtime.progress import ProgressLine, progress_line, showing
 
 TERMS = "z^3,z^2,v*|v|"
 #: What a redrawn progress line starts with.
@@ -23,7 +24,7 @@ class _Terminal(io.StringIO):
 
 @pytest.fixture
 def fake_terminal(monkeypatch):
-    """Every stream nlid.progress looks at is a terminal."""
+    """Every stream nlid.runtime.progress looks at is a terminal."""
     monkeypatch.setattr(progress, "_isatty", lambda stream: True)
 
 

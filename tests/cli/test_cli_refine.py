@@ -2,8 +2,8 @@
 
 from __future__ import annotations
 
-from nlid.io import write_csv
-from nlid.presets import get_preset
+from nlid.data.io import write_csv
+from nlid.simulation.presets import get_preset
 
 
 def test_the_command_line_refines_and_prints_both(cli, monkeypatch, tmp_path, rfs_oe_registry):

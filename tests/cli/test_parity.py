@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 
 import nlid
-from nlid.interface import to_jsonable
+from nlid.base.jsonable import to_jsonable
 
 TERMS = "z^3,z^2,v*|v|"
 #: Keys whose values are wall times or say where a side wrote: not the verb's answer.

@@ -5,11 +5,12 @@ from __future__ import annotations
 import pluggy
 import pytest
 
-from nlid import hookimpl, hookspecs
+from nlid import hookimpl
+from nlid.contract import hookspecs
 from nlid.discovery import LIBRARY, Candidate, Shape, library_names, resolve_candidates
 from nlid.discovery.library import plugin_candidates
 from nlid.errors import InputError
-from nlid.terms import Model
+from nlid.model.terms import Model
 
 ISSUE_NAMES = [
     "coulomb",
@@ -25,7 +26,7 @@ ISSUE_NAMES = [
 ]
 # issue 13: non-smooth stiffness and memory, offered only where the probes find structure of their kind
 OPEN_WORLD_NAMES = ["gap", "stop-positive", "stop-negative", "hysteresis-bouc-wen", "dahl-friction"]
-# issue 31: effects in the input path (nlid.inputpath), fitted without adding a term
+# issue 31: effects in the input path (nlid.estimation.inputpath), fitted without adding a term
 INPUT_PATH_NAMES = ["input-delay", "actuator-lag", "force-hold"]
 
 
@@ -157,7 +158,7 @@ def test_plugin_candidates_are_found_and_a_broken_plugin_is_isolated():
 )
 def test_dissipative_terms_are_friction_and_damping_laws(term, expected):
     from nlid.discovery.library import dissipative
-    from nlid.terms import parse_term
+    from nlid.model.terms import parse_term
 
     assert dissipative(parse_term(term)) is expected
 
@@ -165,7 +166,7 @@ def test_dissipative_terms_are_friction_and_damping_laws(term, expected):
 def test_every_dissipative_candidate_carries_its_sign():
     """A friction or damping law with a negative coefficient feeds energy in: library, user and plugin candidates."""
     from nlid.discovery.library import dissipative
-    from nlid.terms import parse_term
+    from nlid.model.terms import parse_term
 
     for cand in LIBRARY:
         for term in cand.terms:

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import pytest
 
-from nlid.datasets import load
+from nlid.data.datasets import load
 from nlid.discovery import discover
 
 

@@ -5,7 +5,7 @@ from __future__ import annotations
 import json
 
 from nlid.discovery import discover
-from nlid.presets import get_preset
+from nlid.simulation.presets import get_preset
 
 
 def test_refine_reports_the_final_model_before_and_after_oe(rfs_oe_registry):

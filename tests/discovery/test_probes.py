@@ -7,9 +7,9 @@ import math
 import pytest
 
 import nlid
-from nlid import derivatives
 from nlid.discovery.cases import build_case, build_open_case
 from nlid.discovery.probes import MIN_STRUCTURE, PROBES, describe_remaining, probe_residual
+from nlid.signal import derivatives
 
 
 def _probe(record, declared, mass):

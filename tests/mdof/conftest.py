@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import pytest
 
-from nlid.presets import get_preset
+from nlid.simulation.presets import get_preset
 
 
 @pytest.fixture(scope="session")

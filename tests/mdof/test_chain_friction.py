@@ -14,10 +14,10 @@ import numpy as np
 import pytest
 
 from nlid.discovery.structure import discover_structure
-from nlid.mdof.elements import ElementSet
-from nlid.mdof.jointfit import NormalEquations, fit_linear_elements, joint_least_squares
-from nlid.mdof.regression import structure_regression_data
-from nlid.presets import get_preset
+from nlid.estimation.joint import NormalEquations, fit_linear_elements, joint_least_squares
+from nlid.estimation.structure_regression import structure_regression_data
+from nlid.model.elements import ElementSet
+from nlid.simulation.presets import get_preset
 
 CUBIC, FRICTION = "(z2-z3)^3", "sign(v1-v2)"
 TRUTH = {CUBIC: 5e9, FRICTION: 2.0}

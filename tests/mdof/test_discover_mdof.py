@@ -12,10 +12,11 @@ import numpy as np
 import pytest
 
 import nlid
-from nlid.discovery.structure import StructureDiscoveryResult, discover_structure, parse_connections
+from nlid.discovery.structure import discover_structure
+from nlid.discovery.structure_result import StructureDiscoveryResult, parse_connections
 from nlid.errors import InputError
-from nlid.mdof.jointfit import fit_linear_elements
-from nlid.presets import get_preset
+from nlid.estimation.joint import fit_linear_elements
+from nlid.simulation.presets import get_preset
 
 CONNECTIONS = "3-4, 4-5, 3-0, 4-0, 5-0"
 CANDIDATES = "cubic-stiffness, quintic-stiffness, coulomb, gap"

@@ -8,12 +8,12 @@ import numpy as np
 import pytest
 
 import nlid
+from nlid.base.validate import parse_mass
 from nlid.cli.main import main
+from nlid.data.io import write_csv
 from nlid.errors import InputError
-from nlid.io import write_csv
-from nlid.mdof.model import structure_mass
-from nlid.presets import get_preset
-from nlid.validate import parse_mass
+from nlid.model.structure import structure_mass
+from nlid.simulation.presets import get_preset
 
 M = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 2.0]]
 

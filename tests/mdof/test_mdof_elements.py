@@ -8,9 +8,9 @@ import numpy as np
 import pytest
 
 from nlid.errors import InputError, TermError
-from nlid.mdof import ElementSet, StructuralModel, parse_element
-from nlid.mdof.elements import Element
-from nlid.terms import parse_term
+from nlid.model.elements import Element, ElementSet, parse_element
+from nlid.model.structure import StructuralModel
+from nlid.model.terms import parse_term
 
 SPELLINGS = [
     "(z1-z2)^3",

@@ -6,9 +6,9 @@ import numpy as np
 import pytest
 
 import nlid
+from nlid.contract.structure_estimate import StructureEstimate
 from nlid.errors import InputError
-from nlid.mdof.estimate import StructureEstimate
-from nlid.mdof.identified import IdentifiedStructure
+from nlid.identified.structure import IdentifiedStructure
 
 WELL_TERMS = "(z1-z2)^3, (z1-z2)^2, (v1-v2)*|v1-v2|"
 
@@ -142,7 +142,7 @@ def test_oe_on_a_noisy_structure_reaches_the_noise_and_improves_on_rfs(chain):
 
 
 def test_free_run_segments_continue_one_free_run(chain_record):
-    from nlid.mdof import free_run, free_run_segments
+    from nlid.simulation.structure import free_run, free_run_segments
 
     rec = chain_record
     model = nlid.identify(rec, "z3^3", "rfs", mass=rec.mass).structure

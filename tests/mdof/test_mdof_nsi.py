@@ -7,7 +7,7 @@ import pytest
 
 import nlid
 from nlid.errors import InputError
-from nlid.presets import get_preset
+from nlid.simulation.presets import get_preset
 
 DOUBLE_WELL = "(z1-z2)^3, (z1-z2)^2, (v1-v2)*|v1-v2|"
 # The noise correction estimates each DOF's noise from its spectrum above 0.35 fs; on a noise-free double well the

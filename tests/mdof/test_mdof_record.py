@@ -9,10 +9,10 @@ import pandas as pd
 import pytest
 
 import nlid
+from nlid.data.io import write_csv, write_npz
+from nlid.data.record import Record
+from nlid.data.structure_record import StructureRecord
 from nlid.errors import DataError, InputError
-from nlid.io import write_csv, write_npz
-from nlid.mdof import StructureRecord
-from nlid.record import Record
 
 
 @pytest.fixture(scope="module")

@@ -5,10 +5,10 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from nlid.mdof.model import StructuralModel
-from nlid.mdof.sensitivity import structure_segments, structure_sensitivity_columns
-from nlid.mdof.simulation import free_run_segments
-from nlid.presets import get_preset
+from nlid.model.structure import StructuralModel
+from nlid.simulation.presets import get_preset
+from nlid.simulation.structure import free_run_segments
+from nlid.simulation.structure_sensitivity import structure_segments, structure_sensitivity_columns
 
 ELEMENTS = "(z2-z3)^3, tanh((v1-v2)/0.01), dahl(z3, 1e-4), (v1-v3)*|v1-v3|"
 COEFFICIENTS = {"(z2-z3)^3": 5e9, "tanh((v1-v2)/0.01)": 2.0, "dahl(z3, 1e-4)": 1.0, "(v1-v3)*|v1-v3|": 3.0}

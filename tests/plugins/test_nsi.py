@@ -9,8 +9,9 @@ simulated and identified once per session (fixtures below).
 import numpy as np
 import pytest
 
-from nlid import IdentificationError, identify, physics
+from nlid import IdentificationError, identify
 from nlid.cli.main import main
+from nlid.model import physics
 from nlid_nsi import UnstableULSError
 
 TERMS = "z^3, z^2, v*|v|"

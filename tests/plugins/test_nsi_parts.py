@@ -354,7 +354,7 @@ def test_noise_subtraction_matches_the_lag_loop():
 
 
 def test_fast_term_evaluation_matches_the_term_language():
-    from nlid.terms import Model
+    from nlid.model.terms import Model
     from nlid_nsi.basis import split_model
 
     spec = (
@@ -378,7 +378,7 @@ def test_fast_term_evaluation_matches_the_term_language():
 
 def test_the_suggested_cutoff_is_computed_once_per_identification(monkeypatch):
     import nlid
-    from nlid import derivatives
+    from nlid.signal import derivatives
     from nlid_nsi.common import default_cutoff
 
     calls = []
@@ -398,8 +398,8 @@ def test_the_suggested_cutoff_is_computed_once_per_identification(monkeypatch):
 
 
 def test_a_constant_regressor_column_skips_the_filter_with_the_same_numbers():
-    from nlid import derivatives
-    from nlid.balance import _lowpass_columns
+    from nlid.estimation.balance import _lowpass_columns
+    from nlid.signal import derivatives
 
     rng = np.random.default_rng(13)
     n, fs = 5000, 1000.0

@@ -7,11 +7,12 @@ import pytest
 
 import nlid
 from nlid import Record
+from nlid.contract.estimate import Estimate
+from nlid.contract.identifier import Identifier
 from nlid.errors import DataError, IdentificationError, InputError, PluginError
-from nlid.interface import Estimate, Identifier
-from nlid.presets import get_preset
+from nlid.model.terms import Model
 from nlid.simulation import random_force, simulate
-from nlid.terms import Model
+from nlid.simulation.presets import get_preset
 from nlid.testing import parametrize_with_checks
 from nlid_oe import OutputError
 
@@ -145,9 +146,9 @@ def test_a_start_that_diverges_is_an_identification_error():
         def identify(self, record, model, *, mass=None):
             return Estimate(coefficients=model.as_dict([0.0, -5e4, 1e6, 5e3, -50.0, 0.0]))
 
-    registry = nlid.registry.Registry(identifiers={"unstable": Unstable})
+    registry = nlid.contract.registry.Registry(identifiers={"unstable": Unstable})
     with pytest.MonkeyPatch.context() as mp:
-        mp.setattr("nlid.pipeline.registry_for", lambda name: registry)
+        mp.setattr("nlid.identification.pipeline.registry_for", lambda name: registry)
         with pytest.raises(IdentificationError, match="diverges"):
             nlid.identify(record, preset.terms, OutputError(init="unstable", oversample=1), mass=0.2)
 

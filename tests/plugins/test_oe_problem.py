@@ -5,8 +5,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from nlid.presets import get_preset
 from nlid.simulation import fine_force
+from nlid.simulation.presets import get_preset
 from nlid_oe.problem import Parameter, Problem
 
 

@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from nlid import IdentificationError, identify
-from nlid.datasets import EMPS_REFERENCE, load
+from nlid.data.datasets import EMPS_REFERENCE, load
 
 TERMS = "z^3, z^2, v*|v|"
 

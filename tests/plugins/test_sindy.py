@@ -7,8 +7,8 @@ import pytest
 from nlid import IdentificationError, InputError, identify
 from nlid import load as load_file
 from nlid.cli.main import main
-from nlid.datasets import EMPS_REFERENCE, load
-from nlid.terms import Model
+from nlid.data.datasets import EMPS_REFERENCE, load
+from nlid.model.terms import Model
 from nlid_sindy import TermLibrary, auto_candidates
 from nlid_sindy.threshold import choose_threshold
 

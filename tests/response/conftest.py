@@ -4,10 +4,10 @@ from __future__ import annotations
 
 import pytest
 
-from nlid import physics
-from nlid.identified import IdentifiedModel
-from nlid.presets import get_preset
-from nlid.terms import Model
+from nlid.identified.model import IdentifiedModel
+from nlid.model import physics
+from nlid.model.terms import Model
+from nlid.simulation.presets import get_preset
 
 
 def oscillator(spec: str, coefficients: dict, mass: float = 1.0, model: Model | None = None) -> IdentifiedModel:

@@ -5,10 +5,10 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from nlid.model.terms import Model
 from nlid.response.balance import Balance
 from nlid.response.harmonics import Harmonics, crossings
 from nlid.response.system import HarmonicSystem
-from nlid.terms import Model
 
 SPECS = [
     "z^3, z^2",

@@ -5,8 +5,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from nlid.data.record import Record
 from nlid.errors import InputError
-from nlid.record import Record
 from nlid.response.measured import measure
 from nlid.simulation import SineTest, simulate
 

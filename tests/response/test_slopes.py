@@ -5,8 +5,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from nlid.terms import parse_term, px_coefficients
-from nlid.terms.slopes import slopes, switches
+from nlid.model.terms import parse_term, px_coefficients
+from nlid.model.terms.slopes import slopes, switches
 
 PXC = px_coefficients(-0.02, 0.015)
 SPELLINGS = [

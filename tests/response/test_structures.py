@@ -5,8 +5,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from nlid.mdof.identified import IdentifiedStructure
-from nlid.presets import get_preset
+from nlid.identified.structure import IdentifiedStructure
+from nlid.simulation.presets import get_preset
 
 
 @pytest.fixture(scope="module")

@@ -30,7 +30,7 @@ def test_the_result_is_tidy_plain_and_drawn(response):
 
 
 def test_the_plot_draws_on_given_axes(response):
-    from nlid.plotting import new_figure
+    from nlid.report.plotting import new_figure
 
     _, ax = new_figure()
     assert response.plot(ax=ax, quantity="peak") is ax

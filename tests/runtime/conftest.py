@@ -136,7 +136,7 @@ def hostile_path(tmp_path_factory):
         {"nlid_runtime_test_plugins": PLUGINS},
         {"runtime-test": "nlid_runtime_test_plugins"},
     )
-    from nlid.registry import default_registry, registry_for
+    from nlid.contract.registry import default_registry, registry_for
 
     def fresh() -> None:  # registries built before (or with) the plugins on the path are stale
         default_registry.cache_clear()
@@ -152,8 +152,8 @@ def hostile_path(tmp_path_factory):
 @pytest.fixture(scope="module")
 def record_csv(tmp_path_factory) -> Path:
     """A short simulated record as a CSV file (4 s of paper-numerical, z and a)."""
-    from nlid.io import write_csv
-    from nlid.presets import get_preset
+    from nlid.data.io import write_csv
+    from nlid.simulation.presets import get_preset
 
     path = tmp_path_factory.mktemp("record") / "x.csv"
     write_csv(get_preset("paper-numerical").with_overrides(duration=4.0).simulate(0, channels=("z", "a")), path)

@@ -20,13 +20,8 @@ import pytest
 from runtime_helpers import descendants_except_servers, marked_env, nlid_cli, wait_until_gone
 
 from nlid.errors import InputError
-from nlid.runtime.isolation import (
-    IsolationError,
-    PluginWarning,
-    kill_children,
-    run_in_child,
-    start_method,
-)
+from nlid.runtime.isolation import kill_children, run_in_child, start_method
+from nlid.runtime.outcome import IsolationError, PluginWarning
 
 pytestmark = pytest.mark.skipif(sys.platform == "win32", reason="POSIX process groups")
 

@@ -7,7 +7,7 @@ import os
 import pytest
 
 from nlid.cli.main import main
-from nlid.outputs import LOCK, MARKER, STUDY_OUTPUTS, WRITER, FolderBusyError, output_folder
+from nlid.runtime.outputs import LOCK, MARKER, STUDY_OUTPUTS, WRITER, FolderBusyError, output_folder
 
 STUDY = """
 [study]

@@ -11,7 +11,7 @@ from __future__ import annotations
 import pytest
 from plugin_dist import write_distribution
 
-from nlid.registry import load_registry
+from nlid.contract.registry import load_registry
 
 PLUGINS = '''
 import os

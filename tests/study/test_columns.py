@@ -1,4 +1,4 @@
-"""The study row's columns are declared once (nlid.study.columns); producers and consumers go through them."""
+"""The study row's columns are declared once (nlid.scoring.columns); producers and consumers go through them."""
 
 from __future__ import annotations
 
@@ -10,9 +10,9 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from nlid import columns as core_columns
 from nlid.plugin import FigureArray, Identifier, standard_figure_arrays
-from nlid.study import columns as col
+from nlid.scoring import columns as col
+from nlid.scoring import columns as core_columns
 from nlid.study.report import tables
 from nlid.study.report.figures import figure_arrays
 from nlid.study.report.section import Section
@@ -82,7 +82,7 @@ _PRODUCERS_AND_CONSUMERS = [
     "nlid/study/worker.py",
     "nlid/study/data.py",
     "nlid/bayes/study.py",
-    "nlid/reference.py",
+    "nlid/identified/reference.py",
     *sorted(str(p.relative_to(ROOT)) for p in (ROOT / "nlid" / "study" / "report").glob("*.py")),
 ]
 #: Scalar keys that are also the compare frame's quantities (its own vocabulary).
@@ -112,7 +112,7 @@ def test_no_column_key_is_spelled_outside_the_declarations(relative):
     identity |= {f.name for f in (col.REPETITION, col.SEED, col.WARNINGS)}
     prefixes = tuple(f"{f.name}:" for f in col.FAMILIES if f.labelled)
     scalars = {f.name for f in col.FAMILIES if not f.labelled} - identity - {"mass"}
-    if relative == "nlid/reference.py":
+    if relative == "nlid/identified/reference.py":
         scalars -= _WORDS  # the compare frame's own quantities share these names
     offenders = [
         f"{relative}:{line}: {text!r}"
@@ -160,7 +160,8 @@ def test_figure_arrays_are_declared_by_the_identifier():
 
 # ----------------------------------------------------------------------------- fit %: one declaration and its producer
 def test_the_free_run_fit_column_is_declared_produced_and_shown(short_record, numerical):
-    """MATLAB compare's fit of the held-out free run: declared in nlid.columns, produced from Scores, in the table."""
+    """MATLAB compare's fit of the held-out free run: declared in nlid.scoring.columns, produced from Scores, in the
+    table."""
     from nlid import identify, plugin
     from nlid.study.metrics import holdout_metrics
 

@@ -314,7 +314,7 @@ def test_posterior_hook_adds_its_metrics_to_the_row(small_study, registry, monke
 
     def study_metrics(record, result, truth, **options):
         calls.append(options)
-        assert truth.coefficients["z^3"] == 1e6 and "z^3" in result.model.names  # a nlid.reference.Reference
+        assert truth.coefficients["z^3"] == 1e6 and "z^3" in result.model.names  # a nlid.identified.reference.Reference
         c = result.coefficients["z^3"]
         return {
             "ci_lo:z^3": 0.995 * c,

@@ -12,8 +12,8 @@ from pathlib import Path
 import pytest
 
 from nlid.cli.main import main
-from nlid.outputs import STUDY_OUTPUTS, FolderBusyError, output_folder
 from nlid.runtime.isolation import run_in_child, start_method
+from nlid.runtime.outputs import STUDY_OUTPUTS, FolderBusyError, output_folder
 
 
 def _children() -> dict[int, list[int]]:

@@ -5,8 +5,9 @@ import numpy as np
 import pytest
 
 from nlid import IdentifiedModel, Model
-from nlid.physics import Equilibria
-from nlid.study.metrics import equilibrium_metrics, match_equilibria
+from nlid.identified.reference import match_equilibria
+from nlid.model.physics import Equilibria
+from nlid.study.metrics import equilibrium_metrics
 
 
 def test_match_equilibria_nearest_first_each_once():

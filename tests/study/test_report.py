@@ -11,7 +11,7 @@ import pandas as pd
 import pytest
 
 from nlid import identify
-from nlid.presets import get_preset
+from nlid.simulation.presets import get_preset
 from nlid.study import LocalExecutor, parse_study, run_study
 
 TERMS = "z^3, z^2, v*|v|"
@@ -87,7 +87,7 @@ def test_summary_numbers_match_individual_identify_results(finished):
 
     ref = preset.truth()
     model = preset.model()
-    from nlid import physics
+    from nlid.model import physics
 
     modal = _table(summary, "Modal parameters")
     true_eq = physics.equilibria(model, ref["coefficients"], (-0.05, 0.05)).stable

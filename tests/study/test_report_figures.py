@@ -7,7 +7,7 @@ import pandas as pd
 import pytest
 
 from nlid.study.report.figures import draw_summary
-from nlid.study.report.tables import Section
+from nlid.study.report.section import Section
 from nlid.study.report.verdict import build_verdict
 
 SECONDS = {"rfs": [0.08, 0.09, 0.087], "sindy": [1.3, 1.4, 1.5]}

@@ -5,7 +5,7 @@ from __future__ import annotations
 import pandas as pd
 import pytest
 
-from nlid.study.report.tables import Section
+from nlid.study.report.section import Section
 from nlid.study.report.verdict import build_verdict
 
 

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from nlid import TermError
-from nlid.terms import Model, parse_term
+from nlid.model.terms import Model, parse_term
 
 CANONICAL = [
     "1",

@@ -2,7 +2,7 @@ import numpy as np
 import pytest
 
 from nlid import InputError, TermError
-from nlid.terms import Model, px_coefficients
+from nlid.model.terms import Model, px_coefficients
 
 
 def test_defaults_and_canonical_order():

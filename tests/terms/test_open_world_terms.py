@@ -6,9 +6,9 @@ import numpy as np
 import pytest
 
 from nlid.errors import TermError
+from nlid.model.terms import Model, parse_term, split_terms
+from nlid.model.terms.memory import bouc_wen_path, dahl_path, rate
 from nlid.simulation import free_run, random_force, simulate
-from nlid.terms import Model, parse_term, split_terms
-from nlid.terms.memory import bouc_wen_path, dahl_path, rate
 
 
 @pytest.mark.parametrize(

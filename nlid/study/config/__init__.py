@@ -15,7 +15,7 @@ A study is datasets x models x identifiers x repetitions. The file::
 
     [[datasets]]
     name = "numerical"
-    preset = "paper-numerical"     # or: dataset = "emps" (nlid.datasets), or: file = "x.csv"
+    preset = "paper-numerical"     # or: dataset = "emps" (nlid.data.datasets), or: file = "x.csv"
     overrides = { duration = 30 }  # preset fields / coefficients
     noise = { z = 0.02 }           # fraction of each channel's standard deviation (or one number)
     channels = ["z"]               # response channels recorded (z always)
@@ -72,7 +72,6 @@ The package holds one job per module:
 
 from __future__ import annotations
 
-from ..values import ConfigError
 from .builtin import BUILTIN_PACKAGE_DIR, builtin_dirs, builtin_studies, resolve_study_path
 from .load import TRIAL_SECONDS, load_study, resolve_study
 from .parse import parse_study
@@ -89,7 +88,6 @@ from .schema import (
 from .tomlio import tomllib
 
 __all__ = [
-    "ConfigError",
     "DatasetConfig",
     "ModelConfig",
     "StudyConfig",

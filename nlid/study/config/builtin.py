@@ -5,8 +5,8 @@ from __future__ import annotations
 import os
 from pathlib import Path
 
+from ...base.validate import did_you_mean
 from ...errors import InputError
-from ...validate import did_you_mean
 
 __all__ = ["BUILTIN_PACKAGE_DIR", "builtin_dirs", "builtin_studies", "resolve_study_path"]
 

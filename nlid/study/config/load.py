@@ -6,9 +6,9 @@ import os
 from dataclasses import replace
 from pathlib import Path
 
+from ...contract.registry import Registry
+from ...data.io import TEXT_LIMIT, check_path
 from ...errors import InputError, NlidError
-from ...io import TEXT_LIMIT, check_path
-from ...registry import Registry
 from ..values import BenchmarkSource, ConfigError, FileSource, KnownMass, PresetSource, Where
 from .builtin import resolve_study_path
 from .parse import parse_study

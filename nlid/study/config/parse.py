@@ -16,14 +16,14 @@ from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
+from ...base.frozen import FrozenDict
+from ...base.validate import CUTOFF, SEED
+from ...contract.identifier import resolve_options
+from ...contract.registry import Registry, default_registry
 from ...errors import InputError, NlidError, brief
-from ...frozen import FrozenDict
-from ...interface import resolve_options
-from ...pipeline import as_model
-from ...registry import Registry, default_registry
+from ...identification.pipeline import as_model
+from ...model.terms import Model
 from ...scoring import rule_from_spec
-from ...terms import Model
-from ...validate import CUTOFF, SEED
 from ..values import (
     MAX_MASS,
     MAX_TIMEOUT,
@@ -106,7 +106,7 @@ def _roots(where: Where, value: Any) -> tuple[float, float] | None:
 def _check_model(where: Where, model: ModelConfig, source: Any = None) -> None:
     try:
         if getattr(source, "kind", "") == "preset" and hasattr(source.preset(), "elements"):  # several DOFs
-            from ...mdof.studies import check_structure_terms
+            from ..structures import check_structure_terms
 
             check_structure_terms(model.terms, source.preset(), model.without)
             return
@@ -249,8 +249,8 @@ def _posterior(where: Where, value: Any, datasets: list[DatasetConfig]) -> dict[
 
 def _structure_unknowns(ds: DatasetConfig, main: Any) -> Any:
     from ...bayes.structure import StructureParameters
-    from ...mdof.fit import as_elements
-    from ...mdof.regression import unknown_names
+    from ...estimation.structure_regression import unknown_names
+    from ...identification.structure_fit import as_elements
 
     elements = as_elements(main.terms, ds.source.preset().model().n_dofs, without=main.without)
     return StructureParameters(unknown_names(elements), elements)
@@ -325,7 +325,7 @@ def _dataset(where: Where, entry: dict[str, Any], base: Path, reps: int, timeout
         if k in entry:
             raise (where / k).error("only applies to file datasets")
     if "part" in entry and kind != "dataset":
-        raise (where / "part").error("only applies to nlid.datasets entries (dataset = ...)")
+        raise (where / "part").error("only applies to nlid.data.datasets entries (dataset = ...)")
     source: DataSource = SOURCES[kind].from_toml(entry, where, base)
 
     name = _name(where / "name", entry.get("name", value if kind != "file" else Path(value).stem))

@@ -13,7 +13,7 @@ from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import Any
 
-from ...frozen import FrozenDict
+from ...base.frozen import FrozenDict
 from ..values import (
     SPEC_DEFAULTS,
     DataSource,

@@ -1,14 +1,14 @@
 """A study's outputs: results.csv, summary.md / summary.txt / summary.csv, figures and a self-contained report.html.
 
 ``summary.txt`` is what ``nlid study run`` prints: the verdict first, then the
-tables, no line wider than :data:`nlid.formatting.TERMINAL_WIDTH`.
+tables, no line wider than :data:`nlid.base.formatting.TERMINAL_WIDTH`.
 
 The outputs are written again only when they are stale: ``report.html`` carries
 the digest of what it was written from (:func:`report_digest`: every stored
 row and result of the study's runs, the study file and nlid's code), so a
 re-run with nothing new reads the store and keeps the report; and a report that
 is written again redraws only the figures whose inputs changed
-(:class:`~nlid.study.report.figures.FigureCache`).
+(:class:`~nlid.study.report.figurecache.FigureCache`).
 """
 
 from __future__ import annotations
@@ -27,8 +27,11 @@ import pandas as pd
 from ... import __version__
 from ..store import ResultStore
 from .codedigest import code_digest
-from .figures import Figure, FigureCache, section_figures
-from .tables import Section, Table, build_sections, summary_long, summary_markdown, summary_text
+from .figurecache import Figure, FigureCache
+from .figures import section_figures
+from .render import summary_long, summary_markdown, summary_text
+from .section import Section, Table
+from .tables import build_sections
 
 __all__ = ["write_report", "report_html", "report_digest", "stored_digest", "code_digest", "TEXT_SUMMARY"]
 
@@ -44,7 +47,7 @@ _META_RE = re.compile(rf'<meta name="{DIGEST_META}" content="([0-9a-f]{{64}})">'
 @functools.lru_cache(maxsize=8)
 def _plugin_packages(identifiers: tuple[str, ...]) -> tuple[str, ...]:
     """The top-level packages of the study's identifiers (already imported: the study was loaded with them)."""
-    from ...registry import default_registry
+    from ...contract.registry import default_registry
 
     found = set()
     registry = default_registry()
@@ -105,7 +108,7 @@ def write_report(config: Any, runs: list, store: ResultStore, *, force: bool = F
 
     The outputs are kept when ``report.html`` was written from the same rows, results, study and code
     (:func:`report_digest`); otherwise everything is written again, and only the figures whose inputs
-    changed are drawn (:class:`~nlid.study.report.figures.FigureCache`).
+    changed are drawn (:class:`~nlid.study.report.figurecache.FigureCache`).
 
     Parameters
     ----------

@@ -15,9 +15,9 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from ...outputs import atomic_write
-from ...plotting import save_figure
-from .. import columns as col
+from ...report.plotting import save_figure
+from ...runtime.outputs import atomic_write
+from ...scoring import columns as col
 
 __all__ = ["Figure", "FigureCache", "input_digest"]
 
@@ -117,7 +117,7 @@ class FigureCache:
         return ok
 
     def save(self, fig: Any, stem: Path, key: str) -> None:
-        """Write ``fig`` (:func:`nlid.plotting.save_figure`) and record its digest."""
+        """Write ``fig`` (:func:`nlid.report.plotting.save_figure`) and record its digest."""
         save_figure(fig, stem)
         self.current[stem.name] = key
         self.drawn.append(stem.name)

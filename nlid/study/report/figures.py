@@ -1,4 +1,4 @@
-"""Study figures (PNG and SVG through :mod:`nlid.plotting`, never pyplot).
+"""Study figures (PNG and SVG through :mod:`nlid.report.plotting`, never pyplot).
 
 Every figure has units on its axes, a legend and a one-line caption.
 
@@ -13,7 +13,7 @@ Every figure has units on its axes, a legend and a one-line caption.
   reference per method (line: median over the repetitions, band: min-max).
 * ``rms_*``: each term's RMS contribution to R (paper Fig. 22).
 * From a result's ``arrays`` when the method provides them
-  (:class:`nlid.identified.IdentifiedModel`): ``sv_*`` singular values
+  (:class:`nlid.identified.model.IdentifiedModel`): ``sv_*`` singular values
   (paper Fig. 9/12), ``frf_*`` the method's underlying-linear receptance(s)
   (Fig. 10/15) with the identified model linearised at each stable
   equilibrium, ``coef_*`` the frequency-dependent coefficient estimates, real
@@ -37,18 +37,22 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from ... import physics
-from ...formatting import sig
-from ...interface import FigureArray
-from ...plotting import new_figure
-from ...responseplots import declared_arrays
-from ...terms import Model
-from .. import columns as col
-from .figurecache import Figure, FigureCache, input_digest
+from ...base.formatting import sig
+from ...contract.identifier import FigureArray
+from ...identified.responseplots import declared_arrays
+from ...model import physics
+from ...model.terms import Model
+from ...report.plotting import new_figure
+from ...scoring import columns as col
+from .figurecache import Figure, FigureCache
 from .section import Section
 from .verdict import identical_methods
 
-__all__ = ["section_figures", "Figure", "FigureCache", "figure_arrays", "draw_summary", "input_digest"]
+__all__ = [
+    "section_figures",
+    "figure_arrays",
+    "draw_summary",
+]
 
 _SAFE = re.compile(r"[^A-Za-z0-9_.+-]+")
 _DATASET, _MODEL, _METHOD = col.DATASET.key(), col.MODEL.key(), col.METHOD.key()
@@ -82,7 +86,7 @@ def section_figures(
     ]
     if not recs:
         return figures
-    structure = "terms" not in recs[0]["result"]  # an identified structure (nlid.mdof): no 1-DOF stiffness curve
+    structure = "terms" not in recs[0]["result"]  # an identified structure: no 1-DOF stiffness curve
     for make in (_summary_figure, _rms_figure) if structure else (_summary_figure, _kz_figure, _rms_figure):
         fig = make(section, folder, cache) if make is not _kz_figure else make(section, recs, folder, cache)
         if fig:
@@ -370,7 +374,8 @@ def _slices_figure(
 
 
 def figure_arrays(method: str, arrays: dict) -> tuple[FigureArray, ...]:
-    """The arrays of a run that the method declares for figures (:func:`nlid.responseplots.declared_arrays`)."""
+    """The arrays of a run that the method declares for figures
+    (:func:`nlid.identified.responseplots.declared_arrays`)."""
     return declared_arrays(method, arrays)
 
 

@@ -10,8 +10,8 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from ...formatting import TERMINAL_WIDTH, text_table, wrap
-from .. import columns as col
+from ...base.formatting import TERMINAL_WIDTH, text_table, wrap
+from ...scoring import columns as col
 from .section import Section
 
 __all__ = ["summary_long", "summary_markdown", "summary_text"]

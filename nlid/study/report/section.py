@@ -4,7 +4,7 @@ Every cell is ``median [min, max]`` over the repetitions that succeeded
 (just the value when there is one). The tables (:mod:`.tables`), the
 verdict (:mod:`.verdict`) and the figures (:mod:`.figures`) all read a
 section through these pieces and the declared columns
-(:mod:`nlid.study.columns`).
+(:mod:`nlid.scoring.columns`).
 """
 
 from __future__ import annotations
@@ -16,14 +16,12 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
+from ...base.formatting import MISSING, column_digits, sig, spread_cell
 from ...errors import NlidError
-from ...formatting import MISSING, column_digits, sig, spread_cell
-from ...terms import parse_term
-from .. import columns as col
-from ..columns import COST_DIGITS
+from ...model.terms import parse_term
+from ...scoring import columns as col
 
 __all__ = [
-    "COST_DIGITS",
     "Column",
     "Section",
     "Stats",
@@ -42,7 +40,7 @@ _STATUS = col.STATUS.key()
 
 
 def fmt(x: float | None, digits: int = 3) -> str:
-    """``digits`` significant digits (:func:`nlid.formatting.sig`); an en dash for a missing value."""
+    """``digits`` significant digits (:func:`nlid.base.formatting.sig`); an en dash for a missing value."""
     return sig(x, digits)
 
 
@@ -98,7 +96,7 @@ def flags_cell(values: pd.Series) -> str:
 def cell(values: pd.Series, absolute: bool = False, digits: int | None = None) -> str:
     """``median [min, max]`` of the finite values (true/false values: the fraction true).
 
-    ``digits`` defaults to what the spread needs (:func:`nlid.formatting.spread_digits`).
+    ``digits`` defaults to what the spread needs (:func:`nlid.base.formatting.spread_digits`).
     """
     if is_flags(values):
         return flags_cell(values)
@@ -202,7 +200,7 @@ def method_rows(section: Section, columns: list[Column], digits: int | None = No
     """One row per method with runs: ``[method, runs, cells...]``, and the best cells ``{(row, column)}``.
 
     Every column has one count of significant digits, chosen from the spread of its cells
-    (:func:`nlid.formatting.column_digits`) unless ``digits`` is given; in a lower-is-better
+    (:func:`nlid.base.formatting.column_digits`) unless ``digits`` is given; in a lower-is-better
     column the cells with the lowest median are the best.
     """
     methods = section.present_methods

@@ -5,7 +5,7 @@ Every cell is ``median [min, max]`` over the repetitions that succeeded
 errors in percent, as the paper's Tables 2, 4 and 7 do; the reference value
 of each column is given in the first row.
 
-Each table reads the declared column families (:mod:`nlid.study.columns`):
+Each table reads the declared column families (:mod:`nlid.scoring.columns`):
 a scalar family declared with a table section (e.g. the residual and cost
 table) is shown there without code here; a column of no declared family is
 shown under "Other metrics". The pieces of a section live in
@@ -19,41 +19,15 @@ from typing import Any
 
 import pandas as pd
 
-from ...formatting import MISSING, column_digits, sig
-from .. import columns as col
+from ...base.formatting import MISSING, column_digits, sig
+from ...scoring import columns as col
 from ..values import PresetSource
-from .render import summary_long, summary_markdown, summary_text
-from .section import (
-    COST_DIGITS,
-    Column,
-    Section,
-    Stats,
-    Table,
-    cell,
-    exact,
-    fmt,
-    has_values,
-    method_rows,
-    runs_cell,
-    stats,
-)
+from .section import Column, Section, Table, cell, exact, has_values, method_rows, runs_cell
 from .verdict import build_verdict
 
 __all__ = [
-    "COST_DIGITS",
-    "Column",
-    "Section",
-    "Stats",
-    "Table",
     "build_sections",
-    "cell",
-    "exact",
-    "fmt",
     "selection",
-    "stats",
-    "summary_long",
-    "summary_markdown",
-    "summary_text",
 ]
 
 _DATASET, _MODEL, _METHOD = col.DATASET.key(), col.MODEL.key(), col.METHOD.key()
@@ -73,7 +47,7 @@ def build_sections(config: Any, frame: pd.DataFrame, records: list[dict[str, Any
             refs[key] = rec["reference"]
         result = rec.get("result")
         if result:
-            if "terms" not in result:  # an identified structure (nlid.mdof): its elements are the terms
+            if "terms" not in result:  # an identified structure (nlid.identified.structure): its elements are the terms
                 result = {**result, "terms": list((result.get("structure") or {}).get("elements") or [])}
             terms.setdefault(key, result["terms"])
             units.setdefault(key, {}).update(result.get("units") or {})
@@ -198,7 +172,7 @@ def _modal_table(section: Section) -> Table | None:
 
 
 def _structure_modes_table(section: Section) -> Table | None:
-    """A structure's underlying linear modes (mK) and modes per well (sJ.mK): |relative error| in % (nlid.mdof)."""
+    """A structure's underlying linear modes (mK) and modes per well (sJ.mK): |relative error| in % (a structure)."""
     columns = section.frame.columns
     cols = []
     for families in ((col.LINEAR_FN_ERROR, col.LINEAR_ZETA_ERROR), (col.WELL_FN_ERROR, col.WELL_ZETA_ERROR)):

@@ -36,10 +36,10 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from ...formatting import column_digits, sig, spread_cell, wrap
-from ...methods import doc_pages
-from .. import columns as col
-from ..columns import COST_DIGITS
+from ...base.formatting import column_digits, sig, spread_cell, wrap
+from ...contract.methods import doc_pages
+from ...scoring import columns as col
+from ...scoring.columns import COST_DIGITS
 
 __all__ = ["Finding", "Verdict", "build_verdict", "METHOD_DOCS"]
 

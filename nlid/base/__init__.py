@@ -1,0 +1,1 @@
+"""What every package stands on: frozen mappings, JSON values, numerical warnings, text, argument rules."""

@@ -1,0 +1,1 @@
+"""Between nlid and its identifiers: Identifier, Option, Estimate and its check, hooks, registry."""

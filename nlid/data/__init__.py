@@ -1,0 +1,1 @@
+"""Records and where they come from: Record and its rules, units, column maps, files, datasets, digests."""

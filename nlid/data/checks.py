@@ -1,0 +1,280 @@
+"""The rules a :class:`~nlid.data.record.Record` obeys, checked on construction.
+
+The channel names (:data:`CHANNELS`) and their SI units (:data:`DEFAULT_UNITS`);
+:func:`checked_fields`, which turns the fields a record is given into the ones
+it holds (each channel a read-only float array in SI units, equal lengths, at
+least :data:`MIN_SAMPLES` samples, finite, not constant; the metadata as
+:class:`RecordMeta`); and :func:`uniform_step`, the check of a time vector
+(uniform within :data:`TIME_TOLERANCE`). The rules themselves are listed in
+the docstring of :mod:`nlid.data.record`, which re-exports these names.
+"""
+
+from __future__ import annotations
+
+import numbers
+from collections.abc import Mapping
+from types import MappingProxyType
+from typing import Any
+
+import numpy as np
+
+from ..base.frozen import FrozenDict
+from ..errors import DataError, InputError
+from .units import Unit, parse_units, unit_of
+
+__all__ = [
+    "TimeAxis",
+    "CHANNELS",
+    "MIN_SAMPLES",
+    "TIME_TOLERANCE",
+    "DEFAULT_UNITS",
+    "META_ALIASES",
+    "RecordMeta",
+    "checked_fields",
+    "uniform_step",
+    "real_array",
+    "merge_units",
+    "freeze",
+]
+
+#: Channel names, in the order they are written to files.
+CHANNELS = ("f", "z", "v", "a")
+#: Smallest number of samples a record may have.
+MIN_SAMPLES = 32
+#: Largest relative deviation of a time step from the median step.
+TIME_TOLERANCE = 1e-3
+#: SI units of the channels.
+DEFAULT_UNITS: Mapping[str, str] = MappingProxyType({"f": "N", "z": "m", "v": "m/s", "a": "m/s^2", "t": "s"})
+
+
+def freeze(mapping: Mapping[str, Any] | None) -> Mapping[str, Any]:
+    """A read-only copy that pickles (records cross process boundaries: studies, ``identify(timeout=)``)."""
+    return FrozenDict(dict(mapping or {}))
+
+
+#: Earlier names of metadata keys: ``{old: current}``. A record stores the current name; the old one still reads.
+META_ALIASES: Mapping[str, str] = MappingProxyType({"truth": "reference"})
+
+
+class RecordMeta(FrozenDict):
+    """A record's metadata: read-only, each entry under one name; an earlier name (:data:`META_ALIASES`) still reads.
+
+    ``meta["truth"]`` and ``meta.get("truth")`` give ``meta["reference"]`` (simulated records carried their
+    truth under ``"truth"`` before); the old name is not a key (``"truth" in meta`` is false).
+    """
+
+    __slots__ = ()
+
+    @classmethod
+    def of(cls, mapping: Mapping[str, Any] | None) -> RecordMeta:
+        """The metadata of ``mapping`` with entries under an earlier name moved to the current one."""
+        items = dict(mapping or {})
+        for old, new in META_ALIASES.items():
+            if old in items and new not in items:
+                items[new] = items.pop(old)
+        return cls(items)
+
+    def __missing__(self, key: str) -> Any:
+        new = META_ALIASES.get(key)
+        if new is not None and dict.__contains__(self, new):
+            return dict.__getitem__(self, new)
+        raise KeyError(key)
+
+    def get(self, key: str, default: Any = None) -> Any:
+        """``meta[key]`` (an earlier name included), else ``default``."""
+        try:
+            return self[key]
+        except KeyError:
+            return default
+
+
+def merge_units(given: dict[str, Unit], mapped: Mapping[str, str]) -> dict[str, Unit]:
+    """The units of ``units=`` and those of the column map (``z[mm]=disp``); the same channel twice must agree."""
+    out = dict(given)
+    for channel, text in mapped.items():
+        unit = unit_of(channel, text, where="column map")
+        if channel in out and out[channel] != unit:
+            raise InputError(
+                f"the unit of {channel!r} is given twice: {out[channel].symbol!r} in units= "
+                f"and {unit.symbol!r} in the column map"
+            )
+        out[channel] = unit
+    return out
+
+
+def real_array(name: str, raw: Any) -> np.ndarray:
+    """A channel as a new float array; complex, boolean, text and other non-numbers are refused, not cast."""
+    arr = np.asarray(raw)
+    kind = arr.dtype.kind
+    if kind == "c":
+        raise DataError(f"channel {name!r} holds complex numbers; nlid needs real ones (take .real or abs)")
+    if kind == "b":
+        raise DataError(
+            f"channel {name!r} holds booleans (True/False), not numbers: a measured signal cannot be boolean"
+        )
+    try:
+        return np.array(arr, dtype=float) if kind in "iuf" else _objects_as_floats(arr)
+    except (TypeError, ValueError):
+        what = "text" if kind in "US" else f"values of type {arr.dtype}"
+        raise DataError(f"channel {name!r} holds {what}, not numbers") from None
+
+
+def _objects_as_floats(arr: np.ndarray) -> np.ndarray:
+    """Numbers held as objects (``Decimal``, ``Fraction``...) as floats; anything else raises TypeError/ValueError."""
+    if arr.dtype.kind != "O" or any(
+        isinstance(x, (bool, np.bool_, complex, np.complexfloating, str, bytes)) for x in arr.flat
+    ):
+        raise TypeError(arr.dtype)
+    return np.array(arr, dtype=float)
+
+
+def checked_fields(
+    fs: Any,
+    channels: Mapping[str, Any],
+    units: Any,
+    meta: Mapping[str, Any] | None,
+    provenance: Mapping[str, str] | None,
+) -> dict[str, Any]:
+    """The fields of a record as it holds them, from those it was given; every rule of :mod:`nlid.data.record` checked.
+
+    Parameters
+    ----------
+    fs
+        The sampling frequency (Hz).
+    channels
+        ``{name: array or None}`` for each name of :data:`CHANNELS`.
+    units, meta, provenance
+        As given to :class:`~nlid.data.record.Record`.
+
+    Returns
+    -------
+    dict
+        ``fs`` (a float), each channel given (a new read-only float array in SI units), ``units`` (the SI
+        unit of each channel), ``meta`` (a :class:`RecordMeta`, with ``input_units`` when a channel was
+        converted) and ``provenance`` (read-only).
+
+    Raises
+    ------
+    DataError
+        A broken rule (the channel and, for a non-finite value, the first bad index named).
+    InputError
+        A unit outside the vocabulary, or a time unit other than s (``fs`` is always in Hz).
+    """
+    declared = parse_units(units)
+    time_unit = declared.get("t")
+    if time_unit is not None and not time_unit.is_si:
+        raise InputError(
+            f"units: t in {time_unit.symbol!r} applies to a time vector (Record.from_time, or a time column); "
+            "fs= is always in Hz"
+        )
+    rate = float(fs)
+    if not np.isfinite(rate) or rate <= 0:
+        raise DataError(f"sampling frequency must be a positive number, got {fs!r}")
+    out: dict[str, Any] = {"fs": rate}
+    n = None
+    for name in CHANNELS:
+        raw = channels.get(name)
+        if raw is None:
+            if name in ("f", "z"):
+                raise DataError(f"channel {name!r} is required")
+            continue
+        arr = real_array(name, raw)  # a private copy
+        if arr.ndim != 1:
+            arr = arr.squeeze()
+            if arr.ndim != 1:
+                raise DataError(f"channel {name!r} must be one-dimensional, got shape {np.shape(raw)}")
+        bad = ~np.isfinite(arr)
+        if bad.any():
+            i = int(np.argmax(bad))
+            raise DataError(f"channel {name!r} has a non-finite value ({arr[i]}) at index {i}")
+        if n is None:
+            n = arr.size
+        elif arr.size != n:
+            raise DataError(f"channel {name!r} has {arr.size} samples but 'f' has {n}")
+        unit = declared.get(name)
+        if unit is not None and unit.factor != 1.0:
+            arr *= unit.factor
+        arr.setflags(write=False)
+        out[name] = arr
+    assert n is not None
+    if n < MIN_SAMPLES:
+        raise DataError(f"record has {n} samples; at least {MIN_SAMPLES} are needed")
+    for name in CHANNELS:
+        arr = out.get(name)
+        if arr is not None and np.ptp(arr) == 0.0:
+            raise DataError(f"channel {name!r} is constant ({arr[0]}); nothing can be identified from it")
+    si = dict(DEFAULT_UNITS)
+    si.update({c: u.si for c, u in declared.items()})
+    out["units"] = freeze(si)
+    if meta and meta.get("force_hold", "sampled") not in ("sampled", "zoh"):
+        raise DataError(f"meta['force_hold'] must be 'sampled' or 'zoh', got {meta['force_hold']!r}")
+    periodic = meta.get("periodic") if meta else None
+    if periodic is not None and not isinstance(periodic, bool):
+        if not isinstance(periodic, numbers.Integral) or not 2 <= periodic <= n:
+            raise DataError(f"meta['periodic'] must be true, false or a period of 2 to {n} samples, not {periodic}")
+    converted = {c: u.to_dict() for c, u in declared.items() if not u.is_si}
+    if converted:
+        meta = dict(meta or {})
+        meta["input_units"] = {**dict(meta.get("input_units") or {}), **converted}
+    out["meta"] = RecordMeta.of(meta)
+    out["provenance"] = freeze(provenance)
+    return out
+
+
+def uniform_step(t: np.ndarray) -> float:
+    """The time step of a time vector (s) that is one-dimensional, finite, increasing and uniform.
+
+    Every step may differ from the median step by at most :data:`TIME_TOLERANCE` (relative).
+
+    Raises
+    ------
+    DataError
+        A time vector that breaks the rule (the first bad index or step named).
+    """
+    if t.ndim != 1 or t.size < 2:
+        raise DataError("time vector must be one-dimensional with at least 2 samples")
+    bad = ~np.isfinite(t)
+    if bad.any():
+        raise DataError(f"channel 't' has a non-finite value at index {int(np.argmax(bad))}")
+    dt = np.diff(t)
+    step = float(np.median(dt))
+    if step <= 0:
+        raise DataError("time vector is not increasing")
+    dev = np.abs(dt - step) / step
+    if dev.max() > TIME_TOLERANCE:
+        i = int(np.argmax(dev))
+        raise DataError(
+            f"time axis is not uniform: step {i} is {dt[i]:.6g} s but the median step is {step:.6g} s "
+            f"(tolerance {TIME_TOLERANCE:g} relative)"
+        )
+    return step
+
+
+class TimeAxis:
+    """The time axis every record shares (a mixin of :class:`~nlid.data.record.Record` and
+    :class:`~nlid.data.structure_record.StructureRecord`): its length, step, duration and sample times.
+
+    The class defines ``n`` (samples), ``fs`` (Hz) and ``t0`` (s).
+    """
+
+    n: int
+    fs: float
+    t0: float
+
+    def __len__(self) -> int:
+        return self.n
+
+    @property
+    def dt(self) -> float:
+        """Sampling interval in s."""
+        return 1.0 / self.fs
+
+    @property
+    def duration(self) -> float:
+        """Length of the record in s (``n / fs``)."""
+        return self.n / self.fs
+
+    @property
+    def t(self) -> np.ndarray:
+        """Time of each sample in s."""
+        return self.t0 + np.arange(self.n) / self.fs

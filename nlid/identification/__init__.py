@@ -1,0 +1,1 @@
+"""nlid.identify: any identifier run the same way, its provenance, and identifying again."""

@@ -1,0 +1,143 @@
+"""Tables of one identified model: the summary ``nlid identify`` prints and the coefficient DataFrame.
+
+Used by :meth:`nlid.identified.model.IdentifiedModel.summary` and
+:meth:`~nlid.identified.model.IdentifiedModel.to_frame`, which pass themselves; like
+:mod:`nlid.identified.plots`, this module does not import the identified model.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from typing import TYPE_CHECKING
+
+from ..data.units import Unit, coefficient_conversion, display_units
+from ..errors import InputError
+from ..report.summary import Column, Summary
+
+if TYPE_CHECKING:  # pragma: no cover
+    import pandas as pd
+
+    from .model import IdentifiedModel
+
+__all__ = ["shown_units", "coefficient_frame", "model_summary"]
+
+
+def shown_units(fit: IdentifiedModel, units: str | Mapping[str, str] | None) -> dict[str, Unit] | None:
+    """The units the coefficients of ``fit`` are shown in; ``None`` for SI as computed.
+
+    Parameters
+    ----------
+    fit
+        The identified model.
+    units
+        ``None`` or ``"si"`` (SI), ``"input"`` (the units its data were given in, from its
+        provenance) or the units to show (:func:`nlid.data.units.display_units`).
+
+    Raises
+    ------
+    InputError
+        ``"input"`` for a model that does not record the units of its data, or units outside the vocabulary.
+    """
+    if units is None or (isinstance(units, str) and units.strip().lower() == "si"):
+        return None
+    if isinstance(units, str) and units.strip().lower() == "input":
+        data = fit.provenance.get("data") if fit.provenance else None
+        if not data or "units" not in data:
+            raise InputError(
+                "units='input': this model does not record the units of its data (it was not made by "
+                "nlid.identify); name them, e.g. units={'z': 'mm'}"
+            )
+        return display_units("input", data["units"])
+    return display_units(units)
+
+
+def coefficient_frame(fit: IdentifiedModel, units: str | Mapping[str, str] | None = None) -> pd.DataFrame:
+    """:meth:`nlid.identified.model.IdentifiedModel.to_frame`: one row per term (index: the term).
+
+    Parameters
+    ----------
+    fit
+        The identified model.
+    units
+        As for :func:`shown_units`.
+    """
+    import pandas as pd
+
+    se = fit.standard_errors or {}
+    shown = shown_units(fit, units)
+    rows = []
+    for n, t in zip(fit.terms, fit.model.terms, strict=True):
+        factor, unit = (1.0, t.coefficient_unit) if shown is None else coefficient_conversion(t, shown)
+        value, error = fit.coefficients[n], se.get(n, float("nan"))
+        if shown is not None:
+            value, error = value * factor, error * factor
+        rows.append({"term": n, "coefficient": value, "std_error": error, "unit": unit, "family": t.family})
+    return pd.DataFrame(rows).set_index("term")
+
+
+def model_summary(fit: IdentifiedModel, units: str | Mapping[str, str] | None = None) -> Summary:
+    """:meth:`nlid.identified.model.IdentifiedModel.summary`: coefficients, equilibria, modes, residuals.
+
+    Parameters
+    ----------
+    fit
+        The identified model.
+    units
+        As for :func:`shown_units` (the mass stays in kg).
+    """
+    shown = shown_units(fit, units)
+    zu = "m" if shown is None else shown["z"].symbol
+    zf = 1.0 if shown is None else shown["z"].factor  # the SI value of one displayed length unit
+    out = Summary()
+    head = [("method", fit.method)]
+    if fit.mass is not None:
+        how = "estimated" if fit.mass_estimated else "given"
+        se = f" +/- {fit.mass_standard_error:.3g}" if fit.mass_standard_error else ""
+        head.append(("mass", f"{fit.mass:.6g}{se} kg ({how})"))
+    if shown is not None:
+        head.append(("units", ", ".join(f"{c} in {shown[c].symbol}" for c in ("f", "z", "v"))))
+    path = getattr(fit, "input_path", None)
+    if path is not None and not path.identity:  # said only when the force does not act as recorded
+        head.append(("input path", path.describe()))
+    out.add_fields(head)
+    se = fit.standard_errors or {}
+    rows = []
+    for name, term in zip(fit.terms, fit.model.terms, strict=True):
+        factor, unit = (1.0, term.coefficient_unit) if shown is None else coefficient_conversion(term, shown)
+        error = se.get(name)
+        rows.append(
+            [
+                name,
+                f"{fit.coefficients[name] * factor:.6g}",
+                "" if error is None else f"{error * factor:.3g}",
+                unit,
+            ]
+        )
+    out.add_table(
+        [Column("term"), Column("coefficient", "right", 14), Column("std. error", "right", 11), Column("unit")],
+        rows,
+    )
+    if fit.px_roots:
+        zm, zp = fit.px_roots[0] / zf, fit.px_roots[1] / zf
+        out.add_fields([("px(z) roots", f"z- = {zm:.6g} {zu}, z+ = {zp:.6g} {zu}")])
+    if fit.equilibria is not None:
+        st = ", ".join(f"{z / zf:.6g}" for z in fit.equilibria.stable) or "none"
+        un = ", ".join(f"{z / zf:.6g}" for z in fit.equilibria.unstable) or "none"
+        out.add_fields([(f"equilibria ({zu})", f"stable {st}; unstable {un}")], gap=True)
+    out.add_text(
+        *(
+            f"at z* = {m.equilibrium / zf:.6g} {zu}: fn = {m.fn_hz:.4g} Hz, zeta = {100 * m.zeta:.3g} %"
+            for m in fit.modal
+        ),
+        indent="  ",
+    )
+    scores = []
+    if fit.scores is not None:
+        scores = [
+            ("epsilon (Eq. 26)", f"{fit.scores.eps_percent:.3g} %"),
+            ("force residual", f"{fit.scores.force_residual_percent:.3g} %"),
+        ]
+    out.add_fields(scores, separator="   ", gap=True)  # the blank line stays when there are no scores
+    tail = [] if fit.seconds is None else [("time", f"{fit.seconds:.3g} s")]
+    out.add_fields(tail + [("warning", w) for w in fit.warnings])
+    return out

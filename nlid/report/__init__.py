@@ -1,0 +1,1 @@
+"""Presentation shared by every result: the one Summary type and the figure helpers."""

@@ -1,0 +1,1 @@
+"""Signals of a record: derivatives, the zero-phase filters, the noise floor and the default cut-off."""
