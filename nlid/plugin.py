@@ -175,9 +175,11 @@ def __getattr__(name: str):  # the simulator (numba) and the scores are loaded o
 
         return getattr(scoring, name)
     if name in ("structure_free_run", "structure_free_run_segments"):
-        from .simulation import structure as simulation
+        from .simulation import structure as structure_simulation
 
-        return simulation.free_run if name == "structure_free_run" else simulation.free_run_segments
+        if name == "structure_free_run":
+            return structure_simulation.free_run
+        return structure_simulation.free_run_segments
     if name == "structure_segments":
         from .simulation.structure_sensitivity import structure_segments
 
