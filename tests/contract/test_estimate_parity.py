@@ -121,3 +121,13 @@ def test_a_structure_estimate_comes_back_normalised():
     assert type(out.coefficients[PAIR]) is float and out.coefficients[PAIR] == 2.5
     assert out.standard_errors == {PAIR: 0.1} and out.warnings == ("a",)
     assert out.elements is not None and list(out.elements.names) == [PAIR]
+
+
+def test_a_candidate_plugin_needs_only_the_plugin_toolkit():
+    """``nlid.plugin`` hands on what the ``nlid_candidates`` hook returns (issue 32, seams)."""
+    import nlid.plugin
+    from nlid.discovery.library import Candidate, Shape
+
+    assert nlid.plugin.Candidate is Candidate and nlid.plugin.Shape is Shape
+    made = nlid.plugin.Candidate("soft", ("tanh(v/{c})",), "tanh friction", nlid.plugin.Shape("v", (0.01, 0.1)))
+    assert made.terms == ("tanh(v/{c})",)
