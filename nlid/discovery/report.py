@@ -37,6 +37,7 @@ import pandas as pd
 
 from ..base.formatting import TERMINAL_WIDTH
 from ..model.terms import parse_term
+from ..report.html import html_table
 from ..report.plotting import save_figure
 from ..report.summary import Column, Summary
 from .evidence import Evidence
@@ -331,9 +332,7 @@ class _Doc:
                 body.append("<ul>" + "".join(f"<li>{e(x)}</li>" for x in data) + "</ul>")
             elif kind == "table":
                 headers, rows = data
-                head = "".join(f"<th>{e(str(h))}</th>" for h in headers)
-                rows_html = "".join("<tr>" + "".join(f"<td>{e(str(c))}</td>" for c in r) + "</tr>" for r in rows)
-                body.append(f"<table><thead><tr>{head}</tr></thead><tbody>{rows_html}</tbody></table>")
+                body.append(html_table(headers, rows))
             elif kind == "img":
                 figs = "".join(
                     f'<figure><img src="{e(src)}" alt="{e(cap)}"><figcaption>{e(cap)}</figcaption></figure>'

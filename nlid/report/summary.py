@@ -32,6 +32,7 @@ from dataclasses import dataclass, field
 from typing import Any, Literal
 
 from ..base.formatting import wrap
+from .html import html_table
 
 __all__ = ["Summary", "Column", "Table", "Fields", "Text"]
 
@@ -301,23 +302,13 @@ class Summary:
         for block in self.blocks:
             if isinstance(block, Fields):
                 if block.items:
-                    rows = "".join(
-                        f"<tr><th style='text-align:left'>{e(k)}</th><td style='text-align:left'>{e(v)}</td></tr>"
-                        for k, v in block.items
+                    rows = [list(item) for item in block.items]
+                    parts.append(
+                        html_table(None, rows, align=("left", "left"), table_class="nlid-fields", row_header=True)
                     )
-                    parts.append(f"<table class='nlid-fields'><tbody>{rows}</tbody></table>")
             elif isinstance(block, Table):
-                head = "".join(f"<th style='text-align:{c.align}'>{e(c.title)}</th>" for c in block.columns)
-                body = "".join(
-                    "<tr>"
-                    + "".join(
-                        f"<td style='text-align:{c.align}'>{e(cell)}</td>"
-                        for c, cell in zip(block.columns, row, strict=True)
-                    )
-                    + "</tr>"
-                    for row in block.rows
-                )
-                parts.append(f"<table><thead><tr>{head}</tr></thead><tbody>{body}</tbody></table>")
+                align = [c.align for c in block.columns]
+                parts.append(html_table([c.title for c in block.columns], block.rows, align=align))
             else:
                 parts += [f"<p>{e(p.strip())}</p>" for p in block.paragraphs if p.strip()]
         return "<div class='nlid-summary'>" + "".join(parts) + "</div>"

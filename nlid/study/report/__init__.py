@@ -25,6 +25,7 @@ from typing import Any
 import pandas as pd
 
 from ... import __version__
+from ...report.html import html_table
 from ..store import ResultStore
 from .codedigest import code_digest
 from .figurecache import Figure, FigureCache
@@ -180,16 +181,14 @@ window.addEventListener("load", function () {
 
 
 def _rows_html(header: list[str], rows: list[list[str]], best: set[tuple[int, int]] = frozenset()) -> list[str]:
-    out = ["<table>", "<tr>" + "".join(f"<th>{html.escape(h)}</th>" for h in header) + "</tr>"]
-    for i, row in enumerate(rows):
-        cls = ' class="reference"' if row and row[0] == "reference" else ""
-        cells = "".join(
-            f'<td class="best">{html.escape(c)}</td>' if (i, j) in best else f"<td>{html.escape(c)}</td>"
-            for j, c in enumerate(row)
+    return [
+        html_table(
+            header,
+            rows,
+            cell_class=lambda i, j: "best" if (i, j) in best else None,
+            row_class=lambda i, row: "reference" if row and row[0] == "reference" else None,
         )
-        out.append(f"<tr{cls}>{cells}</tr>")
-    out.append("</table>")
-    return out
+    ]
 
 
 def _table_html(table: Table) -> str:
