@@ -470,8 +470,9 @@ def _write_report(result: Result, out: Path) -> list[Path]:
     doc.table(headers, rows)
     if not (isinstance(final.identified.diagnostics, dict) and final.identified.diagnostics.get("posterior")):
         doc.p(
-            "Standard errors are the identifier's (for rfs: least squares, assuming independent equation "
-            "errors, hence optimistic on filtered data); no posterior was available."
+            "Standard errors are the identifier's own; the least-squares ones are batch-means sandwich errors, "
+            "which allow for the correlated, filtered equation error but take the regressors as exact "
+            "(docs/rfs.md); no posterior was available."
         )
     notes = [f.sim_note for f in result.states if f.sim_note] + list(final.identified.warnings)
     if notes:
