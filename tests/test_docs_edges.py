@@ -91,3 +91,13 @@ def test_no_unsourced_figure_is_called_published(figure):
         for block in blocks:
             if "published" in block and pattern.search(block):
                 assert "no source" in block or "no published source" in block, (path.name, figure, block[:300])
+
+
+def test_the_bouc_wen_record_quotes_only_listed_published_figures():
+    """The record's metadata quotes the leaderboard's figures (to their 3 digits), no unsourced one."""
+    from nlid.benchmarking.protocol import load_protocol
+    from nlid.data.datasets import BOUC_WEN_REFERENCE
+
+    listed = [p.rmse for p in load_protocol("bouc-wen").published]
+    for name, value in BOUC_WEN_REFERENCE["published_rms_error_m"].items():
+        assert any(abs(value - x) <= 0.005 * x for x in listed), name

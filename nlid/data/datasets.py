@@ -95,7 +95,9 @@ SILVERBOX_PARTS = {
 BOUC_WEN_REFERENCE = {
     "mass": 2.0,
     "coefficients": {"z": 5e4, "v": 10.0, "bouc_wen(800, -1100)": 5e4},
-    "published_rms_error_m": {"pnlss_multisine": 1.2e-5, "neural_block_oriented_multisine": 4.5e-5, "linear": 2e-4},
+    # as the leaderboard lists them (nlid/benchmarking/protocols/bouc-wen.toml, each with its rule); dynoNet's under
+    # another transient rule. The "linear model about 2e-4 m" of earlier versions has no source and is not here.
+    "published_rms_error_m": {"pnlss_multisine": 1.21e-5, "dynonet_multisine_other_rule": 4.52e-5},
 }
 
 
