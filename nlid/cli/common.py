@@ -85,7 +85,9 @@ class _WholeWords:
 
 
 class _HelpFormatter(_WholeWords, argparse.HelpFormatter):
-    pass
+    def _fill_text(self, text: str, width: int, indent: str) -> str:
+        lines = textwrap.wrap(" ".join(text.split()), width, break_on_hyphens=False, break_long_words=False)
+        return "\n".join(indent + line for line in lines)
 
 
 class _RawDescriptionHelpFormatter(_WholeWords, argparse.RawDescriptionHelpFormatter):
