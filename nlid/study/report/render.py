@@ -102,8 +102,8 @@ def summary_text(config: Any, sections: list[Section], width: int = TERMINAL_WID
             lines += ["", "VERDICT", section.verdict.text(width)]
         lines += [
             "",
-            "Tables: median [min, max] over repetitions; * = best (lowest) median of an error or cost column "
-            "(every one of a tie).",
+            "Tables: median [min, max] over repetitions; * = best (lowest) median of an error or cost column,",
+            "every cell of a tie marked.",
         ]
         for table in section.tables:
             rows = [
