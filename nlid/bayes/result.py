@@ -126,7 +126,7 @@ class Posterior:
     warnings: tuple[str, ...] = ()
     reference: dict[str, float] = field(default_factory=dict, repr=False)
     units: dict[str, str] | None = field(default=None, repr=False)
-    record: Any = field(default=None, repr=False)
+    record: Any = field(default=None, repr=False, compare=False)
 
     def unit(self, name: str) -> str:
         """SI unit of a sampled coefficient."""
