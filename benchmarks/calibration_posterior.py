@@ -90,7 +90,7 @@ def replicate(preset_name: str, channels: str, noise: float, seed: int) -> list[
     noise_sd = lik.info.get("noise_sd", {})
     shifts = post.bias_shifts
     rows = []
-    for name, s in post.summary().items():
+    for name, s in post.summary_dict().items():
         i = model.index(name)
         rows.append(
             {

@@ -21,7 +21,7 @@ def main() -> None:
     fit = nlid.identify(record, terms, method="nsi-ip", mass=0.2)
     print(fit.summary())
 
-    # every installed method on the same record, errors against the simulation's truth
+    # every installed method but the refining oe (name it to add it) on the same record, errors against the truth
     table = nlid.compare(record, terms, mass=0.2)
     table.to_csv(OUT / "compare.csv", index=False)
     errors = table.query("quantity in ['coefficient', 'fn_hz', 'zeta']")

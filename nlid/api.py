@@ -170,7 +170,9 @@ def compare(
         The model (as for :func:`nlid.identify`).
     methods
         Identifier names, as a list or one comma-separated string (default:
-        every installed identifier).
+        every installed identifier except those that refine another's fit,
+        ``refines = True`` such as ``oe``: they cost 10-100 times more, and
+        the built-in studies leave them out too; name them to include them).
     mass
         Known mass (kg); ``None`` lets each method estimate it (methods that
         cannot are reported as failed).
@@ -227,6 +229,7 @@ def compare(
     record = as_record(record)
     import pandas as pd
 
+    from .contract.methods import comparison_methods
     from .contract.registry import default_registry
     from .errors import PluginError
 
@@ -237,7 +240,7 @@ def compare(
     if isinstance(methods, str):
         methods = [m.strip() for m in methods.split(",") if m.strip()]
     registry = default_registry()
-    names = list(methods) if methods is not None else registry.names()
+    names = list(methods) if methods is not None else comparison_methods(registry)
     if not names:
         raise InputError("no method to compare: none is installed and methods= is empty")
     for name in names:  # a misspelt name is the user's error, found before anything runs

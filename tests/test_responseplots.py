@@ -36,7 +36,9 @@ def _line(ax, label: str):
 
 
 def _legend_title(ax) -> str:
-    return " ".join(ax.get_legend().get_title().get_text().split())
+    """The title of the axes' legend, or of the figure's (nlid's own figures put it below the panels)."""
+    legend = ax.get_legend() or ax.figure.legends[0]
+    return " ".join(legend.get_title().get_text().split())
 
 
 def test_freerun_draws_measured_simulated_error_rule_and_unscored_window(fit, record):

@@ -264,6 +264,7 @@ class PosteriorSampler:
             )
         if caught:
             posterior.warnings = (*posterior.warnings, f"numerical warnings: {numerics.describe_warnings(caught)}")
+        posterior.record = record
         return posterior
 
     def _run(self, record: Record, fit: IdentifiedModel) -> tuple[Posterior, dict[str, float]]:

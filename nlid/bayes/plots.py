@@ -27,6 +27,8 @@ def corner_figure(posterior: Any, bins: int = 40, truth: dict[str, float] | None
     else the reference values the record carried (``posterior.reference``,
     ``record.meta["reference"]``); ``truth={}`` draws none.
     """
+    from matplotlib.ticker import MaxNLocator
+
     samples = posterior.samples
     names = posterior.names
     if truth is None:
@@ -70,17 +72,35 @@ def corner_figure(posterior: Any, bins: int = 40, truth: dict[str, float] | None
                 ax.set_xlim(lo[j], hi[j])
                 ax.set_ylim(lo[i], hi[i])
             if i == d - 1:
-                ax.set_xlabel(names[j])
+                ax.set_xlabel(_label(posterior, names[j], size / d))
+                ax.xaxis.set_major_locator(MaxNLocator(4))
                 ax.tick_params(axis="x", labelrotation=45)
+                for tick in ax.get_xticklabels():  # rotated about their right end: none reaches past the figure
+                    tick.set_horizontalalignment("right")
+                    tick.set_rotation_mode("anchor")
             else:
                 ax.set_xticklabels([])
             if j == 0 and i > 0:
-                ax.set_ylabel(names[i])
+                ax.set_ylabel(_label(posterior, names[i], size / d))
             elif j > 0:
                 ax.set_yticklabels([])
     title = "posterior (orange: identifier's estimate; dashed: 5 / 95 %" + ("; black: truth)" if truth else ")")
     fig.suptitle(_wrapped(title, size, FONT_PT), fontsize=FONT_PT)
+    fig.get_layout_engine().set(w_pad=0.08, h_pad=0.08)  # inches: room for the outermost tick labels
     return fig
+
+
+def _label(posterior: Any, name: str, width_in: float) -> str:
+    """``name (unit)``, the unit on a second line when the two do not fit one panel's width."""
+    unit = posterior.unit(name) if hasattr(posterior, "unit") else ""
+    if not unit:
+        return name
+    one = f"{name} ({unit})"
+    return one if len(one) * 0.6 * LABEL_PT / 72.0 <= 0.95 * width_in else f"{name}\n({unit})"
+
+
+#: Font size of the axis labels (points): matplotlib's default.
+LABEL_PT = 10.0
 
 
 #: Font size of the figure titles (points).
@@ -130,7 +150,8 @@ def damping_figure(bands: Sequence[Any], band_hz: float | None = None):
     model.
     """
     n = len(bands)
-    fig, axes = new_figure(2, n, width=4.0 * n, height=6.0, squeeze=False, sharex="col", height_ratios=[2.2, 1])
+    width_in = max(5.0, 4.0 * n)  # one slice: wide enough for its axis labels, the title wraps to it
+    fig, axes = new_figure(2, n, width=width_in, height=6.0, squeeze=False, sharex="col", height_ratios=[2.2, 1])
     for k, band in enumerate(bands):
         ax, width = axes[0, k], axes[1, k]
         ax.plot(band.v, band.measured, ".", color="0.75", ms=2, zorder=1, label="data: R_e - K(z)")
@@ -148,9 +169,9 @@ def damping_figure(bands: Sequence[Any], band_hz: float | None = None):
         width.set_xlabel("v (m/s)")
     axes[0, 0].set_ylabel("damping force D (N)")
     axes[1, 0].set_ylabel("5 and 95 % minus median (N)")
-    title = "posterior band of the damping force (bottom: its width on its own scale)"
+    lines = ["posterior band of the damping force (bottom: its width on its own scale)"]
     if band_hz is not None:
-        title += f"\ndata: restoring force minus stiffness, both below {band_hz:.3g} Hz (in-band D)"
-    fig.suptitle(title, fontsize=10)
+        lines.append(f"data: restoring force minus stiffness, both below {band_hz:.3g} Hz (in-band D)")
+    fig.suptitle("\n".join(_wrapped(line, width_in, FONT_PT) for line in lines), fontsize=FONT_PT)
     axes[0, 0].legend(loc="best", fontsize="small")
     return fig

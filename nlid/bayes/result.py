@@ -107,6 +107,8 @@ class Posterior:
     units
         SI unit of each coefficient when the names are not one-DOF terms (a structure's ``K[1,2]``...);
         ``None``: each term's own unit.
+    record
+        The record the posterior was sampled from (the ``observed_data`` of :meth:`to_datatree`); not serialised.
     """
 
     model: Model | Any
@@ -124,6 +126,7 @@ class Posterior:
     warnings: tuple[str, ...] = ()
     reference: dict[str, float] = field(default_factory=dict, repr=False)
     units: dict[str, str] | None = field(default=None, repr=False)
+    record: Any = field(default=None, repr=False, compare=False)
 
     def unit(self, name: str) -> str:
         """SI unit of a sampled coefficient."""
@@ -329,6 +332,27 @@ class Posterior:
             )
         return pd.DataFrame(rows)
 
+    def to_datatree(self, record: Any = None) -> Any:
+        """The posterior as an :class:`xarray.DataTree`, ArviZ 1.0's format (:mod:`nlid.bayes.datatree`).
+
+        Groups ``posterior``, ``sample_stats`` and ``observed_data``; the root's attributes state the interval level
+        nlid's summaries use (0.90 equal-tailed). :meth:`save` writes it as ``posterior.nc``;
+        ``arviz.summary(tree, ci_prob=0.9, ci_kind="eti")`` (ArviZ 1.0) reads it.
+
+        Parameters
+        ----------
+        record
+            The record for ``observed_data`` (default: the one the posterior was sampled from).
+
+        Raises
+        ------
+        InputError
+            xarray is not installed (``pip install 'nlid[netcdf]'``).
+        """
+        from .datatree import posterior_datatree
+
+        return posterior_datatree(self, record)
+
     def __repr__(self) -> str:
         parts = ", ".join(f"{n} {s['mean']:.4g} +/- {s['sd']:.2g}" for n, s in self.summary_dict().items())
         return f"<Posterior {self.method!r} ({self.others} others): {parts}>"
@@ -481,23 +505,35 @@ class Posterior:
         figures: bool = True,
         slices: Sequence[float] | None = None,
         force: bool = False,
+        netcdf: bool | None = None,
     ) -> list[Path]:
-        """Write the table (CSV), the document (JSON), the samples (NPZ) and the figures (PNG).
+        """Write the table (CSV), the document (JSON), the samples (NPZ and netCDF) and the figures (PNG).
 
         Files: ``posterior_table.csv``, ``posterior.json``,
         ``posterior_samples.npz`` (``samples``, ``names``, ``chain``,
         ``log_prob``, ``tau``, ``not_sampled_names``, ``not_sampled_estimates`` and the damping
-        bands), ``posterior_corner.png``, ``posterior_trace.png``,
+        bands), ``posterior.nc`` (:meth:`to_datatree`), ``posterior_corner.png``, ``posterior_trace.png``,
         ``posterior_damping.png``. nlid writes only into folders it created or
         that were empty; ``force=True`` writes beside files it did not write,
         never replacing them (:mod:`nlid.runtime.outputs`).
+
+        Parameters
+        ----------
+        netcdf
+            Write ``posterior.nc``: ``None`` (default) when xarray and h5netcdf (or netCDF4) are installed,
+            ``True`` always (an :class:`~nlid.errors.InputError` when they are not), ``False`` never.
         """
         from ..runtime.outputs import POSTERIOR_OUTPUTS, output_folder
+        from .datatree import netcdf_available, require_netcdf
 
+        if netcdf is None:
+            netcdf = netcdf_available()
+        elif netcdf:
+            require_netcdf()  # the missing package is said before anything is written
         with output_folder(out_dir, POSTERIOR_OUTPUTS, force=force) as out:
-            return self._save(out, figures, slices)
+            return self._save(out, figures, slices, bool(netcdf))
 
-    def _save(self, out: Path, figures: bool, slices: Sequence[float] | None) -> list[Path]:
+    def _save(self, out: Path, figures: bool, slices: Sequence[float] | None, netcdf: bool = False) -> list[Path]:
         paths = []
         path = out / "posterior_table.csv"
         self.table().to_csv(path, index=False)
@@ -524,6 +560,10 @@ class Posterior:
         path = out / "posterior_samples.npz"
         np.savez(path, **arrays)
         paths.append(path)
+        if netcdf:
+            from .datatree import write_netcdf
+
+            paths.append(write_netcdf(self.to_datatree(), out / "posterior.nc"))
         if figures:
             from ..report.plotting import save_figure
             from .plots import corner_figure, damping_figure, trace_figure

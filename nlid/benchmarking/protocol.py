@@ -53,6 +53,7 @@ from typing import Any
 
 from ..base.validate import did_you_mean
 from ..data.io import TEXT_LIMIT, check_path, read_text_file
+from ..data.names import canonical_name
 from ..errors import DataError, InputError, brief
 from .declarations import (
     STATUSES,
@@ -476,7 +477,7 @@ def load_protocol(name_or_path: str | Path) -> Protocol:
     InputError
         An unknown name, an unreadable file, or a file that is not a valid benchmark file.
     """
-    text_name = str(name_or_path)
+    text_name = canonical_name(str(name_or_path))  # "boucwen" is "bouc-wen"
     builtins = builtin_benchmarks()
     if text_name in builtins:
         path = builtins[text_name]

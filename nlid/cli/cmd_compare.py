@@ -27,6 +27,8 @@ natural frequencies and damping ratios against the reference, and with
 data. The reference is the record's own (a simulated record carries its
 truth, a measured benchmark its published values) unless --reference names
 one. A method that fails gets one row saying why (--errors raise: stop).
+By default every installed method runs except the refining ones (oe): add
+them with --methods.
 """
 
 EPILOG = """\
@@ -48,7 +50,10 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     )
     add_data_arguments(p)
     p.add_argument(
-        "--methods", metavar="NAMES", help="comma-separated identifiers (default: every installed one; nlid methods)"
+        "--methods",
+        metavar="NAMES",
+        help="comma-separated identifiers (default: every installed one except those that refine another's fit, "
+        "such as oe, 10-100x slower and left out of the built-in studies too: name it to run it; nlid methods)",
     )
     add_term_arguments(p, "known mass in kg (default: estimated by each method)")
     p.add_argument(

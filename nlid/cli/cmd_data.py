@@ -4,19 +4,23 @@ from __future__ import annotations
 
 import argparse
 import os
+import textwrap
 from pathlib import Path
 
 from ..base.formatting import TERMINAL_WIDTH, wrap
+from ..data.names import PARTS, describe
 from .common import print_json
 
-DESCRIPTION = """\
-List the measured benchmarks nlid knows (emps, silverbox, boucwen), where each
-comes from, the folder layout $NLID_DATA_DIR must have, and check the files
-that are there against their SHA-256 checksums: each file is 'ok', 'missing'
-or 'MISMATCH' (a different file, or a corrupt download). Exit status 1 when a
-checksum does not match, 0 otherwise (missing files are only reported: use the
-benchmarks you have).
-"""
+DESCRIPTION = textwrap.fill(
+    f"List the measured benchmarks nlid knows ({', '.join(PARTS)}), where each comes from, the folder layout "
+    "$NLID_DATA_DIR must have, and check the files that are there against their SHA-256 checksums: each file is "
+    "'ok', 'missing' or 'MISMATCH' (a different file, or a corrupt download). Exit status 1 when a checksum does "
+    "not match, 0 otherwise (missing files are only reported: use the benchmarks you have). Records are read as "
+    f"{describe()}.",
+    width=79,
+    break_on_hyphens=False,
+    break_long_words=False,
+)
 
 EPILOG = """\
 examples:

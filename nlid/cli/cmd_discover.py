@@ -12,6 +12,14 @@ from ..runtime.progress import stderr_is_terminal
 from .common import add_data_arguments, add_mass_argument, load_data, mass_argument, parse_settings, print_json
 from .isolated import DISCOVER_TIMEOUT, add_timeout_argument, parse_timeout, plugin_warnings
 
+DESCRIPTION = """\
+Identify the declared model, look at its residual (against z, v, the (z, v) plane and
+frequency), test candidate effects against it on held-out data, add the one that passes
+the acceptance rule, re-identify and repeat until nothing else is significant. Prints
+epsilon (Eq. 26) and the force residual before and after each step, on estimation and
+held-out data.
+"""
+
 EPILOG = """\
 candidate effects (--candidates): coulomb, viscous, quadratic-damping, cubic-damping,
   position-dependent-friction, stribeck, offset, quadratic-stiffness, cubic-stiffness,
@@ -39,10 +47,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser(
         "discover",
         help="find the effect a model lacks from its residual, add it, report the error before and after",
-        description="Identify the declared model, look at its residual (against z, v, the (z, v) plane and "
-        "frequency), test candidate effects against it on held-out data, add the one that passes the "
-        "acceptance rule, re-identify and repeat until nothing else is significant. Prints epsilon (Eq. 26) "
-        "and the force residual before and after each step, on estimation and held-out data.",
+        description=DESCRIPTION,
         epilog=EPILOG,
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
@@ -251,7 +256,7 @@ def run(args: argparse.Namespace) -> int:
         else load_data(argparse.Namespace(data=args.validation, columns=args.columns, fs=args.fs, units=args.units)),
         candidates=args.candidates,
         extra_candidates=args.candidate or (),
-        rule=rule,
+        accept=rule,
         max_steps=args.max_steps,
         cutoff=args.cutoff,
         options=parse_settings(args.set),
@@ -353,7 +358,7 @@ def _run_structure(args: argparse.Namespace, record, rule) -> int:
         connections=args.connections,
         candidates=args.candidates,
         extra_candidates=args.candidate or (),
-        rule=rule,
+        accept=rule,
         max_steps=args.max_steps,
         cutoff=args.cutoff,
         progress=say,

@@ -113,7 +113,12 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument(
         "--quiet", action="store_true", help="no progress on stderr (it is shown only on a terminal, never with --json)"
     )
-    p.add_argument("--out", metavar="DIR", help="write the table (CSV), JSON, samples (NPZ) and figures (PNG) to DIR")
+    p.add_argument(
+        "--out",
+        metavar="DIR",
+        help="write the table (CSV), JSON, samples (NPZ; and posterior.nc, ArviZ's format, with the netcdf extra) "
+        "and figures (PNG) to DIR",
+    )
     p.add_argument("--no-figures", action="store_true", help="with --out, skip the PNG figures")
     p.add_argument(
         "--force",
@@ -214,6 +219,8 @@ def run(args: argparse.Namespace) -> int:
     if args.out:
         paths = posterior.save(args.out, figures=not args.no_figures, slices=slices, force=args.force)
         print(f"wrote {', '.join(str(p) for p in paths)}", file=sys.stderr)
+        if not any(p.suffix == ".nc" for p in paths):
+            print("note: posterior.nc (ArviZ's format) needs the extra: pip install 'nlid[netcdf]'", file=sys.stderr)
     if args.json:
         print_json(posterior.to_dict())
     else:

@@ -6,9 +6,11 @@ import argparse
 import json
 import re
 import sys
+import textwrap
 from collections.abc import Sequence
 from typing import TYPE_CHECKING, Any
 
+from ..data.names import describe as describe_datasets
 from ..errors import InputError, brief, one_line
 
 if TYPE_CHECKING:
@@ -70,13 +72,39 @@ _PARAM_VALUE = re.compile(
 )
 
 DATA_HELP = (
-    "data file (.csv, .npz, .mat, .h5, .parquet) or a bundled benchmark as dataset:NAME "
-    "(dataset:emps, dataset:silverbox, dataset:silverbox:arrow; read from $NLID_DATA_DIR)"
+    "data file (.csv, .npz, .mat, .h5, .parquet) or a measured benchmark read from $NLID_DATA_DIR: "
+    f"{describe_datasets()}"
 )
 
 
+class _WholeWords:
+    """A help formatter's line splitting that never breaks a hyphenated word (``dataset:silverbox:arrow-full``)."""
+
+    def _split_lines(self, text: str, width: int) -> list[str]:
+        return textwrap.wrap(" ".join(text.split()), width, break_on_hyphens=False, break_long_words=False)
+
+
+class _HelpFormatter(_WholeWords, argparse.HelpFormatter):
+    def _fill_text(self, text: str, width: int, indent: str) -> str:
+        lines = textwrap.wrap(" ".join(text.split()), width, break_on_hyphens=False, break_long_words=False)
+        return "\n".join(indent + line for line in lines)
+
+
+class _RawDescriptionHelpFormatter(_WholeWords, argparse.RawDescriptionHelpFormatter):
+    pass
+
+
 class Parser(argparse.ArgumentParser):
-    """ArgumentParser whose usage errors are one line and exit with status 2."""
+    """ArgumentParser whose usage errors are one line and exit with status 2, and whose help never splits a
+    hyphenated name (a flag, a dataset) across two lines."""
+
+    def __init__(self, *args: Any, **kwargs: Any) -> None:
+        given = kwargs.get("formatter_class", argparse.HelpFormatter)
+        kwargs["formatter_class"] = {
+            argparse.HelpFormatter: _HelpFormatter,
+            argparse.RawDescriptionHelpFormatter: _RawDescriptionHelpFormatter,
+        }.get(given, given)
+        super().__init__(*args, **kwargs)
 
     def error(self, message: str) -> None:  # type: ignore[override]
         self.exit(2, f"{self.prog}: error: {one_line(message)} (see {self.prog} --help)\n")

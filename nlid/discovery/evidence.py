@@ -43,15 +43,17 @@ they are exact ratios of residual sums of squares.
 from __future__ import annotations
 
 import math
+import warnings
 from dataclasses import asdict, dataclass, field
 from typing import Any
 
 import numpy as np
 
-from ..errors import InputError
+from ..errors import InputError, brief
 
 __all__ = [
     "AcceptanceRule",
+    "acceptance_rule",
     "Scores",
     "Evidence",
     "integrated_time",
@@ -100,6 +102,38 @@ class AcceptanceRule:
     def to_dict(self) -> dict[str, Any]:
         """JSON-friendly form, with the sentence."""
         return {**asdict(self), "text": self.describe()}
+
+
+def acceptance_rule(accept: Any, rule: Any = None) -> AcceptanceRule | None:
+    """The acceptance rule a search was given as ``accept=`` (``None``: the search's default).
+
+    ``rule=`` was its old name; everywhere else in nlid ``rule`` is the transient rule of a free run, which a
+    search takes as ``freerun_rule=``. An :class:`AcceptanceRule` given as ``rule=`` still works, with a
+    :class:`DeprecationWarning`; anything else given as ``rule=`` (``"window:50"``) is refused.
+
+    Raises
+    ------
+    InputError
+        ``accept=`` is not an :class:`AcceptanceRule`, or ``rule=`` is not one either.
+    """
+    if rule is not None:
+        if not isinstance(rule, AcceptanceRule) or accept is not None:
+            raise InputError(
+                f"rule= is not a setting of discover (got {brief(rule)}): the acceptance rule is accept= "
+                "(an AcceptanceRule), the free runs' transient rule is freerun_rule= ('window:50', 'first-sample')"
+            )
+        warnings.warn(
+            "discover's rule= is now accept= (the acceptance rule; rule= elsewhere is the transient rule)",
+            DeprecationWarning,
+            stacklevel=3,
+        )
+        accept = rule
+    if accept is not None and not isinstance(accept, AcceptanceRule):
+        raise InputError(
+            f"accept= must be an AcceptanceRule (AcceptanceRule(min_explained=0.1, max_delta_bic=-10)), "
+            f"got {brief(accept)}"
+        )
+    return accept
 
 
 #: Eligible candidates whose held-out share is within this of the best one are ranked by simplicity.

@@ -83,6 +83,9 @@ __all__ = [
     "resolve_candidates",
 ]
 
+#: Why a fitted effect must have a positive coefficient (the reason a wrong sign rejects it; reports say it once).
+SIGN_WHY = "friction and damping oppose the motion, stops and hysteresis push back, a Stribeck law weakens with speed"
+
 #: Grid of the Stribeck scale, as multiples of the RMS velocity.
 STRIBECK_MULTIPLIERS: tuple[float, ...] = (0.02, 0.05, 0.1, 0.2, 0.5)
 #: Grid of gap and stop clearances, as multiples of std(z).
@@ -178,11 +181,7 @@ class Variant:
         bad = [t.name for t in self.positive if not coefficients.get(t.name, 0.0) > 0]
         if not bad:
             return ""
-        return (
-            f"the coefficient of {', '.join(bad)} is not positive: not {self.candidate} "
-            "(friction and damping oppose the motion, stops and hysteresis push back, "
-            "a Stribeck law weakens with speed)"
-        )
+        return f"the coefficient of {', '.join(bad)} is not positive: not {self.candidate} ({SIGN_WHY})"
 
     @property
     def shape_count(self) -> int:

@@ -41,6 +41,7 @@ from ..report.html import html_table
 from ..report.plotting import save_figure
 from ..report.summary import Column, Summary
 from .evidence import Evidence
+from .library import SIGN_WHY
 from .probes import describe_remaining
 
 __all__ = ["discovery_summary", "summary_table", "write_report", "coefficient_unit"]
@@ -248,7 +249,14 @@ def _explained(ev: Evidence) -> str:
     return f"explains {100 * ev.explained_holdout:.3g} % of held-out residual variance, dBIC = {ev.delta_bic:.4g}"  # type: ignore[operator]
 
 
+#: Largest width of the HTML report's page (px): every figure fits it at its own size (10 in at 120 dpi: 1200 px).
+PAGE_PX = 1400
+#: What a ranking row says in place of the physical-sign explanation, given once below its table.
+_SIGN_SHORT = "(physical sign: below the table)"
+
+
 def _ranking_rows(ranking: list[Evidence]) -> list[list[str]]:
+    """One row per candidate; the explanation of a wrong sign, the same for every such row, is said once below."""
     rows = []
     for ev in ranking:
         rows.append(
@@ -260,10 +268,17 @@ def _ranking_rows(ranking: list[Evidence]) -> list[list[str]]:
                 "-" if ev.scores is None else _pct(ev.scores.eps),
                 "-" if ev.scores is None else _pct(ev.scores.eps_holdout),
                 ev.status,
-                ev.reason,
+                ev.reason.replace(f"({SIGN_WHY})", _SIGN_SHORT),
             ]
         )
     return rows
+
+
+def _ranking_table(doc: _Doc, ranking: list[Evidence]) -> None:
+    rows = _ranking_rows(ranking)
+    doc.table(_RANK_HEADERS, rows)
+    if any(_SIGN_SHORT in row[-1] for row in rows):
+        doc.p(f"Physical sign: a candidate whose fitted coefficient has the wrong sign is not its effect: {SIGN_WHY}.")
 
 
 _RANK_HEADERS = [
@@ -340,11 +355,13 @@ class _Doc:
                 )
                 body.append(f'<div class="figures">{figs}</div>')
         style = (
-            "body{font-family:sans-serif;max-width:1400px;margin:2em auto;padding:0 1em;line-height:1.4}"
+            f"body{{font-family:sans-serif;max-width:{PAGE_PX}px;margin:2em auto;padding:0 1em;line-height:1.4}}"
             "table{border-collapse:collapse;margin:1em 0;font-size:0.9em}"
             "td,th{border:1px solid #ccc;padding:3px 8px;text-align:left}th{background:#f2f2f2}"
-            ".figures{display:flex;flex-wrap:wrap;gap:1em}figure{margin:0;flex:1 1 600px}"
-            "figure img{width:100%}figcaption{font-size:0.85em;color:#555}"
+            # one figure per row at its own size (never stretched, shrunk only to fit the page): two four-panel
+            # figures side by side were drawn at half size, their labels unreadable without zoom
+            ".figures{display:flex;flex-direction:column;gap:1.5em}figure{margin:0}"
+            "figure img{max-width:100%;height:auto}figcaption{font-size:0.85em;color:#555}"
         )
         return (
             f'<!DOCTYPE html>\n<html lang="en"><head><meta charset="utf-8"><title>{e(title)}</title>'
@@ -416,7 +433,7 @@ def _write_report(result: Result, out: Path) -> list[Path]:
             f"(integrated autocorrelation time {ev.tau_samples:.3g} samples)."
             + (f" Shape parameter(s) chosen: {ev.shape}." if ev.shape is not None else "")
         )
-        doc.table(_RANK_HEADERS, _ranking_rows(step.ranking))
+        _ranking_table(doc, step.ranking)
         imgs = []
         for k, caption in ((number - 1, "before: " + labels[number - 1]), (number, "after: " + labels[number])):
             if fig_paths[k]:
@@ -429,7 +446,7 @@ def _write_report(result: Result, out: Path) -> list[Path]:
     doc.h(2, "Final check: is anything else significant?")
     doc.p(f"Stopped: {result.stop_reason}.")
     if result.final_ranking:
-        doc.table(_RANK_HEADERS, _ranking_rows(result.final_ranking))
+        _ranking_table(doc, result.final_ranking)
     if not result.steps and fig_paths and fig_paths[0]:
         doc.images([(fig_paths[0], "residual of the declared model")])
 
@@ -469,8 +486,9 @@ def _write_report(result: Result, out: Path) -> list[Path]:
     doc.table(headers, rows)
     if not (isinstance(final.identified.diagnostics, dict) and final.identified.diagnostics.get("posterior")):
         doc.p(
-            "Standard errors are the identifier's (for rfs: least squares, assuming independent equation "
-            "errors, hence optimistic on filtered data); no posterior was available."
+            "Standard errors are the identifier's own; the least-squares ones are batch-means sandwich errors, "
+            "which allow for the correlated, filtered equation error but take the regressors as exact "
+            "(docs/rfs.md); no posterior was available."
         )
     notes = [f.sim_note for f in result.states if f.sim_note] + list(final.identified.warnings)
     if notes:

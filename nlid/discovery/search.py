@@ -46,7 +46,7 @@ from ..runtime.parallel import kernel_threads
 from ..scoring import TransientRule
 from ..signal import derivatives
 from .crossfit import PredictionRule
-from .evidence import AcceptanceRule, Evidence, judge
+from .evidence import AcceptanceRule, Evidence, acceptance_rule, judge
 from .inputs import DEFAULT_HOLDOUT, CandidateLibrary, Split
 from .judge import Judge
 from .library import Candidate
@@ -105,8 +105,10 @@ class Discovery:
         Estimation / hold-out division, the validation record and the free runs' rule (default :class:`Split`).
     library
         Candidate effects (default :meth:`CandidateLibrary.select`: all of them).
-    rule
-        Acceptance rule (default :class:`~nlid.discovery.evidence.AcceptanceRule`).
+    accept
+        Acceptance rule (default :class:`~nlid.discovery.evidence.AcceptanceRule`). Its old name ``rule=``
+        is refused unless given an ``AcceptanceRule`` (then it warns): ``rule`` is the transient rule
+        everywhere else, here ``split``'s ``freerun_rule``.
     max_steps
         Most effects to add.
     cutoff
@@ -146,7 +148,7 @@ class Discovery:
         mass: float | None = None,
         split: Split | None = None,
         library: CandidateLibrary | None = None,
-        rule: AcceptanceRule | None = None,
+        accept: AcceptanceRule | None = None,
         max_steps: int = DEFAULT_MAX_STEPS,
         cutoff: float | None = None,
         structure: float = MIN_STRUCTURE,
@@ -156,7 +158,9 @@ class Discovery:
         views: bool = True,
         refine: bool = False,
         prediction: PredictionRule | None = None,
+        rule: AcceptanceRule | None = None,
     ) -> None:
+        accept = acceptance_rule(accept, rule)
         if int(max_steps) < 0:
             raise InputError(f"max_steps must be >= 0, got {max_steps}")
         self.library = library if library is not None else CandidateLibrary.select()
@@ -175,7 +179,7 @@ class Discovery:
             raise InputError(f"prediction= must be a PredictionRule, got {type(prediction).__name__}")
         self.prediction = prediction or PredictionRule()
         # the equation error screens and ranks; where the prediction decides, the screen is wider
-        self.rule = rule or (
+        self.rule = accept or (
             AcceptanceRule(min_explained=self.prediction.screen) if self.prediction.enabled else AcceptanceRule()
         )
         self.max_steps = int(max_steps)
@@ -455,7 +459,7 @@ def discover(
     candidates: str | Iterable[str] | None = None,
     extra_candidates: Iterable[Candidate | str] = (),
     plugins: bool | Sequence[Candidate] = True,
-    rule: AcceptanceRule | None = None,
+    accept: AcceptanceRule | None = None,
     max_steps: int = DEFAULT_MAX_STEPS,
     cutoff: float | None = None,
     structure: float = MIN_STRUCTURE,
@@ -468,6 +472,7 @@ def discover(
     refine: bool = False,
     freerun_rule: TransientRule | str | Mapping[str, Any] | None = None,
     prediction: PredictionRule | None = None,
+    rule: AcceptanceRule | None = None,
 ) -> DiscoveryResult:
     """Find the effects a declared model lacks, one at a time (see the module docstring).
 
@@ -498,7 +503,7 @@ def discover(
         User candidates (:class:`Candidate` or ``"NAME=TERMS"``).
     plugins
         Include candidates from installed plugins.
-    rule
+    accept
         Acceptance rule (default :class:`AcceptanceRule`).
     max_steps
         Most effects to add.
@@ -535,6 +540,9 @@ def discover(
         When a candidate improves the cross-fitted held-out prediction
         (:class:`~nlid.discovery.crossfit.PredictionRule`; default: two blocks, every block better, the pooled
         error 1 % lower; ``PredictionRule(enabled=False)``: the equation error alone decides).
+    rule
+        The old name of ``accept=``: an :class:`AcceptanceRule` is taken with a :class:`DeprecationWarning`,
+        anything else is refused (the transient rule is ``freerun_rule=``).
 
     Returns
     -------
@@ -547,13 +555,14 @@ def discover(
     IdentificationError
         The declared model itself cannot be identified.
     """
+    accept = acceptance_rule(accept, rule)
     library = CandidateLibrary.select(candidates, extra_candidates, plugins=plugins)
     search = Discovery(
         method,
         mass=mass,
         split=Split(holdout, validation, freerun_rule),
         library=library,
-        rule=rule,
+        accept=accept,
         max_steps=max_steps,
         cutoff=cutoff,
         structure=structure,

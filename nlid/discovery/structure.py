@@ -51,7 +51,7 @@ from ..errors import InputError, NlidError
 from ..estimation.joint import Extra
 from ..estimation.structure_balance import residual_on
 from ..model.terms import Term
-from .evidence import PARSIMONY, AcceptanceRule, integrated_time
+from .evidence import PARSIMONY, AcceptanceRule, acceptance_rule, integrated_time
 from .library import Candidate, Variant, dissipative, resolve_candidates
 from .probes import MIN_STRUCTURE, PLAY_WIDTHS
 from .structure_fit import (
@@ -144,12 +144,13 @@ def discover_structure(
     candidates: str | Iterable[str] | None = None,
     extra_candidates: Iterable[Candidate | str] = (),
     plugins: bool | Sequence[Candidate] = True,
-    rule: AcceptanceRule | None = None,
+    accept: AcceptanceRule | None = None,
     max_steps: int = DEFAULT_MAX_STEPS,
     cutoff: float | None = None,
     structure: float = MIN_STRUCTURE,
     simulate: bool = True,
     progress: Progress | None = None,
+    rule: AcceptanceRule | None = None,
 ) -> StructureDiscoveryResult:
     """Find which connection of a structure carries the nonlinearity the declared model lacks (module docstring).
 
@@ -173,7 +174,7 @@ def discover_structure(
         The connections to test (:func:`parse_connections`; default every pair and every DOF to the ground).
     candidates, extra_candidates, plugins
         The candidate effects, as :func:`nlid.discovery.discover` (names of the library, ``NAME=TERMS``).
-    rule
+    accept
         Acceptance rule (default :class:`~nlid.discovery.evidence.AcceptanceRule`).
     max_steps
         Most elements to add.
@@ -187,6 +188,8 @@ def discover_structure(
         Compute the free-run errors on the test part.
     progress
         Called with one line per stage.
+    rule
+        The old name of ``accept=`` (:func:`~nlid.discovery.evidence.acceptance_rule`).
 
     Returns
     -------
@@ -202,6 +205,7 @@ def discover_structure(
     from ..model.elements import Element, ElementSet
     from ..model.structure import structure_mass
 
+    accept = acceptance_rule(accept, rule)
     say = progress or _quiet
     started = time.perf_counter()
     if not isinstance(record, StructureRecord):
@@ -227,7 +231,7 @@ def discover_structure(
     check_cutoff(cutoff, record.fs)
     if not 0.0 < float(structure) < 1.0:
         raise InputError(f"structure must lie between 0 and 1, got {structure}")
-    rule = rule or AcceptanceRule()
+    rule = accept or AcceptanceRule()
     conns = parse_connections(connections, n)
     if isinstance(test, StructureRecord):
         selection, test_record = record, test

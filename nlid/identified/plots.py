@@ -78,8 +78,24 @@ def _z_grid(fit: PlottedFit, points: int = 400) -> np.ndarray:
 
 
 def plot_stiffness(fit: PlottedFit, ax: Any = None, *, potential: bool = False) -> Any:
-    """``K(z)`` (N) or the potential ``U(z)`` (J, Eq. 7) with the equilibria (filled: stable)."""
+    """``K(z)`` (N) or the potential ``U(z)`` (J, Eq. 7) with the equilibria (filled: stable).
+
+    A model without a spring (no stiffness term that depends on ``z``, e.g. EMPS's ``v, sign(v), 1``) has no
+    elastic force to draw: the axes say so, and name its constant term, a static load, instead of drawing it
+    as ``K(z)``.
+    """
     ax = _axes(ax)
+    if not any(t.family == "stiffness" and not t.is_constant for t in fit.model.terms):
+        constant = [t.name for t in fit.model.terms if t.family == "stiffness" and t.is_constant]
+        note = "no spring in the model: no elastic force K(z)"
+        if constant:
+            value = fit.theta[fit.model.index(constant[0])]
+            note += f"\n(its constant term {constant[0]} = {value:.4g} N is a static load)"
+        ax.text(0.5, 0.5, note, transform=ax.transAxes, ha="center", va="center", fontsize="small", gid="no-spring")
+        ax.set_xticks([])
+        ax.set_yticks([])
+        ax.set_title(f"{fit.method}: no elastic force")
+        return ax
     z = _z_grid(fit)
     y = fit.potential(z) if potential else fit.elastic(z)
     ax.plot(z, y, color="C0", label="U(z)" if potential else "K(z)")

@@ -30,8 +30,33 @@ __all__ = ["plot_freerun", "plot_frf", "declared_arrays", "linearised_frf"]
 FRF_POINTS = 2000
 
 
-def _legend(ax: Any, title: str = "", width: int = 60) -> None:
-    ax.legend(fontsize="small", title="\n".join(textwrap.wrap(title, width)) or None, title_fontsize="small")
+def _legend(ax: Any, title: str = "", width: int = 60, *, own: bool = False) -> None:
+    """The legend, never over the curves (a free run or an FRF fills its axes: matplotlib's "best" still covers it).
+
+    ``own``: the figure is this function's own, so the legend goes below its axes (constrained layout makes room);
+    else it stands to the right of the user's axes.
+    """
+    title = "\n".join(textwrap.wrap(title, width)) or None
+    if own:
+        handles, labels = ax.get_legend_handles_labels()
+        ax.figure.legend(
+            handles,
+            labels,
+            loc="outside lower center",
+            ncols=1 if max((len(x) for x in labels), default=0) > 45 else min(len(handles), 2),
+            fontsize="small",
+            title=title,
+            title_fontsize="small",
+        )
+    else:
+        ax.legend(
+            loc="upper left",
+            bbox_to_anchor=(1.02, 1.0),
+            borderaxespad=0.0,
+            fontsize="small",
+            title=title,
+            title_fontsize="small",
+        )
 
 
 def plot_freerun(
@@ -58,8 +83,9 @@ def plot_freerun(
         raise InputError("a free run needs the mass: the model has none (give mass= when identifying)")
     run = free_run_response(fit, record, rule)
     t = record.t
-    if ax is None:
-        _, (ax, below) = new_figure(2, 1, width=7.5, height=5.2, sharex=True, height_ratios=[2, 1])
+    own = ax is None
+    if own:
+        _, (ax, below) = new_figure(2, 1, width=7.5, height=5.8, sharex=True, height_ratios=[2, 1])
     else:
         below = None
     if run.first > 0:
@@ -81,7 +107,7 @@ def plot_freerun(
         what = err.note
     ax.set_title(f"{fit.method}: free run ({what})", fontsize="medium", wrap=True)
     ax.set_ylabel("z (m)")
-    _legend(ax, f"transient rule: {err.rule}" if err.rule else "")
+    _legend(ax, f"transient rule: {err.rule}" if err.rule else "", 90 if own else 40, own=own)
     last = ax if below is None else below
     last.set_xlabel("t (s)")
     if below is not None:
@@ -184,6 +210,7 @@ def plot_frf(
             grid = np.linspace(grid[0], grid[1], FRF_POINTS)
         if grid.size < 2 or not np.all(np.isfinite(grid)) or np.any(grid < 0):
             raise InputError("freq must be frequencies in Hz (at least two, finite, not negative) or (f_min, f_max)")
+    figure_own = ax is None
     mag, ph = _frf_axes(ax, phase)
     k_tilde = (getattr(fit, "diagnostics", None) or {}).get("k_tilde")
     for i, (declared, f, h) in enumerate(own):
@@ -206,7 +233,7 @@ def plot_frf(
                 a.axvline(m.fn_hz, color=f"C{i}", lw=0.6, ls=":")
     mag.set_ylabel("|H| (m/N)")
     mag.set_title(f"{fit.method}: receptance linearised at each stable equilibrium", fontsize="medium")
-    _legend(mag)
+    _legend(mag, own=figure_own)
     if ph is not None:
         ph.set_ylabel("phase (deg)")
         ph.set_xlabel("frequency (Hz)")

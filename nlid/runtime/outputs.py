@@ -95,6 +95,7 @@ POSTERIOR_OUTPUTS = (
     "posterior_table.csv",
     "posterior.json",
     "posterior_samples.npz",
+    "posterior.nc",
     "posterior_corner.png",
     "posterior_trace.png",
     "posterior_damping.png",

@@ -52,6 +52,8 @@ __all__ = ["Preset", "PRESETS", "get_preset", "RESPONSE_CHANNELS"]
 
 #: Channels that can carry measurement noise.
 RESPONSE_CHANNELS = ("z", "v", "a")
+#: The keys of a preset's ``multisine`` table (:mod:`nlid.simulation.multisine`).
+MULTISINE_KEYS = ("period", "lines", "periods", "transient_periods", "phases", "oversample")
 
 
 @dataclass(frozen=True)
@@ -84,6 +86,12 @@ class Preset:
         A stepped- or swept-sine test instead of the random force: the fields of
         :class:`nlid.simulation.SineTest` (``kind``, ``amplitude``, ``band``...); the record's length
         is then the test's, and ``meta["signal"]`` describes it (the steps' frequencies and samples).
+    multisine
+        A periodic multisine of RMS ``force_rms`` instead of the random force (:mod:`nlid.simulation.multisine`):
+        ``period`` (samples), ``lines`` (first, last), ``periods`` kept, ``transient_periods`` dropped,
+        ``phases`` (``"random"``: drawn from the seed; ``"benchmark"``: the Bouc-Wen benchmark's, read from
+        its training file) and ``oversample`` (RK4 sub-steps per sample). The record is the periodic steady
+        state (``meta["periodic"]``), its force sampled, not held.
     """
 
     name: str
@@ -100,8 +108,22 @@ class Preset:
     x0: tuple[float, float] = (0.0, 0.0)
     reference: str = ""
     sine: Mapping[str, Any] | None = None
+    multisine: Mapping[str, Any] | None = None
 
     def __post_init__(self) -> None:
+        if self.multisine is not None:
+            spec = dict(self.multisine)
+            if set(spec) != set(MULTISINE_KEYS) or spec["phases"] not in ("random", "benchmark"):
+                raise InputError(
+                    f"preset {self.name!r}: multisine needs exactly {', '.join(MULTISINE_KEYS)} (phases 'random' "
+                    f"or 'benchmark'), got {brief(spec)}"
+                )
+            if round(self.duration * self.fs) != int(spec["period"]) * int(spec["periods"]):
+                raise InputError(
+                    f"preset {self.name!r}: a multisine record is {spec['periods']} periods of {spec['period']} "
+                    f"samples ({int(spec['period']) * int(spec['periods']) / self.fs:g} s at {self.fs:g} Hz); "
+                    "its duration is not set separately"
+                )
         for name, rule in (("mass", MASS), ("fs", FS), ("duration", DURATION)):
             rule.check(getattr(self, name), f"preset {self.name!r}: {name}")
         for name in ("g", "force_rms"):
@@ -146,6 +168,8 @@ class Preset:
         """Number of samples (a sine test's own length)."""
         if self.sine is not None:
             return int(self.force(0).size)
+        if self.multisine is not None:
+            return int(self.multisine["period"]) * int(self.multisine["periods"])
         return int(round(self.duration * self.fs))
 
     def model(self) -> Model:
@@ -218,7 +242,23 @@ class Preset:
         streams = np.random.SeedSequence(check_seed(seed)).spawn(4)
         if self.sine is not None:
             return self.sine_test().force(self.fs)[0]
+        if self.multisine is not None:
+            return np.tile(self._multisine_period(streams[0]), int(self.multisine["periods"]))
         return random_force(self.n, self.fs, self.force_rms, np.random.default_rng(streams[0]), self.band)
+
+    def _multisine_period(self, stream: np.random.SeedSequence) -> np.ndarray:
+        """One period of the multisine force: random phases from the force's stream, or the benchmark's."""
+        import numpy as np
+
+        from .multisine import benchmark_phases, multisine_period
+
+        spec = self.multisine or {}
+        period, lines = int(spec["period"]), tuple(spec["lines"])
+        if spec["phases"] == "benchmark":
+            phases = benchmark_phases(period, lines)
+        else:
+            phases = np.random.default_rng(stream).uniform(0.0, 2.0 * np.pi, int(lines[1]) - int(lines[0]) + 1)
+        return multisine_period(period, lines, self.force_rms, phases)
 
     def sine_test(self) -> Any:
         """The :class:`nlid.simulation.SineTest` of a sine preset (``None`` for a random force)."""
@@ -267,8 +307,23 @@ class Preset:
         levels = check_noise(noise, channels)
         model = self.model()
         streams = np.random.SeedSequence(seed).spawn(4)
-        f = self.force(seed)
-        z, v, a = simulate(model, dict(self.coefficients), self.mass, f, self.fs, self.x0)
+        if self.multisine is not None:  # the periodic steady state, the force sampled (not held)
+            from .multisine import periodic_response
+
+            spec = self.multisine
+            f, z, v, a = periodic_response(
+                model,
+                dict(self.coefficients),
+                self.mass,
+                self._multisine_period(streams[0]),
+                self.fs,
+                periods=int(spec["periods"]),
+                transient_periods=int(spec["transient_periods"]),
+                oversample=int(spec["oversample"]),
+            )
+        else:
+            f = self.force(seed)
+            z, v, a = simulate(model, dict(self.coefficients), self.mass, f, self.fs, self.x0)
         exact = {"z": z, "v": v, "a": a}
         out = {}
         for c, stream in zip(RESPONSE_CHANNELS, streams[1:], strict=True):
@@ -286,9 +341,12 @@ class Preset:
             "seed": int(seed),
             "noise": levels,
             "excitation": self.excitation,
-            "force_hold": "zoh",
+            "force_hold": "zoh" if self.multisine is None else "sampled",
             "reference": self.truth(),
         }
+        if self.multisine is not None:
+            meta["periodic"] = int(self.multisine["period"])
+            meta["signal"] = {"kind": "multisine", **{k: self.multisine[k] for k in ("period", "lines", "phases")}}
         test = self.sine_test()
         if test is not None:
             meta["signal"] = {
@@ -309,6 +367,8 @@ def _fmt_levels(levels: Mapping[str, float]) -> str:
 
 
 _G = 9.81
+#: The Bouc-Wen benchmark's system in nlid's terms (nlid.data.datasets.BOUC_WEN_REFERENCE): k, c, alpha.
+_BOUC_WEN = {"z": 5e4, "v": 10.0, "bouc_wen(800, -1100)": 5e4, "1": 0.0}
 
 PRESETS: dict[str, Preset | StructurePreset] = {
     p.name: p
@@ -376,6 +436,42 @@ PRESETS: dict[str, Preset | StructurePreset] = {
             x0=(-0.0266, 0.0),
             sine={"kind": "swept", "amplitude": 2.0, "band": (4.0, 20.0), "rate": 0.05},
             reference="Zhu et al., Sec. 3 (the oscillator); a swept-sine test of it",
+        ),
+        *(
+            Preset(
+                name=name,
+                description=description,
+                terms="bouc_wen(800, -1100)",
+                coefficients=_BOUC_WEN,
+                mass=2.0,
+                g=0.0,
+                fs=750.0,
+                duration=5 * 8192 / 750.0,
+                force_rms=50.0,
+                multisine={
+                    "period": 8192,
+                    "lines": (54, 1639),
+                    "periods": 5,
+                    "transient_periods": 2,
+                    "phases": phases,
+                    "oversample": 20,
+                },
+                reference="Noel & Schoukens 2016, the Bouc-Wen benchmark's system and training excitation",
+            )
+            for name, phases, description in (
+                (
+                    "bouc-wen-multisine",
+                    "random",
+                    "Bouc-Wen benchmark system, its training excitation (multisine 5-150 Hz, 50 N): a new "
+                    "realisation per seed",
+                ),
+                (
+                    "bouc-wen-train",
+                    "benchmark",
+                    "Bouc-Wen benchmark's training record regenerated (its multisine's phases read from "
+                    "train_multisine.mat)",
+                ),
+            )
         ),
     )
 }

@@ -80,3 +80,44 @@ def test_the_corner_title_is_not_clipped(d):
     assert "truth" not in fig.get_suptitle()
     assert not any(_constant_lines(ax, "x") for ax in fig.axes)  # no truth, no black line
     assert _title_inside(fig)
+
+
+def _inside(fig, artist) -> bool:
+    box, extent = fig.bbox, artist.get_window_extent()
+    return extent.x0 >= box.x0 - 0.5 and extent.x1 <= box.x1 + 0.5 and extent.y0 >= box.y0 - 0.5
+
+
+@pytest.mark.parametrize("d", [1, 2, 4])
+def test_the_corner_axes_say_their_units_and_no_label_is_cut(d):
+    """Long friction terms (paper-experimental) with their units: every label and tick label is on the figure."""
+    rng = np.random.default_rng(1)
+    names = ("sign(v)*|px(z)|", "v*|px(z)|", "v*|v|*|px(z)|", "v^3*|px(z)|")[:d]
+    units = dict(zip(names, ("N", "N*s/m", "N*s^2/m^2", "N*s^3/m^3"), strict=False))
+    fake = SimpleNamespace(
+        samples=rng.normal(size=(500, d)) * 1e3,
+        names=names,
+        start=dict.fromkeys(names, 0.0),
+        reference={},
+        unit=units.__getitem__,
+    )
+    fig = corner_figure(fake)
+    FigureCanvasAgg(fig).draw()
+    bottom = [ax for ax in fig.axes if ax.get_visible() and ax.get_xlabel()]
+    assert [" ".join(ax.get_xlabel().split()) for ax in bottom] == [f"{n} ({units[n]})" for n in names]
+    texts = [ax.xaxis.label for ax in bottom] + [ax.yaxis.label for ax in fig.axes if ax.get_ylabel()]
+    for ax in bottom:  # the tick labels drawn: those inside the axis' view
+        lo, hi = sorted(ax.get_xlim())
+        texts += [t for t in ax.get_xticklabels() if t.get_text() and lo <= t.get_position()[0] <= hi]
+    assert texts and all(_inside(fig, t) for t in texts)
+
+
+def test_the_damping_title_fits_one_slice():
+    from nlid.bayes.plots import damping_figure
+    from nlid.bayes.result import DampingBand
+
+    rng = np.random.default_rng(2)
+    v = np.linspace(-2.0, 2.0, 50)
+    band = DampingBand(0.0, 0.004, v, v - 0.1, v, v + 0.1, rng.uniform(-2, 2, 300), rng.normal(size=300))
+    for bands in ([band], [band, band, band]):
+        fig = damping_figure(bands, band_hz=41.0)
+        assert _title_inside(fig)

@@ -41,8 +41,8 @@ def test_silverbox_finds_the_cubic_spring_and_the_simulation_error_drops(data_di
     out = result.to_dict()
     assert out["steps"][0]["effect"] == "cubic-stiffness"
     assert out["eps_final"] < 0.5 * out["eps_initial"] and out["eps_final_holdout"] < 0.5 * out["eps_initial_holdout"]
-    # customary RMS simulation errors on the arrow head: ~14 mV linear, about 1 mV with the cubic spring (fitted
-    # on the estimation part without its hold-out; the dictionary's terms, which lowered it below 1 mV, are
-    # refused by the cross-fitted prediction since issue 31)
+    # nlid's RMS simulation errors on the arrow head (no published source: docs/results.md): 10-18 mV linear,
+    # about 1 mV with the cubic spring (fitted on the estimation part without its hold-out; the dictionary's
+    # terms, which lowered it below 1 mV, are refused by the cross-fitted prediction since issue 31)
     assert 0.010 < out["sim_rms_initial_validation"] < 0.018
     assert out["sim_rms_final_validation"] < 0.1 * out["sim_rms_initial_validation"]

@@ -76,6 +76,33 @@ def test_a_declared_scalar_column_reaches_its_table_with_no_table_code(monkeypat
     assert tables._other_table(_section(frame)) is None
 
 
+@pytest.mark.parametrize("offset", [0.0, 1e-12, 1e-9])
+def test_a_tie_marks_both_cells(offset):
+    """Identical methods differ in the last bits of derived numbers: both are best, or the table contradicts the
+    verdict's "tie" (issue 35)."""
+    rng = np.random.default_rng(4)
+    x = rng.uniform(1.0, 3.0, size=3)
+    rows = [
+        {"run_id": f"{m}/{r}", "method": m, "repetition": r, "status": "ok", "eps_percent": x[r] * (1 + rel)}
+        for m, rel in (("a", 0.0), ("b", offset))
+        for r in range(3)
+    ]
+    table = tables._residual_table(_section(pd.DataFrame(rows)))
+    j = table.header.index(next(h for h in table.header if h.startswith("eps")))
+    assert table.rows[0][j] == table.rows[1][j]
+    assert {(0, j), (1, j)} <= table.best
+
+
+def test_a_lower_median_alone_is_marked():
+    rows = [
+        {"run_id": f"{m}/{r}", "method": m, "repetition": r, "status": "ok", "eps_percent": x}
+        for m, r, x in (("a", 0, 1.0), ("a", 1, 2.0), ("b", 0, 1.2), ("b", 1, 2.2))
+    ]
+    table = tables._residual_table(_section(pd.DataFrame(rows)))
+    j = table.header.index(next(h for h in table.header if h.startswith("eps")))
+    assert (0, j) in table.best and (1, j) not in table.best
+
+
 # ----------------------------------------------------------------------------- no key spelled outside the declarations
 _PRODUCERS_AND_CONSUMERS = [
     "nlid/study/metrics.py",

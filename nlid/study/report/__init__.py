@@ -251,7 +251,7 @@ def report_html(
     parts.append(
         "<p>Cells are median [min, max] over repetitions, with significant digits chosen from the spread; error "
         "columns are |relative error| in % of the reference values listed first; highlighted: the best (lowest) "
-        "median of an error or cost column. Epsilon is Eq. 26, computed by nlid from the data.</p>"
+        "median of an error or cost column (every one of a tie). Epsilon is Eq. 26, computed by nlid from the data.</p>"
     )
     for section in sections:
         parts.append(f"<h2>{html.escape(section.dataset)} / {html.escape(section.model)}</h2>")

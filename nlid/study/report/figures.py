@@ -419,7 +419,7 @@ def _frf_figure(
         f_max = max(f_max, 2.0 * max(m["fn_hz"] for m in modal))
     freq = np.linspace(f_max / 2000, f_max, 1500)
     w = 2 * np.pi * freq
-    fig, axes = new_figure(2, 1, width=7.0, height=5.6, sharex=True)
+    fig, axes = new_figure(2, 1, width=7.0, height=6.4, sharex=True)
     uls = diag.get("uls") if isinstance(diag.get("uls"), dict) else {}
     for i, (declared, f, h) in enumerate(curves):
         if k_tilde is not None:
@@ -445,7 +445,8 @@ def _frf_figure(
             ax.axvline(m["fn_hz"], color=color, lw=0.6, ls=":")
     axes[0].set_ylabel("|H| (m/N)")
     axes[0].set_title(f"receptance ({method}, {rec['run_id']})", fontsize=10)
-    axes[0].legend(fontsize=7)
+    handles, labels = axes[0].get_legend_handles_labels()
+    fig.legend(handles, labels, loc="outside lower center", fontsize=7)  # below the panels: the curves fill them
     axes[1].set_ylabel("phase (deg)")
     axes[1].set_xlabel("frequency (Hz)")
     cache.save(fig, stem, key)

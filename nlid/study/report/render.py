@@ -53,7 +53,7 @@ def summary_markdown(config: Any, sections: list[Section]) -> str:
             lines += [f"- **{m}**: {_md_escape('; '.join(why))}" for m, why in v.reasons.items()] + [""]
     lines += [
         "Tables: median [min, max] over repetitions, significant digits chosen from the spread; "
-        "**bold**: the best (lowest) median of an error or cost column.",
+        "**bold**: the best (lowest) median of an error or cost column (every one of a tie).",
         "",
     ]
     for section in sections:
@@ -102,7 +102,8 @@ def summary_text(config: Any, sections: list[Section], width: int = TERMINAL_WID
             lines += ["", "VERDICT", section.verdict.text(width)]
         lines += [
             "",
-            "Tables: median [min, max] over repetitions; * = best (lowest) median of an error or cost column.",
+            "Tables: median [min, max] over repetitions; * = best (lowest) median of an error or cost column,",
+            "every cell of a tie marked.",
         ]
         for table in section.tables:
             rows = [

@@ -201,7 +201,8 @@ def method_rows(section: Section, columns: list[Column], digits: int | None = No
 
     Every column has one count of significant digits, chosen from the spread of its cells
     (:func:`nlid.base.formatting.column_digits`) unless ``digits`` is given; in a lower-is-better
-    column the cells with the lowest median are the best.
+    column the cells with the lowest median are the best, and so is every cell whose median shows the same
+    digits (a tie marks all the tied cells, never one of them).
     """
     methods = section.present_methods
     table: dict[str, list[Stats | str | None]] = {}
@@ -229,10 +230,13 @@ def method_rows(section: Section, columns: list[Column], digits: int | None = No
                 text = value if isinstance(value, str) else MISSING
             rows[i].append(text)
         if c.lower_better and len(numeric) > 1:
+            # a tie marks every tied cell: medians equal at the digits the column shows (identical methods
+            # differ in the last bits of their derived numbers) are all the best
             lowest = min(st.median for st in numeric.values())
+            shown = sig(lowest, d)
             for i, m in enumerate(methods):
                 st = numeric.get(m)
-                if st is not None and st.median == lowest:
+                if st is not None and (st.median == lowest or sig(st.median, d) == shown):
                     best.add((i, j + 2))
     return rows, best
 
