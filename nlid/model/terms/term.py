@@ -161,6 +161,27 @@ class Term:
         return self.v != (0, 0) or any(s[1] == "v" for s in self.special)
 
     @property
+    def dissipative(self) -> bool:
+        """True if the term is a friction or damping law, ``g(z, v) v >= 0`` (it dissipates if its coefficient > 0).
+
+        Decided from the normal form: the term depends on the velocity, has no memory and no gap or stop
+        factor, and its sign is the sign of ``v`` (an odd number of ``sign(v)`` and ``tanh(v/c)`` factors,
+        ``v``, ``v*|v|``, ``v^3``...) times a factor that is never negative (``|z|^p``, ``z^2``, ``|px(z)|``,
+        ``exp(...)``). ``sign(v)``, ``v*|v|``, ``v^3``, ``sign(v)*exp(-(v/c)^2)``, ``z^2*v`` and
+        ``sign(v)*|px(z)|`` are; ``v^2``, ``|v|`` and ``z*v`` are not. On a structure's connection the
+        element's power is ``theta g(x, x') x'``, so the same sign decides whether it feeds energy in.
+        """
+        if self.memory is not None or not self.depends_on_v:
+            return False
+        parity = {"z": self.z[1], "v": self.v[1], "px": self.px[1]}
+        for kind, var, _, mult in self.special:
+            if kind in ("gap", "stop"):
+                return False
+            if kind == "tanh":
+                parity[var] += int(mult)
+        return parity["v"] % 2 == 1 and parity["z"] % 2 == 0 and parity["px"] % 2 == 0
+
+    @property
     def uses_px(self) -> bool:
         """True if the term contains ``px(z)`` (needs the roots z^±)."""
         return self.px != (0, 0)
