@@ -20,6 +20,7 @@ __all__ = [
     "parse_settings",
     "load_data",
     "print_json",
+    "untrusted",
     "add_data_arguments",
     "DATA_HELP",
     "to_cli",
@@ -209,6 +210,19 @@ def print_json(obj: Any) -> None:
 
     json.dump(to_jsonable(obj), sys.stdout, allow_nan=False)
     sys.stdout.write("\n")
+
+
+def untrusted(command: str, problem: str) -> int:
+    """The exit status of a result that ran: 0, or 1 with ``problem`` as one line on stderr when it is not empty.
+
+    ``problem`` is why the result cannot be trusted, naming the likely cause
+    (:func:`nlid.identified.plausibility.headline`); the result itself has been printed.
+    """
+    if not problem:
+        return 0
+    sys.stdout.flush()
+    print(f"nlid {command}: error: {one_line(to_cli(problem))}", file=sys.stderr)
+    return 1
 
 
 def _setting(value: Any) -> str | None:

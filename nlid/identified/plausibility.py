@@ -159,13 +159,12 @@ def implied_mass(record: Record, model: Model, *, cutoff: float | None = None) -
 
 def _mass_cause(given: float, implied: float) -> str:
     """The likely unit slip behind a given mass ``given`` where the data imply ``implied``."""
-    ratio = given / implied
-    decade = round(math.log10(ratio) / 3) * 3 if ratio > 0 else 0
-    hint = "is mass= in kg? is z in m (units='z=mm' when it is in mm) and f in N?"
-    if decade >= 3:
+    decade = round(math.log10(given / implied) / 3) * 3
+    hint = "is mass= the moving mass, in kg? is z in m and f in N (units= when they are not)?"
+    if decade >= 3:  # a mass in g, or a displacement in mm read as m (the acceleration 1000 times too large)
         hint = "is mass= in kg (not g)? is z in m (units='z=mm' when it is in mm)?"
-    elif decade <= -3:
-        hint = "is mass= in kg? is z in m (units='z=m' when it is in m, not mm) and f in N (not kN)?"
+    elif decade <= -3:  # a mass in t, or a force in kN read as N
+        hint = "is mass= in kg (not t)? is f in N (units='f=kN' when it is in kN)? is z in m?"
     return f"the data suggest m ≈ {implied:.2g} kg: {hint}"
 
 

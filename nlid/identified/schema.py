@@ -68,6 +68,8 @@ def model_to_dict(fit: IdentifiedModel) -> dict[str, Any]:
             "options": dict(fit.options),
             "diagnostics": dict(fit.diagnostics),
             "warnings": list(fit.warnings),
+            # written only when a check of what physics forbids failed (the layout of other models is unchanged)
+            **({"flags": [f.to_dict() for f in fit.flags]} if fit.flags else {}),
             "seconds": fit.seconds,
             "z_range": None if fit.z_range is None else list(fit.z_range),
             "provenance": dict(fit.provenance) or None,
@@ -127,6 +129,7 @@ def model_from_dict(cls: type[IdentifiedModel], data: Mapping[str, Any]) -> Iden
         options=data.get("options") or {},
         diagnostics=data.get("diagnostics") or {},
         warnings=tuple(data.get("warnings") or ()),
+        flags=tuple(data.get("flags") or ()),
         seconds=data.get("seconds"),
         z_range=data.get("z_range"),
         provenance=data.get("provenance") or {},

@@ -140,4 +140,5 @@ def model_summary(fit: IdentifiedModel, units: str | Mapping[str, str] | None = 
     out.add_fields(scores, separator="   ", gap=True)  # the blank line stays when there are no scores
     tail = [] if fit.seconds is None else [("time", f"{fit.seconds:.3g} s")]
     out.add_fields(tail + [("warning", w) for w in fit.warnings])
+    out.add_fields([("NOT TRUSTED", str(f)) for f in getattr(fit, "flags", ())])
     return out
