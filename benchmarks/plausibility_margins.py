@@ -20,6 +20,7 @@ import time
 import numpy as np
 
 import nlid
+import nlid.errors
 from nlid.identified.plausibility import check, implied_mass
 
 #: (preset, terms, noise, channels, duration) as the built-in studies simulate them.
@@ -84,7 +85,11 @@ def main() -> None:
             kw = {} if duration is None else {"duration": duration}
             record = nlid.simulate(preset, seed=seed, noise=noise, channels=channels, **kw)
             for method in methods:
-                fit = nlid.identify(record, terms, method, mass=record.mass)
+                try:
+                    fit = nlid.identify(record, terms, method, mass=record.mass)
+                except nlid.errors.NlidError as exc:  # a method that cannot identify the record has no figures
+                    print(f"{preset} seed {seed} {method}: failed: {exc}", flush=True)
+                    continue
                 describe(f"{preset} seed {seed} {method}", fit, record, None)
             fit = nlid.identify(record, terms, "rfs")  # the mass estimated: its implied mass vs the true one
             describe(f"{preset} seed {seed} rfs (mass estimated)", fit, record, record.mass)
