@@ -29,6 +29,7 @@ from .priors import (
     prior_conflicts,
 )
 from .result import Posterior
+from .trust import correction_flags
 from .sampler import MOVES, run_until_converged
 
 __all__ = ["PosteriorSampler", "sample_posterior", "select_params"]
@@ -264,6 +265,10 @@ class PosteriorSampler:
             )
         if caught:
             posterior.warnings = (*posterior.warnings, f"numerical warnings: {numerics.describe_warnings(caught)}")
+        if isinstance(fit, IdentifiedModel):  # what physics forbids, and a correction beyond its bound
+            unit = str(dict(record.units).get("z", "m"))
+            found = correction_flags(posterior.bias_shifts, fit, record, posterior.likelihood, unit)
+            posterior.flags = (*fit.flags, *found)
         return posterior
 
     def _run(self, record: Record, fit: IdentifiedModel) -> tuple[Posterior, dict[str, float]]:

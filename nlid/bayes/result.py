@@ -12,6 +12,7 @@ import numpy as np
 
 from ..base.jsonable import to_jsonable
 from ..errors import InputError
+from ..identified.plausibility import Flag
 from ..estimation.balance import RegressionData
 from ..model import physics
 from ..model.terms import Model, parse_term
@@ -107,6 +108,10 @@ class Posterior:
     units
         SI unit of each coefficient when the names are not one-DOF terms (a structure's ``K[1,2]``...);
         ``None``: each term's own unit.
+    flags
+        Why the posterior cannot be trusted (:class:`~nlid.identified.plausibility.Flag`): the identified
+        model's own flags, and a bias correction beyond :data:`nlid.bayes.trust.CORRECTION_BOUND_SD`
+        (checked by simulation); empty when there is none. ``nlid posterior`` exits with status 1 on one.
     """
 
     model: Model | Any
@@ -124,6 +129,7 @@ class Posterior:
     warnings: tuple[str, ...] = ()
     reference: dict[str, float] = field(default_factory=dict, repr=False)
     units: dict[str, str] | None = field(default=None, repr=False)
+    flags: tuple[Flag, ...] = ()
 
     def unit(self, name: str) -> str:
         """SI unit of a sampled coefficient."""
@@ -292,7 +298,8 @@ class Posterior:
                 "bias_shift_sd": self.bias_shifts,
                 "large_corrections": self.large_corrections,
                 "priors": self.priors,
-                "warnings": list(self.warnings),
+                "warnings": [*self.warnings, *(f"NOT TRUSTED: {f}" for f in self.flags)],
+                "flags": [f.to_dict() for f in self.flags],
                 "units": {n: self.unit(n) for n in self.names},
                 "sampler": {
                     "walkers": self.chains.walkers,
@@ -331,7 +338,8 @@ class Posterior:
 
     def __repr__(self) -> str:
         parts = ", ".join(f"{n} {s['mean']:.4g} +/- {s['sd']:.2g}" for n, s in self.summary_dict().items())
-        return f"<Posterior {self.method!r} ({self.others} others): {parts}>"
+        flagged = f"; NOT TRUSTED: {', '.join(f.code for f in self.flags)}" if self.flags else ""
+        return f"<Posterior {self.method!r} ({self.others} others): {parts}{flagged}>"
 
     def _repr_html_(self) -> str:
         return self.summary().as_html()
@@ -412,6 +420,7 @@ class Posterior:
             )
         lines.append(("time", f"{self.seconds:.3g} s"))
         lines += [("warning", w) for w in self.warnings]
+        lines += [("NOT TRUSTED", str(f)) for f in self.flags]
         out.add_fields(lines, gap=True)
         return out
 

@@ -17,6 +17,7 @@ from .common import (
     parse_px_roots,
     parse_settings,
     print_json,
+    untrusted,
 )
 
 DESCRIPTION = """\
@@ -218,4 +219,6 @@ def run(args: argparse.Namespace) -> int:
         print_json(posterior.to_dict())
     else:
         print(posterior.format_table())
-    return 0
+    from ..identified.plausibility import headline
+
+    return untrusted("posterior", headline(posterior.flags))

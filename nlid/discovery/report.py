@@ -220,6 +220,7 @@ def discovery_summary(result: Result) -> Summary:
     if result.validation_note:
         out.add_text(f"validation: {result.validation_note}", width=TERMINAL_WIDTH)
     _add_table(out, *_coefficient_rows(final, units))
+    out.add_text(*(f"NOT TRUSTED: {f}" for f in final.identified.flags), width=TERMINAL_WIDTH, subsequent="  ")
     return out
 
 
