@@ -17,8 +17,6 @@ from __future__ import annotations
 import argparse
 import time
 
-import numpy as np
-
 import nlid
 import nlid.errors
 from nlid.identified.plausibility import check, implied_mass
@@ -56,7 +54,8 @@ def describe(label: str, fit: nlid.IdentifiedModel, record: nlid.Record, true_ma
     for name, term in zip(fit.terms, fit.model.terms, strict=True):
         if term.dissipative and fit.coefficients[name] < 0:
             e = se.get(name)
-            worst.append(f"{name}={fit.coefficients[name]:.3g}" + (f" ({fit.coefficients[name] / e:.1f} se)" if e else ""))
+            ratio = f" ({fit.coefficients[name] / e:.1f} se)" if e else ""
+            worst.append(f"{name}={fit.coefficients[name]:.3g}{ratio}")
     implied = implied_mass(record, fit.model)
     mass = fit.mass if true_mass is None else true_mass
     ratio = rel = float("nan")
@@ -64,8 +63,9 @@ def describe(label: str, fit: nlid.IdentifiedModel, record: nlid.Record, true_ma
         ratio, rel = mass / implied.value, implied.standard_error / abs(implied.value)
     flags = check(fit, record)
     res = fit.force_residual_percent
+    shown = [f"{z:.3g}" for z in zetas]
     print(
-        f"{label:44s} zeta % {['%.3g' % z for z in zetas]!s:28s} force res. {res if res is None else round(res, 3)!s:8s}"
+        f"{label:44s} zeta % {shown!s:28s} force res. {res if res is None else round(res, 3)!s:8s}"
         f" mass/implied {ratio:7.4f} (implied rel. se {rel:.3g})  negative dissipative: {worst or '-'}"
         f"  flags: {[f.code for f in flags] or '-'}",
         flush=True,

@@ -29,8 +29,8 @@ from .priors import (
     prior_conflicts,
 )
 from .result import Posterior
-from .trust import correction_flags
 from .sampler import MOVES, run_until_converged
+from .trust import correction_flags
 
 __all__ = ["PosteriorSampler", "sample_posterior", "select_params"]
 
@@ -267,7 +267,8 @@ class PosteriorSampler:
             posterior.warnings = (*posterior.warnings, f"numerical warnings: {numerics.describe_warnings(caught)}")
         if isinstance(fit, IdentifiedModel):  # what physics forbids, and a correction beyond its bound
             unit = str(dict(record.units).get("z", "m"))
-            found = correction_flags(posterior.bias_shifts, fit, record, posterior.likelihood, unit)
+            shifts = dict(posterior.likelihood.info.get("bias_shift_sd") or {})  # every term the correction moved
+            found = correction_flags(shifts, fit, record, posterior.likelihood, unit)
             posterior.flags = (*fit.flags, *found)
         return posterior
 

@@ -12,8 +12,8 @@ import numpy as np
 
 from ..base.jsonable import to_jsonable
 from ..errors import InputError
-from ..identified.plausibility import Flag
 from ..estimation.balance import RegressionData
+from ..identified.plausibility import Flag
 from ..model import physics
 from ..model.terms import Model, parse_term
 from ..report.summary import Column, Summary

@@ -190,8 +190,8 @@ class IdentifiedModel:
         estimation record from :mod:`nlid.scoring` (always from the data).
         A result with a figure that is not finite (:meth:`problems`) is
         refused; one that breaks a rule of physics is returned with its
-        :attr:`flags` (:func:`nlid.identified.plausibility.check`); numpy's runtime warnings never reach the terminal: they are
-        named in that refusal, or, when every figure is finite, in
+        :attr:`flags` (:func:`nlid.identified.plausibility.check`); numpy's
+        runtime warnings never reach the terminal: they are named in that refusal, or, when every figure is finite, in
         :attr:`warnings`.
 
         Parameters
