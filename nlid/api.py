@@ -220,7 +220,8 @@ def compare(
         equilibria matched to the reference, or which record), ``value``,
         ``std_error``, ``unit``, ``reference``, ``error_pct`` (signed,
         percent of ``|reference|``) and ``note``. The fitted models are in
-        ``frame.attrs["models"]``.
+        ``frame.attrs["models"]``, and the assumption about the record's force between samples in
+        ``frame.attrs["force_hold"]`` (``{"hold", "source"}``: :mod:`nlid.data.forcehold`).
     """
     record = as_record(record)
     import pandas as pd
@@ -262,6 +263,7 @@ def compare(
         )
         frame = pd.DataFrame(rows, columns=FRAME_COLUMNS)
         frame.attrs["models"] = fits
+        frame.attrs["force_hold"] = _force_hold(record)
         return frame
     ref = Reference.of(record, reference)
     rule = None if rule is None else rule_from_spec(rule)
@@ -289,7 +291,15 @@ def compare(
         rows += [{"note": "", **r} for r in compare_fit(fit, ref, holdout, rule).records()]
     frame = pd.DataFrame(rows, columns=FRAME_COLUMNS)
     frame.attrs["models"] = fits
+    frame.attrs["force_hold"] = _force_hold(record)
     return frame
+
+
+def _force_hold(record: Any) -> dict[str, str]:
+    """``{"hold", "source"}``: the record's force between samples and who said so (:mod:`nlid.data.forcehold`)."""
+    from .data.forcehold import force_hold_source
+
+    return {"hold": record.force_hold, "source": force_hold_source(record.meta)}
 
 
 def posterior(

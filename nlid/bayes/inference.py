@@ -11,6 +11,7 @@ import numpy as np
 
 from ..base import numerics
 from ..base.validate import Interval, Options, check_cutoff, check_noise_sd, check_seed
+from ..data.forcehold import force_hold_source
 from ..data.record import Record
 from ..errors import IdentificationError, InputError, NlidError
 from ..estimation.balance import regression_data
@@ -265,6 +266,7 @@ class PosteriorSampler:
             )
         if caught:
             posterior.warnings = (*posterior.warnings, f"numerical warnings: {numerics.describe_warnings(caught)}")
+        posterior.force_hold = (record.force_hold, force_hold_source(record.meta))
         if isinstance(fit, IdentifiedModel):  # what physics forbids, and a correction beyond its bound
             unit = str(dict(record.units).get("z", "m"))
             shifts = dict(posterior.likelihood.info.get("bias_shift_sd") or {})  # every term the correction moved

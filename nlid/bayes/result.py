@@ -11,6 +11,7 @@ from typing import Any
 import numpy as np
 
 from ..base.jsonable import to_jsonable
+from ..data.forcehold import describe_force_hold
 from ..errors import InputError
 from ..estimation.balance import RegressionData
 from ..identified.plausibility import Flag
@@ -112,6 +113,9 @@ class Posterior:
         Why the posterior cannot be trusted (:class:`~nlid.identified.plausibility.Flag`): the identified
         model's own flags, and a bias correction beyond :data:`nlid.bayes.trust.CORRECTION_BOUND_SD`
         (checked by simulation); empty when there is none. ``nlid posterior`` exits with status 1 on one.
+    force_hold
+        ``(hold, source)``: the record's force between samples and where that came from
+        (:mod:`nlid.data.forcehold`); ``None`` when not known.
     """
 
     model: Model | Any
@@ -130,6 +134,7 @@ class Posterior:
     reference: dict[str, float] = field(default_factory=dict, repr=False)
     units: dict[str, str] | None = field(default=None, repr=False)
     flags: tuple[Flag, ...] = ()
+    force_hold: tuple[str, str] | None = None
 
     def unit(self, name: str) -> str:
         """SI unit of a sampled coefficient."""
@@ -300,6 +305,9 @@ class Posterior:
                 "priors": self.priors,
                 "warnings": [*self.warnings, *(f"NOT TRUSTED: {f}" for f in self.flags)],
                 "flags": [f.to_dict() for f in self.flags],
+                "force_hold": None
+                if self.force_hold is None
+                else {"hold": self.force_hold[0], "source": self.force_hold[1]},
                 "units": {n: self.unit(n) for n in self.names},
                 "sampler": {
                     "walkers": self.chains.walkers,
@@ -405,6 +413,8 @@ class Posterior:
                 f"(residual correlated over {info['tau_residual_samples']:.1f} samples), {bias}",
             )
         )
+        if self.force_hold is not None:
+            lines.append(("force between samples", describe_force_hold(*self.force_hold)))
         noise = info.get("noise", {})
         if noise:
             levels = ", ".join(NoiseLevel(**level).describe() for level in noise.values())

@@ -36,6 +36,7 @@ from typing import Any
 import pandas as pd
 
 from ..base.formatting import TERMINAL_WIDTH
+from ..data.forcehold import describe_force_hold
 from ..model.terms import parse_term
 from ..report.plotting import save_figure
 from ..report.summary import Column, Summary
@@ -190,6 +191,9 @@ def discovery_summary(result: Result) -> Summary:
         ],
         separator="   ",
     )
+    if result.info.get("force_hold"):  # the assumption about the force between samples, and its source
+        hold = describe_force_hold(result.info["force_hold"], result.info.get("force_hold_source", "default"))
+        out.add_text(f"force between samples: {hold}", width=TERMINAL_WIDTH, subsequent="  ")
     out.add_text(*freerun_rules(result), width=TERMINAL_WIDTH, subsequent="  ")
     judged = result.info.get("prediction_rule") or {}
     if judged.get("enabled") and judged.get("folds_note"):

@@ -10,6 +10,7 @@ from __future__ import annotations
 from collections.abc import Mapping
 from typing import TYPE_CHECKING
 
+from ..data.forcehold import describe_force_hold
 from ..data.units import Unit, coefficient_conversion, display_units
 from ..errors import InputError
 from ..report.summary import Column, Summary
@@ -96,6 +97,11 @@ def model_summary(fit: IdentifiedModel, units: str | Mapping[str, str] | None = 
         head.append(("mass", f"{fit.mass:.6g}{se} kg ({how})"))
     if shown is not None:
         head.append(("units", ", ".join(f"{c} in {shown[c].symbol}" for c in ("f", "z", "v"))))
+    data = (fit.provenance or {}).get("data") or {}
+    if data.get("force_hold"):  # the assumption about the force between samples, and where it came from
+        head.append(
+            ("force between samples", describe_force_hold(data["force_hold"], data.get("force_hold_source", "default")))
+        )
     path = getattr(fit, "input_path", None)
     if path is not None and not path.identity:  # said only when the force does not act as recorded
         head.append(("input path", path.describe()))

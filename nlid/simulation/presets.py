@@ -287,6 +287,7 @@ class Preset:
             "noise": levels,
             "excitation": self.excitation,
             "force_hold": "zoh",
+            "force_hold_source": "simulation",
             "reference": self.truth(),
         }
         test = self.sine_test()
