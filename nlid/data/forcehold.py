@@ -43,12 +43,11 @@ def force_hold_source(meta: Mapping[str, Any]) -> str:
 def describe_force_hold(hold: str, source: str) -> str:
     """One line: ``"zoh: held over each sample (zero-order hold) [from the sidecar x.csv.meta.json]"``.
 
-    The default says how to change it (``force_hold=``, which the command line spells ``--force-hold``).
+    The default says how to change it (``force_hold=``, which the command line spells ``--force-hold``: library
+    text speaks Python).
     """
     what = FORCE_HOLDS.get(hold, hold)
     if source == "default":
-        return (
-            f"{hold}: {what} [the default: nothing says otherwise; --force-hold zoh (force_hold='zoh') if it was held]"
-        )
-    where = {"option": "the option --force-hold (force_hold=)"}.get(source, source)
+        return f"{hold}: {what} [the default: nothing says otherwise; force_hold='zoh' if it was held]"
+    where = {"option": "the option force_hold="}.get(source, source)
     return f"{hold}: {what} [from {where}]"

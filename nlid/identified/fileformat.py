@@ -329,6 +329,7 @@ PROVENANCE_FIELDS: tuple[Field, ...] = (
                 Field("t0", _FINITE, False, "time of the first sample (s)"),
                 Field("channels", _STRINGS, False, "the channels present"),
                 Field("force_hold", Text("sampled or zoh", ("sampled", "zoh")), False, "how the force was held"),
+                Field("force_hold_source", Text("a string"), False, "who said how (nlid.data.forcehold)"),
                 Field("channel_sources", MapOf("an object of strings", Text("a string")), False, "measured or how"),
             ),
         ),
