@@ -28,8 +28,8 @@ __all__ = ["FORCE_HOLDS", "force_hold_source", "describe_force_hold"]
 
 #: The force's behaviour between samples, with what each means.
 FORCE_HOLDS = {
-    "sampled": "a continuous force read at the samples, interpolated between them",
-    "zoh": "held over each sample (zero-order hold)",
+    "sampled": "interpolated between samples",
+    "zoh": "held over each sample",
 }
 
 
@@ -41,13 +41,13 @@ def force_hold_source(meta: Mapping[str, Any]) -> str:
 
 
 def describe_force_hold(hold: str, source: str) -> str:
-    """One line: ``"zoh: held over each sample (zero-order hold) [from the sidecar x.csv.meta.json]"``.
+    """One line: ``"zoh: held over each sample [from the sidecar x.csv.meta.json]"``.
 
     The default says how to change it (``force_hold=``, which the command line spells ``--force-hold``: library
     text speaks Python).
     """
     what = FORCE_HOLDS.get(hold, hold)
     if source == "default":
-        return f"{hold}: {what} [the default: nothing says otherwise; force_hold='zoh' if it was held]"
+        return f"{hold}: {what} [the default: nothing said otherwise; force_hold='zoh' if it was held]"
     where = {"option": "the option force_hold="}.get(source, source)
     return f"{hold}: {what} [from {where}]"
