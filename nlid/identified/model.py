@@ -35,6 +35,7 @@ import numpy as np
 
 from .. import scoring
 from ..base import numerics
+from ..base.dimensions import mass_unit
 from ..base.frozen import FrozenDict, freeze
 from ..base.validate import check_mass
 from ..contract.estimate import Estimate
@@ -50,7 +51,7 @@ from . import plausibility
 from . import plots as modelplots
 from .plausibility import Flag
 from .schema import model_from_dict, model_to_dict
-from .tables import coefficient_frame, model_summary
+from .tables import coefficient_frame, model_summary, record_units
 
 if TYPE_CHECKING:  # pragma: no cover
     import pandas as pd
@@ -542,7 +543,7 @@ class IdentifiedModel:
         return model_summary(self, units)
 
     def __repr__(self) -> str:
-        mass = "mass unknown" if self.mass is None else f"mass={self.mass:.4g} kg"
+        mass = "mass unknown" if self.mass is None else f"mass={self.mass:.4g} {mass_unit(*record_units(self))}"
         if self.mass is not None:
             mass += " (estimated)" if self.mass_estimated else " (given)"
         eps = "" if self.eps_percent is None else f", eps={self.eps_percent:.3g} %"

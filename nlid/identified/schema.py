@@ -24,6 +24,7 @@ from ..model.physics import Equilibria
 from ..model.terms import Model, parse_term
 from ..scoring import Scores
 from .fileformat import check_model
+from .tables import record_units
 
 if TYPE_CHECKING:  # pragma: no cover
     from .model import IdentifiedModel
@@ -55,7 +56,7 @@ def model_to_dict(fit: IdentifiedModel) -> dict[str, Any]:
             "standard_errors": None
             if fit.standard_errors is None
             else {n: fit.standard_errors.get(n) for n in fit.terms},
-            "units": {n: parse_term(n).coefficient_unit for n in fit.terms},
+            "units": {n: parse_term(n).coefficient_unit_in(*record_units(fit)) for n in fit.terms},
             "mass": fit.mass,
             "mass_estimated": fit.mass_estimated,
             "mass_standard_error": fit.mass_standard_error,

@@ -47,6 +47,8 @@ from typing import Literal
 
 import numpy as np
 
+from ...base.dimensions import coefficient_unit
+
 __all__ = ["Term", "Part", "Special", "VARIABLES"]
 
 Var = Literal["z", "v", "px"]
@@ -287,13 +289,16 @@ class Term:
     @property
     def coefficient_unit(self) -> str:
         """SI unit of the term's coefficient in ``R`` (newtons per term unit)."""
+        return self.coefficient_unit_in()
+
+    def coefficient_unit_in(self, force: str = "N", length: str = "m") -> str:
+        """The unit of the term's coefficient for a record whose force is in ``force`` and displacement in ``length``.
+
+        ``force`` per unit of the term, simplified (:func:`nlid.base.dimensions.coefficient_unit`):
+        ``N*s^2/m^2`` for ``v*|v|`` in SI, ``s^2/V`` for a record in volts (the Silverbox circuit).
+        """
         meters, seconds = self._dimensions()
-        out = "N"
-        if seconds:
-            out += "*s" if seconds == 1 else f"*s^{seconds}"
-        if meters:
-            out += "/m" if meters == 1 else f"/m^{meters}"
-        return out
+        return coefficient_unit(meters, seconds, force, length)
 
     def sort_key(self) -> tuple:
         """Key for the canonical order of terms in a model.
