@@ -22,7 +22,7 @@ import re
 
 from ..errors import InputError
 
-__all__ = ["parse_unit", "format_unit", "unit_of", "simplify", "coefficient_unit", "mass_unit"]
+__all__ = ["parse_unit", "format_unit", "unit_of", "simplify", "coefficient_unit", "mass_unit", "energy_unit"]
 
 _FACTOR = re.compile(r"^([A-Za-zµμ°%]+)(?:\^(-?\d+))?$")
 
@@ -90,3 +90,9 @@ def mass_unit(force: str = "N", length: str = "m") -> str:
     """The unit of the mass, ``force / acceleration``: ``kg`` in SI, ``s^2`` for a record in volts."""
     unit = unit_of((force, 1), ("s", 2), (length, -1))
     return "kg" if unit == "N*s^2/m" else unit
+
+
+def energy_unit(force: str = "N", length: str = "m") -> str:
+    """The unit of a potential, ``force * length``: ``J`` in SI, ``V^2`` for a record in volts."""
+    unit = unit_of((force, 1), (length, 1))
+    return "J" if unit == "N*m" else unit
