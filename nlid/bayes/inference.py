@@ -268,7 +268,10 @@ class PosteriorSampler:
             posterior.warnings = (*posterior.warnings, f"numerical warnings: {numerics.describe_warnings(caught)}")
         posterior.force_hold = (record.force_hold, force_hold_source(record.meta))
         if isinstance(fit, IdentifiedModel):  # what physics forbids, and a correction beyond its bound
-            unit = str(dict(record.units).get("z", "m"))
+            force, unit = str(dict(record.units).get("f", "N")), str(dict(record.units).get("z", "m"))
+            posterior.channel_units = {"f": force, "z": unit}
+            if posterior.units is None:  # each coefficient in the record's own units (s^2/V for volts)
+                posterior.units = {n: parse_term(n).coefficient_unit_in(force, unit) for n in posterior.names}
             shifts = dict(posterior.likelihood.info.get("bias_shift_sd") or {})  # every term the correction moved
             found = correction_flags(shifts, fit, record, posterior.likelihood, unit)
             posterior.flags = (*fit.flags, *found)

@@ -10,6 +10,7 @@ from typing import Any
 
 import numpy as np
 
+from ..base.dimensions import mass_unit, unit_of
 from ..base.jsonable import to_jsonable
 from ..data.forcehold import describe_force_hold
 from ..errors import InputError
@@ -116,6 +117,10 @@ class Posterior:
     force_hold
         ``(hold, source)``: the record's force between samples and where that came from
         (:mod:`nlid.data.forcehold`); ``None`` when not known.
+    channel_units
+        ``{"f", "z"}``: the units of the record's force and displacement (``N`` and ``m``, or ``V`` for an
+        electrical analogue); the mass and the noise levels are shown in units derived from them
+        (:mod:`nlid.base.dimensions`). ``None``: SI.
     """
 
     model: Model | Any
@@ -135,6 +140,7 @@ class Posterior:
     units: dict[str, str] | None = field(default=None, repr=False)
     flags: tuple[Flag, ...] = ()
     force_hold: tuple[str, str] | None = None
+    channel_units: dict[str, str] | None = None
 
     def unit(self, name: str) -> str:
         """SI unit of a sampled coefficient."""
@@ -144,9 +150,14 @@ class Posterior:
 
     def _mass_text(self) -> str:
         if isinstance(self.mass, (int, float)):
-            return f"mass {self.mass:.6g} kg"
+            force, length = self._channels()
+            return f"mass {self.mass:.6g} {mass_unit(force, length)}"
         diag = ", ".join(f"{row[k]:.6g}" for k, row in enumerate(self.mass))
         return f"mass matrix diagonal {diag} kg"
+
+    def _channels(self) -> tuple[str, str]:
+        units = self.channel_units or {}
+        return units.get("f", "N"), units.get("z", "m")
 
     # ------------------------------------------------------------------ numbers
     @property
@@ -305,6 +316,7 @@ class Posterior:
                 "priors": self.priors,
                 "warnings": [*self.warnings, *(f"NOT TRUSTED: {f}" for f in self.flags)],
                 "flags": [f.to_dict() for f in self.flags],
+                "channel_units": dict(self.channel_units or {"f": "N", "z": "m"}),
                 "force_hold": None
                 if self.force_hold is None
                 else {"hold": self.force_hold[0], "source": self.force_hold[1]},
@@ -417,7 +429,9 @@ class Posterior:
             lines.append(("force between samples", describe_force_hold(*self.force_hold)))
         noise = info.get("noise", {})
         if noise:
-            levels = ", ".join(NoiseLevel(**level).describe() for level in noise.values())
+            length = self._channels()[1]
+            unit = {"z": length, "v": unit_of((length, 1), ("s", -1))}
+            levels = ", ".join(NoiseLevel(**level).describe(unit.get(level["channel"])) for level in noise.values())
             lines.append(("noise levels simulated by the correction", levels))
         for name, c in self.large_corrections.items():
             lines.append(
