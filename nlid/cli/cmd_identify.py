@@ -14,6 +14,7 @@ from .common import (
     parse_settings,
     print_json,
     untrusted,
+    with_wall_time,
 )
 from .isolated import IDENTIFY_TIMEOUT, add_timeout_argument, parse_timeout, plugin_warnings
 
@@ -77,5 +78,5 @@ def run(args: argparse.Namespace) -> int:
     if args.json:
         print_json(result.to_dict())
     else:
-        print(result.summary())
+        print(with_wall_time(str(result.summary()), "identification"))
     return untrusted("identify", headline(result.flags))

@@ -18,6 +18,7 @@ from .common import (
     parse_settings,
     print_json,
     untrusted,
+    with_wall_time,
 )
 
 DESCRIPTION = """\
@@ -218,7 +219,7 @@ def run(args: argparse.Namespace) -> int:
     if args.json:
         print_json(posterior.to_dict())
     else:
-        print(posterior.format_table())
+        print(with_wall_time(posterior.format_table(), "posterior"))
     from ..identified.plausibility import headline
 
     return untrusted("posterior", headline(posterior.flags))
