@@ -200,7 +200,7 @@ def run(args: argparse.Namespace) -> int:
 
     hold = frame.attrs.get("force_hold") or {"hold": record.force_hold, "source": "default"}
     if args.json:  # every row says the force-hold assumption its models were identified under
-        print_json([{**row, "force_hold": hold} for row in frame_records(frame)])
+        print_json(frame_records(frame))
     else:
         print(format_frame(frame))
         print(f"force between samples: {describe_force_hold(hold['hold'], hold['source'])}")

@@ -65,7 +65,7 @@ def test_compare_says_it_in_text_and_json(files, capfd):
         capfd, "compare", str(files["bare"]), "--methods", "rfs", "--terms", TERMS, "--mass", "0.2", "--json"
     )
     rows = json.loads(out)
-    assert status == 0 and all(r["force_hold"] == {"hold": "sampled", "source": "default"} for r in rows)
+    assert status == 0 and all((r["force_hold"], r["force_hold_source"]) == ("sampled", "default") for r in rows)
 
 
 def test_discover_says_it(files, capfd):
