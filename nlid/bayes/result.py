@@ -565,7 +565,7 @@ class Posterior:
             paths += save_figure(trace_figure(self), out / "posterior_trace", formats=("png",))
             if bands:
                 paths += save_figure(
-                    damping_figure(bands, self.data.filtered_at if self.data is not None else None),
+                    damping_figure(bands, self.data.filtered_at if self.data is not None else None, self._channels()),
                     out / "posterior_damping",
                     formats=("png",),
                 )

@@ -158,3 +158,19 @@ def test_figures_in_volts(files):
     import matplotlib.pyplot as plt
 
     plt.close("all")
+
+
+def test_posterior_damping_figure_in_volts(files):
+    from nlid.bayes import PosteriorSampler
+    from nlid.bayes.plots import damping_figure
+
+    mine = nlid.load(str(files["bare"]), units="f=V,z=V")
+    post = PosteriorSampler("damping", seed=0).run(mine, nlid.identify(mine, TERMS, "rfs", mass=0.2))
+    units = post.channel_units
+    fig = damping_figure(post.damping_bands(grid=20, draws=50), None, (units["f"], units["z"]))
+    top, bottom = fig.axes[0], fig.axes[len(fig.axes) // 2]
+    assert top.get_ylabel() == "damping force D (V)" and bottom.get_xlabel() == "v (V/s)"
+    assert top.get_title().startswith("z = ") and top.get_title().endswith(" V)")
+    import matplotlib.pyplot as plt
+
+    plt.close("all")
