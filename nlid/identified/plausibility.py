@@ -30,7 +30,6 @@ from ..data.record import Record
 from ..errors import NlidError
 from ..estimation.balance import regression_data
 from ..estimation.inputpath import acting_record
-from ..estimation.regression import least_squares
 from ..model.terms import Model
 
 if TYPE_CHECKING:  # pragma: no cover
@@ -144,18 +143,33 @@ class ImpliedMass:
 def implied_mass(record: Record, model: Model, *, cutoff: float | None = None) -> ImpliedMass | None:
     """The mass the force balance of ``record`` implies for the terms of ``model`` (``None``: not estimable).
 
-    The least squares of ``f = G theta + m a`` (:func:`nlid.estimation.regression.least_squares`) on the
-    band-limited force balance every identifier and score uses
-    (:func:`nlid.estimation.balance.regression_data`): what a mass-estimating identifier finds, computed
-    by the core, whatever method made the model.
+    The least squares of ``f = G theta + m a`` on the band-limited force balance every identifier and score
+    uses (:func:`nlid.estimation.balance.regression_data`): what a mass-estimating identifier finds, computed
+    by the core, whatever method made the model. Solved from the normal equations of the RMS-scaled
+    columns (one pass over the samples: it runs on every identification); the standard error is the
+    independent-error one times the square root of the equation error's correlation length (``fs / fc``
+    samples after the low-pass at ``fc``), enough to tell a determined mass from an undetermined one.
     """
     try:
         data = regression_data(record, model, cutoff=cutoff)
-        corr = 1.0 if data.filtered_at is None else max(1.0, record.fs / data.filtered_at)
-        fit = least_squares(np.column_stack([data.G, data.a]), data.f, [*model.names, "mass"], correlation_length=corr)
-    except (NlidError, np.linalg.LinAlgError, ValueError):
+    except NlidError:
         return None
-    value, se = float(fit.coefficients[-1]), float(math.sqrt(max(fit.covariance[-1, -1], 0.0)))
+    X = np.column_stack([data.G, data.a])
+    n, p = X.shape
+    scale = np.sqrt(np.einsum("ij,ij->j", X, X) / max(n, 1))
+    if n <= p or not np.all(np.isfinite(scale)) or np.any(scale == 0):
+        return None
+    Xs = X / scale
+    gram, rhs = Xs.T @ Xs, Xs.T @ data.f
+    try:
+        inverse = np.linalg.inv(gram)
+    except np.linalg.LinAlgError:
+        return None
+    theta = inverse @ rhs
+    resid = data.f - Xs @ theta
+    corr = 1.0 if data.filtered_at is None else max(1.0, record.fs / data.filtered_at)
+    variance = float(resid @ resid) / (n - p) * inverse[-1, -1] * corr
+    value, se = float(theta[-1] / scale[-1]), math.sqrt(max(variance, 0.0)) / float(scale[-1])
     if not (numerics.is_finite(value) and numerics.is_finite(se)):
         return None
     return ImpliedMass(value, se)
