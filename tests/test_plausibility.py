@@ -152,3 +152,18 @@ def test_presets_raise_no_flag(preset, terms, noise, channels, duration):
     for mass in (record.mass, None):
         fit = nlid.identify(record, terms, "rfs", mass=mass)
         assert fit.flags == (), [str(f) for f in fit.flags]
+
+
+@pytest.mark.parametrize(
+    ("source", "terms", "without", "mass"),
+    [
+        ("dataset:emps", "sign(v)", "z", None),  # the README's model, mass estimated
+        ("dataset:emps", "sign(v)", "z", 95.1),  # the benchmark's published mass given
+        ("dataset:silverbox", "z^2, z^3", None, None),
+        ("dataset:bouc-wen", "", "1", 2.0),  # a linear model of a hysteretic record: 33 % force residual
+        ("dataset:bouc-wen", "bouc_wen(800, -1100)", "1", 2.0),
+    ],
+)
+def test_measured_benchmarks_raise_no_flag(data_dir, source, terms, without, mass):
+    fit = nlid.identify(nlid.load(source), terms, "rfs", mass=mass, without=without)
+    assert fit.flags == (), [str(f) for f in fit.flags]
