@@ -167,3 +167,9 @@ def test_presets_raise_no_flag(preset, terms, noise, channels, duration):
 def test_measured_benchmarks_raise_no_flag(data_dir, source, terms, without, mass):
     fit = nlid.identify(nlid.load(source), terms, "rfs", mass=mass, without=without)
     assert fit.flags == (), [str(f) for f in fit.flags]
+
+
+def test_a_record_in_volts_is_told_in_its_own_units(files, capfd):
+    argv = ["identify", str(files[0]), "--terms", TERMS, "--mass", "200", "--units", "f=V,z=V"]
+    status, _, err = run(capfd, *argv)
+    assert status == 1 and "the data suggest m ≈ 0.2 s^2: is --mass in s^2" in err and " kg" not in err

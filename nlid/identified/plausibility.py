@@ -26,11 +26,13 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from ..base import numerics
+from ..base.dimensions import mass_unit
 from ..data.record import Record
 from ..errors import NlidError
 from ..estimation.balance import regression_data
 from ..estimation.inputpath import acting_record
 from ..model.terms import Model
+from .tables import record_units
 
 if TYPE_CHECKING:  # pragma: no cover
     from .model import IdentifiedModel
@@ -124,7 +126,7 @@ class ImpliedMass:
     value
         The mass (kg, or the record's unit of force per unit of acceleration).
     standard_error
-        Its standard error (batch means over the correlated equation error).
+        Its standard error (:func:`implied_mass` says how).
     """
 
     value: float
@@ -175,8 +177,10 @@ def implied_mass(record: Record, model: Model, *, cutoff: float | None = None) -
     return ImpliedMass(value, se)
 
 
-def _mass_cause(given: float, implied: float) -> str:
-    """The likely unit slip behind a given mass ``given`` where the data imply ``implied``."""
+def _mass_cause(given: float, implied: float, unit: str = "kg") -> str:
+    """The likely unit slip behind a given mass ``given`` where the data imply ``implied`` (both in ``unit``)."""
+    if unit != "kg":  # a record in other units (volts): its mass is force per unit of acceleration
+        return f"the data suggest m ≈ {implied:.2g} {unit}: is mass= in {unit}, the force per unit of acceleration?"
     decade = round(math.log10(given / implied) / 3) * 3
     hint = "is mass= the moving mass, in kg? is z in m and f in N (units= when they are not)?"
     if decade >= 3:  # a mass in g, or a displacement in mm read as m (the acceleration 1000 times too large)
@@ -194,12 +198,16 @@ def check(fit: IdentifiedModel, record: Record | None = None, *, cutoff: float |
     fit
         The identified model.
     record
-        Its estimation record: needed for the mass rule (the force balance's own mass) and to judge a
-        negative dissipative coefficient; without it only the model's own figures are checked.
+        Its estimation record: needed for the mass rule (the force balance's own mass); without it only the
+        model's own figures are checked.
     cutoff
         The equation band (Hz) of the force balance, as identified.
     """
     flags: list[Flag] = []
+    force, length = record_units(fit)  # the record's units: SI, or volts for an electrical analogue
+    if record is not None:
+        force, length = str(record.units.get("f", force)), str(record.units.get("z", length))
+    mass = mass_unit(force, length)
     if record is not None and fit.mass is not None and not fit.mass_estimated:
         implied = implied_mass(acting_record(fit, record), fit.model, cutoff=cutoff)
         if implied is not None and implied.determined:
@@ -208,21 +216,21 @@ def check(fit: IdentifiedModel, record: Record | None = None, *, cutoff: float |
                 flags.append(
                     Flag(
                         "mass",
-                        f"the given mass {fit.mass:.4g} kg is {ratio:.3g} times the {implied.value:.3g} kg "
+                        f"the given mass {fit.mass:.4g} {mass} is {ratio:.3g} times the {implied.value:.3g} {mass} "
                         "the record's force balance implies",
-                        _mass_cause(fit.mass, implied.value),
+                        _mass_cause(fit.mass, implied.value, mass),
                     )
                 )
     unit_slip = "a wrong mass or a unit slip (mass in g, z in mm)"
     low = [m for m in fit.modal if numerics.is_finite(m.zeta) and m.zeta < ZETA_MIN]
     if low:
-        shown = ", ".join(f"{100 * m.zeta:.3g} % at z* = {m.equilibrium:.4g} m" for m in low)
+        shown = ", ".join(f"{100 * m.zeta:.3g} % at z* = {m.equilibrium:.4g} {length}" for m in low)
         flags.append(
             Flag("negative-damping", f"negative damping ratio ({shown})", f"a passive structure cannot: {unit_slip}")
         )
     high = [m for m in fit.modal if numerics.is_finite(m.zeta) and m.zeta > ZETA_MAX]
     if high:
-        shown = ", ".join(f"{100 * m.zeta:.3g} % at z* = {m.equilibrium:.4g} m" for m in high)
+        shown = ", ".join(f"{100 * m.zeta:.3g} % at z* = {m.equilibrium:.4g} {length}" for m in high)
         flags.append(Flag("overdamped", f"damping ratio above {100 * ZETA_MAX:g} % ({shown})", f"likely {unit_slip}"))
     residual = None if fit.scores is None else fit.scores.force_residual_percent
     if residual is not None and numerics.is_finite(residual) and residual > FORCE_RESIDUAL_MAX_PERCENT:
@@ -239,7 +247,7 @@ def check(fit: IdentifiedModel, record: Record | None = None, *, cutoff: float |
         value, error = fit.coefficients[name], se.get(name)
         if term.dissipative and term.z == (0, 0) and term.px == (0, 0) and value < 0:
             if error is None or not numerics.is_finite(error) or -value > SIGN_STANDARD_ERRORS * error:
-                wrong.append(f"{name} {value:.3g} {term.coefficient_unit}")
+                wrong.append(f"{name} {value:.3g} {term.coefficient_unit_in(force, length)}")
     if wrong:
         flags.append(
             Flag(
