@@ -13,19 +13,7 @@ def test_the_command_line_refines_and_prints_both(cli, monkeypatch, tmp_path, rf
     record = preset.simulate(1, noise={"z": 0.02}, channels=("z",))
     path = tmp_path / "x.csv"
     write_csv(record, path)
-    status, out, err = cli(
-        "discover",
-        str(path),
-        "--declared",
-        "1, z, z^2, z^3, v, v*|v|",
-        "--mass",
-        "0.2",
-        "--method",
-        "rfs",
-        "--max-steps",
-        "0",
-        "--refine",
-        "--quiet",
-    )
+    status, out, err = cli("discover", str(path), "--declared", "1, z, z^2, z^3, v, v*|v|", "--mass", "0.2",
+                           "--method", "rfs", "--max-steps", "0", "--refine", "--quiet")
     assert status == 0, err
     assert "refined with oe" in out and "free-run RMS error held-out" in out
