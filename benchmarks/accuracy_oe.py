@@ -59,7 +59,8 @@ def main() -> None:
         print(f"   mass: rfs {start.mass:.6g} -> oe {fit.mass:.6g} (+/- {fit.mass_standard_error or 0:.3g})")
         for old, new in zip(start.terms, fit.terms, strict=True):
             se = (fit.standard_errors or {}).get(new, float("nan"))
-            print(f"   {old:>22s} {start.coefficients[old]:14.6g} -> {new:>24s} {fit.coefficients[new]:14.6g} +/- {se:.3g}")
+            before, after = start.coefficients[old], fit.coefficients[new]
+            print(f"   {old:>22s} {before:14.6g} -> {new:>24s} {after:14.6g} +/- {se:.3g}")
         for term, entry in fit.diagnostics["shapes"].items():
             print(f"   shape of {term}: {entry['values']} +/- {entry['standard_errors']}")
         print(f"   stages: {fit.diagnostics['stages']}")

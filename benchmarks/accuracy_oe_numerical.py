@@ -40,7 +40,8 @@ def main() -> None:
         fits = {"rfs": (nlid.identify(record, preset.terms, "rfs", mass=preset.mass), 0.0)}
         for label, options in (("oe", {}), ("oe, 1-s segments", {"segment_seconds": 1.0})):
             clock = time.perf_counter()
-            fit = nlid.identify(record, preset.terms, OutputError(init="rfs", oversample=1, **options), mass=preset.mass)
+            method = OutputError(init="rfs", oversample=1, **options)
+            fit = nlid.identify(record, preset.terms, method, mass=preset.mass)
             fits[label] = (fit, time.perf_counter() - clock)
         for label, (fit, seconds) in fits.items():
             err = {n: 100 * (fit.coefficients[n] / truth[n] - 1) for n in fit.terms}

@@ -20,10 +20,11 @@ from __future__ import annotations
 import math
 from collections.abc import Iterable, Mapping, Sequence
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, cast
 
 from .data.record import Record
 from .data.sources import as_record
+from .data.structure_record import StructureRecord
 from .errors import InputError, NlidError, brief
 from .identification.pipeline import as_model, identify
 from .identified.model import IdentifiedModel
@@ -37,6 +38,7 @@ if TYPE_CHECKING:  # pragma: no cover
 
     from .bayes import Posterior
     from .discovery import DiscoveryResult
+    from .discovery.structure_result import StructureDiscoveryResult
     from .study import StudyOutcome
 
 __all__ = ["load", "simulate", "compare", "posterior", "discover", "run_study"]
@@ -49,7 +51,7 @@ def load(
     fs: float | None = None,
     force_hold: str | None = None,
     units: str | Mapping[str, str] | None = None,
-) -> Record:
+) -> Record | StructureRecord:
     """Read a record from a file, a bundled benchmark, a DataFrame, an xarray Dataset or a mapping of arrays.
 
     Files and tables share one column map and one set of rules (a DataFrame
@@ -110,7 +112,7 @@ def simulate(
     noise: float | Mapping[str, float] = 0.0,
     channels: str | Sequence[str] = ("z", "v", "a"),
     **overrides: Any,
-) -> Record:
+) -> Record | StructureRecord:
     """A record simulated from a preset (:mod:`nlid.simulation.presets`), in one call.
 
     Parameters
@@ -145,7 +147,7 @@ def simulate(
 
 
 def compare(
-    record: Record,
+    record: Any,
     terms: str | Iterable[str] | Any,
     methods: Sequence[str] | None = None,
     *,
@@ -259,17 +261,25 @@ def compare(
             raise InputError("holdout=, rule= and px_roots= do not apply to a structure of several DOFs")
         from .identification.structure_compare import compare_structure
 
-        rows, fits = compare_structure(
-            record, terms, names, mass=mass, reference=reference, options=options, without=without, errors=errors
+        srows, sfits = compare_structure(
+            cast(StructureRecord, record),
+            terms,
+            names,
+            mass=mass,
+            reference=reference,
+            options=options,
+            without=without,
+            errors=errors,
         )
-        frame = pd.DataFrame(rows, columns=FRAME_COLUMNS)
-        frame.attrs["models"] = fits
+        frame = pd.DataFrame(srows, columns=FRAME_COLUMNS)
+        frame.attrs["models"] = sfits
         return _said(frame, record)
+    record = cast(Record, record)
     ref = Reference.of(record, reference)
     rule = None if rule is None else rule_from_spec(rule)
     if holdout is not None and not isinstance(holdout, Record):
         if isinstance(holdout, (str, Path)):
-            holdout = as_record(holdout)
+            holdout = cast(Record, as_record(holdout))
         else:
             from .base.validate import HOLDOUT_FRACTION
             from .discovery.inputs import Split
@@ -281,14 +291,14 @@ def compare(
     assert model is not None
     for name in names:
         try:
-            fit = identify(record, model, name, mass=mass, options=(options or {}).get(name))
+            fit = cast(IdentifiedModel, identify(record, model, name, mass=mass, options=(options or {}).get(name)))
         except NlidError as exc:
             if errors == "raise":
                 raise
             rows.append({"method": name, "quantity": "failed", "name": "", "value": math.nan, "note": str(exc)})
             continue
         fits[name] = fit
-        rows += [{"note": "", **r} for r in compare_fit(fit, ref, holdout, rule).records()]
+        rows += [{"note": "", **r} for r in compare_fit(fit, ref, cast("Record | None", holdout), rule).records()]
     frame = pd.DataFrame(rows, columns=FRAME_COLUMNS)
     frame.attrs["models"] = fits
     return _said(frame, record)
@@ -306,7 +316,7 @@ def _said(frame: Any, record: Any) -> Any:
 
 
 def posterior(
-    record: Record, fit: IdentifiedModel, *, params: str | Iterable[str] = "damping", **settings: Any
+    record: Any, fit: IdentifiedModel, *, params: str | Iterable[str] = "damping", **settings: Any
 ) -> Posterior:
     """Posterior of chosen coefficients of an identified model, sampled with emcee.
 
@@ -333,8 +343,8 @@ def posterior(
 
 
 def discover(
-    record: Record, declared: str | Iterable[str], method: str | None = None, **settings: Any
-) -> DiscoveryResult:
+    record: Any, declared: str | Iterable[str], method: str | None = None, **settings: Any
+) -> DiscoveryResult | StructureDiscoveryResult:
     """Find the effects a declared model lacks (see :func:`nlid.discovery.discover` for the settings).
 
     On a :class:`~nlid.data.structure_record.StructureRecord` (several DOFs) this is
@@ -345,14 +355,12 @@ def discover(
 
     Returns
     -------
-    nlid.discovery.DiscoveryResult
+    nlid.discovery.DiscoveryResult or nlid.discovery.structure_result.StructureDiscoveryResult
         ``.steps`` (each accepted effect with the error before and after),
         ``.final_model`` (an :class:`~nlid.identified.model.IdentifiedModel`),
         ``.summary()``, ``.to_dict()``.
     """
     record = as_record(record)
-    from .data.structure_record import StructureRecord
-
     if isinstance(record, StructureRecord):  # several DOFs: which connection lacks an element
         from .discovery.structure import discover_structure
 

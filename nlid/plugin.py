@@ -36,7 +36,9 @@ The toolkit has four axes, which identifiers compose rather than re-implement:
   on one);
 * **other identifiers**: :func:`identify` (the core's :func:`nlid.identify`,
   e.g. for a method that starts from another method's estimate) and
-  :func:`choose_method` (the installed identifier with the best ``preference``).
+  :func:`choose_method` (the installed identifier with the best ``preference``);
+* **candidate effects** for ``nlid discover``: :class:`Candidate` and its shape
+  grid :class:`Shape`, what the ``nlid_candidates`` hook returns.
 
 Errors to raise: :class:`InputError` / :class:`DataError` for what the user
 gave (wrong model for the method, unusable record), :class:`IdentificationError`
@@ -82,6 +84,7 @@ from .signal import derivatives
 
 if TYPE_CHECKING:  # loaded on first use by __getattr__ below (the simulator compiles with numba)
     from .contract.methods import choose_method
+    from .discovery.library import Candidate, Shape
     from .identification.pipeline import identify
     from .scoring import initial_state, predictability_horizon, score
     from .simulation import (
@@ -153,6 +156,8 @@ __all__ = [
     "kernel_threads",
     "identify",
     "choose_method",
+    "Candidate",
+    "Shape",
     "to_jsonable",
     "progress_line",
     "ProgressLine",
@@ -166,6 +171,10 @@ __all__ = [
 
 
 def __getattr__(name: str):  # the simulator (numba) and the scores are loaded only when a plugin uses them
+    if name in ("Candidate", "Shape"):  # what a candidate plugin returns from nlid_candidates (nlid discover)
+        from .discovery import library
+
+        return getattr(library, name)
     if name in ("simulate", "free_run", "simulate_segments", "fine_force", "FREE_RUN_OVERSAMPLE", "SimulationError"):
         from . import simulation
 
@@ -175,9 +184,11 @@ def __getattr__(name: str):  # the simulator (numba) and the scores are loaded o
 
         return getattr(scoring, name)
     if name in ("structure_free_run", "structure_free_run_segments"):
-        from .simulation import structure as simulation
+        from .simulation import structure as structure_simulation
 
-        return simulation.free_run if name == "structure_free_run" else simulation.free_run_segments
+        if name == "structure_free_run":
+            return structure_simulation.free_run
+        return structure_simulation.free_run_segments
     if name == "structure_segments":
         from .simulation.structure_sensitivity import structure_segments
 

@@ -75,7 +75,7 @@ import numpy as np
 
 from .base.jsonable import to_jsonable
 from .contract.estimate import Estimate, check_estimate
-from .contract.identifier import Option
+from .contract.identifier import Identifier, Option
 from .data.record import Record
 from .errors import IdentificationError, InputError, NlidError, OptionError, PluginError, describe_exception
 from .model.terms import Model
@@ -95,12 +95,14 @@ def contract_record(duration: float = 10.0, seed: int = 0, channels: tuple[str, 
     """A short noise-free ``paper-numerical`` record with exact channels (cached)."""
     from .simulation.presets import get_preset
 
-    return get_preset("paper-numerical").with_overrides(duration=duration).simulate(seed, channels=channels)
+    record = get_preset("paper-numerical").with_overrides(duration=duration).simulate(seed, channels=channels)
+    assert isinstance(record, Record)  # a one-DOF preset
+    return record
 
 
 @dataclass(frozen=True)
 class _Setup:
-    cls: type
+    cls: type[Identifier]
     options: dict[str, Any]
     terms: str
     accuracy: float | None

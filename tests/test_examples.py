@@ -23,7 +23,8 @@ def _run(name: str, cwd: Path) -> str:
 
 
 def test_every_example_is_tested():
-    assert {p.name for p in EXAMPLES.glob("*.py")} == {"simulate_identify_compare.py", "own_csv.py", "emps.py", "structure.py"}
+    expected = {"simulate_identify_compare.py", "own_csv.py", "emps.py", "structure.py"}
+    assert {p.name for p in EXAMPLES.glob("*.py")} == expected
 
 
 @pytest.mark.slow

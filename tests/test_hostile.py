@@ -29,6 +29,8 @@ from nlid.simulation.presets import get_preset
 TERMS = "z^3,z^2,v*|v|"
 NESTED = "(" * 500 + "z" + ")" * 500
 PRODUCT = "*".join(["z"] * 50001)
+SIMULATE_SET = ["simulate", "--preset", "paper-numerical", "--set"]
+DISCOVER_X = ["discover", "x.csv", "--declared", "1,z,v", "--mass", "0.2"]
 
 HOSTILE_PLUGINS = '''
 import os
@@ -260,9 +262,9 @@ G5_ONE_LINE = [  # tracebacks where one line belongs
     (["posterior", "x.csv", "--terms", "z^3", "--mass", "0.2", "--prior", "q=flat"], 2, "unknown name 'q'"),
     (["simulate", "--preset", "paper-numerical", "--seed", "-1", "--out", "s.csv"], 2, "seed must be an integer"),
     (["simulate", "--preset", "paper-numerical", "--seed", "99999999999999999999", "--out", "s.csv"], 2, "seed must"),
-    (["simulate", "--preset", "paper-numerical", "--set", "fs=0", "--out", "s.csv"], 2, "fs must be a positive number of Hz"),
-    (["simulate", "--preset", "paper-numerical", "--set", "fs=1e9", "--out", "s.csv"], 2, "at most 1e+07, got 1e+09"),
-    (["simulate", "--preset", "paper-numerical", "--set", "fs=nan", "--out", "s.csv"], 2, "fs must be a positive number of Hz"),
+    (SIMULATE_SET + ["fs=0", "--out", "s.csv"], 2, "fs must be a positive number of Hz"),
+    (SIMULATE_SET + ["fs=1e9", "--out", "s.csv"], 2, "at most 1e+07, got 1e+09"),
+    (SIMULATE_SET + ["fs=nan", "--out", "s.csv"], 2, "fs must be a positive number of Hz"),
     (["simulate", "--preset", "paper-numerical", "--set", "mass=abc", "--out", "s.csv"], 2, "expected a number"),
     (["simulate", "--preset", "paper-numerical", "--set", "novalue", "--out", "s.csv"], 2, "key=value"),
     (["simulate", "--preset", "paper-numerical", "--set", "z^5=1", "--out", "s.csv"], 2, "not in the model"),
@@ -335,7 +337,7 @@ G5_ONE_LINE = [  # tracebacks where one line belongs
     (["discover", "x.csv", "--declared", "1,z,v", "--mass", "0.2", "--candidates", "nope"], 2, "nope"),
     (["discover", "x.csv", "--declared", "1,z,v", "--mass", "0.2", "--candidate", "bad"], 2, "NAME=TERMS"),
     (["discover", "x.csv", "--declared", "1,z,q", "--mass", "0.2"], 2, "unknown name 'q'"),
-    (["discover", "x.csv", "--declared", "1,z,v", "--mass", "0.2", "--cutoff", "-1"], 2, "Nyquist frequency 1024 Hz, got -1"),
+    ([*DISCOVER_X, "--cutoff", "-1"], 2, "Nyquist frequency 1024 Hz, got -1"),
     (["discover", "x.csv", "--declared", "1,z,v", "--mass", "0.2", "--cutoff", "5000"], 2, "Nyquist"),
 ]
 

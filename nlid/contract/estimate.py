@@ -33,7 +33,7 @@ from ..errors import (
 )
 from ..model.terms import Model
 
-__all__ = ["Estimate", "check_estimate", "refined_terms", "MAX_WARNING"]
+__all__ = ["Estimate", "check_estimate", "checked_parts", "refined_terms", "MAX_WARNING"]
 
 
 @dataclass(frozen=True)
@@ -188,6 +188,128 @@ def _jsonable(value: Any) -> str | None:
     return None
 
 
+def _standard_error(value: Any, what: str, who: str) -> float | None:
+    """A plugin's standard error as a float (``None`` when not given); a NaN or negative one is kept.
+
+    Such a figure is refused with every other one that cannot be trusted, by
+    :meth:`nlid.identified.model.IdentifiedModel.problems`.
+    """
+    if value is None:
+        return None
+    se = _real(value)
+    if se is None:
+        raise PluginError(f"{who} returned {_kind(value)} as the standard error of {what}, not a number")
+    return se
+
+
+def checked_parts(
+    estimate: Any, names: Sequence[str], who: str
+) -> tuple[dict[str, float], dict[str, float] | None, list[str], dict[str, Any], dict[str, np.ndarray]]:
+    """The parts every estimate shares, checked one way for one DOF and for a structure.
+
+    The coefficients (one real, finite number per name: a term of the model, or an element of a
+    structure), the standard errors, the warnings, the diagnostics and the arrays; the same hostile
+    return gets the same one-line message whichever kind of estimate carries it.
+
+    Parameters
+    ----------
+    estimate
+        An :class:`Estimate` or a :class:`~nlid.contract.structure_estimate.StructureEstimate`.
+    names
+        The canonical names the coefficients must be keyed by, in model order.
+    who
+        ``"identifier 'name'"``, the start of every message.
+
+    Returns
+    -------
+    tuple
+        ``(coefficients, standard_errors, notes, diagnostics, arrays)``: floats in model order, the
+        standard errors given (or ``None``), the warnings cut to :data:`MAX_WARNING` characters plus a
+        note for every dropped diagnostic or array, the diagnostics that serialise to JSON, the arrays of
+        numbers under string keys.
+
+    Raises
+    ------
+    PluginError
+        Coefficients that are not a mapping of exactly ``names`` to real numbers; standard errors
+        for other names or not numbers; warnings that are not a list of strings.
+    IdentificationError
+        A coefficient that is not finite.
+    """
+    names = list(names)
+    given = estimate.coefficients
+    if not isinstance(given, Mapping):
+        raise PluginError(f"{who} returned coefficients as {_kind(given)}, not a mapping {{term: value}}")
+    by_name = {str(k): v for k, v in given.items()}
+    if sorted(by_name) != sorted(names) or len(given) != len(names):
+        raise PluginError(
+            f"{who} returned coefficients for {listing(sorted(by_name), quote=True)} but the model is {names}"
+        )
+    coefficients: dict[str, float] = {}
+    for term in names:
+        value = _real(by_name[term])
+        if value is None:
+            raise PluginError(f"{who} returned {_kind(by_name[term])} as the coefficient of {term}, not a real number")
+        coefficients[term] = value
+    bad = [n for n, x in coefficients.items() if not math.isfinite(x)]
+    if bad:
+        shown = ", ".join(f"{n} ({coefficients[n]})" for n in bad)
+        raise IdentificationError(f"{who} produced non-finite coefficients for {shown}")
+
+    errors: dict[str, float] | None = None
+    if estimate.standard_errors is not None:
+        if not isinstance(estimate.standard_errors, Mapping):
+            raise PluginError(f"{who} returned standard errors as {_kind(estimate.standard_errors)}, not a mapping")
+        unknown = [k for k in estimate.standard_errors if k not in names]
+        if unknown:
+            raise PluginError(
+                f"{who} returned standard errors for terms not in the model: {listing(unknown, quote=True)}"
+            )
+        raw = {n: estimate.standard_errors[n] for n in names if n in estimate.standard_errors}
+        errors = {n: se for n, v in raw.items() if (se := _standard_error(v, n, who)) is not None}
+
+    warnings = estimate.warnings
+    if isinstance(warnings, (str, bytes)) or not isinstance(warnings, (list, tuple)):
+        raise PluginError(f"{who} returned warnings as {_kind(warnings)}, not a list of strings")
+    odd = next((w for w in warnings if not isinstance(w, str)), None)
+    if odd is not None:
+        raise PluginError(f"{who} returned {_kind(odd)} among its warnings, not a string")
+    notes = [one_line(w, MAX_WARNING) for w in warnings]
+
+    diagnostics: dict[str, Any] = {}
+    if isinstance(estimate.diagnostics, Mapping):
+        dropped = []
+        for key, value in estimate.diagnostics.items():
+            why = _jsonable({key: value})
+            if why is None:
+                diagnostics[str(key)] = value
+            else:
+                dropped.append(f"{brief(str(key), 40)} ({why})")
+        if dropped:
+            notes.append(f"diagnostics dropped (they do not serialise to JSON): {listing(dropped, width=120)}")
+    elif estimate.diagnostics is not None:
+        notes.append(f"diagnostics dropped: {_kind(estimate.diagnostics)}, not a mapping")
+
+    arrays: dict[str, np.ndarray] = {}
+    if isinstance(estimate.arrays, Mapping):
+        dropped = []
+        for key, value in estimate.arrays.items():
+            try:
+                array = np.asarray(value)
+                ok = isinstance(key, str) and array.dtype.kind in "biufc"
+            except Exception:  # noqa: BLE001 - an object numpy cannot read is dropped like the others
+                ok = False
+            if ok:
+                arrays[key] = array
+            else:
+                dropped.append(brief(key, 40))
+        if dropped:
+            notes.append(f"arrays dropped (not arrays of numbers under a string key): {listing(dropped)}")
+    elif estimate.arrays is not None:
+        notes.append(f"arrays dropped: {_kind(estimate.arrays)}, not a mapping")
+    return coefficients, errors, notes, diagnostics, arrays
+
+
 def check_estimate(estimate: Any, model: Model, name: str, mass: float | None = None) -> Estimate:
     """Check what an identifier returned, before anything uses it; the estimate as the core uses it.
 
@@ -261,24 +383,7 @@ def _check_estimate(estimate: Any, model: Model, name: str, mass: float | None) 
             raise PluginError(f"{who}: {exc}") from None
         model = estimate.model
     names = list(model.names)
-    given = estimate.coefficients
-    if not isinstance(given, Mapping):
-        raise PluginError(f"{who} returned coefficients as {_kind(given)}, not a mapping {{term: value}}")
-    by_name = {str(k): v for k, v in given.items()}
-    if sorted(by_name) != sorted(names) or len(given) != len(names):
-        raise PluginError(
-            f"{who} returned coefficients for {listing(sorted(by_name), quote=True)} but the model is {names}"
-        )
-    coefficients: dict[str, float] = {}
-    for term in names:
-        value = _real(by_name[term])
-        if value is None:
-            raise PluginError(f"{who} returned {_kind(by_name[term])} as the coefficient of {term}, not a real number")
-        coefficients[term] = value
-    bad = [n for n, x in coefficients.items() if not math.isfinite(x)]
-    if bad:
-        shown = ", ".join(f"{n} ({coefficients[n]})" for n in bad)
-        raise IdentificationError(f"{who} produced non-finite coefficients for {shown}")
+    coefficients, errors, notes, diagnostics, arrays = checked_parts(estimate, names, who)
 
     est_mass = estimate.mass
     if est_mass is not None:
@@ -294,26 +399,7 @@ def _check_estimate(estimate: Any, model: Model, name: str, mass: float | None) 
             raise IdentificationError(f"{who} estimated a mass that is not positive ({value} kg)")
         est_mass = None if mass is not None else value
 
-    def standard_error(value: Any, what: str) -> float | None:
-        if value is None:
-            return None
-        se = _real(value)
-        if se is None:
-            raise PluginError(f"{who} returned {_kind(value)} as the standard error of {what}, not a number")
-        return se  # a NaN or negative one is refused with every other figure (IdentifiedModel.problems)
-
-    errors: dict[str, float] | None = None
-    if estimate.standard_errors is not None:
-        if not isinstance(estimate.standard_errors, Mapping):
-            raise PluginError(f"{who} returned standard errors as {_kind(estimate.standard_errors)}, not a mapping")
-        unknown = [k for k in estimate.standard_errors if k not in names]
-        if unknown:
-            raise PluginError(
-                f"{who} returned standard errors for terms not in the model: {listing(unknown, quote=True)}"
-            )
-        raw = {n: estimate.standard_errors[n] for n in names if n in estimate.standard_errors}
-        errors = {n: se for n, v in raw.items() if (se := standard_error(v, n)) is not None}
-    mass_se = standard_error(estimate.mass_standard_error, "the mass") if est_mass is not None else None
+    mass_se = _standard_error(estimate.mass_standard_error, "the mass", who) if est_mass is not None else None
 
     modal = estimate.modal
     if modal is not None:
@@ -334,46 +420,6 @@ def _check_estimate(estimate: Any, model: Model, name: str, mass: float | None) 
                 raise PluginError(f"{who} returned malformed modal parameters: {brief(str(exc), 200)[1:-1]}") from None
             checked.append(item)
         modal = tuple(checked)
-
-    warnings = estimate.warnings
-    if isinstance(warnings, (str, bytes)) or not isinstance(warnings, (list, tuple)):
-        raise PluginError(f"{who} returned warnings as {_kind(warnings)}, not a list of strings")
-    odd = next((w for w in warnings if not isinstance(w, str)), None)
-    if odd is not None:
-        raise PluginError(f"{who} returned {_kind(odd)} among its warnings, not a string")
-    notes = [one_line(w, MAX_WARNING) for w in warnings]
-
-    diagnostics: dict[str, Any] = {}
-    if isinstance(estimate.diagnostics, Mapping):
-        dropped = []
-        for key, value in estimate.diagnostics.items():
-            why = _jsonable({key: value})
-            if why is None:
-                diagnostics[str(key)] = value
-            else:
-                dropped.append(f"{brief(str(key), 40)} ({why})")
-        if dropped:
-            notes.append(f"diagnostics dropped (they do not serialise to JSON): {listing(dropped, width=120)}")
-    elif estimate.diagnostics is not None:
-        notes.append(f"diagnostics dropped: {_kind(estimate.diagnostics)}, not a mapping")
-
-    arrays: dict[str, np.ndarray] = {}
-    if isinstance(estimate.arrays, Mapping):
-        dropped = []
-        for key, value in estimate.arrays.items():
-            try:
-                array = np.asarray(value)
-                ok = isinstance(key, str) and array.dtype.kind in "biufc"
-            except Exception:  # noqa: BLE001 - an object numpy cannot read is dropped like the others
-                ok = False
-            if ok:
-                arrays[key] = array
-            else:
-                dropped.append(brief(key, 40))
-        if dropped:
-            notes.append(f"arrays dropped (not arrays of numbers under a string key): {listing(dropped)}")
-    elif estimate.arrays is not None:
-        notes.append(f"arrays dropped: {_kind(estimate.arrays)}, not a mapping")
 
     return Estimate(
         coefficients=coefficients,

@@ -13,15 +13,17 @@ residual per DOF, the wall time.
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
 
-from ..errors import IdentificationError, InputError, PluginError
+from ..errors import IdentificationError, InputError, NlidError, PluginError, brief, describe_exception
 from ..model.elements import ElementSet
 from ..model.modes import StructureModes
+from .estimate import checked_parts
 
 __all__ = ["StructureEstimate", "check_structure_estimate"]
 
@@ -77,30 +79,60 @@ class StructureEstimate:
     elements: ElementSet | None = None
 
 
-def _matrix(value: Any, n: int, what: str, name: str) -> np.ndarray:
-    arr = np.asarray(value, dtype=float) if value is not None else None
+def _matrix(value: Any, n: int, what: str, who: str) -> np.ndarray:
+    try:
+        arr = np.asarray(value, dtype=float) if value is not None else None
+    except (TypeError, ValueError):
+        arr = None
     if arr is None or arr.shape != (n, n):
-        raise PluginError(f"identifier {name!r} returned {what} of shape {np.shape(value)}, not ({n}, {n})")
+        raise PluginError(f"{who} returned {what} of shape {np.shape(value)}, not ({n}, {n})")
     if not np.all(np.isfinite(arr)):
-        raise IdentificationError(f"identifier {name!r} produced a {what} that is not finite")
+        raise IdentificationError(f"{who} produced a {what} that is not finite")
     return arr
 
 
-def check_structure_estimate(estimate: Any, elements: ElementSet, name: str, mass: np.ndarray | None) -> ElementSet:
-    """Check an identifier's return value against the contract; the element set its coefficients belong to.
+def check_structure_estimate(
+    estimate: Any, elements: ElementSet, name: str, mass: np.ndarray | None
+) -> StructureEstimate:
+    """Check an identifier's return value against the contract; the estimate as the core uses it.
+
+    The coefficients, standard errors, warnings, diagnostics and arrays are checked by the one check
+    every estimate shares (:func:`nlid.contract.estimate.checked_parts`): a hostile return gets the
+    same one-line message as on one DOF, an unserialisable diagnostic or a runaway warning is dropped
+    or cut the same way. Then what only a structure has: the matrices, the static forces, the modes.
+
+    Returns
+    -------
+    StructureEstimate
+        The same content, normalised: coefficients and standard errors as floats in element order,
+        diagnostics and arrays without the dropped entries, warnings with the notes of what was
+        dropped, and :attr:`~StructureEstimate.elements` the element set the coefficients belong to.
 
     Raises
     ------
     PluginError
-        Not a :class:`StructureEstimate`, coefficients that are not exactly
-        the elements, matrices of the wrong shape, malformed modes.
+        Not a :class:`StructureEstimate`, coefficients that are not exactly the elements or not
+        numbers, matrices of the wrong shape, malformed standard errors, warnings or modes.
     IdentificationError
-        Values that are not finite; an estimated mass matrix that is not
-        symmetric positive definite.
+        Values that are not finite; an estimated mass matrix that is not symmetric positive definite.
     """
+    try:
+        return _check_structure_estimate(estimate, elements, name, mass)
+    except NlidError:
+        raise
+    except Exception as exc:  # noqa: BLE001 - a value that breaks when read is a broken plugin too
+        raise PluginError(
+            f"identifier {brief(name, 60)} returned an estimate that cannot be read: {describe_exception(exc)}"
+        ) from None
+
+
+def _check_structure_estimate(
+    estimate: Any, elements: ElementSet, name: str, mass: np.ndarray | None
+) -> StructureEstimate:
+    who = f"identifier {brief(name, 60)}"
     if not isinstance(estimate, StructureEstimate):
         raise PluginError(
-            f"identifier {name!r} returned {type(estimate).__name__} for a structure, not nlid.plugin.StructureEstimate"
+            f"{who} returned {type(estimate).__name__} for a structure, not nlid.plugin.StructureEstimate"
         )
     used = elements
     if estimate.elements is not None:
@@ -116,41 +148,44 @@ def check_structure_estimate(estimate: Any, elements: ElementSet, name: str, mas
             )
         )
         if not same:
-            raise PluginError(
-                f"identifier {name!r} returned elements ({refined}) that are not those given ({elements})"
-            )
+            raise PluginError(f"{who} returned elements ({refined}) that are not those given ({elements})")
         used = refined
-    keys = list(estimate.coefficients)
-    if sorted(keys) != sorted(used.names):
-        raise PluginError(
-            f"identifier {name!r} returned coefficients for {sorted(keys)} but the elements are {list(used.names)}"
-        )
-    bad = [k for k in used.names if not np.isfinite(float(estimate.coefficients[k]))]
-    if bad:
-        raise IdentificationError(f"identifier {name!r} produced non-finite coefficients for {', '.join(bad)}")
+    coefficients, errors, notes, diagnostics, arrays = checked_parts(estimate, list(used.names), who)
     n = elements.n_dofs
-    _matrix(estimate.K, n, "K", name)
-    _matrix(estimate.C, n, "C", name)
+    K = _matrix(estimate.K, n, "K", who)
+    C = _matrix(estimate.C, n, "C", who)
+    static = None
     if estimate.static is not None:
-        static = np.asarray(estimate.static, dtype=float)
+        try:
+            static = np.asarray(estimate.static, dtype=float)
+        except (TypeError, ValueError):
+            static = np.empty(0)
         if static.shape != (n,):
-            raise PluginError(f"identifier {name!r} returned static forces of shape {static.shape}, not ({n},)")
+            raise PluginError(f"{who} returned static forces of shape {np.shape(estimate.static)}, not ({n},)")
         if not np.all(np.isfinite(static)):
-            raise IdentificationError(f"identifier {name!r} produced static forces that are not finite")
+            raise IdentificationError(f"{who} produced static forces that are not finite")
+    M = None
     if mass is None and estimate.M is not None:
-        M = _matrix(estimate.M, n, "mass matrix", name)
+        M = _matrix(estimate.M, n, "mass matrix", who)
         try:
             np.linalg.cholesky(0.5 * (M + M.T))
         except np.linalg.LinAlgError:
-            raise IdentificationError(
-                f"identifier {name!r} estimated a mass matrix that is not positive definite"
-            ) from None
-    unknown = [k for k in (estimate.standard_errors or {}) if k not in used.names]
-    if unknown:
-        raise PluginError(f"identifier {name!r} returned standard errors for elements not in the model: {unknown}")
+            raise IdentificationError(f"{who} estimated a mass matrix that is not positive definite") from None
     for entry in [*(estimate.modes or ()), *([] if estimate.linear_modes is None else [estimate.linear_modes])]:
         try:
             StructureModes.from_dict(entry)
         except InputError as exc:
-            raise PluginError(f"identifier {name!r} returned malformed modes: {exc}") from None
-    return used
+            raise PluginError(f"{who} returned malformed modes: {brief(str(exc), 200)[1:-1]}") from None
+    return dataclasses.replace(
+        estimate,
+        coefficients=coefficients,
+        K=K,
+        C=C,
+        static=static,
+        M=M,
+        standard_errors=errors,
+        diagnostics=diagnostics,
+        warnings=tuple(notes),
+        arrays=arrays,
+        elements=used,
+    )

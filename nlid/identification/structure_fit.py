@@ -189,9 +189,16 @@ def identify_structure(
     except BaseException as exc:  # noqa: BLE001 - a plugin bug (sys.exit too) is reported by name
         raise PluginError(f"identifier {name!r} {describe_exception(exc)}") from exc
     seconds = time.perf_counter() - start
-    used = check_structure_estimate(estimate, elements, name, M)
+    estimate = check_structure_estimate(estimate, elements, name, M)
     settings = dict(getattr(identifier, "settings", None) or {})
     result = IdentifiedStructure.from_estimate(
-        estimate, elements=used, record=record, method=name, mass=M, options=settings, seconds=seconds, cutoff=cutoff
+        estimate,
+        elements=estimate.elements,
+        record=record,
+        method=name,
+        mass=M,
+        options=settings,
+        seconds=seconds,
+        cutoff=cutoff,
     )
     return dataclasses.replace(result, provenance=_provenance(record, elements, name, M, settings))

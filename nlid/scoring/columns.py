@@ -34,6 +34,7 @@ __all__ = [
     "FAMILIES",
     "SLICES",
     "SECTION_RESIDUALS",
+    "SECTION_RESPONSE",
     "COST_DIGITS",
     "declared",
     "family_of",
@@ -88,6 +89,12 @@ __all__ = [
     "POSTERIOR_TAU",
     "POSTERIOR_SECONDS",
     "POSTERIOR_BIAS_SHIFT",
+    "RESPONSE_PEAK_HZ",
+    "RESPONSE_PEAK_M",
+    "RESPONSE_PEAK_HZ_ERROR",
+    "RESPONSE_PEAK_M_ERROR",
+    "RESPONSE_FOLDS",
+    "RESPONSE_SECONDS",
     "LINEAR_FN",
     "LINEAR_FN_ERROR",
     "LINEAR_ZETA",
@@ -106,6 +113,8 @@ ERRORS = ("", "signed", "absolute")
 COST_DIGITS = 3
 #: The summary table "Residuals (eps: Eq. 26), simulation error and cost".
 SECTION_RESIDUALS = "residuals"
+#: The summary table of a study's ``[response]``: each fit's frequency response against the reference's.
+SECTION_RESPONSE = "response"
 
 
 @dataclass(frozen=True)
@@ -289,6 +298,32 @@ POSTERIOR_LEVEL = _scalar("posterior:level", unit="1", title="credible level")
 POSTERIOR_TAU = _scalar("posterior:tau", unit="steps", title="tau")
 POSTERIOR_SECONDS = _scalar("posterior:seconds", unit="s", title="time")
 POSTERIOR_BIAS_SHIFT = _scalar("posterior:max_bias_shift_sd", unit="sd", title="largest bias shift")
+
+# ----------------------------------------------------------------------------- the frequency response ([response])
+# at the largest force amplitude: the resonance peak of the forced DOF's first harmonic over the stable points; the
+# errors are the largest over the force amplitudes, against the reference's true model (nlid.study.metrics)
+RESPONSE_PEAK_HZ = _scalar("response:peak_hz", unit="Hz", title="peak f", section=SECTION_RESPONSE)
+RESPONSE_PEAK_M = _scalar("response:peak_m", unit="m", title="peak amplitude", section=SECTION_RESPONSE)
+RESPONSE_PEAK_HZ_ERROR = _scalar(
+    "response:peak_hz_error_pct",
+    error="absolute",
+    title="peak f error",
+    section=SECTION_RESPONSE,
+    lower_better=True,
+    aggregate="largest",
+)
+RESPONSE_PEAK_M_ERROR = _scalar(
+    "response:peak_m_error_pct",
+    error="absolute",
+    title="peak amplitude error",
+    section=SECTION_RESPONSE,
+    lower_better=True,
+    aggregate="largest",
+)
+RESPONSE_FOLDS = _scalar("response:folds", title="turning points", section=SECTION_RESPONSE)
+RESPONSE_SECONDS = _scalar(
+    "response:seconds", unit="s", title="response time", digits=COST_DIGITS, section=SECTION_RESPONSE
+)
 
 # structures of several DOFs (nlid.study.structures): the elements use COEF / COEF_ERROR, the wells EQ_ERROR;
 # the modes are labelled mK (the K-th mode by frequency) and sJ.mK (mode K linearised at well sJ)

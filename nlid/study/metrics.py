@@ -45,13 +45,14 @@ errors are percentages, signed unless noted):
 
 from __future__ import annotations
 
+import time
 from collections.abc import Mapping
 from typing import Any
 
 import numpy as np
 
 from ..data.record import Record
-from ..errors import NlidError
+from ..errors import InputError, NlidError
 from ..estimation.balance import regression_data
 from ..identified.model import IdentifiedModel
 from ..identified.reference import Reference, compare
@@ -166,3 +167,63 @@ def surface_metrics(
         arrays[col.SLICES.key(k, "v_grid")] = sl.v_grid
         arrays[col.SLICES.key(k, "model")] = sl.model
     return row, arrays
+
+
+def _peaks(response: Any) -> dict[float, tuple[float, float]]:
+    """``{force: (frequency Hz, amplitude m)}``: the largest first-harmonic amplitude of the forced DOF over the
+    stable points of the curves in frequency, per force amplitude."""
+    lead = int(np.argmax(np.abs(response.forced))) + 1
+    peaks: dict[float, tuple[float, float]] = {}
+    for curve in response.curves:
+        if curve.parameter != "frequency" or not np.any(curve.stable):
+            continue
+        amp = np.where(curve.stable, curve.amplitude(lead), -np.inf)
+        k = int(np.argmax(amp))
+        force = float(curve.force[0])
+        if force not in peaks or amp[k] > peaks[force][1]:
+            peaks[force] = (float(curve.frequency_hz[k]), float(amp[k]))
+    return peaks
+
+
+def response_metrics(
+    result: IdentifiedModel, reference: Reference, *, force: Any, band: Any, harmonics: int = 7
+) -> dict[str, Any]:
+    """A study's ``[response]`` columns: the fit's frequency response beside the reference's true model's.
+
+    The response is :func:`nlid.response.frequency_response` at the force amplitudes (N) over the band
+    (Hz). The peak (frequency and first-harmonic amplitude of the forced DOF, the largest over the stable
+    points) at the largest force is reported; against a reference that can run as a model
+    (:meth:`~nlid.identified.reference.Reference.true_model`: coefficients and mass known, e.g. a simulated
+    record's truth) the errors of the peak's frequency and amplitude, the largest over the force
+    amplitudes (``response:peak_hz_error_pct``, ``response:peak_m_error_pct``).
+
+    Raises
+    ------
+    NlidError
+        The response cannot be computed (the worker turns it into a warning of the run).
+    """
+    from ..response import frequency_response
+
+    start = time.perf_counter()
+    fitted = frequency_response(result, force, band, harmonics=harmonics)
+    peaks = _peaks(fitted)
+    out: dict[str, Any] = {col.RESPONSE_FOLDS.key(): len(fitted.folds)}
+    if peaks:
+        top = max(peaks)
+        out[col.RESPONSE_PEAK_HZ.key()], out[col.RESPONSE_PEAK_M.key()] = peaks[top]
+    try:
+        truth = reference.true_model("the dataset's reference")
+    except InputError:
+        truth = None
+    if truth is not None and peaks:
+        true_peaks = _peaks(frequency_response(truth, force, band, harmonics=harmonics))
+        common = [f for f in peaks if f in true_peaks and true_peaks[f][1] > 0]
+        if common:
+            out[col.RESPONSE_PEAK_HZ_ERROR.key()] = max(
+                100 * abs(peaks[f][0] - true_peaks[f][0]) / true_peaks[f][0] for f in common
+            )
+            out[col.RESPONSE_PEAK_M_ERROR.key()] = max(
+                100 * abs(peaks[f][1] - true_peaks[f][1]) / true_peaks[f][1] for f in common
+            )
+    out[col.RESPONSE_SECONDS.key()] = time.perf_counter() - start
+    return out

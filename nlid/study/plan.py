@@ -73,6 +73,9 @@ class RunSpec:
         Seconds before the run is stopped.
     posterior
         The ``[posterior]`` settings, or ``None``.
+    response
+        The ``[response]`` settings, or ``None`` (not part of the digest when ``None``: the runs of a
+        study without it keep their digests).
     """
 
     run_id: str
@@ -89,16 +92,20 @@ class RunSpec:
     holdout_seed: int | None = None
     timeout: float = 600.0
     posterior: Mapping[str, Any] | None = None
+    response: Mapping[str, Any] | None = None
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "options", freeze(dict(self.options)))
         if self.posterior is not None:
             object.__setattr__(self, "posterior", freeze(dict(self.posterior)))
+        if self.response is not None:
+            object.__setattr__(self, "response", freeze(dict(self.response)))
         if self.px_roots is not None:
             object.__setattr__(self, "px_roots", (float(self.px_roots[0]), float(self.px_roots[1])))
 
     def to_dict(self) -> dict[str, Any]:
         """Plain JSON-able values (the layout the digest is computed from)."""
+        response = {} if self.response is None else {"response": dict(self.response)}
         return to_jsonable(
             {
                 "run_id": self.run_id,
@@ -115,6 +122,7 @@ class RunSpec:
                 "holdout_seed": self.holdout_seed,
                 "timeout": self.timeout,
                 "posterior": None if self.posterior is None else dict(self.posterior),
+                **response,
             }
         )
 
@@ -137,6 +145,7 @@ class RunSpec:
             holdout_seed=data.get("holdout_seed"),
             timeout=float(data["timeout"]),
             posterior=data.get("posterior"),
+            response=data.get("response"),
         )
 
     def digest(self) -> str:
@@ -201,6 +210,7 @@ def plan_study(config: StudyConfig) -> list[Run]:
                         holdout_seed=holdout_seed,
                         timeout=ds.timeout,
                         posterior=config.posterior,
+                        response=config.response,
                     )
                     runs.append(Run(spec.run_id, ds.name, model.name, method, rep, seed or 0, spec, spec.digest()))
     return runs

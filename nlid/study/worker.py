@@ -201,6 +201,12 @@ def _execute(spec: RunSpec) -> dict[str, Any]:
             _add_warning(row, f"posterior: {exc}")
         row.update(extra)  # declared families (nlid.scoring.columns): they never collide with the columns above
         lap("posterior")
+    if spec.response is not None:
+        try:
+            row.update(metrics.response_metrics(result, data.reference, **dict(spec.response)))
+        except NlidError as exc:  # a response that cannot be computed is a warning: the run keeps its metrics
+            _add_warning(row, f"response: {exc}")
+        lap("response")
     payload = {
         "run_id": spec.run_id,
         "row": to_jsonable(row),

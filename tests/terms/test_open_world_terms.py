@@ -44,7 +44,8 @@ def test_new_terms_refuse_what_they_cannot_mean(text, message):
 
 
 def test_commas_inside_parentheses_belong_to_the_term():
-    assert [t for t, _ in split_terms("z^3, gap(z, 0.01), bouc_wen(1, 2)")] == ["z^3", " gap(z, 0.01)", " bouc_wen(1, 2)"]
+    split = [t for t, _ in split_terms("z^3, gap(z, 0.01), bouc_wen(1, 2)")]
+    assert split == ["z^3", " gap(z, 0.01)", " bouc_wen(1, 2)"]
     assert Model.from_spec("stop(z, 0.01), dahl(0.001)").names[-1] == "dahl(0.001)"
 
 

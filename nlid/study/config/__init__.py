@@ -44,6 +44,11 @@ A study is datasets x models x identifiers x repetitions. The file::
     [posterior]                    # optional: nlid.bayes.study_metrics(..., **options)
     draws = 2000
 
+    [response]                     # optional: each fit's frequency response against the reference's
+    force = [0.5, 1.0]             # amplitudes (N) of the harmonic force
+    band = [5.0, 30.0]             # Hz
+    harmonics = 7
+
 Everything is checked before any run starts: :func:`parse_study` validates
 the text (unknown keys in every table, the ``[posterior]`` table's keys and
 values, numbers that are not finite, negative or absurd, terms, presets and

@@ -51,7 +51,9 @@ from .tomlio import tomllib
 __all__ = ["parse_study"]
 
 _STUDY_KEYS = ("name", "description", "seed", "repetitions", "timeout", "identifiers")
-_TOP_KEYS = ("study", "options", "datasets", "posterior")
+_TOP_KEYS = ("study", "options", "datasets", "posterior", "response")
+#: Keys of the ``[response]`` table (:func:`nlid.study.metrics.response_metrics`).
+_RESPONSE_KEYS = ("force", "band", "harmonics")
 _DATASET_KEYS = (
     "name",
     "description",
@@ -193,6 +195,7 @@ def parse_study(
         raise ConfigError(source, "datasets", f"dataset name {dup[0]!r} is used twice; give each a unique name")
 
     posterior = _posterior(Where(source, "posterior"), raw["posterior"], datasets) if "posterior" in raw else None
+    response = _response(Where(source, "response"), raw["response"]) if "response" in raw else None
 
     config = StudyConfig(
         name=name,
@@ -202,6 +205,7 @@ def parse_study(
         options=options,
         datasets=tuple(datasets),
         posterior=posterior,
+        response=response,
         source=source,
         text=text,
         skipped_identifiers=skipped,
@@ -245,6 +249,33 @@ def _posterior(where: Where, value: Any, datasets: list[DatasetConfig]) -> dict[
         raise (where / key if key else where).error(text) from None
     _check_posterior_terms(where, settings, datasets)
     return table
+
+
+def _response(where: Where, value: Any) -> dict[str, Any]:
+    """The ``[response]`` table: force amplitudes (N), the band (Hz) and the harmonics of each run's response.
+
+    Checked by the same rules as :func:`nlid.response.frequency_response`'s arguments.
+    """
+    from ...response.api import MAX_HARMONICS, check_band, check_forces
+
+    table = where.table(value)
+    where.keys(table, _RESPONSE_KEYS)
+    for key in ("force", "band"):
+        if key not in table:
+            raise (where / key).error(f"the response needs {key} (e.g. force = [0.5, 1.0], band = [5.0, 30.0])")
+    out: dict[str, Any] = {}
+    try:
+        out["force"] = list(check_forces(table["force"]))
+    except InputError as exc:
+        raise (where / "force").error(str(exc)) from None
+    try:
+        out["band"] = list(check_band(table["band"]))
+    except InputError as exc:
+        raise (where / "band").error(str(exc)) from None
+    out["harmonics"] = int(
+        (where / "harmonics").number(table.get("harmonics", 7), integer=True, minimum=1, maximum=MAX_HARMONICS)
+    )
+    return out
 
 
 def _structure_unknowns(ds: DatasetConfig, main: Any) -> Any:

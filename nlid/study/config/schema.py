@@ -218,6 +218,7 @@ class StudyConfig:
     text: str
     skipped_identifiers: dict[str, str] = field(default_factory=dict)
     resolved: bool = False
+    response: dict[str, Any] | None = None
 
     @property
     def run_count(self) -> int:
@@ -243,6 +244,8 @@ class StudyConfig:
         }
         if self.posterior is not None:
             out["posterior"] = plain(self.posterior)
+        if self.response is not None:
+            out["response"] = plain(self.response)
         return out
 
     def to_toml(self) -> str:

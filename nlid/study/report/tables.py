@@ -209,6 +209,23 @@ def _residual_table(section: Section) -> Table:
     return Table("Residuals (eps: Eq. 26), simulation error and cost", _head(cols), rows, notes, best=best)
 
 
+def _response_table(section: Section) -> Table | None:
+    """The ``[response]`` columns: each fit's resonance peak and its error against the reference's response."""
+    frame = section.frame
+    cols = [Column.of(f) for f in col.section_families(col.SECTION_RESPONSE) if f.key() in frame.columns]
+    if not cols:
+        return None
+    rows, best = method_rows(section, cols)
+    notes = [
+        "harmonic balance and continuation (nlid.response) at the study's force amplitudes over its band: the peak "
+        "is the largest first-harmonic amplitude of the forced DOF over the stable points, at the largest force; "
+        "its errors are the largest over the forces, against the reference's true model (when it can run as one)"
+    ]
+    return Table(
+        "Frequency response (nlid.response): resonance peak and its error", _head(cols), rows, notes, best=best
+    )
+
+
 def _other_table(section: Section) -> Table | None:
     """Columns of no declared family (a plugin's or a hook's own), as they come."""
     frame = section.frame
@@ -243,6 +260,7 @@ def _fill(section: Section) -> None:
             section, col.RMS, "RMS contribution of each term to the identified restoring force, N (paper Fig. 22)"
         ),
         _residual_table(section),
+        _response_table(section),
         _other_table(section),
     ]
     section.tables += [t for t in tables if t is not None]
