@@ -79,7 +79,7 @@ SIGN_STANDARD_ERRORS = 3.0
 MASS_RATIO_MAX = 2.0
 #: The implied mass is used only when its relative standard error is below this: a record whose
 #: acceleration is nearly proportional to the displacement (a slow sine) cannot tell mass from stiffness.
-#: Measured as above: at most 0.43 % on the healthy records.
+#: Measured as above: at most 0.42 % on the healthy records.
 MASS_DETERMINED_WITHIN = 0.1
 
 
