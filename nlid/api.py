@@ -223,7 +223,9 @@ def compare(
         ``seconds``), ``name`` (the term, ``s1``... for the stable
         equilibria matched to the reference, or which record), ``value``,
         ``std_error``, ``unit``, ``reference``, ``error_pct`` (signed,
-        percent of ``|reference|``) and ``note``. The fitted models are in
+        percent of ``|reference|``), ``note``, and the assumption about the record's force between
+        samples with where it came from, ``force_hold`` and ``force_hold_source`` (the same on every row,
+        and in ``frame.attrs["force_hold"]``: :mod:`nlid.data.forcehold`). The fitted models are in
         ``frame.attrs["models"]``.
     """
     record = as_record(record)
@@ -274,7 +276,7 @@ def compare(
         )
         frame = pd.DataFrame(srows, columns=FRAME_COLUMNS)
         frame.attrs["models"] = sfits
-        return frame
+        return _said(frame, record)
     record = cast(Record, record)
     ref = Reference.of(record, reference)
     rule = None if rule is None else rule_from_spec(rule)
@@ -302,6 +304,17 @@ def compare(
         rows += [{"note": "", **r} for r in compare_fit(fit, ref, cast("Record | None", holdout), rule).records()]
     frame = pd.DataFrame(rows, columns=FRAME_COLUMNS)
     frame.attrs["models"] = fits
+    return _said(frame, record)
+
+
+def _said(frame: Any, record: Any) -> Any:
+    """The frame with the record's force-hold assumption and its source (:mod:`nlid.data.forcehold`) on every row
+    (columns ``force_hold``, ``force_hold_source``) and in ``frame.attrs["force_hold"]``."""
+    from .data.forcehold import force_hold_source
+
+    hold, source = record.force_hold, force_hold_source(record.meta)
+    frame["force_hold"], frame["force_hold_source"] = hold, source
+    frame.attrs["force_hold"] = {"hold": hold, "source": source}
     return frame
 
 

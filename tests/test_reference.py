@@ -137,6 +137,10 @@ def test_compare_frame_is_the_api_frame(record, fit):
     frame = nlid.compare(record, TERMS, ["rfs"], mass=0.2)
     own = compare(fit, Reference.of(record)).to_frame()
     assert list(own.columns) == FRAME_COLUMNS
+    # nlid.compare adds the record's force-hold assumption to every row (issue 35)
+    assert list(frame.columns) == [*FRAME_COLUMNS, "force_hold", "force_hold_source"]
+    assert set(frame["force_hold_source"]) == {"simulation"}
+    frame = frame[FRAME_COLUMNS]
     keep = frame["quantity"] != "seconds"
     pd.testing.assert_frame_equal(
         frame[keep].reset_index(drop=True), own[own["quantity"] != "seconds"].reset_index(drop=True)

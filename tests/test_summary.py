@@ -133,7 +133,8 @@ def test_the_identified_model_renders_one_summary(record):
     summary = fit.summary()
     assert isinstance(summary, Summary)
     text = str(summary)
-    assert text.startswith("method: rfs\nmass: 0.2 kg (given)\n\nterm ")
+    assert text.startswith("method: rfs\nmass: 0.2 kg (given)\nforce between samples: zoh: held over each sample [")
+    assert "[from simulation]\n\nterm " in text  # the force-hold assumption and who said it (issue 35)
     assert "\npx(z) roots: z- = " in text and "\nequilibria (m): stable " in text and "\n  at z* = " in text
     assert "\n\nepsilon (Eq. 26): " in text and "   force residual: " in text
     assert fit._repr_html_() == summary.as_html()

@@ -11,6 +11,7 @@ import numpy as np
 
 from ..base import numerics
 from ..base.validate import Interval, Options, check_cutoff, check_noise_sd, check_seed
+from ..data.forcehold import force_hold_source
 from ..data.record import Record
 from ..errors import IdentificationError, InputError, NlidError
 from ..estimation.balance import regression_data
@@ -30,6 +31,7 @@ from .priors import (
 )
 from .result import Posterior
 from .sampler import MOVES, run_until_converged
+from .trust import correction_flags
 
 __all__ = ["PosteriorSampler", "sample_posterior", "select_params"]
 
@@ -265,6 +267,15 @@ class PosteriorSampler:
         if caught:
             posterior.warnings = (*posterior.warnings, f"numerical warnings: {numerics.describe_warnings(caught)}")
         posterior.record = record
+        posterior.force_hold = (record.force_hold, force_hold_source(record.meta))
+        if isinstance(fit, IdentifiedModel):  # what physics forbids, and a correction beyond its bound
+            force, unit = str(dict(record.units).get("f", "N")), str(dict(record.units).get("z", "m"))
+            posterior.channel_units = {"f": force, "z": unit}
+            if posterior.units is None:  # each coefficient in the record's own units (s^2/V for volts)
+                posterior.units = {n: parse_term(n).coefficient_unit_in(force, unit) for n in posterior.names}
+            shifts = dict(posterior.likelihood.info.get("bias_shift_sd") or {})  # every term the correction moved
+            found = correction_flags(shifts, fit, record, posterior.likelihood, unit)
+            posterior.flags = (*fit.flags, *found)
         return posterior
 
     def _run(self, record: Record, fit: IdentifiedModel) -> tuple[Posterior, dict[str, float]]:

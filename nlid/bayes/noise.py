@@ -150,10 +150,14 @@ class NoiseLevel:
         """Plain dictionary (JSON)."""
         return asdict(self)
 
-    def describe(self) -> str:
-        """E.g. ``"v = 0.014 m/s (v - dz/dt, sd +/- 3 %)"`` (the sd's relative error is half the variance's)."""
+    def describe(self, unit: str | None = None) -> str:
+        """E.g. ``"v = 0.014 m/s (v - dz/dt, sd +/- 3 %)"`` (the sd's relative error is half the variance's).
+
+        ``unit``: the channel's unit when the record is not in SI (``"V"`` for a displacement in volts).
+        """
         extra = "" if self.relative_se is None else f", sd +/- {50 * self.relative_se:.0f} %"
-        return f"{self.channel} = {self.sd:.3g} {UNITS.get(self.channel, '')} ({self.source}{extra})"
+        unit = UNITS.get(self.channel, "") if unit is None else unit
+        return f"{self.channel} = {self.sd:.3g} {unit} ({self.source}{extra})"
 
 
 @dataclass(frozen=True)

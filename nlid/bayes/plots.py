@@ -14,6 +14,7 @@ from typing import Any
 
 import numpy as np
 
+from ..base.dimensions import unit_of
 from ..report.plotting import new_figure
 
 __all__ = ["corner_figure", "trace_figure", "damping_figure"]
@@ -137,7 +138,7 @@ def trace_figure(posterior: Any, max_walkers: int = 32):
     return fig
 
 
-def damping_figure(bands: Sequence[Any], band_hz: float | None = None):
+def damping_figure(bands: Sequence[Any], band_hz: float | None = None, units: tuple[str, str] = ("N", "m")):
     """The measured damping force on each slice with the posterior's 5-95 % band (paper Fig. 21 b-d).
 
     Top row: the data and the posterior band of ``D(z0, v)`` (median line,
@@ -147,8 +148,9 @@ def damping_figure(bands: Sequence[Any], band_hz: float | None = None):
     the median, in N. With a filtered force balance (``band_hz``) the data are
     the in-band damping force: at high speed, where ``D`` has content above
     the band, they fall short of the curve ``D(z0, v)`` even for the true
-    model.
+    model. ``units``: the record's force and displacement units (``("V", "V")`` for a record in volts).
     """
+    force, length = units
     n = len(bands)
     width_in = max(5.0, 4.0 * n)  # one slice: wide enough for its axis labels, the title wraps to it
     fig, axes = new_figure(2, n, width=width_in, height=6.0, squeeze=False, sharex="col", height_ratios=[2.2, 1])
@@ -161,14 +163,14 @@ def damping_figure(bands: Sequence[Any], band_hz: float | None = None):
         for q in (band.q05, band.q95):
             ax.plot(band.v_grid, q, color="tab:red", lw=0.8, zorder=4)
         ax.plot(band.v_grid, band.q50, color="tab:blue", lw=1.2, zorder=5, label="posterior median")
-        ax.set_title(f"z = {band.z0:.4g} m (+/- {band.half_width:.2g} m)")
+        ax.set_title(f"z = {band.z0:.4g} {length} (+/- {band.half_width:.2g} {length})")
         width.fill_between(band.v_grid, band.q05 - band.q50, band.q95 - band.q50, color="tab:orange", alpha=0.5)
         width.plot(band.v_grid, band.q05 - band.q50, color="tab:red", lw=0.8)
         width.plot(band.v_grid, band.q95 - band.q50, color="tab:red", lw=0.8)
         width.axhline(0.0, color="tab:blue", lw=1.0)
-        width.set_xlabel("v (m/s)")
-    axes[0, 0].set_ylabel("damping force D (N)")
-    axes[1, 0].set_ylabel("5 and 95 % minus median (N)")
+        width.set_xlabel(f"v ({unit_of((length, 1), ('s', -1))})")
+    axes[0, 0].set_ylabel(f"damping force D ({force})")
+    axes[1, 0].set_ylabel(f"5 and 95 % minus median ({force})")
     lines = ["posterior band of the damping force (bottom: its width on its own scale)"]
     if band_hz is not None:
         lines.append(f"data: restoring force minus stiffness, both below {band_hz:.3g} Hz (in-band D)")

@@ -10,9 +10,12 @@ from typing import Any
 
 import numpy as np
 
+from ..base.dimensions import mass_unit, unit_of
 from ..base.jsonable import to_jsonable
+from ..data.forcehold import describe_force_hold
 from ..errors import InputError
 from ..estimation.balance import RegressionData
+from ..identified.plausibility import Flag
 from ..model import physics
 from ..model.terms import Model, parse_term
 from ..report.summary import Column, Summary
@@ -109,6 +112,17 @@ class Posterior:
         ``None``: each term's own unit.
     record
         The record the posterior was sampled from (the ``observed_data`` of :meth:`to_datatree`); not serialised.
+    flags
+        Why the posterior cannot be trusted (:class:`~nlid.identified.plausibility.Flag`): the identified
+        model's own flags, and a bias correction beyond :data:`nlid.bayes.trust.CORRECTION_BOUND_SD`
+        (checked by simulation); empty when there is none. ``nlid posterior`` exits with status 1 on one.
+    force_hold
+        ``(hold, source)``: the record's force between samples and where that came from
+        (:mod:`nlid.data.forcehold`); ``None`` when not known.
+    channel_units
+        ``{"f", "z"}``: the units of the record's force and displacement (``N`` and ``m``, or ``V`` for an
+        electrical analogue); the mass and the noise levels are shown in units derived from them
+        (:mod:`nlid.base.dimensions`). ``None``: SI.
     """
 
     model: Model | Any
@@ -127,6 +141,9 @@ class Posterior:
     reference: dict[str, float] = field(default_factory=dict, repr=False)
     units: dict[str, str] | None = field(default=None, repr=False)
     record: Any = field(default=None, repr=False, compare=False)
+    flags: tuple[Flag, ...] = ()
+    force_hold: tuple[str, str] | None = None
+    channel_units: dict[str, str] | None = None
 
     def unit(self, name: str) -> str:
         """SI unit of a sampled coefficient."""
@@ -136,9 +153,14 @@ class Posterior:
 
     def _mass_text(self) -> str:
         if isinstance(self.mass, (int, float)):
-            return f"mass {self.mass:.6g} kg"
+            force, length = self._channels()
+            return f"mass {self.mass:.6g} {mass_unit(force, length)}"
         diag = ", ".join(f"{row[k]:.6g}" for k, row in enumerate(self.mass))
         return f"mass matrix diagonal {diag} kg"
+
+    def _channels(self) -> tuple[str, str]:
+        units = self.channel_units or {}
+        return units.get("f", "N"), units.get("z", "m")
 
     # ------------------------------------------------------------------ numbers
     @property
@@ -295,7 +317,12 @@ class Posterior:
                 "bias_shift_sd": self.bias_shifts,
                 "large_corrections": self.large_corrections,
                 "priors": self.priors,
-                "warnings": list(self.warnings),
+                "warnings": [*self.warnings, *(f"NOT TRUSTED: {f}" for f in self.flags)],
+                "flags": [f.to_dict() for f in self.flags],
+                "channel_units": dict(self.channel_units or {"f": "N", "z": "m"}),
+                "force_hold": None
+                if self.force_hold is None
+                else {"hold": self.force_hold[0], "source": self.force_hold[1]},
                 "units": {n: self.unit(n) for n in self.names},
                 "sampler": {
                     "walkers": self.chains.walkers,
@@ -355,7 +382,8 @@ class Posterior:
 
     def __repr__(self) -> str:
         parts = ", ".join(f"{n} {s['mean']:.4g} +/- {s['sd']:.2g}" for n, s in self.summary_dict().items())
-        return f"<Posterior {self.method!r} ({self.others} others): {parts}>"
+        flagged = f"; NOT TRUSTED: {', '.join(f.code for f in self.flags)}" if self.flags else ""
+        return f"<Posterior {self.method!r} ({self.others} others): {parts}{flagged}>"
 
     def _repr_html_(self) -> str:
         return self.summary().as_html()
@@ -421,9 +449,13 @@ class Posterior:
                 f"(residual correlated over {info['tau_residual_samples']:.1f} samples), {bias}",
             )
         )
+        if self.force_hold is not None:
+            lines.append(("force between samples", describe_force_hold(*self.force_hold)))
         noise = info.get("noise", {})
         if noise:
-            levels = ", ".join(NoiseLevel(**level).describe() for level in noise.values())
+            length = self._channels()[1]
+            unit = {"z": length, "v": unit_of((length, 1), ("s", -1))}
+            levels = ", ".join(NoiseLevel(**level).describe(unit.get(level["channel"])) for level in noise.values())
             lines.append(("noise levels simulated by the correction", levels))
         for name, c in self.large_corrections.items():
             lines.append(
@@ -436,6 +468,7 @@ class Posterior:
             )
         lines.append(("time", f"{self.seconds:.3g} s"))
         lines += [("warning", w) for w in self.warnings]
+        lines += [("NOT TRUSTED", str(f)) for f in self.flags]
         out.add_fields(lines, gap=True)
         return out
 
@@ -572,7 +605,7 @@ class Posterior:
             paths += save_figure(trace_figure(self), out / "posterior_trace", formats=("png",))
             if bands:
                 paths += save_figure(
-                    damping_figure(bands, self.data.filtered_at if self.data is not None else None),
+                    damping_figure(bands, self.data.filtered_at if self.data is not None else None, self._channels()),
                     out / "posterior_damping",
                     formats=("png",),
                 )

@@ -21,6 +21,7 @@ from ..data.record import Record
 from ..errors import InputError
 from ..identified.model import IdentifiedModel
 from ..identified.reference import Reference
+from ..model.terms import Model
 from ..scoring import columns as col
 from .inference import PosteriorSampler
 
@@ -77,7 +78,7 @@ def study_metrics(
         raise InputError(f"posterior level must lie between 0 and 1, got {level}")
     posterior = PosteriorSampler(**options).run(record, fit)
     unknowns = posterior.model  # a one-DOF Model, or a structure's unknowns (nlid.bayes.structure)
-    if isinstance(truth, Mapping) and posterior.units is not None:  # a structure's truth: elements on connections
+    if isinstance(truth, Mapping) and not isinstance(unknowns, Model):  # a structure's truth: elements on connections
         coeffs = dict(truth.get("coefficients") or {}) or None
     else:
         coeffs = _truth_coefficients(truth)

@@ -17,6 +17,7 @@ from .common import (
     parse_px_roots,
     parse_settings,
     print_json,
+    untrusted,
 )
 
 DESCRIPTION = """\
@@ -200,11 +201,18 @@ def run(args: argparse.Namespace) -> int:
         )
     if args.out:
         frame.to_csv(args.out, index=False)
-    if args.json:
+    from ..data.forcehold import describe_force_hold
+
+    hold = frame.attrs.get("force_hold") or {"hold": record.force_hold, "source": "default"}
+    if args.json:  # every row says the force-hold assumption its models were identified under
         print_json(frame_records(frame))
     else:
         print(format_frame(frame))
-    return 0
+        print(f"force between samples: {describe_force_hold(hold['hold'], hold['source'])}")
+    from ..identified.plausibility import headline
+
+    flagged = [(name, fit) for name, fit in (frame.attrs.get("models") or {}).items() if getattr(fit, "flags", ())]
+    return untrusted("compare", f"{flagged[0][0]}: {headline(flagged[0][1].flags)}" if flagged else "")
 
 
 def format_frame(frame: Any) -> str:

@@ -9,7 +9,15 @@ from typing import Any
 from ..base.validate import ESTIMATE
 from ..errors import InputError, NlidError
 from ..runtime.progress import stderr_is_terminal
-from .common import add_data_arguments, add_mass_argument, load_data, mass_argument, parse_settings, print_json
+from .common import (
+    add_data_arguments,
+    add_mass_argument,
+    load_data,
+    mass_argument,
+    parse_settings,
+    print_json,
+    untrusted,
+)
 from .isolated import DISCOVER_TIMEOUT, add_timeout_argument, parse_timeout, plugin_warnings
 
 DESCRIPTION = """\
@@ -278,7 +286,9 @@ def run(args: argparse.Namespace) -> int:
         print(result.summary())
         if result.refined is not None:
             print(_refined_lines(result))
-    return 0
+    from ..identified.plausibility import headline
+
+    return untrusted("discover", headline(result.final.identified.flags))
 
 
 def _refined_lines(result) -> str:

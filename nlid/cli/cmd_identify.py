@@ -13,6 +13,8 @@ from .common import (
     parse_px_roots,
     parse_settings,
     print_json,
+    untrusted,
+    with_wall_time,
 )
 from .isolated import IDENTIFY_TIMEOUT, add_timeout_argument, parse_timeout, plugin_warnings
 
@@ -71,8 +73,10 @@ def run(args: argparse.Namespace) -> int:
             timeout=timeout,
             input_path=path,
         )
+    from ..identified.plausibility import headline
+
     if args.json:
         print_json(result.to_dict())
     else:
-        print(result.summary())
-    return 0
+        print(with_wall_time(str(result.summary()), "identification"))
+    return untrusted("identify", headline(getattr(result, "flags", ())))  # a structure is not checked yet

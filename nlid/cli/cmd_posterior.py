@@ -17,6 +17,8 @@ from .common import (
     parse_px_roots,
     parse_settings,
     print_json,
+    untrusted,
+    with_wall_time,
 )
 
 DESCRIPTION = """\
@@ -224,5 +226,7 @@ def run(args: argparse.Namespace) -> int:
     if args.json:
         print_json(posterior.to_dict())
     else:
-        print(posterior.format_table())
-    return 0
+        print(with_wall_time(posterior.format_table(), "posterior"))
+    from ..identified.plausibility import headline
+
+    return untrusted("posterior", headline(posterior.flags))

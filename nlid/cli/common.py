@@ -4,9 +4,11 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
 import re
 import sys
 import textwrap
+import time
 from collections.abc import Sequence
 from typing import TYPE_CHECKING, Any
 
@@ -22,6 +24,8 @@ __all__ = [
     "parse_settings",
     "load_data",
     "print_json",
+    "untrusted",
+    "with_wall_time",
     "add_data_arguments",
     "DATA_HELP",
     "to_cli",
@@ -237,6 +241,49 @@ def print_json(obj: Any) -> None:
 
     json.dump(to_jsonable(obj), sys.stdout, allow_nan=False)
     sys.stdout.write("\n")
+
+
+def _process_age() -> float:
+    """Seconds since this process started (Linux ``/proc``), 0 where that cannot be read."""
+    try:
+        with open("/proc/self/stat") as stat, open("/proc/uptime") as up:
+            ticks = int(stat.read().rsplit(")", 1)[1].split()[19])  # field 22: start time, clock ticks after boot
+            return max(0.0, float(up.read().split()[0]) - ticks / os.sysconf("SC_CLK_TCK"))
+    except (OSError, ValueError, IndexError, AttributeError):
+        return 0.0
+
+
+#: When the process started, on the :func:`time.perf_counter` clock (where it cannot be read: when the
+#: command line's modules were imported, a fraction of a second later).
+STARTED = time.perf_counter() - _process_age()
+
+
+def with_wall_time(text: str, what: str) -> str:
+    """``text`` with its ``time: 0.39 s`` line saying what that time is and the command's wall time so far.
+
+    ``time: 0.39 s (identification), 6.6 s wall``: the library's figure times the work it names; the wall
+    time also counts starting Python, importing, starting the worker process and compiling the kernels.
+    """
+    wall = time.perf_counter() - STARTED
+    lines = text.split("\n")
+    for i, line in enumerate(lines):
+        if line.startswith("time: ") and line.endswith(" s"):
+            lines[i] = f"{line} ({what}), {wall:.3g} s wall"
+            break
+    return "\n".join(lines)
+
+
+def untrusted(command: str, problem: str) -> int:
+    """The exit status of a result that ran: 0, or 1 with ``problem`` as one line on stderr when it is not empty.
+
+    ``problem`` is why the result cannot be trusted, naming the likely cause
+    (:func:`nlid.identified.plausibility.headline`); the result itself has been printed.
+    """
+    if not problem:
+        return 0
+    sys.stdout.flush()
+    print(f"nlid {command}: error: {one_line(to_cli(problem))}", file=sys.stderr)
+    return 1
 
 
 def _setting(value: Any) -> str | None:

@@ -90,6 +90,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     if args.command is None:
         parser.print_help()
         return 0
+    _say_compiling(args)
     if args.debug:
         return int(args.func(args) or 0)
     from ..base.numerics import collect_warnings, describe_warnings  # numpy: not for --help
@@ -123,6 +124,21 @@ def main(argv: Sequence[str] | None = None) -> int:
             file=sys.stderr,
         )
     return status
+
+
+#: The commands that simulate (and so run numba's compiled kernels).
+SIMULATING = frozenset({"identify", "compare", "discover", "posterior", "simulate", "response", "study", "bench"})
+
+
+def _say_compiling(args: argparse.Namespace) -> None:
+    """On a terminal, before a command that simulates: say that the first run compiles the kernels."""
+    if args.command not in SIMULATING or getattr(args, "quiet", False) or getattr(args, "json", False):
+        return
+    from ..runtime.compilation import COMPILING_NOTE, cold_kernels
+    from ..runtime.progress import stderr_is_terminal
+
+    if stderr_is_terminal() and cold_kernels():
+        print(f"nlid {args.command}: {COMPILING_NOTE}", file=sys.stderr, flush=True)
 
 
 if __name__ == "__main__":  # pragma: no cover

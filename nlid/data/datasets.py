@@ -360,6 +360,7 @@ def load(name: str, *, part: str = "all") -> Record:
                 "source": str(path),
                 "citation": citation,
                 "force_hold": "sampled",
+                "force_hold_source": "dataset",
                 "mass": BOUC_WEN_REFERENCE["mass"],
                 "reference": BOUC_WEN_REFERENCE,
             },

@@ -331,7 +331,10 @@ def read_record(
     """
     path = Path(path)
     with open_table(path) as table:
-        meta = {"source": str(path), **_read_sidecar(path), **dict(meta or {})}
+        side = _read_sidecar(path)
+        if "force_hold" in side:  # the assumption every summary states, with where it came from
+            side["force_hold_source"] = f"the sidecar {sidecar_path(path).name}"
+        meta = {"source": str(path), **side, **dict(meta or {})}
         meta["loaded"] = {**dict(meta.get("loaded") or {}), "sha256": file_sha256(path)}
         if uses_indexed(table, columns):
             from .structure_record import StructureRecord

@@ -220,6 +220,7 @@ class Record(TimeAxis):
             if force_hold not in ("sampled", "zoh"):
                 raise InputError(f"force_hold must be 'sampled' or 'zoh', got {force_hold!r}")
             meta["force_hold"] = force_hold
+            meta["force_hold_source"] = "option"
         loaded = {**dict(meta.get("loaded") or {}), "source": label}
         loaded["columns"] = dict(columns) if isinstance(columns, Mapping) else (columns or None)
         loaded["fs"] = given_fs

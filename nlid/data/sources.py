@@ -102,7 +102,7 @@ def as_record(
     if force_hold is not None:
         if force_hold not in ("sampled", "zoh"):
             raise InputError(f"force_hold must be 'sampled' or 'zoh', got {force_hold!r}")
-        record = record.with_meta(force_hold=force_hold)
+        record = record.with_meta(force_hold=force_hold, force_hold_source="option")
     return record
 
 

@@ -101,24 +101,8 @@ _PLACEHOLDERS = re.compile(r"\{([a-z])\}")
 
 
 def dissipative(term: Term) -> bool:
-    """True if ``term`` is a friction or damping law, ``g(z, v) v >= 0`` (it dissipates if its coefficient > 0).
-
-    Decided from the normal form: the term depends on the velocity, has no memory and no gap or stop
-    factor, and its sign is the sign of ``v`` (an odd number of ``sign(v)`` and ``tanh(v/c)`` factors,
-    ``v``, ``v*|v|``, ``v^3``...) times a factor that is never negative (``|z|^p``, ``z^2``, ``|px(z)|``,
-    ``exp(...)``). ``sign(v)``, ``v*|v|``, ``v^3``, ``sign(v)*exp(-(v/c)^2)``, ``z^2*v`` and
-    ``sign(v)*|px(z)|`` are; ``v^2``, ``|v|`` and ``z*v`` are not. On a structure's connection the
-    element's power is ``theta g(x, x') x'``, so the same sign decides whether it feeds energy in.
-    """
-    if term.memory is not None or not term.depends_on_v:
-        return False
-    parity = {"z": term.z[1], "v": term.v[1], "px": term.px[1]}
-    for kind, var, _, mult in term.special:
-        if kind in ("gap", "stop"):
-            return False
-        if kind == "tanh":
-            parity[var] += int(mult)
-    return parity["v"] % 2 == 1 and parity["z"] % 2 == 0 and parity["px"] % 2 == 0
+    """True if ``term`` is a friction or damping law, ``g(z, v) v >= 0`` (:attr:`nlid.model.terms.Term.dissipative`)."""
+    return term.dissipative
 
 
 @dataclass(frozen=True)

@@ -22,6 +22,7 @@ from typing import Any
 import numpy as np
 from scipy import signal
 
+from ..base.dimensions import unit_of
 from ..report.plotting import new_figure
 from .probes import Remaining, describe_remaining
 
@@ -100,7 +101,7 @@ def _units(units: dict[str, str] | None) -> tuple[str, str, str]:
     units = units or {}
     f = units.get("f", "N")
     z = units.get("z", "m")
-    v = f"{z}/s"
+    v = unit_of((z, 1), ("s", -1))
     return f, z, v
 
 

@@ -35,7 +35,9 @@ from typing import Any
 
 import pandas as pd
 
+from ..base.dimensions import mass_unit
 from ..base.formatting import TERMINAL_WIDTH
+from ..data.forcehold import describe_force_hold
 from ..model.terms import parse_term
 from ..report.html import html_table
 from ..report.plotting import save_figure
@@ -54,29 +56,19 @@ StageLike = Any
 
 def coefficient_unit(term: str, units: dict[str, str] | None = None) -> str:
     """Unit of a term's coefficient, with the record's units (SI by default)."""
-    t = parse_term(term)
     units = units or {}
-    fu, zu = units.get("f", "N"), units.get("z", "m")
-    if (fu, zu) == ("N", "m"):
-        return t.coefficient_unit
-    meters = t.z[0] + t.v[0]
-    seconds = t.v[0]
-    out = fu
-    if seconds:
-        out += "*s" if seconds == 1 else f"*s^{seconds}"
-    if meters:
-        out += f"/{zu}" if meters == 1 else f"/{zu}^{meters}"
-    return out
+    return parse_term(term).coefficient_unit_in(units.get("f", "N"), units.get("z", "m"))
 
 
 def _mass_unit(units: dict[str, str]) -> str:
-    fu, zu = units.get("f", "N"), units.get("z", "m")
-    return "kg" if (fu, zu) == ("N", "m") else f"{fu}*s^2/{zu}"
+    """The mass's unit, derived from the record's (``kg``; ``s^2`` for a record in volts)."""
+    return mass_unit(units.get("f", "N"), units.get("z", "m"))
 
 
 def _labels(result: Result) -> list[str]:
     return ["declared: " + ", ".join(result.declared)] + [
-        f"+ {s.effect}: " + (", ".join(s.terms) or f"m = {s.after.mass:.4g} kg") for s in result.steps
+        f"+ {s.effect}: " + (", ".join(s.terms) or f"m = {s.after.mass:.4g} {_mass_unit(result.info.get('units', {}))}")
+        for s in result.steps
     ]
 
 
@@ -192,6 +184,9 @@ def discovery_summary(result: Result) -> Summary:
         ],
         separator="   ",
     )
+    if result.info.get("force_hold"):  # the assumption about the force between samples, and its source
+        hold = describe_force_hold(result.info["force_hold"], result.info.get("force_hold_source", "default"))
+        out.add_text(f"force between samples: {hold}", width=TERMINAL_WIDTH, subsequent="  ")
     out.add_text(*freerun_rules(result), width=TERMINAL_WIDTH, subsequent="  ")
     judged = result.info.get("prediction_rule") or {}
     if judged.get("enabled") and judged.get("folds_note"):
@@ -222,6 +217,7 @@ def discovery_summary(result: Result) -> Summary:
     if result.validation_note:
         out.add_text(f"validation: {result.validation_note}", width=TERMINAL_WIDTH)
     _add_table(out, *_coefficient_rows(final, units))
+    out.add_text(*(f"NOT TRUSTED: {f}" for f in final.identified.flags), width=TERMINAL_WIDTH, subsequent="  ")
     return out
 
 

@@ -314,7 +314,13 @@ class DiscoveryResult:
         b, a = self.initial.scores, self.final.scores
         return (
             f"<DiscoveryResult {self.method!r}: added {added}; held-out eps {b.eps_holdout:.3g} % -> "
-            f"{a.eps_holdout:.3g} %; {self.stop_reason}>"
+            f"{a.eps_holdout:.3g} %; {self.stop_reason}"
+            + (
+                f"; NOT TRUSTED: {', '.join(f.code for f in self.final.identified.flags)}"
+                if self.final.identified.flags
+                else ""
+            )
+            + ">"
         )
 
     def _repr_html_(self) -> str:

@@ -39,6 +39,7 @@ import numpy as np
 from ..base.validate import check_cutoff, check_mass
 from ..contract.methods import choose_method, choose_refiner
 from ..contract.registry import Registry, default_registry
+from ..data.forcehold import force_hold_source
 from ..data.record import Record
 from ..errors import IdentificationError, InputError
 from ..model.terms import Model
@@ -413,6 +414,8 @@ class Discovery:
             "fs_hz": estimation.fs,
             "band_hz": ctx.cutoff,
             "units": dict(run.units),
+            "force_hold": estimation.force_hold,
+            "force_hold_source": force_hold_source(estimation.meta),
             "source": run.source,
             "holdout_source": run.holdout_source,
             "candidates": run.library.names,

@@ -61,6 +61,7 @@ from typing import Any
 
 from ..data.checks import CHANNELS
 from ..data.digest import record_sha256
+from ..data.forcehold import force_hold_source
 from ..data.record import Record
 from ..data.units import SI, VOCABULARY
 from ..model.terms import DEFAULT_TERMS, Model
@@ -105,6 +106,7 @@ def data_provenance(record: Record) -> dict[str, Any]:
         "t0": record.t0,
         "channels": list(record.channels),
         "force_hold": record.force_hold,
+        "force_hold_source": force_hold_source(record.meta),
         "channel_sources": {c: record.source_of(c) for c in record.channels},
     }
 

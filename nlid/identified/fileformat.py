@@ -329,6 +329,7 @@ PROVENANCE_FIELDS: tuple[Field, ...] = (
                 Field("t0", _FINITE, False, "time of the first sample (s)"),
                 Field("channels", _STRINGS, False, "the channels present"),
                 Field("force_hold", Text("sampled or zoh", ("sampled", "zoh")), False, "how the force was held"),
+                Field("force_hold_source", Text("a string"), False, "who said how (nlid.data.forcehold)"),
                 Field("channel_sources", MapOf("an object of strings", Text("a string")), False, "measured or how"),
             ),
         ),
@@ -443,6 +444,22 @@ MODEL_FIELDS: tuple[Field, ...] = (
     Field("options", _JSON_OBJECT, False, "the identifier's settings"),
     Field("diagnostics", _JSON_OBJECT, False, "what the identifier reported"),
     Field("warnings", _STRINGS, False, "warnings"),
+    Field(
+        "flags",
+        ListOf(
+            "a list of objects",
+            Obj(
+                "{code, message, cause}",
+                (
+                    Field("code", Text("a string"), True, "the rule broken (nlid.identified.plausibility)"),
+                    Field("message", Text("a string"), True, "what was found"),
+                    Field("cause", Text("a string"), True, "the likely cause"),
+                ),
+            ),
+        ),
+        False,
+        "the checks of what physics forbids that the model fails",
+    ),
     Field("seconds", Nullable("a number not below 0 or null", _NONNEGATIVE), False, "time of the identification"),
     Field("z_range", Nullable("two finite numbers or null", _PAIR), False, "displacement range of the record (m)"),
     Field("provenance", _PROVENANCE, False, "where the model came from (nlid.identification.provenance)"),

@@ -35,6 +35,7 @@ import numpy as np
 
 from .. import scoring
 from ..base import numerics
+from ..base.dimensions import mass_unit
 from ..base.frozen import FrozenDict, freeze
 from ..base.validate import check_mass
 from ..contract.estimate import Estimate
@@ -46,9 +47,11 @@ from ..model.physics import Equilibria, Modal
 from ..model.terms import Model
 from ..report.summary import Summary
 from ..scoring import Prediction, Residual, Scores, TransientRule
+from . import plausibility
 from . import plots as modelplots
+from .plausibility import Flag
 from .schema import model_from_dict, model_to_dict
-from .tables import coefficient_frame, model_summary
+from .tables import coefficient_frame, model_summary, record_units
 
 if TYPE_CHECKING:  # pragma: no cover
     import pandas as pd
@@ -96,6 +99,11 @@ class IdentifiedModel:
         Method-specific details (read-only).
     warnings
         Things the user should know.
+    flags
+        The checks of what physics forbids that the model fails (:class:`~nlid.identified.plausibility.Flag`:
+        a negative or supercritical damping ratio, a force residual above 100 %, a friction law that feeds
+        energy in, a given mass the record contradicts); empty when it passes them. A flagged model cannot
+        be trusted: ``nlid`` commands exit with status 1 on it (:mod:`nlid.identified.plausibility`).
     seconds
         Wall time of the identification.
     z_range
@@ -127,6 +135,7 @@ class IdentifiedModel:
     options: Mapping[str, Any] = field(default_factory=FrozenDict)
     diagnostics: Mapping[str, Any] = field(default_factory=FrozenDict)
     warnings: tuple[str, ...] = ()
+    flags: tuple[Flag, ...] = ()
     seconds: float | None = None
     z_range: tuple[float, float] | None = None
     arrays: Mapping[str, np.ndarray] = field(default_factory=FrozenDict, repr=False)
@@ -152,6 +161,7 @@ class IdentifiedModel:
         set_(self, "options", freeze(dict(self.options)))
         set_(self, "diagnostics", freeze(dict(self.diagnostics)))
         set_(self, "warnings", tuple(str(w) for w in self.warnings))
+        set_(self, "flags", tuple(Flag.from_dict(f) for f in self.flags))
         set_(self, "arrays", FrozenDict(self.arrays))
         set_(self, "provenance", freeze(dict(self.provenance or {})))
         set_(self, "input_path", input_path(self.input_path))
@@ -180,8 +190,9 @@ class IdentifiedModel:
         only if the method did not measure its own), the scores on the
         estimation record from :mod:`nlid.scoring` (always from the data).
         A result with a figure that is not finite (:meth:`problems`) is
-        refused; numpy's runtime warnings never reach the terminal: they are
-        named in that refusal, or, when every figure is finite, in
+        refused; one that breaks a rule of physics is returned with its
+        :attr:`flags` (:func:`nlid.identified.plausibility.check`); numpy's
+        runtime warnings never reach the terminal: they are named in that refusal, or, when every figure is finite, in
         :attr:`warnings`.
 
         Parameters
@@ -225,7 +236,7 @@ class IdentifiedModel:
         if found:
             note = f"numerical warnings while identifying (the figures are finite): {numerics.describe_warnings(found)}"
             draft = dataclasses.replace(draft, warnings=(*draft.warnings, note))
-        return draft
+        return dataclasses.replace(draft, flags=plausibility.check(draft, record, cutoff=cutoff))
 
     @classmethod
     def _complete(
@@ -295,32 +306,7 @@ class IdentifiedModel:
         damping ratios, and epsilon and the force residual on the estimation
         record.
         """
-        out = []
-        check = numerics.nonfinite
-        found = check("coefficients", self.coefficients)
-        out += [found] if found else []
-        se = dict(self.standard_errors or {})
-        found = check("standard errors", se)
-        out += [found] if found else []
-        negative = [n for n, x in se.items() if numerics.is_finite(x) and x < 0]
-        if negative:
-            out.append(f"standard errors of {', '.join(negative)} are negative")
-        if self.mass_standard_error is not None and not (
-            numerics.is_finite(self.mass_standard_error) and self.mass_standard_error >= 0
-        ):
-            out.append(f"the standard error of the mass is {self.mass_standard_error}")
-        if self.equilibria is not None:
-            bad_eq = [z for z in self.equilibria.all if not numerics.is_finite(z)]
-            if bad_eq:
-                out.append(f"an equilibrium is {bad_eq[0]}")
-        for m in self.modal:
-            if not (numerics.is_finite(m.fn_hz) and m.fn_hz > 0 and numerics.is_finite(m.zeta)):
-                out.append(f"the modal parameters at z* = {m.equilibrium:.6g} m are fn = {m.fn_hz} Hz, zeta = {m.zeta}")
-        if self.scores is not None:
-            scores = {"epsilon": self.scores.eps_percent, "the force residual": self.scores.force_residual_percent}
-            found = check("", scores)
-            out += [found] if found else []
-        return out
+        return plausibility.nonfinite_problems(self)
 
     # ------------------------------------------------------------------ plain views
     @property
@@ -557,11 +543,12 @@ class IdentifiedModel:
         return model_summary(self, units)
 
     def __repr__(self) -> str:
-        mass = "mass unknown" if self.mass is None else f"mass={self.mass:.4g} kg"
+        mass = "mass unknown" if self.mass is None else f"mass={self.mass:.4g} {mass_unit(*record_units(self))}"
         if self.mass is not None:
             mass += " (estimated)" if self.mass_estimated else " (given)"
         eps = "" if self.eps_percent is None else f", eps={self.eps_percent:.3g} %"
-        return f"<IdentifiedModel {self.method!r}: {', '.join(self.terms)}; {mass}{eps}>"
+        flagged = f"; NOT TRUSTED: {', '.join(f.code for f in self.flags)}" if self.flags else ""
+        return f"<IdentifiedModel {self.method!r}: {', '.join(self.terms)}; {mass}{eps}{flagged}>"
 
     def _repr_html_(self) -> str:
         return self.summary().as_html()

@@ -14,11 +14,13 @@ from typing import TYPE_CHECKING, Any, Protocol
 
 import numpy as np
 
+from ..base.dimensions import energy_unit, unit_of
 from ..data.record import Record
 from ..errors import InputError
 from ..estimation.balance import regression_data
 from ..report.plotting import new_figure
 from ..scoring import ModelFit, damping_slice
+from .tables import record_units
 
 if TYPE_CHECKING:  # pragma: no cover
     from ..model.physics import Equilibria
@@ -110,8 +112,9 @@ def plot_stiffness(fit: PlottedFit, ax: Any = None, *, potential: bool = False) 
             ax.plot(
                 zz, yy, "o", ms=7, mfc="C3" if filled else "white", mec="C3", ls="none", label=f"{label} equilibria"
             )
-    ax.set_xlabel("z (m)")
-    ax.set_ylabel("U(z) (J)" if potential else "K(z) (N)")
+    force, length = record_units(fit)
+    ax.set_xlabel(f"z ({length})")
+    ax.set_ylabel(f"U(z) ({energy_unit(force, length)})" if potential else f"K(z) ({force})")
     ax.set_title(f"{fit.method}: {'potential' if potential else 'elastic force'}")
     ax.legend(fontsize="small")
     return ax
@@ -126,8 +129,9 @@ def plot_surface(fit: PlottedFit, record: Record, ax: Any = None, *, cutoff: flo
     ax.plot(res.z[keep], elastic_data[keep], ".", ms=2, color="0.55", alpha=0.6, label="data: f - m a - D(z, v)")
     z = _z_grid(fit)
     ax.plot(z, fit.elastic(z), color="C0", lw=2, label="identified K(z)")
-    ax.set_xlabel("z (m)")
-    ax.set_ylabel("force (N)")
+    force, length = record_units(fit)
+    ax.set_xlabel(f"z ({length})")
+    ax.set_ylabel(f"force ({force})")
     band = "" if res.band_hz is None else f" (band {res.band_hz:.3g} Hz)"
     ax.set_title(f"{fit.method}: restoring surface, elastic slice{band}")
     ax.legend(fontsize="small")
@@ -146,9 +150,10 @@ def plot_damping_slice(
     keep = _subsample(sl.v.size)
     ax.plot(sl.v[keep], sl.measured[keep], ".", ms=2, color="0.55", alpha=0.6, label="data")
     ax.plot(sl.v_grid, sl.model, color="C1", lw=2, label="identified D(z0, v)")
-    ax.set_xlabel("v (m/s)")
-    ax.set_ylabel("damping force (N)")
-    ax.set_title(f"{fit.method}: |z - {z0:.3g} m| <= {sl.half_width:.2g} m")
+    force, length = record_units(fit)
+    ax.set_xlabel(f"v ({unit_of((length, 1), ('s', -1))})")
+    ax.set_ylabel(f"damping force ({force})")
+    ax.set_title(f"{fit.method}: |z - {z0:.3g} {length}| <= {sl.half_width:.2g} {length}")
     ax.legend(fontsize="small")
     return ax
 
@@ -172,8 +177,9 @@ def plot_residual(
     good = counts > 0
     ax.plot(centers[good], sums[good] / counts[good], "-", color="C3", lw=2, label="binned mean")
     ax.axhline(0.0, color="0.3", lw=0.8)
-    ax.set_xlabel("z (m)" if against == "z" else "v (m/s)")
-    ax.set_ylabel("f - m a - R(z, v) (N)")
+    force, length = record_units(fit)
+    ax.set_xlabel(f"z ({length})" if against == "z" else f"v ({unit_of((length, 1), ('s', -1))})")
+    ax.set_ylabel(f"f - m a - R(z, v) ({force})")
     ax.set_title(f"{fit.method}: residual against {against}")
     ax.legend(fontsize="small")
     return ax

@@ -46,6 +46,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from ..base.dimensions import mass_unit
 from ..base.frozen import FrozenDict
 from ..data.record import Record
 from ..errors import InputError, NlidError, brief
@@ -53,6 +54,7 @@ from ..model import physics
 from ..model.terms import Model
 from ..scoring import columns as col
 from .model import IdentifiedModel
+from .tables import record_units
 
 if TYPE_CHECKING:  # pragma: no cover
     import pandas as pd
@@ -495,12 +497,13 @@ class Comparison:
                 }
             )
 
+        force, length = record_units(fit)  # every unit derived from the record's (SI, or volts for an analogue)
         for name, term in zip(fit.terms, fit.model.terms, strict=True):
-            value, unit = fit.coefficients[name], term.coefficient_unit
+            value, unit = fit.coefficients[name], term.coefficient_unit_in(force, length)
             add("coefficient", name, value, unit, ref_coeffs.get(name), se.get(name, NAN))
         if fit.mass is not None:
             ref_mass = self.reference.mass if fit.mass_estimated else None
-            add("mass", "mass", fit.mass, "kg", ref_mass, fit.mass_standard_error or NAN)
+            add("mass", "mass", fit.mass, mass_unit(force, length), ref_mass, fit.mass_standard_error or NAN)
         # the identified stable equilibria, each labelled by the reference equilibrium it is nearest to
         solved = self.reference.solved(fit.z_range)
         ref_eq = list(solved.equilibria or [])
@@ -512,7 +515,7 @@ class Comparison:
         for j, z in enumerate(stable):
             i = inverse.get(j)
             label = col.equilibrium_label(j if i is None else i)
-            add("equilibrium", label, z, "m", ref_eq[i] if i is not None else None)
+            add("equilibrium", label, z, length, ref_eq[i] if i is not None else None)
             m = modal_by_eq.get(z) or min(fit.modal, key=lambda mm: abs(mm.equilibrium - z), default=None)
             if m is None:
                 continue

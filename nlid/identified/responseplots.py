@@ -15,6 +15,7 @@ from typing import Any
 
 import numpy as np
 
+from ..base.dimensions import unit_of
 from ..base.formatting import sig
 from ..contract.identifier import FigureArray, standard_figure_arrays
 from ..data.record import Record
@@ -23,6 +24,7 @@ from ..model import physics
 from ..report.plotting import new_figure
 from ..scoring import TransientRule, free_run_response
 from .plots import PlottedFit
+from .tables import record_units
 
 __all__ = ["plot_freerun", "plot_frf", "declared_arrays", "linearised_frf"]
 
@@ -106,13 +108,14 @@ def plot_freerun(
     else:
         what = err.note
     ax.set_title(f"{fit.method}: free run ({what})", fontsize="medium", wrap=True)
-    ax.set_ylabel("z (m)")
+    force, length = record_units(fit)
+    ax.set_ylabel(f"z ({length})")
     _legend(ax, f"transient rule: {err.rule}" if err.rule else "", 90 if own else 40, own=own)
     last = ax if below is None else below
     last.set_xlabel("t (s)")
     if below is not None:
         below.axhline(0.0, color="0.5", lw=0.6)
-        below.set_ylabel("z_sim - z (m)")
+        below.set_ylabel(f"z_sim - z ({length})")
     return ax
 
 
@@ -213,10 +216,11 @@ def plot_frf(
     figure_own = ax is None
     mag, ph = _frf_axes(ax, phase)
     k_tilde = (getattr(fit, "diagnostics", None) or {}).get("k_tilde")
+    force, length = record_units(fit)
     for i, (declared, f, h) in enumerate(own):
         label = f"{fit.method}: identified underlying-linear system"
         if k_tilde is not None:
-            label += f" with k~1 = {sig(float(k_tilde), 3)} N/m added"
+            label += f" with k~1 = {sig(float(k_tilde), 3)} {unit_of((force, 1), (length, -1))} added"
         if declared.label:
             label += f" ({declared.label})"
         mag.semilogy(f, np.abs(h), color=f"C{len(modes) + i}", lw=1.6, alpha=0.8, label=label)
@@ -224,14 +228,14 @@ def plot_frf(
             ph.plot(f, np.degrees(np.unwrap(np.angle(h))), color=f"C{len(modes) + i}", lw=1.6, alpha=0.8)
     for i, m in enumerate(modes):
         h = linearised_frf(m, float(fit.mass), grid)
-        label = f"linearised at z* = {sig(m.equilibrium, 3)} m: fn {sig(m.fn_hz, 3)} Hz, zeta {sig(m.zeta, 2)}"
+        label = f"linearised at z* = {sig(m.equilibrium, 3)} {length}: fn {sig(m.fn_hz, 3)} Hz, zeta {sig(m.zeta, 2)}"
         mag.semilogy(grid, np.abs(h), "--" if own else "-", color=f"C{i}", lw=1.4, label=label)
         if ph is not None:
             ph.plot(grid, np.degrees(np.unwrap(np.angle(h))), "--" if own else "-", color=f"C{i}", lw=1.4)
         for a in (mag, ph):
             if a is not None:
                 a.axvline(m.fn_hz, color=f"C{i}", lw=0.6, ls=":")
-    mag.set_ylabel("|H| (m/N)")
+    mag.set_ylabel(f"|H| ({unit_of((length, 1), (force, -1))})")
     mag.set_title(f"{fit.method}: receptance linearised at each stable equilibrium", fontsize="medium")
     _legend(mag, own=figure_own)
     if ph is not None:

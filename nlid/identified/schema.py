@@ -26,6 +26,7 @@ from ..model.physics import Equilibria
 from ..model.terms import Model, parse_term
 from ..scoring import Scores
 from .fileformat import check_model
+from .tables import record_units
 
 if TYPE_CHECKING:  # pragma: no cover
     from .model import IdentifiedModel
@@ -65,7 +66,7 @@ def model_to_dict(fit: IdentifiedModel) -> dict[str, Any]:
             "standard_errors": None
             if fit.standard_errors is None
             else {n: fit.standard_errors.get(n) for n in fit.terms},
-            "units": {n: parse_term(n).coefficient_unit for n in fit.terms},
+            "units": {n: parse_term(n).coefficient_unit_in(*record_units(fit)) for n in fit.terms},
             "mass": fit.mass,
             "mass_estimated": fit.mass_estimated,
             "mass_standard_error": fit.mass_standard_error,
@@ -78,6 +79,8 @@ def model_to_dict(fit: IdentifiedModel) -> dict[str, Any]:
             "options": dict(fit.options),
             "diagnostics": dict(fit.diagnostics),
             "warnings": list(fit.warnings),
+            # written only when a check of what physics forbids failed (the layout of other models is unchanged)
+            **({"flags": [f.to_dict() for f in fit.flags]} if fit.flags else {}),
             "seconds": fit.seconds,
             "z_range": None if fit.z_range is None else list(fit.z_range),
             "provenance": dict(fit.provenance) or None,
@@ -137,6 +140,7 @@ def model_from_dict(cls: type[IdentifiedModel], data: Mapping[str, Any]) -> Iden
         options=data.get("options") or {},
         diagnostics=data.get("diagnostics") or {},
         warnings=tuple(data.get("warnings") or ()),
+        flags=tuple(data.get("flags") or ()),
         seconds=data.get("seconds"),
         z_range=data.get("z_range"),
         provenance=data.get("provenance") or {},

@@ -8,8 +8,10 @@ Used by :meth:`nlid.identified.model.IdentifiedModel.summary` and
 from __future__ import annotations
 
 from collections.abc import Mapping
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
+from ..base.dimensions import mass_unit
+from ..data.forcehold import describe_force_hold
 from ..data.units import Unit, coefficient_conversion, display_units
 from ..errors import InputError
 from ..report.summary import Column, Summary
@@ -19,7 +21,21 @@ if TYPE_CHECKING:  # pragma: no cover
 
     from .model import IdentifiedModel
 
-__all__ = ["shown_units", "coefficient_frame", "model_summary"]
+__all__ = ["shown_units", "record_units", "coefficient_frame", "model_summary"]
+
+
+def record_units(fit: Any) -> tuple[str, str]:
+    """``(force, displacement)``: the units the model's record was in (``("N", "m")``, or ``("V", "V")`` for a
+    record in volts such as Silverbox), from its provenance; SI when it has none.
+
+    Every unit a model shows (coefficients, mass, equilibria, axes) is derived from these
+    (:mod:`nlid.base.dimensions`), so a record in volts shows ``s^2`` for its mass, not ``kg``.
+    """
+    data = (getattr(fit, "provenance", None) or {}).get("data") or {}
+    units = data.get("units") or {}
+    force = (units.get("f") or {}).get("si") or "N"
+    length = (units.get("z") or {}).get("si") or "m"
+    return str(force), str(length)
 
 
 def shown_units(fit: IdentifiedModel, units: str | Mapping[str, str] | None) -> dict[str, Unit] | None:
@@ -65,9 +81,12 @@ def coefficient_frame(fit: IdentifiedModel, units: str | Mapping[str, str] | Non
 
     se = fit.standard_errors or {}
     shown = shown_units(fit, units)
+    force, length = record_units(fit)
     rows = []
     for n, t in zip(fit.terms, fit.model.terms, strict=True):
-        factor, unit = (1.0, t.coefficient_unit) if shown is None else coefficient_conversion(t, shown)
+        factor, unit = (
+            (1.0, t.coefficient_unit_in(force, length)) if shown is None else coefficient_conversion(t, shown)
+        )
         value, error = fit.coefficients[n], se.get(n, float("nan"))
         if shown is not None:
             value, error = value * factor, error * factor
@@ -86,16 +105,22 @@ def model_summary(fit: IdentifiedModel, units: str | Mapping[str, str] | None = 
         As for :func:`shown_units` (the mass stays in kg).
     """
     shown = shown_units(fit, units)
-    zu = "m" if shown is None else shown["z"].symbol
+    force, length = record_units(fit)
+    zu = length if shown is None else shown["z"].symbol
     zf = 1.0 if shown is None else shown["z"].factor  # the SI value of one displayed length unit
     out = Summary()
     head = [("method", fit.method)]
     if fit.mass is not None:
         how = "estimated" if fit.mass_estimated else "given"
         se = f" +/- {fit.mass_standard_error:.3g}" if fit.mass_standard_error else ""
-        head.append(("mass", f"{fit.mass:.6g}{se} kg ({how})"))
+        head.append(("mass", f"{fit.mass:.6g}{se} {mass_unit(force, length)} ({how})"))
     if shown is not None:
         head.append(("units", ", ".join(f"{c} in {shown[c].symbol}" for c in ("f", "z", "v"))))
+    data = (fit.provenance or {}).get("data") or {}
+    if data.get("force_hold"):  # the assumption about the force between samples, and where it came from
+        head.append(
+            ("force between samples", describe_force_hold(data["force_hold"], data.get("force_hold_source", "default")))
+        )
     path = getattr(fit, "input_path", None)
     if path is not None and not path.identity:  # said only when the force does not act as recorded
         head.append(("input path", path.describe()))
@@ -103,7 +128,9 @@ def model_summary(fit: IdentifiedModel, units: str | Mapping[str, str] | None = 
     se = fit.standard_errors or {}
     rows = []
     for name, term in zip(fit.terms, fit.model.terms, strict=True):
-        factor, unit = (1.0, term.coefficient_unit) if shown is None else coefficient_conversion(term, shown)
+        factor, unit = (
+            (1.0, term.coefficient_unit_in(force, length)) if shown is None else coefficient_conversion(term, shown)
+        )
         error = se.get(name)
         rows.append(
             [
@@ -140,4 +167,5 @@ def model_summary(fit: IdentifiedModel, units: str | Mapping[str, str] | None = 
     out.add_fields(scores, separator="   ", gap=True)  # the blank line stays when there are no scores
     tail = [] if fit.seconds is None else [("time", f"{fit.seconds:.3g} s")]
     out.add_fields(tail + [("warning", w) for w in fit.warnings])
+    out.add_fields([("NOT TRUSTED", str(f)) for f in getattr(fit, "flags", ())])
     return out

@@ -342,6 +342,7 @@ class Preset:
             "noise": levels,
             "excitation": self.excitation,
             "force_hold": "zoh" if self.multisine is None else "sampled",
+            "force_hold_source": "simulation",
             "reference": self.truth(),
         }
         if self.multisine is not None:

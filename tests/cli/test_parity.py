@@ -127,7 +127,8 @@ def test_compare_table_and_csv(cli, record_file, tmp_path):
 
     table = pd.read_csv(out_csv)
     assert list(table.columns) == ["method", "quantity", "name", "value", "std_error", "unit", "reference",
-                                   "error_pct", "note"]  # fmt: skip
+                                   "error_pct", "note", "force_hold", "force_hold_source"]  # fmt: skip
+    assert set(table["force_hold_source"]) == {"the sidecar x.npz.meta.json"}  # the assumption, said (issue 35)
     assert set(table["method"]) == {"rfs"}
 
 

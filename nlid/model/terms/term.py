@@ -47,6 +47,8 @@ from typing import Literal
 
 import numpy as np
 
+from ...base.dimensions import coefficient_unit
+
 __all__ = ["Term", "Part", "Special", "VARIABLES"]
 
 Var = Literal["z", "v", "px"]
@@ -161,6 +163,27 @@ class Term:
         return self.v != (0, 0) or any(s[1] == "v" for s in self.special)
 
     @property
+    def dissipative(self) -> bool:
+        """True if the term is a friction or damping law, ``g(z, v) v >= 0`` (it dissipates if its coefficient > 0).
+
+        Decided from the normal form: the term depends on the velocity, has no memory and no gap or stop
+        factor, and its sign is the sign of ``v`` (an odd number of ``sign(v)`` and ``tanh(v/c)`` factors,
+        ``v``, ``v*|v|``, ``v^3``...) times a factor that is never negative (``|z|^p``, ``z^2``, ``|px(z)|``,
+        ``exp(...)``). ``sign(v)``, ``v*|v|``, ``v^3``, ``sign(v)*exp(-(v/c)^2)``, ``z^2*v`` and
+        ``sign(v)*|px(z)|`` are; ``v^2``, ``|v|`` and ``z*v`` are not. On a structure's connection the
+        element's power is ``theta g(x, x') x'``, so the same sign decides whether it feeds energy in.
+        """
+        if self.memory is not None or not self.depends_on_v:
+            return False
+        parity = {"z": self.z[1], "v": self.v[1], "px": self.px[1]}
+        for kind, var, _, mult in self.special:
+            if kind in ("gap", "stop"):
+                return False
+            if kind == "tanh":
+                parity[var] += int(mult)
+        return parity["v"] % 2 == 1 and parity["z"] % 2 == 0 and parity["px"] % 2 == 0
+
+    @property
     def uses_px(self) -> bool:
         """True if the term contains ``px(z)`` (needs the roots z^±)."""
         return self.px != (0, 0)
@@ -266,13 +289,16 @@ class Term:
     @property
     def coefficient_unit(self) -> str:
         """SI unit of the term's coefficient in ``R`` (newtons per term unit)."""
+        return self.coefficient_unit_in()
+
+    def coefficient_unit_in(self, force: str = "N", length: str = "m") -> str:
+        """The unit of the term's coefficient for a record whose force is in ``force`` and displacement in ``length``.
+
+        ``force`` per unit of the term, simplified (:func:`nlid.base.dimensions.coefficient_unit`):
+        ``N*s^2/m^2`` for ``v*|v|`` in SI, ``s^2/V`` for a record in volts (the Silverbox circuit).
+        """
         meters, seconds = self._dimensions()
-        out = "N"
-        if seconds:
-            out += "*s" if seconds == 1 else f"*s^{seconds}"
-        if meters:
-            out += "/m" if meters == 1 else f"/m^{meters}"
-        return out
+        return coefficient_unit(meters, seconds, force, length)
 
     def sort_key(self) -> tuple:
         """Key for the canonical order of terms in a model.
