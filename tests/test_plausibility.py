@@ -173,3 +173,43 @@ def test_a_record_in_volts_is_told_in_its_own_units(files, capfd):
     argv = ["identify", str(files[0]), "--terms", TERMS, "--mass", "200", "--units", "f=V,z=V"]
     status, _, err = run(capfd, *argv)
     assert status == 1 and "the data suggest m ≈ 0.2 s^2: is --mass in s^2" in err and " kg" not in err
+
+
+# ------------------------------------------------------------------ structures (the same rules, per mode and DOF)
+@pytest.fixture(scope="module")
+def well_structure():
+    from nlid.simulation.presets import get_preset
+
+    preset = get_preset("2dof-double-well")
+    record = preset.with_overrides(duration=8.0).simulate(1, noise={"z": 0.005}, channels=["z", "v", "a"])
+    return record, preset
+
+
+def test_a_healthy_structure_is_not_flagged(well_structure):
+    record, preset = well_structure
+    fit = nlid.identify(record, preset.elements, "rfs", mass=record.meta["mass"])
+    assert fit.flags == ()
+    assert "NOT TRUSTED" not in repr(fit)
+
+
+def test_a_structure_mass_in_g_is_flagged_and_round_trips(well_structure):
+    from nlid.identified.structure import IdentifiedStructure
+
+    record, preset = well_structure
+    fit = nlid.identify(record, preset.elements, "rfs", mass=1000 * np.asarray(record.meta["mass"]))
+    codes = {f.code for f in fit.flags}
+    assert codes & {"negative-damping", "overdamped", "force-residual", "dissipative-sign"}, fit.flags
+    assert "NOT TRUSTED" in repr(fit) and "NOT TRUSTED" in str(fit.summary())
+    assert IdentifiedStructure.from_dict(fit.to_dict()).flags == fit.flags
+
+
+def test_a_structure_damping_element_with_the_wrong_sign_is_flagged(well_structure):
+    from nlid.identified.plausibility import check_structure
+
+    record, preset = well_structure
+    fit = nlid.identify(record, preset.elements, "rfs", mass=record.meta["mass"])
+    name = next(e.name for e in fit.elements if e.term.dissipative)
+    coefficients = {**dict(fit.coefficients), name: -abs(fit.coefficients[name])}
+    structure = dataclasses.replace(fit.structure, coefficients=coefficients)
+    flipped = dataclasses.replace(fit, structure=structure, standard_errors=None)
+    assert [f.code for f in check_structure(flipped)] == ["dissipative-sign"]

@@ -79,4 +79,4 @@ def run(args: argparse.Namespace) -> int:
         print_json(result.to_dict())
     else:
         print(with_wall_time(str(result.summary()), "identification"))
-    return untrusted("identify", headline(getattr(result, "flags", ())))  # a structure is not checked yet
+    return untrusted("identify", headline(result.flags))

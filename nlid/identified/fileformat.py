@@ -382,6 +382,25 @@ def _score_fields() -> tuple[Field, ...]:
 _PROVENANCE = Nullable("a provenance object or null", Obj("a provenance object", PROVENANCE_FIELDS))
 
 #: The fields of ``nlid.IdentifiedModel/1`` (one degree of freedom).
+#: The checks of what physics forbids that a model fails (:mod:`nlid.identified.plausibility`).
+_FLAGS = Field(
+    "flags",
+    ListOf(
+        "a list of objects",
+        Obj(
+            "{code, message, cause}",
+            (
+                Field("code", Text("a string"), True, "the rule broken (nlid.identified.plausibility)"),
+                Field("message", Text("a string"), True, "what was found"),
+                Field("cause", Text("a string"), True, "the likely cause"),
+            ),
+        ),
+    ),
+    False,
+    "the checks of what physics forbids that the model fails",
+)
+
+
 MODEL_FIELDS: tuple[Field, ...] = (
     Field("schema", Text("nlid.IdentifiedModel/1", ("nlid.IdentifiedModel/1",)), False, "the layout"),
     Field("method", Text("a string"), False, "the identifier's name"),
@@ -444,22 +463,7 @@ MODEL_FIELDS: tuple[Field, ...] = (
     Field("options", _JSON_OBJECT, False, "the identifier's settings"),
     Field("diagnostics", _JSON_OBJECT, False, "what the identifier reported"),
     Field("warnings", _STRINGS, False, "warnings"),
-    Field(
-        "flags",
-        ListOf(
-            "a list of objects",
-            Obj(
-                "{code, message, cause}",
-                (
-                    Field("code", Text("a string"), True, "the rule broken (nlid.identified.plausibility)"),
-                    Field("message", Text("a string"), True, "what was found"),
-                    Field("cause", Text("a string"), True, "the likely cause"),
-                ),
-            ),
-        ),
-        False,
-        "the checks of what physics forbids that the model fails",
-    ),
+    _FLAGS,
     Field("seconds", Nullable("a number not below 0 or null", _NONNEGATIVE), False, "time of the identification"),
     Field("z_range", Nullable("two finite numbers or null", _PAIR), False, "displacement range of the record (m)"),
     Field("provenance", _PROVENANCE, False, "where the model came from (nlid.identification.provenance)"),
@@ -541,6 +545,7 @@ STRUCTURE_FIELDS: tuple[Field, ...] = (
     Field("options", _JSON_OBJECT, False, "the identifier's settings"),
     Field("diagnostics", _JSON_OBJECT, False, "what the identifier reported"),
     Field("warnings", _STRINGS, False, "warnings"),
+    _FLAGS,
     Field("seconds", Nullable("a number not below 0 or null", _NONNEGATIVE), False, "time of the identification"),
     Field("z_range", Nullable("a list of pairs or null", ListOf("pairs", _PAIR)), False, "each DOF's range (m)"),
     Field("provenance", _PROVENANCE, False, "where the model came from"),

@@ -36,11 +36,13 @@ from .tables import record_units
 
 if TYPE_CHECKING:  # pragma: no cover
     from .model import IdentifiedModel
+    from .structure import IdentifiedStructure
 
 __all__ = [
     "Flag",
     "ImpliedMass",
     "check",
+    "check_structure",
     "headline",
     "implied_mass",
     "nonfinite_problems",
@@ -254,6 +256,68 @@ def check(fit: IdentifiedModel, record: Record | None = None, *, cutoff: float |
                 "dissipative-sign",
                 f"a friction or damping law with a negative coefficient ({', '.join(wrong)}): it feeds energy in",
                 "check the sign of f against z (a force pushing z up must be positive), the mass, or drop the term",
+            )
+        )
+    return tuple(flags)
+
+
+def _zeta_flags(points: Sequence[tuple[str, float]], unit_slip: str) -> list[Flag]:
+    """The damping-ratio rules on ``(where, zeta)`` pairs."""
+    flags = []
+    low = [(where, z) for where, z in points if numerics.is_finite(z) and z < ZETA_MIN]
+    if low:
+        shown = ", ".join(f"{100 * z:.3g} % {where}" for where, z in low)
+        flags.append(
+            Flag("negative-damping", f"negative damping ratio ({shown})", f"a passive structure cannot: {unit_slip}")
+        )
+    high = [(where, z) for where, z in points if numerics.is_finite(z) and z > ZETA_MAX]
+    if high:
+        shown = ", ".join(f"{100 * z:.3g} % {where}" for where, z in high)
+        flags.append(Flag("overdamped", f"damping ratio above {100 * ZETA_MAX:g} % ({shown})", f"likely {unit_slip}"))
+    return flags
+
+
+def check_structure(result: IdentifiedStructure) -> tuple[Flag, ...]:
+    """The rules an identified structure breaks (the same rules and limits as :func:`check`, per mode and DOF).
+
+    Checked: the damping ratio of every linearised mode at each stable equilibrium and of the underlying
+    linear system (``ZETA_MIN``, ``ZETA_MAX``), the force residual of every DOF
+    (``FORCE_RESIDUAL_MAX_PERCENT``), and the sign of every element that is a friction or damping law of
+    its connection's velocity alone (``SIGN_STANDARD_ERRORS``). The mass rule is not applied to a mass
+    matrix: a structure's force balance does not determine one mass per DOF as well as one DOF's does.
+    """
+    unit_slip = "a wrong mass matrix or a unit slip (mass in g, z in mm)"
+    points = []
+    for modes in result.modes:
+        at = "(" + ", ".join(f"{x:.4g}" for x in modes.equilibrium) + ")"
+        points += [(f"mode {k + 1} at z* = {at} m", float(z)) for k, z in enumerate(modes.zeta)]
+    if result.linear_modes is not None:
+        points += [(f"underlying linear mode {k + 1}", float(z)) for k, z in enumerate(result.linear_modes.zeta)]
+    flags = _zeta_flags(points, unit_slip)
+    residuals = list(result.force_residual_percent or ())
+    over = [(i + 1, r) for i, r in enumerate(residuals) if numerics.is_finite(r) and r > FORCE_RESIDUAL_MAX_PERCENT]
+    if over:
+        shown = ", ".join(f"{r:.3g} % on z{i}" for i, r in over)
+        flags.append(
+            Flag(
+                "force-residual",
+                f"force residual {shown} (the model explains the force worse than no model)",
+                f"likely {unit_slip}, or channels that do not belong together",
+            )
+        )
+    se = dict(result.standard_errors or {})
+    wrong = []
+    for element in result.elements:
+        term, value, error = element.term, result.coefficients[element.name], se.get(element.name)
+        if term.dissipative and term.z == (0, 0) and term.px == (0, 0) and value < 0:
+            if error is None or not numerics.is_finite(error) or -value > SIGN_STANDARD_ERRORS * error:
+                wrong.append(f"{element.name} {value:.3g} {element.coefficient_unit}")
+    if wrong:
+        flags.append(
+            Flag(
+                "dissipative-sign",
+                f"a friction or damping law with a negative coefficient ({', '.join(wrong)}): it feeds energy in",
+                "check the sign of each force against its displacement, the mass matrix, or drop the element",
             )
         )
     return tuple(flags)

@@ -37,6 +37,8 @@ from ..model.statics import StructureEquilibria
 from ..model.structure import StructuralModel
 from ..report.summary import Column, Summary
 from .fileformat import check_structure
+from .plausibility import Flag
+from .plausibility import check_structure as check_plausible
 
 if TYPE_CHECKING:  # pragma: no cover
     import pandas as pd
@@ -79,6 +81,9 @@ class IdentifiedStructure:
         As for :class:`nlid.IdentifiedModel`.
     z_range
         ``(min, max)`` displacement of each DOF in the estimation record (m).
+    flags
+        What physics forbids that the structure shows (:func:`nlid.identified.plausibility.check_structure`):
+        ``nlid identify`` exits with status 1 on one.
     """
 
     structure: StructuralModel
@@ -97,9 +102,11 @@ class IdentifiedStructure:
     z_range: tuple[tuple[float, float], ...] | None = None
     arrays: Mapping[str, np.ndarray] = field(default_factory=FrozenDict, repr=False)
     provenance: Mapping[str, Any] = field(default_factory=FrozenDict, repr=False)
+    flags: tuple[Flag, ...] = ()
 
     def __post_init__(self) -> None:
         set_ = object.__setattr__
+        set_(self, "flags", tuple(Flag.from_dict(f) for f in self.flags))
         if not isinstance(self.structure, StructuralModel):
             raise InputError(f"structure must be an nlid StructuralModel, got {type(self.structure).__name__}")
         if self.standard_errors is not None:
@@ -212,7 +219,7 @@ class IdentifiedStructure:
                 f"numerical warnings while identifying (the figures are finite): {numerics.describe_warnings(caught)}"
             )
             draft = dataclasses.replace(draft, warnings=(*draft.warnings, note))
-        return draft
+        return dataclasses.replace(draft, flags=check_plausible(draft))
 
     def problems(self) -> list[str]:
         """The reported figures that are not finite (empty when all is well)."""
@@ -342,6 +349,7 @@ class IdentifiedStructure:
                 "options": dict(self.options),
                 "diagnostics": dict(self.diagnostics),
                 "warnings": list(self.warnings),
+                **({"flags": [f.to_dict() for f in self.flags]} if self.flags else {}),
                 "seconds": self.seconds,
                 "z_range": None if self.z_range is None else [list(r) for r in self.z_range],
                 "provenance": dict(self.provenance) or None,
@@ -382,6 +390,7 @@ class IdentifiedStructure:
             seconds=data.get("seconds"),
             z_range=data.get("z_range"),
             provenance=data.get("provenance") or {},
+            flags=tuple(data.get("flags") or ()),
         )
 
     def to_frame(self) -> pd.DataFrame:
@@ -448,11 +457,14 @@ class IdentifiedStructure:
         out.add_fields(scores, gap=True)
         tail = [] if self.seconds is None else [("time", f"{self.seconds:.3g} s")]
         out.add_fields(tail + [("warning", w) for w in self.warnings])
+        out.add_fields([("NOT TRUSTED", str(f)) for f in self.flags])
         return out
 
     def __repr__(self) -> str:
         mass = "mass estimated" if self.mass_estimated else "mass given"
-        return f"<IdentifiedStructure {self.method!r}: {self.n_dofs} DOFs; {', '.join(self.elements.names)}; {mass}>"
+        flagged = f"; NOT TRUSTED: {', '.join(f.code for f in self.flags)}" if self.flags else ""
+        names = ", ".join(self.elements.names)
+        return f"<IdentifiedStructure {self.method!r}: {self.n_dofs} DOFs; {names}; {mass}{flagged}>"
 
     def _repr_html_(self) -> str:
         return self.summary().as_html()
