@@ -143,8 +143,11 @@ IMPORTS = _load_import_circles()
 #: Longest module (lines) in nlid/ and plugins/.
 MAX_LINES = 600
 #: Modules of one job kept whole although longer, each with the reason (the limit is a guideline: a module is split
-#: by job, never by size alone; none today).
-LONG_MODULES: dict[str, str] = {}
+#: by job, never by size alone).
+LONG_MODULES: dict[str, str] = {
+    "nlid/bayes/result.py": "one job, the Posterior result (its numbers, table, flags, JSON and files): issue 35 "
+    "added its flags, force hold, channel units and DataTree export; splitting it would cut the type in two",
+}
 
 
 def _sources(root: Path) -> list[Path]:
