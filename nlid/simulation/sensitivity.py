@@ -45,7 +45,7 @@ __all__ = ["simulate_segments", "SegmentRun", "sensitivity_columns"]
 # (the kernels' long argument lists stay on two or three lines, so the four RK4 stages read side by side)
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True)
 def _accel_d(fk, z, v, ws, Sz, Sv, Sw, inv_m, theta, parts, special, pxc, memory, mem_terms, shape_col,
              col_mass, col_x0, sens, top, g, gz, gv, gs, fac, dfac, pz, pv, pp, out_da):
     """Acceleration ``(f - R) / m`` at a stage and (if ``sens``) its derivative for every column.
@@ -87,7 +87,7 @@ def _accel_d(fk, z, v, ws, Sz, Sv, Sw, inv_m, theta, parts, special, pxc, memory
     return a
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True)
 def _memory_sens(Sw, Sz_stage, Sz, mw, mdz, ma, mb, mem_terms, shape_col, out):
     """Sensitivities of the memory states after a stage's displacement (chain rule of the exact step)."""
     for r in range(mem_terms.size):
@@ -102,9 +102,9 @@ def _memory_sens(Sw, Sz_stage, Sz, mw, mdz, ma, mb, mem_terms, shape_col, out):
 
 @numba.njit(cache=True, inline="always")
 def _stage_f(fk, z, v, inv_m, theta, parts, special, pxc, memory, shape_col, col_mass, col_x0, top, g, gz, gv, gs,
-             fac, dfac, pz, pv, pp, F):
-    """A stage of :func:`_segment_f`: the acceleration, ``dR/dz``, ``dR/dv`` and (in ``F``) what each global
-    column's derivative of the acceleration subtracts (the products and sums of :func:`_accel_d`)."""
+             fac, dfac, pz, pv, pp, F, st):
+    """Stage ``st`` of :func:`_segment_f`: the acceleration, ``dR/dz``, ``dR/dv`` and (in ``F[st]``) what each
+    global column's derivative of the acceleration subtracts (the products and sums of :func:`_accel_d`)."""
     _terms_d(z, v, parts, special, pxc, memory, top, g, gz, gv, gs, fac, dfac, pz, pv, pp)
     R = 0.0
     Rz = 0.0
@@ -116,13 +116,13 @@ def _stage_f(fk, z, v, inv_m, theta, parts, special, pxc, memory, shape_col, col
     a = (fk - R) * inv_m
     if col_x0 > 0:
         for i in range(theta.size):
-            F[i] = g[i] * inv_m
+            F[st, i] = g[i] * inv_m
             for j in range(special.shape[1]):
                 col = shape_col[i, j]
                 if col >= 0:
-                    F[col] = theta[i] * gs[i, j] * inv_m
+                    F[st, col] = theta[i] * gs[i, j] * inv_m
         if col_mass >= 0:
-            F[col_mass] = a * inv_m
+            F[st, col_mass] = a * inv_m
     return a, Rz, Rv
 
 
@@ -151,10 +151,11 @@ def _segment_f(fine, q, dt, mass, theta, parts, special, pxc, memory, shape_col,
     pp = np.zeros(max(top[2], 0) + 1)
     Sz = np.zeros(ncol)
     Sv = np.zeros(ncol)
-    F1 = np.zeros(ncol)
-    F2 = np.zeros(ncol)
-    F3 = np.zeros(ncol)
-    F4 = np.zeros(ncol)
+    F = np.zeros((4, ncol))
+    A = np.zeros(4)
+    V = np.zeros(4)
+    RZ = np.zeros(4)
+    RV = np.zeros(4)
     z = x0[0]
     v = x0[1]
     Sz[col_x0] = 1.0
@@ -170,37 +171,38 @@ def _segment_f(fine, q, dt, mass, theta, parts, special, pxc, memory, shape_col,
             out_S[1, start + k, c] = Sv[c]
         for sub in range(q):
             fk = fine[(start + k) * q + sub]
-            a1, Rz1, Rv1 = _stage_f(fk, z, v, inv_m, theta, parts, special, pxc, memory, shape_col, col_mass,
-                                    col_x0, top, g, gz, gv, gs, fac, dfac, pz, pv, pp, F1)
-            z2 = z + h2 * v
-            v2 = v + h2 * a1
-            a2, Rz2, Rv2 = _stage_f(fk, z2, v2, inv_m, theta, parts, special, pxc, memory, shape_col, col_mass,
-                                    col_x0, top, g, gz, gv, gs, fac, dfac, pz, pv, pp, F2)
-            z3 = z + h2 * v2
-            v3 = v + h2 * a2
-            a3, Rz3, Rv3 = _stage_f(fk, z3, v3, inv_m, theta, parts, special, pxc, memory, shape_col, col_mass,
-                                    col_x0, top, g, gz, gv, gs, fac, dfac, pz, pv, pp, F3)
-            z4 = z + dt * v3
-            v4 = v + dt * a3
-            a4, Rz4, Rv4 = _stage_f(fk, z4, v4, inv_m, theta, parts, special, pxc, memory, shape_col, col_mass,
-                                    col_x0, top, g, gz, gv, gs, fac, dfac, pz, pv, pp, F4)
+            for st in range(4):  # the four stages through one call site (one inlined copy: compile time)
+                if st == 0:
+                    zs = z
+                    vs = v
+                else:
+                    h = dt if st == 3 else h2
+                    zs = z + h * V[st - 1]
+                    vs = v + h * A[st - 1]
+                V[st] = vs
+                A[st], RZ[st], RV[st] = _stage_f(fk, zs, vs, inv_m, theta, parts, special, pxc, memory, shape_col,
+                                                 col_mass, col_x0, top, g, gz, gv, gs, fac, dfac, pz, pv, pp, F, st)
+            a1, a2, a3, a4 = A[0], A[1], A[2], A[3]
+            v2, v3, v4 = V[1], V[2], V[3]
+            Rz1, Rz2, Rz3, Rz4 = RZ[0], RZ[1], RZ[2], RZ[3]
+            Rv1, Rv2, Rv3, Rv4 = RV[0], RV[1], RV[2], RV[3]
             if sub == 0:
                 out_a[start + k] = a1
             for c in range(ncol):
                 sz = Sz[c]
                 sv = Sv[c]
-                d1 = -(Rz1 * sz + Rv1 * sv) * inv_m - F1[c]
+                d1 = -(Rz1 * sz + Rv1 * sv) * inv_m - F[0, c]
                 if sub == 0:
                     out_S[2, start + k, c] = d1
                 sz2 = sz + h2 * sv
                 sv2 = sv + h2 * d1
-                d2 = -(Rz2 * sz2 + Rv2 * sv2) * inv_m - F2[c]
+                d2 = -(Rz2 * sz2 + Rv2 * sv2) * inv_m - F[1, c]
                 sz3 = sz + h2 * sv2
                 sv3 = sv + h2 * d2
-                d3 = -(Rz3 * sz3 + Rv3 * sv3) * inv_m - F3[c]
+                d3 = -(Rz3 * sz3 + Rv3 * sv3) * inv_m - F[2, c]
                 sz4 = sz + dt * sv3
                 sv4 = sv + dt * d3
-                d4 = -(Rz4 * sz4 + Rv4 * sv4) * inv_m - F4[c]
+                d4 = -(Rz4 * sz4 + Rv4 * sv4) * inv_m - F[3, c]
                 Sz[c] = sz + h6 * (sv + 2.0 * sv2 + 2.0 * sv3 + sv4)
                 Sv[c] = sv + h6 * (d1 + 2.0 * d2 + 2.0 * d3 + d4)
             z = z + h6 * (v + 2.0 * v2 + 2.0 * v3 + v4)
@@ -486,7 +488,9 @@ def simulate_segments(
     memory = encode_memory(model)
     mem_terms = np.array([i for i, t in enumerate(model.terms) if t.is_memory], dtype=np.int64)
     M = mem_terms.size
-    x0 = np.ascontiguousarray(initial_states, dtype=float)
+    # writable C arrays: one signature of the compiled kernel for every caller (a read-only array is another
+    # type to numba, compiled again)
+    x0 = np.require(initial_states, dtype=float, requirements=["C", "W"])
     if x0.shape != (starts.size, 2 + M):
         raise InputError(f"initial_states must have shape ({starts.size}, {2 + M}), got {x0.shape}")
     columns = sensitivity_columns(model)
@@ -505,7 +509,7 @@ def simulate_segments(
     ncol = len(columns)
     if fine is None:
         fine = fine_force(force, force_hold, q)
-    fine = np.ascontiguousarray(fine, dtype=float)
+    fine = np.require(fine, dtype=float, requirements=["C", "W"])
     if fine.size != n * q:
         raise InputError(f"the sub-step force has {fine.size} samples, expected {n * q}")
     out_z, out_v, out_a = np.empty(n), np.empty(n), np.empty(n)

@@ -159,7 +159,7 @@ def _terms_d(z, v, parts, special, pxc, memory, top, g, gz, gv, gs, fac, dfac, p
         gv[i] = dv_
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True)
 def _memory_d(memory, mem_terms, w, dz, ws, mw, mdz, ma, mb):
     """Every memory state after the displacement ``dz`` from ``w`` with the step's derivatives."""
     for r in range(mem_terms.size):
@@ -228,6 +228,8 @@ def _segment_v(fine, q, dt, mass, theta, parts, special, pxc, memory, mem_terms,
     mdz = np.zeros(M)
     ma = np.zeros(M)
     mb = np.zeros(M)
+    A = np.zeros(4)
+    V = np.zeros(4)
     z = x0[0]
     v = x0[1]
     for r in range(M):
@@ -240,28 +242,25 @@ def _segment_v(fine, q, dt, mass, theta, parts, special, pxc, memory, mem_terms,
         out_v[start + k] = v
         for sub in range(q):
             fk = fine[(start + k) * q + sub]
-            for r in range(M):
-                ws[r] = w[r]
-            a1 = _accel_v(fk, z, v, ws, inv_m, theta, parts, special, pxc, memory, mem_terms, top, pz, pv, pp)
+            for st in range(4):  # the four stages through one call site (one inlined copy: compile time)
+                if st == 0:
+                    zs = z
+                    vs = v
+                    for r in range(M):
+                        ws[r] = w[r]
+                else:
+                    h = dt if st == 3 else h2
+                    zs = z + h * V[st - 1]
+                    vs = v + h * A[st - 1]
+                    if M > 0:
+                        _memory_d(memory, mem_terms, w, zs - z, ws, mw, mdz, ma, mb)
+                V[st] = vs
+                A[st] = _accel_v(fk, zs, vs, ws, inv_m, theta, parts, special, pxc, memory, mem_terms, top, pz, pv,
+                                 pp)
             if sub == 0:
-                out_a[start + k] = a1
-            z2 = z + h2 * v
-            v2 = v + h2 * a1
-            if M > 0:
-                _memory_d(memory, mem_terms, w, z2 - z, ws, mw, mdz, ma, mb)
-            a2 = _accel_v(fk, z2, v2, ws, inv_m, theta, parts, special, pxc, memory, mem_terms, top, pz, pv, pp)
-            z3 = z + h2 * v2
-            v3 = v + h2 * a2
-            if M > 0:
-                _memory_d(memory, mem_terms, w, z3 - z, ws, mw, mdz, ma, mb)
-            a3 = _accel_v(fk, z3, v3, ws, inv_m, theta, parts, special, pxc, memory, mem_terms, top, pz, pv, pp)
-            z4 = z + dt * v3
-            v4 = v + dt * a3
-            if M > 0:
-                _memory_d(memory, mem_terms, w, z4 - z, ws, mw, mdz, ma, mb)
-            a4 = _accel_v(fk, z4, v4, ws, inv_m, theta, parts, special, pxc, memory, mem_terms, top, pz, pv, pp)
-            z_new = z + h6 * (v + 2.0 * v2 + 2.0 * v3 + v4)
-            v_new = v + h6 * (a1 + 2.0 * a2 + 2.0 * a3 + a4)
+                out_a[start + k] = A[0]
+            z_new = z + h6 * (v + 2.0 * V[1] + 2.0 * V[2] + V[3])
+            v_new = v + h6 * (A[0] + 2.0 * A[1] + 2.0 * A[2] + A[3])
             if M > 0:
                 _memory_d(memory, mem_terms, w, z_new - z, ws, mw, mdz, ma, mb)
             for r in range(M):
