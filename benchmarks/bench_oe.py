@@ -28,9 +28,11 @@ average at the start and end of the run, the kernel threads and the result::
 
     python benchmarks/bench_oe.py --case numerical --seeds 0 --repeat 5 --busy 2
 
-The figure of docs/performance.md (round four), the user's defaults, seed 0, five runs::
+The figure of docs/performance.md (round four), the user's defaults, seed 0, five runs, and the profile
+of one such fit (cProfile, the top entries by cumulative time)::
 
     python benchmarks/bench_oe.py --case numerical --seeds 0 --repeat 5
+    python benchmarks/bench_oe.py --case numerical --seeds 0 --profile
 """
 
 from __future__ import annotations
@@ -128,6 +130,7 @@ def main() -> None:
     parser.add_argument(
         "--oversample", type=int, default=None, help="oe's sub-steps per sample (default: oe's default, 8)"
     )
+    parser.add_argument("--profile", action="store_true", help="cProfile one run of the first seed in this process")
     parser.add_argument("--one", type=int, default=None, help=argparse.SUPPRESS)
     args = parser.parse_args()
     if args.one is not None:
@@ -138,6 +141,17 @@ def main() -> None:
         seeds = list(range(int(lo), int(hi) + 1))
     else:
         seeds = [int(s) for s in args.seeds.split(",")]
+    if args.profile:
+        import cProfile
+        import pstats
+
+        profiler = cProfile.Profile()
+        profiler.enable()
+        out = one(args.case, seeds[0], args.oversample)
+        profiler.disable()
+        print({k: out[k] for k in ("seconds", "cpu", "load_start", "oversample") if k in out})
+        pstats.Stats(profiler).sort_stats("cumulative").print_stats(30)
+        return
     if args.case == "discover":
         seeds = [0]
     trees = [str(Path(t).resolve()) for t in args.trees.split(",")]
