@@ -148,7 +148,7 @@ _PHASES = r"""
 import resource, sys, time
 t0, c0 = time.perf_counter(), time.process_time()
 import nlid.cli.main  # noqa: F401 - what the CLI imports
-from nlid import pipeline
+from nlid.identification import pipeline
 from nlid.identified.model import IdentifiedModel
 from nlid.data.io import read_record
 from nlid.contract.registry import registry_for

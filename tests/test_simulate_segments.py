@@ -13,13 +13,29 @@ from nlid.simulation.presets import get_preset
 
 CASES = [
     ("z^3, z^2, v*|v|", {"z^3": 1e6, "z^2": 5e3, "z": 200.0, "v": 1.0, "v*|v|": 5.0, "1": 1.0}, 0.2, 500.0, 20.0),
-    ("z^3, sign(v)*exp(-(v/0.05)^2), tanh(v/0.01), sign(v)*|px(z)|",
-     {"z^3": 1e6, "z": -300.0, "v": 1.0, "1": 0.0, "sign(v)*exp(-(v/0.05)^2)": 2.0, "tanh(v/0.01)": 1.0,
-      "sign(v)*|px(z)|": 0.5}, 0.2, 500.0, 20.0),
+    (
+        "z^3, sign(v)*exp(-(v/0.05)^2), tanh(v/0.01), sign(v)*|px(z)|",
+        {
+            "z^3": 1e6,
+            "z": -300.0,
+            "v": 1.0,
+            "1": 0.0,
+            "sign(v)*exp(-(v/0.05)^2)": 2.0,
+            "tanh(v/0.01)": 1.0,
+            "sign(v)*|px(z)|": 0.5,
+        },
+        0.2,
+        500.0,
+        20.0,
+    ),
     ("bouc_wen(800, -1100)", {"z": 5e4, "v": 10.0, "bouc_wen(800, -1100)": 5e4, "1": 0.0}, 2.0, 750.0, 50.0),
-    ("dahl(0.001), gap(z, 0.002), stop(v, -0.1)",
-     {"z": 300.0, "v": 2.0, "1": 0.0, "dahl(0.001)": 3.0, "gap(z, 0.002)": 1e4, "stop(v, -0.1)": 5.0},
-     0.2, 500.0, 20.0),
+    (
+        "dahl(0.001), gap(z, 0.002), stop(v, -0.1)",
+        {"z": 300.0, "v": 2.0, "1": 0.0, "dahl(0.001)": 3.0, "gap(z, 0.002)": 1e4, "stop(v, -0.1)": 5.0},
+        0.2,
+        500.0,
+        20.0,
+    ),
 ]
 
 
@@ -103,14 +119,51 @@ def test_segments_start_from_their_own_states_and_report_their_ends():
     p = get_preset("paper-numerical")
     model = p.model()
     force = np.random.default_rng(0).standard_normal(400) * 50
-    whole = simulate_segments(model, dict(p.coefficients), p.mass, force, 2048.0, [0], np.zeros((1, 2)),
-                              force_hold="zoh", oversample=1, sensitivities=False)
+    whole = simulate_segments(
+        model,
+        dict(p.coefficients),
+        p.mass,
+        force,
+        2048.0,
+        [0],
+        np.zeros((1, 2)),
+        force_hold="zoh",
+        oversample=1,
+        sensitivities=False,
+    )
     x0 = np.array([[0.0, 0.0], [whole.z[200], whole.v[200]]])
-    split = simulate_segments(model, dict(p.coefficients), p.mass, force, 2048.0, [0, 200], x0,
-                              force_hold="zoh", oversample=1)
+    split = simulate_segments(
+        model, dict(p.coefficients), p.mass, force, 2048.0, [0, 200], x0, force_hold="zoh", oversample=1
+    )
     assert np.array_equal(split.z, whole.z)  # the second segment starts from the first one's state
     assert np.array_equal(split.end_state[0], x0[1])
     assert split.end_sensitivities.shape == (2, 2, len(split.columns))
+
+
+@pytest.mark.parametrize("spec, coefficients, mass, fs, amplitude", CASES, ids=[c[0] for c in CASES])
+def test_runs_without_some_columns_are_the_run_with_all_to_the_bit(spec, coefficients, mass, fs, amplitude):
+    """No sensitivities, or the initial state's alone: the same states and columns as the run with every column
+    (each kernel forms the products and sums of the full one, in its order)."""
+    model = _model(spec)
+    force = np.random.default_rng(2).standard_normal(600) * amplitude
+    memory = sum(t.is_memory for t in model.terms)
+    x0 = np.zeros((3, 2 + memory))
+    x0[:, 0] = (0.001, -0.002, 0.0005)
+    x0[:, 1] = (0.01, 0.0, -0.02)
+    starts = [0, 150, 400]
+    full = simulate_segments(model, coefficients, mass, force, fs, starts, x0, oversample=3)
+    plain = simulate_segments(model, coefficients, mass, force, fs, starts, x0, oversample=3, sensitivities=False)
+    states = simulate_segments(model, coefficients, mass, force, fs, starts, x0, oversample=3, sensitivities="states")
+    own = len(full.columns) - (2 + memory)
+    assert states.columns == full.columns[own:] == ("z0", "v0", *(f"w0:{t.name}" for t in model.terms if t.is_memory))
+    for run in (plain, states):
+        for x in ("z", "v", "a", "end_state"):
+            assert np.array_equal(getattr(run, x), getattr(full, x))
+    assert plain.sensitivities is None
+    assert np.array_equal(states.sensitivities, full.sensitivities[:, :, own:])
+    assert np.array_equal(states.end_sensitivities, full.end_sensitivities[:, :, own:])
+    with pytest.raises(InputError, match="sensitivities"):
+        simulate_segments(model, coefficients, mass, force, fs, starts, x0, sensitivities="globals")
 
 
 def test_bad_segments_are_refused():

@@ -18,15 +18,15 @@ import numpy as np
 from ..base.validate import MASS
 from ..errors import InputError
 from ..model.terms import Model
-from ..model.terms.memory_kernels import bouc_wen_step_d, dahl_step_d
 from .encode import encode_memory, encode_model
 from .excitation import fine_force
-from .kernels import FREE_RUN_OVERSAMPLE, SimulationError, _plan, _sign
+from .kernels import FREE_RUN_OVERSAMPLE, SimulationError, _plan
+from .stage_terms import _memory_d, _segment_v, _terms_d
 
 __all__ = ["simulate_segments", "SegmentRun", "sensitivity_columns"]
 
 # numba's on-disk cache of a kernel is invalidated by changes of its own file only: after editing _plan or
-# _sign in kernels.py (or the memory steps of nlid.model.terms), delete
+# _sign in kernels.py, the pieces in stage_terms.py (or the memory steps of nlid.model.terms), delete
 # nlid/simulation/__pycache__/sensitivity.*.nb[ci].
 
 # --------------------------------------------------------------------------- segments with sensitivities
@@ -41,161 +41,18 @@ __all__ = ["simulate_segments", "SegmentRun", "sensitivity_columns"]
 # (:func:`nlid.model.terms.memory_kernels.bouc_wen_step_d`, ``dahl_step_d``).
 
 
-@numba.njit(cache=True, inline="always")
-def _pow_d(x, p, s):
-    """``|x|^p sign(x)^s`` and its derivative (a.e.)."""
-    if p == 0:
-        if s == 0:
-            return 1.0, 0.0
-        return _sign(x), 0.0
-    ax = abs(x)
-    if p == 1:
-        pm = 1.0
-    elif p == 2:
-        pm = ax
-    elif p == 3:
-        pm = ax * ax
-    else:
-        pm = ax ** (p - 1)
-    if s == 1:
-        return pm * ax * _sign(x), p * pm
-    return pm * ax, p * pm * _sign(x)
-
-
-@numba.njit(cache=True, inline="always")
-def _special_d(kind, x, c, mult):
-    """A special factor, its derivative in its variable and in its scale: ``(f, df/dx, df/dc)``."""
-    m = int(mult)
-    if kind == 1.0:  # exp(-|x| m / c)
-        e = np.exp(-abs(x) * mult / c)
-        return e, -(mult / c) * _sign(x) * e, e * abs(x) * mult / (c * c)
-    if kind == 2.0:  # exp(-m (x / c)^2)
-        e = np.exp(-mult * (x / c) ** 2)
-        return e, -2.0 * mult * x / (c * c) * e, 2.0 * mult * x * x / (c * c * c) * e
-    if kind == 4.0:  # gap(x, c)^m
-        y = abs(x) - c
-        if y > 0:
-            u = _sign(x) * y
-            du = m * u ** (m - 1)
-            return u**m, du, -du * _sign(x)
-        return 0.0, 0.0, 0.0
-    if kind == 5.0:  # stop(x, c)^m
-        y = x - c
-        if (c >= 0 and y > 0) or (c < 0 and y < 0):
-            d = m * y ** (m - 1)
-            return y**m, d, -d
-        return 0.0, 0.0, 0.0
-    t = np.tanh(x / c)  # tanh(x / c)^m
-    base = t ** (m - 1)
-    d = m * base * (1.0 - t * t)
-    return base * t, d / c, -d * x / (c * c)
-
-
-@numba.njit(cache=True, inline="always")
-def _powers(x, top, out):
-    """``|x|^k`` for ``k = 0..top`` into ``out`` (products in increasing order)."""
-    ax = abs(x)
-    out[0] = 1.0
-    for k in range(1, top + 1):
-        out[k] = out[k - 1] * ax
-
-
-@numba.njit(cache=True, inline="always")
-def _part_d(pw, p, s, sx):
-    """``|x|^p sign(x)^s`` and its derivative (a.e.) from the powers ``pw`` of ``|x|``."""
-    if p == 0:
-        return (sx if s == 1 else 1.0), 0.0
-    if s == 1:
-        return pw[p] * sx, p * pw[p - 1]
-    return pw[p], p * pw[p - 1] * sx
-
-
-@numba.njit(cache=True, inline="always")
-def _terms_d(z, v, parts, special, pxc, memory, top, g, gz, gv, gs, fac, dfac, pz, pv, pp):
-    """Every non-memory term's value and derivatives at ``(z, v)``.
-
-    Fills ``g[i]``, ``gz[i] = dg_i/dz``, ``gv[i] = dg_i/dv`` and ``gs[i, j]`` (derivative with respect to
-    the scale of special factor ``j``, for the factors the term has); memory terms get zeros (they act
-    through their states). ``top`` holds the largest power of z, v and px(z) any term uses (-1: none).
-    """
-    sz = _sign(z)
-    sv = _sign(v)
-    _powers(z, top[0], pz)
-    _powers(v, top[1], pv)
-    px = 0.0
-    dpx = 0.0
-    spx = 0.0
-    if top[2] >= 0:
-        px = ((pxc[0] * z + pxc[1]) * z + pxc[2]) * z + pxc[3]
-        dpx = (3.0 * pxc[0] * z + 2.0 * pxc[1]) * z + pxc[2]
-        spx = _sign(px)
-        _powers(px, top[2], pp)
-    for i in range(parts.shape[0]):
-        if memory[i, 0] != 0.0:
-            g[i] = 0.0
-            gz[i] = 0.0
-            gv[i] = 0.0
-            continue
-        val, dz_ = _part_d(pz, parts[i, 0], parts[i, 1], sz)
-        f, fv = _part_d(pv, parts[i, 2], parts[i, 3], sv)
-        dz_ *= f
-        dv_ = val * fv
-        val *= f
-        if parts[i, 4] != 0 or parts[i, 5] != 0:
-            f, fp = _part_d(pp, parts[i, 4], parts[i, 5], spx)
-            dz_ = dz_ * f + val * fp * dpx
-            dv_ *= f
-            val *= f
-        if special[i, 0, 0] != 0.0:
-            base = val
-            k = 0
-            for j in range(special.shape[1]):
-                kind = special[i, j, 0]
-                if kind == 0.0:
-                    break
-                x = z if special[i, j, 1] == 0.0 else v
-                f, fx, fc = _special_d(kind, x, special[i, j, 2], special[i, j, 3])
-                fac[j] = f
-                dfac[j] = fc
-                if special[i, j, 1] == 0.0:
-                    dz_ = dz_ * f + val * fx
-                    dv_ *= f
-                else:
-                    dv_ = dv_ * f + val * fx
-                    dz_ *= f
-                val *= f
-                k += 1
-            for j in range(k):
-                other = base
-                for jj in range(k):
-                    if jj != j:
-                        other *= fac[jj]
-                gs[i, j] = other * dfac[j]
-        g[i] = val
-        gz[i] = dz_
-        gv[i] = dv_
-
-
-@numba.njit(cache=True)
-def _memory_d(memory, mem_terms, w, dz, ws, mw, mdz, ma, mb):
-    """Every memory state after the displacement ``dz`` from ``w`` with the step's derivatives."""
-    for r in range(mem_terms.size):
-        i = mem_terms[r]
-        if memory[i, 0] == 1.0:
-            ws[r], mw[r], mdz[r], ma[r], mb[r] = bouc_wen_step_d(w[r], dz, memory[i, 1], memory[i, 2])
-        else:
-            ws[r], mw[r], mdz[r], ma[r] = dahl_step_d(w[r], dz, memory[i, 1])
-            mb[r] = 0.0
-
-
 # fmt: off
 # (the kernels' long argument lists stay on two or three lines, so the four RK4 stages read side by side)
 
 
 @numba.njit(cache=True)
 def _accel_d(fk, z, v, ws, Sz, Sv, Sw, inv_m, theta, parts, special, pxc, memory, mem_terms, shape_col,
-             col_mass, sens, top, g, gz, gv, gs, fac, dfac, pz, pv, pp, out_da):
-    """Acceleration ``(f - R) / m`` at a stage and (if ``sens``) its derivative for every column."""
+             col_mass, col_x0, sens, top, g, gz, gv, gs, fac, dfac, pz, pv, pp, out_da):
+    """Acceleration ``(f - R) / m`` at a stage and (if ``sens``) its derivative for every column.
+
+    The global columns (coefficients, mass, shapes) come before the initial state's; ``col_x0 == 0``: the
+    state's columns only.
+    """
     _terms_d(z, v, parts, special, pxc, memory, top, g, gz, gv, gs, fac, dfac, pz, pv, pp)
     R = 0.0
     Rz = 0.0
@@ -215,6 +72,8 @@ def _accel_d(fk, z, v, ws, Sz, Sv, Sw, inv_m, theta, parts, special, pxc, memory
         for r in range(mem_terms.size):
             acc += theta[mem_terms[r]] * Sw[r, c]
         out_da[c] = -acc * inv_m
+    if col_x0 == 0:
+        return a
     for i in range(theta.size):  # the coefficients' columns are the first ones
         out_da[i] -= g[i] * inv_m
         for j in range(special.shape[1]):
@@ -239,6 +98,123 @@ def _memory_sens(Sw, Sz_stage, Sz, mw, mdz, ma, mb, mem_terms, shape_col, out):
             out[r, shape_col[i, 0]] += ma[r]
         if shape_col.shape[1] > 1 and shape_col[i, 1] >= 0:
             out[r, shape_col[i, 1]] += mb[r]
+
+
+@numba.njit(cache=True, inline="always")
+def _stage_f(fk, z, v, inv_m, theta, parts, special, pxc, memory, shape_col, col_mass, col_x0, top, g, gz, gv, gs,
+             fac, dfac, pz, pv, pp, F, st):
+    """Stage ``st`` of :func:`_segment_f`: the acceleration, ``dR/dz``, ``dR/dv`` and (in ``F[st]``) what each
+    global column's derivative of the acceleration subtracts (the products and sums of :func:`_accel_d`)."""
+    _terms_d(z, v, parts, special, pxc, memory, top, g, gz, gv, gs, fac, dfac, pz, pv, pp)
+    R = 0.0
+    Rz = 0.0
+    Rv = 0.0
+    for i in range(theta.size):
+        R += theta[i] * g[i]
+        Rz += theta[i] * gz[i]
+        Rv += theta[i] * gv[i]
+    a = (fk - R) * inv_m
+    if col_x0 > 0:
+        for i in range(theta.size):
+            F[st, i] = g[i] * inv_m
+            for j in range(special.shape[1]):
+                col = shape_col[i, j]
+                if col >= 0:
+                    F[st, col] = theta[i] * gs[i, j] * inv_m
+        if col_mass >= 0:
+            F[st, col_mass] = a * inv_m
+    return a, Rz, Rv
+
+
+@numba.njit(cache=True)
+def _segment_f(fine, q, dt, mass, theta, parts, special, pxc, memory, shape_col, col_mass, col_x0, x0, start, n,
+               out_z, out_v, out_a, out_S, end_x, end_S):
+    """:func:`_segment_d` of a model without memory terms, every column's four stages in one loop.
+
+    The state's four stages come first (each with ``dR/dz``, ``dR/dv`` and the global columns' terms), then
+    one pass over the columns carries their sensitivities through the step in registers: the same products
+    and sums as :func:`_segment_d` (subtracting a zero where it subtracts nothing), so the same values to
+    the bit, for about half the work.
+    """
+    ncol = out_S.shape[2]
+    p = theta.size
+    k_max = special.shape[1]
+    g = np.zeros(p)
+    gz = np.zeros(p)
+    gv = np.zeros(p)
+    gs = np.zeros((p, k_max))
+    fac = np.zeros(k_max)
+    dfac = np.zeros(k_max)
+    _, top = _plan(parts, special)
+    pz = np.zeros(max(top[0], 0) + 1)
+    pv = np.zeros(max(top[1], 0) + 1)
+    pp = np.zeros(max(top[2], 0) + 1)
+    Sz = np.zeros(ncol)
+    Sv = np.zeros(ncol)
+    F = np.zeros((4, ncol))
+    A = np.zeros(4)
+    V = np.zeros(4)
+    RZ = np.zeros(4)
+    RV = np.zeros(4)
+    z = x0[0]
+    v = x0[1]
+    Sz[col_x0] = 1.0
+    Sv[col_x0 + 1] = 1.0
+    inv_m = 1.0 / mass
+    h2 = 0.5 * dt
+    h6 = dt / 6.0
+    for k in range(n):
+        out_z[start + k] = z
+        out_v[start + k] = v
+        for c in range(ncol):
+            out_S[0, start + k, c] = Sz[c]
+            out_S[1, start + k, c] = Sv[c]
+        for sub in range(q):
+            fk = fine[(start + k) * q + sub]
+            for st in range(4):  # the four stages through one call site (one inlined copy: compile time)
+                if st == 0:
+                    zs = z
+                    vs = v
+                else:
+                    h = dt if st == 3 else h2
+                    zs = z + h * V[st - 1]
+                    vs = v + h * A[st - 1]
+                V[st] = vs
+                A[st], RZ[st], RV[st] = _stage_f(fk, zs, vs, inv_m, theta, parts, special, pxc, memory, shape_col,
+                                                 col_mass, col_x0, top, g, gz, gv, gs, fac, dfac, pz, pv, pp, F, st)
+            a1, a2, a3, a4 = A[0], A[1], A[2], A[3]
+            v2, v3, v4 = V[1], V[2], V[3]
+            Rz1, Rz2, Rz3, Rz4 = RZ[0], RZ[1], RZ[2], RZ[3]
+            Rv1, Rv2, Rv3, Rv4 = RV[0], RV[1], RV[2], RV[3]
+            if sub == 0:
+                out_a[start + k] = a1
+            for c in range(ncol):
+                sz = Sz[c]
+                sv = Sv[c]
+                d1 = -(Rz1 * sz + Rv1 * sv) * inv_m - F[0, c]
+                if sub == 0:
+                    out_S[2, start + k, c] = d1
+                sz2 = sz + h2 * sv
+                sv2 = sv + h2 * d1
+                d2 = -(Rz2 * sz2 + Rv2 * sv2) * inv_m - F[1, c]
+                sz3 = sz + h2 * sv2
+                sv3 = sv + h2 * d2
+                d3 = -(Rz3 * sz3 + Rv3 * sv3) * inv_m - F[2, c]
+                sz4 = sz + dt * sv3
+                sv4 = sv + dt * d3
+                d4 = -(Rz4 * sz4 + Rv4 * sv4) * inv_m - F[3, c]
+                Sz[c] = sz + h6 * (sv + 2.0 * sv2 + 2.0 * sv3 + sv4)
+                Sv[c] = sv + h6 * (d1 + 2.0 * d2 + 2.0 * d3 + d4)
+            z = z + h6 * (v + 2.0 * v2 + 2.0 * v3 + v4)
+            v = v + h6 * (a1 + 2.0 * a2 + 2.0 * a3 + a4)
+        if not (np.isfinite(z) and np.isfinite(v)):
+            return k
+    end_x[0] = z
+    end_x[1] = v
+    for c in range(ncol):
+        end_S[0, c] = Sz[c]
+        end_S[1, c] = Sv[c]
+    return -1
 
 
 @numba.njit(cache=True)
@@ -307,7 +283,7 @@ def _segment_d(fine, q, dt, mass, theta, parts, special, pxc, memory, mem_terms,
             for r in range(M):
                 ws[r] = w[r]
             a1 = _accel_d(fk, z, v, ws, Sz, Sv, Sw, inv_m, theta, parts, special, pxc, memory, mem_terms,
-                          shape_col, col_mass, sens, top, g, gz, gv, gs, fac, dfac, pz, pv, pp, da1)
+                          shape_col, col_mass, col_x0, sens, top, g, gz, gv, gs, fac, dfac, pz, pv, pp, da1)
             if sub == 0:
                 out_a[start + k] = a1
                 if sens:
@@ -323,7 +299,7 @@ def _segment_d(fine, q, dt, mass, theta, parts, special, pxc, memory, mem_terms,
                     Sv2[c] = Sv[c] + h2 * da1[c]
                 _memory_sens(Sw, Sz2, Sz, mw, mdz, ma, mb, mem_terms, shape_col, Sws)
             a2 = _accel_d(fk, z2, v2, ws, Sz2, Sv2, Sws, inv_m, theta, parts, special, pxc, memory, mem_terms,
-                          shape_col, col_mass, sens, top, g, gz, gv, gs, fac, dfac, pz, pv, pp, da2)
+                          shape_col, col_mass, col_x0, sens, top, g, gz, gv, gs, fac, dfac, pz, pv, pp, da2)
             # stage 3
             z3 = z + h2 * v2
             v3 = v + h2 * a2
@@ -334,7 +310,7 @@ def _segment_d(fine, q, dt, mass, theta, parts, special, pxc, memory, mem_terms,
                     Sv3[c] = Sv[c] + h2 * da2[c]
                 _memory_sens(Sw, Sz3, Sz, mw, mdz, ma, mb, mem_terms, shape_col, Sws)
             a3 = _accel_d(fk, z3, v3, ws, Sz3, Sv3, Sws, inv_m, theta, parts, special, pxc, memory, mem_terms,
-                          shape_col, col_mass, sens, top, g, gz, gv, gs, fac, dfac, pz, pv, pp, da3)
+                          shape_col, col_mass, col_x0, sens, top, g, gz, gv, gs, fac, dfac, pz, pv, pp, da3)
             # stage 4
             z4 = z + dt * v3
             v4 = v + dt * a3
@@ -345,7 +321,7 @@ def _segment_d(fine, q, dt, mass, theta, parts, special, pxc, memory, mem_terms,
                     Sv4[c] = Sv[c] + dt * da3[c]
                 _memory_sens(Sw, Sz4, Sz, mw, mdz, ma, mb, mem_terms, shape_col, Sws)
             a4 = _accel_d(fk, z4, v4, ws, Sz4, Sv4, Sws, inv_m, theta, parts, special, pxc, memory, mem_terms,
-                          shape_col, col_mass, sens, top, g, gz, gv, gs, fac, dfac, pz, pv, pp, da4)
+                          shape_col, col_mass, col_x0, sens, top, g, gz, gv, gs, fac, dfac, pz, pv, pp, da4)
             z_new = z + h6 * (v + 2.0 * v2 + 2.0 * v3 + v4)
             v_new = v + h6 * (a1 + 2.0 * a2 + 2.0 * a3 + a4)
             _memory_d(memory, mem_terms, w, z_new - z, ws, mw, mdz, ma, mb)
@@ -382,6 +358,14 @@ def _segments_d(fine, q, dt, mass, theta, parts, special, pxc, memory, mem_terms
                 x0, starts, lengths, sens, out_z, out_v, out_a, out_S, end_x, end_S, bad):
     """:func:`_segment_d` for every segment, in parallel (segments are independent)."""
     for s in numba.prange(starts.size):
+        if not sens:
+            bad[s] = _segment_v(fine, q, dt, mass, theta, parts, special, pxc, memory, mem_terms, x0[s], starts[s],
+                                lengths[s], out_z, out_v, out_a, end_x[s])
+            continue
+        if mem_terms.size == 0:
+            bad[s] = _segment_f(fine, q, dt, mass, theta, parts, special, pxc, memory, shape_col, col_mass, col_x0,
+                                x0[s], starts[s], lengths[s], out_z, out_v, out_a, out_S, end_x[s], end_S[s])
+            continue
         bad[s] = _segment_d(fine, q, dt, mass, theta, parts, special, pxc, memory, mem_terms, shape_col,
                             col_mass, col_x0, x0[s], starts[s], lengths[s], sens, out_z, out_v, out_a, out_S,
                             end_x[s], end_S[s])
@@ -406,7 +390,8 @@ class SegmentRun:
         Its derivatives, shape ``(K, 2 + M, ncol)`` (``None`` without sensitivities).
     columns
         Names of the columns: the model's terms (coefficients), ``"mass"``, ``"<term>:<shape name>"`` for
-        every shape parameter, then ``"z0"``, ``"v0"`` and ``"w0:<term>"`` (the segment's initial state).
+        every shape parameter, then ``"z0"``, ``"v0"`` and ``"w0:<term>"`` (the segment's initial state);
+        the last ones alone with ``sensitivities="states"``.
     starts, lengths
         First sample and number of samples of each segment.
     memory_terms
@@ -444,7 +429,7 @@ def simulate_segments(
     *,
     force_hold: str = "sampled",
     oversample: int = FREE_RUN_OVERSAMPLE,
-    sensitivities: bool = True,
+    sensitivities: bool | str = True,
     fine: np.ndarray | None = None,
 ) -> SegmentRun:
     """Free runs of consecutive segments (multiple shooting) with forward sensitivities.
@@ -469,7 +454,9 @@ def simulate_segments(
     force_hold, oversample
         As in :func:`~nlid.simulation.free_run`.
     sensitivities
-        Also compute the derivatives with respect to every column of :func:`sensitivity_columns`.
+        Also compute the derivatives with respect to every column of :func:`sensitivity_columns`;
+        ``"states"``: only with respect to each segment's initial state (the columns ``"z0"``, ``"v0"``,
+        ``"w0:<term>"``, the same values as in the run with every column, for about half its work).
     fine
         The sub-step force from :func:`~nlid.simulation.fine_force` when the caller has it (saves recomputing it).
 
@@ -483,6 +470,8 @@ def simulate_segments(
         If a segment's state becomes non-finite.
     """
     mass = MASS.check(mass, "mass=")
+    if sensitivities not in (True, False, "states"):
+        raise InputError(f"sensitivities must be True, False or 'states', got {sensitivities!r}")
     q = int(oversample)
     if q < 1:
         raise InputError(f"oversample must be a positive integer, got {oversample}")
@@ -499,7 +488,9 @@ def simulate_segments(
     memory = encode_memory(model)
     mem_terms = np.array([i for i, t in enumerate(model.terms) if t.is_memory], dtype=np.int64)
     M = mem_terms.size
-    x0 = np.ascontiguousarray(initial_states, dtype=float)
+    # writable C arrays: one signature of the compiled kernel for every caller (a read-only array is another
+    # type to numba, compiled again)
+    x0 = np.require(initial_states, dtype=float, requirements=["C", "W"])
     if x0.shape != (starts.size, 2 + M):
         raise InputError(f"initial_states must have shape ({starts.size}, {2 + M}), got {x0.shape}")
     columns = sensitivity_columns(model)
@@ -511,11 +502,14 @@ def simulate_segments(
         for j in range(len(term.shapes)):
             shape_col[i, j] = col
             col += 1
-    col_x0 = col
+    col_x0, col_mass = col, p
+    if sensitivities == "states":  # the state's columns alone (the kernel: col_x0 == 0)
+        columns, col_x0, col_mass = columns[col_x0:], 0, -1
+        shape_col[:] = -1
     ncol = len(columns)
     if fine is None:
         fine = fine_force(force, force_hold, q)
-    fine = np.ascontiguousarray(fine, dtype=float)
+    fine = np.require(fine, dtype=float, requirements=["C", "W"])
     if fine.size != n * q:
         raise InputError(f"the sub-step force has {fine.size} samples, expected {n * q}")
     out_z, out_v, out_a = np.empty(n), np.empty(n), np.empty(n)
@@ -526,7 +520,8 @@ def simulate_segments(
     bad = np.full(K, -1, dtype=np.int64)
     # fmt: off
     _segments_d(fine, q, 1.0 / (fs * q), float(mass), theta, parts, special, pxc, memory, mem_terms, shape_col,
-                p, col_x0, x0, starts, lengths, bool(sensitivities), out_z, out_v, out_a, out_S, end_x, end_S, bad)
+                col_mass, col_x0, x0, starts, lengths, bool(sensitivities), out_z, out_v, out_a, out_S, end_x, end_S,
+                bad)
     # fmt: on
     if np.any(bad >= 0):
         s = int(np.flatnonzero(bad >= 0)[0])
@@ -547,10 +542,3 @@ def simulate_segments(
         lengths,
         mem_terms,
     )
-
-
-# public names of the pieces the structure's sensitivities (nlid.simulation.structure_sensitivity) evaluate each
-# element with
-abs_powers = _powers
-signed_part_d = _part_d
-special_factor_d = _special_d

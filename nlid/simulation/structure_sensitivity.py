@@ -28,7 +28,7 @@ from ..errors import InputError
 from ..model.terms.memory_kernels import bouc_wen_step_d, dahl_step_d
 from . import FREE_RUN_OVERSAMPLE, SimulationError
 from .kernels import sign as _sign
-from .sensitivity import abs_powers, signed_part_d, special_factor_d
+from .stage_terms import abs_powers, signed_part_d, special_factor_d
 
 if TYPE_CHECKING:  # pragma: no cover
     from ..model.structure import StructuralModel

@@ -436,6 +436,7 @@ class OutputError(Identifier):
             state_scales,
             1.0,
         )
+        before.sensitivities = False  # its residual alone
         r0 = before.residual(None)
         u = res.x
         run, refined, order = problem.run_at(u)

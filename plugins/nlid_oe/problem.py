@@ -275,6 +275,8 @@ class Problem(Shooting):
         self._start: np.ndarray | None = None
         #: Largest Jacobian (rows x columns) returned dense.
         self.dense_limit = 0
+        #: Whether evaluations compute the sensitivities (``False``: the residual alone, no :meth:`blocks`).
+        self.sensitivities = True
 
     # ------------------------------------------------------------------ parameters
     def start(self) -> np.ndarray:
@@ -382,6 +384,7 @@ class Problem(Shooting):
             states,
             force_hold=self.record.force_hold,
             oversample=self.q,
+            sensitivities=self.sensitivities,
             fine=self.fine,
         )
         sim = np.column_stack([getattr(run, c) for c in self.channels])
@@ -531,6 +534,7 @@ class Problem(Shooting):
                     states,
                     force_hold=self.record.force_hold,
                     oversample=q,
+                    sensitivities="states",
                     fine=fine,
                 )
             except SimulationError:

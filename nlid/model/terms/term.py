@@ -107,7 +107,13 @@ def _signed_power(x: np.ndarray, part: Part, cache: dict) -> np.ndarray | None:
     if key in cache:
         return cache[key]
     if p % 2 == s:
-        out = x if p == 1 else x**p
+        if p <= 2:
+            out = x if p == 1 else x**p
+        else:
+            # numpy's power of an array with negative entries is a scalar pow per element (~25x slower than
+            # its vectorised loop on a non-negative base): the same function through |x|
+            ax = np.abs(x) ** p
+            out = ax if s == 0 else np.copysign(ax, x)
     elif s == 0:
         out = np.abs(x) if p == 1 else np.abs(x) ** p
     else:
