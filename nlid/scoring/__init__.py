@@ -52,8 +52,9 @@ scores), :mod:`~nlid.scoring.rules` (the transient rules),
 
 from __future__ import annotations
 
-import importlib
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
+
+from ..base.lazy import lazy_face
 
 if TYPE_CHECKING:  # loaded on first use by __getattr__ below: importing one submodule loads no other
     from .periods import detect_period, multisine_lines, record_period
@@ -145,14 +146,4 @@ __all__ = [
 ]
 
 
-def __getattr__(name: str) -> Any:
-    module = _LAZY.get(name)
-    if module is None:
-        raise AttributeError(f"module 'nlid.scoring' has no attribute {name!r}")
-    value = getattr(importlib.import_module(module), name)
-    globals()[name] = value  # later lookups skip this function
-    return value
-
-
-def __dir__() -> list[str]:
-    return sorted(set(globals()) | set(__all__))
+__getattr__, __dir__ = lazy_face(__name__, _LAZY, __all__)

@@ -23,8 +23,7 @@ this package's namespace.
 
 from __future__ import annotations
 
-import importlib
-from typing import Any
+from ..base.lazy import lazy_face
 
 #: Public name -> module that defines it (imported on first access).
 _LAZY: dict[str, str] = {
@@ -47,14 +46,4 @@ _LAZY: dict[str, str] = {
 __all__ = list(_LAZY)
 
 
-def __getattr__(name: str) -> Any:
-    module = _LAZY.get(name)
-    if module is None:
-        raise AttributeError(f"module 'nlid.study' has no attribute {name!r}")
-    value = getattr(importlib.import_module(module), name)
-    globals()[name] = value  # later lookups skip this function
-    return value
-
-
-def __dir__() -> list[str]:
-    return sorted(set(globals()) | set(__all__))
+__getattr__, __dir__ = lazy_face(__name__, _LAZY, __all__)
