@@ -166,6 +166,7 @@ def execute_structure_run(spec: Any, base_row: Mapping[str, Any]) -> dict[str, A
     notes = list(result.warnings)
     if type(ds.holdout).__name__ != "NoHoldout" or ds.slices:
         notes.append("held-out scores and damping slices are not computed for structures of several DOFs")
+    notes += [f"NOT TRUSTED: {flag}" for flag in result.flags]  # what physics forbids, as on one DOF
     if spec.response is not None:  # said, never silently left out
         notes.append("response: not computed for a structure in a study (nlid.response.frequency_response on the fit)")
     row[col.WARNINGS.key()] = " | ".join(notes)

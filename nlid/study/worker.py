@@ -179,6 +179,8 @@ def _execute(spec: RunSpec) -> dict[str, Any]:
     row[col.EPS.key()] = result.eps_percent
     row[col.FORCE_RESIDUAL.key()] = result.force_residual_percent
     row[col.WARNINGS.key()] = " | ".join(result.warnings)
+    for flag in result.flags:  # what physics forbids (nlid.identified.plausibility): never silent in a study
+        _add_warning(row, f"NOT TRUSTED: {flag}")
     try:
         row.update(metrics.holdout_metrics(data.heldout, result, spec.dataset.freerun, spec.dataset.freerun_rule))
     except NlidError as exc:

@@ -373,3 +373,11 @@ def test_a_posterior_that_fails_is_a_warning_and_the_run_keeps_its_metrics(small
     row = execute_run(plan_study(config)[0].spec)["row"]
     assert row["status"] == "ok" and abs(row["coef_error_pct:z^3"]) < 1
     assert "posterior: chains did not converge: raise max_steps=" in row["warnings"]
+
+
+def test_a_fit_that_cannot_be_trusted_says_so_in_its_row(small_study, registry):
+    """A given mass 1000 times the record's (g for kg) is flagged by the plausibility checks, in the row too."""
+    config = parse_study(small_study('["rfs"]', repetitions=1, duration=4.0, extra="mass = 200.0\n"), registry=registry)
+    row = execute_run(plan_study(config)[0].spec)["row"]
+    assert row["status"] == "ok"
+    assert "NOT TRUSTED" in row["warnings"] and "0.2 kg" in row["warnings"]
