@@ -19,7 +19,7 @@ prints every checked figure on every preset and measured benchmark).
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping, Sequence
+from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
@@ -224,16 +224,7 @@ def check(fit: IdentifiedModel, record: Record | None = None, *, cutoff: float |
                     )
                 )
     unit_slip = "a wrong mass or a unit slip (mass in g, z in mm)"
-    low = [m for m in fit.modal if numerics.is_finite(m.zeta) and m.zeta < ZETA_MIN]
-    if low:
-        shown = ", ".join(f"{100 * m.zeta:.3g} % at z* = {m.equilibrium:.4g} {length}" for m in low)
-        flags.append(
-            Flag("negative-damping", f"negative damping ratio ({shown})", f"a passive structure cannot: {unit_slip}")
-        )
-    high = [m for m in fit.modal if numerics.is_finite(m.zeta) and m.zeta > ZETA_MAX]
-    if high:
-        shown = ", ".join(f"{100 * m.zeta:.3g} % at z* = {m.equilibrium:.4g} {length}" for m in high)
-        flags.append(Flag("overdamped", f"damping ratio above {100 * ZETA_MAX:g} % ({shown})", f"likely {unit_slip}"))
+    flags += _zeta_flags([(f"at z* = {m.equilibrium:.4g} {length}", m.zeta) for m in fit.modal], unit_slip)
     residual = None if fit.scores is None else fit.scores.force_residual_percent
     if residual is not None and numerics.is_finite(residual) and residual > FORCE_RESIDUAL_MAX_PERCENT:
         flags.append(
@@ -244,17 +235,14 @@ def check(fit: IdentifiedModel, record: Record | None = None, *, cutoff: float |
             )
         )
     se = dict(fit.standard_errors or {})
-    wrong = []
-    for name, term in zip(fit.terms, fit.model.terms, strict=True):
-        value, error = fit.coefficients[name], se.get(name)
-        if term.dissipative and term.z == (0, 0) and term.px == (0, 0) and value < 0:
-            if error is None or not numerics.is_finite(error) or -value > SIGN_STANDARD_ERRORS * error:
-                wrong.append(f"{name} {value:.3g} {term.coefficient_unit_in(force, length)}")
+    wrong = _wrong_signs(
+        (name, term, fit.coefficients[name], se.get(name), term.coefficient_unit_in(force, length))
+        for name, term in zip(fit.terms, fit.model.terms, strict=True)
+    )
     if wrong:
         flags.append(
-            Flag(
-                "dissipative-sign",
-                f"a friction or damping law with a negative coefficient ({', '.join(wrong)}): it feeds energy in",
+            _sign_flag(
+                wrong,
                 "check the sign of f against z (a force pushing z up must be positive), the mass, or drop the term",
             )
         )
@@ -275,6 +263,29 @@ def _zeta_flags(points: Sequence[tuple[str, float]], unit_slip: str) -> list[Fla
         shown = ", ".join(f"{100 * z:.3g} % {where}" for where, z in high)
         flags.append(Flag("overdamped", f"damping ratio above {100 * ZETA_MAX:g} % ({shown})", f"likely {unit_slip}"))
     return flags
+
+
+def _wrong_signs(entries: Iterable[tuple[str, Any, float, float | None, str]]) -> list[str]:
+    """``"name value unit"`` of each friction or damping law of the velocity alone whose coefficient is negative by
+    more than ``SIGN_STANDARD_ERRORS`` standard errors (any negative one without a standard error).
+
+    ``entries``: ``(name, term, coefficient, standard error or None, unit)``.
+    """
+    wrong = []
+    for name, term, value, error, unit in entries:
+        if term.dissipative and term.z == (0, 0) and term.px == (0, 0) and value < 0:
+            if error is None or not numerics.is_finite(error) or -value > SIGN_STANDARD_ERRORS * error:
+                wrong.append(f"{name} {value:.3g} {unit}")
+    return wrong
+
+
+def _sign_flag(wrong: Sequence[str], cause: str) -> Flag:
+    """The flag of the friction or damping laws :func:`_wrong_signs` found."""
+    return Flag(
+        "dissipative-sign",
+        f"a friction or damping law with a negative coefficient ({', '.join(wrong)}): it feeds energy in",
+        cause,
+    )
 
 
 def check_structure(result: IdentifiedStructure) -> tuple[Flag, ...]:
@@ -306,18 +317,13 @@ def check_structure(result: IdentifiedStructure) -> tuple[Flag, ...]:
             )
         )
     se = dict(result.standard_errors or {})
-    wrong = []
-    for element in result.elements:
-        term, value, error = element.term, result.coefficients[element.name], se.get(element.name)
-        if term.dissipative and term.z == (0, 0) and term.px == (0, 0) and value < 0:
-            if error is None or not numerics.is_finite(error) or -value > SIGN_STANDARD_ERRORS * error:
-                wrong.append(f"{element.name} {value:.3g} {element.coefficient_unit}")
+    wrong = _wrong_signs(
+        (e.name, e.term, result.coefficients[e.name], se.get(e.name), e.coefficient_unit) for e in result.elements
+    )
     if wrong:
         flags.append(
-            Flag(
-                "dissipative-sign",
-                f"a friction or damping law with a negative coefficient ({', '.join(wrong)}): it feeds energy in",
-                "check the sign of each force against its displacement, the mass matrix, or drop the element",
+            _sign_flag(
+                wrong, "check the sign of each force against its displacement, the mass matrix, or drop the element"
             )
         )
     return tuple(flags)
