@@ -368,6 +368,18 @@ def _fmt_levels(levels: Mapping[str, float]) -> str:
 
 
 _G = 9.81
+
+
+def _paper_numerical_system() -> dict[str, Any]:
+    """The paper's numerical oscillator (Sec. 3, Eq. 21), shared by the presets that excite it differently."""
+    return {
+        "terms": "z^3, z^2, v*|v|",
+        "coefficients": {"z^3": 1e6, "z^2": 5e3, "z": -500.0, "v": 1.0, "v*|v|": 5.0, "1": 0.2 * _G},
+        "mass": 0.2,
+        "g": _G,
+    }
+
+
 #: The Bouc-Wen benchmark's system in nlid's terms (nlid.data.datasets.BOUC_WEN_REFERENCE): k, c, alpha.
 _BOUC_WEN = {"z": 5e4, "v": 10.0, "bouc_wen(800, -1100)": 5e4, "1": 0.0}
 
@@ -377,10 +389,7 @@ PRESETS: dict[str, Preset | StructurePreset] = {
         Preset(
             name="paper-numerical",
             description="Double-well Duffing oscillator with quadratic damping (paper Sec. 3, Eq. 21)",
-            terms="z^3, z^2, v*|v|",
-            coefficients={"z^3": 1e6, "z^2": 5e3, "z": -500.0, "v": 1.0, "v*|v|": 5.0, "1": 0.2 * _G},
-            mass=0.2,
-            g=_G,
+            **_paper_numerical_system(),
             fs=2048.0,
             duration=60.0,
             force_rms=50.0,
@@ -413,10 +422,7 @@ PRESETS: dict[str, Preset | StructurePreset] = {
         Preset(
             name="paper-numerical-stepped",
             description="paper-numerical under a stepped sine of 2 N, 4-20 Hz up then down (measured FRF points)",
-            terms="z^3, z^2, v*|v|",
-            coefficients={"z^3": 1e6, "z^2": 5e3, "z": -500.0, "v": 1.0, "v*|v|": 5.0, "1": 0.2 * _G},
-            mass=0.2,
-            g=_G,
+            **_paper_numerical_system(),
             fs=512.0,
             duration=268.0,
             force_rms=2.0 / math.sqrt(2.0),
@@ -427,10 +433,7 @@ PRESETS: dict[str, Preset | StructurePreset] = {
         Preset(
             name="paper-numerical-swept",
             description="paper-numerical under a sine of 2 N swept 4-20 Hz at 0.05 Hz/s, up then down",
-            terms="z^3, z^2, v*|v|",
-            coefficients={"z^3": 1e6, "z^2": 5e3, "z": -500.0, "v": 1.0, "v*|v|": 5.0, "1": 0.2 * _G},
-            mass=0.2,
-            g=_G,
+            **_paper_numerical_system(),
             fs=512.0,
             duration=640.0,
             force_rms=2.0 / math.sqrt(2.0),
