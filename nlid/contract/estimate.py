@@ -14,9 +14,9 @@ from __future__ import annotations
 
 import math
 import numbers
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, TypeVar
 
 import numpy as np
 
@@ -33,7 +33,9 @@ from ..errors import (
 )
 from ..model.terms import Model
 
-__all__ = ["Estimate", "check_estimate", "checked_parts", "refined_terms", "MAX_WARNING"]
+__all__ = ["Estimate", "check_estimate", "checked_parts", "read_guarded", "refined_terms", "MAX_WARNING"]
+
+T = TypeVar("T")
 
 
 @dataclass(frozen=True)
@@ -358,11 +360,20 @@ def check_estimate(estimate: Any, model: Model, name: str, mass: float | None = 
         The numbers are of the right kind but cannot be trusted: a coefficient or mass that is not
         finite, a mass that is not positive.
     """
+    return read_guarded(name, _check_estimate, estimate, model, name, mass)
+
+
+def read_guarded(name: str, check: Callable[..., T], *args: Any) -> T:
+    """``check(*args)``, where anything but an :class:`~nlid.errors.NlidError` is the plugin's broken estimate.
+
+    A mapping or number type of the plugin's that breaks when read (a hostile ``__iter__`` or ``__float__``)
+    becomes one :class:`~nlid.errors.PluginError` naming the identifier, for one DOF and structures alike.
+    """
     try:
-        return _check_estimate(estimate, model, name, mass)
+        return check(*args)
     except NlidError:
         raise
-    except Exception as exc:  # noqa: BLE001 - a mapping or number type that breaks when read is a broken plugin too
+    except Exception as exc:  # noqa: BLE001 - a value that breaks when read is a broken plugin too
         raise PluginError(
             f"identifier {brief(name, 60)} returned an estimate that cannot be read: {describe_exception(exc)}"
         ) from None

@@ -20,10 +20,10 @@ from typing import Any
 
 import numpy as np
 
-from ..errors import IdentificationError, InputError, NlidError, PluginError, brief, describe_exception
+from ..errors import IdentificationError, InputError, PluginError, brief
 from ..model.elements import ElementSet
 from ..model.modes import StructureModes
-from .estimate import checked_parts
+from .estimate import checked_parts, read_guarded
 
 __all__ = ["StructureEstimate", "check_structure_estimate"]
 
@@ -116,14 +116,7 @@ def check_structure_estimate(
     IdentificationError
         Values that are not finite; an estimated mass matrix that is not symmetric positive definite.
     """
-    try:
-        return _check_structure_estimate(estimate, elements, name, mass)
-    except NlidError:
-        raise
-    except Exception as exc:  # noqa: BLE001 - a value that breaks when read is a broken plugin too
-        raise PluginError(
-            f"identifier {brief(name, 60)} returned an estimate that cannot be read: {describe_exception(exc)}"
-        ) from None
+    return read_guarded(name, _check_structure_estimate, estimate, elements, name, mass)
 
 
 def _check_structure_estimate(
