@@ -88,6 +88,10 @@ DEFAULT_TEST = 0.2
 DEFAULT_HOLDOUT = 0.25
 #: Most elements added by one run.
 DEFAULT_MAX_STEPS = 3
+#: Share of what the best remaining-structure probe on a connection explains that a candidate below the
+#: rule's ``min_explained`` must explain to pass (:func:`_rank`): the candidate then holds the structure the
+#: flexible functions find there, and what it does not explain is noise.
+CAPTURE = 0.8
 #: Remaining-structure probes on each connection, in report order.
 STRUCTURE_PROBES = ("z", "v", "memory")
 
@@ -285,6 +289,9 @@ def discover_structure(
         say(f"step {number}: testing {len(pool)} candidates on {len(conns)} connections")
         tested = _round(search, current, conns, pool, Element)
         ranking, accepted = _rank(tested, rule)
+        if accepted is None:  # a noisy record: does a candidate capture the structure its connection's probes find?
+            probes = remaining_declared if number == 1 else _probes(search, conns, structure)
+            ranking, accepted = _rank(tested, rule, probes)
         if accepted is None:
             best = next((e for e in ranking if e.explained is not None), None)
             stop = "no candidate passes the acceptance rule" + (
@@ -513,9 +520,21 @@ def _evidence(search: Search, cand: Candidate, found: dict, c, base, base_in, n_
     )
 
 
-def _rank(tested: list[ConnectionEvidence], rule: AcceptanceRule) -> tuple[tuple[ConnectionEvidence, ...], Any]:
+def _rank(
+    tested: list[ConnectionEvidence], rule: AcceptanceRule, probes: StructureRemaining | None = None
+) -> tuple[tuple[ConnectionEvidence, ...], Any]:
+    """The candidates best first, and the one accepted (``None``: none passes).
+
+    With ``probes`` (the remaining-structure probes on the current model), a candidate below the rule's
+    ``min_explained`` passes too when the residual of its DOFs is mostly noise but holds structure: its
+    connection's probes find at least their threshold predictable (:data:`~nlid.discovery.probes.MIN_STRUCTURE`,
+    measured against noise), the candidate explains at least :data:`CAPTURE` of what the best of them explains
+    and at least that threshold itself, and its dBIC passes the rule.
+    """
     fitted = sorted((e for e in tested if e.explained is not None), key=lambda e: -float(e.explained))
     rest = [e for e in tested if e.explained is None]
+    if probes is not None:
+        fitted = [_captures(e, probes, rule) for e in fitted]
     passing = [e for e in fitted if e.status == "passes"]
     if not passing:
         return tuple(fitted + rest), None
@@ -525,6 +544,25 @@ def _rank(tested: list[ConnectionEvidence], rule: AcceptanceRule) -> tuple[tuple
     accepted = replace(chosen, status="accepted")
     ranked = tuple(accepted if e is chosen else e for e in fitted) + tuple(rest)
     return ranked, accepted
+
+
+def _captures(e: ConnectionEvidence, probes: StructureRemaining, rule: AcceptanceRule) -> ConnectionEvidence:
+    """``e`` marked as passing when it captures its connection's remaining structure (:func:`_rank`)."""
+    if e.status != "below threshold" or e.delta_bic is None or e.delta_bic > rule.max_delta_bic:
+        return e
+    found = max((p.explained for p in probes.probes if p.connection == e.connection), default=0.0)
+    explained = float(e.explained or 0.0)
+    if found < probes.threshold or explained < max(probes.threshold, CAPTURE * found):
+        return e
+    return replace(
+        e,
+        status="passes",
+        reason=(
+            f"explains {100 * explained:.3g} % < {100 * rule.min_explained:g} % of a residual mostly noise, but "
+            f"{100 * explained / found:.3g} % of the {100 * found:.3g} % its connection's probes find predictable; "
+            f"dBIC {e.delta_bic:.3g}"
+        ),
+    )
 
 
 def _probes(search: Search, conns, threshold: float) -> StructureRemaining:
