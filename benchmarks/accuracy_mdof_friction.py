@@ -16,7 +16,7 @@ The script runs against any checkout (``PYTHONPATH``), so the figures before and
 the same code path:
 
     python benchmarks/accuracy_mdof_friction.py [--seeds 1 2 3 4 5] [--noise 0.005 0.01] [--duration 30]
-        [--skip-discover] [--skip-joint] [--refine]
+        [--skip-discover] [--skip-joint] [--refine] [--without-friction]
 
 With ``--refine`` the cubic is read from the output-error refit of the final elements
 (``discover_structure(refine=True)``, ``nlid discover --refine``), which the noise on the displacements does
@@ -100,6 +100,25 @@ def discovery(seeds, noises, duration, steps, refine=False) -> None:
           f"{len(seeds) * len(noises)}")  # fmt: skip
 
 
+def false_positives(seeds, noises, duration) -> None:
+    """The chain with its declared cubic only (no friction): what discover names (it should name nothing)."""
+    print("| noise | seed | named |")
+    print("|---|---|---|")
+    quiet = 0
+    for noise in noises:
+        for seed in seeds:
+            rec = (
+                get_preset("3dof-cubic")
+                .with_overrides(duration=duration, elements=CUBIC, coefficients={CUBIC: TRUTH[CUBIC]})
+                .simulate(seed, noise={"z": noise}, channels=("z",))
+            )
+            res = discover_structure(rec, CUBIC, simulate=False)
+            named = "; ".join(f"{s.evidence.effect} on {s.evidence.where}" for s in res.steps) or "nothing"
+            quiet += not res.steps
+            print(f"| {noise:g} | {seed} | {named} |", flush=True)
+    print(f"\nnothing named: {quiet} of {len(seeds) * len(noises)}")
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--seeds", type=int, nargs="+", default=[1, 2, 3, 4, 5])
@@ -109,6 +128,7 @@ def main() -> None:
     parser.add_argument("--skip-joint", action="store_true")
     parser.add_argument("--skip-discover", action="store_true")
     parser.add_argument("--refine", action="store_true", help="read the cubic from the output-error refit")
+    parser.add_argument("--without-friction", action="store_true", help="also the chain without its friction")
     args = parser.parse_args()
     print(f"load: {os.getloadavg()}\n")
     if not args.skip_joint:
@@ -118,6 +138,9 @@ def main() -> None:
         how = ", refined by oe" if args.refine else ""
         print(f"\n## discover, (z2-z3)^3 declared ({args.duration:g} s, z only{how})\n")
         discovery(args.seeds, args.noise, args.duration, args.steps, args.refine)
+    if args.without_friction:
+        print(f"\n## discover on the chain without its friction ({args.duration:g} s, z only)\n")
+        false_positives(args.seeds, args.noise, args.duration)
     print(f"\nload: {os.getloadavg()}")
 
 

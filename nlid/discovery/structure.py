@@ -92,6 +92,9 @@ DEFAULT_MAX_STEPS = 3
 #: rule's ``min_explained`` must explain to pass (:func:`_rank`): the candidate then holds the structure the
 #: flexible functions find there, and what it does not explain is noise.
 CAPTURE = 0.8
+#: Smallest relative drop of the held-out free-run error that confirms a candidate accepted below
+#: ``min_explained`` (the one-DOF prediction rule's default gain, :class:`~nlid.discovery.crossfit.PredictionRule`).
+MIN_FREERUN_GAIN = 0.01
 #: Remaining-structure probes on each connection, in report order.
 STRUCTURE_PROBES = ("z", "v", "memory")
 
@@ -292,6 +295,8 @@ def discover_structure(
         if accepted is None:  # a noisy record: does a candidate capture the structure its connection's probes find?
             probes = remaining_declared if number == 1 else _probes(search, conns, structure)
             ranking, accepted = _rank(tested, rule, probes)
+            if accepted is not None:  # ... and does the held-out free run confirm it?
+                ranking, accepted = _confirmed(ranking, accepted, parts["estimation"].data, held, current, M, Element)
         if accepted is None:
             best = next((e for e in ranking if e.explained is not None), None)
             stop = "no candidate passes the acceptance rule" + (
@@ -544,6 +549,34 @@ def _rank(
     accepted = replace(chosen, status="accepted")
     ranked = tuple(accepted if e is chosen else e for e in fitted) + tuple(rest)
     return ranked, accepted
+
+
+def _confirmed(ranking, accepted, data, held, current, M, Element) -> tuple[tuple[ConnectionEvidence, ...], Any]:
+    """A candidate accepted below ``min_explained`` (:func:`_captures`) kept only when the free run of the held-out
+    part, by the models fitted on the estimation part, improves by at least :data:`MIN_FREERUN_GAIN` with it;
+    otherwise it is marked ``not confirmed`` and nothing is accepted."""
+    from ..estimation.joint import joint_least_squares
+    from ..model.elements import ElementSet
+
+    added = [Element(t, *accepted.connection) for t in accepted.terms]
+    new = ElementSet((*current.elements, *added), current.n_dofs, current.static, current.px_roots)
+
+    def error(elements) -> float:
+        fit = joint_least_squares(data.with_elements(elements), elements, M, context="discover: ")
+        return float(np.mean(_free_run(fit.model(elements, M), held)[1]))
+
+    before, after = error(current), error(new)
+    gain = 1.0 - after / before if math.isfinite(before) and before > 0 else float("nan")
+    if math.isfinite(gain) and gain >= MIN_FREERUN_GAIN:
+        kept = replace(accepted, reason=f"{accepted.reason}; held-out free run {before:.3g} -> {after:.3g} % of std(z)")
+        return tuple(kept if e is accepted else e for e in ranking), kept
+    refused = replace(
+        accepted,
+        status="not confirmed",
+        reason=f"{accepted.reason}; but the held-out free run does not improve by {100 * MIN_FREERUN_GAIN:g} % with it "
+        f"({before:.3g} -> {after:.3g} % of std(z))",
+    )
+    return tuple(refused if e is accepted else e for e in ranking), None
 
 
 def _captures(e: ConnectionEvidence, probes: StructureRemaining, rule: AcceptanceRule) -> ConnectionEvidence:

@@ -168,19 +168,44 @@ def test_a_candidate_below_the_threshold_passes_only_when_it_captures_its_connec
     assert _rank([_evidence(explained, dbic)], AcceptanceRule())[1] is None  # without probes: the plain rule
 
 
-def test_a_noisy_record_still_names_the_friction_when_it_is_all_the_structure_left():
-    """2 % noise: Coulomb explains 7 % of a residual that is mostly noise, below the 10 % rule, but 95 % of what
-    the flexible probes on connection 1-2 find predictable (on 30-s records: 5/5 seeds named, and nothing on the
-    chain without friction at 0, 1 and 2 %: ``benchmarks/accuracy_mdof_friction.py``)."""
-    record = _chain(15.0).simulate(1, noise={"z": 0.02}, channels=("z",))
-    found = discover_structure(
+@pytest.fixture(scope="module")
+def noisy_record():
+    """15 s at 2 % noise: Coulomb explains 7 % of a residual that is mostly noise, below the 10 % rule."""
+    return _chain(15.0).simulate(1, noise={"z": 0.02}, channels=("z",))
+
+
+def _discover_noisy(record):
+    return discover_structure(
         record, CUBIC, candidates="coulomb, quadratic-damping, cubic-damping, stribeck", plugins=False,
         max_steps=1, simulate=False,
     )  # fmt: skip
+
+
+def test_a_noisy_record_still_names_the_friction_when_it_is_all_the_structure_left(noisy_record):
+    """Coulomb explains 95 % of what the flexible probes on connection 1-2 find predictable, and the held-out
+    free run confirms it (on 30-s records: 5/5 seeds named, and nothing on the chain without friction at 0, 1
+    and 2 %: ``benchmarks/accuracy_mdof_friction.py``)."""
+    found = _discover_noisy(noisy_record)
     assert found.located == (1, 2)
     evidence = found.steps[0].evidence
     assert evidence.effect == "coulomb" and evidence.explained < 0.10
     assert evidence.coefficients[FRICTION] > 0
+    assert "held-out free run" in evidence.reason
+
+
+def test_below_the_threshold_a_candidate_the_free_run_does_not_confirm_is_not_accepted(noisy_record, monkeypatch):
+    import nlid.discovery.structure as structure
+
+    def flat(model, record):  # every model predicts the held-out part equally well
+        n = model.n_dofs
+        return (1.0,) * n, (5.0,) * n, "flat"
+
+    monkeypatch.setattr(structure, "_free_run", flat)
+    found = _discover_noisy(noisy_record)
+    assert found.steps == ()
+    refused = [e for e in found.ranking if e.status == "not confirmed"]
+    assert refused and "held-out free run does not improve" in refused[0].reason
+    assert "does not improve" in found.stop_reason
 
 
 @pytest.mark.parametrize("noise", [0.01, 0.02])
