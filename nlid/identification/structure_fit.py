@@ -46,8 +46,14 @@ def as_elements(
     Raises
     ------
     InputError
-        Missing terms, an element beyond the record's DOFs, or ``without`` naming other than ``1``.
+        Missing terms, an element beyond the record's DOFs, ``without`` naming other than ``1``, or ``px_roots``
+        that is not a mapping of connections (one DOF's pair of roots).
     """
+    if px_roots is not None and not isinstance(px_roots, Mapping):
+        raise InputError(
+            "px_roots= of a structure maps each connection to its roots, {(1, 2): (z_minus, z_plus)}; "
+            "a pair of roots is one DOF's px(z)"
+        )
     if terms is None:
         raise InputError(
             "terms are missing: give the elements, e.g. '(z1-z2)^3, z3^3' ('' for the linear system alone)"
