@@ -11,7 +11,6 @@ and completes it into an :class:`~nlid.identified.structure.IdentifiedStructure`
 from __future__ import annotations
 
 import dataclasses
-import time
 from collections.abc import Iterable, Mapping
 from typing import Any
 
@@ -19,11 +18,12 @@ import numpy as np
 
 from .. import __version__
 from ..base.validate import check_cutoff
-from ..contract.registry import Registry, registry_for
+from ..contract.estimate import timed_call
+from ..contract.registry import Registry, create_identifier
 from ..contract.structure_estimate import check_structure_estimate
 from ..data.structure_record import StructureRecord
 from ..data.structure_tables import structure_sha256
-from ..errors import PASS_THROUGH, InputError, NlidError, PluginError, describe_exception
+from ..errors import InputError
 from ..identified.structure import IdentifiedStructure
 from ..model.elements import ElementSet
 from ..model.spelling import Connection
@@ -171,12 +171,7 @@ def identify_structure(
     """
     if method is None:
         raise InputError("method= is needed for a structure: name an identifier that handles several DOFs")
-    if isinstance(method, str):
-        identifier = (registry or registry_for(method)).create(method, options)
-    else:
-        if options:
-            raise InputError("options are given to the identifier's constructor when passing an instance")
-        identifier = method
+    identifier = create_identifier(method, options, registry)
     name = str(getattr(identifier, "name", type(identifier).__name__))
     check_dofs(identifier, record)
     elements = as_elements(terms, record.n_dofs, without=without, px_roots=px_roots)
@@ -187,15 +182,10 @@ def identify_structure(
             f"method {name!r} cannot estimate the mass matrix: give mass= (kg; a vector for a lumped mass) "
             "or the record's meta['mass']"
         )
-    start = time.perf_counter()
-    try:
-        # an Identifier hands a structure to identify_structure; a class of its own may take it in identify
-        estimate = getattr(identifier, "identify_structure", identifier.identify)(record, elements, mass=M)
-    except (NlidError, *PASS_THROUGH):
-        raise
-    except BaseException as exc:  # noqa: BLE001 - a plugin bug (sys.exit too) is reported by name
-        raise PluginError(f"identifier {name!r} {describe_exception(exc)}") from exc
-    seconds = time.perf_counter() - start
+    # an Identifier takes a structure in identify_structure; a class of its own may take it in identify
+    estimate, seconds = timed_call(
+        name, getattr(identifier, "identify_structure", identifier.identify), record, elements, mass=M
+    )
     estimate = check_structure_estimate(estimate, elements, name, M)
     settings = dict(getattr(identifier, "settings", None) or {})
     result = IdentifiedStructure.from_estimate(
