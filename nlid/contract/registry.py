@@ -48,7 +48,6 @@ __all__ = [
     "default_registry",
     "check_contract",
     "captured_output",
-    "create_identifier",
 ]
 
 #: Entry-point group under which identifier plugins register.
@@ -335,19 +334,3 @@ def registry_for(name: str) -> Registry:
         if name in reg.identifiers:
             return reg
     return default_registry()
-
-
-def create_identifier(method: Any, options: Mapping[str, Any] | None, registry: Registry | None = None) -> Any:
-    """The identifier ``method`` names (created with ``options``, from ``registry`` or the installed plugins), or
-    ``method`` itself when it is an instance.
-
-    Raises
-    ------
-    InputError
-        An unknown name or bad options; options given with an instance (its constructor takes them).
-    """
-    if isinstance(method, str):
-        return (registry or registry_for(method)).create(method, options)
-    if options:
-        raise InputError("options are given to the identifier's constructor when passing an instance")
-    return method
