@@ -87,10 +87,13 @@ def warm_up(kind: str = "full") -> None:
     import numpy as np
 
     # by name: the runtime sits below the pipeline and the study, which call it (no import circle)
-    for name in ("scipy.fft", "scipy.signal", "nlid.identification.pipeline", "nlid.scoring"):
+    for name in ("scipy.fft", "nlid.identification.pipeline", "nlid.scoring"):
         importlib.import_module(name)
     if kind != "full":
+        # not scipy.signal (~0.5 s: it imports scipy.stats): the pipeline, the scores and nsi-ip do without it,
+        # and a single identification waits for this preload before its child starts
         return
+    importlib.import_module("scipy.signal")
     importlib.import_module("nlid.contract.registry").load_registry()
     importlib.import_module("nlid.study.worker")
     simulate = importlib.import_module("nlid.simulation").simulate
