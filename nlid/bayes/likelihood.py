@@ -393,6 +393,7 @@ def build_likelihood(
         info["noise_level_moves"] = corr_info["noise_level_moves"]
         info["bias_pairs"] = corr_info["pairs"]
         info["bias_iterations"] = corr_info["iterations"]
+        info["bias_substeps"] = corr_info["substeps"]
         info["bias"] = {n: float(x) for n, x in zip(model.names, theta_hat - center, strict=True)}
         # how far the correction moved each estimate, in standard deviations of the corrected estimate
         info["bias_shift_sd"] = {
