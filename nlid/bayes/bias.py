@@ -138,9 +138,12 @@ def correction_substeps(record: Record, model: Model, theta: np.ndarray, mass: f
     ``benchmarks/posterior_substeps.py`` (Silverbox SNLS80mV, ``z^3``; the corrected estimate's largest
     difference from the one with 16 sub-steps, in sd of each coefficient): 125 sd with 1 sub-step per
     sample, 3.1 with 2, 0.19 with 4, 0.078 with 5 (this rule's choice), 0.011 with 8; the correction
-    then moves ``v`` by -2.3 sd. The presets have 44 (``paper-experimental``) and 157 (``paper-numerical``)
-    samples per period of their fastest linear mode and keep one step per sample (on ``paper-numerical``,
-    2 % noise on z, v and a, 1 and 16 sub-steps differ by 0.002 sd).
+    then moves ``v`` by -2.3 sd (``nlid posterior`` on SNLS80mV). The presets have 44 (``paper-experimental``)
+    and 157 (``paper-numerical``) samples per period of their fastest linear mode and keep one step per sample,
+    to the bit the simulation before sub-steps: on ``paper-numerical`` (2 % noise on z, v and a) 1 and 16
+    sub-steps differ by 0.002 sd; on ``paper-experimental`` (2 % on z and a; chaotic, so any change of the
+    integration draws other trajectories) 1, 2, 4 and 8 sub-steps differ from 16 by 0.8, 0.4, 0.6 and 0.5 sd,
+    the correction's Monte Carlo spread, with no trend.
     """
     from ..model import physics
 
