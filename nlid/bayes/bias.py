@@ -36,8 +36,11 @@ Assumptions: the measurement noise on ``z`` (and on ``v`` when it is
 measured) is white and its level is the one :func:`nlid.signal.derivatives.noise_sd`
 reads from the record's noise floor (override it with ``noise``); the force
 is stationary (its circular shifts are equally likely excitations); the
-simulation starts from the record's first displacement at rest and holds the
-force over each sample. Noise on the acceleration needs no correction (it
+simulation starts from the record's first displacement at rest, reads the
+force between the samples as the record's force balance does (held for
+``force_hold="zoh"``, band-limited for a sampled force) and takes the RK4
+sub-steps the record needs (:func:`correction_substeps`: at least 40 steps
+per period of the fastest linear mode). Noise on the acceleration needs no correction (it
 enters ``y`` linearly and independently of ``G``) and is not simulated.
 """
 
