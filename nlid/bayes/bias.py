@@ -53,8 +53,9 @@ from typing import Any
 
 import numpy as np
 
+from ..base import numerics
 from ..data.record import Record
-from ..errors import IdentificationError, InputError
+from ..errors import IdentificationError, InputError, NlidError
 from ..estimation.balance import RegressionData, regression_data, share_channels
 from ..model.terms import Model
 from ..signal import derivatives
@@ -156,19 +157,20 @@ def correction_substeps(record: Record, model: Model, theta: np.ndarray, mass: f
         return 1
     theta = np.asarray(theta, dtype=float)
     lo, hi = float(np.min(z)), float(np.max(z))
-    try:
-        modes = physics.modal(model, theta, mass, z_range=(lo, hi))
-    except (ArithmeticError, ValueError, np.linalg.LinAlgError):
-        modes = []
-    if modes:
-        f_n = max(m.fn_hz for m in modes)
-    else:  # no stable equilibrium in the range: the stiffest point of it
-        grid = np.linspace(lo, hi, 65) if hi > lo else np.array([lo])
-        step = max(hi - lo, abs(lo), 1e-12) * 1e-6
-        k = (physics.elastic(model, theta, grid + step) - physics.elastic(model, theta, grid - step)) / (2 * step)
-        k = k + sum(float(c) * term.memory_slope for term, c in zip(model.terms, theta, strict=True))
-        top = float(np.max(k))
-        f_n = np.sqrt(top / mass) / (2 * np.pi) if np.isfinite(top) and top > 0 else 0.0
+    with numerics.collect_warnings():  # a frequency that cannot be formed falls back below, quietly
+        try:
+            modes = physics.modal(model, theta, mass, z_range=(lo, hi))
+        except (NlidError, ArithmeticError, ValueError, np.linalg.LinAlgError):
+            modes = []
+        if modes:
+            f_n = max(m.fn_hz for m in modes)
+        else:  # no stable equilibrium in the range: the stiffest point of it
+            grid = np.linspace(lo, hi, 65) if hi > lo else np.array([lo])
+            step = max(hi - lo, abs(lo), 1e-12) * 1e-6
+            k = (physics.elastic(model, theta, grid + step) - physics.elastic(model, theta, grid - step)) / (2 * step)
+            k = k + sum(float(c) * term.memory_slope for term, c in zip(model.terms, theta, strict=True))
+            top = float(np.max(k))
+            f_n = np.sqrt(top / mass) / (2 * np.pi) if np.isfinite(top) and top > 0 else 0.0
     if not (np.isfinite(f_n) and f_n > 0):
         return 1
     return int(min(MAX_SUBSTEPS, max(1, np.ceil(STEPS_PER_PERIOD * f_n / fs))))
