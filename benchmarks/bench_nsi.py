@@ -21,6 +21,7 @@ shared: compare before/after in the same session).
     python benchmarks/bench_nsi.py --profile 122880   # cProfile (CPU time) of one call, top entries
     python benchmarks/bench_nsi.py --cli-phases 1000000   # nlid identify's steps timed in one process
     python benchmarks/bench_nsi.py --cli 1000000 [--repeat 5]   # only the whole-process nlid identify
+    python benchmarks/bench_nsi.py --cli 122880 --rfs   # the same with --method rfs --mass 0.2 (for comparison)
 
 ``--profile`` measures whatever ``nlid`` and ``nlid_nsi`` are importable: to
 profile another version put its tree first on ``PYTHONPATH`` (docs/performance.md).
@@ -115,7 +116,7 @@ def _record_file(folder: Path, n: int) -> Path:
     return path
 
 
-def cli(n: int, repeat: int = 5) -> None:
+def cli(n: int, repeat: int = 5, method: str = "nsi-ip", extra: tuple[str, ...] = ()) -> None:
     """``nlid identify`` on a file of ``n`` samples (paper-numerical, seed 0, 2 % noise on z), in a child process.
 
     Reports the median wall time of ``repeat`` runs, the median CPU time
@@ -129,7 +130,8 @@ def cli(n: int, repeat: int = 5) -> None:
 
     with tempfile.TemporaryDirectory() as tmp:
         path = _record_file(Path(tmp), n)
-        cmd = [sys.executable, "-m", "nlid.cli.main", "identify", str(path), "--method", "nsi-ip", "--terms", TERMS]
+        cmd = [sys.executable, "-m", "nlid.cli.main", "identify", str(path), "--method", method, "--terms", TERMS]
+        cmd += list(extra)
         walls, peaks, cpus = [], [], []
         for _ in range(repeat):
             out = subprocess.run([sys.executable, "-c", _WRAPPER, *cmd], check=True, capture_output=True, text=True)
@@ -138,7 +140,8 @@ def cli(n: int, repeat: int = 5) -> None:
             peaks.append(peak)
             cpus.append(cpu)
     print(
-        f"  nlid identify, N = {n:,}: wall median {statistics.median(walls):.2f} s over {repeat} runs "
+        f"  nlid identify --method {' '.join((method, *extra))}, N = {n:,}: "
+        f"wall median {statistics.median(walls):.2f} s over {repeat} runs "
         f"(min {min(walls):.2f}), CPU median {statistics.median(cpus):.2f} s, peak RSS {max(peaks):.0f} MB "
         f"(whole process, largest of the runs); load {os.getloadavg()[0]:.2f}"
     )
@@ -280,7 +283,9 @@ def main() -> None:
         return
     if "--cli" in sys.argv:
         repeat = int(sys.argv[sys.argv.index("--repeat") + 1]) if "--repeat" in sys.argv else 5
-        cli(int(sys.argv[sys.argv.index("--cli") + 1]), repeat=repeat)
+        # --rfs: the same command with the README's other method (rfs, --mass 0.2), whose child needs no scipy.signal
+        method, extra = ("rfs", ("--mass", "0.2")) if "--rfs" in sys.argv else ("nsi-ip", ())
+        cli(int(sys.argv[sys.argv.index("--cli") + 1]), repeat=repeat, method=method, extra=extra)
         return
     if "--cli-phases" in sys.argv:
         cli_phases(int(sys.argv[sys.argv.index("--cli-phases") + 1]))

@@ -173,3 +173,20 @@ def test_filter_responses_are_kept_within_their_budget(monkeypatch):
     assert len(d._RESPONSES) == 3 and (2000, 1000.0, 50.0, 4, 0, False, False) not in d._RESPONSES
     d._response(100_000, 1000.0, 50.0, 4, 0, False, False)  # larger than the whole budget: not kept
     assert len(d._RESPONSES) == 0
+
+
+@pytest.mark.parametrize("n", [37, 4096, 10_001, 61_440])
+def test_welch_density_is_scipys_welch(n):
+    """The noise floor's Welch estimate without scipy.signal gives scipy.signal.welch's numbers (to the bit on
+    scipy 1.17; rounding allowed for other versions)."""
+    from nlid.signal.noisefloor import welch_density
+
+    rng = np.random.default_rng(n)
+    fs = float(rng.uniform(100.0, 5000.0))
+    x = np.cumsum(rng.standard_normal(n)) * 1e-3
+    x -= x.mean()
+    nperseg = int(min(n, 4096))
+    f_ref, p_ref = signal.welch(x, fs=fs, nperseg=nperseg)
+    f, p = welch_density(x, fs, nperseg)
+    np.testing.assert_allclose(f, f_ref, rtol=1e-14, atol=0)
+    np.testing.assert_allclose(p, p_ref, rtol=1e-12, atol=0)

@@ -169,7 +169,9 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         "--refine",
         action="store_true",
         help="refine the final model with the output-error identifier oe (fits the free-run error, shape "
-        "parameters included) and report the errors before and after",
+        "parameters included) and report the errors before and after; on a structure record, the chosen elements "
+        "refitted by oe on the selection record (the search's equation-error fits are biased when velocities are "
+        "estimated from noisy displacements)",
     )
     p.set_defaults(func=run)
 
@@ -343,7 +345,6 @@ def _run_structure(args: argparse.Namespace, record, rule) -> int:
             ("--validation", args.validation),
             ("--rule", args.rule),
             ("--set", args.set),
-            ("--refine", args.refine),
         )
         if value
     ]
@@ -372,6 +373,7 @@ def _run_structure(args: argparse.Namespace, record, rule) -> int:
         max_steps=args.max_steps,
         cutoff=args.cutoff,
         progress=say,
+        refine=args.refine,
     )
     if args.out:
         paths = _written(write_structure_report, result, args.out)

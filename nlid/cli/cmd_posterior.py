@@ -170,8 +170,7 @@ def run(args: argparse.Namespace) -> int:
     from ..bayes.inference import check_params_spelling
     from ..bayes.noise import UNITS, UnknownNoiseError
     from ..bayes.priors import parse_prior_assignments
-    from ..data.structure_record import StructureRecord
-    from ..identification.pipeline import as_model, identify
+    from ..identification.pipeline import identify
 
     if args.noise_z is not None:
         NOISE_SD["z"].check(args.noise_z, "--noise-z")
@@ -196,17 +195,16 @@ def run(args: argparse.Namespace) -> int:
         others=args.others,
     )
     record = load_data(args)
-    extra: dict = {}
-    if isinstance(record, StructureRecord):  # elements on connections, parsed on the record's DOFs by identify
-        if args.px_roots:
-            raise InputError("--px-roots sets one DOF's px(z) roots; give a structure's roots in its elements' file")
-        model, extra["without"] = args.terms, args.without or ()
-    else:
-        model = as_model(args.terms, without=args.without, px_roots=parse_px_roots(args.px_roots))
     show = not (args.quiet or args.json)  # the sampler's progress, on a terminal only
-    with showing(show):
+    with showing(show):  # the terms are parsed by identify on the record's DOFs: a model or a structure's elements
         result = identify(
-            record, model, args.method, mass=mass_argument(args.mass), options=parse_settings(args.set), **extra
+            record,
+            args.terms,
+            args.method,
+            mass=mass_argument(args.mass),
+            options=parse_settings(args.set),
+            without=args.without,
+            px_roots=parse_px_roots(args.px_roots),
         )
     try:
         with showing(show):

@@ -81,16 +81,18 @@ def _model(args: argparse.Namespace):
 
         return IdentifiedModel.from_dict(data)
     from ..api import load
-    from ..data.structure_record import StructureRecord
-    from ..identification.pipeline import as_model, identify
+    from ..identification.pipeline import identify
 
-    record = load(args.source)
-    extra: dict = {}
-    if isinstance(record, StructureRecord):  # elements on connections, parsed on the record's DOFs by identify
-        model, extra["without"] = args.terms, args.without or ()
-    else:
-        model = as_model(args.terms, without=args.without, px_roots=parse_px_roots(args.px_roots))
-    return identify(record, model, args.method, mass=args.mass, options=parse_settings(args.set), **extra)
+    # the terms are parsed by identify on the record's DOFs: a one-DOF model or a structure's elements
+    return identify(
+        load(args.source),
+        args.terms,
+        args.method,
+        mass=args.mass,
+        options=parse_settings(args.set),
+        without=args.without,
+        px_roots=parse_px_roots(args.px_roots),
+    )
 
 
 def run(args: argparse.Namespace) -> int:

@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import math
 import numbers
+import time
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any, TypeVar
@@ -22,6 +23,7 @@ import numpy as np
 
 from ..base.jsonable import to_jsonable
 from ..errors import (
+    PASS_THROUGH,
     IdentificationError,
     InputError,
     NlidError,
@@ -33,7 +35,15 @@ from ..errors import (
 )
 from ..model.terms import Model
 
-__all__ = ["Estimate", "check_estimate", "checked_parts", "read_guarded", "refined_terms", "MAX_WARNING"]
+__all__ = [
+    "Estimate",
+    "check_estimate",
+    "checked_parts",
+    "read_guarded",
+    "timed_call",
+    "refined_terms",
+    "MAX_WARNING",
+]
 
 T = TypeVar("T")
 
@@ -377,6 +387,22 @@ def read_guarded(name: str, check: Callable[..., T], *args: Any) -> T:
         raise PluginError(
             f"identifier {brief(name, 60)} returned an estimate that cannot be read: {describe_exception(exc)}"
         ) from None
+
+
+def timed_call(name: str, call: Callable[..., T], *args: Any, **kwargs: Any) -> tuple[T, float]:
+    """``call(*args, **kwargs)`` (an identifier's method) and its wall time in s, one DOF and structures alike.
+
+    An :class:`~nlid.errors.NlidError` (and ``KeyboardInterrupt``...) passes; anything else the plugin raises,
+    ``SystemExit`` too, becomes one :class:`~nlid.errors.PluginError` naming identifier ``name``.
+    """
+    start = time.perf_counter()
+    try:
+        answer = call(*args, **kwargs)
+    except (NlidError, *PASS_THROUGH):
+        raise
+    except BaseException as exc:  # noqa: BLE001 - a plugin bug (sys.exit too) is reported by name
+        raise PluginError(f"identifier {name!r} {describe_exception(exc)}") from exc
+    return answer, time.perf_counter() - start
 
 
 def _check_estimate(estimate: Any, model: Model, name: str, mass: float | None) -> Estimate:

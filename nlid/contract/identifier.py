@@ -7,11 +7,11 @@ An identifier is a class with
   and study configs validate before anything runs;
 * ``needs_mass``: ``True`` if it cannot estimate the mass itself;
 * ``dofs``: ``"single"`` (the default) or ``"multi"`` when it also identifies
-  structures of several degrees of freedom (:mod:`nlid.model.structure`): it then
-  receives a :class:`~nlid.data.structure_record.StructureRecord`, an
+  structures of several degrees of freedom (:mod:`nlid.model.structure`): its
+  ``identify_structure`` then receives a :class:`~nlid.data.structure_record.StructureRecord`, an
   :class:`~nlid.model.elements.ElementSet` and a mass matrix (or ``None``) and returns a
-  :class:`~nlid.contract.structure_estimate.StructureEstimate`; the core refuses a structure record
-  for a single-DOF identifier, naming it;
+  :class:`~nlid.contract.structure_estimate.StructureEstimate` (by default :meth:`Identifier.identify_structure`
+  passes them on to ``identify``); the core refuses a structure record for a single-DOF identifier, naming it;
 * optionally what the core tells users about it, so that the core never names
   a plugin: ``preference`` (rank as the default method), ``advice`` and
   ``advice_order`` (the "Which method?" list of ``nlid methods``), ``docs``
@@ -44,12 +44,17 @@ from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any, ClassVar
 
+import numpy as np
+
 from ..base.jsonable import to_jsonable
 from ..base.validate import did_you_mean
 from ..data.record import Record
+from ..data.structure_record import StructureRecord
 from ..errors import OptionError, brief
+from ..model.elements import ElementSet
 from ..model.terms import Model
 from .estimate import Estimate
+from .structure_estimate import StructureEstimate
 
 __all__ = [
     "Option",
@@ -306,6 +311,26 @@ class Identifier:
             :class:`~nlid.errors.InputError` if the method cannot).
         """
         raise NotImplementedError
+
+    def identify_structure(
+        self, record: StructureRecord, elements: ElementSet, *, mass: np.ndarray | None = None
+    ) -> StructureEstimate:
+        """Estimate a structure's elements and linear system (called for an identifier declaring ``dofs = "multi"``).
+
+        The core hands a structure record here and a one-DOF record to :meth:`identify`, so neither
+        method asks which it was given. The default passes the structure's arguments on to
+        :meth:`identify`, as the contract did before this method existed.
+
+        Parameters
+        ----------
+        record
+            The structure record (validated).
+        elements
+            The elements to identify on the record's DOFs.
+        mass
+            The known mass matrix in kg (n x n), or ``None`` (estimate it).
+        """
+        return self.identify(record, elements, mass=mass)  # type: ignore[arg-type,return-value]
 
     @classmethod
     def figure_arrays(cls, arrays: Mapping[str, Any]) -> tuple[FigureArray, ...]:

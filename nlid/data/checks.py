@@ -11,10 +11,11 @@ the docstring of :mod:`nlid.data.record`, which re-exports these names.
 
 from __future__ import annotations
 
+import dataclasses
 import numbers
 from collections.abc import Mapping
 from types import MappingProxyType
-from typing import Any
+from typing import Any, Self
 
 import numpy as np
 
@@ -251,15 +252,62 @@ def uniform_step(t: np.ndarray) -> float:
 
 
 class TimeAxis:
-    """The time axis every record shares (a mixin of :class:`~nlid.data.record.Record` and
-    :class:`~nlid.data.structure_record.StructureRecord`): its length, step, duration and sample times.
+    """What every record shares (a mixin of the dataclasses :class:`~nlid.data.record.Record` and
+    :class:`~nlid.data.structure_record.StructureRecord`): its time axis (length, step, duration, sample
+    times), how its force was held, where each channel came from, and the copies that change its metadata
+    or keep part of its samples.
 
-    The class defines ``n`` (samples), ``fs`` (Hz) and ``t0`` (s).
+    The class defines ``n`` (samples), ``fs`` (Hz), ``t0`` (s), ``meta``, ``provenance`` and slicing by
+    sample index (``record[i0:i1]``).
     """
 
     n: int
     fs: float
     t0: float
+    meta: Mapping[str, Any]
+    provenance: Mapping[str, str]
+
+    def __getitem__(self, item: slice) -> Self:  # pragma: no cover - each record slices its own channels
+        raise NotImplementedError
+
+    @property
+    def force_hold(self) -> str:
+        """``"zoh"`` if the force was held over each sample, else ``"sampled"``."""
+        return str(self.meta.get("force_hold", "sampled"))
+
+    def source_of(self, channel: str) -> str:
+        """How ``channel`` (``"v"``, a structure's ``"v2"``) was obtained ("measured" unless estimated)."""
+        return self.provenance.get(channel, "measured")
+
+    def replace(self, **changes: Any) -> Self:
+        """A copy with some fields changed (validated again)."""
+        return dataclasses.replace(self, **changes)  # type: ignore[type-var]
+
+    def with_meta(self, **items: Any) -> Self:
+        """A copy with metadata entries added or replaced."""
+        meta = dict(self.meta)
+        meta.update(items)
+        return dataclasses.replace(self, meta=meta)  # type: ignore[type-var]
+
+    def time_slice(self, start: float | None = None, stop: float | None = None) -> Self:
+        """The samples with ``start <= t < stop`` (times in s)."""
+        t = self.t
+        i0 = 0 if start is None else int(np.searchsorted(t, start - 1e-9 / self.fs))
+        i1 = self.n if stop is None else int(np.searchsorted(t, stop - 1e-9 / self.fs))
+        return self[i0:i1]
+
+    def split(self, fraction: float) -> tuple[Self, Self]:
+        """Split into an estimation part and a held-out part.
+
+        Parameters
+        ----------
+        fraction
+            Fraction of samples in the held-out (second) part, ``0 < fraction < 1``.
+        """
+        if not 0.0 < fraction < 1.0:
+            raise InputError(f"hold-out fraction must be between 0 and 1, got {fraction}")
+        cut = int(round(self.n * (1.0 - fraction)))
+        return self[:cut], self[cut:]
 
     def __len__(self) -> int:
         return self.n

@@ -327,19 +327,10 @@ class Record(TimeAxis):
         return tuple(c for c in CHANNELS if getattr(self, c) is not None)
 
     @property
-    def force_hold(self) -> str:
-        """``"zoh"`` if the force was held over each sample, else ``"sampled"``."""
-        return str(self.meta.get("force_hold", "sampled"))
-
-    @property
     def mass(self) -> float | None:
         """``meta['mass']`` if present (kg)."""
         m = self.meta.get("mass")
         return None if m is None else float(m)
-
-    def source_of(self, channel: str) -> str:
-        """How ``channel`` was obtained ("measured" unless estimated)."""
-        return self.provenance.get(channel, "measured")
 
     def is_measured(self, channel: str) -> bool:
         """True if ``channel`` is present and was measured (possibly resampled), not estimated."""
@@ -351,16 +342,6 @@ class Record(TimeAxis):
         return f"Record(n={self.n}, fs={self.fs:g} Hz, channels={chans}{', source=' + str(src) if src else ''})"
 
     # ------------------------------------------------------------------ derived records
-    def replace(self, **changes: Any) -> Record:
-        """A copy with some fields changed (validated again)."""
-        return replace(self, **changes)
-
-    def with_meta(self, **items: Any) -> Record:
-        """A copy with metadata entries added or replaced."""
-        meta = dict(self.meta)
-        meta.update(items)
-        return replace(self, meta=meta)
-
     def __getitem__(self, item: slice) -> Record:
         """Slice by sample index: ``record[1000:5000]`` or ``record[::2]``.
 
@@ -392,26 +373,6 @@ class Record(TimeAxis):
         else:
             del meta["periodic"]
         return meta
-
-    def time_slice(self, start: float | None = None, stop: float | None = None) -> Record:
-        """The samples with ``start <= t < stop`` (times in s)."""
-        t = self.t
-        i0 = 0 if start is None else int(np.searchsorted(t, start - 1e-9 / self.fs))
-        i1 = self.n if stop is None else int(np.searchsorted(t, stop - 1e-9 / self.fs))
-        return self[i0:i1]
-
-    def split(self, fraction: float) -> tuple[Record, Record]:
-        """Split into an estimation part and a held-out part.
-
-        Parameters
-        ----------
-        fraction
-            Fraction of samples in the held-out (second) part, ``0 < fraction < 1``.
-        """
-        if not 0.0 < fraction < 1.0:
-            raise InputError(f"hold-out fraction must be between 0 and 1, got {fraction}")
-        cut = int(round(self.n * (1.0 - fraction)))
-        return self[:cut], self[cut:]
 
     def decimate(self, q: int) -> Record:
         """Reduce the sampling frequency by an integer factor with anti-aliasing.

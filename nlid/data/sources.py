@@ -36,6 +36,7 @@ import numpy as np
 
 from ..errors import InputError
 from . import datasets
+from .checks import TimeAxis
 from .columnmap import dataset_table, frame_table, uses_indexed
 from .digest import record_sha256
 from .io import read_record
@@ -116,9 +117,7 @@ def _table_record(table: Mapping[str, Any], columns: Any, fs: float | None, unit
 
 
 def _convert(source: Any, columns: str | Mapping[str, str] | None, fs: float | None, units: Any) -> Any:
-    from .structure_record import StructureRecord
-
-    if isinstance(source, (Record, StructureRecord)):
+    if isinstance(source, TimeAxis):  # a record already, of one DOF or a structure
         if columns or fs is not None or units:
             raise InputError(
                 "columns=, fs= and units= apply to files and tables, not to a Record "

@@ -330,11 +330,6 @@ class StructureRecord(TimeAxis):
         return getattr(self, parts[0])[:, parts[1] - 1]
 
     @property
-    def force_hold(self) -> str:
-        """``"zoh"`` if the force was held over each sample, else ``"sampled"``."""
-        return str(self.meta.get("force_hold", "sampled"))
-
-    @property
     def mass(self) -> np.ndarray | None:
         """``meta['mass']`` as an ``(n, n)`` matrix (kg), if present (a vector is a lumped mass)."""
         m = self.meta.get("mass")
@@ -343,10 +338,6 @@ class StructureRecord(TimeAxis):
         from ..model.structure import as_matrix
 
         return as_matrix(m, self.n_dofs, "the record's mass (meta['mass'], a file's .meta.json sidecar)", positive=True)
-
-    def source_of(self, channel: str) -> str:
-        """How ``channel`` (``"v2"``) was obtained ("measured" unless estimated)."""
-        return self.provenance.get(channel, "measured")
 
     def is_measured(self, channel: str) -> bool:
         """True if the channel is present and was measured (possibly resampled), not estimated."""
@@ -399,16 +390,6 @@ class StructureRecord(TimeAxis):
         return Record(fs=self.fs, t0=self.t0, meta=meta, provenance=prov, units=units, **arrays)
 
     # ------------------------------------------------------------------ derived records
-    def replace(self, **changes: Any) -> StructureRecord:
-        """A copy with some fields changed (validated again)."""
-        return replace(self, **changes)
-
-    def with_meta(self, **items: Any) -> StructureRecord:
-        """A copy with metadata entries added or replaced."""
-        meta = dict(self.meta)
-        meta.update(items)
-        return replace(self, meta=meta)
-
     def _arrays(self, transform: Any) -> dict[str, np.ndarray]:
         return {g: transform(getattr(self, g)) for g in self.groups}
 
@@ -418,20 +399,6 @@ class StructureRecord(TimeAxis):
             raise TypeError("records are sliced with a slice, e.g. record[100:2000]")
         start, _, step = item.indices(self.n)
         return replace(self, fs=self.fs / step, t0=self.t0 + start / self.fs, **self._arrays(lambda x: x[item]))
-
-    def time_slice(self, start: float | None = None, stop: float | None = None) -> StructureRecord:
-        """The samples with ``start <= t < stop`` (times in s)."""
-        t = self.t
-        i0 = 0 if start is None else int(np.searchsorted(t, start - 1e-9 / self.fs))
-        i1 = self.n if stop is None else int(np.searchsorted(t, stop - 1e-9 / self.fs))
-        return self[i0:i1]
-
-    def split(self, fraction: float) -> tuple[StructureRecord, StructureRecord]:
-        """An estimation part and a held-out part with ``fraction`` of the samples (``0 < fraction < 1``)."""
-        if not 0.0 < fraction < 1.0:
-            raise InputError(f"hold-out fraction must be between 0 and 1, got {fraction}")
-        cut = int(round(self.n * (1.0 - fraction)))
-        return self[:cut], self[cut:]
 
     def _steps(self, step: str) -> dict[str, str]:
         return {c: f"{self.source_of(c)}; {step}" for c in self.channels}

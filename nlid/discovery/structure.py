@@ -88,6 +88,13 @@ DEFAULT_TEST = 0.2
 DEFAULT_HOLDOUT = 0.25
 #: Most elements added by one run.
 DEFAULT_MAX_STEPS = 3
+#: Share of what the best remaining-structure probe on a connection explains that a candidate below the
+#: rule's ``min_explained`` must explain to pass (:func:`_rank`): the candidate then holds the structure the
+#: flexible functions find there, and what it does not explain is noise.
+CAPTURE = 0.8
+#: Smallest relative drop of the held-out free-run error that confirms a candidate accepted below
+#: ``min_explained`` (the one-DOF prediction rule's default gain, :class:`~nlid.discovery.crossfit.PredictionRule`).
+MIN_FREERUN_GAIN = 0.01
 #: Remaining-structure probes on each connection, in report order.
 STRUCTURE_PROBES = ("z", "v", "memory")
 
@@ -151,6 +158,7 @@ def discover_structure(
     simulate: bool = True,
     progress: Progress | None = None,
     rule: AcceptanceRule | None = None,
+    refine: bool = False,
 ) -> StructureDiscoveryResult:
     """Find which connection of a structure carries the nonlinearity the declared model lacks (module docstring).
 
@@ -190,6 +198,16 @@ def discover_structure(
         Called with one line per stage.
     rule
         The old name of ``accept=`` (:func:`~nlid.discovery.evidence.acceptance_rule`).
+    refine
+        Refit the final model's elements with the preferred refining identifier (``refines = True``, e.g. the
+        output-error ``oe``) on the selection record, and report it as :attr:`StructureDiscoveryResult.refined`
+        with its errors on the same test part. The search's fits are equation-error fits of velocities and
+        accelerations estimated from the measured displacements, so noise on the displacements biases them
+        (errors in variables), and the estimate's low-pass smooths a friction law's step: on the reviewer's
+        3-DOF chain, with the true elements, a 2 N Coulomb force comes out 12-16 % low at any noise level
+        from 0 to 1 %, and the cubic up to 0.9 % low at 1 % noise; the output-error refit is unbiased (within
+        0.2 % on the cubic at 1 % noise; ``benchmarks/accuracy_mdof_friction.py``). The choice of elements is
+        unchanged.
 
     Returns
     -------
@@ -274,6 +292,11 @@ def discover_structure(
         say(f"step {number}: testing {len(pool)} candidates on {len(conns)} connections")
         tested = _round(search, current, conns, pool, Element)
         ranking, accepted = _rank(tested, rule)
+        if accepted is None:  # a noisy record: does a candidate capture the structure its connection's probes find?
+            probes = remaining_declared if number == 1 else _probes(search, conns, structure)
+            ranking, accepted = _rank(tested, rule, probes)
+            if accepted is not None:  # ... and does the held-out free run confirm it?
+                ranking, accepted = _confirmed(ranking, accepted, parts["estimation"].data, held, current, M, Element)
         if accepted is None:
             best = next((e for e in ranking if e.explained is not None), None)
             stop = "no candidate passes the acceptance rule" + (
@@ -292,6 +315,7 @@ def discover_structure(
     else:
         if max_steps == 0:
             stop = "maximum number of steps reached (0)"
+    refined = _refine(selection, current, M, fc, test_record, test_data, parts, simulate, say) if refine else None
     say("remaining-structure probes on the final model")
     remaining = remaining_declared if not steps else _probes(search, conns, structure)
     stop = (
@@ -311,6 +335,9 @@ def discover_structure(
         "mass": M.tolist(),
         "source": str(record.meta.get("source", "")),
         "max_steps": int(max_steps),
+        "refined_on": f"the selection record ({selection.n} samples)" if refined is not None else None,
+        "noise_percent": _noise_percent(selection),
+        "derivatives_measured": all(record.is_measured(f"{g}{k}") for g in ("v", "a") for k in range(1, n + 1)),
         "seconds": time.perf_counter() - started,
     }
     return StructureDiscoveryResult(
@@ -326,7 +353,28 @@ def discover_structure(
         stop_reason=stop,
         rule=rule,
         info=info,
+        refined=refined,
     )
+
+
+def _noise_percent(record) -> list[float]:
+    """The white-noise level of each DOF's displacement, in % of its standard deviation (its noise floor)."""
+    from ..signal.noisefloor import noise_sd
+
+    z = np.asarray(record.z, dtype=float)
+    std = z.std(axis=0)
+    return [float(100 * noise_sd(z[:, k], record.fs) / std[k]) if std[k] > 0 else 0.0 for k in range(z.shape[1])]
+
+
+def _refine(selection, elements, M, cutoff, test_record, test_data, parts, simulate, say) -> StructureStage:
+    """The final elements refitted by the refining identifier on the selection record, scored like every stage."""
+    from ..contract.methods import choose_refiner
+    from ..identification.pipeline import identify
+
+    refiner = choose_refiner()
+    say(f"refining the final model with {refiner} on the selection record ({selection.n} samples)")
+    fit = identify(selection, elements, refiner, mass=M, cutoff=cutoff)
+    return _stage(fit.structure, f"refined ({refiner})", test_record, test_data, parts, simulate)
 
 
 def _stage(model, label: str, test_record, test_data, parts, simulate: bool) -> StructureStage:
@@ -477,9 +525,21 @@ def _evidence(search: Search, cand: Candidate, found: dict, c, base, base_in, n_
     )
 
 
-def _rank(tested: list[ConnectionEvidence], rule: AcceptanceRule) -> tuple[tuple[ConnectionEvidence, ...], Any]:
+def _rank(
+    tested: list[ConnectionEvidence], rule: AcceptanceRule, probes: StructureRemaining | None = None
+) -> tuple[tuple[ConnectionEvidence, ...], Any]:
+    """The candidates best first, and the one accepted (``None``: none passes).
+
+    With ``probes`` (the remaining-structure probes on the current model), a candidate below the rule's
+    ``min_explained`` passes too when the residual of its DOFs is mostly noise but holds structure: its
+    connection's probes find at least their threshold predictable (:data:`~nlid.discovery.probes.MIN_STRUCTURE`,
+    measured against noise), the candidate explains at least :data:`CAPTURE` of what the best of them explains
+    and at least that threshold itself, and its dBIC passes the rule.
+    """
     fitted = sorted((e for e in tested if e.explained is not None), key=lambda e: -float(e.explained))
     rest = [e for e in tested if e.explained is None]
+    if probes is not None:
+        fitted = [_captures(e, probes, rule) for e in fitted]
     passing = [e for e in fitted if e.status == "passes"]
     if not passing:
         return tuple(fitted + rest), None
@@ -489,6 +549,53 @@ def _rank(tested: list[ConnectionEvidence], rule: AcceptanceRule) -> tuple[tuple
     accepted = replace(chosen, status="accepted")
     ranked = tuple(accepted if e is chosen else e for e in fitted) + tuple(rest)
     return ranked, accepted
+
+
+def _confirmed(ranking, accepted, data, held, current, M, Element) -> tuple[tuple[ConnectionEvidence, ...], Any]:
+    """A candidate accepted below ``min_explained`` (:func:`_captures`) kept only when the free run of the held-out
+    part, by the models fitted on the estimation part, improves by at least :data:`MIN_FREERUN_GAIN` with it;
+    otherwise it is marked ``not confirmed`` and nothing is accepted."""
+    from ..estimation.joint import joint_least_squares
+    from ..model.elements import ElementSet
+
+    added = [Element(t, *accepted.connection) for t in accepted.terms]
+    new = ElementSet((*current.elements, *added), current.n_dofs, current.static, current.px_roots)
+
+    def error(elements) -> float:
+        fit = joint_least_squares(data.with_elements(elements), elements, M, context="discover: ")
+        return float(np.mean(_free_run(fit.model(elements, M), held)[1]))
+
+    before, after = error(current), error(new)
+    gain = 1.0 - after / before if math.isfinite(before) and before > 0 else float("nan")
+    if math.isfinite(gain) and gain >= MIN_FREERUN_GAIN:
+        kept = replace(accepted, reason=f"{accepted.reason}; held-out free run {before:.3g} -> {after:.3g} % of std(z)")
+        return tuple(kept if e is accepted else e for e in ranking), kept
+    refused = replace(
+        accepted,
+        status="not confirmed",
+        reason=f"{accepted.reason}; but the held-out free run does not improve by {100 * MIN_FREERUN_GAIN:g} % with it "
+        f"({before:.3g} -> {after:.3g} % of std(z))",
+    )
+    return tuple(refused if e is accepted else e for e in ranking), None
+
+
+def _captures(e: ConnectionEvidence, probes: StructureRemaining, rule: AcceptanceRule) -> ConnectionEvidence:
+    """``e`` marked as passing when it captures its connection's remaining structure (:func:`_rank`)."""
+    if e.status != "below threshold" or e.delta_bic is None or e.delta_bic > rule.max_delta_bic:
+        return e
+    found = max((p.explained for p in probes.probes if p.connection == e.connection), default=0.0)
+    explained = float(e.explained or 0.0)
+    if found < probes.threshold or explained < max(probes.threshold, CAPTURE * found):
+        return e
+    return replace(
+        e,
+        status="passes",
+        reason=(
+            f"explains {100 * explained:.3g} % < {100 * rule.min_explained:g} % of a residual mostly noise, but "
+            f"{100 * explained / found:.3g} % of the {100 * found:.3g} % its connection's probes find predictable; "
+            f"dBIC {e.delta_bic:.3g}"
+        ),
+    )
 
 
 def _probes(search: Search, conns, threshold: float) -> StructureRemaining:

@@ -341,6 +341,9 @@ class StructureDiscoveryResult:
         The acceptance rule.
     info
         Samples of each part, band, weights, seconds...
+    refined
+        The final elements refitted by the refining identifier (``discover_structure(refine=True)``; ``None``
+        otherwise), with its errors on the same test part.
     """
 
     declared: tuple[str, ...]
@@ -355,11 +358,17 @@ class StructureDiscoveryResult:
     stop_reason: str
     rule: AcceptanceRule
     info: Mapping[str, Any] = field(default_factory=dict)
+    refined: StructureStage | None = None
 
     @property
     def final(self) -> StructureStage:
-        """The final model's stage."""
+        """The final model's stage (the search's equation-error fit; :attr:`refined` holds a refit)."""
         return self.stages[-1]
+
+    @property
+    def reported(self) -> tuple[StructureStage, ...]:
+        """The stages the tables show: every stage of the search, then the refined one when there is one."""
+        return self.stages if self.refined is None else (*self.stages, self.refined)
 
     @property
     def located(self) -> Connection | None:
@@ -403,6 +412,7 @@ class StructureDiscoveryResult:
             "stop_reason": self.stop_reason,
             "rule": self.rule.to_dict(),
             "info": dict(self.info),
+            "refined": None if self.refined is None else self.refined.to_dict(),
         }
 
     def summary(self) -> str:
@@ -429,13 +439,25 @@ class StructureDiscoveryResult:
             coef = ", ".join(f"{k} = {v:.4g}" for k, v in e.coefficients.items())
             lines.append(f"refused: {e.effect} on connection {e.where} ({coef}): {e.reason}")
         lines.append(self.stop_reason)
-        header = "DOF".ljust(6) + "".join(f"{s.label[:24]:>28}" for s in self.stages)
+        if self.refined is None and not self.info.get("derivatives_measured", True):
+            noise = max(self.info.get("noise_percent") or [0.0])
+            lines.append(
+                "the coefficients above are equation-error fits of velocities and accelerations estimated from the "
+                f"displacements (noise up to {noise:.2g} % of their std): the estimate's filter and that noise bias "
+                "them, a Coulomb force most (benchmarks/accuracy_mdof_friction.py: 12-16 % low, with or without "
+                "noise); refining (refine=True) refits the final elements by output error, which they do not bias"
+            )
+        if self.refined is not None:
+            coef = ", ".join(f"{k} = {v:.6g}" for k, v in self.refined.model.coefficients.items())
+            lines.append(f"{self.refined.label}, fitted on {self.info.get('refined_on')}: {coef}")
+        stages = self.reported
+        header = "DOF".ljust(6) + "".join(f"{s.label[:24]:>28}" for s in stages)
         lines += ["", "epsilon on the test part (%)", header]
         for k in range(n):
-            lines.append(f"z{k + 1}".ljust(6) + "".join(f"{s.eps_percent[k]:>28.4g}" for s in self.stages))
+            lines.append(f"z{k + 1}".ljust(6) + "".join(f"{s.eps_percent[k]:>28.4g}" for s in stages))
         lines += ["", "free-run error on the test part (% of std(z))", header]
         for k in range(n):
-            lines.append(f"z{k + 1}".ljust(6) + "".join(f"{s.freerun_percent[k]:>28.4g}" for s in self.stages))
+            lines.append(f"z{k + 1}".ljust(6) + "".join(f"{s.freerun_percent[k]:>28.4g}" for s in stages))
         lines += ["", "What remains: " + self.remaining.describe()]
         return "\n".join(lines)
 
@@ -463,18 +485,27 @@ class StructureDiscoveryResult:
             for e in self.refused:
                 coef = ", ".join(f"`{k}` = {v:.6g}" for k, v in e.coefficients.items())
                 out.append(f"- **{e.effect}** on connection **{e.where}**: {coef}: {e.reason}")
+        if self.refined is not None:
+            out += [
+                "",
+                f"## {self.refined.label.capitalize()}",
+                "",
+                f"Fitted on {self.info.get('refined_on')}: "
+                + ", ".join(f"`{k}` = {v:.6g}" for k, v in self.refined.model.coefficients.items()),
+            ]
+        stages = self.reported
         out += ["", "## Errors on the test part", ""]
         out.append(
             "| DOF | "
-            + " | ".join(f"eps % {s.label}" for s in self.stages)
+            + " | ".join(f"eps % {s.label}" for s in stages)
             + " | "
-            + " | ".join(f"free run % {s.label}" for s in self.stages)
+            + " | ".join(f"free run % {s.label}" for s in stages)
             + " |"
         )
-        out.append("|---" * (1 + 2 * len(self.stages)) + "|")
+        out.append("|---" * (1 + 2 * len(stages)) + "|")
         for k in range(n):
-            eps = " | ".join(f"{s.eps_percent[k]:.4g}" for s in self.stages)
-            run = " | ".join(f"{s.freerun_percent[k]:.4g}" for s in self.stages)
+            eps = " | ".join(f"{s.eps_percent[k]:.4g}" for s in stages)
+            run = " | ".join(f"{s.freerun_percent[k]:.4g}" for s in stages)
             out.append(f"| z{k + 1} | {eps} | {run} |")
         out += ["", f"Free run: {self.final.freerun_note}", "", "## Ranking (last round, best 15)", ""]
         out.append("| effect | connection | elements | coefficients | explained % | all DOFs % | dBIC | status |")

@@ -21,7 +21,6 @@ not shrunk over four iterations (not contracting: diverging), or after
 from __future__ import annotations
 
 import dataclasses
-import time
 from collections.abc import Iterable, Mapping, Sequence
 from typing import TYPE_CHECKING, Any
 
@@ -29,19 +28,12 @@ import numpy as np
 
 from ..base import numerics
 from ..base.validate import ESTIMATE, check_cutoff, check_mass
-from ..contract.estimate import Estimate, check_estimate, refined_terms
+from ..contract.estimate import Estimate, check_estimate, refined_terms, timed_call
 from ..contract.methods import choose_method
 from ..contract.registry import Registry, registry_for
 from ..data.record import Record
 from ..data.sources import as_record
-from ..errors import (
-    PASS_THROUGH,
-    IdentificationError,
-    InputError,
-    NlidError,
-    PluginError,
-    describe_exception,
-)
+from ..errors import IdentificationError, InputError, NlidError, describe_exception
 from ..estimation.inputpath import InputPath
 from ..estimation.inputpath import input_path as to_input_path
 from ..identified.model import IdentifiedModel
@@ -103,14 +95,7 @@ def _run(identifier: Any, record: Record, model: Model, mass: float | None) -> t
     checked against ``model`` and the coefficients against its names; use :func:`_estimated_model`.
     """
     name = _name(identifier)
-    start = time.perf_counter()
-    try:
-        estimate = identifier.identify(record, model, mass=mass)
-    except (NlidError, *PASS_THROUGH):
-        raise
-    except BaseException as exc:  # noqa: BLE001 - a plugin bug (sys.exit too) is reported by name
-        raise PluginError(f"identifier {name!r} {describe_exception(exc)}") from exc
-    elapsed = time.perf_counter() - start
+    estimate, elapsed = timed_call(name, identifier.identify, record, model, mass=mass)
     return check_estimate(estimate, model, name, mass), elapsed
 
 

@@ -11,7 +11,6 @@ and completes it into an :class:`~nlid.identified.structure.IdentifiedStructure`
 from __future__ import annotations
 
 import dataclasses
-import time
 from collections.abc import Iterable, Mapping
 from typing import Any
 
@@ -19,11 +18,12 @@ import numpy as np
 
 from .. import __version__
 from ..base.validate import check_cutoff
+from ..contract.estimate import timed_call
 from ..contract.registry import Registry, registry_for
 from ..contract.structure_estimate import check_structure_estimate
 from ..data.structure_record import StructureRecord
 from ..data.structure_tables import structure_sha256
-from ..errors import PASS_THROUGH, InputError, NlidError, PluginError, describe_exception
+from ..errors import InputError
 from ..identified.structure import IdentifiedStructure
 from ..model.elements import ElementSet
 from ..model.spelling import Connection
@@ -46,8 +46,14 @@ def as_elements(
     Raises
     ------
     InputError
-        Missing terms, an element beyond the record's DOFs, or ``without`` naming other than ``1``.
+        Missing terms, an element beyond the record's DOFs, ``without`` naming other than ``1``, or ``px_roots``
+        that is not a mapping of connections (one DOF's pair of roots).
     """
+    if px_roots is not None and not isinstance(px_roots, Mapping):
+        raise InputError(
+            "px_roots= of a structure maps each connection to its roots, {(1, 2): (z_minus, z_plus)}; "
+            "a pair of roots is one DOF's px(z)"
+        )
     if terms is None:
         raise InputError(
             "terms are missing: give the elements, e.g. '(z1-z2)^3, z3^3' ('' for the linear system alone)"
@@ -181,14 +187,10 @@ def identify_structure(
             f"method {name!r} cannot estimate the mass matrix: give mass= (kg; a vector for a lumped mass) "
             "or the record's meta['mass']"
         )
-    start = time.perf_counter()
-    try:
-        estimate = identifier.identify(record, elements, mass=M)
-    except (NlidError, *PASS_THROUGH):
-        raise
-    except BaseException as exc:  # noqa: BLE001 - a plugin bug (sys.exit too) is reported by name
-        raise PluginError(f"identifier {name!r} {describe_exception(exc)}") from exc
-    seconds = time.perf_counter() - start
+    # an Identifier takes a structure in identify_structure; a class of its own may take it in identify
+    estimate, seconds = timed_call(
+        name, getattr(identifier, "identify_structure", identifier.identify), record, elements, mass=M
+    )
     estimate = check_structure_estimate(estimate, elements, name, M)
     settings = dict(getattr(identifier, "settings", None) or {})
     result = IdentifiedStructure.from_estimate(

@@ -185,7 +185,7 @@ def main(fd: int) -> None:
 
     # the server forks by design: its only other threads are idle pools of the numerical libraries
     warnings.filterwarnings("ignore", message=r".*use of fork\(\) may lead to deadlocks", category=DeprecationWarning)
-    warm_up_quietly(os.environ.get(PRELOAD_ENV, "full"))
+    warm_up_quietly(os.environ.get(PRELOAD_ENV, "full"), idle=lambda: not select.select([sock], [], [], 0)[0])
     server.serve()
 
 

@@ -23,12 +23,18 @@ import importlib
 import os
 import signal
 import sys
+from collections.abc import Callable
 
 __all__ = ["warm_up", "warm_up_quietly", "PRELOAD_ENV", "PRELOAD_LIMIT"]
 
 #: What the server loads before serving (:func:`nlid.runtime.preload.warm_up`): ``"full"`` (studies: every
 #: plugin and the simulator's kernels), ``"core"`` (the pipeline), or ``"none"`` (after a failed start).
 PRELOAD_ENV = "NLID_PRELOAD"
+#: Loaded by the ``"core"`` preload only while no run waits: ``scipy.signal`` costs ~0.5 s (it imports
+#: ``scipy.stats``) and the pipeline and the scores do without it, so a single identification whose plugin
+#: does too (rfs) starts that much sooner; one that needs it (nsi-ip's filters) imports it in its child,
+#: unless the server loaded it while this process was still reading the data.
+WHILE_IDLE = ("scipy.signal",)
 #: Longest time the preload may take (s); past it the server serves anyway.
 PRELOAD_LIMIT = 90
 
@@ -41,8 +47,8 @@ def _alarm(signum: int, frame: object) -> None:
     raise _PreloadTimeout
 
 
-def warm_up_quietly(kind: str) -> None:
-    """Import what every run needs, silently and within :data:`PRELOAD_LIMIT` seconds."""
+def warm_up_quietly(kind: str, idle: Callable[[], bool] | None = None) -> None:
+    """Import what every run needs, silently, within :data:`PRELOAD_LIMIT` seconds (``idle``: see :func:`warm_up`)."""
     if kind == "none":
         return
     import warnings
@@ -58,7 +64,7 @@ def warm_up_quietly(kind: str) -> None:
             signal.alarm(PRELOAD_LIMIT)
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
-            warm_up(kind)
+            warm_up(kind, idle)
     except BaseException:  # noqa: BLE001 - the server serves whatever a plugin does at import
         pass
     finally:
@@ -74,23 +80,33 @@ def warm_up_quietly(kind: str) -> None:
             os.close(fd)
 
 
-def warm_up(kind: str = "full") -> None:
+def warm_up(kind: str = "full", idle: Callable[[], bool] | None = None) -> None:
     """Load what every run needs.
 
     Parameters
     ----------
     kind
         ``"core"``: the pipeline and the numerical modules (a single
-        identification, which imports only its own plugin);
+        identification, which imports only its own plugin), then
+        :data:`WHILE_IDLE` if no run is waiting;
         ``"full"``: also every plugin and the simulator's kernels (studies).
+    idle
+        Whether no run is waiting yet (the fork server: nothing to read on its
+        socket). ``None``: as if a run were waiting.
     """
     import numpy as np
 
     # by name: the runtime sits below the pipeline and the study, which call it (no import circle)
-    for name in ("scipy.fft", "scipy.signal", "nlid.identification.pipeline", "nlid.scoring"):
+    for name in ("scipy.fft", "nlid.identification.pipeline", "nlid.scoring"):
         importlib.import_module(name)
     if kind != "full":
+        for name in WHILE_IDLE:
+            if idle is None or not idle():
+                return
+            importlib.import_module(name)
         return
+    for name in WHILE_IDLE:
+        importlib.import_module(name)
     importlib.import_module("nlid.contract.registry").load_registry()
     importlib.import_module("nlid.study.worker")
     simulate = importlib.import_module("nlid.simulation").simulate

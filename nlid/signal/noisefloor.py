@@ -94,9 +94,57 @@ def noise_sd(x: np.ndarray, fs: float) -> float:
 
 def _welch_noise_band(x: np.ndarray, fs: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Welch PSD of ``x`` (segments of up to 4096 samples) and the mask of the noise-only band ``NOISE_BAND``."""
-    from scipy import signal
-
     x = np.asarray(x, dtype=float)
-    freqs, psd = signal.welch(x - x.mean(), fs=fs, nperseg=int(min(x.size, 4096)))
+    freqs, psd = welch_density(x - x.mean(), fs, int(min(x.size, 4096)))
     band = (freqs >= NOISE_BAND[0] * fs) & (freqs <= NOISE_BAND[1] * fs)
     return freqs, psd, band
+
+
+def welch_density(x: np.ndarray, fs: float, nperseg: int) -> tuple[np.ndarray, np.ndarray]:
+    """``scipy.signal.welch(x, fs=fs, nperseg=nperseg)`` of the 1-D ``x``, without importing ``scipy.signal``.
+
+    Welch's one-sided power spectral density with its defaults: periodic Hann
+    window, half-overlapping segments, each segment's mean removed, density
+    scaling, the mean over the segments. The same operations in the same
+    order as scipy 1.17's ``welch`` (its ``ShortTimeFFT`` path), so the same
+    numbers to the bit there (tests/test_noisefloor_welch.py compares them).
+    Importing ``scipy.signal`` costs ~0.5 s (it imports ``scipy.stats``),
+    which every ``nlid identify`` paid before its identification started.
+
+    Parameters
+    ----------
+    x
+        The signal, 1-D, at least ``nperseg`` samples.
+    fs
+        Sampling frequency in Hz.
+    nperseg
+        Samples per segment.
+
+    Returns
+    -------
+    freqs, psd
+        The frequencies (Hz) and the density (unit of ``x`` squared per Hz).
+    """
+    from scipy import fft as sp_fft
+
+    x = np.asarray(x, dtype=float)
+    nperseg = int(nperseg)
+    noverlap = nperseg // 2
+    hop = nperseg - noverlap
+    # scipy.signal.windows.hann(nperseg, sym=False): the general cosine window of nperseg + 1 points, truncated
+    phase = np.linspace(-np.pi, np.pi, nperseg + 1)
+    window = np.zeros(nperseg + 1)
+    for k, weight in enumerate((0.5, 0.5)):
+        window += weight * np.cos(k * phase)
+    window = window[:-1]
+    # the density scaling folded into the window, the factor summed in order as ShortTimeFFT does
+    window = window * (1 / np.sqrt(sum(window**2) / (1 / fs)))
+    segments = (x.size - noverlap) // hop
+    power = np.zeros((nperseg // 2 + 1, segments))
+    for p in range(segments):
+        seg = x[p * hop : p * hop + nperseg]
+        seg = seg - np.mean(seg, axis=-1, keepdims=True)
+        spectrum = sp_fft.rfft(seg * window, n=nperseg)
+        power[:, p] = spectrum.real**2 + spectrum.imag**2
+    power[1 : -1 if nperseg % 2 == 0 else None] *= 2  # one-sided: the other half's power
+    return sp_fft.rfftfreq(nperseg, 1 / fs), power.mean(axis=-1)

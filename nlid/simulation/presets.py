@@ -233,6 +233,10 @@ class Preset:
             coeffs["1"] = float(new.get("mass", self.mass)) * float(new.get("g", self.g))
         return replace(self, coefficients=coeffs, **new)
 
+    def response_groups(self, channels: Sequence[str]) -> tuple[str, ...]:
+        """The response quantities ``channels`` name: one DOF's channels are their own (as a structure preset's)."""
+        return tuple(channels)
+
     def force(self, seed: int) -> np.ndarray:
         """The force record of a seed (N); a sine test's does not depend on the seed."""
         import numpy as np

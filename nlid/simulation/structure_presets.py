@@ -183,6 +183,21 @@ class StructurePreset:
         """Number of samples."""
         return int(round(self.duration * self.fs))
 
+    @property
+    def terms(self) -> str:
+        """What ``nlid.identify`` is given as the terms of a record of this preset: its :attr:`elements`."""
+        return self.elements
+
+    def response_groups(self, channels: Sequence[str]) -> tuple[str, ...]:
+        """The response quantities ``channels`` name (``z2`` is ``z``; a quantity for every DOF or for none).
+
+        Raises
+        ------
+        InputError
+            An unknown channel, or a quantity named for only some DOFs.
+        """
+        return self._groups(tuple(channels), self.model().n_dofs)
+
     # ------------------------------------------------------------------ the model and its truth
     def model(self) -> StructuralModel:
         """The true structure."""

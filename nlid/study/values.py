@@ -362,11 +362,9 @@ class PresetSource:
             else:
                 noise = (where / "noise").check(NOISE_FRACTION, raw_noise)
         channels_raw = entry.get("channels", list(noise) if isinstance(noise, dict) else ["z"])
-        if isinstance(channels_raw, list) and hasattr(preset, "elements"):  # a structure: z1..zn name z
-            from ..simulation.structure_presets import StructurePreset
-
+        if isinstance(channels_raw, list):  # a structure's z1..zn name z
             try:
-                channels_raw = list(StructurePreset._groups(preset, channels_raw, preset.model().n_dofs))
+                channels_raw = list(preset.response_groups(channels_raw))
             except NlidError as exc:
                 raise (where / "channels").error(str(exc)) from None
         if not isinstance(channels_raw, list) or not all(c in RESPONSE_CHANNELS for c in channels_raw):
@@ -396,8 +394,7 @@ class PresetSource:
     @property
     def default_terms(self) -> str:
         """The preset's terms (a dataset's terms when it gives none; a structure preset's elements)."""
-        preset = self.preset()
-        return preset.elements if hasattr(preset, "elements") else preset.terms
+        return self.preset().terms
 
     def preset(self):
         """The :class:`~nlid.simulation.presets.Preset` with the overrides applied."""

@@ -88,7 +88,19 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from nlid.plugin import Estimate, FigureArray, Identifier, Model, Option, Record, StructureRecord, equilibria, modal
+from nlid.plugin import (
+    ElementSet,
+    Estimate,
+    FigureArray,
+    Identifier,
+    Model,
+    Option,
+    Record,
+    StructureEstimate,
+    StructureRecord,
+    equilibria,
+    modal,
+)
 
 from .common import (
     COMMON_OPTIONS,
@@ -299,11 +311,16 @@ class NSIInputPerturbation(Identifier):
     def identify(self, record: Record, model: Model, *, mass: float | None = None) -> Estimate:
         """Every coefficient of ``model`` (and the mass unless given); structures: :mod:`nlid_nsi.structure`."""
         with blas_threads(self.settings["blas_threads"]):
-            if isinstance(record, StructureRecord):
-                from .structure import identify_structure_ip
-
-                return identify_structure_ip(self, record, model, mass)
             return self._identify(record, model, mass)
+
+    def identify_structure(
+        self, record: StructureRecord, elements: ElementSet, *, mass: np.ndarray | None = None
+    ) -> StructureEstimate:
+        """Every element and the linear system of a structure (:mod:`nlid_nsi.structure`)."""
+        from .structure import identify_structure_ip
+
+        with blas_threads(self.settings["blas_threads"]):
+            return identify_structure_ip(self, record, elements, mass)
 
     def _identify(self, record: Record, model: Model, mass: float | None) -> Estimate:
         from .basis import split_model

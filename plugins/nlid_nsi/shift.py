@@ -56,6 +56,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from nlid.plugin import (
+    ElementSet,
     Estimate,
     FigureArray,
     IdentificationError,
@@ -63,6 +64,7 @@ from nlid.plugin import (
     Model,
     Option,
     Record,
+    StructureEstimate,
     StructureRecord,
     equilibria,
 )
@@ -140,11 +142,16 @@ class NSIZeroShift(Identifier):
     def identify(self, record: Record, model: Model, *, mass: float | None = None) -> Estimate:
         """Every coefficient of ``model`` (and the mass unless given); structures: :mod:`nlid_nsi.structure_shift`."""
         with blas_threads(self.settings["blas_threads"]):
-            if isinstance(record, StructureRecord):
-                from .structure_shift import identify_structure_shift
-
-                return identify_structure_shift(self, record, model, mass)
             return self._identify(record, model, mass)
+
+    def identify_structure(
+        self, record: StructureRecord, elements: ElementSet, *, mass: np.ndarray | None = None
+    ) -> StructureEstimate:
+        """Every element and the linear system of a structure (:mod:`nlid_nsi.structure_shift`)."""
+        from .structure_shift import identify_structure_shift
+
+        with blas_threads(self.settings["blas_threads"]):
+            return identify_structure_shift(self, record, elements, mass)
 
     def _identify(self, record: Record, model: Model, mass: float | None) -> Estimate:
         from .basis import shifted_basis, split_model

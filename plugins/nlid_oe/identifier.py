@@ -55,6 +55,7 @@ import numpy as np
 from nlid.plugin import (
     FREE_RUN_OVERSAMPLE,
     DataError,
+    ElementSet,
     Estimate,
     IdentificationError,
     Identifier,
@@ -63,6 +64,7 @@ from nlid.plugin import (
     Option,
     Record,
     SimulationError,
+    StructureEstimate,
     StructureRecord,
     choose_method,
     derivatives,
@@ -211,11 +213,6 @@ class OutputError(Identifier):
     # ------------------------------------------------------------------ identify
     def identify(self, record: Record, model: Model, *, mass: float | None = None) -> Estimate:
         """Fit the free run (module docstring) and return the coefficients keyed by the (refined) model."""
-        if isinstance(record, StructureRecord):
-            from .structure import identify_structure
-
-            return identify_structure(self, record, model, mass)
-
         clock = time.perf_counter()
         if record.n < MIN_SAMPLES:
             raise DataError(f"oe: the record has {record.n} samples; at least {MIN_SAMPLES} are needed")
@@ -232,6 +229,14 @@ class OutputError(Identifier):
         estimate.diagnostics["threads"] = threads
         estimate.diagnostics["seconds"] = time.perf_counter() - clock
         return estimate
+
+    def identify_structure(
+        self, record: StructureRecord, elements: ElementSet, *, mass: np.ndarray | None = None
+    ) -> StructureEstimate:
+        """Fit every DOF's free run of a structure (:mod:`nlid_oe.structure`)."""
+        from .structure import identify_structure
+
+        return identify_structure(self, record, elements, mass)
 
     def _fit(
         self,

@@ -83,14 +83,16 @@ class RestoringForceSurface(Identifier):
     advice_order = 10
     docs = "docs/rfs.md"
 
-    def identify(
-        self, record: Record | StructureRecord, model: Model | ElementSet, *, mass: float | None = None
-    ) -> Estimate | StructureEstimate:
-        """Estimate the coefficients (and the mass if not given) by least squares."""
-        if isinstance(record, StructureRecord):
-            from .structure import identify_structure
+    def identify_structure(
+        self, record: StructureRecord, elements: ElementSet, *, mass: np.ndarray | None = None
+    ) -> StructureEstimate:
+        """Estimate a structure's elements and linear system by one joint least squares (:mod:`nlid_rfs.structure`)."""
+        from .structure import identify_structure
 
-            return identify_structure(record, model, mass, self.settings)
+        return identify_structure(record, elements, mass, self.settings)
+
+    def identify(self, record: Record, model: Model, *, mass: float | None = None) -> Estimate:
+        """Estimate the coefficients (and the mass if not given) by least squares."""
         data = regression_data(record, model, cutoff=self.settings["cutoff"])
         q = self.settings["decimate"]
         G = data.G[::q]

@@ -56,6 +56,7 @@ import numpy as np
 
 from nlid.plugin import (
     EDGE_PERIODS,
+    ElementSet,
     Estimate,
     IdentificationError,
     Identifier,
@@ -63,6 +64,7 @@ from nlid.plugin import (
     NlidError,
     Option,
     Record,
+    StructureEstimate,
     StructureRecord,
     collinearity_warnings,
     column_scale,
@@ -294,16 +296,20 @@ class SparseIdentification(Identifier):
     advice_order = 20
     docs = "docs/sindy.md"
 
+    def identify_structure(
+        self, record: StructureRecord, elements: ElementSet, *, mass: np.ndarray | None = None
+    ) -> StructureEstimate:
+        """Fit every DOF's sparse equation of a structure (:mod:`nlid_sindy.structure`)."""
+        from .structure import identify_structure
+
+        return identify_structure(record, elements, mass, self.settings)
+
     def identify(self, record: Record, model: Model, *, mass: float | None = None) -> Estimate:
         """Fit the sparse model and map its ``v'`` equation to the coefficients of ``R``."""
         from .library import auto_candidates
         from .threshold import choose_threshold
 
         s = self.settings
-        if isinstance(record, StructureRecord):
-            from .structure import identify_structure
-
-            return identify_structure(record, model, mass, s)
         library_model = model
         if s["library"] == "automatic":
             library_model = model.with_terms(add=[t for t in auto_candidates(s["degree"]) if t not in model])
