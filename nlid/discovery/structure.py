@@ -40,7 +40,6 @@ from __future__ import annotations
 import math
 import time
 from collections.abc import Callable, Iterable, Mapping, Sequence
-from dataclasses import replace
 from typing import Any
 
 import numpy as np
@@ -51,9 +50,10 @@ from ..errors import InputError, NlidError
 from ..estimation.joint import Extra
 from ..estimation.structure_balance import residual_on
 from ..model.terms import Term
-from .evidence import PARSIMONY, AcceptanceRule, acceptance_rule, integrated_time
+from .evidence import AcceptanceRule, acceptance_rule, integrated_time
 from .library import Candidate, Variant, dissipative, resolve_candidates
 from .probes import MIN_STRUCTURE, PLAY_WIDTHS
+from .structure_accept import confirmed, free_run_error, rank, rms
 from .structure_fit import (
     Part,
     Search,
@@ -88,13 +88,6 @@ DEFAULT_TEST = 0.2
 DEFAULT_HOLDOUT = 0.25
 #: Most elements added by one run.
 DEFAULT_MAX_STEPS = 3
-#: Share of what the best remaining-structure probe on a connection explains that a candidate below the
-#: rule's ``min_explained`` must explain to pass (:func:`_rank`): the candidate then holds the structure the
-#: flexible functions find there, and what it does not explain is noise.
-CAPTURE = 0.8
-#: Smallest relative drop of the held-out free-run error that confirms a candidate accepted below
-#: ``min_explained`` (the one-DOF prediction rule's default gain, :class:`~nlid.discovery.crossfit.PredictionRule`).
-MIN_FREERUN_GAIN = 0.01
 #: Remaining-structure probes on each connection, in report order.
 STRUCTURE_PROBES = ("z", "v", "memory")
 
@@ -134,10 +127,6 @@ def _probe_columns(probe: str, x: np.ndarray, xd: np.ndarray, scale: tuple[float
         play_loop(np.ascontiguousarray(x), float(width * std), out)
         cols.append(out / std)
     return np.column_stack(cols)
-
-
-def _rms(x: np.ndarray) -> np.ndarray:
-    return np.sqrt(np.mean(np.asarray(x) ** 2, axis=0))
 
 
 def discover_structure(
@@ -291,12 +280,12 @@ def discover_structure(
     for number in range(1, int(max_steps) + 1):
         say(f"step {number}: testing {len(pool)} candidates on {len(conns)} connections")
         tested = _round(search, current, conns, pool, Element)
-        ranking, accepted = _rank(tested, rule)
+        ranking, accepted = rank(tested, rule)
         if accepted is None:  # a noisy record: does a candidate capture the structure its connection's probes find?
             probes = remaining_declared if number == 1 else _probes(search, conns, structure)
-            ranking, accepted = _rank(tested, rule, probes)
+            ranking, accepted = rank(tested, rule, probes)
             if accepted is not None:  # ... and does the held-out free run confirm it?
-                ranking, accepted = _confirmed(ranking, accepted, parts["estimation"].data, held, current, M, Element)
+                ranking, accepted = confirmed(ranking, accepted, parts["estimation"].data, held, current, M, Element)
         if accepted is None:
             best = next((e for e in ranking if e.explained is not None), None)
             stop = "no candidate passes the acceptance rule" + (
@@ -390,33 +379,8 @@ def _stage(model, label: str, test_record, test_data, parts, simulate: bool) -> 
     nan = tuple([float("nan")] * n)
     run_rms, run_pct, note = nan, nan, "not computed"
     if simulate:
-        run_rms, run_pct, note = _free_run(model, test_record)
+        run_rms, run_pct, note = free_run_error(model, test_record)
     return StructureStage(label, model, eps(test_data), in_sample, run_rms, run_pct, note)
-
-
-def _free_run(model, record) -> tuple[tuple[float, ...], tuple[float, ...], str]:
-    from ..simulation import SimulationError
-    from ..simulation.structure import free_run
-
-    n = model.n_dofs
-    nan = tuple([float("nan")] * n)
-    full = record if record.v is not None else record.with_derivatives()
-    x0 = (record.z[0], full.v[0])
-    try:
-        z, _, _ = free_run(model, record.f, record.fs, force_hold=record.force_hold, x0=x0)
-    except SimulationError as exc:
-        return nan, nan, f"diverged: {exc}"
-    if not np.all(np.isfinite(z)):
-        return nan, nan, "diverged"
-    err = _rms(z - record.z)
-    std = np.std(record.z, axis=0)
-    pct = tuple(float(100 * e / s) if s > 0 else float("nan") for e, s in zip(err, std, strict=True))
-    return (
-        tuple(float(x) for x in err),
-        pct,
-        f"from the test part's first sample (measured state), force as recorded ({record.force_hold}), "
-        f"{record.n} samples scored",
-    )
 
 
 def _round(search: Search, current, conns, pool: Sequence[Candidate], Element) -> list[ConnectionEvidence]:
@@ -431,13 +395,13 @@ def _round(search: Search, current, conns, pool: Sequence[Candidate], Element) -
     for c in conns:
         touched = [c[0] - 1] + ([c[1] - 1] if c[1] else [])
         x_e, xd_e = relative(est.data, c)
-        rms = {"z": float(np.std(x_e)) or 1e-12, "v": float(_rms(xd_e)) or 1e-12}
+        scales = {"z": float(np.std(x_e)) or 1e-12, "v": float(rms(xd_e)) or 1e-12}
         on_conn = frozenset(e.term for e in current if e.connection == c)  # what variants() leaves out
         for cand in pool:
             if cand.uses_px:
                 out.append(ConnectionEvidence(cand.name, c, reason="px needs a stiffness law on the connection"))
                 continue
-            variants = [v for v in cand.variants(on_conn, rms) if not any(_linear_or_constant(t) for t in v.terms)]
+            variants = [v for v in cand.variants(on_conn, scales) if not any(_linear_or_constant(t) for t in v.terms)]
             if not variants:
                 why = "its terms are in the underlying linear system or the static force, or already in the model"
                 out.append(ConnectionEvidence(cand.name, c, reason=why))
@@ -522,79 +486,6 @@ def _evidence(search: Search, cand: Candidate, found: dict, c, base, base_in, n_
         status=status,
         reason=reason,
         terms=tuple(variant.terms),
-    )
-
-
-def _rank(
-    tested: list[ConnectionEvidence], rule: AcceptanceRule, probes: StructureRemaining | None = None
-) -> tuple[tuple[ConnectionEvidence, ...], Any]:
-    """The candidates best first, and the one accepted (``None``: none passes).
-
-    With ``probes`` (the remaining-structure probes on the current model), a candidate below the rule's
-    ``min_explained`` passes too when the residual of its DOFs is mostly noise but holds structure: its
-    connection's probes find at least their threshold predictable (:data:`~nlid.discovery.probes.MIN_STRUCTURE`,
-    measured against noise), the candidate explains at least :data:`CAPTURE` of what the best of them explains
-    and at least that threshold itself, and its dBIC passes the rule.
-    """
-    fitted = sorted((e for e in tested if e.explained is not None), key=lambda e: -float(e.explained))
-    rest = [e for e in tested if e.explained is None]
-    if probes is not None:
-        fitted = [_captures(e, probes, rule) for e in fitted]
-    passing = [e for e in fitted if e.status == "passes"]
-    if not passing:
-        return tuple(fitted + rest), None
-    top = float(passing[0].explained)
-    close = [e for e in passing if float(e.explained) >= top - PARSIMONY]
-    chosen = min(close, key=lambda e: (e.parameters, -float(e.explained)))
-    accepted = replace(chosen, status="accepted")
-    ranked = tuple(accepted if e is chosen else e for e in fitted) + tuple(rest)
-    return ranked, accepted
-
-
-def _confirmed(ranking, accepted, data, held, current, M, Element) -> tuple[tuple[ConnectionEvidence, ...], Any]:
-    """A candidate accepted below ``min_explained`` (:func:`_captures`) kept only when the free run of the held-out
-    part, by the models fitted on the estimation part, improves by at least :data:`MIN_FREERUN_GAIN` with it;
-    otherwise it is marked ``not confirmed`` and nothing is accepted."""
-    from ..estimation.joint import joint_least_squares
-    from ..model.elements import ElementSet
-
-    added = [Element(t, *accepted.connection) for t in accepted.terms]
-    new = ElementSet((*current.elements, *added), current.n_dofs, current.static, current.px_roots)
-
-    def error(elements) -> float:
-        fit = joint_least_squares(data.with_elements(elements), elements, M, context="discover: ")
-        return float(np.mean(_free_run(fit.model(elements, M), held)[1]))
-
-    before, after = error(current), error(new)
-    gain = 1.0 - after / before if math.isfinite(before) and before > 0 else float("nan")
-    if math.isfinite(gain) and gain >= MIN_FREERUN_GAIN:
-        kept = replace(accepted, reason=f"{accepted.reason}; held-out free run {before:.3g} -> {after:.3g} % of std(z)")
-        return tuple(kept if e is accepted else e for e in ranking), kept
-    refused = replace(
-        accepted,
-        status="not confirmed",
-        reason=f"{accepted.reason}; but the held-out free run does not improve by {100 * MIN_FREERUN_GAIN:g} % with it "
-        f"({before:.3g} -> {after:.3g} % of std(z))",
-    )
-    return tuple(refused if e is accepted else e for e in ranking), None
-
-
-def _captures(e: ConnectionEvidence, probes: StructureRemaining, rule: AcceptanceRule) -> ConnectionEvidence:
-    """``e`` marked as passing when it captures its connection's remaining structure (:func:`_rank`)."""
-    if e.status != "below threshold" or e.delta_bic is None or e.delta_bic > rule.max_delta_bic:
-        return e
-    found = max((p.explained for p in probes.probes if p.connection == e.connection), default=0.0)
-    explained = float(e.explained or 0.0)
-    if found < probes.threshold or explained < max(probes.threshold, CAPTURE * found):
-        return e
-    return replace(
-        e,
-        status="passes",
-        reason=(
-            f"explains {100 * explained:.3g} % < {100 * rule.min_explained:g} % of a residual mostly noise, but "
-            f"{100 * explained / found:.3g} % of the {100 * found:.3g} % its connection's probes find predictable; "
-            f"dBIC {e.delta_bic:.3g}"
-        ),
     )
 
 

@@ -50,6 +50,11 @@ __all__ = ["IdentifiedStructure", "SCHEMA"]
 
 #: Identifies the JSON layout of :meth:`IdentifiedStructure.to_dict`.
 SCHEMA = "nlid.IdentifiedStructure/1"
+#: The warning of a structure whose stored figures did not match its coefficients (they are recomputed).
+STALE_NOTE = (
+    "the coefficients and matrices do not give the stored equilibria and modes (edited after the fit?): both "
+    "recomputed, and the residuals of the original fit dropped (fit.residual(record) computes them)"
+)
 
 
 @dataclass(frozen=True, eq=False)
@@ -360,6 +365,9 @@ class IdentifiedStructure:
     def from_dict(cls, data: Mapping[str, Any]) -> IdentifiedStructure:
         """Rebuild an identified structure from :meth:`to_dict`.
 
+        Stored equilibria and modes that its coefficients and matrices no longer give (edited in the JSON) are
+        recomputed, as :meth:`nlid.IdentifiedModel.from_dict` does (:func:`_fresh`).
+
         Raises
         ------
         InputError
@@ -374,7 +382,7 @@ class IdentifiedStructure:
             raise InputError("an identified structure needs 'structure'")
         check_structure(data)  # every field against the layout's schema (nlid.identified.fileformat)
         eq = data.get("equilibria")
-        return cls(
+        fit = cls(
             structure=StructuralModel.from_dict(data["structure"]),
             method=str(data.get("method", "")),
             mass_estimated=bool(data.get("mass_estimated", False)),
@@ -392,6 +400,7 @@ class IdentifiedStructure:
             provenance=data.get("provenance") or {},
             flags=tuple(data.get("flags") or ()),
         )
+        return _fresh(fit)
 
     def to_frame(self) -> pd.DataFrame:
         """One row per element (the index): ``connection``, ``coefficient``, ``std_error``, ``unit``, ``family``."""
@@ -485,3 +494,61 @@ class IdentifiedStructure:
         from .structure_plots import plot_frf
 
         return plot_frf(self.structure, ax=ax, at=at, frequency_hz=frequency_hz)
+
+
+def _fresh(fit: IdentifiedStructure) -> IdentifiedStructure:
+    """``fit``, or when its stored equilibria or modes are not what its coefficients and matrices give (edited in
+    the JSON), the same structure with them recomputed, its residuals on the original record dropped and a warning
+    (:data:`STALE_NOTE`): the one-DOF rule (:func:`nlid.identified.schema.model_from_dict`).
+
+    Modes a method measured itself (``source`` set) are not compared; they are replaced when the equilibria or the
+    computed modes show an edit. A structure without the data range, or whose figures cannot be recomputed, is
+    returned as it is.
+    """
+    from .schema import STALE_RTOL
+
+    if fit.z_range is None or fit.equilibria is None:
+        return fit
+    structure = fit.structure
+    try:
+        with numerics.collect_warnings():  # a figure that cannot be recomputed quietly leaves the structure as stored
+            eq = structure.equilibria(fit.z_range)
+            modes = structure.modes(points=eq.stable)
+            linear = linear_modes(structure.M, structure.C, structure.K, [0.0] * structure.n_dofs)
+    except (NlidError, np.linalg.LinAlgError, ValueError, FloatingPointError):
+        return fit
+
+    def close(a: Any, b: Any) -> bool:
+        a, b = np.asarray(a, dtype=float), np.asarray(b, dtype=float)
+        if a.shape != b.shape:
+            return False
+        both = np.isfinite(a) & np.isfinite(b)
+        if not np.array_equal(both, np.isfinite(a)) or not np.array_equal(both, np.isfinite(b)):
+            return False
+        return bool(np.all(np.abs(a - b) <= STALE_RTOL * np.maximum(np.maximum(np.abs(a), np.abs(b)), 1e-300)))
+
+    def same_modes(stored: Sequence[StructureModes], computed: Sequence[StructureModes]) -> bool:
+        return len(stored) == len(computed) and all(
+            close(a.equilibrium, b.equilibrium) and close(a.fn_hz, b.fn_hz) and close(a.zeta, b.zeta)
+            for a, b in zip(stored, computed, strict=True)
+        )
+
+    stored = fit.equilibria
+    same = len(stored.stable) == len(eq.stable) and len(stored.unstable) == len(eq.unstable)
+    same = same and all(close(a, b) for a, b in zip(stored.all, eq.all, strict=True))
+    derived = [m for m in fit.modes if not m.source]
+    if same and derived:
+        same = same_modes(derived, modes)
+    if same and fit.linear_modes is not None and not fit.linear_modes.source:
+        same = same_modes([fit.linear_modes], [linear])
+    if same:
+        return fit
+    return dataclasses.replace(
+        fit,
+        equilibria=eq,
+        modes=modes,
+        linear_modes=linear,
+        eps_percent=None,
+        force_residual_percent=None,
+        warnings=(*fit.warnings, STALE_NOTE),
+    )

@@ -121,3 +121,47 @@ def test_the_damping_title_fits_one_slice():
     for bands in ([band], [band, band, band]):
         fig = damping_figure(bands, band_hz=41.0)
         assert _title_inside(fig)
+
+
+def _orange_vlines(ax) -> list[float]:
+    return [
+        float(line.get_xdata()[0])
+        for line in ax.get_lines()
+        if to_rgba(line.get_color()) == to_rgba("tab:orange") and list(line.get_ydata()) == [0, 1]
+    ]
+
+
+@pytest.mark.parametrize("far", [1e3, -1e3])
+def test_an_estimate_far_off_the_axes_is_drawn_at_the_edge_with_its_value(far):
+    """Issue 35: Silverbox's estimate was 2 700 sd from the posterior; it is shown pointing out of the axes."""
+    rng = np.random.default_rng(4)
+    names = ("v", "z")
+    fake = SimpleNamespace(samples=rng.normal(size=(2000, 2)), names=names, start={"v": far, "z": 0.5}, reference={})
+    fig = corner_figure(fake)
+    FigureCanvasAgg(fig).draw()
+    axes = np.asarray(fig.axes).reshape(2, 2)
+    lo, hi = axes[0, 0].get_xlim()
+    assert hi - lo < 20  # the posterior keeps its axis: the estimate did not stretch it
+    arrows = [t for t in axes[0, 0].texts if t.get_gid() == "estimate-off"]
+    assert len(arrows) == 1 and f"{far:.4g}" in arrows[0].get_text()
+    assert arrows[0].xy[0] == pytest.approx(hi if far > 0 else lo)  # the arrow's head is on the edge it points past
+    assert _inside(fig, arrows[0])
+    assert _orange_vlines(axes[0, 0]) == []  # no line at a position the axes do not show
+    # below the diagonal: a triangle on the edge pointing out, at the other coordinate's value
+    (mark,) = [line for line in axes[1, 0].get_lines() if line.get_gid() == "estimate-off"]
+    assert mark.get_marker() == (">" if far > 0 else "<")
+    assert float(mark.get_xdata()[0]) == pytest.approx(hi if far > 0 else lo)
+    assert float(mark.get_ydata()[0]) == pytest.approx(0.5)
+    assert "off the axes" in " ".join(fig.get_suptitle().split())
+    # the estimate of z is in view as before
+    assert _orange_vlines(axes[1, 1]) == [pytest.approx(0.5)]
+
+
+def test_an_estimate_just_outside_the_posterior_is_brought_into_view():
+    rng = np.random.default_rng(5)
+    fake = SimpleNamespace(samples=rng.normal(size=(2000, 1)), names=("v",), start={"v": 6.0}, reference={})
+    fig = corner_figure(fake)
+    ax = fig.axes[0]
+    lo, hi = ax.get_xlim()
+    assert lo < 6.0 < hi and _orange_vlines(ax) == [pytest.approx(6.0)]
+    assert not [t for t in ax.texts if t.get_gid() == "estimate-off"] and "off the" not in fig.get_suptitle()

@@ -109,3 +109,18 @@ def test_bias_correction_is_the_identity_without_noise_or_filtering(exact_record
     corr = simulate_bias(exact_record, model, theta, numerical.mass, data, pairs=1, noise={"z": 0.0, "v": 0.0})
     np.testing.assert_allclose(corr.binding, np.eye(len(model)), atol=1e-8)
     np.testing.assert_allclose(corr.correct(theta), theta, rtol=1e-8)
+
+
+@pytest.mark.parametrize("n", [17, 1000, 4096, 6001])
+def test_integrated_times_are_emcees(n):
+    """The posterior's own autocorrelation times (real FFTs) are emcee's estimator, to rounding (issue 36)."""
+    import emcee
+
+    from nlid.bayes.likelihood import integrated_times
+
+    rng = np.random.default_rng(n)
+    x = rng.standard_normal((n + 4, 3))
+    x = (x[4:] + x[3:-1] + x[2:-2] + x[1:-3] + x[:-4]) / 5  # correlated over a few samples
+    x[:, 2] = np.cumsum(x[:, 2]) / np.sqrt(n)  # and one that wanders
+    expected = emcee.autocorr.integrated_time(x, has_walkers=False, tol=0, quiet=True)
+    assert integrated_times(x) == pytest.approx(expected, rel=1e-12)

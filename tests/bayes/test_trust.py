@@ -16,31 +16,39 @@ from nlid.model.terms import Model
 from nlid.simulation import free_run
 
 #: A Silverbox-like oscillator (its identified cubic model, in its own units): 9 samples per period of its
-#: resonance, where the correction's simulation (one integration step per sample) is not the record's.
+#: resonance.
 SILVERBOX_LIKE = {"1": 0.0, "z": 0.989, "z^3": 3.86, "v": 0.000226}
 MASS = 5.36e-6
 FS = 610.35
+#: The record's noise on z is 0.1 % of its sd; the noise model the tests declare is 200 times that (a wrong
+#: noise model: the correction then moves v by about 60 sd).
+DECLARED_NOISE = 0.2
 
 
 @pytest.fixture(scope="module")
 def silverbox_like():
-    """10 s of the oscillator driven by a white force, integrated finely (8 sub-steps), 0.1 % noise on z."""
+    """39 s of the oscillator driven by a white force, integrated finely (8 sub-steps), 0.1 % noise on z."""
     rng = np.random.default_rng(0)
-    f = 0.022 * rng.standard_normal(6000)
+    f = 0.022 * rng.standard_normal(24000)
     z, _, _ = free_run(Model.from_spec("z^3"), SILVERBOX_LIKE, MASS, f, FS, force_hold="sampled")
     z = z + 1e-3 * np.std(z) * rng.standard_normal(z.size)
     return nlid.Record(f=f, z=z, fs=FS)
 
 
+def wrong_noise(record: nlid.Record) -> float:
+    """The noise level on z the tests declare: far above the record's own."""
+    return DECLARED_NOISE * float(np.std(record.z))
+
+
 def test_a_correction_beyond_the_bound_is_flagged_and_checked_by_simulation(silverbox_like):
     fit = nlid.identify(silverbox_like, "z^3", "rfs", mass=MASS)
     assert fit.flags == ()  # the identification itself is sound
-    post = PosteriorSampler("damping", seed=0).run(silverbox_like, fit)
+    post = PosteriorSampler("damping", seed=0, noise={"z": wrong_noise(silverbox_like)}).run(silverbox_like, fit)
     shifts = post.likelihood.info["bias_shift_sd"]
     assert max(abs(s) for s in shifts.values()) > CORRECTION_BOUND_SD
     assert [f.code for f in post.flags] == ["correction-beyond-bound"]
     flag = post.flags[0]
-    # the record was integrated finely: the least-squares model simulates it better than the corrected one
+    # the declared noise is wrong: the least-squares model simulates the record better than the corrected one
     assert "the uncorrected (least-squares) model simulates better" in flag.message
     assert "NOT TRUSTED: correction-beyond-bound" in repr(post)
     assert "NOT TRUSTED" in post.format_table()
@@ -52,7 +60,8 @@ def test_a_correction_beyond_the_bound_is_flagged_and_checked_by_simulation(silv
 def test_the_cli_exits_1_with_one_line(silverbox_like, tmp_path, capfd):
     path = tmp_path / "sb.csv"
     pd.DataFrame({"t": silverbox_like.t, "f": silverbox_like.f, "z": silverbox_like.z}).to_csv(path, index=False)
-    status = main(["posterior", str(path), "--terms", "z^3", "--mass", str(MASS), "--quiet"])
+    noise = f"z={wrong_noise(silverbox_like)!r}"
+    status = main(["posterior", str(path), "--terms", "z^3", "--mass", str(MASS), "--noise-level", noise, "--quiet"])
     err = capfd.readouterr().err.strip().splitlines()
     assert status == 1 and len(err) == 1
     assert err[0].startswith("nlid posterior: error: the result cannot be trusted: the errors-in-variables correction")

@@ -159,13 +159,13 @@ def test_a_candidate_below_the_threshold_passes_only_when_it_captures_its_connec
     explained, found, dbic, passes
 ):
     from nlid.discovery.evidence import AcceptanceRule
-    from nlid.discovery.structure import _rank
+    from nlid.discovery.structure_accept import rank
 
-    ranked, accepted = _rank([_evidence(explained, dbic)], AcceptanceRule(), _probes(found))
+    ranked, accepted = rank([_evidence(explained, dbic)], AcceptanceRule(), _probes(found))
     assert (accepted is not None) is passes
     if passes:
         assert "its connection's probes find predictable" in accepted.reason
-    assert _rank([_evidence(explained, dbic)], AcceptanceRule())[1] is None  # without probes: the plain rule
+    assert rank([_evidence(explained, dbic)], AcceptanceRule())[1] is None  # without probes: the plain rule
 
 
 @pytest.fixture(scope="module")
@@ -194,13 +194,13 @@ def test_a_noisy_record_still_names_the_friction_when_it_is_all_the_structure_le
 
 
 def test_below_the_threshold_a_candidate_the_free_run_does_not_confirm_is_not_accepted(noisy_record, monkeypatch):
-    import nlid.discovery.structure as structure
+    import nlid.discovery.structure_accept as accept
 
     def flat(model, record):  # every model predicts the held-out part equally well
         n = model.n_dofs
         return (1.0,) * n, (5.0,) * n, "flat"
 
-    monkeypatch.setattr(structure, "_free_run", flat)
+    monkeypatch.setattr(accept, "free_run_error", flat)
     found = _discover_noisy(noisy_record)
     assert found.steps == ()
     refused = [e for e in found.ranking if e.status == "not confirmed"]
