@@ -24,7 +24,9 @@ The toolkit has four axes, which identifiers compose rather than re-implement:
 * **the force balance and derivatives**: :func:`regression_data` (the
   filtered design matrix of Eq. 25, shared by every method) and its default
   band :func:`suggested_cutoff` (computed once per record),
-  :mod:`derivatives` (the zero-phase differentiating filter), the least-squares
+  :mod:`derivatives` (the zero-phase differentiating filter), how a channel was obtained as plain data
+  (:class:`ChannelSource`, reported under the diagnostics key :data:`CHANNEL_SOURCES` with
+  :func:`source_entries`; ``RegressionData.sources``), the least-squares
   helpers of :mod:`nlid.estimation.regression`;
 * **physics and simulation**: equilibria and modal parameters
   (:func:`equilibria`, :func:`modal`, :func:`stiffness_roots`), the simulator
@@ -81,6 +83,7 @@ from .model.terms import Model, Term, parse_term
 from .runtime.parallel import kernel_threads
 from .runtime.progress import ProgressLine, progress_line
 from .signal import derivatives
+from .signal.channelsource import CHANNEL_SOURCES, ChannelSource, source_entries
 
 if TYPE_CHECKING:  # loaded on first use by __getattr__ below (the simulator compiles with numba)
     from .contract.methods import choose_method
@@ -134,6 +137,9 @@ __all__ = [
     "EDGE_PERIODS",
     "REGRESSOR_BAND_FACTOR",
     "derivatives",
+    "ChannelSource",
+    "CHANNEL_SOURCES",
+    "source_entries",
     "least_squares",
     "collinearity_warnings",
     "nonsmooth_warnings",

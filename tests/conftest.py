@@ -19,7 +19,6 @@ ROOT = Path(__file__).resolve().parents[1]
 DEFAULT_DATA = (ROOT / ".." / "shared" / "data").resolve()
 
 
-
 @pytest.hookimpl(tryfirst=True)
 def pytest_cmdline_main(config: pytest.Config) -> None:
     """``-n auto`` for the whole suite when pytest-xdist is installed and ``-n`` was not given."""
@@ -83,3 +82,29 @@ def rfs_oe_registry():
         return load_registry(pm)
 
     return make
+
+
+# Structure records simulated once per session (short, so the suite stays fast): the structures' tests in
+# tests/dataio, tests/plugins and tests/study use them.
+@pytest.fixture(scope="session")
+def chain():
+    """The 3dof-cubic preset, 8 s."""
+    return get_preset("3dof-cubic").with_overrides(duration=8.0)
+
+
+@pytest.fixture(scope="session")
+def chain_record(chain):
+    """3dof-cubic, seed 0, noise-free, exact v and a."""
+    return chain.simulate(0)
+
+
+@pytest.fixture(scope="session")
+def well():
+    """The 2dof-double-well preset, 8 s."""
+    return get_preset("2dof-double-well").with_overrides(duration=8.0)
+
+
+@pytest.fixture(scope="session")
+def well_record(well):
+    """2dof-double-well, seed 0, noise-free, exact v and a."""
+    return well.simulate(0)

@@ -792,3 +792,85 @@ def test_the_private_rule_catches_an_import_by_name(tmp_path):
         },
     )
     assert private_imports_by_name(root) == ["nlid/study/run.py:2: nlid.base._kernels"]
+
+
+# ---------------------------------------------------------------------------- the tests mirror the package tree
+#: The test modules at the root of ``tests/``: the suites named by concern, which test the project as a whole.
+#: Every other test module sits in the folder of the package it tests (``tests/<package>/``).
+CONCERN_SUITES = {
+    "test_pins.py": "the numbers pinned before issue 12 (CI and a hook run the pins by path)",
+    "test_pins_spine.py": "the numbers pinned before issue 22",
+    "test_pinning.py": "the pins' comparison with measured tolerances (tests/pinning.py)",
+    "test_codebase.py": "the rules on the code base (this module)",
+    "test_docs.py": "the documentation against the code",
+    "test_docs_edges.py": "the documentation's edge cases",
+    "test_readme.py": "README's commands and numbers",
+    "test_howto.py": "docs/howto.md's code blocks",
+    "test_examples.py": "the scripts in examples/",
+    "test_packaging.py": "the built distribution",
+    "test_hostile.py": "hostile input at the command line (issue 18)",
+    "test_hostile_round2.py": "hostile input, second round",
+    "test_hostile_round3.py": "hostile input, third round",
+    "test_properties.py": "hostile input, property-based (hypothesis) over every reader of user input (issue 18)",
+    "test_reliability.py": "hostile input through the Python API, every package (issue 18)",
+}
+#: Test folders not named after the package of ``nlid/`` they test, and what they hold.
+TEST_FOLDERS = {
+    "plugins": "the identifiers of plugins/",
+    "bench": "nlid/benchmarking/ (nlid bench)",
+    "dataio": "nlid/data/ (tests/data/ holds the pin files)",
+    "data": "the pin files, no test module",
+}
+
+
+def misplaced_tests(root: Path, concern: dict[str, str] = CONCERN_SUITES) -> list[str]:
+    """Test modules that break the mirror of the package tree, each with what to do.
+
+    A root-level ``tests/test_*.py`` that is not a named concern suite; a test folder named after no package
+    of ``nlid/`` (and not in :data:`TEST_FOLDERS`); a test module in ``tests/data/``; two test modules with
+    the same name (the test folders have no ``__init__.py``, so pytest needs every basename unique).
+    """
+    tests, out = root / "tests", []
+    for path in sorted(tests.glob("test_*.py")):
+        if path.name not in concern:
+            out.append(f"tests/{path.name}: move it to tests/<package>/, or name it in CONCERN_SUITES with its concern")
+    seen: dict[str, Path] = {}
+    for path in sorted(tests.rglob("test_*.py")):
+        rel = path.relative_to(tests)
+        if any(part.startswith((".", "_")) for part in rel.parts):
+            continue
+        if path.name in seen:
+            out.append(f"tests/{rel}: the same name as tests/{seen[path.name].relative_to(tests)}")
+        seen.setdefault(path.name, path)
+        folder = rel.parts[0] if len(rel.parts) > 1 else None
+        if folder == "data" or (folder and folder not in TEST_FOLDERS and not (root / "nlid" / folder).is_dir()):
+            out.append(f"tests/{rel}: tests/{folder}/ is named after no package of nlid/")
+    return out
+
+
+def test_the_tests_mirror_the_package_tree():
+    assert not misplaced_tests(ROOT), "\n".join(misplaced_tests(ROOT))
+    assert all((ROOT / "tests" / name).is_file() for name in CONCERN_SUITES), "a concern suite is gone"
+
+
+def test_the_mirror_rule_catches_a_root_module_a_stray_folder_and_a_twin(tmp_path):
+    root = _tree(
+        tmp_path,
+        {
+            **CLEAN,
+            "nlid/model/__init__.py": "",
+            "tests/test_codebase.py": "",
+            "tests/test_new.py": "",
+            "tests/model/test_terms.py": "",
+            "tests/dataio/test_record.py": "",
+            "tests/stuff/test_terms.py": "",
+            "tests/data/test_pins_data.py": "",
+        },
+    )
+    assert misplaced_tests(root) == [
+        "tests/test_new.py: move it to tests/<package>/, or name it in CONCERN_SUITES with its concern",
+        "tests/data/test_pins_data.py: tests/data/ is named after no package of nlid/",
+        "tests/stuff/test_terms.py: the same name as tests/model/test_terms.py",
+        "tests/stuff/test_terms.py: tests/stuff/ is named after no package of nlid/",
+    ]
+    assert misplaced_tests(root, {**CONCERN_SUITES, "test_new.py": "why"})[0].startswith("tests/data/")

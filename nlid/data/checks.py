@@ -21,6 +21,7 @@ import numpy as np
 
 from ..base.frozen import FrozenDict
 from ..errors import DataError, InputError
+from ..signal.channelsource import ChannelSource
 from .units import Unit, parse_units, unit_of
 
 __all__ = [
@@ -278,6 +279,11 @@ class TimeAxis:
     def source_of(self, channel: str) -> str:
         """How ``channel`` (``"v"``, a structure's ``"v2"``) was obtained ("measured" unless estimated)."""
         return self.provenance.get(channel, "measured")
+
+    def channel_source(self, channel: str) -> ChannelSource:
+        """:meth:`source_of` as a :class:`~nlid.signal.channelsource.ChannelSource`: measured or not, and its line."""
+        text = self.source_of(channel)
+        return ChannelSource.from_text(text, text.startswith("measured"))
 
     def replace(self, **changes: Any) -> Self:
         """A copy with some fields changed (validated again)."""

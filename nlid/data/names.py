@@ -1,7 +1,7 @@
 """The names of the measured benchmarks ``dataset:NAME[:PART]`` reads, and their parts (no numpy: the CLI's help).
 
 :mod:`nlid.data.datasets` loads them; this module only spells them, so that ``nlid --help`` lists every
-name without importing the loaders (``tests/data/test_dataset_names.py`` checks that the two agree).
+name without importing the loaders (``tests/cli/test_edges_help.py`` checks that the two agree).
 """
 
 from __future__ import annotations

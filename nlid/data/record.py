@@ -49,6 +49,7 @@ import numpy as np
 
 from ..errors import DataError, InputError
 from ..signal import derivatives
+from ..signal.channelsource import ChannelSource
 from .checks import CHANNELS, DEFAULT_UNITS, TimeAxis, checked_fields, merge_units, real_array, uniform_step
 from .columnmap import channel_arrays, column_units, dataset_table, frame_table
 from .digest import record_sha256
@@ -451,14 +452,14 @@ class Record(TimeAxis):
         if velocity and (self.v is None or overwrite):
             v, used = derivatives.differentiate(self.z, self.fs, order=1, cutoff=cutoff)
             changes["v"] = v
-            prov["v"] = f"estimated from z: {used.describe()}"
+            prov["v"] = ChannelSource.differentiated(used, "z").text
         if acceleration and (self.a is None or overwrite):
             if self.is_measured("v") and not overwrite:
                 a, used = derivatives.differentiate(self.v, self.fs, order=1, cutoff=cutoff)
-                prov["a"] = f"estimated from v: {used.describe()}"
+                prov["a"] = ChannelSource.differentiated(used, "v").text
             else:
                 a, used = derivatives.differentiate(self.z, self.fs, order=2, cutoff=cutoff)
-                prov["a"] = f"estimated from z: {used.describe()}"
+                prov["a"] = ChannelSource.differentiated(used, "z").text
             changes["a"] = a
         if not changes:
             return self
@@ -473,7 +474,7 @@ class Record(TimeAxis):
             raise DataError("record has no acceleration channel to integrate")
         v, hp = derivatives.integrate(self.a, self.fs, highpass=highpass)
         prov = dict(self.provenance)
-        prov["v"] = f"integrated from a, zero-phase high-pass at {hp:.3g} Hz"
+        prov["v"] = ChannelSource.integrated(hp, "a").text
         return replace(self, v=v, provenance=prov)
 
     def without(self, *channels: str) -> Record:

@@ -23,6 +23,7 @@ from ..data.record import Record
 from ..errors import DataError
 from ..model.terms import Model
 from ..signal import derivatives
+from ..signal.channelsource import ChannelSource
 
 __all__ = [
     "RegressionData",
@@ -84,10 +85,13 @@ class RegressionData:
     filtered_at
         The equation band ``fc`` in Hz, or ``None``.
     provenance
-        Where each channel came from.
+        Where each channel came from (one line of text each).
     kept
         The slice of the record's samples that hold a settled force balance;
         the arrays are these samples (or every sample, with ``trim=False``).
+    sources
+        Where each channel came from as plain data (measured or estimated, by which filter, at which
+        cut-off: :class:`~nlid.signal.channelsource.ChannelSource`); its texts are :attr:`provenance`.
     """
 
     f: np.ndarray
@@ -98,6 +102,7 @@ class RegressionData:
     filtered_at: float | None
     provenance: dict[str, str]
     kept: slice = field(default_factory=lambda: slice(None))
+    sources: dict[str, ChannelSource] = field(default_factory=dict)
 
     def restoring_force(self, mass: float) -> np.ndarray:
         """``R_e = f - m a`` (Eq. 25)."""
@@ -264,11 +269,11 @@ def regression_data(
     check_cutoff(cutoff, record.fs)
     needs_v = model.uses_velocity
     estimated = not record.is_measured("a") or (needs_v and not record.is_measured("v"))
-    prov = {c: record.source_of(c) for c in record.channels}
+    sources = {c: record.channel_source(c) for c in record.channels}
     if not estimated:
         v = record.v if needs_v else None
         G = model.evaluate(record.z, v) if regressors else np.empty((record.n, 0))
-        return RegressionData(record.f, record.a, G, record.z, v, None, prov)
+        return RegressionData(record.f, record.a, G, record.z, v, None, _texts(sources), sources=sources)
     fs = record.fs
     cache = _record_cache(record)
     fc = suggested_cutoff(record) if cutoff is None else float(cutoff)
@@ -287,20 +292,27 @@ def regression_data(
             v, used = _cached(
                 cache, ("v~", wide), lambda: derivatives.differentiate(record.z, fs, order=1, cutoff=wide)
             )
-            prov["v"] = f"estimated from z: {used.describe()}"
+            sources["v"] = ChannelSource.differentiated(used, "z")
     G = _columns(cache, model, z, v, fs, fc, wide) if regressors else np.empty((record.n, 0))
     if record.is_measured("a"):
         a = _cached(cache, ("a", fc), lambda: derivatives.lowpass(record.a, fs, fc))
         f = _cached(cache, ("f", fc), lambda: derivatives.lowpass(record.f, fs, fc))
     else:
         a, used = _cached(cache, ("a~", fc), lambda: derivatives.differentiate(record.z, fs, order=2, cutoff=fc))
-        prov["a"] = f"estimated from z: {used.describe()}"
+        sources["a"] = ChannelSource.differentiated(used, "z")
         # the acceleration of the motion feels a held force half a sample late
         if record.force_hold == "zoh":
             f = _cached(cache, ("f-zoh", fc), lambda: derivatives.zoh_equivalent(record.f, fs, fc))
         else:
             f = _cached(cache, ("f", fc), lambda: derivatives.lowpass(record.f, fs, fc))
     keep = settled_samples(record.n, fs, fc, len(model))
+    prov = _texts(sources)
     if not trim:
-        return RegressionData(f, a, G, z, v, fc, prov, keep)
-    return RegressionData(f[keep], a[keep], G[keep], z[keep], None if v is None else v[keep], fc, prov, keep)
+        return RegressionData(f, a, G, z, v, fc, prov, keep, sources)
+    v_kept = None if v is None else v[keep]
+    return RegressionData(f[keep], a[keep], G[keep], z[keep], v_kept, fc, prov, keep, sources)
+
+
+def _texts(sources: dict[str, ChannelSource]) -> dict[str, str]:
+    """The one line of each channel's source (:attr:`RegressionData.provenance`)."""
+    return {c: s.text for c, s in sources.items()}

@@ -282,7 +282,7 @@ def _filter_columns(
     of input, one row each, with one batched forward and inverse FFT per
     block (pocketfft applies the same one-dimensional plan to every row):
     the same numbers as filtering each column on its own, to the bit
-    (``tests/test_derivatives.py`` checks it), in about two thirds of the time
+    (``tests/signal/test_derivatives.py`` checks it), in about two thirds of the time
     for a record of 10^4-10^5 samples.
     """
     from scipy import fft as sp_fft

@@ -107,7 +107,7 @@ def welch_density(x: np.ndarray, fs: float, nperseg: int) -> tuple[np.ndarray, n
     window, half-overlapping segments, each segment's mean removed, density
     scaling, the mean over the segments. The same operations in the same
     order as scipy 1.17's ``welch`` (its ``ShortTimeFFT`` path), so the same
-    numbers to the bit there (tests/test_noisefloor_welch.py compares them).
+    numbers to the bit there (tests/signal/test_derivatives.py compares them).
     Importing ``scipy.signal`` costs ~0.5 s (it imports ``scipy.stats``),
     which every ``nlid identify`` paid before its identification started.
 

@@ -16,7 +16,7 @@ state for 5 periods (``train_multisine.mat``). Here the same test is generated i
   the transient.
 
 With the benchmark's phases, the published system reproduces the measured displacement of
-``train_multisine.mat`` to 7.5e-6 m RMS, the record's own noise (``tests/test_multisine.py``). The presets
+``train_multisine.mat`` to 7.5e-6 m RMS, the record's own noise (``tests/simulation/test_multisine.py``). The presets
 ``bouc-wen-multisine`` (a new realisation per seed) and ``bouc-wen-train`` (the benchmark's) use them
 (:mod:`nlid.simulation.presets`).
 """

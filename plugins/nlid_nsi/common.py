@@ -9,7 +9,18 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from nlid.plugin import DataError, FigureArray, InputError, Option, Record, derivatives, suggested_cutoff
+from nlid.plugin import (
+    CHANNEL_SOURCES,
+    ChannelSource,
+    DataError,
+    FigureArray,
+    InputError,
+    Option,
+    Record,
+    derivatives,
+    source_entries,
+    suggested_cutoff,
+)
 
 if TYPE_CHECKING:
     from .fit import NSIFit
@@ -18,6 +29,7 @@ if TYPE_CHECKING:
 __all__ = [
     "COMMON_OPTIONS",
     "Velocity",
+    "velocity_diagnostics",
     "velocity_estimate",
     "denoise_operator",
     "blas_threads",
@@ -159,16 +171,23 @@ class Velocity:
     differentiate
         The differentiator applied to ``z`` (a linear operator), or ``None``
         if ``v`` did not come from ``z``.
-    provenance
-        One line for the diagnostics.
-    cutoff
-        Cut-off of the differentiator (Hz) or ``None``.
+    source
+        How it was obtained, as plain data (reported under ``diagnostics["channel_sources"]["v"]``).
     """
 
     v: np.ndarray
     differentiate: Callable[[np.ndarray], np.ndarray] | None
-    provenance: str
-    cutoff: float | None
+    source: ChannelSource
+
+    @property
+    def provenance(self) -> str:
+        """One line for the diagnostics (``diagnostics["velocity"]``)."""
+        return self.source.text
+
+    @property
+    def cutoff(self) -> float | None:
+        """Cut-off of the differentiator (Hz) or ``None``."""
+        return self.source.cutoff_hz if self.differentiate is not None else None
 
 
 def default_cutoff(z: np.ndarray, fs: float, suggested: float | None = None) -> float:
@@ -197,6 +216,15 @@ def force_hold(record: Record, how: str | None) -> tuple[str, bool]:
     return record.force_hold, "force_hold" not in record.meta
 
 
+def velocity_diagnostics(vel: Velocity) -> dict[str, Any]:
+    """The velocity's diagnostics: its line of text, its differentiator's cut-off and its typed source."""
+    return {
+        "velocity": vel.provenance,
+        "velocity_cutoff_hz": vel.cutoff,
+        CHANNEL_SOURCES: source_entries({"v": vel.source}),
+    }
+
+
 def velocity_estimate(record: Record, how: str | None, cutoff: float | None) -> Velocity:
     """The velocity for the basis functions (option ``velocity``).
 
@@ -210,11 +238,11 @@ def velocity_estimate(record: Record, how: str | None, cutoff: float | None) -> 
         if record.a is None:
             raise DataError("velocity=integrate needs an acceleration channel 'a'")
         rec = record.with_velocity_from_acceleration()
-        return Velocity(np.asarray(rec.v), None, rec.source_of("v"), None)
+        return Velocity(np.asarray(rec.v), None, rec.channel_source("v"))
     if how == "measured" or (how is None and record.is_measured("v")):
         if record.v is None:
             raise DataError("velocity=measured needs a velocity channel 'v'")
-        return Velocity(np.asarray(record.v), None, record.source_of("v"), None)
+        return Velocity(np.asarray(record.v), None, record.channel_source("v"))
     # the record's suggested cut-off is computed once: the core's scores use it too (nlid.plugin.suggested_cutoff)
     fc = default_cutoff(record.z, fs, suggested_cutoff(record)) if cutoff is None else float(cutoff)
     if not 0 < fc < fs / 2:
@@ -224,7 +252,7 @@ def velocity_estimate(record: Record, how: str | None, cutoff: float | None) -> 
         return derivatives.differentiate(x, fs, order=1, cutoff=fc)[0]
 
     used = derivatives.DerivativeFilter(cutoff=fc)
-    return Velocity(differentiate(record.z), differentiate, f"estimated from z: {used.describe()}", fc)
+    return Velocity(differentiate(record.z), differentiate, ChannelSource.differentiated(used, "z"))
 
 
 def denoise_operator(

@@ -114,6 +114,7 @@ from .common import (
     force_hold,
     reconstruction,
     reconstruction_diagnostics,
+    velocity_diagnostics,
     velocity_estimate,
 )
 
@@ -532,8 +533,7 @@ class NSIInputPerturbation(Identifier):
             f"the coefficients and the mass are the mean over the {len(fits)} k~1 of 'k_tilde_ensemble'",
             **fit_summary(result),
             "block_rows": block_rows,
-            "velocity": vel.provenance,
-            "velocity_cutoff_hz": vel.cutoff,
+            **velocity_diagnostics(vel),
             "denoise_cutoff_hz": denoise_fc,
             **rec_diagnostics,
             "force_hold": hold,

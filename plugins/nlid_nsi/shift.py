@@ -80,6 +80,7 @@ from .common import (
     force_hold,
     reconstruction,
     reconstruction_diagnostics,
+    velocity_diagnostics,
     velocity_estimate,
     well_suffix,
 )
@@ -290,8 +291,7 @@ class NSIZeroShift(Identifier):
             "order": [int(f.order) for f in fits],
             "singular_values": [float(x) for x in fits[0].singular_values[:20]],
             "block_rows": block_rows,
-            "velocity": vel.provenance,
-            "velocity_cutoff_hz": vel.cutoff,
+            **velocity_diagnostics(vel),
             "denoise_cutoff_hz": denoise_fc,
             **reconstruction_diagnostics(rec),
             "force_hold": hold,

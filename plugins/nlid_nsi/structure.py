@@ -57,6 +57,7 @@ import numpy as np
 from scipy import linalg
 
 from nlid.plugin import (
+    CHANNEL_SOURCES,
     DataError,
     Element,
     ElementSet,
@@ -64,6 +65,7 @@ from nlid.plugin import (
     Model,
     StructureEstimate,
     StructureRecord,
+    source_entries,
 )
 
 from .basis import Basis, split_model
@@ -546,6 +548,7 @@ def _identify_ip(
         "order": order,
         "block_rows": opt["block_rows"],
         "velocity": motion.velocity,
+        CHANNEL_SOURCES: source_entries(motion.sources),
         "denoise_cutoff_hz": list(motion.cutoffs_hz),
         "force_hold": hold,
         "mass_source": "given"

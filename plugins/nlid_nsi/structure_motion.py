@@ -9,12 +9,12 @@ functions.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
 
-from nlid.plugin import DataError, InputError, StructureRecord, derivatives
+from nlid.plugin import ChannelSource, DataError, InputError, StructureRecord, derivatives
 
 from .common import CUTOFF_FACTOR
 
@@ -31,6 +31,8 @@ class Motion:
     cutoffs_hz: tuple[float, ...]
     #: Each DOF's cut-off from its noise floor alone (before ``floor_hz`` and the cap), for a second pass.
     suggested_hz: tuple[float, ...] = ()
+    #: How each DOF's velocity was obtained (``{"v1": ..., "vn": ...}``, reported under ``channel_sources``).
+    sources: dict[str, ChannelSource] = field(default_factory=dict)
 
 
 def structure_motion(
@@ -44,7 +46,7 @@ def structure_motion(
     """
     fs = record.fs
     z = np.asarray(record.z, dtype=float)
-    zd, vd, cutoffs, bases = np.empty_like(z), np.empty_like(z), [], []
+    zd, vd, cutoffs, bases, sources = np.empty_like(z), np.empty_like(z), [], [], {}
     how = opt.get("velocity")
     measured = record.v is not None and how != "differentiate"
     if how == "measured" and record.v is None:
@@ -59,12 +61,15 @@ def structure_motion(
         zd[:, k] = derivatives.lowpass(z[:, k], fs, fc)
         if measured:
             vd[:, k] = derivatives.lowpass(np.asarray(record.v[:, k], dtype=float), fs, fc)
+            what = f"zero-phase low-pass at {fc:.4g} Hz"
+            sources[f"v{k + 1}"] = ChannelSource(True, f"measured, {what}", filter=what, cutoff_hz=float(fc))
         else:
             fcv = opt.get("velocity_cutoff") or fc
-            vd[:, k] = derivatives.differentiate(z[:, k], fs, order=1, cutoff=fcv)[0]
+            vd[:, k], used = derivatives.differentiate(z[:, k], fs, order=1, cutoff=fcv)
+            sources[f"v{k + 1}"] = ChannelSource.differentiated(used, f"z{k + 1}")
         cutoffs.append(float(fc))
     velocity = "measured v, low-passed" if measured else "differentiated from z"
-    return Motion(zd, vd, velocity, tuple(cutoffs), tuple(bases))
+    return Motion(zd, vd, velocity, tuple(cutoffs), tuple(bases), sources)
 
 
 #: The automatic cut-offs are raised to this multiple of the highest identified natural frequency.

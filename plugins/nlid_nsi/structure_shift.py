@@ -34,6 +34,7 @@ from typing import Any
 import numpy as np
 
 from nlid.plugin import (
+    CHANNEL_SOURCES,
     ElementSet,
     IdentificationError,
     InputError,
@@ -41,6 +42,7 @@ from nlid.plugin import (
     StructureEstimate,
     StructureRecord,
     linear_modes,
+    source_entries,
 )
 
 from .basis import int_power
@@ -289,6 +291,7 @@ def _identify_shift(
         "order": order,
         "block_rows": opt["block_rows"],
         "velocity": motion.velocity,
+        CHANNEL_SOURCES: source_entries(motion.sources),
         "denoise_cutoff_hz": list(motion.cutoffs_hz),
         "force_hold": hold,
         **noise_info,

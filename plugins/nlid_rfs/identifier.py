@@ -38,6 +38,7 @@ from __future__ import annotations
 import numpy as np
 
 from nlid.plugin import (
+    CHANNEL_SOURCES,
     ElementSet,
     Estimate,
     IdentificationError,
@@ -51,6 +52,7 @@ from nlid.plugin import (
     least_squares,
     nonsmooth_warnings,
     regression_data,
+    source_entries,
 )
 
 
@@ -131,6 +133,7 @@ class RestoringForceSurface(Identifier):
                 "decimate": q,
                 "filtered_at_hz": data.filtered_at,
                 "channels": data.provenance,
+                CHANNEL_SOURCES: source_entries(data.sources),
                 "mass_standard_error": mass_se,
                 "standard_errors_iid": model.as_dict(se_iid),
                 "standard_error_batches": fit.batches,

@@ -49,13 +49,15 @@ from __future__ import annotations
 import warnings
 from collections.abc import Iterator
 from contextlib import contextmanager
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
 
 import numpy as np
 
 from nlid.plugin import (
+    CHANNEL_SOURCES,
     EDGE_PERIODS,
+    ChannelSource,
     ElementSet,
     Estimate,
     IdentificationError,
@@ -72,6 +74,7 @@ from nlid.plugin import (
     least_squares,
     nonsmooth_warnings,
     regression_data,
+    source_entries,
 )
 
 if TYPE_CHECKING:
@@ -117,6 +120,8 @@ class SindyProblem:
         Equation band (Hz) or ``None``.
     provenance
         Where each channel came from.
+    sources
+        The same as plain data (:class:`nlid.plugin.ChannelSource`).
     """
 
     x: np.ndarray
@@ -129,6 +134,7 @@ class SindyProblem:
     dt: float
     filtered_at: float | None
     provenance: dict[str, str]
+    sources: dict[str, ChannelSource] = field(default_factory=dict)
 
     @property
     def library_input(self) -> np.ndarray:
@@ -181,17 +187,23 @@ def build_problem(
         fc = data.filtered_at
         library = TermLibrary(model, fs=fs, cutoff=fc)
         rows = np.arange(record.n)[data.kept]
-        prov = data.provenance
+        sources = dict(data.sources)
     else:
         z, f = record.z, record.f
-        prov = {c: record.source_of(c) for c in record.channels}
+        sources = {c: record.channel_source(c) for c in record.channels}
         if record.is_measured("v"):
             v = record.v
         else:
             v, used = derivatives.differentiate(record.z, fs, order=1, cutoff=cutoff)
-            prov["v"] = f"estimated from z: {used.describe()}"
+            sources["v"] = ChannelSource.differentiated(used, "z")
         a = np.asarray(ps.SmoothedFiniteDifference(axis=0)(np.column_stack([z, v]), t=1.0 / fs))[:, 1]
-        prov["a"] = "estimated from v by pysindy.SmoothedFiniteDifference (Savitzky-Golay smoothing, differences)"
+        sources["a"] = ChannelSource(
+            False,
+            "estimated from v by pysindy.SmoothedFiniteDifference (Savitzky-Golay smoothing, differences)",
+            "v",
+            "differentiated",
+            "pysindy.SmoothedFiniteDifference (Savitzky-Golay smoothing, differences)",
+        )
         fc, library, rows = None, TermLibrary(model), np.arange(record.n)
     lhs = a if mass is None else a - f / mass
     x_dot = np.column_stack([v, lhs])
@@ -208,7 +220,8 @@ def build_problem(
         rows=rows,
         dt=1.0 / fs,
         filtered_at=fc,
-        provenance=prov,
+        provenance={c: source.text for c, source in sources.items()},
+        sources=sources,
     )
 
 
@@ -415,6 +428,7 @@ class SparseIdentification(Identifier):
                 "samples_used": int(theta.shape[0]),
                 "filtered_at_hz": problem.filtered_at,
                 "channels": problem.provenance,
+                CHANNEL_SOURCES: source_entries(problem.sources),
                 "differentiation": self.settings["differentiation"],
                 "mass_standard_error": mass_se,
                 "velocity_sign_disagreement": sign_fraction,

@@ -1,6 +1,6 @@
 """Test identifiers for studies, registered from outside through entry points.
 
-As in tests/test_registry.py, a module and a ``*.dist-info`` folder with an
+As in tests/contract/test_registry.py, a module and a ``*.dist-info`` folder with an
 ``entry_points.txt`` are written to a temporary folder on ``sys.path``: to
 ``importlib.metadata`` (and to the study's worker processes, which get the
 parent's ``sys.path``) that is an installed distribution.

@@ -16,9 +16,13 @@ Methods whose values are identical on every record are one entry
 (``rfs = sindy``). The overall ranking is the mean rank over the accuracy
 metrics (time excluded; tied methods share the mean of their ranks). The
 "why" of each method is drawn from its diagnostics: where its velocity came
-from, its largest signed coefficient bias, what it did (virtual perturbation,
-one fit per well, terms kept by sparse selection), whether it coincides with
-another method, its cost, and the page of the documentation that explains it.
+from (the typed ``diagnostics["channel_sources"]`` of
+:mod:`nlid.signal.channelsource`; a plugin that gives only text has its text
+quoted, never parsed), its largest signed coefficient bias, what it did
+(virtual perturbation and the number of k~1 averaged, from the accepted
+members of ``diagnostics["k_tilde_ensemble"]``; one fit per well, terms kept
+by sparse selection), whether it coincides with another method, its cost,
+and the page of the documentation that explains it.
 
 Every number of the verdict is a median, minimum or maximum that appears in
 the section's tables (same significant digits), so the verdict can be checked
@@ -28,7 +32,6 @@ against them.
 from __future__ import annotations
 
 import math
-import re
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import Any
@@ -40,6 +43,7 @@ from ...base.formatting import column_digits, sig, spread_cell, wrap
 from ...contract.methods import doc_pages
 from ...scoring import columns as col
 from ...scoring.columns import COST_DIGITS
+from ...signal.channelsource import ChannelSource, read_channel_sources
 
 __all__ = ["Finding", "Verdict", "build_verdict", "METHOD_DOCS"]
 
@@ -362,21 +366,50 @@ def _ranking(findings: list[Finding]) -> list[tuple[str, float, int]]:
 
 
 # --------------------------------------------------------------------------- why
-_FC = re.compile(r"fc=([0-9.]+) Hz")
+def _velocity_sources(d: Mapping[str, Any]) -> list[ChannelSource]:
+    """The typed sources of the velocity (``v``, or a structure's ``v1`` ... ``vn``) a run reported."""
+    sources = read_channel_sources(d)
+    if "v" in sources:
+        return [sources["v"]]
+    return [s for c, s in sorted(sources.items()) if c[:1] == "v" and c[1:].isdigit()]
 
 
 def _velocity(diags: list[dict[str, Any]]) -> str | None:
+    """Where the velocity came from: the typed ``channel_sources`` of the diagnostics, else the text as given.
+
+    A plugin that reports only a line of text (``diagnostics["velocity"]`` or ``["channels"]["v"]``) has it
+    quoted, never read: ``velocity: <its text>``.
+    """
     for d in diags:
+        sources = _velocity_sources(d)
+        if sources:
+            return _velocity_typed(sources)
         text = d.get("velocity") or (d.get("channels") or {}).get("v")
-        if not isinstance(text, str):
-            continue
-        if text.startswith("measured"):
-            return "velocity measured"
-        if "estimated from z" in text:
-            fc = _FC.search(text)
-            return "velocity from a low-passed derivative of z" + (f" (fc {fc.group(1)} Hz)" if fc else "")
-        return f"velocity: {text}"
+        if isinstance(text, str):
+            return f"velocity: {text}"
     return None
+
+
+def _velocity_typed(sources: list[ChannelSource]) -> str:
+    if all(s.measured for s in sources):
+        return "velocity measured"
+    if all(s.operation == "differentiated" and (s.derived_from or "")[:1] == "z" for s in sources):
+        cutoffs = sorted({s.cutoff_hz for s in sources if s.cutoff_hz is not None})
+        text = "velocity from a low-passed derivative of z"
+        if len(cutoffs) == 1:
+            text += f" (fc {cutoffs[0]:.4g} Hz)"
+        elif cutoffs:
+            text += f" (fc {cutoffs[0]:.4g} to {cutoffs[-1]:.4g} Hz)"
+        return text
+    return "velocity: " + "; ".join(dict.fromkeys(s.text for s in sources))
+
+
+def _k_tilde_members(d: Mapping[str, Any]) -> int:
+    """How many values of k~1 the coefficients are the mean of: the accepted members of ``k_tilde_ensemble``."""
+    members = d.get("k_tilde_ensemble")
+    if not isinstance(members, list):
+        return 0
+    return sum(isinstance(m, Mapping) and m.get("accepted") is True for m in members)
 
 
 def _bias(section: Any, method: str) -> str | None:
@@ -405,9 +438,9 @@ def _mechanics(diags: list[dict[str, Any]], section: Any) -> list[str]:
     out = []
     if "k_tilde" in d:
         text = f"virtual input perturbation k~1 = {sig(float(d['k_tilde']), 3)} N/m"
-        ens = re.search(r"mean over the (\d+) k~1", str(d.get("reported_fit", "")))
-        if ens:
-            text += f", coefficients averaged over {ens.group(1)} values of k~1"
+        members = _k_tilde_members(d)
+        if members:
+            text += f", coefficients averaged over {members} values of k~1"
         out.append(text)
     if "wells" in d:
         out.append(f"one identification per well (zero-reference shift), combined by their {d.get('combine', 'mean')}")

@@ -12,7 +12,7 @@ from nlid.contract.methods import advice_of, choose_method, choose_refiner, doc_
 from nlid.contract.registry import Registry, default_registry
 from nlid.errors import InputError
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 
 
 def _identifier(name: str, **attributes) -> type:
