@@ -62,12 +62,21 @@ def nlid_cli(args: list[str], env: dict[str, str], cwd: Path | str | None = None
 
 
 def descendants_except_servers() -> list[str]:
-    """Descendants of this process that are not nlid's fork servers (``"pid: command"``)."""
+    """Descendants of this process that are not nlid's fork servers (``"pid: command"``).
+
+    This interpreter's own ``multiprocessing`` resource tracker is left out too: the standard library starts it
+    once, at the first spawned process of the interpreter (here: another test's spawn pool in the same pytest
+    worker, e.g. tests/bayes/test_calibration.py), and keeps it for the interpreter's lifetime; no code under test
+    left it behind.
+    """
+    from multiprocessing import resource_tracker
+
+    tracker = getattr(resource_tracker._resource_tracker, "_pid", None)
     out = []
     for proc in psutil.Process().children(recursive=True):
         try:
             cmd = " ".join(proc.cmdline())
-            if proc.status() == psutil.STATUS_ZOMBIE or "nlid.runtime.forkserver" in cmd:
+            if proc.status() == psutil.STATUS_ZOMBIE or "nlid.runtime.forkserver" in cmd or proc.pid == tracker:
                 continue
             out.append(f"{proc.pid}: {cmd}")
         except psutil.Error:
