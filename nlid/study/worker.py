@@ -81,11 +81,12 @@ def _add_warning(row: dict[str, Any], text: str) -> None:
     row[key] = f"{row[key]} | {text}" if row.get(key) else text
 
 
-def execute_run(spec: RunSpec, threads: int = 1) -> dict[str, Any]:
+def execute_run(spec: RunSpec, threads: int = 1, cache: str | None = None) -> dict[str, Any]:
     """Run one identification and its metrics in this process (never raises).
 
     ``threads``: how many threads the run's scores may use (:func:`nlid.runtime.parallel.thread_budget`: the
-    free run and its chaos check at once with two); the numbers do not depend on it.
+    free run and its chaos check at once with two); ``cache``: the executor's folder where the runs on one
+    record share it (:func:`nlid.study.data.build_data`). The numbers depend on neither.
 
     Returns
     -------
@@ -101,7 +102,7 @@ def execute_run(spec: RunSpec, threads: int = 1) -> dict[str, Any]:
         return spec.execute()
     try:
         with parallel.thread_budget(threads):
-            payload = _execute(spec)
+            payload = _execute(spec, cache)
     except NlidError as exc:
         return failure_payload(spec, "failed", str(exc))
     except Exception as exc:  # noqa: BLE001 - a run's failure is recorded, the study goes on
@@ -144,7 +145,7 @@ def json_problem(value: Any, where: str = "") -> str | None:
     return f"{where or 'the value'} is a {type(value).__name__}, not a JSON value"
 
 
-def _execute(spec: RunSpec) -> dict[str, Any]:
+def _execute(spec: RunSpec, cache: str | None = None) -> dict[str, Any]:
     if spec.dataset.source.kind == "preset":
         from .structures import execute_structure_run, is_structure_preset
 
@@ -158,7 +159,7 @@ def _execute(spec: RunSpec) -> dict[str, Any]:
         timings[name] = now - clock[0]
         clock[0] = now
 
-    data = build_data(spec)
+    data = build_data(spec, cache)
     model = as_model(spec.terms, without=spec.without, px_roots=spec.px_roots)
     registry = load_registry()
     lap("data")
@@ -232,7 +233,12 @@ def kill_children() -> None:
 
 
 def run_isolated(
-    spec: RunSpec, timeout: float | None = None, *, use_subprocess: bool | None = None, threads: int = 1
+    spec: RunSpec,
+    timeout: float | None = None,
+    *,
+    use_subprocess: bool | None = None,
+    threads: int = 1,
+    cache: str | None = None,
 ) -> dict:
     """Run :func:`execute_run` in a child process killed at its time limit (``isolation.run_in_child``).
 
@@ -247,6 +253,8 @@ def run_isolated(
         :func:`nlid.runtime.isolation.start_method` says; default: that.
     threads
         Threads the run's scores may use (:func:`execute_run`; its identification and libraries stay on one).
+    cache
+        The executor's private folder where the runs on one record share it (:func:`execute_run`).
 
     Returns
     -------
@@ -267,7 +275,11 @@ def run_isolated(
     label = f"identifier {spec.method!r}" if isinstance(spec, RunSpec) else f"job {spec.run_id!r}"
     for _attempt in range(2):  # a fork server that died under the run (the OOM killer): once more, on a new one
         outcome = isolation.run_in_child(
-            execute_run, (spec, threads), timeout=timeout, pin_threads=True, method="spawn" if use_subprocess else None
+            execute_run,
+            (spec, threads, cache),
+            timeout=timeout,
+            pin_threads=True,
+            method="spawn" if use_subprocess else None,
         )
         if not outcome.infrastructure:
             break
