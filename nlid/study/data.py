@@ -12,12 +12,8 @@ model, Eq. 8 and 22), else the study's ``reference`` table, else the record's
 
 from __future__ import annotations
 
-import hashlib
-import os
-import pickle
 from collections.abc import Mapping
 from dataclasses import dataclass
-from pathlib import Path
 from typing import Any
 
 from ..data.record import Record
@@ -48,41 +44,8 @@ class RunData:
     mass: float | None
 
 
-def build_data(spec: RunSpec, cache: str | os.PathLike[str] | None = None) -> RunData:
-    """Build the records of a run and its reference values.
-
-    Parameters
-    ----------
-    spec
-        The run.
-    cache
-        A private folder of the study's executor (:class:`nlid.study.execute.LocalExecutor`) where the
-        runs of one study share what they build: the runs of every identifier on one record (the same
-        dataset, seed and held-out seed) build it once and read it back (pickled by nlid, for nlid; the
-        same arrays to the bit). ``None``: build.
-    """
-    if cache is None:
-        return _build(spec)
-    key = hashlib.sha256(pickle.dumps((spec.dataset, spec.seed, spec.holdout_seed))).hexdigest()
-    path = Path(cache) / f"{key}.pickle"
-    try:
-        with open(path, "rb") as fh:
-            found = pickle.load(fh)
-        if isinstance(found, RunData):
-            return found
-    except (OSError, EOFError, pickle.UnpicklingError, AttributeError, ImportError):
-        pass
-    data = _build(spec)
-    tmp = path.with_name(f".{key}.{os.getpid()}.tmp")
-    try:  # written whole, then renamed: a reader sees the whole file or none
-        tmp.write_bytes(pickle.dumps(data, protocol=pickle.HIGHEST_PROTOCOL))
-        os.replace(tmp, path)
-    except OSError:
-        tmp.unlink(missing_ok=True)
-    return data
-
-
-def _build(spec: RunSpec) -> RunData:
+def build_data(spec: RunSpec) -> RunData:
+    """Build the records of a run and its reference values."""
     ds = spec.dataset
     src = ds.source
     if isinstance(src, PresetSource):

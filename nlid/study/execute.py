@@ -23,7 +23,6 @@ its spec alone (:mod:`nlid.study.plan`).
 from __future__ import annotations
 
 import os
-import tempfile
 from collections.abc import Callable, Sequence
 from concurrent.futures import FIRST_COMPLETED, ThreadPoolExecutor
 from concurrent.futures import wait as wait_futures
@@ -68,21 +67,19 @@ class LocalExecutor:
         jobs = self.jobs or default_jobs()
         start_fork_server(pin_threads=True)  # it loads the plugins while the pool starts
         pool = ThreadPoolExecutor(max_workers=min(jobs, len(runs)), thread_name_prefix="nlid-run")
-        # fewer runs than cores: each run's scores may use the idle cores; the runs on one record build it
-        # once (a private folder, removed with the session). Neither changes a number.
-        threads = max(1, default_jobs() // min(jobs, len(runs)))
-        with tempfile.TemporaryDirectory(prefix="nlid-study-data-") as cache:
-            try:
-                pending = {pool.submit(run_isolated, run.spec, threads=threads, cache=cache): run for run in runs}
-                while pending:
-                    done, _ = wait_futures(pending, timeout=0.5, return_when=FIRST_COMPLETED)
-                    for fut in done:
-                        on_done(pending.pop(fut), fut.result())
-            except BaseException:
-                pool.shutdown(wait=False, cancel_futures=True)
-                kill_children()
-                raise
-            pool.shutdown(wait=True)
+        try:
+            # fewer runs than cores: each run's scores may use the idle cores (the same numbers)
+            threads = max(1, default_jobs() // min(jobs, len(runs)))
+            pending = {pool.submit(run_isolated, run.spec, threads=threads): run for run in runs}
+            while pending:
+                done, _ = wait_futures(pending, timeout=0.5, return_when=FIRST_COMPLETED)
+                for fut in done:
+                    on_done(pending.pop(fut), fut.result())
+        except BaseException:
+            pool.shutdown(wait=False, cancel_futures=True)
+            kill_children()
+            raise
+        pool.shutdown(wait=True)
 
 
 class DaskExecutor:

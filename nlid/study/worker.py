@@ -81,12 +81,11 @@ def _add_warning(row: dict[str, Any], text: str) -> None:
     row[key] = f"{row[key]} | {text}" if row.get(key) else text
 
 
-def execute_run(spec: RunSpec, threads: int = 1, cache: str | None = None) -> dict[str, Any]:
+def execute_run(spec: RunSpec, threads: int = 1) -> dict[str, Any]:
     """Run one identification and its metrics in this process (never raises).
 
     ``threads``: how many threads the run's scores may use (:func:`nlid.runtime.parallel.thread_budget`: the
-    free run and its chaos check at once with two); ``cache``: the executor's folder where the runs on one
-    record share it (:func:`nlid.study.data.build_data`). The numbers depend on neither.
+    free run and its chaos check at once with two); the numbers do not depend on it.
 
     Returns
     -------
@@ -102,7 +101,7 @@ def execute_run(spec: RunSpec, threads: int = 1, cache: str | None = None) -> di
         return spec.execute()
     try:
         with parallel.thread_budget(threads):
-            payload = _execute(spec, cache)
+            payload = _execute(spec)
     except NlidError as exc:
         return failure_payload(spec, "failed", str(exc))
     except Exception as exc:  # noqa: BLE001 - a run's failure is recorded, the study goes on
@@ -145,7 +144,7 @@ def json_problem(value: Any, where: str = "") -> str | None:
     return f"{where or 'the value'} is a {type(value).__name__}, not a JSON value"
 
 
-def _execute(spec: RunSpec, cache: str | None = None) -> dict[str, Any]:
+def _execute(spec: RunSpec) -> dict[str, Any]:
     if spec.dataset.source.kind == "preset":
         from .structures import execute_structure_run, is_structure_preset
 
@@ -159,7 +158,7 @@ def _execute(spec: RunSpec, cache: str | None = None) -> dict[str, Any]:
         timings[name] = now - clock[0]
         clock[0] = now
 
-    data = build_data(spec, cache)
+    data = build_data(spec)
     model = as_model(spec.terms, without=spec.without, px_roots=spec.px_roots)
     registry = load_registry()
     lap("data")
@@ -233,12 +232,7 @@ def kill_children() -> None:
 
 
 def run_isolated(
-    spec: RunSpec,
-    timeout: float | None = None,
-    *,
-    use_subprocess: bool | None = None,
-    threads: int = 1,
-    cache: str | None = None,
+    spec: RunSpec, timeout: float | None = None, *, use_subprocess: bool | None = None, threads: int = 1
 ) -> dict:
     """Run :func:`execute_run` in a child process killed at its time limit (``isolation.run_in_child``).
 
@@ -253,8 +247,6 @@ def run_isolated(
         :func:`nlid.runtime.isolation.start_method` says; default: that.
     threads
         Threads the run's scores may use (:func:`execute_run`; its identification and libraries stay on one).
-    cache
-        The executor's private folder where the runs on one record share it (:func:`execute_run`).
 
     Returns
     -------
@@ -275,11 +267,7 @@ def run_isolated(
     label = f"identifier {spec.method!r}" if isinstance(spec, RunSpec) else f"job {spec.run_id!r}"
     for _attempt in range(2):  # a fork server that died under the run (the OOM killer): once more, on a new one
         outcome = isolation.run_in_child(
-            execute_run,
-            (spec, threads, cache),
-            timeout=timeout,
-            pin_threads=True,
-            method="spawn" if use_subprocess else None,
+            execute_run, (spec, threads), timeout=timeout, pin_threads=True, method="spawn" if use_subprocess else None
         )
         if not outcome.infrastructure:
             break

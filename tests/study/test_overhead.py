@@ -56,19 +56,3 @@ def test_a_run_given_two_threads_stores_the_same_row_and_result(small_study, reg
     assert {k: v for k, v in one["row"].items() if k not in MACHINE} == {
         k: v for k, v in two["row"].items() if k not in MACHINE
     }
-
-
-def test_the_runs_on_one_record_build_it_once_and_read_back_the_same_arrays(small_study, registry, tmp_path):
-    from nlid.study.data import build_data
-
-    runs = plan_study(parse_study(small_study('["rfs", "echo"]', repetitions=2, extra=HELD_OUT), registry=registry))
-    built = [build_data(run.spec) for run in runs]
-    shared = [build_data(run.spec, tmp_path) for run in runs]
-    assert len(list(tmp_path.glob("*.pickle"))) == 2  # two records (repetitions), each shared by both identifiers
-    for fresh, cached in zip(built, shared, strict=True):
-        for name in ("z", "f"):
-            assert np.array_equal(getattr(fresh.record, name), getattr(cached.record, name))
-            assert np.array_equal(getattr(fresh.heldout, name), getattr(cached.heldout, name))
-        assert fresh.mass == cached.mass
-        assert fresh.reference.to_dict() == cached.reference.to_dict()
-    assert not np.array_equal(shared[0].record.z, shared[1].record.z)  # another seed, another record
