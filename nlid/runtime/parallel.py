@@ -30,9 +30,11 @@ from __future__ import annotations
 
 import contextlib
 import os
-from collections.abc import Iterator
+import threading
+from collections.abc import Callable, Iterator
+from typing import Any
 
-__all__ = ["cores", "workers", "kernel_threads", "WORKERS_ENV"]
+__all__ = ["cores", "workers", "kernel_threads", "WORKERS_ENV", "both", "thread_budget"]
 
 #: Environment variable that fixes the pool size (a positive integer), e.g. for benchmarks.
 WORKERS_ENV = "NLID_WORKERS"
@@ -111,3 +113,59 @@ def kernel_threads(n: int | None = None) -> Iterator[int]:
             yield threads
     finally:
         numba.set_num_threads(before)
+
+
+#: The threads :func:`both` may use; ``None``: numba's thread count (1 in a pinned run process), else every core.
+_BUDGET: list[int | None] = [None]
+
+
+@contextlib.contextmanager
+def thread_budget(n: int) -> Iterator[int]:
+    """Run a block with ``n`` threads for :func:`both` (a study's run process given more than its own core).
+
+    A study executor that runs fewer runs at once than there are cores gives each run ``cores // jobs``
+    (:class:`nlid.study.execute.LocalExecutor`); a pinned run process otherwise has one.
+    """
+    before = _BUDGET[0]
+    _BUDGET[0] = max(1, int(n))
+    try:
+        yield _BUDGET[0]
+    finally:
+        _BUDGET[0] = before
+
+
+def _budget() -> int:
+    if _BUDGET[0] is not None:
+        return _BUDGET[0]
+    pinned = os.environ.get("NUMBA_NUM_THREADS", "").strip()
+    return int(pinned) if pinned.isdigit() and int(pinned) > 0 else workers()
+
+
+def both(first: Callable[[], Any], second: Callable[[], Any]) -> tuple[Any, Any]:
+    """``(first(), second())``: at once on two threads when the thread budget has two (:func:`thread_budget`).
+
+    For two independent calls into compiled code that releases the GIL (the two free runs of a score's
+    chaos check, :func:`nlid.scoring.free_run_error`): the same results as one after the other. An
+    exception of ``first`` is raised before one of ``second``, as in sequence; the thread is always joined
+    (a run leaves no thread behind).
+    """
+    if _budget() < 2:
+        return first(), second()
+    out: list[Any] = [None, None]
+
+    def call() -> None:
+        try:
+            out[1] = (True, second())
+        except BaseException as exc:  # noqa: BLE001 - re-raised in the calling thread
+            out[1] = (False, exc)
+
+    thread = threading.Thread(target=call, name="nlid-both", daemon=True)
+    thread.start()
+    try:
+        value = first()
+    finally:
+        thread.join()
+    ok, result = out[1]
+    if not ok:
+        raise result
+    return value, result

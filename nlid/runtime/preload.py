@@ -2,8 +2,9 @@
 
 A run is a child forked from the fork server, so what the server has loaded
 costs a run nothing: the identification pipeline and the study worker, the
-identifier plugins (whose modules import scipy, pysindy and scikit-learn,
-~1 s) and, for studies, the simulator's compiled kernels (numba's on-disk
+identifier plugins with every name they export (:func:`warm_plugins`: their
+modules import scipy, pysindy and scikit-learn, some only on first use,
+1.5-3 s) and, for studies, the simulator's compiled kernels (numba's on-disk
 cache, or one compilation when the cache is cold, ~0.5 s), which the study's
 data and free-run scores use, in both specialisations they are called with
 (writable coefficients when simulating a preset, read-only ones when scoring an
@@ -23,9 +24,9 @@ import importlib
 import os
 import signal
 import sys
-from collections.abc import Callable
+from collections.abc import Callable, Iterable
 
-__all__ = ["warm_up", "warm_up_quietly", "PRELOAD_ENV", "PRELOAD_LIMIT"]
+__all__ = ["warm_up", "warm_up_quietly", "warm_plugins", "PRELOAD_ENV", "PRELOAD_LIMIT"]
 
 #: What the server loads before serving (:func:`nlid.runtime.preload.warm_up`): ``"full"`` (studies: every
 #: plugin and the simulator's kernels), ``"core"`` (the pipeline), or ``"none"`` (after a failed start).
@@ -107,7 +108,8 @@ def warm_up(kind: str = "full", idle: Callable[[], bool] | None = None) -> None:
         return
     for name in WHILE_IDLE:
         importlib.import_module(name)
-    importlib.import_module("nlid.contract.registry").load_registry()
+    registry = importlib.import_module("nlid.contract.registry").load_registry()
+    warm_plugins(registry.identifiers.values())
     importlib.import_module("nlid.study.worker")
     simulate = importlib.import_module("nlid.simulation").simulate
     Model = importlib.import_module("nlid.model.terms").Model
@@ -120,3 +122,22 @@ def warm_up(kind: str = "full", idle: Callable[[], bool] | None = None) -> None:
     # every study run (nlid.simulation.free_run) use that specialisation (loading it costs a run ~0.1-0.2 s)
     theta.setflags(write=False)
     simulate(model, theta, 1.0, force, 100.0)
+
+
+def warm_plugins(identifiers: Iterable[type]) -> list[str]:
+    """Load every name each identifier's plugin package exports (``from package import *``), as a run would.
+
+    A plugin may load its heavy modules on first use (``nlid_sindy`` imports pysindy and scikit-learn,
+    1.5-3 s, only when it identifies): in a study every run is a fresh child of the fork server, so each
+    run would pay for them inside its identification. Loaded here once, they cost a run nothing. A name that
+    fails to load is skipped (the run then reports the failure itself). Returns the packages warmed.
+    """
+    packages = sorted({cls.__module__.split(".")[0] for cls in identifiers} - {"nlid"})
+    for package in packages:
+        try:
+            module = importlib.import_module(package)
+            for name in getattr(module, "__all__", ()):
+                getattr(module, name, None)
+        except Exception:  # noqa: BLE001 - a plugin's own failure is its run's to report
+            continue
+    return packages

@@ -14,6 +14,7 @@ from ..estimation.balance import RegressionData, regression_data
 from ..estimation.inputpath import acting_record
 from ..model.physics import Coefficients, dict_or_vector
 from ..model.terms import Model
+from ..runtime.parallel import both
 from ..signal import derivatives
 from .rules import FromFirstSample, TransientRule, error_metrics, resolve_rule
 from .rules import start as rule_start
@@ -373,8 +374,11 @@ def _free_run_first_sample(fit: ModelFit, record: Record, rule: str) -> FreeRunR
     x0 = initial_state(record)
     args = (fit.model, fit.theta, float(fit.mass), record.f, record.fs)
     try:
-        z1, _, _ = free_run(*args, force_hold=record.force_hold, x0=x0)
-        z2, _, _ = free_run(*args, force_hold=record.force_hold, x0=(x0[0] + SENSITIVITY_DELTA * scale, x0[1]))
+        # the two runs at once when the run may use two threads (nlid.runtime.parallel.both): the same numbers
+        (z1, _, _), (z2, _, _) = both(
+            lambda: free_run(*args, force_hold=record.force_hold, x0=x0),
+            lambda: free_run(*args, force_hold=record.force_hold, x0=(x0[0] + SENSITIVITY_DELTA * scale, x0[1])),
+        )
     except NlidError as exc:
         return FreeRunResponse(z, None, 0, FreeRun(note=f"free run diverged: {exc}", rule=rule))
     return FreeRunResponse(z, z1, 0, _judged(z, z1, z2, scale, rule))

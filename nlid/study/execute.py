@@ -68,7 +68,9 @@ class LocalExecutor:
         start_fork_server(pin_threads=True)  # it loads the plugins while the pool starts
         pool = ThreadPoolExecutor(max_workers=min(jobs, len(runs)), thread_name_prefix="nlid-run")
         try:
-            pending = {pool.submit(run_isolated, run.spec): run for run in runs}
+            # fewer runs than cores: each run's scores may use the idle cores (the same numbers)
+            threads = max(1, default_jobs() // min(jobs, len(runs)))
+            pending = {pool.submit(run_isolated, run.spec, threads=threads): run for run in runs}
             while pending:
                 done, _ = wait_futures(pending, timeout=0.5, return_when=FIRST_COMPLETED)
                 for fut in done:

@@ -42,7 +42,7 @@ from ..contract.registry import load_registry
 from ..errors import NlidError
 from ..identification.pipeline import as_model, identify
 from ..identified.reference import compare
-from ..runtime import isolation
+from ..runtime import isolation, parallel
 from ..scoring import columns as col
 from . import metrics
 from .data import build_data
@@ -81,8 +81,11 @@ def _add_warning(row: dict[str, Any], text: str) -> None:
     row[key] = f"{row[key]} | {text}" if row.get(key) else text
 
 
-def execute_run(spec: RunSpec) -> dict[str, Any]:
+def execute_run(spec: RunSpec, threads: int = 1) -> dict[str, Any]:
     """Run one identification and its metrics in this process (never raises).
+
+    ``threads``: how many threads the run's scores may use (:func:`nlid.runtime.parallel.thread_budget`: the
+    free run and its chaos check at once with two); the numbers do not depend on it.
 
     Returns
     -------
@@ -97,7 +100,8 @@ def execute_run(spec: RunSpec) -> dict[str, Any]:
     if not isinstance(spec, RunSpec):  # another kind of job (nlid.benchmarking.jobs.BenchJob) runs itself
         return spec.execute()
     try:
-        payload = _execute(spec)
+        with parallel.thread_budget(threads):
+            payload = _execute(spec)
     except NlidError as exc:
         return failure_payload(spec, "failed", str(exc))
     except Exception as exc:  # noqa: BLE001 - a run's failure is recorded, the study goes on
@@ -227,7 +231,9 @@ def kill_children() -> None:
     isolation.kill_children()
 
 
-def run_isolated(spec: RunSpec, timeout: float | None = None, *, use_subprocess: bool | None = None) -> dict:
+def run_isolated(
+    spec: RunSpec, timeout: float | None = None, *, use_subprocess: bool | None = None, threads: int = 1
+) -> dict:
     """Run :func:`execute_run` in a child process killed at its time limit (``isolation.run_in_child``).
 
     Parameters
@@ -239,6 +245,8 @@ def run_isolated(spec: RunSpec, timeout: float | None = None, *, use_subprocess:
     use_subprocess
         ``True``: a fresh interpreter (the spawn start method), whatever
         :func:`nlid.runtime.isolation.start_method` says; default: that.
+    threads
+        Threads the run's scores may use (:func:`execute_run`; its identification and libraries stay on one).
 
     Returns
     -------
@@ -259,7 +267,7 @@ def run_isolated(spec: RunSpec, timeout: float | None = None, *, use_subprocess:
     label = f"identifier {spec.method!r}" if isinstance(spec, RunSpec) else f"job {spec.run_id!r}"
     for _attempt in range(2):  # a fork server that died under the run (the OOM killer): once more, on a new one
         outcome = isolation.run_in_child(
-            execute_run, (spec,), timeout=timeout, pin_threads=True, method="spawn" if use_subprocess else None
+            execute_run, (spec, threads), timeout=timeout, pin_threads=True, method="spawn" if use_subprocess else None
         )
         if not outcome.infrastructure:
             break
