@@ -31,10 +31,22 @@ MIN_FREERUN_GAIN = 0.01
 
 
 def rms(x: np.ndarray) -> np.ndarray:
+    """RMS of each column of ``x`` (each DOF of a ``(samples, dofs)`` array)."""
     return np.sqrt(np.mean(np.asarray(x) ** 2, axis=0))
 
 
 def free_run_error(model, record) -> tuple[tuple[float, ...], tuple[float, ...], str]:
+    """The free-run error of a structural model on a record, per DOF.
+
+    The model is simulated from the record's first sample (its measured displacement and the velocity measured
+    or estimated there) under the recorded force, held as the record says.
+
+    Returns
+    -------
+    tuple
+        ``(rms, percent, note)``: the RMS error of each DOF's displacement (m), the same in % of that
+        displacement's standard deviation, and how the run was made (``nan`` and the reason if it diverged).
+    """
     from ..simulation import SimulationError
     from ..simulation.structure import free_run
 
