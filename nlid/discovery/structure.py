@@ -53,7 +53,7 @@ from ..model.terms import Term
 from .evidence import AcceptanceRule, acceptance_rule, integrated_time
 from .library import Candidate, Variant, dissipative, resolve_candidates
 from .probes import MIN_STRUCTURE, PLAY_WIDTHS
-from .structure_accept import confirmed, free_run_error, rank, rms
+from .structure_accept import confirmed, free_run_error, rank, rms, with_accepted
 from .structure_fit import (
     Part,
     Search,
@@ -285,18 +285,16 @@ def discover_structure(
             probes = remaining_declared if number == 1 else _probes(search, conns, structure)
             ranking, accepted = rank(tested, rule, probes)
             if accepted is not None:  # ... and does the held-out free run confirm it?
-                ranking, accepted = confirmed(ranking, accepted, parts["estimation"].data, held, current, M, Element)
+                ranking, accepted = confirmed(ranking, accepted, parts["estimation"].data, held, current, M)
         if accepted is None:
             best = next((e for e in ranking if e.explained is not None), None)
             stop = "no candidate passes the acceptance rule" + (
                 f" (best: {best.effect} on {best.where}, {best.reason})" if best else ""
             )
             break
-        added = [Element(t, *accepted.connection) for t in accepted.terms]
-        new = ElementSet((*current.elements, *added), n, current.static, current.px_roots)
         say(f"step {number}: accepted {accepted.effect} on {accepted.where}")
         before = stages[-1]
-        current = new
+        current = with_accepted(current, accepted)
         search.equations(current)
         after = stage(f"after step {number}: {accepted.effect} on {accepted.where}")
         stages.append(after)

@@ -16,10 +16,12 @@ from typing import Any
 
 import numpy as np
 
+from ..estimation.joint import joint_least_squares
+from ..model.elements import Element, ElementSet
 from .evidence import PARSIMONY, AcceptanceRule
 from .structure_result import ConnectionEvidence, StructureRemaining
 
-__all__ = ["CAPTURE", "MIN_FREERUN_GAIN", "rank", "captures", "confirmed", "free_run_error", "rms"]
+__all__ = ["CAPTURE", "MIN_FREERUN_GAIN", "rank", "captures", "confirmed", "with_accepted", "free_run_error", "rms"]
 
 #: Share of what the best remaining-structure probe on a connection explains that a candidate below the
 #: rule's ``min_explained`` must explain to pass (:func:`rank`): the candidate then holds the structure the
@@ -97,15 +99,17 @@ def rank(
     return ranked, accepted
 
 
-def confirmed(ranking, accepted, data, held, current, M, Element) -> tuple[tuple[ConnectionEvidence, ...], Any]:
+def with_accepted(current: ElementSet, accepted: ConnectionEvidence) -> ElementSet:
+    """The elements ``current`` with the accepted candidate's terms added on its connection."""
+    added = [Element(t, *accepted.connection) for t in accepted.terms]
+    return ElementSet((*current.elements, *added), current.n_dofs, current.static, current.px_roots)
+
+
+def confirmed(ranking, accepted, data, held, current, M) -> tuple[tuple[ConnectionEvidence, ...], Any]:
     """A candidate accepted below ``min_explained`` (:func:`captures`) kept only when the free run of the held-out
     part, by the models fitted on the estimation part, improves by at least :data:`MIN_FREERUN_GAIN` with it;
     otherwise it is marked ``not confirmed`` and nothing is accepted."""
-    from ..estimation.joint import joint_least_squares
-    from ..model.elements import ElementSet
-
-    added = [Element(t, *accepted.connection) for t in accepted.terms]
-    new = ElementSet((*current.elements, *added), current.n_dofs, current.static, current.px_roots)
+    new = with_accepted(current, accepted)
 
     def error(elements) -> float:
         fit = joint_least_squares(data.with_elements(elements), elements, M, context="discover: ")
