@@ -227,13 +227,7 @@ def check(fit: IdentifiedModel, record: Record | None = None, *, cutoff: float |
     flags += _zeta_flags([(f"at z* = {m.equilibrium:.4g} {length}", m.zeta) for m in fit.modal], unit_slip)
     residual = None if fit.scores is None else fit.scores.force_residual_percent
     if residual is not None and numerics.is_finite(residual) and residual > FORCE_RESIDUAL_MAX_PERCENT:
-        flags.append(
-            Flag(
-                "force-residual",
-                f"force residual {residual:.3g} % (the model explains the force worse than no model)",
-                f"likely {unit_slip}, or channels that do not belong together",
-            )
-        )
+        flags.append(_residual_flag(f"{residual:.3g} %", unit_slip))
     se = dict(fit.standard_errors or {})
     wrong = _wrong_signs(
         (name, term, fit.coefficients[name], se.get(name), term.coefficient_unit_in(force, length))
@@ -263,6 +257,15 @@ def _zeta_flags(points: Sequence[tuple[str, float]], unit_slip: str) -> list[Fla
         shown = ", ".join(f"{100 * z:.3g} % {where}" for where, z in high)
         flags.append(Flag("overdamped", f"damping ratio above {100 * ZETA_MAX:g} % ({shown})", f"likely {unit_slip}"))
     return flags
+
+
+def _residual_flag(shown: str, unit_slip: str) -> Flag:
+    """The flag of a force residual above :data:`FORCE_RESIDUAL_MAX_PERCENT` (``shown``: the residual(s) in words)."""
+    return Flag(
+        "force-residual",
+        f"force residual {shown} (the model explains the force worse than no model)",
+        f"likely {unit_slip}, or channels that do not belong together",
+    )
 
 
 def _wrong_signs(entries: Iterable[tuple[str, Any, float, float | None, str]]) -> list[str]:
@@ -308,14 +311,7 @@ def check_structure(result: IdentifiedStructure) -> tuple[Flag, ...]:
     residuals = list(result.force_residual_percent or ())
     over = [(i + 1, r) for i, r in enumerate(residuals) if numerics.is_finite(r) and r > FORCE_RESIDUAL_MAX_PERCENT]
     if over:
-        shown = ", ".join(f"{r:.3g} % on z{i}" for i, r in over)
-        flags.append(
-            Flag(
-                "force-residual",
-                f"force residual {shown} (the model explains the force worse than no model)",
-                f"likely {unit_slip}, or channels that do not belong together",
-            )
-        )
+        flags.append(_residual_flag(", ".join(f"{r:.3g} % on z{i}" for i, r in over), unit_slip))
     se = dict(result.standard_errors or {})
     wrong = _wrong_signs(
         (e.name, e.term, result.coefficients[e.name], se.get(e.name), e.coefficient_unit) for e in result.elements
