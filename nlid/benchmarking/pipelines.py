@@ -283,8 +283,14 @@ def _discover(record: Record, settings: PipelineSettings, spec: PipelineSpec) ->
         return Fitted(DISCOVER, "nlid", how, refit, _parameters(refit, chosen_shapes), seconds,
                       {**choices, "refit": _identified_choices(refit)}, details, prior)  # fmt: skip
     refiner = choose_refiner()
-    options = {**dict(settings.options.get(refiner, {})), "init": method}
-    refined = identify(record, final.model, refiner, mass=final.given_mass, options=options, input_path=final.path)
+    given = dict(settings.options.get(refiner, {}))
+    if result.refined is not None and not given:
+        # the search refined its final model on this same record, with the same refiner, start and input path
+        # (``refine_stage``: the whole record it was given): that fit is the row's, not a second identical one
+        refined = result.refined.identified
+    else:
+        options = {**given, "init": method}
+        refined = identify(record, final.model, refiner, mass=final.given_mass, options=options, input_path=final.path)
     seconds = time.perf_counter() - start
     how = f"discover ({method}, judged by {refiner}'s fits) + {refiner} on the estimation part"
     choices = {**choices, "refined": _identified_choices(refined), "refiner": refiner}

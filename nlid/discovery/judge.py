@@ -30,14 +30,29 @@ from .crossfit import (
 )
 from .evidence import AcceptanceRule, Evidence, rank
 
-__all__ = ["Judge", "MAX_JUDGED"]
+__all__ = ["Judge", "MAX_JUDGED", "JUDGE_TOL", "judging_options"]
 
 #: Candidates judged by their cross-fitted prediction in one round (in the order of the equation-error rule); a
 #: round whose first ones all fail the prediction check stops the search.
 MAX_JUDGED = 3
 
+#: Relative tolerance (option ``tol``) of the refiner's fits that judge candidates, when it declares one (``oe``:
+#: 1e-8 by default). A judging fit only has to rank two models' held-out predictions against a 1 % gain
+#: (:data:`nlid.discovery.crossfit.MIN_PREDICTION_GAIN`); the model the search delivers is refitted at the
+#: refiner's default. Measured on the benchmarks' discover-refine (docs/performance.md, round four): the same
+#: decisions, the judged predictions within TODO of the default's, TODO fewer free runs.
+JUDGE_TOL = 1e-5
+
 #: A stage of the search (:class:`nlid.discovery.result.Stage`), read by its attributes.
 StageLike = Any
+
+
+def judging_options(identifier: type, method: str) -> dict[str, Any]:
+    """The options of a refiner that judges candidates: started from ``method``, at :data:`JUDGE_TOL` if it has ``tol``."""
+    options: dict[str, Any] = {"init": method}
+    if any(option.name == "tol" for option in getattr(identifier, "options", ())):
+        options["tol"] = JUDGE_TOL
+    return options
 
 
 @dataclass(frozen=True)

@@ -49,7 +49,7 @@ from ..signal import derivatives
 from .crossfit import PredictionRule
 from .evidence import AcceptanceRule, Evidence, acceptance_rule, judge
 from .inputs import DEFAULT_HOLDOUT, CandidateLibrary, Split
-from .judge import Judge
+from .judge import Judge, judging_options
 from .library import Candidate
 from .paths import InputPathCandidate
 from .probes import MIN_STRUCTURE, describe_remaining
@@ -270,7 +270,8 @@ class Discovery:
     def _prediction_fitter(self) -> Any:
         """What fits a model for the prediction check: the search's identifier, or the refiner when refining."""
         if self.refine:
-            return self.registry.create(choose_refiner(self.registry), {"init": self.method})
+            name = choose_refiner(self.registry)
+            return self.registry.create(name, judging_options(self.registry.get(name), self.method))
         return self.identifier
 
     def _rounds(self, state: SearchState, say: Progress) -> Iterator[SearchState]:

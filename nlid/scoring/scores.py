@@ -443,9 +443,11 @@ def predictability_horizon(
     memory = sum(t.is_memory for t in model.terms)
     state = np.zeros((1, 2 + memory))
     state[0, :2] = initial_state(record)
-    # the reference run moved on from start to start (one run through the first half), then every pair over
-    # half the record at once: the 2 x len(points) runs are the segments of one call (run in parallel), over
-    # the windows of the force joined end to end
+    # the reference run moved on from start to start (one run through the first half), then the displaced runs
+    # over half the record and the reference on from the first start over every window, at once: the segments
+    # of one call (run in parallel) over the windows of the force joined end to end. The reference's windows
+    # are the pieces of its one run (a run continued from its end state is the same run, to the bit), not a
+    # run each: 1 + len(points) / 2 record lengths instead of len(points)
     states = np.empty((points.size, 2 + memory))
     here = 0
     for i, start in enumerate(points):
@@ -465,24 +467,26 @@ def predictability_horizon(
             state = run.end_state.copy()
             here = start
         states[i] = state[0]
-    pairs = np.repeat(states, 2, axis=0)
-    pairs[1::2, 0] += SENSITIVITY_DELTA * scale
-    windows = np.repeat(points, 2)
-    samples = (windows[:, None] + np.arange(half)[None, :]).ravel()
-    runs = simulate_segments(
+    reach = int(points[-1]) + half  # the reference from points[0] = 0 through the last window
+    displaced = states.copy()
+    displaced[:, 0] += SENSITIVITY_DELTA * scale
+    samples = np.concatenate([np.arange(reach), (points[:, None] + np.arange(half)[None, :]).ravel()])
+    z = simulate_segments(
         model,
         theta,
         mass,
         record.f[samples],
         record.fs,
-        np.arange(windows.size) * half,
-        pairs,
+        np.append(0, reach + np.arange(points.size) * half),
+        np.vstack([states[:1], displaced]),
         oversample=q,
         sensitivities=False,
         fine=fine[(samples[:, None] * q + np.arange(q)[None, :]).ravel()],
-    ).z.reshape(points.size, 2, half)
+    ).z
+    reference, others = z[:reach], z[reach:].reshape(points.size, half)
     times = []
-    for first, second in runs:
+    for start, second in zip(points, others, strict=True):
+        first = reference[start : start + half]
         apart = np.flatnonzero(np.abs(first - second) > SENSITIVITY_LIMIT * scale)
         times.append(apart[0] / record.fs if apart.size else np.inf)
     horizon = float(np.median(times)) if quantile == 0.5 else float(np.quantile(times, quantile, method="lower"))
