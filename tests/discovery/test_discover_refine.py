@@ -23,3 +23,21 @@ def test_refine_reports_the_final_model_before_and_after_oe(rfs_oe_registry):
     unrefined = discover(record, "1, z, z^2, z^3, v, v*|v|", "rfs", mass=0.2, max_steps=0, registry=rfs_oe_registry(),
                          views=False, simulate=False)
     assert unrefined.refined is None and unrefined.to_dict()["refined"] is None
+
+
+def test_the_judging_fits_are_looser_than_the_refit_the_search_delivers(rfs_oe_registry):
+    """The prediction check's oe fits run at JUDGE_TOL; the final refit, which the report and the bench row give,
+    at oe's default."""
+    from nlid.discovery.judge import JUDGE_TOL, judging_options
+
+    registry = rfs_oe_registry()
+    oe, rfs = registry.get("oe"), registry.get("rfs")
+    default = next(o.default for o in oe.options if o.name == "tol")
+    assert default < JUDGE_TOL < 0.01  # looser than the default, far tighter than the 1 % gain it decides on
+    assert judging_options(oe, "rfs") == {"init": "rfs", "tol": JUDGE_TOL}
+    assert "tol" not in judging_options(rfs, "rfs")  # an identifier without the option is created as it is
+    preset = get_preset("paper-numerical").with_overrides(duration=10.0)
+    record = preset.simulate(0, noise={"z": 0.02, "a": 0.02}, channels=("z", "a"))
+    result = discover(record, "1, z, z^2, z^3, v, v*|v|", "rfs", mass=0.2, max_steps=0, registry=registry,
+                      refine=True, views=False, simulate=False)  # fmt: skip
+    assert result.refined_model.options["tol"] == default

@@ -8,7 +8,8 @@ import pytest
 from nlid.errors import InputError
 from nlid.model.terms import Model, Term
 from nlid.scoring import predictability_horizon
-from nlid.simulation import free_run, sensitivity_columns, simulate_segments
+from nlid.scoring.scores import HORIZON_STARTS, SENSITIVITY_DELTA, SENSITIVITY_LIMIT, initial_state
+from nlid.simulation import fine_force, free_run, sensitivity_columns, simulate_segments
 from nlid.simulation.presets import get_preset
 
 CASES = [
@@ -185,3 +186,56 @@ def test_predictability_horizon_tells_chaotic_from_predictable_free_runs():
     calm = get_preset("paper-numerical").with_overrides(duration=10.0, force_rms=5.0)
     record = calm.simulate(0)
     assert predictability_horizon(calm.model(), dict(calm.coefficients), calm.mass, record, oversample=1) is None
+
+
+@pytest.mark.parametrize("hold", ["sampled", "zoh"])
+@pytest.mark.parametrize("spec, coefficients, mass, fs, amplitude", CASES, ids=[c[0] for c in CASES])
+def test_a_run_continued_from_its_end_state_is_the_same_run_to_the_bit(spec, coefficients, mass, fs, amplitude, hold):
+    """What predictability_horizon relies on to read every window of its reference run off one run."""
+    model = _model(spec)
+    force = np.random.default_rng(3).standard_normal(700) * amplitude
+    memory = sum(t.is_memory for t in model.terms)
+    x0 = np.zeros((1, 2 + memory))
+    x0[0, :2] = (0.001, -0.01)
+    fine = fine_force(force, hold, 4)
+    whole = simulate_segments(model, coefficients, mass, force, fs, [0], x0, oversample=4, sensitivities=False, fine=fine)
+    head = simulate_segments(
+        model, coefficients, mass, force[:311], fs, [0], x0, oversample=4, sensitivities=False, fine=fine[: 311 * 4]
+    )
+    tail = simulate_segments(
+        model, coefficients, mass, force[311:], fs, [0], head.end_state.copy(), oversample=4, sensitivities=False,
+        fine=fine[311 * 4 :],
+    )  # fmt: skip
+    assert np.array_equal(np.concatenate([head.z, tail.z]), whole.z)
+    assert np.array_equal(tail.end_state, whole.end_state)
+
+
+def test_predictability_horizon_is_the_median_of_its_pairs_each_run_on_its_own():
+    """The definition, run pair by pair (a reference and a displaced run from each start), gives the same horizon."""
+    preset = get_preset("paper-experimental").with_overrides(duration=20.0)
+    record = preset.simulate(1)
+    model, coefficients, mass = preset.model(), dict(preset.coefficients), preset.mass
+    horizon = predictability_horizon(model, coefficients, mass, record, oversample=1)
+    half, scale = record.n // 2, float(np.std(record.z))
+    fine = fine_force(record.f, record.force_hold, 1)
+    first = simulate_segments(
+        model, coefficients, mass, record.f, record.fs, [0], np.array([initial_state(record)]), oversample=1,
+        sensitivities=False, fine=fine,
+    )  # fmt: skip
+    times = []
+    for start in np.unique(np.linspace(0, half, HORIZON_STARTS, endpoint=False).astype(int)):
+        state = np.array([[first.z[start], first.v[start]]])
+        window = slice(start, start + half)
+        runs = []
+        for shift in (0.0, SENSITIVITY_DELTA * scale):
+            x0 = state + np.array([[shift, 0.0]])
+            run = simulate_segments(
+                model, coefficients, mass, record.f[window], record.fs, [0], x0, oversample=1, sensitivities=False,
+                fine=fine[window],
+            )  # fmt: skip
+            runs.append(run.z)
+        apart = np.flatnonzero(np.abs(runs[0] - runs[1]) > SENSITIVITY_LIMIT * scale)
+        times.append(apart[0] / record.fs if apart.size else np.inf)
+    expected = float(np.median(times))
+    assert horizon is not None and np.isfinite(expected)
+    assert horizon == pytest.approx(expected, rel=1e-9)
