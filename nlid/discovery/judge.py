@@ -48,7 +48,7 @@ StageLike = Any
 
 
 def judging_options(identifier: type, method: str) -> dict[str, Any]:
-    """The options of a refiner that judges candidates: started from ``method``, at :data:`JUDGE_TOL` if it has ``tol``."""
+    """A judging refiner's options: started from ``method``, at :data:`JUDGE_TOL` when it has ``tol``."""
     options: dict[str, Any] = {"init": method}
     if any(option.name == "tol" for option in getattr(identifier, "options", ())):
         options["tol"] = JUDGE_TOL

@@ -11,8 +11,17 @@ from nlid.simulation.presets import get_preset
 def test_refine_reports_the_final_model_before_and_after_oe(rfs_oe_registry):
     preset = get_preset("paper-numerical").with_overrides(duration=10.0)
     record = preset.simulate(0, noise={"z": 0.02, "a": 0.02}, channels=("z", "a"))
-    result = discover(record, "1, z, z^2, z^3, v, v*|v|", "rfs", mass=0.2, max_steps=0, registry=rfs_oe_registry(),
-                      refine=True, views=False, options=None)
+    result = discover(
+        record,
+        "1, z, z^2, z^3, v, v*|v|",
+        "rfs",
+        mass=0.2,
+        max_steps=0,
+        registry=rfs_oe_registry(),
+        refine=True,
+        views=False,
+        options=None,
+    )
     assert result.refined is not None and result.refined_model.method == "oe"
     assert result.refined_model.diagnostics["init"] == "rfs"
     before, after = result.final.sim_rms_holdout, result.refined.sim_rms_holdout
@@ -20,8 +29,16 @@ def test_refine_reports_the_final_model_before_and_after_oe(rfs_oe_registry):
     data = json.loads(json.dumps(result.to_dict()))
     assert data["refined"]["sim_rms_after_holdout"] == after
     assert data["refined"]["model"]["method"] == "oe"
-    unrefined = discover(record, "1, z, z^2, z^3, v, v*|v|", "rfs", mass=0.2, max_steps=0, registry=rfs_oe_registry(),
-                         views=False, simulate=False)
+    unrefined = discover(
+        record,
+        "1, z, z^2, z^3, v, v*|v|",
+        "rfs",
+        mass=0.2,
+        max_steps=0,
+        registry=rfs_oe_registry(),
+        views=False,
+        simulate=False,
+    )
     assert unrefined.refined is None and unrefined.to_dict()["refined"] is None
 
 

@@ -198,7 +198,9 @@ def test_a_run_continued_from_its_end_state_is_the_same_run_to_the_bit(spec, coe
     x0 = np.zeros((1, 2 + memory))
     x0[0, :2] = (0.001, -0.01)
     fine = fine_force(force, hold, 4)
-    whole = simulate_segments(model, coefficients, mass, force, fs, [0], x0, oversample=4, sensitivities=False, fine=fine)
+    whole = simulate_segments(
+        model, coefficients, mass, force, fs, [0], x0, oversample=4, sensitivities=False, fine=fine
+    )
     head = simulate_segments(
         model, coefficients, mass, force[:311], fs, [0], x0, oversample=4, sensitivities=False, fine=fine[: 311 * 4]
     )
