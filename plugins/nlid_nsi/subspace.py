@@ -47,9 +47,10 @@ from collections.abc import Iterable, Iterator
 
 import numpy as np
 from scipy import fft as sp_fft
-from scipy import linalg, signal
+from scipy import linalg
 from scipy.linalg import blas
 
+from .filters import lfilter, lfiltic_output
 from .gram import mirror_upper, transform_gram
 from .noise import NoiseModel
 
@@ -361,7 +362,7 @@ def _normal_equations(
     e_r u_j`` for the inputs, the impulse response ``C A^t e_r`` for the
     initial state. The all-pole part ``e_j = u_j / den`` is run once per input
     (and once for an impulse at ``t = -1``, whose response at ``t >= 0`` is
-    the initial-state regressor) by ``scipy.signal.lfilter``, block by block
+    the initial-state regressor) by ``lfilter`` (:mod:`nlid_nsi.filters`), block by block
     with its state carried over; the regressors are the FIR ``nums_r`` over
     lags ``0..n`` of those signals. So ``phi^T phi`` and ``phi^T y`` are a
     fixed linear map of the Gram of ``[e(t), e(t-1), .., e(t-n), y(t)]``,
@@ -393,13 +394,13 @@ def _normal_equations(
             hist = np.zeros((k1, n))  # e(-n .. -1)
             hist[m, n - 1] = 1.0  # the impulse at t = -1: e(-1) = 1 in the last channel
             zi = np.zeros((k1, n))
-            zi[m] = signal.lfiltic([1.0], den, [1.0])
+            zi[m] = lfiltic_output(den, 1.0)
             acc = np.zeros((nl + 1, nl + 1))
         if lagged is None or lagged.shape[1] != rows:
             lagged = np.empty((nl + 1, rows))
         lagged[nl] = x[m]
         x[m] = 0.0  # the impulse channel's input (the impulse itself is in the state)
-        e, zi = signal.lfilter([1.0], den, x, axis=1, zi=zi)
+        e, zi = lfilter([1.0], den, x, axis=1, zi=zi)
         for lag in range(n + 1):  # lagged[l (m + 1) + j] = e_j(t - l), e(t < t0) from the history
             chans = slice(lag * k1, (lag + 1) * k1)
             head = min(lag, rows)
@@ -428,7 +429,7 @@ def _impulse_products(den: np.ndarray, nums: list[np.ndarray], lag: int, ir_len:
     """
     imp = np.zeros(ir_len)
     imp[0] = 1.0
-    hr = np.array([signal.lfilter(num, den, imp) for num in nums])
+    hr = np.array([lfilter(num, den, imp) for num in nums])
     size = sp_fft.next_fast_len(ir_len + lag + 1, real=True)
     spec = sp_fft.rfft(hr, size, axis=1)
     corr = sp_fft.irfft(spec[:, None, :] * spec[None, :, :].conj(), size, axis=2)
