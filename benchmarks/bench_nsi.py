@@ -18,7 +18,7 @@ shared: compare before/after in the same session).
 
     python benchmarks/bench_nsi.py               # everything
     python benchmarks/bench_nsi.py --quick       # skip the 10^6-sample runs and nfoursid
-    python benchmarks/bench_nsi.py --profile 122880   # cProfile (CPU time) of one call, top entries
+    python benchmarks/bench_nsi.py --profile 122880 [--by tottime]   # cProfile (CPU time) of one call, top entries
     python benchmarks/bench_nsi.py --cli-phases 1000000   # nlid identify's steps timed in one process
     python benchmarks/bench_nsi.py --cli 1000000 [--repeat 5]   # only the whole-process nlid identify
     python benchmarks/bench_nsi.py --cli 1000000 --against /tmp/base   # the same, alternating with another tree
@@ -268,8 +268,8 @@ def nfoursid_side_by_side(n: int = 16_384, block_rows: int = 100, k_tilde: float
     print(f"    nsi-ip, full method, same record: errors {fmt(errors(full.coefficients))}")
 
 
-def profile(n: int, top: int = 25) -> None:
-    """cProfile of one nsi-ip call (after a warm-up call), timed in CPU seconds; top entries by cumulative time."""
+def profile(n: int, top: int = 25, by: str = "cumulative") -> None:
+    """cProfile of one nsi-ip call (after a warm-up call), in CPU seconds; top entries by ``by`` (a pstats key)."""
     import cProfile
     import io
     import pstats
@@ -286,7 +286,7 @@ def profile(n: int, top: int = 25) -> None:
     prof.disable()
     out = io.StringIO()
     stats = pstats.Stats(prof, stream=out)
-    stats.sort_stats("cumulative").print_stats(top)
+    stats.sort_stats(by).print_stats(top)
     print(f"nlid_nsi from {Path(nlid_nsi.__file__).parent}; N = {n:,}; load {os.getloadavg()[0]:.2f}")
     print(f"timings_s (wall, inside the call): {res.diagnostics['timings_s']}")
     print(out.getvalue())
@@ -294,7 +294,8 @@ def profile(n: int, top: int = 25) -> None:
 
 def main() -> None:
     if "--profile" in sys.argv:
-        profile(int(sys.argv[sys.argv.index("--profile") + 1]))
+        by = sys.argv[sys.argv.index("--by") + 1] if "--by" in sys.argv else "cumulative"
+        profile(int(sys.argv[sys.argv.index("--profile") + 1]), by=by)
         return
     if "--cli" in sys.argv:
         repeat = int(sys.argv[sys.argv.index("--repeat") + 1]) if "--repeat" in sys.argv else 5
