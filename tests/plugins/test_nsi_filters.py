@@ -57,3 +57,24 @@ def test_filter_does_not_import_scipy_signal():
     env = dict(os.environ, PYTHONPATH=os.pathsep.join(p for p in sys.path if p))  # this process's nlid_nsi
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True, env=env).stdout
     assert out.strip() == "False"
+
+
+def test_nsi_ip_does_not_import_scipy_signal():
+    """An ``nlid identify`` child loads what nsi-ip imports: ``scipy.signal`` (~0.5 s, ~40 MB) is not among it."""
+    code = (
+        "import sys\n"
+        "import numpy as np\n"
+        "from nlid import Record\n"
+        "from nlid.plugin import Model\n"
+        "from nlid_nsi import NSIInputPerturbation\n"
+        "from nlid_nsi.reconstruction import oscillator_response\n"
+        "rng = np.random.default_rng(0)\n"
+        "f = 20 * rng.standard_normal(20000)\n"
+        "z = oscillator_response(f, 1e-3, 0.2, 1.0, 500.0)[0]\n"
+        "z = z + 0.01 * np.std(z) * rng.standard_normal(z.size)\n"
+        "NSIInputPerturbation().identify(Record(f=f, z=z, fs=1000.0), Model.from_spec('z^3'))\n"
+        "print(sorted(m for m in ('scipy.signal', 'scipy.stats') if m in sys.modules))\n"
+    )
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join(p for p in sys.path if p))
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True, env=env).stdout
+    assert out.strip() == "[]"
