@@ -429,6 +429,7 @@ def _normal_equations(
             rows_, cols_ = slice(lag * k1, (lag + 1) * k1), slice((lag + d) * k1, (lag + d + 1) * k1)
             lag_gram[rows_, cols_] = block
             lag_gram[cols_, rows_] = block.T
+    lag_gram = np.triu(lag_gram) + np.triu(lag_gram, 1).T  # exactly symmetric (a product need not be)
     lag_rhs = rhs.reshape(-1)
     # phi[:, r m + j] = sum_l taps[r, l] e_j(t - l), the initial-state column likewise from e_imp
     k = np.zeros(((n + 1) * k1, n * m + n))
