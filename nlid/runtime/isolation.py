@@ -76,18 +76,12 @@ __all__ = [
     "untrack",
     "START_METHOD_ENV",
     "PARENT_ENV",
-    "FORKSERVER_ENV",
-    "PRELOAD",
 ]
 
 #: Environment variable choosing the start method: ``forkserver`` or ``spawn`` (default: the platform's best).
 START_METHOD_ENV = "NLID_START_METHOD"
 #: Environment variable holding the pid of the nlid process that started a fork server or a spawned child.
 PARENT_ENV = "NLID_ISOLATION_PARENT"
-#: Environment variable set in the fork server to its own pid (kept for code that looked for it).
-FORKSERVER_ENV = "NLID_FORKSERVER_PID"
-#: What the fork server loads before serving (:mod:`nlid.runtime.preload`).
-PRELOAD = ("nlid.identification.pipeline", "nlid.contract.registry", "nlid.study.worker", "nlid.simulation")
 #: Longest wait for the fork server to start a child (s): its preload is bounded by ``PRELOAD_LIMIT``.
 START_LIMIT = PRELOAD_LIMIT + 60.0
 #: After its reply (or after being killed), how long a child may take to be reported ended (s).
