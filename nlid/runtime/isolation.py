@@ -364,10 +364,8 @@ def _run_forked(payload: bytes, timeout: float | None, pinned: bool) -> ChildRes
     exitcode: int | None = None
     ended = timed_out = False
     try:
-        try:
+        with contextlib.suppress(OSError):  # the child died before reading its work: its exit code says why
             data.sendall(payload)
-        except OSError:
-            pass  # the child died before reading its work: its exit code says why
         data_open = True
         while reply is None and not ended:
             remaining = None if deadline is None else max(0.0, deadline - time.perf_counter())
