@@ -64,12 +64,11 @@ from .child import HEADER, READY, frame
 from .forkserver import PIN_ENV
 from .outcome import _CATEGORIES, ChildResult, IsolationError, result_from_reply
 from .preload import PRELOAD_ENV, PRELOAD_LIMIT
-from .process import die_with, pin_threads
+from .process import pin_threads
 
 __all__ = [
     "run_in_child",
     "kill_children",
-    "die_with_parent",
     "start_fork_server",
     "start_method",
     "track",
@@ -89,25 +88,6 @@ END_LIMIT = 10.0
 
 _LIVE: dict[int, Any] = {}  # pid -> "group" (forked child) or its Popen (spawned child, or tracked)
 _LIVE_LOCK = threading.Lock()
-
-
-def die_with_parent(expected_parent: int | None = None, sig: int = signal.SIGKILL) -> bool:
-    """Ask the kernel to send ``sig`` to this process when its parent dies (Linux; elsewhere a no-op).
-
-    Parameters
-    ----------
-    expected_parent
-        The pid the parent should have: if the parent is already gone (this
-        process was re-parented before the request took effect), exit at once.
-    sig
-        The signal.
-
-    Returns
-    -------
-    bool
-        Whether the request took effect.
-    """
-    return die_with(expected_parent if expected_parent else os.getppid(), sig)
 
 
 # --------------------------------------------------------------------------- start method
