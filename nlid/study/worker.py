@@ -2,9 +2,9 @@
 
 :func:`execute_run` rebuilds the records from the run's spec, identifies
 (timing it and tracing its peak memory), computes the metrics
-(:mod:`nlid.study.metrics`, :meth:`nlid.identified.reference.Comparison.to_row`; the
-columns are declared in :mod:`nlid.scoring.columns`) and, when the study has a
-``[posterior]`` table, adds ``nlid.bayes.study_metrics(record, result,
+(the core's typed values flattened by :mod:`nlid.study.metrics` into the
+columns declared in :mod:`nlid.study.columns`) and, when the study has a
+``[posterior]`` table, adds ``nlid.bayes.posterior_metrics(record, result,
 reference, **options)`` to the row. It never raises: a failure is a payload with
 ``status = "failed"`` and the error message, and so is a result that could not
 be stored as JSON (a plugin's diagnostics holding an object, say).
@@ -43,7 +43,7 @@ from ..errors import NlidError
 from ..identification.pipeline import as_model, identify
 from ..identified.reference import compare
 from ..runtime import isolation, parallel
-from ..scoring import columns as col
+from . import columns as col
 from . import metrics
 from .data import build_data
 from .plan import RunSpec
@@ -191,7 +191,7 @@ def _execute(spec: RunSpec) -> dict[str, Any]:
         row.update(metrics.holdout_metrics(None, result, False))
         _add_warning(row, f"held-out scores: {exc}")
     lap("scores")
-    row.update(compare(result, data.reference).to_row())
+    row.update(metrics.comparison_columns(compare(result, data.reference)))
     slices = spec.dataset.slices
     surface, extra_arrays = metrics.surface_metrics(data.record, result, slices)
     row.update(surface)
@@ -201,11 +201,13 @@ def _execute(spec: RunSpec) -> dict[str, Any]:
 
         # a posterior that cannot be reported (e.g. unconverged chains) is a warning: the run keeps its metrics
         try:
-            extra = bayes.study_metrics(data.record, result, data.reference, **dict(spec.posterior))
+            extra = metrics.posterior_columns(
+                bayes.posterior_metrics(data.record, result, data.reference, **dict(spec.posterior))
+            )
         except NlidError as exc:
             extra = {}
             _add_warning(row, f"posterior: {exc}")
-        row.update(extra)  # declared families (nlid.scoring.columns): they never collide with the columns above
+        row.update(extra)  # declared families (nlid.study.columns): they never collide with the columns above
         lap("posterior")
     if spec.response is not None:
         try:
