@@ -87,7 +87,7 @@ PARENT_ENV = "NLID_ISOLATION_PARENT"
 #: Environment variable set in the fork server to its own pid (kept for code that looked for it).
 FORKSERVER_ENV = "NLID_FORKSERVER_PID"
 #: What the fork server loads before serving (:mod:`nlid.runtime.preload`).
-PRELOAD = ("nlid.identification.pipeline", "nlid.contract.registry", "nlid.study.worker", "nlid.simulation")
+PRELOAD = ("nlid.identification.pipeline", "nlid.contract.registry", "nlid.study.plan", "nlid.simulation")
 #: Longest wait for the fork server to start a child (s): its preload is bounded by ``PRELOAD_LIMIT``.
 START_LIMIT = PRELOAD_LIMIT + 60.0
 #: After its reply (or after being killed), how long a child may take to be reported ended (s).
