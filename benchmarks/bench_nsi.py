@@ -18,9 +18,10 @@ shared: compare before/after in the same session).
 
     python benchmarks/bench_nsi.py               # everything
     python benchmarks/bench_nsi.py --quick       # skip the 10^6-sample runs and nfoursid
-    python benchmarks/bench_nsi.py --profile 122880   # cProfile (CPU time) of one call, top entries
+    python benchmarks/bench_nsi.py --profile 122880 [--by tottime]   # cProfile (CPU time) of one call, top entries
     python benchmarks/bench_nsi.py --cli-phases 1000000   # nlid identify's steps timed in one process
     python benchmarks/bench_nsi.py --cli 1000000 [--repeat 5]   # only the whole-process nlid identify
+    python benchmarks/bench_nsi.py --cli 1000000 --against /tmp/base   # the same, alternating with another tree
     python benchmarks/bench_nsi.py --cli 122880 --rfs   # the same with --method rfs --mass 0.2 (for comparison)
 
 ``--profile`` measures whatever ``nlid`` and ``nlid_nsi`` are importable: to
@@ -116,7 +117,9 @@ def _record_file(folder: Path, n: int) -> Path:
     return path
 
 
-def cli(n: int, repeat: int = 5, method: str = "nsi-ip", extra: tuple[str, ...] = ()) -> None:
+def cli(
+    n: int, repeat: int = 5, method: str = "nsi-ip", extra: tuple[str, ...] = (), against: str | None = None
+) -> None:
     """``nlid identify`` on a file of ``n`` samples (paper-numerical, seed 0, 2 % noise on z), in a child process.
 
     Reports the median wall time of ``repeat`` runs, the median CPU time
@@ -124,27 +127,39 @@ def cli(n: int, repeat: int = 5, method: str = "nsi-ip", extra: tuple[str, ...] 
     peak RSS (``ru_maxrss`` of the child: imports, reading the file, the
     identifier and the core's post-processing, i.e. what the user waits for
     and pays for).
+
+    ``against``: a second source tree (e.g. ``main`` exported with ``git
+    archive``), whose ``nlid`` and ``plugins`` are put first on ``PYTHONPATH``
+    for its runs; the two trees' runs alternate (one of each per round, the
+    same file), which is the only fair comparison on a shared machine.
     """
     import statistics
     import tempfile
 
+    trees: dict[str, dict[str, str] | None] = {"this tree": None}
+    if against is not None:
+        root = str(Path(against).resolve())
+        trees[f"against {root}"] = dict(os.environ, PYTHONPATH=os.pathsep.join((root, os.path.join(root, "plugins"))))
+    runs: dict[str, list[tuple[float, float, float, float]]] = {label: [] for label in trees}
     with tempfile.TemporaryDirectory() as tmp:
         path = _record_file(Path(tmp), n)
         cmd = [sys.executable, "-m", "nlid.cli.main", "identify", str(path), "--method", method, "--terms", TERMS]
         cmd += list(extra)
-        walls, peaks, cpus = [], [], []
         for _ in range(repeat):
-            out = subprocess.run([sys.executable, "-c", _WRAPPER, *cmd], check=True, capture_output=True, text=True)
-            wall, peak, cpu = (float(x) for x in out.stdout.split())
-            walls.append(wall)
-            peaks.append(peak)
-            cpus.append(cpu)
-    print(
-        f"  nlid identify --method {' '.join((method, *extra))}, N = {n:,}: "
-        f"wall median {statistics.median(walls):.2f} s over {repeat} runs "
-        f"(min {min(walls):.2f}), CPU median {statistics.median(cpus):.2f} s, peak RSS {max(peaks):.0f} MB "
-        f"(whole process, largest of the runs); load {os.getloadavg()[0]:.2f}"
-    )
+            for label, env in trees.items():
+                out = subprocess.run(
+                    [sys.executable, "-c", _WRAPPER, *cmd], check=True, capture_output=True, text=True, env=env
+                )
+                wall, peak, cpu = (float(x) for x in out.stdout.split())
+                runs[label].append((wall, cpu, peak, os.getloadavg()[0]))
+    for label, rows in runs.items():
+        walls, cpus, peaks, loads = (list(col) for col in zip(*rows, strict=True))
+        print(
+            f"  nlid identify --method {' '.join((method, *extra))}, N = {n:,} ({label}): "
+            f"wall median {statistics.median(walls):.2f} s over {repeat} runs "
+            f"(min {min(walls):.2f}), CPU median {statistics.median(cpus):.2f} s, peak RSS {max(peaks):.0f} MB "
+            f"(whole process, largest of the runs); load {min(loads):.2f}-{max(loads):.2f}"
+        )
 
 
 _PHASES = r"""
@@ -253,8 +268,8 @@ def nfoursid_side_by_side(n: int = 16_384, block_rows: int = 100, k_tilde: float
     print(f"    nsi-ip, full method, same record: errors {fmt(errors(full.coefficients))}")
 
 
-def profile(n: int, top: int = 25) -> None:
-    """cProfile of one nsi-ip call (after a warm-up call), timed in CPU seconds; top entries by cumulative time."""
+def profile(n: int, top: int = 25, by: str = "cumulative") -> None:
+    """cProfile of one nsi-ip call (after a warm-up call), in CPU seconds; top entries by ``by`` (a pstats key)."""
     import cProfile
     import io
     import pstats
@@ -271,7 +286,7 @@ def profile(n: int, top: int = 25) -> None:
     prof.disable()
     out = io.StringIO()
     stats = pstats.Stats(prof, stream=out)
-    stats.sort_stats("cumulative").print_stats(top)
+    stats.sort_stats(by).print_stats(top)
     print(f"nlid_nsi from {Path(nlid_nsi.__file__).parent}; N = {n:,}; load {os.getloadavg()[0]:.2f}")
     print(f"timings_s (wall, inside the call): {res.diagnostics['timings_s']}")
     print(out.getvalue())
@@ -279,13 +294,15 @@ def profile(n: int, top: int = 25) -> None:
 
 def main() -> None:
     if "--profile" in sys.argv:
-        profile(int(sys.argv[sys.argv.index("--profile") + 1]))
+        by = sys.argv[sys.argv.index("--by") + 1] if "--by" in sys.argv else "cumulative"
+        profile(int(sys.argv[sys.argv.index("--profile") + 1]), by=by)
         return
     if "--cli" in sys.argv:
         repeat = int(sys.argv[sys.argv.index("--repeat") + 1]) if "--repeat" in sys.argv else 5
         # --rfs: the same command with the README's other method (rfs, --mass 0.2), whose child needs no scipy.signal
         method, extra = ("rfs", ("--mass", "0.2")) if "--rfs" in sys.argv else ("nsi-ip", ())
-        cli(int(sys.argv[sys.argv.index("--cli") + 1]), repeat=repeat, method=method, extra=extra)
+        against = sys.argv[sys.argv.index("--against") + 1] if "--against" in sys.argv else None
+        cli(int(sys.argv[sys.argv.index("--cli") + 1]), repeat=repeat, method=method, extra=extra, against=against)
         return
     if "--cli-phases" in sys.argv:
         cli_phases(int(sys.argv[sys.argv.index("--cli-phases") + 1]))

@@ -24,7 +24,9 @@ established).
 
 With 50 replicates a perfectly calibrated 90 % interval lands outside 85-95 %
 for a given coefficient about 25 % of the time (binomial sd 4.2 points); the
-summary prints that sd beside each coverage.
+summary prints that sd beside each coverage, the number of coefficient-cells
+within 85-95 %, and how many a perfectly calibrated posterior would put there
+at the same replicate counts (the binomial expectation; :func:`expected_within`).
 """
 
 from __future__ import annotations
@@ -160,6 +162,23 @@ def run(cells: list[tuple[str, str, float]], seeds: range, workers: int, path: P
                 print(f"  {finished}/{len(todo)} in {time.perf_counter() - start:.0f} s", flush=True)
 
 
+def expected_within(replicates: list[int], level: float = 0.90, band: tuple[float, float] = (85.0, 95.0)) -> float:
+    """Expected number of coefficient-cells whose coverage lands in ``band`` (percent) when every interval is exact.
+
+    A calibrated ``level`` interval covers the truth in each replicate with probability ``level``, so a cell
+    of ``n`` replicates covers ``k ~ Binomial(n, level)`` of them; the cell is within the band when
+    ``100 k / n`` is. ``replicates`` holds one replicate count per coefficient-cell.
+    """
+    from scipy.stats import binom
+
+    total = 0.0
+    for n in replicates:
+        lo = int(np.ceil(band[0] * n / 100 - 1e-9))
+        hi = int(np.floor(band[1] * n / 100 + 1e-9))
+        total += float(binom.cdf(hi, n, level) - binom.cdf(lo - 1, n, level))
+    return total
+
+
 def summary(path: Path, cells: list[tuple[str, str, float]], seeds: range) -> None:
     """Print coverage per cell and coefficient."""
     wanted = {(p, c, float(x)) for p, c, x in cells}
@@ -170,6 +189,7 @@ def summary(path: Path, cells: list[tuple[str, str, float]], seeds: range) -> No
     print(f"coverage of the 90 % intervals ({path}); in brackets the sd of the standardised error")
     print(f"{'preset':20s} {'channels':8s} {'noise':>5s} {'reps':>5s}  coefficient: coverage % (sd z)")
     outside = []
+    counts: list[int] = []
     for cell in cells:
         cell = (cell[0], cell[1], float(cell[2]))
         got = by_cell.get(cell, [])
@@ -183,6 +203,8 @@ def summary(path: Path, cells: list[tuple[str, str, float]], seeds: range) -> No
             cov = 100 * np.mean([int(r["covers"]) for r in sel])
             sdz = np.std([float(r["z"]) for r in sel])
             parts.append(f"{t}: {cov:.0f} ({sdz:.2f})")
+            if len(sel) >= 20:
+                counts.append(len(sel))
             if not 85 <= cov <= 95 and len(sel) >= 20:
                 outside.append((cell, t, cov, len(sel)))
         note = f"  [{len(failed)} failed: {got[0]['message'] if failed else ''}]" if failed else ""
@@ -191,6 +213,13 @@ def summary(path: Path, cells: list[tuple[str, str, float]], seeds: range) -> No
             f"{cell[0]:20s} {cell[1]:8s} {100 * cell[2]:4.0f}% {reps:5d}  "
             + "; ".join(parts)
             + f"  (binomial sd {binom:.1f}){note}"
+        )
+    if counts:
+        within = len(counts) - len(outside)
+        print(
+            f"within 85-95 %: {within} of {len(counts)} coefficient-cells (>= 20 replicates); "
+            f"a perfectly calibrated posterior would put {expected_within(counts):.1f} there on average "
+            "at these replicate counts"
         )
     if outside:
         print("outside 85-95 % (cells with at least 20 replicates):")

@@ -10,7 +10,7 @@ component of the import graph with more than one module). What counts as an impo
   namespace back (``from . import name``, ``from nlid.study import run_study``) then closes a circle;
 * ``from P import name`` imports ``P`` (its namespace is read), and ``P.name`` too when that is a
   module: ``from . import columns`` in ``nlid/study/worker.py`` is an import of ``nlid.study`` and of
-  ``nlid.scoring.columns``.
+  ``nlid.study.columns``.
 
 ``import a.b.c`` imports ``a.b.c`` (the parent packages it initialises on the way are not counted:
 they have started initialising before any of their submodules runs). A name loaded lazily through

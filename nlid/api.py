@@ -17,6 +17,7 @@ importing one of them never replaces a verb on the package.
 
 from __future__ import annotations
 
+import contextlib
 import math
 from collections.abc import Iterable, Mapping, Sequence
 from pathlib import Path
@@ -255,10 +256,8 @@ def compare(
         raise InputError(f"options= are given for {brief(stray[0])}, which is not among the methods compared ({names})")
     for name, given in (options or {}).items():  # option values are user input too: refused before anything runs
         if name in registry.identifiers:
-            try:
+            with contextlib.suppress(PluginError):  # the plugin itself is broken: that method's row says so
                 registry.create(name, given)
-            except PluginError:  # the plugin itself is broken: that method's row says so
-                pass
     if structure:
         if holdout is not None or rule is not None or px_roots is not None:
             raise InputError("holdout=, rule= and px_roots= do not apply to a structure of several DOFs")

@@ -248,7 +248,7 @@ def _declared_keys() -> tuple[tuple[str, ...], set[str]]:
     """
     from nlid.identified.model import IdentifiedModel
     from nlid.scoring import Scores
-    from nlid.scoring import columns as col
+    from nlid.study import columns as col
 
     identity = (col.RUN_ID, col.DATASET, col.MODEL, col.METHOD, col.REPETITION, col.SEED, col.STATUS, col.ERROR)
     words = {f.name for f in (*identity, col.WARNINGS, col.MASS)}
@@ -265,14 +265,14 @@ SHARED_KEYS = {
 
 
 def column_key_literals(root: Path, shared: dict[tuple[str, str], str] | None = None) -> list[str]:
-    """String literals outside ``nlid/scoring/columns.py`` that spell a study-column key (see
+    """String literals outside ``nlid/study/columns.py`` that spell a study-column key (see
     :func:`_declared_keys`)."""
     shared = SHARED_KEYS if shared is None else shared
     prefixes, metrics = _declared_keys()
     out = []
     for path in _sources(root):
         rel = path.relative_to(root).as_posix()
-        if rel == "nlid/scoring/columns.py":
+        if rel == "nlid/study/columns.py":
             continue
         for line, text in _strings(ast.parse(path.read_text())):
             if (text.startswith(prefixes) or text in metrics) and (rel, text) not in shared:
@@ -312,7 +312,7 @@ def test_bayes_never_imports_study():
 
 
 def test_no_study_column_key_is_spelled_outside_the_declarations():
-    """Producers and consumers build keys through nlid/scoring/columns.py (``COEF_ERROR.key(term)``)."""
+    """Producers and consumers build keys through nlid/study/columns.py (``COEF_ERROR.key(term)``)."""
     assert not column_key_literals(ROOT), "\n".join(column_key_literals(ROOT))
     assert all((ROOT / rel).is_file() for rel, _ in SHARED_KEYS)
 
@@ -393,7 +393,7 @@ def test_the_column_rule_catches_a_key_spelled_outside_the_declarations(tmp_path
         tmp_path,
         {
             **CLEAN,
-            "nlid/scoring/columns.py": 'X = "coef_error_pct:"\n',  # the declarations themselves
+            "nlid/study/columns.py": 'X = "coef_error_pct:"\n',  # the declarations themselves
             "nlid/producer.py": '''\
                 """Writes coef_error_pct:<term> (a docstring may say so)."""
                 def row(t, x):

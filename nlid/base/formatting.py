@@ -29,6 +29,7 @@ __all__ = [
     "column_digits",
     "spread_cell",
     "text_table",
+    "column_groups",
     "wrap",
 ]
 
@@ -184,25 +185,30 @@ def text_table(
     str
         One or more blocks separated by a blank line.
     """
-    n = len(header)
-    keep = min(keep, n)
+    keep = min(keep, len(header))
+    widths = [max(len(header[j]), *(len(r[j]) for r in rows)) if rows else len(header[j]) for j in range(len(header))]
     fixed = list(range(keep))
+    blocks = ["\n".join(_layout(header, rows, fixed + g)) for g in column_groups(widths, keep, width)]
+    return "\n\n".join(blocks)
 
-    def col_width(j: int) -> int:
-        return max(len(header[j]), *(len(r[j]) for r in rows)) if rows else len(header[j])
 
-    base = sum(col_width(j) for j in fixed) + 2 * max(0, keep - 1)
+def column_groups(widths: Sequence[int], keep: int, width: int | None) -> list[list[int]]:
+    """The columns after the first ``keep`` in groups that fit ``width`` characters beside those ``keep``.
+
+    Columns are two spaces apart; a column wider than ``width`` is a group of its own, and ``width=None``
+    gives one group. There is always at least one group (perhaps empty).
+    """
+    base = sum(widths[:keep]) + 2 * max(0, keep - 1)
     groups: list[list[int]] = []
     current: list[int] = []
     used = base
-    for j in range(keep, n):
-        w = col_width(j) + 2
-        if current and used + w > width:
+    for j in range(keep, len(widths)):
+        w = widths[j] + 2
+        if width is not None and current and used + w > width:
             groups.append(current)
             current, used = [], base
         current.append(j)
         used += w
     if current or not groups:
         groups.append(current)
-    blocks = ["\n".join(_layout(header, rows, fixed + g)) for g in groups]
-    return "\n\n".join(blocks)
+    return groups

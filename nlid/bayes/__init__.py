@@ -30,7 +30,7 @@ from .noise import NoiseLevel, UnknownNoiseError, channel_noise
 from .priors import Flat, Normal, PriorError, Uniform, default_priors, parse_prior
 from .result import DampingBand, Posterior
 from .sampler import Chains, ConvergenceError, run_until_converged
-from .study import study_metrics
+from .study import PosteriorMetrics, posterior_metrics
 
 __all__ = [
     "PosteriorSampler",
@@ -56,5 +56,6 @@ __all__ = [
     "ConvergenceError",
     "DegenerateParametersError",
     "PriorError",
-    "study_metrics",
+    "PosteriorMetrics",
+    "posterior_metrics",
 ]

@@ -46,6 +46,7 @@ enters ``y`` linearly and independently of ``G``) and is not simulated.
 
 from __future__ import annotations
 
+import os
 from collections import deque
 from collections.abc import Callable, Iterator, Mapping
 from dataclasses import dataclass
@@ -58,6 +59,7 @@ from ..data.record import Record
 from ..errors import IdentificationError, InputError, NlidError
 from ..estimation.balance import RegressionData, regression_data, share_channels
 from ..model.terms import Model
+from ..runtime import parallel
 from ..signal import derivatives
 from ..simulation import SimulationError, fine_force, simulate
 from .noise import channel_noise
@@ -246,27 +248,19 @@ def _check_substeps(substeps: int | None) -> int | None:
 def bias_threads(pairs: int) -> int:
     """Threads the antithetic pairs of one step are simulated on: the free cores, at most one per pair.
 
-    ``NLID_WORKERS`` when set (a positive integer: nlid's one pool size); one in a process whose
-    numerical libraries are pinned to a thread (a study's run: one run per core, ``NUMBA_NUM_THREADS=1``,
-    :func:`nlid.runtime.process.pin_threads`); otherwise the cores this process may use less the other
-    processes' load (the 1-minute load average less this process), at least one.
+    :func:`nlid.runtime.parallel.threads` with the 1-minute load average: one in a process whose numerical
+    libraries are pinned to a thread (a study's run: one run per core, ``NUMBA_NUM_THREADS=1``,
+    :func:`nlid.runtime.process.pin_threads`); else ``NLID_WORKERS`` when set (a positive integer: nlid's
+    one pool size; anything else is an :class:`~nlid.errors.InputError`); otherwise the cores this process
+    may use less the other processes' load, at least one.
     """
-    import os
-
-    fixed = os.environ.get("NLID_WORKERS", "").strip()
-    if fixed.isdigit() and int(fixed) > 0:
-        return max(1, min(pairs, int(fixed)))
-    if pairs <= 1 or os.environ.get("NUMBA_NUM_THREADS", "").strip() == "1":
+    if pairs <= 1:
         return 1
     try:
-        cores = len(os.sched_getaffinity(0))
-    except AttributeError:  # pragma: no cover - not Linux
-        cores = os.cpu_count() or 1
-    try:
-        others = max(os.getloadavg()[0] - 1.0, 0.0)
+        load = os.getloadavg()[0]
     except OSError:  # pragma: no cover - no load average
-        others = 0.0
-    return int(max(1, min(pairs, cores, round(cores - others))))
+        load = 0.0
+    return parallel.threads(pairs, load=load)
 
 
 def _bindings(

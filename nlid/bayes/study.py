@@ -1,4 +1,4 @@
-"""The study runner's hook: interval widths and coverage of a posterior.
+"""What a study asks of a posterior: credible intervals, their coverage of the truth, the chains' cost.
 
 A study config asks for posteriors with a ``[posterior]`` table; its keys are
 the options of :class:`~nlid.bayes.PosteriorSampler` (``params``,
@@ -9,12 +9,15 @@ the options of :class:`~nlid.bayes.PosteriorSampler` (``params``,
 The posterior is the one :func:`nlid.bayes.sample_posterior` gives, whatever
 channels the record has (the noise levels of the correction established as
 :mod:`nlid.bayes.noise` says); a level that cannot be established fails the
-posterior, which the study records as a warning on the run.
+posterior, which the study records as a warning on the run. The result is a
+typed value (:class:`PosteriorMetrics`); the study flattens it into its
+columns (:mod:`nlid.study.row`).
 """
 
 from __future__ import annotations
 
 from collections.abc import Mapping
+from dataclasses import dataclass
 from typing import Any
 
 from ..data.record import Record
@@ -22,10 +25,39 @@ from ..errors import InputError
 from ..identified.model import IdentifiedModel
 from ..identified.reference import Reference
 from ..model.terms import Model
-from ..scoring import columns as col
 from .inference import PosteriorSampler
 
-__all__ = ["study_metrics"]
+__all__ = ["PosteriorMetrics", "posterior_metrics"]
+
+
+@dataclass(frozen=True)
+class PosteriorMetrics:
+    """The posterior of one study run, as the study reports it (:func:`posterior_metrics`).
+
+    Attributes
+    ----------
+    level
+        The credible level of the intervals.
+    intervals
+        ``{term: (lo, hi)}``: the equal-tailed credible interval of each sampled coefficient, in the
+        posterior's order.
+    covers
+        ``{term: lo <= truth <= hi}`` for the sampled terms whose true value is known.
+    tau
+        The largest integrated autocorrelation time of the chains (steps).
+    seconds
+        The posterior's wall time.
+    max_bias_shift_sd
+        The largest move of a sampled coefficient by the bias correction, in its standard deviations (0
+        without the correction).
+    """
+
+    level: float
+    intervals: Mapping[str, tuple[float, float]]
+    covers: Mapping[str, bool]
+    tau: float
+    seconds: float
+    max_bias_shift_sd: float
 
 
 def _truth_coefficients(truth: Reference | Mapping[str, Any] | None) -> dict[str, float] | None:
@@ -39,12 +71,12 @@ def _truth_coefficients(truth: Reference | Mapping[str, Any] | None) -> dict[str
     return None if ref.coefficients is None else dict(ref.coefficients)
 
 
-def study_metrics(
+def posterior_metrics(
     record: Record | Any,
     fit: IdentifiedModel | Any,
     truth: Reference | Mapping[str, Any] | None,
     **options: Any,
-) -> dict[str, float | bool]:
+) -> PosteriorMetrics:
     """Posterior metrics of one study run.
 
     Parameters
@@ -61,16 +93,9 @@ def study_metrics(
 
     Returns
     -------
-    dict
-        For each sampled term: ``"ci_lo:<term>"`` and ``"ci_hi:<term>"`` (the
-        equal-tailed credible interval), ``"ci_width:<term>"`` and, when the
-        truth is known, ``"ci_covers:<term>"``; ``"posterior:level"``,
-        ``"posterior:tau"`` (the largest integrated autocorrelation time,
-        steps), ``"posterior:seconds"`` and ``"posterior:max_bias_shift_sd"``
-        (the largest move of a sampled coefficient by the bias correction, in
-        its standard deviations; 0 without the correction). The keys are
-        built through the declared column families (:mod:`nlid.scoring.columns`);
-        the study summary turns the ``ci_*`` families into one table.
+    PosteriorMetrics
+        The credible intervals at ``level``, their coverage of the truth when it is known, the chains'
+        autocorrelation time, the time and the bias correction's largest move.
     """
     options = dict(options)
     level = float(options.pop("level", 0.9))
@@ -84,12 +109,7 @@ def study_metrics(
         coeffs = _truth_coefficients(truth)
     if coeffs is not None:
         coeffs = {unknowns.names[unknowns.index(k)]: v for k, v in coeffs.items() if k in unknowns}
-    out: dict[str, float | bool] = {col.POSTERIOR_LEVEL.key(): level}
-    for name, (lo, hi) in posterior.interval(level).items():
-        out[col.CI_LO.key(name)], out[col.CI_HI.key(name)], out[col.CI_WIDTH.key(name)] = lo, hi, hi - lo
-        if coeffs is not None and name in coeffs:
-            out[col.CI_COVERS.key(name)] = bool(lo <= coeffs[name] <= hi)
-    out[col.POSTERIOR_TAU.key()] = max(posterior.tau.values())
-    out[col.POSTERIOR_SECONDS.key()] = posterior.seconds
-    out[col.POSTERIOR_BIAS_SHIFT.key()] = max((abs(x) for x in posterior.bias_shifts.values()), default=0.0)
-    return out
+    intervals = {name: (lo, hi) for name, (lo, hi) in posterior.interval(level).items()}
+    covers = {name: bool(lo <= coeffs[name] <= hi) for name, (lo, hi) in intervals.items() if coeffs and name in coeffs}
+    shift = max((abs(x) for x in posterior.bias_shifts.values()), default=0.0)
+    return PosteriorMetrics(level, intervals, covers, max(posterior.tau.values()), posterior.seconds, shift)

@@ -2,7 +2,8 @@
 
 A :class:`BenchJob` is a frozen value (the benchmark file's text, the pipelines, the data
 source, the user files with their checksums), so it crosses process boundaries like a study's
-run spec; :func:`nlid.study.worker.run_isolated` runs :meth:`BenchJob.execute` in a child with
+run spec. It is a :class:`nlid.study.job.Job` (``run_id``, ``timeout``, ``label``, ``execute``,
+``failure``): :func:`nlid.study.worker.run_isolated` runs :meth:`BenchJob.execute` in a child with
 the time limit, and :class:`nlid.study.store.ResultStore` persists its payload as soon as it
 finishes (its digest tells whether a stored result still belongs to the job).
 
@@ -205,7 +206,12 @@ class BenchJob:
         data = {k: v for k, v in self.to_dict().items() if k not in ("timeout", "files")}
         return hashlib.sha256(json.dumps(data, sort_keys=True).encode()).hexdigest()[:16]
 
-    # -- what the worker calls
+    # -- the job protocol (nlid.study.job.Job): what the worker calls
+    @property
+    def label(self) -> str:
+        """How a failure message names the job: ``"job 'silverbox/rfs'"``."""
+        return f"job {self.run_id!r}"
+
     def failure(self, status: str, error: str) -> dict[str, Any]:
         """The payload of a job that produced nothing (its rows say why)."""
         row = {"run_id": self.run_id, "benchmark": self.benchmark, "status": status, "error": error}
@@ -217,8 +223,12 @@ class BenchJob:
             "arrays": {},
         }
 
-    def execute(self) -> dict[str, Any]:
-        """Fit the pipelines on the estimation part, then score them on every test set (never raises)."""
+    def execute(self, threads: int = 1) -> dict[str, Any]:
+        """Fit the pipelines on the estimation part, then score them on every test set (never raises).
+
+        ``threads`` is the protocol's thread budget (:meth:`nlid.study.job.Job.execute`); a bench job does not use
+        it: its pipelines and scores run as they always did.
+        """
         try:
             return self._execute()
         except NlidError as exc:

@@ -334,3 +334,18 @@ def registry_for(name: str) -> Registry:
         if name in reg.identifiers:
             return reg
     return default_registry()
+
+
+def make_identifier(method: Any, options: Mapping[str, Any] | None = None, registry: Registry | None = None) -> Any:
+    """The identifier named ``method``, created with ``options`` (:meth:`Registry.create`); an instance as it is.
+
+    Raises
+    ------
+    InputError
+        ``options`` given with an instance (they belong to its constructor).
+    """
+    if not isinstance(method, str):
+        if options:
+            raise InputError("options are given to the identifier's constructor when passing an instance")
+        return method
+    return (registry or registry_for(method)).create(method, options)

@@ -26,6 +26,7 @@ Text files are size-checked before pandas reads them
 
 from __future__ import annotations
 
+import contextlib
 import math
 import os
 import struct
@@ -112,10 +113,8 @@ def memory_limit() -> int | None:
             limits.append(int(soft))
     except (ImportError, OSError, ValueError):  # pragma: no cover - not POSIX
         pass
-    try:
+    with contextlib.suppress(AttributeError, OSError, ValueError):  # not POSIX
         limits.append(int(os.sysconf("SC_PAGE_SIZE")) * int(os.sysconf("SC_PHYS_PAGES")))
-    except (AttributeError, OSError, ValueError):  # pragma: no cover - not POSIX
-        pass
     return min(limits) if limits else None
 
 

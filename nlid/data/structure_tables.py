@@ -126,10 +126,7 @@ def record_from_table(
         if f"{group}1" in arrays:
             kwargs[group] = np.stack([arrays[f"{group}{k}"] for k in range(1, n + 1)], axis=1)
     try:
-        if "t" in arrays:
-            record = cls.from_time(arrays["t"], **kwargs)
-        else:
-            record = cls(fs=fs, **kwargs)
+        record = cls.from_time(arrays["t"], **kwargs) if "t" in arrays else cls(fs=fs, **kwargs)
     except DataError as exc:
         raise DataError(f"{label}: {exc}") from None
     return record.with_meta(loaded={**loaded, "record_sha256": structure_sha256(record)})

@@ -30,7 +30,7 @@ from ..base import numerics
 from ..base.validate import ESTIMATE, check_cutoff, check_mass
 from ..contract.estimate import Estimate, check_estimate, refined_terms, timed_call
 from ..contract.methods import choose_method
-from ..contract.registry import Registry, registry_for
+from ..contract.registry import Registry, make_identifier
 from ..data.record import Record
 from ..data.sources import as_record
 from ..errors import IdentificationError, InputError, NlidError, describe_exception
@@ -281,12 +281,7 @@ def identify(
             registry=registry,
         )  # fmt: skip
     model = as_model(terms, without=without, px_roots=px_roots)
-    if isinstance(method, str):
-        identifier = (registry or registry_for(method)).create(method, options)
-    else:
-        if options:
-            raise InputError("options are given to the identifier's constructor when passing an instance")
-        identifier = method
+    identifier = make_identifier(method, options, registry)
     mass = check_mass(mass)
     check_cutoff(cutoff, getattr(record, "fs", None))  # before a long identification, not after it
     if mass is None and getattr(identifier, "needs_mass", False):

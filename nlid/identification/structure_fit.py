@@ -19,7 +19,7 @@ import numpy as np
 from .. import __version__
 from ..base.validate import check_cutoff
 from ..contract.estimate import timed_call
-from ..contract.registry import Registry, registry_for
+from ..contract.registry import Registry, make_identifier
 from ..contract.structure_estimate import check_structure_estimate
 from ..data.structure_record import StructureRecord
 from ..data.structure_tables import structure_sha256
@@ -171,12 +171,7 @@ def identify_structure(
     """
     if method is None:
         raise InputError("method= is needed for a structure: name an identifier that handles several DOFs")
-    if isinstance(method, str):
-        identifier = (registry or registry_for(method)).create(method, options)
-    else:
-        if options:
-            raise InputError("options are given to the identifier's constructor when passing an instance")
-        identifier = method
+    identifier = make_identifier(method, options, registry)
     name = str(getattr(identifier, "name", type(identifier).__name__))
     check_dofs(identifier, record)
     elements = as_elements(terms, record.n_dofs, without=without, px_roots=px_roots)

@@ -2,9 +2,10 @@
 
 Every layer that scores an identified model against known values goes
 through here: :func:`nlid.compare` (a tidy frame,
-:meth:`Comparison.to_frame`), the study runner (a flat row,
-:meth:`Comparison.to_row`) and the posterior's coverage
-(:func:`nlid.bayes.study_metrics`, through :meth:`Reference.from_mapping`).
+:meth:`Comparison.to_frame`), the study runner (typed values,
+:meth:`Comparison.coefficients` and :meth:`Comparison.equilibria`, which
+:mod:`nlid.study.row` flattens into its columns) and the posterior's coverage
+(:func:`nlid.bayes.posterior_metrics`, through :meth:`Reference.from_mapping`).
 
 A :class:`Reference` is built once, whatever it came from:
 
@@ -27,7 +28,7 @@ differently, on purpose, and each keeps the numbers its output always had:
   equilibrium it is nearest to; the mode reported is the one at that
   equilibrium (else the nearest); a reference without equilibria gets them
   solved from its coefficients over the fit's displacement range.
-* :meth:`Comparison.to_row` walks the **reference** stable equilibria (the
+* :meth:`Comparison.equilibria` walks the **reference** stable equilibria (the
   fixed columns ``eq:sK`` a study aggregates over repetitions) and matches
   the modes to them on their own, by position: a method may linearise at its
   own reference point (``nsi-shift``: each well's shifted zero) rather than
@@ -52,7 +53,7 @@ from ..data.record import Record
 from ..errors import InputError, NlidError, brief
 from ..model import physics
 from ..model.terms import Model
-from ..scoring import columns as col
+from .compared import CoefficientComparison, EquilibriumComparison, WellComparison, equilibrium_label
 from .model import IdentifiedModel
 from .tables import record_units
 
@@ -406,8 +407,9 @@ def _error_pct(value: float, ref: float | None) -> float:
 class Comparison:
     """An identified model against a :class:`Reference`, with an optional held-out record.
 
-    Two views (the module documentation says why they pair modes differently):
-    :meth:`to_row` for a study row, :meth:`to_frame` for :func:`nlid.compare`.
+    Two views (the module documentation says why they pair modes differently): typed values for a study row
+    (:meth:`coefficients`, :meth:`equilibria`; :mod:`nlid.study` flattens them into its columns) and
+    :meth:`to_frame` for :func:`nlid.compare`.
     """
 
     fit: IdentifiedModel
@@ -415,65 +417,44 @@ class Comparison:
     holdout: Record | None = None
     rule: Any = None  # the held-out free run's transient rule (nlid.scoring.rule_from_spec); None: the record's
 
-    # ------------------------------------------------------------------ the study row
-    def coefficient_row(self) -> dict[str, float]:
-        """``coef:<term>``, ``coef_error_pct:<term>`` (non-zero references only), ``mass``, ``mass_error_pct``."""
+    # ------------------------------------------------------------------ the study's values
+    def coefficients(self) -> CoefficientComparison:
+        """The coefficients and the mass against the reference (:class:`CoefficientComparison`)."""
         result, ref = self.fit, self.reference
-        coefficients = ref.coefficients or {}
-        row: dict[str, float] = {}
-        for name, value in result.coefficients.items():
-            row[col.COEF.key(name)] = float(value)
-            if coefficients.get(name):
-                row[col.COEF_ERROR.key(name)] = _pct(value, coefficients[name])
-        row[col.MASS.key()] = NAN if result.mass is None else float(result.mass)
+        known = ref.coefficients or {}
+        values = {name: float(value) for name, value in result.coefficients.items()}
+        errors = {name: _pct(value, known[name]) for name, value in result.coefficients.items() if known.get(name)}
+        mass = NAN if result.mass is None else float(result.mass)
+        mass_error = None
         if result.mass_estimated and result.mass is not None and ref.mass:
-            row[col.MASS_ERROR.key()] = _pct(result.mass, ref.mass)
-        return row
+            mass_error = _pct(result.mass, ref.mass)
+        return CoefficientComparison(values, errors, mass, mass_error)
 
-    def equilibrium_row(self) -> dict[str, float]:
-        """Equilibrium counts and errors, and the modal parameters matched to each reference equilibrium."""
+    def equilibria(self) -> EquilibriumComparison:
+        """The stable equilibria, and the modes matched to each reference one (:class:`EquilibriumComparison`)."""
         result = self.fit
         found = sorted(result.equilibria.stable) if result.equilibria is not None else []
-        row: dict[str, float] = {col.EQ_FOUND.key(): float(len(found))}
+        modal = tuple(result.modal)
         expected = self.reference.equilibria
         if not expected:
-            for k, m in enumerate(result.modal):
-                row[col.FN.key(col.equilibrium_label(k))] = m.fn_hz
-                row[col.ZETA.key(col.equilibrium_label(k))] = m.zeta
-            return row
+            return EquilibriumComparison(len(found), (), modal)
         ref_modes = self.reference.modes or ()
         match = match_equilibria(list(expected), found)
         # modes are matched on their own (see the module documentation)
-        modal = list(result.modal)
         modal_match = match_equilibria(list(expected), [m.equilibrium for m in modal])
-        row[col.EQ_EXPECTED.key()] = float(len(expected))
-        row[col.EQ_MISSING.key()] = float(len(expected) - len(match))
-        errors = []
+        wells = []
         for i, z_ref in enumerate(expected):
-            label = col.equilibrium_label(i)
             if i not in match:
-                row[col.EQ.key(label)] = NAN
-                row[col.EQ_ERROR.key(label)] = NAN
-                errors.append(NAN)
+                wells.append(WellComparison())
                 continue
             z = found[match[i]]
             err = 100.0 * abs(z - z_ref) / abs(z_ref) if z_ref else NAN
-            row[col.EQ.key(label)] = z
-            row[col.EQ_ERROR.key(label)] = err
-            errors.append(err)
             m = modal[modal_match[i]] if i in modal_match else None
-            if m is not None:
-                row[col.FN.key(label)] = m.fn_hz
-                row[col.ZETA.key(label)] = m.zeta
-                if i < len(ref_modes):
-                    row[col.FN_ERROR.key(label)] = _pct(m.fn_hz, ref_modes[i]["fn_hz"])
-                    row[col.ZETA_ERROR.key(label)] = _pct(m.zeta, ref_modes[i]["zeta"])
-        row[col.EQ_ERROR_MAX.key()] = max(errors) if errors and not any(math.isnan(e) for e in errors) else NAN
-        return row
-
-    def to_row(self) -> dict[str, float]:
-        """The study row's fragment: :meth:`coefficient_row` then :meth:`equilibrium_row`."""
-        return {**self.coefficient_row(), **self.equilibrium_row()}
+            fn_error = zeta_error = None
+            if m is not None and i < len(ref_modes):
+                fn_error, zeta_error = _pct(m.fn_hz, ref_modes[i]["fn_hz"]), _pct(m.zeta, ref_modes[i]["zeta"])
+            wells.append(WellComparison(z, err, m, fn_error, zeta_error))
+        return EquilibriumComparison(len(found), tuple(wells), modal)
 
     # ------------------------------------------------------------------ the tidy frame
     def records(self) -> list[dict[str, Any]]:
@@ -514,7 +495,7 @@ class Comparison:
         modal_by_eq = {m.equilibrium: m for m in fit.modal}
         for j, z in enumerate(stable):
             i = inverse.get(j)
-            label = col.equilibrium_label(j if i is None else i)
+            label = equilibrium_label(j if i is None else i)
             add("equilibrium", label, z, length, ref_eq[i] if i is not None else None)
             m = modal_by_eq.get(z) or min(fit.modal, key=lambda mm: abs(mm.equilibrium - z), default=None)
             if m is None:
@@ -586,7 +567,7 @@ def compare(
     Returns
     -------
     Comparison
-        ``.to_row()`` (a study row's fragment) and ``.to_frame()`` (tidy rows).
+        ``.coefficients()`` and ``.equilibria()`` (typed values: a study row's) and ``.to_frame()`` (tidy rows).
     """
     if not isinstance(fit, IdentifiedModel):
         raise InputError(f"compare needs an IdentifiedModel, got {type(fit).__name__}")

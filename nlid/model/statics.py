@@ -18,6 +18,7 @@ A model without stiffness-family elements has one equilibrium,
 
 from __future__ import annotations
 
+import contextlib
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
@@ -205,10 +206,8 @@ def equilibria(model: StructuralModel, z_range: Any = None) -> StructureEquilibr
     ranges = as_ranges(z_range, n)
     width = ranges[:, 1] - ranges[:, 0]
     starts = [_starts(ranges)]
-    try:
+    with contextlib.suppress(np.linalg.LinAlgError):
         starts.append(np.linalg.solve(model.K, -model.static)[None, :])
-    except np.linalg.LinAlgError:
-        pass
     Z, ok = _newton(model, np.concatenate(starts), width, theta, stiff)
     Z = Z[ok]
     for _ in range(2):  # polish: the convergence test stops at a step of 1e-10 of the range

@@ -31,7 +31,7 @@ from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any, Literal
 
-from ..base.formatting import wrap
+from ..base.formatting import column_groups, wrap
 from .html import html_table
 
 __all__ = ["Summary", "Column", "Table", "Fields", "Text"]
@@ -114,21 +114,8 @@ class Table:
         widths = [max(c.width, len(c.title), *(len(r[j]) for r in self.rows)) for j, c in enumerate(self.columns)]
         keep = min(self.keep, n)
         fixed = list(range(keep))
-        groups: list[list[int]] = []
-        current: list[int] = []
-        base = sum(widths[j] for j in fixed) + 2 * max(0, keep - 1)
-        used = base
-        for j in range(keep, n):
-            w = widths[j] + 2
-            if self.width is not None and current and used + w > self.width:
-                groups.append(current)
-                current, used = [], base
-            current.append(j)
-            used += w
-        if current or not groups:
-            groups.append(current)
         lines: list[str] = []
-        for g, group in enumerate(groups):
+        for g, group in enumerate(column_groups(widths, keep, self.width)):
             if g:
                 lines.append("")
             shown = fixed + group

@@ -67,11 +67,6 @@ class Harmonics:
         return 2 * self.H + 1
 
     @property
-    def orders(self) -> np.ndarray:
-        """The harmonic order of each coefficient: ``[0, 1, 1, 2, 2, ...]``."""
-        return np.r_[0, np.repeat(np.arange(1, self.H + 1), 2)]
-
-    @property
     def D(self) -> np.ndarray:
         """``d/dtau`` on the coefficients: ``a_k' = k b_k``, ``b_k' = -k a_k`` (read-only)."""
         if "D" not in self._cache:
@@ -154,10 +149,6 @@ class Harmonics:
             np.concatenate([w0[keep].ravel(), w]),
             np.concatenate([E0[keep].reshape(-1, self.P), self.values(tau)]),
         )
-
-    def project(self, weights: np.ndarray, basis: np.ndarray, samples: np.ndarray) -> np.ndarray:
-        """The coefficients of ``samples`` (at the rule's phases, ``(N,)`` or ``(N, m)``) on the basis."""
-        return self.norms[:, None] * (basis.T @ (weights[:, None] * samples.reshape(len(weights), -1)))
 
     def amplitude(self, coefficients: np.ndarray, order: int = 1) -> np.ndarray:
         """``sqrt(a_k^2 + b_k^2)`` of harmonic ``order`` of coefficients shaped ``(..., P)``."""

@@ -57,10 +57,7 @@ def _periodic(z, E, law, p1, p2, w0, out_w, out_S):
         if abs(r) <= 1e-14 * max(1.0, abs(w0)):
             used = it
             break
-        if slope < 1.0 - 1e-12:
-            w0 = w0 - r / (slope - 1.0)
-        else:
-            w0 = w
+        w0 = w0 - r / (slope - 1.0) if slope < 1.0 - 1e-12 else w
     S = np.zeros(P)
     Dj = np.ones(n)
     w = w0

@@ -24,6 +24,7 @@ Messages are pickled, between nlid's own processes only, and framed with an
 
 from __future__ import annotations
 
+import contextlib
 import os
 import pickle
 import signal
@@ -106,10 +107,8 @@ def _apply(request: dict[str, Any]) -> None:
     tempfile.tempdir = None  # honour the parent's TMPDIR
     cwd = request.get("cwd")
     if cwd:
-        try:
+        with contextlib.suppress(OSError):
             os.chdir(cwd)
-        except OSError:
-            pass
 
 
 def _summarise(caught: list[Any]) -> list[dict[str, Any]]:
@@ -175,24 +174,18 @@ def _send(out_fd: int, reply: dict[str, Any]) -> None:
         reduced = {k: v for k, v in reply.items() if k not in ("value",)}
         reduced.update(status="unsent", error=f"{type(exc).__name__}: {exc}")
         data = pickle.dumps(reduced, protocol=pickle.HIGHEST_PROTOCOL)
-    try:
+    with contextlib.suppress(OSError):  # the parent gave up on this run
         write_message(out_fd, data)
-    except OSError:
-        pass  # the parent gave up on this run
 
 
 def _end() -> None:
     """End this process and everything it started (its process group), at once."""
     for stream in (sys.stdout, sys.stderr):
-        try:
+        with contextlib.suppress(OSError, ValueError, AttributeError):
             stream.flush()
-        except (OSError, ValueError, AttributeError):
-            pass
     for pid in descendants_of(os.getpid()):  # also those a plugin started in a session of their own
-        try:
+        with contextlib.suppress(OSError):
             os.kill(pid, signal.SIGKILL)
-        except OSError:
-            pass
     if hasattr(os, "killpg") and os.getpgid(0) == os.getpid():
         os.killpg(0, signal.SIGKILL)
     os._exit(0)

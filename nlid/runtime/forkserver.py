@@ -115,10 +115,8 @@ class _Server:
         for fd in (data_fd, stderr_fd):
             if fd is not None:
                 os.close(fd)
-        try:
+        with contextlib.suppress(OSError):  # the parent gave up on the run: the child finds out on its data socket
             status.sendall(struct.pack("!q", pid))
-        except OSError:
-            pass  # the parent gave up on the run: the child finds out on its data socket
         self.runs[pid] = status
 
     def become_child(self, status: socket.socket, data_fd: int, stderr_fd: int | None) -> None:

@@ -64,30 +64,23 @@ from .child import HEADER, READY, frame
 from .forkserver import PIN_ENV
 from .outcome import _CATEGORIES, ChildResult, IsolationError, result_from_reply
 from .preload import PRELOAD_ENV, PRELOAD_LIMIT
-from .process import die_with, pin_threads
+from .process import pin_threads
 
 __all__ = [
     "run_in_child",
     "kill_children",
-    "die_with_parent",
     "start_fork_server",
     "start_method",
     "track",
     "untrack",
     "START_METHOD_ENV",
     "PARENT_ENV",
-    "FORKSERVER_ENV",
-    "PRELOAD",
 ]
 
 #: Environment variable choosing the start method: ``forkserver`` or ``spawn`` (default: the platform's best).
 START_METHOD_ENV = "NLID_START_METHOD"
 #: Environment variable holding the pid of the nlid process that started a fork server or a spawned child.
 PARENT_ENV = "NLID_ISOLATION_PARENT"
-#: Environment variable set in the fork server to its own pid (kept for code that looked for it).
-FORKSERVER_ENV = "NLID_FORKSERVER_PID"
-#: What the fork server loads before serving (:mod:`nlid.runtime.preload`).
-PRELOAD = ("nlid.identification.pipeline", "nlid.contract.registry", "nlid.study.worker", "nlid.simulation")
 #: Longest wait for the fork server to start a child (s): its preload is bounded by ``PRELOAD_LIMIT``.
 START_LIMIT = PRELOAD_LIMIT + 60.0
 #: After its reply (or after being killed), how long a child may take to be reported ended (s).
@@ -95,25 +88,6 @@ END_LIMIT = 10.0
 
 _LIVE: dict[int, Any] = {}  # pid -> "group" (forked child) or its Popen (spawned child, or tracked)
 _LIVE_LOCK = threading.Lock()
-
-
-def die_with_parent(expected_parent: int | None = None, sig: int = signal.SIGKILL) -> bool:
-    """Ask the kernel to send ``sig`` to this process when its parent dies (Linux; elsewhere a no-op).
-
-    Parameters
-    ----------
-    expected_parent
-        The pid the parent should have: if the parent is already gone (this
-        process was re-parented before the request took effect), exit at once.
-    sig
-        The signal.
-
-    Returns
-    -------
-    bool
-        Whether the request took effect.
-    """
-    return die_with(expected_parent if expected_parent else os.getppid(), sig)
 
 
 # --------------------------------------------------------------------------- start method
@@ -370,10 +344,8 @@ def _run_forked(payload: bytes, timeout: float | None, pinned: bool) -> ChildRes
     exitcode: int | None = None
     ended = timed_out = False
     try:
-        try:
+        with contextlib.suppress(OSError):  # the child died before reading its work: its exit code says why
             data.sendall(payload)
-        except OSError:
-            pass  # the child died before reading its work: its exit code says why
         data_open = True
         while reply is None and not ended:
             remaining = None if deadline is None else max(0.0, deadline - time.perf_counter())

@@ -297,10 +297,8 @@ def _lock(folder: Path) -> Iterator[None]:
             raise InputError(f"cannot write into the output folder {folder}: {exc.strerror or exc}") from None
         yield
     finally:
-        try:
+        with contextlib.suppress(OSError):
             writer.unlink(missing_ok=True)
-        except OSError:
-            pass
         lock.release()
 
 

@@ -34,7 +34,9 @@ import threading
 from collections.abc import Callable, Iterator
 from typing import Any
 
-__all__ = ["cores", "workers", "kernel_threads", "WORKERS_ENV", "both", "thread_budget"]
+from ..errors import InputError
+
+__all__ = ["cores", "workers", "pinned", "threads", "kernel_threads", "WORKERS_ENV", "both", "thread_budget"]
 
 #: Environment variable that fixes the pool size (a positive integer), e.g. for benchmarks.
 WORKERS_ENV = "NLID_WORKERS"
@@ -67,8 +69,8 @@ def workers(load: float | None = None, *, own: float = 1.0) -> int:
 
     Raises
     ------
-    ValueError
-        If ``NLID_WORKERS`` is set and is not a positive integer.
+    InputError
+        If ``NLID_WORKERS`` is set and is not a positive integer (a ``ValueError``).
     """
     n = cores()
     fixed = os.environ.get(WORKERS_ENV, "").strip()
@@ -78,12 +80,45 @@ def workers(load: float | None = None, *, own: float = 1.0) -> int:
         except ValueError:
             value = 0
         if value < 1:
-            raise ValueError(f"{WORKERS_ENV} must be a positive integer, got {fixed!r}")
+            raise InputError(f"{WORKERS_ENV} must be a positive integer, got {fixed!r}")
         return value
     if load is None:
         return n
     others = max(float(load) - float(own), 0.0)
     return int(min(n, max(1, round(n - others))))
+
+
+def pinned() -> int | None:
+    """The threads a run process's numerical libraries are pinned to (``NUMBA_NUM_THREADS``, as
+    :func:`nlid.runtime.process.pin_threads` sets it), or ``None`` when they are not pinned."""
+    value = os.environ.get("NUMBA_NUM_THREADS", "").strip()
+    return int(value) if value.isdigit() and int(value) > 0 else None
+
+
+def threads(at_most: int | None = None, *, load: float | None = None) -> int:
+    """The threads this process's parallel work may use: the one reading of nlid's thread budget.
+
+    Parameters
+    ----------
+    at_most
+        No more than this many (the pieces of work there are), at least one.
+    load
+        The machine's load to leave room for (:func:`workers`); default: none.
+
+    Returns
+    -------
+    int
+        In a pinned run process (a study's run: one run per core, :func:`pinned`) its pinned count;
+        otherwise :func:`workers` (``NLID_WORKERS`` when set, else the cores, less the others' load when
+        ``load`` is given); clipped to ``[1, at_most]``.
+
+    Raises
+    ------
+    InputError
+        If ``NLID_WORKERS`` is set and is not a positive integer.
+    """
+    n = pinned() or workers(load)
+    return max(1, n if at_most is None else min(n, int(at_most)))
 
 
 @contextlib.contextmanager
@@ -135,10 +170,7 @@ def thread_budget(n: int) -> Iterator[int]:
 
 
 def _budget() -> int:
-    if _BUDGET[0] is not None:
-        return _BUDGET[0]
-    pinned = os.environ.get("NUMBA_NUM_THREADS", "").strip()
-    return int(pinned) if pinned.isdigit() and int(pinned) > 0 else workers()
+    return _BUDGET[0] if _BUDGET[0] is not None else threads()
 
 
 def both(first: Callable[[], Any], second: Callable[[], Any]) -> tuple[Any, Any]:

@@ -1,7 +1,7 @@
 """What nlid's fork server (:mod:`nlid.runtime.forkserver`) loads once, so that every run starts warm.
 
 A run is a child forked from the fork server, so what the server has loaded
-costs a run nothing: the identification pipeline and the study worker, the
+costs a run nothing: the identification pipeline and a study run (its spec, run and worker), the
 identifier plugins with every name they export (:func:`warm_plugins`: their
 modules import scipy, pysindy and scikit-learn, some only on first use,
 1.5-3 s) and, for studies, the simulator's compiled kernels (numba's on-disk
@@ -110,7 +110,7 @@ def warm_up(kind: str = "full", idle: Callable[[], bool] | None = None) -> None:
         importlib.import_module(name)
     registry = importlib.import_module("nlid.contract.registry").load_registry()
     warm_plugins(registry.identifiers.values())
-    importlib.import_module("nlid.study.worker")
+    importlib.import_module("nlid.study.plan")  # a study run (its spec, the run, the worker)
     simulate = importlib.import_module("nlid.simulation").simulate
     Model = importlib.import_module("nlid.model.terms").Model
 

@@ -14,14 +14,16 @@ from __future__ import annotations
 
 from collections.abc import Mapping
 from dataclasses import dataclass
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from ..data.record import Record
 from ..identified.reference import Reference
 from ..model.terms import Model
 from ..scoring import record_period
-from .plan import RunSpec
 from .values import FractionHoldout, IndependentHoldout, PartHoldout, PresetSource
+
+if TYPE_CHECKING:
+    from .plan import RunSpec
 
 __all__ = ["RunData", "build_data"]
 

@@ -1,6 +1,6 @@
 """The metrics of one run: one flat row of numbers, flags and notes.
 
-Column names (each family declared once in :mod:`nlid.scoring.columns`;
+Column names (each family declared once in :mod:`nlid.study.columns`;
 errors are percentages, signed unless noted):
 
 ``eps_percent``
@@ -36,31 +36,48 @@ errors are percentages, signed unless noted):
     ``100 RMS(z_sim - z) / std(z)``, MATLAB ``compare``'s fit
     ``100 (1 - |z - z_sim| / |z - mean(z)|)`` and the RMS error in the
     record's unit; the note says why it was skipped.
+``ci_lo:<term>``, ``ci_hi:<term>``, ``ci_width:<term>``, ``ci_covers:<term>``, ``posterior:...``
+    A ``[posterior]`` table's credible intervals and their coverage (:func:`posterior_columns`, from
+    :func:`nlid.bayes.posterior_metrics`).
 ``freerun_rule``, ``freerun_scored_samples``
     The transient rule the free run was scored under, as applied (the
     dataset's ``freerun_rule``, else the held-out record's own:
     :func:`nlid.scoring.default_rule`; a held-out part of a periodic record is
     scored in periodic steady state), and the number of samples scored.
+
+The core returns typed values (a :class:`~nlid.identified.reference.Comparison`'s
+:class:`~nlid.identified.compared.CoefficientComparison` and
+:class:`~nlid.identified.compared.EquilibriumComparison`, the
+:class:`~nlid.bayes.PosteriorMetrics`, the :class:`~nlid.scoring.Scores`); the
+functions here flatten them into the study's columns.
 """
 
 from __future__ import annotations
 
 import time
 from collections.abc import Mapping
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from ..data.record import Record
 from ..errors import InputError, NlidError
 from ..estimation.balance import regression_data
+from ..identified.compared import CoefficientComparison, EquilibriumComparison, equilibrium_label
 from ..identified.model import IdentifiedModel
-from ..identified.reference import Reference, compare
+from ..identified.reference import Comparison, Reference, compare
 from ..model import physics
-from ..scoring import columns as col
 from ..scoring import damping_slice
+from . import columns as col
+
+if TYPE_CHECKING:  # the posterior is loaded only by a study that asks for it
+    from ..bayes import PosteriorMetrics
 
 __all__ = [
+    "coefficient_columns",
+    "equilibrium_columns",
+    "comparison_columns",
+    "posterior_columns",
     "coefficient_metrics",
     "equilibrium_metrics",
     "holdout_metrics",
@@ -70,22 +87,74 @@ __all__ = [
 NAN = float("nan")
 
 
-def coefficient_metrics(result: IdentifiedModel, reference: Reference | Mapping[str, Any]) -> dict[str, float]:
-    """``coef:<term>``, ``coef_error_pct:<term>``, ``mass`` and ``mass_error_pct``.
+def coefficient_columns(values: CoefficientComparison) -> dict[str, float]:
+    """``coef:<term>``, ``coef_error_pct:<term>`` (non-zero references only), ``mass``, ``mass_error_pct``."""
+    row: dict[str, float] = {}
+    for name, value in values.coefficients.items():
+        row[col.COEF.key(name)] = value
+        if name in values.errors:
+            row[col.COEF_ERROR.key(name)] = values.errors[name]
+    row[col.MASS.key()] = values.mass
+    if values.mass_error is not None:
+        row[col.MASS_ERROR.key()] = values.mass_error
+    return row
 
-    :meth:`nlid.identified.reference.Comparison.coefficient_row`.
+
+def equilibrium_columns(values: EquilibriumComparison) -> dict[str, float]:
+    """Equilibrium counts and errors, and the modal parameters matched to each reference equilibrium.
+
+    Without reference equilibria: ``eq_found`` and the fit's modes (``fn_hz:sK``, ``zeta:sK`` in its order).
     """
-    return compare(result, reference).coefficient_row()
+    row: dict[str, float] = {col.EQ_FOUND.key(): float(values.found)}
+    if not values.wells:
+        for k, m in enumerate(values.modes):
+            row[col.FN.key(equilibrium_label(k))] = m.fn_hz
+            row[col.ZETA.key(equilibrium_label(k))] = m.zeta
+        return row
+    row[col.EQ_EXPECTED.key()] = float(len(values.wells))
+    row[col.EQ_MISSING.key()] = float(values.missing)
+    for i, well in enumerate(values.wells):
+        label = equilibrium_label(i)
+        row[col.EQ.key(label)] = NAN if well.found is None else well.found
+        row[col.EQ_ERROR.key(label)] = well.error
+        if well.mode is not None:
+            row[col.FN.key(label)] = well.mode.fn_hz
+            row[col.ZETA.key(label)] = well.mode.zeta
+            if well.fn_error is not None and well.zeta_error is not None:
+                row[col.FN_ERROR.key(label)] = well.fn_error
+                row[col.ZETA_ERROR.key(label)] = well.zeta_error
+    row[col.EQ_ERROR_MAX.key()] = values.error_max
+    return row
+
+
+def comparison_columns(comparison: Comparison) -> dict[str, float]:
+    """The columns of a fit against its reference: :func:`coefficient_columns` then :func:`equilibrium_columns`."""
+    return {**coefficient_columns(comparison.coefficients()), **equilibrium_columns(comparison.equilibria())}
+
+
+def posterior_columns(values: PosteriorMetrics) -> dict[str, float | bool]:
+    """``posterior:level``, then per sampled term ``ci_lo``, ``ci_hi``, ``ci_width`` and (truth known) ``ci_covers``,
+    then ``posterior:tau``, ``posterior:seconds`` and ``posterior:max_bias_shift_sd``."""
+    row: dict[str, float | bool] = {col.POSTERIOR_LEVEL.key(): values.level}
+    for name, (lo, hi) in values.intervals.items():
+        row[col.CI_LO.key(name)], row[col.CI_HI.key(name)], row[col.CI_WIDTH.key(name)] = lo, hi, hi - lo
+        if name in values.covers:
+            row[col.CI_COVERS.key(name)] = values.covers[name]
+    row[col.POSTERIOR_TAU.key()] = values.tau
+    row[col.POSTERIOR_SECONDS.key()] = values.seconds
+    row[col.POSTERIOR_BIAS_SHIFT.key()] = values.max_bias_shift_sd
+    return row
+
+
+def coefficient_metrics(result: IdentifiedModel, reference: Reference | Mapping[str, Any]) -> dict[str, float]:
+    """:func:`coefficient_columns` of ``result`` against ``reference`` (:meth:`Comparison.coefficients`)."""
+    return coefficient_columns(compare(result, reference).coefficients())
 
 
 def equilibrium_metrics(result: IdentifiedModel, reference: Reference | Mapping[str, Any]) -> dict[str, float]:
-    """Equilibrium counts and errors, and the modal parameters at each matched equilibrium.
-
-    :meth:`nlid.identified.reference.Comparison.equilibrium_row`: the reference's equilibria are the columns, the modes
-    are
-    matched to them by position.
-    """
-    return compare(result, reference).equilibrium_row()
+    """:func:`equilibrium_columns` of ``result`` against ``reference`` (:meth:`Comparison.equilibria`: the
+    reference's equilibria are the columns, the modes are matched to them by position)."""
+    return equilibrium_columns(compare(result, reference).equilibria())
 
 
 def holdout_metrics(

@@ -10,8 +10,8 @@ that differ only in their noise level share the motion); the held-out record
 uses ``record_key + "/holdout"``. Results are therefore identical whichever
 executor ran the study and in whatever order.
 
-Each run carries a :class:`RunSpec`: a frozen value saying everything a
-worker process needs (the typed dataset entry, the terms, the identifier and
+Each run carries a :class:`RunSpec`: a frozen value (a :class:`~nlid.study.job.Job`
+the worker runs) saying everything a worker process needs (the typed dataset entry, the terms, the identifier and
 its options, the seeds, the time limit). It crosses process boundaries as
 itself (pickled by :mod:`nlid.runtime.isolation` and Dask, all plain frozen
 dataclasses) or as JSON (:meth:`RunSpec.to_dict` / :meth:`RunSpec.from_dict`,
@@ -30,6 +30,7 @@ from typing import Any
 from ..base.frozen import FrozenDict, freeze
 from ..base.jsonable import to_jsonable
 from .config import DatasetConfig, StudyConfig
+from .run import execute_spec, spec_failure
 
 __all__ = ["Run", "RunSpec", "plan_study", "derive_seed", "record_key"]
 
@@ -152,6 +153,20 @@ class RunSpec:
         """SHA-256 of the spec without the time limit (first 16 hex digits)."""
         text = json.dumps({k: v for k, v in self.to_dict().items() if k != "timeout"}, sort_keys=True)
         return hashlib.sha256(text.encode()).hexdigest()[:16]
+
+    # -- the job protocol (nlid.study.job.Job): what the worker calls
+    @property
+    def label(self) -> str:
+        """How a failure message names the run: ``"identifier 'rfs'"``."""
+        return f"identifier {self.method!r}"
+
+    def execute(self, threads: int = 1) -> dict[str, Any]:
+        """Identify and score the run in this process (:func:`nlid.study.run.execute_spec`; never raises)."""
+        return execute_spec(self, threads)
+
+    def failure(self, status: str, error: str) -> dict[str, Any]:
+        """The payload of the run when it produced nothing (:func:`nlid.study.run.spec_failure`)."""
+        return spec_failure(self, status, error)
 
 
 @dataclass(frozen=True)

@@ -12,7 +12,7 @@ from pathlib import Path
 from typing import Any, TextIO
 
 from ..runtime.outputs import STUDY_OUTPUTS, output_folder
-from ..scoring import columns as col
+from . import columns as col
 from .config import StudyConfig
 from .execute import LocalExecutor
 from .plan import Run, plan_study

@@ -31,10 +31,11 @@ import numpy as np
 from ..base.jsonable import to_jsonable
 from ..errors import InputError
 from ..runtime.outputs import atomic_write, temporary
-from .plan import Run
 
 if TYPE_CHECKING:
     import pandas as pd
+
+    from .plan import Run
 
 __all__ = ["ResultStore", "safe_name", "INFRASTRUCTURE"]
 

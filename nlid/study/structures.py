@@ -21,13 +21,13 @@ residual (``eps_percent``: the largest of the DOFs'):
   ``well_zeta_error_pct:sK.mJ`` of its linearised modes; ``eq_found``,
   ``eq_expected``, ``eq_missing``.
 
-The columns are declared in :mod:`nlid.scoring.columns`. The reference stored with
+The columns are declared in :mod:`nlid.study.columns`. The reference stored with
 the run is ``{"coefficients": ..., "structure": <the preset's truth>}``.
 A held-out record and damping slices are not scored for structures (a
 dataset asking for them gets a warning in its rows). A ``[posterior]`` table
 samples the structure's unknowns (:mod:`nlid.bayes.structure`; ``params =
 "elements"`` for every element) and adds the credible-interval columns of
-:func:`nlid.bayes.study_metrics` (``ci_lo:``, ``ci_hi:``, ``ci_width:``,
+:func:`nlid.bayes.posterior_metrics` (``ci_lo:``, ``ci_hi:``, ``ci_width:``,
 ``ci_covers:`` per sampled unknown).
 """
 
@@ -41,7 +41,9 @@ from typing import Any
 import numpy as np
 
 from ..base.validate import ESTIMATE
-from ..scoring import columns as col
+from ..identified.compared import equilibrium_label
+from . import columns as col
+from .metrics import posterior_columns
 
 __all__ = ["is_structure_preset", "check_structure_terms", "execute_structure_run", "structure_metrics"]
 
@@ -104,7 +106,7 @@ def structure_metrics(result: Any, truth: Mapping[str, Any]) -> dict[str, Any]:
     modes = list(result.modes)
     missing = 0
     for k, (z_ref, m_ref) in enumerate(zip(ref_stable, ref_modes, strict=False)):
-        label = col.equilibrium_label(k)
+        label = equilibrium_label(k)
         if not found:
             missing += 1
             continue
@@ -176,9 +178,10 @@ def execute_structure_run(spec: Any, base_row: Mapping[str, Any]) -> dict[str, A
         from ..errors import NlidError
 
         try:
-            row.update(
-                bayes.study_metrics(record, result, {"coefficients": truth["coefficients"]}, **dict(spec.posterior))
+            posterior = bayes.posterior_metrics(
+                record, result, {"coefficients": truth["coefficients"]}, **dict(spec.posterior)
             )
+            row.update(posterior_columns(posterior))
         except NlidError as exc:  # a posterior that cannot be reported is a warning: the run keeps its metrics
             row[col.WARNINGS.key()] = " | ".join([*notes, f"posterior: {exc}"])
     reference = {"coefficients": dict(truth["coefficients"]), "structure": truth}

@@ -48,9 +48,10 @@ from dataclasses import dataclass
 
 import numpy as np
 from scipy import fft as sp_fft
-from scipy import linalg, signal
+from scipy import linalg
 
 from .continuous import band_limits, d2c_zoh
+from .filters import lfilter
 from .noise import NoiseModel
 from .subspace import _cholesky
 
@@ -136,7 +137,7 @@ def estimate_b(
         ab = am[blk, blk]
         d = ab.shape[0]
         den = np.poly(ab)
-        e = signal.lfilter([1.0], den, x, axis=1)
+        e = lfilter([1.0], den, x, axis=1)
         for lag in range(d + 1):
             lagged = np.zeros((m + 1, n_samples))
             start = max(lag - 1, 0)
@@ -200,7 +201,7 @@ def _subtract_b_noise(
         for _, blk, nums in maps:
             den = np.poly(am[blk, blk])
             for rr in range(blk.stop - blk.start):
-                hr[blk.start + rr] = signal.lfilter(nums[o][rr], den, imp)
+                hr[blk.start + rr] = lfilter(nums[o][rr], den, imp)
         spec = sp_fft.rfft(hr, size, axis=1)
         corr = sp_fft.irfft(spec[:, None, :] * spec[None, :, :].conj(), size, axis=2)
         hc = np.concatenate([corr[:, :, size - lag :], corr[:, :, : lag + 1]], axis=2)  # sum_l h_r(l + d) h_s(l)

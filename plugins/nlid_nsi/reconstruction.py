@@ -43,10 +43,11 @@ from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
-from scipy import linalg, signal
+from scipy import linalg
 
 from nlid.plugin import derivatives
 
+from .filters import lfilter
 from .noise import NoiseSource, impulse_response
 
 __all__ = [
@@ -74,7 +75,7 @@ def oscillator_response(f: np.ndarray, dt: float, m: float, c: float, k: float) 
     for r in range(2):
         num = np.zeros(3)
         num[1:] = [bd[r], ad[r, 1 - r] * bd[1 - r] - ad[1 - r, 1 - r] * bd[r]]
-        out.append(signal.lfilter(num, den, f))
+        out.append(lfilter(num, den, f))
     return out[0], out[1]
 
 

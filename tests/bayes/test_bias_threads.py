@@ -7,7 +7,7 @@ import pytest
 
 from nlid.bayes import bias
 from nlid.bayes.noise import channel_noise
-from nlid.errors import IdentificationError
+from nlid.errors import IdentificationError, InputError
 from nlid.estimation import balance
 from nlid.simulation.presets import get_preset
 
@@ -88,3 +88,10 @@ def test_thread_count(monkeypatch):
     monkeypatch.delenv("NUMBA_NUM_THREADS")
     assert 1 <= bias.bias_threads(8) <= 8
     assert bias.bias_threads(1) == 1
+
+
+def test_an_invalid_pool_size_is_an_error_for_the_bias_correction_too(monkeypatch):
+    monkeypatch.delenv("NUMBA_NUM_THREADS", raising=False)
+    monkeypatch.setenv("NLID_WORKERS", "zero")
+    with pytest.raises(InputError, match="NLID_WORKERS must be a positive integer"):
+        bias.bias_threads(8)

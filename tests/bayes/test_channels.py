@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from nlid import identify
-from nlid.bayes import PosteriorSampler, build_likelihood, sample_posterior, study_metrics
+from nlid.bayes import PosteriorSampler, build_likelihood, posterior_metrics, sample_posterior
 from nlid.simulation.presets import get_preset
 
 CHANNEL_SETS = [("z",), ("z", "a"), ("z", "v"), ("z", "v", "a")]
@@ -77,13 +77,13 @@ def test_a_large_correction_is_never_silent():
     assert plain.bias_shifts == {} and plain.large_corrections == {} and "note:" not in plain.format_table()
 
 
-def test_study_metrics_with_a_measured_velocity(numerical, with_velocity):
+def test_posterior_metrics_with_a_measured_velocity(numerical, with_velocity):
     record, result, direct = with_velocity
-    metrics = study_metrics(record, result, numerical.truth(), seed=0, bias_pairs=2)
+    metrics = posterior_metrics(record, result, numerical.truth(), seed=0, bias_pairs=2)
     # the study's columns are the posterior's own numbers, on the same corrected path
     for name, (lo, hi) in direct.interval(0.9).items():
-        assert metrics[f"ci_lo:{name}"] == lo and metrics[f"ci_hi:{name}"] == hi
-    assert metrics["posterior:max_bias_shift_sd"] == max(abs(x) for x in direct.bias_shifts.values())
+        assert metrics.intervals[name] == (lo, hi)
+    assert metrics.max_bias_shift_sd == max(abs(x) for x in direct.bias_shifts.values())
 
 
 @pytest.mark.slow

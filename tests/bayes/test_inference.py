@@ -12,13 +12,14 @@ from nlid.bayes import (
     DegenerateParametersError,
     PosteriorSampler,
     PriorError,
+    posterior_metrics,
     sample_posterior,
-    study_metrics,
 )
 from nlid.bayes.datatree import netcdf_available
 from nlid.errors import InputError
 from nlid.model.terms import Model
 from nlid.simulation.presets import get_preset
+from nlid.study.metrics import posterior_columns
 
 
 @pytest.fixture(scope="module")
@@ -160,9 +161,11 @@ def test_bad_params_and_missing_mass(record, result):
         PosteriorSampler(move="gibbs")
 
 
-def test_study_metrics(record, result, preset):
-    metrics = study_metrics(record, result, preset.truth(), seed=0, bias_pairs=2)
-    assert set(metrics) == {
+def test_posterior_metrics(record, result, preset):
+    metrics = posterior_metrics(record, result, preset.truth(), seed=0, bias_pairs=2)
+    assert set(metrics.intervals) == set(metrics.covers) == {"v", "v*|v|"}
+    columns = posterior_columns(metrics)  # the study flattens the typed value into its row
+    assert set(columns) == {
         *(f"ci_{kind}:{t}" for kind in ("lo", "hi", "width", "covers") for t in ("v", "v*|v|")),
         "posterior:level",
         "posterior:tau",
@@ -170,9 +173,10 @@ def test_study_metrics(record, result, preset):
         "posterior:max_bias_shift_sd",
     }
     for t in ("v", "v*|v|"):
-        lo, hi = metrics[f"ci_lo:{t}"], metrics[f"ci_hi:{t}"]
-        assert lo < hi and metrics[f"ci_width:{t}"] == pytest.approx(hi - lo)
-        assert metrics[f"ci_covers:{t}"] == (lo <= preset.truth()["coefficients"][t] <= hi)
-    unknown = study_metrics(record, result, None, seed=0, bias_pairs=2, level=0.5)
-    assert unknown["posterior:level"] == 0.5 and "ci_covers:v" not in unknown
-    assert unknown["ci_width:v"] < metrics["ci_width:v"]
+        lo, hi = metrics.intervals[t]
+        assert lo < hi and columns[f"ci_width:{t}"] == pytest.approx(hi - lo)
+        assert columns[f"ci_lo:{t}"] == lo and columns[f"ci_hi:{t}"] == hi
+        assert metrics.covers[t] == columns[f"ci_covers:{t}"] == (lo <= preset.truth()["coefficients"][t] <= hi)
+    unknown = posterior_metrics(record, result, None, seed=0, bias_pairs=2, level=0.5)
+    assert unknown.level == 0.5 and unknown.covers == {} and "ci_covers:v" not in posterior_columns(unknown)
+    assert unknown.intervals["v"][1] - unknown.intervals["v"][0] < metrics.intervals["v"][1] - metrics.intervals["v"][0]

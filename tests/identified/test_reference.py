@@ -17,8 +17,8 @@ from nlid.errors import InputError
 from nlid.identified.reference import FRAME_COLUMNS, Comparison, Reference, compare
 from nlid.model import physics
 from nlid.model.physics import Equilibria
-from nlid.scoring import columns as col
-from nlid.study.metrics import coefficient_metrics, equilibrium_metrics
+from nlid.study import columns as col
+from nlid.study.metrics import coefficient_metrics, comparison_columns, equilibrium_metrics
 
 TERMS = "z^3, z^2, v*|v|"
 
@@ -152,7 +152,7 @@ def test_compare_frame_is_the_api_frame(record, fit):
 def test_compare_row_uses_the_declared_columns(fit, record, numerical):
     z_range = (float(record.z.min()), float(record.z.max()))
     ref = Reference.from_truth(Reference.of(record), model=numerical.model(), z_range=z_range)
-    row = compare(fit, ref).to_row()
+    row = comparison_columns(compare(fit, ref))
     assert row[col.COEF.key("z^3")] == fit.coefficients["z^3"]
     assert row[col.COEF_ERROR.key("z^3")] == pytest.approx(100 * (fit.coefficients["z^3"] - 1e6) / 1e6)
     assert col.MASS_ERROR.key() not in row  # the mass was given
@@ -182,7 +182,9 @@ def test_the_two_views_pair_modes_differently_on_purpose():
     )
     comparison = compare(fit, ref)
     assert isinstance(comparison, Comparison)
-    row = comparison.to_row()
+    row = comparison_columns(comparison)
+    wells = comparison.equilibria().wells  # the typed values the row is flattened from
+    assert [w.mode.fn_hz for w in wells] == [13.0, 8.6] and comparison.equilibria().missing == 0
     assert row[col.FN.key("s1")] == 13.0 and row[col.FN.key("s2")] == 8.6
     assert row[col.FN_ERROR.key("s1")] == pytest.approx(100 * (13.0 - 13.1) / 13.1)
     frame = comparison.to_frame().set_index(["quantity", "name"])
@@ -198,14 +200,14 @@ def test_the_frame_solves_a_reference_without_equilibria(fit):
     fn = frame[frame["quantity"] == "fn_hz"]
     assert list(fn["reference"]) == [m["fn_hz"] for m in solved.modes]
     # the row scores only what the reference gives: no equilibria, no equilibrium columns
-    row = compare(fit, {"coefficients": coefficients}).to_row()
+    row = comparison_columns(compare(fit, {"coefficients": coefficients}))
     assert col.EQ_EXPECTED.key() not in row and row[col.FN.key("s1")] == fit.modal[0].fn_hz
 
 
 def test_unknown_reference_gives_values_without_errors(fit):
     frame = compare(fit, None).to_frame()
     assert frame["reference"].isna().all() and frame["error_pct"].isna().all()
-    row = compare(fit, None).to_row()
+    row = comparison_columns(compare(fit, None))
     assert not any(col.COEF_ERROR.matches(k) for k in row) and not math.isnan(row[col.MASS.key()])
     with pytest.raises(InputError, match="needs an IdentifiedModel"):
         compare({"z": 1.0}, None)  # type: ignore[arg-type]

@@ -40,3 +40,18 @@ def test_kernel_threads_sets_numba_and_blas_and_restores_them():
 def test_kernel_threads_never_exceed_numbas_pool():
     with parallel.kernel_threads(10_000) as n:
         assert n == numba.config.NUMBA_NUM_THREADS == numba.get_num_threads()
+
+
+def test_one_reading_of_the_thread_budget(monkeypatch):
+    """threads() serves the kernels' budget (both) and the bias correction: a pin, else the pool size."""
+    monkeypatch.setattr(parallel, "cores", lambda: 4)
+    monkeypatch.delenv(parallel.WORKERS_ENV, raising=False)
+    monkeypatch.delenv("NUMBA_NUM_THREADS", raising=False)
+    assert parallel.pinned() is None and parallel.threads() == 4 and parallel.threads(3) == 3
+    assert parallel.threads(8, load=3.0) == 2 and parallel.threads(0) == 1
+    monkeypatch.setenv(parallel.WORKERS_ENV, "3")
+    assert parallel.threads(8) == 3 and parallel._budget() == 3
+    monkeypatch.setenv("NUMBA_NUM_THREADS", "1")  # a pinned run process: its pin wins over the pool size
+    assert parallel.pinned() == 1 and parallel.threads(8) == 1 and parallel._budget() == 1
+    with parallel.thread_budget(2):
+        assert parallel._budget() == 2

@@ -1,4 +1,4 @@
-"""The study row's columns are declared once (nlid.scoring.columns); producers and consumers go through them."""
+"""The study row's columns are declared once (nlid.study.columns); producers and consumers go through them."""
 
 from __future__ import annotations
 
@@ -10,19 +10,14 @@ import numpy as np
 import pandas as pd
 import pytest
 
+from nlid.identified.compared import equilibrium_label
 from nlid.plugin import FigureArray, Identifier, standard_figure_arrays
-from nlid.scoring import columns as col
-from nlid.scoring import columns as core_columns
+from nlid.study import columns as col
 from nlid.study.report import tables
 from nlid.study.report.figures import figure_arrays
 from nlid.study.report.section import Section
 
 ROOT = Path(__file__).resolve().parents[2]
-
-
-def test_the_study_module_is_the_core_declarations():
-    assert col.FAMILIES is core_columns.FAMILIES and col.COEF_ERROR is core_columns.COEF_ERROR
-    assert set(col.__all__) == set(core_columns.__all__)
 
 
 @pytest.mark.parametrize("family", col.FAMILIES, ids=lambda f: f.name)
@@ -48,7 +43,7 @@ def test_headers_and_titles():
     assert col.FN_ERROR.verdict_title("s1") == "fn s1 (|error| %)"
     assert col.EQ_ERROR_MAX.verdict_title() == "equilibria (largest |error| %)"
     assert col.EPS_HOLDOUT.verdict_title() == "eps held-out (%)" and col.RMS.header("v") == "v (N)"
-    assert col.label_order("s10") > col.label_order("s9") and col.equilibrium_label(0) == "s1"
+    assert col.label_order("s10") > col.label_order("s9") and equilibrium_label(0) == "s1"
     assert col.SLICES.count(["slice0:z0", "slice1:z0", "slice3:z0"]) == 2
     with pytest.raises(ValueError, match="per must be one of"):
         col.ColumnFamily("x", per="well")
@@ -69,7 +64,7 @@ def test_a_declared_scalar_column_reaches_its_table_with_no_table_code(monkeypat
     )
     before = tables._residual_table(_section(frame))
     assert "made up (%)" not in before.header and tables._other_table(_section(frame)).header[-1] == "made_up_pct"
-    monkeypatch.setattr(core_columns, "FAMILIES", (*core_columns.FAMILIES, extra))
+    monkeypatch.setattr(col, "FAMILIES", (*col.FAMILIES, extra))
     after = tables._residual_table(_section(frame))
     j = after.header.index("made up (%)")
     assert after.rows[0][j] == "1.50 [1.00, 2.00]" and (0, j) in after.best
@@ -187,7 +182,7 @@ def test_figure_arrays_are_declared_by_the_identifier():
 
 # ----------------------------------------------------------------------------- fit %: one declaration and its producer
 def test_the_free_run_fit_column_is_declared_produced_and_shown(short_record, numerical):
-    """MATLAB compare's fit of the held-out free run: declared in nlid.scoring.columns, produced from Scores, in the
+    """MATLAB compare's fit of the held-out free run: declared in nlid.study.columns, produced from Scores, in the
     table."""
     from nlid import identify, plugin
     from nlid.study.metrics import holdout_metrics

@@ -312,19 +312,13 @@ options = { scale = 2 }
 def test_posterior_hook_adds_its_metrics_to_the_row(small_study, registry, monkeypatch, tmp_path):
     calls = []
 
-    def study_metrics(record, result, truth, **options):
+    def posterior_metrics(record, result, truth, **options):
         calls.append(options)
         assert truth.coefficients["z^3"] == 1e6 and "z^3" in result.model.names  # a nlid.identified.reference.Reference
         c = result.coefficients["z^3"]
-        return {
-            "ci_lo:z^3": 0.995 * c,
-            "ci_hi:z^3": 1.005 * c,
-            "ci_width:z^3": 0.01 * c,
-            "ci_covers:z^3": True,
-            "posterior:level": 0.9,
-        }
+        return nlid.bayes.PosteriorMetrics(0.9, {"z^3": (0.995 * c, 1.005 * c)}, {"z^3": True}, 1.0, 0.0, 0.0)
 
-    monkeypatch.setattr(nlid.bayes, "study_metrics", study_metrics)
+    monkeypatch.setattr(nlid.bayes, "posterior_metrics", posterior_metrics)
     config = parse_study(
         small_study('["rfs"]', repetitions=2, duration=4.0, extra="[posterior]\nwalkers = 50\n"), registry=registry
     )
@@ -365,10 +359,10 @@ def test_measured_studies_run(data_dir, tmp_path):
 
 
 def test_a_posterior_that_fails_is_a_warning_and_the_run_keeps_its_metrics(small_study, registry, monkeypatch):
-    def study_metrics(record, result, truth, **options):
+    def posterior_metrics(record, result, truth, **options):
         raise NlidError("chains did not converge: raise max_steps=")
 
-    monkeypatch.setattr(nlid.bayes, "study_metrics", study_metrics)
+    monkeypatch.setattr(nlid.bayes, "posterior_metrics", posterior_metrics)
     config = parse_study(small_study('["rfs"]', repetitions=1, duration=4.0, extra="[posterior]\n"), registry=registry)
     row = execute_run(plan_study(config)[0].spec)["row"]
     assert row["status"] == "ok" and abs(row["coef_error_pct:z^3"]) < 1

@@ -5,7 +5,7 @@ from __future__ import annotations
 import pandas as pd
 import pytest
 
-from nlid.scoring import columns as col
+from nlid.study import columns as col
 from nlid.study import load_study, parse_study, run_study
 from nlid.study.values import ConfigError
 

@@ -6,8 +6,8 @@ import pytest
 
 import nlid
 from nlid.identified.reference import Reference
-from nlid.scoring import columns as col
 from nlid.study import ConfigError, parse_study, plan_study
+from nlid.study import columns as col
 from nlid.study.metrics import response_metrics
 
 STUDY = """

@@ -58,7 +58,6 @@ _SPELLING = {"z": "z", "v": "v", "px": "px(z)"}
 Part = tuple[int, int]  # (power p >= 0, sign parity s in {0, 1})
 #: (kind, variable, scale, multiplicity); kind is "exp1", "exp2", "tanh", "gap" or "stop".
 Special = tuple[str, str, float, int]
-_SPECIAL_KINDS = ("exp1", "exp2", "tanh", "gap", "stop")
 #: Special factors whose value carries the unit of their variable (piecewise-linear springs).
 _LINEAR_KINDS = ("gap", "stop")
 #: (law, parameters) of a memory term.

@@ -41,7 +41,7 @@ A study is datasets x models x identifiers x repetitions. The file::
     equilibria = [-0.030, 0.024]   # stable equilibria (m)
     modal = [{ fn_hz = 11.75, zeta = 0.109 }, { fn_hz = 8.77, zeta = 0.146 }]
 
-    [posterior]                    # optional: nlid.bayes.study_metrics(..., **options)
+    [posterior]                    # optional: nlid.bayes.posterior_metrics(..., **options)
     draws = 2000
 
     [response]                     # optional: each fit's frequency response against the reference's

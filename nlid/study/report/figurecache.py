@@ -17,7 +17,7 @@ import pandas as pd
 
 from ...report.plotting import save_figure
 from ...runtime.outputs import atomic_write
-from ...scoring import columns as col
+from .. import columns as col
 
 __all__ = ["Figure", "FigureCache", "input_digest"]
 

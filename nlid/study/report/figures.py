@@ -43,7 +43,7 @@ from ...identified.responseplots import declared_arrays
 from ...model import physics
 from ...model.terms import Model
 from ...report.plotting import new_figure
-from ...scoring import columns as col
+from .. import columns as col
 from .figurecache import Figure, FigureCache
 from .section import Section
 from .verdict import identical_methods

@@ -11,7 +11,7 @@ import numpy as np
 import pandas as pd
 
 from ...base.formatting import TERMINAL_WIDTH, text_table, wrap
-from ...scoring import columns as col
+from .. import columns as col
 from .section import Section
 
 __all__ = ["summary_long", "summary_markdown", "summary_text"]

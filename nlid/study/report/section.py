@@ -4,7 +4,7 @@ Every cell is ``median [min, max]`` over the repetitions that succeeded
 (just the value when there is one). The tables (:mod:`.tables`), the
 verdict (:mod:`.verdict`) and the figures (:mod:`.figures`) all read a
 section through these pieces and the declared columns
-(:mod:`nlid.scoring.columns`).
+(:mod:`nlid.study.columns`).
 """
 
 from __future__ import annotations
@@ -19,7 +19,7 @@ import pandas as pd
 from ...base.formatting import MISSING, column_digits, sig, spread_cell
 from ...errors import NlidError
 from ...model.terms import parse_term
-from ...scoring import columns as col
+from .. import columns as col
 
 __all__ = [
     "Column",

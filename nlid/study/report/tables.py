@@ -5,7 +5,7 @@ Every cell is ``median [min, max]`` over the repetitions that succeeded
 errors in percent, as the paper's Tables 2, 4 and 7 do; the reference value
 of each column is given in the first row.
 
-Each table reads the declared column families (:mod:`nlid.scoring.columns`):
+Each table reads the declared column families (:mod:`nlid.study.columns`):
 a scalar family declared with a table section (e.g. the residual and cost
 table) is shown there without code here; a column of no declared family is
 shown under "Other metrics". The pieces of a section live in
@@ -20,7 +20,8 @@ from typing import Any
 import pandas as pd
 
 from ...base.formatting import MISSING, column_digits, sig
-from ...scoring import columns as col
+from ...identified.compared import equilibrium_label
+from .. import columns as col
 from ..values import PresetSource
 from .section import Column, Section, Table, cell, exact, has_values, method_rows, runs_cell
 from .verdict import build_verdict
@@ -100,7 +101,7 @@ def _reference_table(section: Section) -> Table | None:
         rows.append(["mass", exact(ref["mass"]), "kg"])
     modal = ref.get("modal") or []
     for k, z in enumerate(ref.get("equilibria") or []):
-        label = col.equilibrium_label(k)
+        label = equilibrium_label(k)
         rows.append([f"{label}: stable equilibrium", exact(z, 4), "m"])
         if k < len(modal):
             rows.append([f"{label}: natural frequency fn", exact(modal[k]["fn_hz"], 4), "Hz"])

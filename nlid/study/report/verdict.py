@@ -41,9 +41,9 @@ import pandas as pd
 
 from ...base.formatting import column_digits, sig, spread_cell, wrap
 from ...contract.methods import doc_pages
-from ...scoring import columns as col
-from ...scoring.columns import COST_DIGITS
 from ...signal.channelsource import ChannelSource, read_channel_sources
+from .. import columns as col
+from ..columns import COST_DIGITS
 
 __all__ = ["Finding", "Verdict", "build_verdict", "METHOD_DOCS"]
 

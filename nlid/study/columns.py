@@ -12,10 +12,13 @@ Adding a study column is one declaration here plus its producer: a scalar
 family with a :attr:`ColumnFamily.section` is shown in that table of the
 study summary without further code.
 
-This module lives in the core (it imports nothing of nlid) because the
-row is produced by core layers that must not import :mod:`nlid.study`:
-:meth:`nlid.identified.reference.Comparison.to_row` and :func:`nlid.bayes.study_metrics`.
-:mod:`nlid.scoring.columns` re-exports it as the study's vocabulary.
+The study owns its row: the core returns typed values (a comparison's
+:class:`~nlid.identified.compared.CoefficientComparison` and
+:class:`~nlid.identified.compared.EquilibriumComparison`, the posterior's
+:class:`~nlid.bayes.PosteriorMetrics`, the :class:`~nlid.scoring.Scores`) and
+:mod:`nlid.study.metrics` flattens them into these columns; no package below
+the study knows a column key. Equilibria are labelled as the core labels them
+(:func:`nlid.identified.compared.equilibrium_label`: ``s1``, ``s2``...).
 
 Errors are relative, in percent of ``|reference|``: ``"signed"``
 (``100 (x - x_ref) / |x_ref|``) or ``"absolute"`` (its magnitude, as the
@@ -39,7 +42,6 @@ __all__ = [
     "declared",
     "family_of",
     "section_families",
-    "equilibrium_label",
     "label_order",
     "RUN_ID",
     "DATASET",
@@ -361,11 +363,6 @@ def declared(key: str) -> bool:
 def section_families(section: str) -> list[ColumnFamily]:
     """The scalar families shown in one summary table, in declaration order."""
     return [f for f in FAMILIES if f.section == section]
-
-
-def equilibrium_label(index: int) -> str:
-    """The label of the ``index``-th (from 0) reference stable equilibrium: ``s1``, ``s2``..."""
-    return f"s{index + 1}"
 
 
 def label_order(label: str) -> int:
