@@ -13,10 +13,7 @@ least-squares, sparse and Bayesian methods fit, and what the core scores
 
 from __future__ import annotations
 
-import os
-import threading
 import weakref
-from collections.abc import Callable
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -25,20 +22,17 @@ from ..base.validate import check_cutoff
 from ..data.record import Record
 from ..errors import DataError
 from ..model.terms import Model
-from ..runtime.process import THREAD_ENV
 from ..signal import derivatives
 from ..signal.channelsource import ChannelSource
 
 __all__ = [
     "RegressionData",
     "regression_data",
-    "prefetch_regression_data",
     "settled_samples",
     "share_channels",
     "suggested_cutoff",
     "REGRESSOR_BAND_FACTOR",
     "EDGE_PERIODS",
-    "PREFETCH_MIN_SAMPLES",
 ]
 
 
@@ -120,27 +114,12 @@ MAX_CACHED_COLUMNS = 256
 _CACHE: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
 
 
-def _forget_locks() -> None:
-    """In a child forked while a prefetch held a record's lock: new locks (the thread holding it is not there)."""
-    for cache in list(_CACHE.values()):
-        cache.pop("lock", None)
-
-
-if hasattr(os, "register_at_fork"):
-    os.register_at_fork(after_in_child=_forget_locks)
-
-
 def _record_cache(record: Record) -> dict:
     """The filtered channels and columns already computed for this record (dropped with the record)."""
     try:
         return _CACHE.setdefault(record, {})
     except TypeError:  # pragma: no cover - a record type without weak references: no caching
         return {}
-
-
-def _record_lock(cache: dict) -> threading.RLock:
-    """The lock of one record's cache: one thread computes its filtered channels, another waiting gets them."""
-    return cache.setdefault("lock", threading.RLock())  # dict.setdefault: one lock even when two threads ask
 
 
 def _cached(cache: dict, key: tuple, compute):
@@ -238,38 +217,26 @@ def _lowpass_columns(values: np.ndarray, fs: float, fc: float) -> np.ndarray:
     return derivatives.lowpass_columns(values, fs, fc, varying)
 
 
-#: Most bytes of regressor values evaluated at once (:func:`_columns`): a long record's columns a few at a time,
-#: which bounds the peak memory (10^6 samples x 6 terms is 48 MB, twice with the cached columns).
-COLUMN_BLOCK_BYTES = 16 * 2**20
-
-
 def _columns(cache: dict, model: Model, z: np.ndarray, v: np.ndarray | None, fs: float, fc: float, wide: float):
     """The model's regressors evaluated on the wide-band ``z``, ``v`` and low-passed at ``fc``, column by column.
 
     Each column depends only on its term (and the ``px`` roots), the record
     and the two bands, so it is computed once per record: a discovery run
-    fits the same terms dozens of times. A long record's columns are
-    evaluated and filtered :data:`COLUMN_BLOCK_BYTES` at a time (each column's
-    numbers do not depend on which others are evaluated with it).
+    fits the same terms dozens of times.
     """
     keys = [("col", fc, wide, t.name, model.px_roots if t.uses_px else None) for t in model.terms]
     missing = [i for i, k in enumerate(keys) if k not in cache]
     if missing:
-        per = max(1, COLUMN_BLOCK_BYTES // (8 * max(1, z.size)))
-        new = {}
-        for first in range(0, len(missing), per):
-            block = missing[first : first + per]
-            sub = Model(tuple(model.terms[i] for i in block), model.px_roots)
-            values = _lowpass_columns(np.asarray(sub.evaluate(z, v), dtype=float), fs, fc)
-            for j, i in enumerate(block):
-                column = np.ascontiguousarray(values[:, j])
-                column.setflags(write=False)
-                new[keys[i]] = column
+        sub = Model(tuple(model.terms[i] for i in missing), model.px_roots)
+        values = _lowpass_columns(np.asarray(sub.evaluate(z, v), dtype=float), fs, fc)
         if sum(1 for k in cache if k[0] == "col") + len(missing) > MAX_CACHED_COLUMNS:
             for k in [k for k in cache if k[0] == "col"]:
                 del cache[k]
-        cache.update(new)
-        if len(missing) == len(keys) <= per:  # every column new, in one block in the model's order: no copy
+        for j, term in enumerate(sub.terms):
+            column = np.ascontiguousarray(values[:, j])
+            column.setflags(write=False)
+            cache[keys[model.terms.index(term)]] = column
+        if len(missing) == len(keys):  # every column new, in the model's order: values is the matrix (no copy)
             return values
     return np.column_stack([cache[k] for k in keys]) if keys else np.empty((z.size, 0))
 
@@ -307,23 +274,8 @@ def regression_data(
         v = record.v if needs_v else None
         G = model.evaluate(record.z, v) if regressors else np.empty((record.n, 0))
         return RegressionData(record.f, record.a, G, record.z, v, None, _texts(sources), sources=sources)
-    cache = _record_cache(record)
-    with _record_lock(cache):  # a prefetch (prefetch_regression_data) in another thread: wait for it, never redo it
-        return _filtered_regression_data(record, model, cache, sources, cutoff, trim, regressors)
-
-
-def _filtered_regression_data(
-    record: Record,
-    model: Model,
-    cache: dict,
-    sources: dict[str, ChannelSource],
-    cutoff: float | None,
-    trim: bool,
-    regressors: bool,
-) -> RegressionData:
-    """:func:`regression_data` when a channel is estimated from the displacement (the filtered force balance)."""
-    needs_v = model.uses_velocity
     fs = record.fs
+    cache = _record_cache(record)
     fc = suggested_cutoff(record) if cutoff is None else float(cutoff)
     wide = min(REGRESSOR_BAND_FACTOR * fc, derivatives.CUTOFF_MAX_FRACTION * fs)
     if needs_v and not record.is_measured("v") and ("z", wide) not in cache and ("v~", wide) not in cache:
@@ -364,64 +316,3 @@ def _filtered_regression_data(
 def _texts(sources: dict[str, ChannelSource]) -> dict[str, str]:
     """The one line of each channel's source (:attr:`RegressionData.provenance`)."""
     return {c: s.text for c, s in sources.items()}
-
-
-#: Records of at least this many samples have their force balance filtered ahead by
-#: :func:`prefetch_regression_data` (below it the filters take a few hundredths of a second).
-PREFETCH_MIN_SAMPLES = 2**18
-
-
-def _spare_core() -> bool:
-    """Whether a second thread may run: two usable cores and no numerical library held to one thread.
-
-    A study pins every run to one thread (:func:`nlid.runtime.process.pin_threads`: one run per core), and a
-    user who sets e.g. ``OMP_NUM_THREADS=1`` asks for the same.
-    """
-    try:
-        cores = len(os.sched_getaffinity(0))
-    except AttributeError:  # pragma: no cover - not on Linux
-        cores = os.cpu_count() or 1
-    return cores >= 2 and not any(os.environ.get(name, "").strip() == "1" for name in THREAD_ENV)
-
-
-def _nothing() -> None:
-    return None
-
-
-def prefetch_regression_data(record: Record, model: Model, *, cutoff: float | None = None) -> Callable[[], None]:
-    """Start :func:`regression_data` of ``record`` and ``model`` in a second thread; returns the wait for it.
-
-    The core scores every identified model on the filtered force balance
-    (:func:`nlid.scoring.score`), which depends on the record, the terms and the
-    cut-off only, not on the coefficients: on a long record whose acceleration
-    (or velocity) is estimated it can be filtered while the identifier runs,
-    on the second core, and the scores then find it in the record's cache (the
-    same arrays, to the bit). The identifier's own :func:`regression_data` of
-    the same record waits for the prefetch instead of filtering again (one
-    lock per record).
-
-    Nothing is started (and the returned wait does nothing) for a record
-    shorter than :data:`PREFETCH_MIN_SAMPLES`, one with every channel the model
-    needs measured, a model whose ``px(z)`` roots are still to be found, or
-    without a spare core (:func:`_spare_core`). A failure or a numerical
-    warning in the prefetch only drops what it did not finish: the scores
-    compute that part again and report it themselves.
-    """
-    if record.n < PREFETCH_MIN_SAMPLES or (model.uses_px and model.px_roots is None) or not _spare_core():
-        return _nothing
-    if record.is_measured("a") and (not model.uses_velocity or record.is_measured("v")):
-        return _nothing
-    check_cutoff(cutoff, record.fs)
-    if cutoff is None:
-        suggested_cutoff(record)  # here, once: an identifier deriving its own filters asks for it too
-
-    def work() -> None:
-        try:
-            with np.errstate(over="raise", divide="raise", invalid="raise"):  # this thread's state only
-                regression_data(record, model, cutoff=cutoff, regressors=False)
-        except Exception:  # noqa: BLE001 - the scores compute it again in the caller's thread and report it
-            pass
-
-    thread = threading.Thread(target=work, name="nlid-prefetch-balance", daemon=True)
-    thread.start()
-    return thread.join

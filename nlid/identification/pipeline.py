@@ -34,7 +34,6 @@ from ..contract.registry import Registry, registry_for
 from ..data.record import Record
 from ..data.sources import as_record
 from ..errors import IdentificationError, InputError, NlidError, describe_exception
-from ..estimation.balance import prefetch_regression_data
 from ..estimation.inputpath import InputPath
 from ..estimation.inputpath import input_path as to_input_path
 from ..identified.model import IdentifiedModel
@@ -295,24 +294,17 @@ def identify(
     extra: dict[str, Any] = {}
     given = model
     measured, record = record, path.apply(record)  # the identifier sees the force that acts
-    # the scores' filtered force balance of a long record, on a second core while the identifier runs
-    balance_ready = prefetch_regression_data(record, model, cutoff=cutoff)
-    try:
-        with numerics.collect_warnings() as numerical:
-            try:
-                if model.uses_px and model.px_roots is None:
-                    estimate, model, seconds, extra = _px_fixed_point(
-                        identifier, record, model, mass, px_tol, px_max_iter
-                    )
-                else:
-                    estimate, seconds = _run(identifier, record, model, mass)
-                    model = _estimated_model(estimate, model)
-            except IdentificationError as exc:
-                failed: IdentificationError | None = exc
+    with numerics.collect_warnings() as numerical:
+        try:
+            if model.uses_px and model.px_roots is None:
+                estimate, model, seconds, extra = _px_fixed_point(identifier, record, model, mass, px_tol, px_max_iter)
             else:
-                failed = None
-    finally:
-        balance_ready()
+                estimate, seconds = _run(identifier, record, model, mass)
+                model = _estimated_model(estimate, model)
+        except IdentificationError as exc:
+            failed: IdentificationError | None = exc
+        else:
+            failed = None
     if failed is not None:
         if numerical:
             why = f" (numpy: {numerics.describe_warnings(numerical)}){numerics.overflow_hint(numerical)}"
