@@ -366,18 +366,26 @@ def _judged(z: np.ndarray, z1: np.ndarray, z2: np.ndarray, scale: float, rule: s
 
 
 def _free_run_first_sample(fit: ModelFit, record: Record, rule: str) -> FreeRunResponse:
-    """The free run from the record's first sample (:func:`nlid.simulation.free_run`, nlid's path before the rules)."""
-    from ..simulation import free_run
+    """The free run from the record's first sample (:func:`nlid.simulation.free_run`, nlid's path before the rules).
+
+    The chaos check's second run stops where it joins the first (:func:`nlid.scoring.twin.free_run_pair`: the
+    displacements of the two whole runs, to the bit).
+    """
+    from .twin import free_run_pair
 
     z = np.asarray(record.z)
     scale = float(np.std(z))
     x0 = initial_state(record)
-    args = (fit.model, fit.theta, float(fit.mass), record.f, record.fs)
     try:
-        # the two runs at once when the run may use two threads (nlid.runtime.parallel.both): the same numbers
-        (z1, _, _), (z2, _, _) = both(
-            lambda: free_run(*args, force_hold=record.force_hold, x0=x0),
-            lambda: free_run(*args, force_hold=record.force_hold, x0=(x0[0] + SENSITIVITY_DELTA * scale, x0[1])),
+        z1, z2 = free_run_pair(
+            fit.model,
+            fit.theta,
+            float(fit.mass),
+            record.f,
+            record.fs,
+            force_hold=record.force_hold,
+            x0=x0,
+            x1=(x0[0] + SENSITIVITY_DELTA * scale, x0[1]),
         )
     except NlidError as exc:
         return FreeRunResponse(z, None, 0, FreeRun(note=f"free run diverged: {exc}", rule=rule))
@@ -533,15 +541,24 @@ def score(
         return Scores(NAN, NAN, freerun_note=note)
     mass = float(fit.mass)
     record = acting_record(fit, record)
-    data = data if data is not None else regression_data(record, fit.model, cutoff=cutoff)
-    if data.G.shape[1] != len(fit.model):
-        raise InputError(f"the force balance has {data.G.shape[1]} regressors but the model has {len(fit.model)} terms")
-    theta = fit.theta
-    eps = epsilon(data.restoring_force(mass), data.G @ theta)
-    force = force_residual_percent(data, theta, mass)
-    if free_run or horizon is not None:
-        rule = resolve_rule(rule, record)
-    run = free_run_error(fit, record, rule) if free_run else FreeRun(note="not computed")
+    given = data
+
+    def residuals() -> tuple[RegressionData, float, float]:
+        data = given if given is not None else regression_data(record, fit.model, cutoff=cutoff)
+        if data.G.shape[1] != len(fit.model):
+            raise InputError(
+                f"the force balance has {data.G.shape[1]} regressors but the model has {len(fit.model)} terms"
+            )
+        theta = fit.theta
+        return data, epsilon(data.restoring_force(mass), data.G @ theta), force_residual_percent(data, theta, mass)
+
+    def simulated() -> tuple[Any, FreeRun]:
+        applied = resolve_rule(rule, record) if free_run or horizon is not None else rule
+        return applied, free_run_error(fit, record, applied) if free_run else FreeRun(note="not computed")
+
+    # the residuals beside the free run when the run may use two threads (nlid.runtime.parallel.both): the
+    # same numbers, and an error of the residuals raised first, as in sequence
+    (data, eps, force), (rule, run) = both(residuals, simulated) if free_run else (residuals(), simulated())
     ahead: tuple[float, float, int | None] = (NAN, NAN, None)
     if horizon is not None:
         from .prediction import predict
