@@ -2,8 +2,7 @@
 
 Simulated datasets are simulated from the preset with the run's seed (the
 held-out record, when ``holdout = "independent"``, with its own seed: an
-independent force of the same kind; the two at once when the run may use two
-threads, :func:`nlid.runtime.parallel.both`). Measured datasets are read through
+independent force of the same kind). Measured datasets are read through
 :func:`nlid.data.datasets.load` or :func:`nlid.data.io.read_record`. The reference
 ("truth", :meth:`nlid.identified.reference.Reference.from_truth`) is the preset's
 (coefficients, mass, and the equilibria and modal parameters of the true
@@ -20,7 +19,6 @@ from typing import Any
 from ..data.record import Record
 from ..identified.reference import Reference
 from ..model.terms import Model
-from ..runtime.parallel import both
 from ..scoring import record_period
 from .plan import RunSpec
 from .values import FractionHoldout, IndependentHoldout, PartHoldout, PresetSource
@@ -52,14 +50,10 @@ def build_data(spec: RunSpec) -> RunData:
     src = ds.source
     if isinstance(src, PresetSource):
         preset = src.preset()
-
-        def simulated(seed: int) -> Record:
-            return preset.simulate(seed, noise=dict_or_level(src.noise), channels=src.channels)
-
-        if isinstance(ds.holdout, IndependentHoldout):  # the two records at once when the run has two threads
-            record, heldout = both(lambda: simulated(spec.seed), lambda: simulated(spec.holdout_seed))
-        else:
-            record, heldout = simulated(spec.seed), None
+        record = preset.simulate(spec.seed, noise=dict_or_level(src.noise), channels=src.channels)
+        heldout = None
+        if isinstance(ds.holdout, IndependentHoldout):
+            heldout = preset.simulate(spec.holdout_seed, noise=dict_or_level(src.noise), channels=src.channels)
         z_range = (float(record.z.min()), float(record.z.max()))
         reference = Reference.from_truth(Reference.from_meta(record.meta), model=preset.model(), z_range=z_range)
     else:
