@@ -14,7 +14,6 @@ from ..estimation.balance import RegressionData, regression_data
 from ..estimation.inputpath import acting_record
 from ..model.physics import Coefficients, dict_or_vector
 from ..model.terms import Model
-from ..runtime.parallel import both
 from ..signal import derivatives
 from .rules import FromFirstSample, TransientRule, error_metrics, resolve_rule
 from .rules import start as rule_start
@@ -541,24 +540,15 @@ def score(
         return Scores(NAN, NAN, freerun_note=note)
     mass = float(fit.mass)
     record = acting_record(fit, record)
-    given = data
-
-    def residuals() -> tuple[RegressionData, float, float]:
-        data = given if given is not None else regression_data(record, fit.model, cutoff=cutoff)
-        if data.G.shape[1] != len(fit.model):
-            raise InputError(
-                f"the force balance has {data.G.shape[1]} regressors but the model has {len(fit.model)} terms"
-            )
-        theta = fit.theta
-        return data, epsilon(data.restoring_force(mass), data.G @ theta), force_residual_percent(data, theta, mass)
-
-    def simulated() -> tuple[Any, FreeRun]:
-        applied = resolve_rule(rule, record) if free_run or horizon is not None else rule
-        return applied, free_run_error(fit, record, applied) if free_run else FreeRun(note="not computed")
-
-    # the residuals beside the free run when the run may use two threads (nlid.runtime.parallel.both): the
-    # same numbers, and an error of the residuals raised first, as in sequence
-    (data, eps, force), (rule, run) = both(residuals, simulated) if free_run else (residuals(), simulated())
+    data = data if data is not None else regression_data(record, fit.model, cutoff=cutoff)
+    if data.G.shape[1] != len(fit.model):
+        raise InputError(f"the force balance has {data.G.shape[1]} regressors but the model has {len(fit.model)} terms")
+    theta = fit.theta
+    eps = epsilon(data.restoring_force(mass), data.G @ theta)
+    force = force_residual_percent(data, theta, mass)
+    if free_run or horizon is not None:
+        rule = resolve_rule(rule, record)
+    run = free_run_error(fit, record, rule) if free_run else FreeRun(note="not computed")
     ahead: tuple[float, float, int | None] = (NAN, NAN, None)
     if horizon is not None:
         from .prediction import predict
