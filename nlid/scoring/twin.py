@@ -4,10 +4,11 @@
 :data:`~nlid.scoring.SENSITIVITY_DELTA` ``std(z)`` apart end up apart. For a model that is not
 chaotic the two runs do not merely come close: the offset decays below the last bit and, from some
 sample on, the two states ``(z, v)`` are the same floating-point numbers (on the paper-numerical
-study's fits after 5-15 % of the record). The RK4 step is a function of the state and the force
-alone, so from that sample on the second run *is* the first, to the bit. :func:`free_run_pair`
-therefore integrates the second run in chunks, compares its state with the first run's at the end
-of each chunk, and stops at the first equal state, taking the rest from the first run. The
+study's fits after 5-14 % of the record, seen at a chunk's end after 7-17 %). The RK4 step is a
+function of the state and the force alone, so from that sample on the second run *is* the first,
+to the bit. :func:`free_run_pair` therefore integrates the second run in chunks, compares its
+state with the first run's at the end of each chunk, and stops at the first equal state, taking the
+rest from the first run. The
 displacements it returns are bitwise those of two whole :func:`nlid.simulation.free_run` calls;
 only the work of the second run after the join is not done (on a chaotic model nothing is saved).
 
