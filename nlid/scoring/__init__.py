@@ -46,8 +46,10 @@ Scores (:class:`Scores`, from :func:`score`):
 The package holds one job per module: :mod:`~nlid.scoring.scores` (the
 scores), :mod:`~nlid.scoring.rules` (the transient rules),
 :mod:`~nlid.scoring.periods` (the period of a record),
-:mod:`~nlid.scoring.prediction` (``k``-step-ahead prediction) and
-:mod:`~nlid.scoring.surface` (slices of the restoring surface).
+:mod:`~nlid.scoring.prediction` (``k``-step-ahead prediction),
+:mod:`~nlid.scoring.surface` (slices of the restoring surface) and
+:mod:`~nlid.scoring.twin` (the chaos check's pair of free runs, the second
+stopped where it joins the first).
 """
 
 from __future__ import annotations

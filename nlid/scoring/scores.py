@@ -14,7 +14,6 @@ from ..estimation.balance import RegressionData, regression_data
 from ..estimation.inputpath import acting_record
 from ..model.physics import Coefficients, dict_or_vector
 from ..model.terms import Model
-from ..runtime.parallel import both
 from ..signal import derivatives
 from .rules import FromFirstSample, TransientRule, error_metrics, resolve_rule
 from .rules import start as rule_start
@@ -366,18 +365,26 @@ def _judged(z: np.ndarray, z1: np.ndarray, z2: np.ndarray, scale: float, rule: s
 
 
 def _free_run_first_sample(fit: ModelFit, record: Record, rule: str) -> FreeRunResponse:
-    """The free run from the record's first sample (:func:`nlid.simulation.free_run`, nlid's path before the rules)."""
-    from ..simulation import free_run
+    """The free run from the record's first sample (:func:`nlid.simulation.free_run`, nlid's path before the rules).
+
+    The chaos check's second run stops where it joins the first (:func:`nlid.scoring.twin.free_run_pair`: the
+    displacements of the two whole runs, to the bit).
+    """
+    from .twin import free_run_pair
 
     z = np.asarray(record.z)
     scale = float(np.std(z))
     x0 = initial_state(record)
-    args = (fit.model, fit.theta, float(fit.mass), record.f, record.fs)
     try:
-        # the two runs at once when the run may use two threads (nlid.runtime.parallel.both): the same numbers
-        (z1, _, _), (z2, _, _) = both(
-            lambda: free_run(*args, force_hold=record.force_hold, x0=x0),
-            lambda: free_run(*args, force_hold=record.force_hold, x0=(x0[0] + SENSITIVITY_DELTA * scale, x0[1])),
+        z1, z2 = free_run_pair(
+            fit.model,
+            fit.theta,
+            float(fit.mass),
+            record.f,
+            record.fs,
+            force_hold=record.force_hold,
+            x0=x0,
+            x1=(x0[0] + SENSITIVITY_DELTA * scale, x0[1]),
         )
     except NlidError as exc:
         return FreeRunResponse(z, None, 0, FreeRun(note=f"free run diverged: {exc}", rule=rule))
