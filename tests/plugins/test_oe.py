@@ -80,8 +80,7 @@ def test_a_chaotic_record_is_fitted_by_multiple_shooting_from_its_horizon():
     record = preset.simulate(0, noise={"z": 0.01}, channels=("z",))
     roots = preset.model().px_roots
     truth = preset.truth()["coefficients"]
-    fit = nlid.identify(record, preset.terms, OutputError(init="rfs", oversample=1), mass=preset.mass,
-                        px_roots=roots)
+    fit = nlid.identify(record, preset.terms, OutputError(init="rfs", oversample=1), mass=preset.mass, px_roots=roots)
     d = fit.diagnostics
     assert d["predictability_horizon_s"] is not None and d["segments"] > 1
     assert "predictability horizon" in d["segment_rule"]
@@ -148,7 +147,7 @@ def test_a_start_that_diverges_is_an_identification_error():
 
     registry = nlid.contract.registry.Registry(identifiers={"unstable": Unstable})
     with pytest.MonkeyPatch.context() as mp:
-        mp.setattr("nlid.identification.pipeline.registry_for", lambda name: registry)
+        mp.setattr("nlid.contract.registry.registry_for", lambda name: registry)
         with pytest.raises(IdentificationError, match="diverges"):
             nlid.identify(record, preset.terms, OutputError(init="unstable", oversample=1), mass=0.2)
 
