@@ -393,11 +393,6 @@ def noise_floor(estimation: Record, floor: NoiseFloor) -> float:
     return float(np.sqrt(np.mean(pairs)))
 
 
-def user_file_key(protocol: Protocol, test: TestSet) -> str:
-    """``"benchmark:test"``: how a user-supplied test set is named on the command line and in ``files=``."""
-    return f"{protocol.name}:{test.name}"
-
-
 def check_user_files(protocols: Mapping[str, Protocol], files: Mapping[str, str]) -> dict[str, str]:
     """``files`` checked against the benchmarks, before any job runs: each key names one set of a chosen benchmark.
 

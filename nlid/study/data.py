@@ -14,11 +14,10 @@ from __future__ import annotations
 
 from collections.abc import Mapping
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
 
 from ..data.record import Record
 from ..identified.reference import Reference
-from ..model.terms import Model
 from ..scoring import record_period
 from .values import FractionHoldout, IndependentHoldout, PartHoldout, PresetSource
 
@@ -79,9 +78,3 @@ def build_data(spec: RunSpec) -> RunData:
 def dict_or_level(noise: Mapping[str, float] | float) -> dict[str, float] | float:
     """A preset's noise setting as :meth:`nlid.simulation.presets.Preset.simulate` takes it."""
     return dict(noise) if isinstance(noise, Mapping) else float(noise)
-
-
-def reference_model(reference: Reference | Mapping[str, Any]) -> Model | None:
-    """The true model of a simulated reference (``None`` for measured data)."""
-    ref = reference if isinstance(reference, Reference) else Reference.from_mapping(reference)
-    return ref.model() if ref.terms else None
