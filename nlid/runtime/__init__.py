@@ -16,6 +16,9 @@
     group (also ``python -m nlid.runtime.child``, the spawn start method).
 :mod:`nlid.runtime.preload`
     what the fork server loads once for every run.
+:mod:`nlid.runtime.memory`
+    :class:`~nlid.runtime.memory.PeakMemory`: the peak memory a block adds,
+    from the process's resident high-water mark where the system keeps one.
 
 This package imports nothing itself: the fork server pins the numerical
 libraries' threads before numpy is loaded.

@@ -16,7 +16,6 @@ from __future__ import annotations
 
 import time
 import traceback
-import tracemalloc
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -27,6 +26,7 @@ from ..errors import NlidError
 from ..identification.pipeline import as_model, identify
 from ..identified.reference import compare
 from ..runtime import parallel
+from ..runtime.memory import PeakMemory
 from . import columns as col
 from . import metrics
 from .data import build_data
@@ -112,20 +112,16 @@ def _execute(spec: RunSpec) -> dict[str, Any]:
     model = as_model(spec.terms, without=spec.without, px_roots=spec.px_roots)
     registry = load_registry()
     lap("data")
-    tracemalloc.start()
-    start = time.perf_counter()
-    try:
+    with PeakMemory() as peak:  # not traced where the system keeps the peak (Linux)
+        start = time.perf_counter()
         result = identify(
             data.record, model, spec.method, mass=data.mass, options=dict(spec.options), registry=registry
         )
         seconds = time.perf_counter() - start
-        _, peak = tracemalloc.get_traced_memory()
-    finally:
-        tracemalloc.stop()
     lap("identify")
     row = _base_row(spec)
     row[col.SECONDS.key()] = seconds
-    row[col.PEAK_MEMORY.key()] = peak / 1e6
+    row[col.PEAK_MEMORY.key()] = peak.bytes / 1e6
     row[col.METHOD_SECONDS.key()] = result.seconds
     row[col.SAMPLES.key()] = data.record.n
     row[col.Z_MIN.key()] = float(data.record.z.min())

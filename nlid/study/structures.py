@@ -34,7 +34,6 @@ samples the structure's unknowns (:mod:`nlid.bayes.structure`; ``params =
 from __future__ import annotations
 
 import time
-import tracemalloc
 from collections.abc import Mapping
 from typing import Any
 
@@ -42,6 +41,7 @@ import numpy as np
 
 from ..base.validate import ESTIMATE
 from ..identified.compared import equilibrium_label
+from ..runtime.memory import PeakMemory
 from . import columns as col
 from .metrics import posterior_columns
 
@@ -149,17 +149,13 @@ def execute_structure_run(spec: Any, base_row: Mapping[str, Any]) -> dict[str, A
     mass = ds.mass.value(None, record.mass)
     if mass is None:  # the study estimates it: say so, or identify takes the record's mass matrix
         mass = ESTIMATE
-    tracemalloc.start()
-    start = time.perf_counter()
-    try:
+    with PeakMemory() as peak:  # not traced where the system keeps the peak (Linux)
+        start = time.perf_counter()
         result = identify(record, spec.terms, spec.method, mass=mass, options=dict(spec.options), without=spec.without)
         seconds = time.perf_counter() - start
-        _, peak = tracemalloc.get_traced_memory()
-    finally:
-        tracemalloc.stop()
     row = dict(base_row)
     row[col.SECONDS.key()] = seconds
-    row[col.PEAK_MEMORY.key()] = peak / 1e6
+    row[col.PEAK_MEMORY.key()] = peak.bytes / 1e6
     row[col.METHOD_SECONDS.key()] = result.seconds
     row[col.SAMPLES.key()] = record.n
     row[col.Z_MIN.key()] = float(record.z.min())
