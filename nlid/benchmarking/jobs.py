@@ -394,7 +394,7 @@ def _fit_dict(fitted: Fitted) -> dict[str, Any]:
 
 @dataclass(frozen=True)
 class BenchRun:
-    """A job as the study executors and the result store see it (``run_id``, ``spec``, ``digest``)."""
+    """A job as the study executors and the result store see it (:class:`nlid.study.job.Scheduled`)."""
 
     run_id: str
     spec: BenchJob

@@ -30,12 +30,12 @@ from typing import Any
 
 from ..errors import InputError
 from ..runtime.isolation import start_fork_server
-from .plan import Run
+from .job import Scheduled
 from .worker import kill_children, run_isolated
 
 __all__ = ["LocalExecutor", "DaskExecutor", "make_executor", "default_jobs"]
 
-OnDone = Callable[[Run, dict[str, Any]], None]
+OnDone = Callable[[Scheduled, dict[str, Any]], None]
 
 
 def default_jobs() -> int:
@@ -60,7 +60,7 @@ class LocalExecutor:
     def __init__(self, jobs: int | None = None) -> None:
         self.jobs = jobs
 
-    def run(self, runs: Sequence[Run], on_done: OnDone) -> None:
+    def run(self, runs: Sequence[Scheduled], on_done: OnDone) -> None:
         """Execute ``runs``, calling ``on_done`` in this thread as each finishes."""
         if not runs:
             return
@@ -100,7 +100,7 @@ class DaskExecutor:
         self.scheduler = scheduler
         self.jobs = jobs
 
-    def run(self, runs: Sequence[Run], on_done: OnDone) -> None:
+    def run(self, runs: Sequence[Scheduled], on_done: OnDone) -> None:
         """Execute ``runs``, calling ``on_done`` in this thread as each finishes."""
         if not runs:
             return

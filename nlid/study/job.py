@@ -6,6 +6,10 @@ calls :meth:`Job.execute` there and, when the child produced nothing (a time lim
 job for its :meth:`Job.failure` payload. A job is a frozen value that crosses process boundaries
 (pickled by :mod:`nlid.runtime.isolation` and Dask).
 
+The executors (:mod:`nlid.study.execute`) and the result store (:mod:`nlid.study.store`) see a job as
+:class:`Scheduled`: its key, the job and the digest of its inputs (:class:`nlid.study.plan.Run` and
+:class:`nlid.benchmarking.jobs.BenchRun`).
+
 A payload is ``{"run_id", "row", "result", "reference", "arrays", ...}``: ``row`` is a flat
 ``{column: value}`` mapping with at least ``status`` and ``error``.
 """
@@ -14,7 +18,7 @@ from __future__ import annotations
 
 from typing import Any, Protocol, runtime_checkable
 
-__all__ = ["Job"]
+__all__ = ["Job", "Scheduled"]
 
 
 @runtime_checkable
@@ -42,3 +46,20 @@ class Job(Protocol):
     def failure(self, status: str, error: str) -> dict[str, Any]:
         """The payload of the job when it produced nothing: ``status`` (``"failed"``, ``"timeout"``,
         ``"lost"``) and the one-line reason."""
+
+
+@runtime_checkable
+class Scheduled(Protocol):
+    """A job as the executors and the result store see it."""
+
+    @property
+    def run_id(self) -> str:
+        """The job's key (:attr:`Job.run_id`): the name of its stored result."""
+
+    @property
+    def spec(self) -> Job:
+        """The job the worker runs."""
+
+    @property
+    def digest(self) -> str:
+        """A digest of the job's inputs: a stored result with another digest is stale and runs again."""

@@ -35,7 +35,7 @@ from ..runtime.outputs import atomic_write, temporary
 if TYPE_CHECKING:
     import pandas as pd
 
-    from .plan import Run
+    from .job import Scheduled
 
 __all__ = ["ResultStore", "safe_name", "INFRASTRUCTURE"]
 
@@ -89,12 +89,12 @@ class ResultStore:
         except (OSError, ValueError, RecursionError):
             return None
 
-    def is_done(self, run: Run) -> bool:
+    def is_done(self, run: Scheduled) -> bool:
         """True if the run is stored with the digest of its current spec."""
         stored = self.load(run.run_id)
         return stored is not None and stored.get("digest") == run.digest
 
-    def save(self, run: Run, payload: dict[str, Any]) -> bool:
+    def save(self, run: Scheduled, payload: dict[str, Any]) -> bool:
         """Persist a finished run (arrays first, then the JSON that marks it done); ``False`` when not stored.
 
         A payload marked :data:`INFRASTRUCTURE` (nlid's fork server died under the run) is not stored: the
@@ -122,11 +122,11 @@ class ResultStore:
         _atomic_write(self.path(run.run_id), text.encode())
         return True
 
-    def records(self, runs: Iterable[Run]) -> list[dict[str, Any]]:
+    def records(self, runs: Iterable[Scheduled]) -> list[dict[str, Any]]:
         """Stored records of the given runs (in their order), skipping missing or stale ones."""
         return self.snapshot(runs)[0]
 
-    def snapshot(self, runs: Iterable[Run]) -> tuple[list[dict[str, Any]], list[str]]:
+    def snapshot(self, runs: Iterable[Scheduled]) -> tuple[list[dict[str, Any]], list[str]]:
         """The stored records of the given runs (as :meth:`records`) and a digest of each record's file.
 
         Each file is read once; the digests (SHA-256 of the file's bytes) say whether anything a report
@@ -152,7 +152,7 @@ class ResultStore:
         with np.load(path, allow_pickle=False) as npz:
             return {k: npz[k] for k in npz.files}
 
-    def results(self, runs: Iterable[Run]) -> pd.DataFrame:
+    def results(self, runs: Iterable[Scheduled]) -> pd.DataFrame:
         """Every stored row of the given runs as a table (plan order)."""
         import pandas as pd  # not for a study that only reads its store
 
@@ -160,7 +160,7 @@ class ResultStore:
         frame = pd.DataFrame(rows)
         return frame
 
-    def write_results(self, runs: Iterable[Run], frame: pd.DataFrame | None = None) -> Path:
+    def write_results(self, runs: Iterable[Scheduled], frame: pd.DataFrame | None = None) -> Path:
         """Write ``results.csv`` (``frame``: the runs' rows when the caller has them) and return its path."""
         frame = self.results(runs) if frame is None else frame
         path = self.folder / "results.csv"

@@ -7,9 +7,9 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from nlid.benchmarking.jobs import BenchJob
+from nlid.benchmarking.jobs import BenchJob, BenchRun
 from nlid.study import parse_study, plan_study
-from nlid.study.job import Job
+from nlid.study.job import Job, Scheduled
 from nlid.study.worker import execute_run, failure_payload, run_isolated
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -38,6 +38,14 @@ def test_a_study_run_and_a_bench_job_are_jobs(small_study, registry):
     failed = failure_payload(spec, "timeout", "stopped")
     assert failed["row"]["status"] == "timeout" and failed["row"]["method"] == "rfs"  # the study's own row
     assert failure_payload(bench, "failed", "x")["row"]["benchmark"] == "silverbox"
+
+
+def test_the_executors_and_the_store_see_both_kinds_as_scheduled(small_study, registry):
+    run = plan_study(parse_study(small_study('["rfs"]', repetitions=1), registry=registry))[0]
+    bench = BenchRun.of(BenchJob("silverbox/rfs", "silverbox", "", ()))
+    for scheduled in (run, bench):
+        assert isinstance(scheduled, Scheduled) and isinstance(scheduled.spec, Job)
+        assert scheduled.run_id == scheduled.spec.run_id and scheduled.digest
 
 
 def test_the_worker_runs_any_job_by_the_protocol():
