@@ -8,10 +8,8 @@ from ..runtime.progress import showing
 from .common import (
     add_data_arguments,
     add_model_arguments,
+    identify_options,
     load_data,
-    mass_argument,
-    parse_px_roots,
-    parse_settings,
     print_json,
     untrusted,
     with_wall_time,
@@ -62,17 +60,7 @@ def run(args: argparse.Namespace) -> int:
         path = InputPath.from_spec(args.input_path, getattr(record, "fs", None))
     # a long identifier (oe) shows its progress on a terminal, never under --quiet or --json
     with plugin_warnings("identify"), showing(not (args.quiet or args.json)):
-        result = identify(
-            record,
-            args.terms,
-            args.method,
-            mass=mass_argument(args.mass),
-            options=parse_settings(args.set),
-            without=args.without,
-            px_roots=parse_px_roots(args.px_roots),
-            timeout=timeout,
-            input_path=path,
-        )
+        result = identify(record, args.terms, args.method, **identify_options(args), timeout=timeout, input_path=path)
     from ..identified.plausibility import headline
 
     if args.json:

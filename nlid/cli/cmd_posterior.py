@@ -12,10 +12,8 @@ from ..runtime.progress import showing
 from .common import (
     add_data_arguments,
     add_model_arguments,
+    identify_options,
     load_data,
-    mass_argument,
-    parse_px_roots,
-    parse_settings,
     print_json,
     untrusted,
     with_wall_time,
@@ -197,15 +195,7 @@ def run(args: argparse.Namespace) -> int:
     record = load_data(args)
     show = not (args.quiet or args.json)  # the sampler's progress, on a terminal only
     with showing(show):  # the terms are parsed by identify on the record's DOFs: a model or a structure's elements
-        result = identify(
-            record,
-            args.terms,
-            args.method,
-            mass=mass_argument(args.mass),
-            options=parse_settings(args.set),
-            without=args.without,
-            px_roots=parse_px_roots(args.px_roots),
-        )
+        result = identify(record, args.terms, args.method, **identify_options(args))
     try:
         with showing(show):
             posterior = sampler.run(record, result)

@@ -8,7 +8,7 @@ import sys
 from pathlib import Path
 
 from ..errors import InputError
-from .common import add_model_arguments, parse_px_roots, parse_settings, print_json
+from .common import add_model_arguments, identify_options, print_json
 
 DESCRIPTION = """\
 The periodic response of a model to F cos(2 pi f t), continued in frequency over a band for each force
@@ -84,15 +84,7 @@ def _model(args: argparse.Namespace):
     from ..identification.pipeline import identify
 
     # the terms are parsed by identify on the record's DOFs: a one-DOF model or a structure's elements
-    return identify(
-        load(args.source),
-        args.terms,
-        args.method,
-        mass=args.mass,
-        options=parse_settings(args.set),
-        without=args.without,
-        px_roots=parse_px_roots(args.px_roots),
-    )
+    return identify(load(args.source), args.terms, args.method, **identify_options(args))
 
 
 def run(args: argparse.Namespace) -> int:

@@ -199,6 +199,19 @@ def parse_px_roots(text: str | None) -> tuple[float, float] | None:
     return a, b
 
 
+def identify_options(args: argparse.Namespace) -> dict[str, Any]:
+    """What :func:`add_model_arguments` read, as :func:`nlid.identify`'s keywords.
+
+    ``mass=`` (``--mass`` parsed: kg, ``estimate`` or a matrix), ``options=``, ``without=``, ``px_roots=``.
+    """
+    return {
+        "mass": mass_argument(args.mass),
+        "options": parse_settings(args.set),
+        "without": args.without,
+        "px_roots": parse_px_roots(args.px_roots),
+    }
+
+
 def add_data_arguments(parser: argparse.ArgumentParser) -> None:
     """The DATA positional and the options that say how to read it."""
     parser.add_argument("data", metavar="DATA", help=DATA_HELP)

@@ -170,6 +170,19 @@ def test_posterior(cli, record_file):
     _assert_same(_strip(json.loads(out)), _strip(_json(api.to_dict())))
 
 
+def test_response_of_a_data_file(cli, record_file):
+    # the data is identified first, with --mass parsed as nlid identify parses it (a number of kg)
+    argv = ["response", str(record_file), "--method", "rfs", "--terms", TERMS, "--mass", "0.2"]
+    settings = ["--force", "0.5", "--band", "5:10", "--harmonics", "3", "--no-verify", "--no-backbone"]
+    status, out, err = cli(*argv, *settings, "--json")
+    assert status == 0, err
+    from nlid.response import frequency_response
+
+    fit = nlid.identify(nlid.load(record_file), TERMS, "rfs", mass=0.2)
+    api = frequency_response(fit, "0.5", "5:10", harmonics=3, backbone=False)
+    _assert_same(_strip(json.loads(out)), _strip(_json(api.to_dict())))
+
+
 STUDY = """
 [study]
 name = "parity"
