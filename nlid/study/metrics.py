@@ -55,7 +55,7 @@ functions here flatten them into the study's columns.
 from __future__ import annotations
 
 import time
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -67,6 +67,7 @@ from ..identified.compared import CoefficientComparison, EquilibriumComparison, 
 from ..identified.model import IdentifiedModel
 from ..identified.reference import Comparison, Reference, compare
 from ..model import physics
+from ..runtime.memory import PeakMemory
 from ..scoring import damping_slice
 from . import columns as col
 
@@ -85,6 +86,28 @@ __all__ = [
 ]
 
 NAN = float("nan")
+
+
+def timed_identification(identify: Callable[[], Any], record: Any) -> tuple[Any, dict[str, Any]]:
+    """Run ``identify`` (a call of :func:`nlid.identify` on ``record``); its result and the run's cost columns.
+
+    ``seconds`` is the call's wall time and ``peak_memory_mb`` the memory it added
+    (:class:`nlid.runtime.memory.PeakMemory`: untraced where the system keeps the peak, so the times of
+    different methods compare); ``method_seconds`` is the identifier's own time; ``samples``, ``z_min``
+    and ``z_max`` describe the record (one DOF or a structure's every channel).
+    """
+    with PeakMemory() as peak:
+        start = time.perf_counter()
+        result = identify()
+        seconds = time.perf_counter() - start
+    return result, {
+        col.SECONDS.key(): seconds,
+        col.PEAK_MEMORY.key(): peak.bytes / 1e6,
+        col.METHOD_SECONDS.key(): result.seconds,
+        col.SAMPLES.key(): record.n,
+        col.Z_MIN.key(): float(record.z.min()),
+        col.Z_MAX.key(): float(record.z.max()),
+    }
 
 
 def coefficient_columns(values: CoefficientComparison) -> dict[str, float]:

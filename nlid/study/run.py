@@ -26,7 +26,6 @@ from ..errors import NlidError
 from ..identification.pipeline import as_model, identify
 from ..identified.reference import compare
 from ..runtime import parallel
-from ..runtime.memory import PeakMemory
 from . import columns as col
 from . import metrics
 from .data import build_data
@@ -112,20 +111,13 @@ def _execute(spec: RunSpec) -> dict[str, Any]:
     model = as_model(spec.terms, without=spec.without, px_roots=spec.px_roots)
     registry = load_registry()
     lap("data")
-    with PeakMemory() as peak:  # not traced where the system keeps the peak (Linux)
-        start = time.perf_counter()
-        result = identify(
-            data.record, model, spec.method, mass=data.mass, options=dict(spec.options), registry=registry
-        )
-        seconds = time.perf_counter() - start
+    options = dict(spec.options)
+    result, cost = metrics.timed_identification(
+        lambda: identify(data.record, model, spec.method, mass=data.mass, options=options, registry=registry),
+        data.record,
+    )
     lap("identify")
-    row = _base_row(spec)
-    row[col.SECONDS.key()] = seconds
-    row[col.PEAK_MEMORY.key()] = peak.bytes / 1e6
-    row[col.METHOD_SECONDS.key()] = result.seconds
-    row[col.SAMPLES.key()] = data.record.n
-    row[col.Z_MIN.key()] = float(data.record.z.min())
-    row[col.Z_MAX.key()] = float(data.record.z.max())
+    row = {**_base_row(spec), **cost}
     row[col.EPS.key()] = result.eps_percent
     row[col.FORCE_RESIDUAL.key()] = result.force_residual_percent
     row[col.WARNINGS.key()] = " | ".join(result.warnings)

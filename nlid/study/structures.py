@@ -33,7 +33,6 @@ samples the structure's unknowns (:mod:`nlid.bayes.structure`; ``params =
 
 from __future__ import annotations
 
-import time
 from collections.abc import Mapping
 from typing import Any
 
@@ -41,9 +40,8 @@ import numpy as np
 
 from ..base.validate import ESTIMATE
 from ..identified.compared import equilibrium_label
-from ..runtime.memory import PeakMemory
 from . import columns as col
-from .metrics import posterior_columns
+from .metrics import posterior_columns, timed_identification
 
 __all__ = ["is_structure_preset", "check_structure_terms", "execute_structure_run", "structure_metrics"]
 
@@ -149,17 +147,11 @@ def execute_structure_run(spec: Any, base_row: Mapping[str, Any]) -> dict[str, A
     mass = ds.mass.value(None, record.mass)
     if mass is None:  # the study estimates it: say so, or identify takes the record's mass matrix
         mass = ESTIMATE
-    with PeakMemory() as peak:  # not traced where the system keeps the peak (Linux)
-        start = time.perf_counter()
-        result = identify(record, spec.terms, spec.method, mass=mass, options=dict(spec.options), without=spec.without)
-        seconds = time.perf_counter() - start
-    row = dict(base_row)
-    row[col.SECONDS.key()] = seconds
-    row[col.PEAK_MEMORY.key()] = peak.bytes / 1e6
-    row[col.METHOD_SECONDS.key()] = result.seconds
-    row[col.SAMPLES.key()] = record.n
-    row[col.Z_MIN.key()] = float(record.z.min())
-    row[col.Z_MAX.key()] = float(record.z.max())
+    result, cost = timed_identification(
+        lambda: identify(record, spec.terms, spec.method, mass=mass, options=dict(spec.options), without=spec.without),
+        record,
+    )
+    row = {**base_row, **cost}
     row[col.EPS.key()] = max(result.eps_percent) if result.eps_percent else None
     notes = list(result.warnings)
     if type(ds.holdout).__name__ != "NoHoldout" or ds.slices:
