@@ -31,16 +31,18 @@ TRACED = "traced"
 _PROC = Path("/proc/self")
 
 
-def _status_kb(field: str) -> int | None:
-    """A ``kB`` field of ``/proc/self/status`` (``VmRSS``, ``VmHWM``), or ``None``."""
+def _status_kb(*fields: str) -> tuple[int | None, ...]:
+    """``kB`` fields of ``/proc/self/status`` (``VmRSS``, ``VmHWM``), read at once; ``None`` for each one missing."""
+    found: dict[str, int] = {}
     try:
         with open(_PROC / "status", encoding="ascii") as handle:
             for line in handle:
-                if line.startswith(field + ":"):
-                    return int(line.split()[1])
+                name, _, rest = line.partition(":")
+                if name in fields:
+                    found[name] = int(rest.split()[0])
     except (OSError, ValueError, IndexError):
-        return None
-    return None
+        return tuple(None for _ in fields)
+    return tuple(found.get(field) for field in fields)
 
 
 def _reset_high_water() -> bool:
@@ -71,8 +73,8 @@ class PeakMemory:
         self._before_kb: int | None = None
 
     def __enter__(self) -> PeakMemory:
-        before = _status_kb("VmRSS")
-        if before is not None and _reset_high_water() and _status_kb("VmHWM") is not None:
+        before, high = _status_kb("VmRSS", "VmHWM") if _reset_high_water() else (None, None)
+        if before is not None and high is not None:  # the mark was reset to the resident size
             self.how, self._before_kb = RESIDENT, before
         else:
             self.how = TRACED
@@ -90,6 +92,6 @@ class PeakMemory:
             tracemalloc.stop()
             self.bytes = int(peak)
             return
-        after = _status_kb("VmHWM")
+        (after,) = _status_kb("VmHWM")
         before = self._before_kb if self._before_kb is not None else 0
         self.bytes = max(0, (after if after is not None else before) - before) * 1024
