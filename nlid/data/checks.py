@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import dataclasses
 import numbers
+import os
 from collections.abc import Mapping
 from types import MappingProxyType
 from typing import Any, Self
@@ -38,6 +39,8 @@ __all__ = [
     "real_array",
     "merge_units",
     "freeze",
+    "table_source",
+    "loaded_meta",
 ]
 
 #: Channel names, in the order they are written to files.
@@ -53,6 +56,35 @@ DEFAULT_UNITS: Mapping[str, str] = MappingProxyType({"f": "N", "z": "m", "v": "m
 def freeze(mapping: Mapping[str, Any] | None) -> Mapping[str, Any]:
     """A read-only copy that pickles (records cross process boundaries: studies, ``identify(timeout=)``)."""
     return FrozenDict(dict(mapping or {}))
+
+
+def table_source(table: Any, source: str | os.PathLike[str]) -> tuple[Mapping[str, Any], str, str]:
+    """A table's columns by name, and its source as messages name it (``label``) and as a noun (``"file"``)."""
+    if not isinstance(table, Mapping):
+        raise InputError(f"a table must map column names to arrays, got {type(table).__name__}")
+    if isinstance(source, os.PathLike):
+        label, noun = os.fspath(source), "file"
+    else:
+        label = noun = str(source)
+    named = table if all(isinstance(k, str) for k in table) else {str(k): v for k, v in table.items()}
+    return named, label, noun
+
+
+def loaded_meta(
+    meta: Mapping[str, Any] | None, force_hold: str | None, label: str, columns: Any, fs: float | None
+) -> tuple[dict[str, Any], dict[str, Any]]:
+    """The metadata of a record read from a table (``force_hold=`` checked), and its ``meta["loaded"]``."""
+    meta = dict(meta or {})
+    if force_hold is not None:
+        if force_hold not in ("sampled", "zoh"):
+            raise InputError(f"force_hold must be 'sampled' or 'zoh', got {force_hold!r}")
+        meta["force_hold"] = force_hold
+        meta["force_hold_source"] = "option"
+    loaded = {**dict(meta.get("loaded") or {}), "source": label}
+    loaded["columns"] = dict(columns) if isinstance(columns, Mapping) else (columns or None)
+    loaded["fs"] = fs
+    meta["loaded"] = loaded
+    return meta, loaded
 
 
 #: Earlier names of metadata keys: ``{old: current}``. A record stores the current name; the old one still reads.

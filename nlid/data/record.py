@@ -50,7 +50,17 @@ import numpy as np
 from ..errors import DataError, InputError
 from ..signal import derivatives
 from ..signal.channelsource import ChannelSource
-from .checks import CHANNELS, DEFAULT_UNITS, TimeAxis, checked_fields, merge_units, real_array, uniform_step
+from .checks import (
+    CHANNELS,
+    DEFAULT_UNITS,
+    TimeAxis,
+    checked_fields,
+    loaded_meta,
+    merge_units,
+    real_array,
+    table_source,
+    uniform_step,
+)
 from .columnmap import channel_arrays, column_units, dataset_table, frame_table
 from .digest import record_sha256
 from .units import parse_units
@@ -206,32 +216,16 @@ class Record(TimeAxis):
             A malformed column map, both a time column and ``fs=``, a bad
             ``force_hold``, or a unit outside the vocabulary.
         """
-        if not isinstance(table, Mapping):
-            raise InputError(f"a table must map column names to arrays, got {type(table).__name__}")
-        if isinstance(source, os.PathLike):
-            label, noun = os.fspath(source), "file"
-        else:
-            label = noun = str(source)
+        named, label, noun = table_source(table, source)
         given = merge_units(parse_units(units), column_units(columns))
-        named = table if all(isinstance(k, str) for k in table) else {str(k): v for k, v in table.items()}
-        given_fs = fs
-        arrays, fs = channel_arrays(named, columns, fs=fs, source=label, noun=noun)
-        meta = dict(meta or {})
-        if force_hold is not None:
-            if force_hold not in ("sampled", "zoh"):
-                raise InputError(f"force_hold must be 'sampled' or 'zoh', got {force_hold!r}")
-            meta["force_hold"] = force_hold
-            meta["force_hold_source"] = "option"
-        loaded = {**dict(meta.get("loaded") or {}), "source": label}
-        loaded["columns"] = dict(columns) if isinstance(columns, Mapping) else (columns or None)
-        loaded["fs"] = given_fs
-        meta["loaded"] = loaded
+        arrays, table_fs = channel_arrays(named, columns, fs=fs, source=label, noun=noun)
+        meta, loaded = loaded_meta(meta, force_hold, label, columns, fs)
         kwargs: dict[str, Any] = {c: arrays[c] for c in CHANNELS if c in arrays}
         try:
             if "t" in arrays:
                 record = cls.from_time(arrays["t"], meta=meta, units=given, **kwargs)
             else:
-                record = cls(fs=fs, meta=meta, units=given, **kwargs)
+                record = cls(fs=table_fs, meta=meta, units=given, **kwargs)
         except DataError as exc:
             raise DataError(f"{label}: {exc}") from None
         return record.with_meta(loaded={**loaded, "record_sha256": record_sha256(record)})
