@@ -300,6 +300,32 @@ class TimeAxis:
     t0: float
     meta: Mapping[str, Any]
     provenance: Mapping[str, str]
+    #: Units may name single channels of a DOF (``z2``): a structure's.
+    _indexed = False
+
+    @classmethod
+    def from_time(cls, t: np.ndarray, f: np.ndarray, z: np.ndarray, **kwargs: Any) -> Self:
+        """Build a record from a time vector, checking that it is uniform.
+
+        Parameters
+        ----------
+        t
+            Sample times in s, strictly increasing and uniform within
+            :data:`TIME_TOLERANCE`.
+        f, z, **kwargs
+            As for the record's class (``fs`` and ``t0`` are taken from ``t``);
+            ``units={"t": "ms"}`` says that ``t`` is in ms.
+        """
+        units = dict(parse_units(kwargs.pop("units", None), indexed=cls._indexed))
+        time_unit = units.pop("t", None)
+        t = real_array("t", t).squeeze()
+        if time_unit is not None and not time_unit.is_si:
+            t = t * time_unit.factor
+            meta = dict(kwargs.pop("meta", None) or {})
+            meta["input_units"] = {**dict(meta.get("input_units") or {}), "t": time_unit.to_dict()}
+            kwargs["meta"] = meta
+        step = uniform_step(t)
+        return cls(f=f, z=z, fs=1.0 / step, t0=float(t[0]), units=units, **kwargs)  # type: ignore[call-arg]
 
     # ------------------------------------------------------------------ one DOF (1-D channels) and n DOFs ((N, n))
     def _arrays(self, transform: Any) -> dict[str, np.ndarray]:

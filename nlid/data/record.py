@@ -57,9 +57,7 @@ from .checks import (
     checked_fields,
     loaded_meta,
     merge_units,
-    real_array,
     table_source,
-    uniform_step,
 )
 from .columnmap import channel_arrays, column_units, dataset_table, frame_table
 from .digest import record_sha256
@@ -139,30 +137,6 @@ class Record(TimeAxis):
             object.__setattr__(self, name, value)
 
     # ------------------------------------------------------------------ construction
-    @classmethod
-    def from_time(cls, t: np.ndarray, f: np.ndarray, z: np.ndarray, **kwargs: Any) -> Record:
-        """Build a record from a time vector, checking that it is uniform.
-
-        Parameters
-        ----------
-        t
-            Sample times in s, strictly increasing and uniform within
-            :data:`TIME_TOLERANCE`.
-        f, z, **kwargs
-            As for :class:`Record` (``fs`` and ``t0`` are taken from ``t``);
-            ``units={"t": "ms"}`` says that ``t`` is in ms.
-        """
-        units = parse_units(kwargs.pop("units", None))
-        time_unit = units.pop("t", None)
-        t = real_array("t", t).squeeze()
-        if time_unit is not None and not time_unit.is_si:
-            t = t * time_unit.factor
-            meta = dict(kwargs.pop("meta", None) or {})
-            meta["input_units"] = {**dict(meta.get("input_units") or {}), "t": time_unit.to_dict()}
-            kwargs["meta"] = meta
-        step = uniform_step(t)
-        return cls(f=f, z=z, fs=1.0 / step, t0=float(t[0]), units=units, **kwargs)
-
     @classmethod
     def from_table(
         cls,

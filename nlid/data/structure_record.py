@@ -43,7 +43,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from ..errors import DataError, InputError
-from .checks import MIN_SAMPLES, RecordMeta, TimeAxis, uniform_step
+from .checks import MIN_SAMPLES, RecordMeta, TimeAxis
 from .checks import freeze as _freeze
 from .record import Record
 from .units import Unit, parse_units
@@ -143,6 +143,7 @@ class StructureRecord(TimeAxis):
     units: Mapping[str, str] = field(default_factory=dict)
     meta: Mapping[str, Any] = field(default_factory=dict)
     provenance: Mapping[str, str] = field(default_factory=dict)
+    _indexed = True
 
     def __post_init__(self) -> None:
         set_ = object.__setattr__
@@ -217,20 +218,6 @@ class StructureRecord(TimeAxis):
         set_(self, "provenance", _freeze(self.provenance))
 
     # ------------------------------------------------------------------ construction
-    @classmethod
-    def from_time(cls, t: np.ndarray, f: np.ndarray, z: np.ndarray, **kwargs: Any) -> StructureRecord:
-        """Build a record from a time vector, checking that it is uniform (as :meth:`Record.from_time`)."""
-        units = dict(parse_units(kwargs.pop("units", None), indexed=True))
-        time_unit = units.pop("t", None)
-        t = np.asarray(t, dtype=float).squeeze()
-        if time_unit is not None and not time_unit.is_si:
-            t = t * time_unit.factor
-            meta = dict(kwargs.pop("meta", None) or {})
-            meta["input_units"] = {**dict(meta.get("input_units") or {}), "t": time_unit.to_dict()}
-            kwargs["meta"] = meta
-        step = uniform_step(t)
-        return cls(f=f, z=z, fs=1.0 / step, t0=float(t[0]), units={c: u.symbol for c, u in units.items()}, **kwargs)
-
     @classmethod
     def from_record(cls, record: Record) -> StructureRecord:
         """A one-DOF :class:`~nlid.data.record.Record` as a structure record of one DOF (``z1``, ``f1``...)."""
