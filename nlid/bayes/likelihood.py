@@ -299,11 +299,6 @@ class Likelihood:
         object.__setattr__(self, "_scale", s)
         object.__setattr__(self, "_gram", corr_g)
 
-    def adjusted(self, theta: np.ndarray) -> np.ndarray:
-        """``phi(theta) = theta_hat + C (theta - theta_c)``, where the raw likelihood is evaluated."""
-        theta = np.asarray(theta, dtype=float)
-        return self.estimate + (theta - self.center) @ self._transform.T
-
     def __call__(self, theta: np.ndarray) -> np.ndarray:
         """Log-likelihood ``-(nu/2) log RSS(phi(theta))``, without its constant ``(nu/2) log RSS_min``.
 

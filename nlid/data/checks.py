@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import dataclasses
 import numbers
+import os
 from collections.abc import Mapping
 from types import MappingProxyType
 from typing import Any, Self
@@ -21,6 +22,7 @@ import numpy as np
 
 from ..base.frozen import FrozenDict
 from ..errors import DataError, InputError
+from ..signal import derivatives
 from ..signal.channelsource import ChannelSource
 from .units import Unit, parse_units, unit_of
 
@@ -37,6 +39,8 @@ __all__ = [
     "real_array",
     "merge_units",
     "freeze",
+    "table_source",
+    "loaded_meta",
 ]
 
 #: Channel names, in the order they are written to files.
@@ -52,6 +56,35 @@ DEFAULT_UNITS: Mapping[str, str] = MappingProxyType({"f": "N", "z": "m", "v": "m
 def freeze(mapping: Mapping[str, Any] | None) -> Mapping[str, Any]:
     """A read-only copy that pickles (records cross process boundaries: studies, ``identify(timeout=)``)."""
     return FrozenDict(dict(mapping or {}))
+
+
+def table_source(table: Any, source: str | os.PathLike[str]) -> tuple[Mapping[str, Any], str, str]:
+    """A table's columns by name, and its source as messages name it (``label``) and as a noun (``"file"``)."""
+    if not isinstance(table, Mapping):
+        raise InputError(f"a table must map column names to arrays, got {type(table).__name__}")
+    if isinstance(source, os.PathLike):
+        label, noun = os.fspath(source), "file"
+    else:
+        label = noun = str(source)
+    named = table if all(isinstance(k, str) for k in table) else {str(k): v for k, v in table.items()}
+    return named, label, noun
+
+
+def loaded_meta(
+    meta: Mapping[str, Any] | None, force_hold: str | None, label: str, columns: Any, fs: float | None
+) -> tuple[dict[str, Any], dict[str, Any]]:
+    """The metadata of a record read from a table (``force_hold=`` checked), and its ``meta["loaded"]``."""
+    meta = dict(meta or {})
+    if force_hold is not None:
+        if force_hold not in ("sampled", "zoh"):
+            raise InputError(f"force_hold must be 'sampled' or 'zoh', got {force_hold!r}")
+        meta["force_hold"] = force_hold
+        meta["force_hold_source"] = "option"
+    loaded = {**dict(meta.get("loaded") or {}), "source": label}
+    loaded["columns"] = dict(columns) if isinstance(columns, Mapping) else (columns or None)
+    loaded["fs"] = fs
+    meta["loaded"] = loaded
+    return meta, loaded
 
 
 #: Earlier names of metadata keys: ``{old: current}``. A record stores the current name; the old one still reads.
@@ -267,9 +300,194 @@ class TimeAxis:
     t0: float
     meta: Mapping[str, Any]
     provenance: Mapping[str, str]
+    #: Units may name single channels of a DOF (``z2``): a structure's.
+    _indexed = False
 
-    def __getitem__(self, item: slice) -> Self:  # pragma: no cover - each record slices its own channels
-        raise NotImplementedError
+    @classmethod
+    def from_time(cls, t: np.ndarray, f: np.ndarray, z: np.ndarray, **kwargs: Any) -> Self:
+        """Build a record from a time vector, checking that it is uniform.
+
+        Parameters
+        ----------
+        t
+            Sample times in s, strictly increasing and uniform within
+            :data:`TIME_TOLERANCE`.
+        f, z, **kwargs
+            As for the record's class (``fs`` and ``t0`` are taken from ``t``);
+            ``units={"t": "ms"}`` says that ``t`` is in ms.
+        """
+        units = dict(parse_units(kwargs.pop("units", None), indexed=cls._indexed))
+        time_unit = units.pop("t", None)
+        t = real_array("t", t).squeeze()
+        if time_unit is not None and not time_unit.is_si:
+            t = t * time_unit.factor
+            meta = dict(kwargs.pop("meta", None) or {})
+            meta["input_units"] = {**dict(meta.get("input_units") or {}), "t": time_unit.to_dict()}
+            kwargs["meta"] = meta
+        step = uniform_step(t)
+        return cls(f=f, z=z, fs=1.0 / step, t0=float(t[0]), units=units, **kwargs)  # type: ignore[call-arg]
+
+    # ------------------------------------------------------------------ one DOF (1-D channels) and n DOFs ((N, n))
+    def _arrays(self, transform: Any) -> dict[str, np.ndarray]:
+        """``transform`` of each quantity present (``f``, ``z``, ``v``, ``a``), by name."""
+        return {g: transform(getattr(self, g)) for g in CHANNELS if getattr(self, g, None) is not None}
+
+    def _column(self, group: str, k: int | None) -> str:
+        """The name of a quantity's channel: ``"z"`` for one DOF (``k`` is ``None``), ``"z2"`` for column 1."""
+        return group if k is None else f"{group}{k + 1}"
+
+    def _columns(self) -> list[int | None]:
+        """The column of each DOF, ``[None]`` for a record of 1-D channels."""
+        z = self.z  # type: ignore[attr-defined]
+        return [None] if z.ndim == 1 else list(range(z.shape[1]))
+
+    def _steps(self, step: str) -> dict[str, str]:
+        """The provenance of every channel with ``step`` appended."""
+        return {c: f"{self.source_of(c)}; {step}" for c in self.channels}  # type: ignore[attr-defined]
+
+    def _periodic_meta(self, n: int, up: int = 1, down: int = 1) -> Mapping[str, Any]:
+        """The metadata of a part of ``n`` samples at ``up / down`` times the rate: ``meta["periodic"]`` there.
+
+        A declared period (``True``: the record's length) stays the part's period (in its own samples) while
+        the part holds a whole period of a whole number of samples, so that a held-out part of a periodic
+        record is scored periodic; otherwise the key is dropped.
+        """
+        periodic = self.meta.get("periodic")
+        if periodic is None or periodic is False:
+            return self.meta
+        period = self.n if periodic is True else int(periodic)
+        meta = dict(self.meta)
+        new, rest = divmod(period * up, down)
+        if rest == 0 and 2 <= new <= n:
+            meta["periodic"] = True if new == n else new
+        else:
+            del meta["periodic"]
+        return meta
+
+    def __getitem__(self, item: slice) -> Self:
+        """Slice by sample index: ``record[1000:5000]`` or ``record[::2]``.
+
+        A step other than 1 is plain down-sampling without anti-aliasing; use
+        :meth:`decimate` for that.
+        """
+        if not isinstance(item, slice):
+            raise TypeError("records are sliced with a slice, e.g. record[100:2000]")
+        start, _, step = item.indices(self.n)
+        arrays = self._arrays(lambda x: x[item])
+        meta = self._periodic_meta(arrays["z"].shape[0], 1, step)
+        return dataclasses.replace(  # type: ignore[type-var]
+            self, fs=self.fs / step, t0=self.t0 + start / self.fs, meta=meta, **arrays
+        )
+
+    def decimate(self, q: int) -> Self:
+        """Reduce the sampling frequency by an integer factor with anti-aliasing.
+
+        Each channel is low-passed at 80 % of the new Nyquist frequency by a
+        Butterworth filter of order 8 applied forwards and backwards
+        (zero-phase, maximally flat: the gain error is below 1e-6 up to a
+        third of the cut-off), then every ``q``-th sample is kept. (scipy's
+        default Chebyshev filter is avoided: its 0.05 dB ripple, doubled by the
+        zero-phase pass, changes amplitudes by up to 1.2 %.)
+        """
+        q = int(q)
+        if q < 1:
+            raise InputError(f"decimation factor must be a positive integer, got {q}")
+        if q == 1:
+            return self
+        cutoff = 0.8 * self.fs / (2 * q)
+
+        def down(x: np.ndarray) -> np.ndarray:
+            if x.ndim == 1:
+                return derivatives.lowpass(x, self.fs, cutoff, order=8)[::q]
+            return np.stack([derivatives.lowpass(x[:, k], self.fs, cutoff, order=8)[::q] for k in range(x.shape[1])], 1)
+
+        arrays = self._arrays(down)
+        if arrays["f"].ndim == 2:  # the force columns of the DOFs not driven stay exactly zero
+            driven = self.force_dofs  # type: ignore[attr-defined]
+            arrays["f"][:, [k for k in range(arrays["f"].shape[1]) if k + 1 not in driven]] = 0.0
+        meta = self._periodic_meta(arrays["z"].shape[0], 1, q)
+        return dataclasses.replace(  # type: ignore[type-var]
+            self, fs=self.fs / q, provenance=self._steps(f"decimated by {q}"), meta=meta, **arrays
+        )
+
+    def resample(self, fs: float) -> Self:
+        """Resample to a new sampling frequency (polyphase, anti-aliased).
+
+        The ratio ``fs / self.fs`` is approximated by a fraction with a
+        denominator of at most 1000.
+        """
+        from fractions import Fraction
+
+        from scipy import signal
+
+        ratio = Fraction(float(fs) / self.fs).limit_denominator(1000)
+        if ratio == 1:
+            return self
+        arrays = self._arrays(lambda x: signal.resample_poly(x, ratio.numerator, ratio.denominator, axis=0))
+        new_fs = self.fs * ratio.numerator / ratio.denominator
+        meta = self._periodic_meta(arrays["z"].shape[0], ratio.numerator, ratio.denominator)
+        provenance = self._steps(f"resampled to {new_fs:g} Hz")
+        return dataclasses.replace(self, fs=new_fs, provenance=provenance, meta=meta, **arrays)  # type: ignore[type-var]
+
+    def suggest_cutoff(self) -> float:
+        """One cut-off (Hz) for every DOF: the highest :func:`nlid.signal.derivatives.suggest_cutoff` of the
+        displacements.
+
+        One filter for all DOFs keeps their estimated channels in phase with each other.
+        """
+        z = self.z  # type: ignore[attr-defined]
+        return max(derivatives.suggest_cutoff(z if k is None else z[:, k], self.fs) for k in self._columns())
+
+    def with_derivatives(
+        self, *, cutoff: float | None = None, velocity: bool = True, acceleration: bool = True, overwrite: bool = False
+    ) -> Self:
+        """Fill in missing velocity/acceleration channels by estimation, DOF by DOF.
+
+        Velocity comes from differentiating ``z`` unless ``v`` is present
+        (integrating a measured ``a`` loses the low frequencies; ask for it
+        explicitly with ``with_velocity_from_acceleration``). Acceleration
+        comes from differentiating a measured ``v`` when there is one, else
+        from differentiating ``z`` twice. See :mod:`nlid.signal.derivatives` for the
+        filters.
+
+        Parameters
+        ----------
+        cutoff
+            Low-pass cut-off in Hz for the differentiating filter, one for every DOF (default:
+            :meth:`suggest_cutoff`).
+        velocity, acceleration
+            Which channels to provide.
+        overwrite
+            Re-estimate channels even when they are present.
+        """
+        if cutoff is None:
+            cutoff = self.suggest_cutoff()
+        changes: dict[str, Any] = {}
+        prov = dict(self.provenance)
+
+        def derive(group: str, source: Any) -> np.ndarray:
+            out = np.empty(self.z.shape)  # type: ignore[attr-defined]
+            for k in self._columns():
+                name, order = source(k)
+                x = getattr(self, name) if k is None else getattr(self, name)[:, k]
+                column, used = derivatives.differentiate(x, self.fs, order=order, cutoff=cutoff)
+                prov[self._column(group, k)] = ChannelSource.differentiated(used, self._column(name, k)).text
+                if k is None:
+                    out = column
+                else:
+                    out[:, k] = column
+            return out
+
+        if velocity and (self.v is None or overwrite):  # type: ignore[attr-defined]
+            changes["v"] = derive("v", lambda k: ("z", 1))
+        if acceleration and (self.a is None or overwrite):  # type: ignore[attr-defined]
+            measured = self.is_measured  # type: ignore[attr-defined]
+            changes["a"] = derive(
+                "a", lambda k: ("v", 1) if measured(self._column("v", k)) and not overwrite else ("z", 2)
+            )
+        if not changes:
+            return self
+        return dataclasses.replace(self, provenance=prov, **changes)  # type: ignore[type-var]
 
     @property
     def force_hold(self) -> str:

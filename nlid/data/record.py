@@ -50,7 +50,15 @@ import numpy as np
 from ..errors import DataError, InputError
 from ..signal import derivatives
 from ..signal.channelsource import ChannelSource
-from .checks import CHANNELS, DEFAULT_UNITS, TimeAxis, checked_fields, merge_units, real_array, uniform_step
+from .checks import (
+    CHANNELS,
+    DEFAULT_UNITS,
+    TimeAxis,
+    checked_fields,
+    loaded_meta,
+    merge_units,
+    table_source,
+)
 from .columnmap import channel_arrays, column_units, dataset_table, frame_table
 from .digest import record_sha256
 from .units import parse_units
@@ -130,30 +138,6 @@ class Record(TimeAxis):
 
     # ------------------------------------------------------------------ construction
     @classmethod
-    def from_time(cls, t: np.ndarray, f: np.ndarray, z: np.ndarray, **kwargs: Any) -> Record:
-        """Build a record from a time vector, checking that it is uniform.
-
-        Parameters
-        ----------
-        t
-            Sample times in s, strictly increasing and uniform within
-            :data:`TIME_TOLERANCE`.
-        f, z, **kwargs
-            As for :class:`Record` (``fs`` and ``t0`` are taken from ``t``);
-            ``units={"t": "ms"}`` says that ``t`` is in ms.
-        """
-        units = parse_units(kwargs.pop("units", None))
-        time_unit = units.pop("t", None)
-        t = real_array("t", t).squeeze()
-        if time_unit is not None and not time_unit.is_si:
-            t = t * time_unit.factor
-            meta = dict(kwargs.pop("meta", None) or {})
-            meta["input_units"] = {**dict(meta.get("input_units") or {}), "t": time_unit.to_dict()}
-            kwargs["meta"] = meta
-        step = uniform_step(t)
-        return cls(f=f, z=z, fs=1.0 / step, t0=float(t[0]), units=units, **kwargs)
-
-    @classmethod
     def from_table(
         cls,
         table: Mapping[str, Any],
@@ -206,32 +190,16 @@ class Record(TimeAxis):
             A malformed column map, both a time column and ``fs=``, a bad
             ``force_hold``, or a unit outside the vocabulary.
         """
-        if not isinstance(table, Mapping):
-            raise InputError(f"a table must map column names to arrays, got {type(table).__name__}")
-        if isinstance(source, os.PathLike):
-            label, noun = os.fspath(source), "file"
-        else:
-            label = noun = str(source)
+        named, label, noun = table_source(table, source)
         given = merge_units(parse_units(units), column_units(columns))
-        named = table if all(isinstance(k, str) for k in table) else {str(k): v for k, v in table.items()}
-        given_fs = fs
-        arrays, fs = channel_arrays(named, columns, fs=fs, source=label, noun=noun)
-        meta = dict(meta or {})
-        if force_hold is not None:
-            if force_hold not in ("sampled", "zoh"):
-                raise InputError(f"force_hold must be 'sampled' or 'zoh', got {force_hold!r}")
-            meta["force_hold"] = force_hold
-            meta["force_hold_source"] = "option"
-        loaded = {**dict(meta.get("loaded") or {}), "source": label}
-        loaded["columns"] = dict(columns) if isinstance(columns, Mapping) else (columns or None)
-        loaded["fs"] = given_fs
-        meta["loaded"] = loaded
+        arrays, table_fs = channel_arrays(named, columns, fs=fs, source=label, noun=noun)
+        meta, loaded = loaded_meta(meta, force_hold, label, columns, fs)
         kwargs: dict[str, Any] = {c: arrays[c] for c in CHANNELS if c in arrays}
         try:
             if "t" in arrays:
                 record = cls.from_time(arrays["t"], meta=meta, units=given, **kwargs)
             else:
-                record = cls(fs=fs, meta=meta, units=given, **kwargs)
+                record = cls(fs=table_fs, meta=meta, units=given, **kwargs)
         except DataError as exc:
             raise DataError(f"{label}: {exc}") from None
         return record.with_meta(loaded={**loaded, "record_sha256": record_sha256(record)})
@@ -343,128 +311,6 @@ class Record(TimeAxis):
         return f"Record(n={self.n}, fs={self.fs:g} Hz, channels={chans}{', source=' + str(src) if src else ''})"
 
     # ------------------------------------------------------------------ derived records
-    def __getitem__(self, item: slice) -> Record:
-        """Slice by sample index: ``record[1000:5000]`` or ``record[::2]``.
-
-        A step other than 1 is plain down-sampling without anti-aliasing; use
-        :meth:`decimate` for that.
-        """
-        if not isinstance(item, slice):
-            raise TypeError("records are sliced with a slice, e.g. record[100:2000]")
-        start, _, step = item.indices(self.n)
-        arrays = {c: getattr(self, c)[item] for c in self.channels}
-        meta = self._periodic_meta(arrays["z"].size, 1, step)
-        return replace(self, fs=self.fs / step, t0=self.t0 + start / self.fs, meta=meta, **arrays)
-
-    def _periodic_meta(self, n: int, up: int = 1, down: int = 1) -> Mapping[str, Any]:
-        """The metadata of a part of ``n`` samples at ``up / down`` times the rate: ``meta["periodic"]`` there.
-
-        A declared period (``True``: the record's length) stays the part's period (in its own samples) while
-        the part holds a whole period of a whole number of samples, so that a held-out part of a periodic
-        record is scored periodic; otherwise the key is dropped.
-        """
-        periodic = self.meta.get("periodic")
-        if periodic is None or periodic is False:
-            return self.meta
-        period = self.n if periodic is True else int(periodic)
-        meta = dict(self.meta)
-        new, rest = divmod(period * up, down)
-        if rest == 0 and 2 <= new <= n:
-            meta["periodic"] = True if new == n else new
-        else:
-            del meta["periodic"]
-        return meta
-
-    def decimate(self, q: int) -> Record:
-        """Reduce the sampling frequency by an integer factor with anti-aliasing.
-
-        Each channel is low-passed at 80 % of the new Nyquist frequency by a
-        Butterworth filter of order 8 applied forwards and backwards
-        (zero-phase, maximally flat: the gain error is below 1e-6 up to a
-        third of the cut-off), then every ``q``-th sample is kept. (scipy's
-        default Chebyshev filter is avoided: its 0.05 dB ripple, doubled by the
-        zero-phase pass, changes amplitudes by up to 1.2 %.)
-        """
-        q = int(q)
-        if q < 1:
-            raise InputError(f"decimation factor must be a positive integer, got {q}")
-        if q == 1:
-            return self
-        cutoff = 0.8 * self.fs / (2 * q)
-        arrays = {c: derivatives.lowpass(getattr(self, c), self.fs, cutoff, order=8)[::q] for c in self.channels}
-        prov = {c: self._join(c, f"decimated by {q}") for c in self.channels}
-        meta = self._periodic_meta(arrays["z"].size, 1, q)
-        return replace(self, fs=self.fs / q, provenance=prov, meta=meta, **arrays)
-
-    def resample(self, fs: float) -> Record:
-        """Resample to a new sampling frequency (polyphase, anti-aliased).
-
-        The ratio ``fs / self.fs`` is approximated by a fraction with a
-        denominator of at most 1000.
-        """
-        from fractions import Fraction
-
-        from scipy import signal
-
-        ratio = Fraction(float(fs) / self.fs).limit_denominator(1000)
-        if ratio == 1:
-            return self
-        arrays = {c: signal.resample_poly(getattr(self, c), ratio.numerator, ratio.denominator) for c in self.channels}
-        new_fs = self.fs * ratio.numerator / ratio.denominator
-        prov = {c: self._join(c, f"resampled to {new_fs:g} Hz") for c in self.channels}
-        meta = self._periodic_meta(arrays["z"].size, ratio.numerator, ratio.denominator)
-        return replace(self, fs=new_fs, provenance=prov, meta=meta, **arrays)
-
-    def _join(self, channel: str, step: str) -> str:
-        return f"{self.source_of(channel)}; {step}"
-
-    def with_derivatives(
-        self,
-        *,
-        cutoff: float | None = None,
-        velocity: bool = True,
-        acceleration: bool = True,
-        overwrite: bool = False,
-    ) -> Record:
-        """Fill in missing velocity/acceleration channels by estimation.
-
-        Velocity comes from differentiating ``z`` unless ``v`` is present
-        (integrating a measured ``a`` loses the low frequencies; ask for it
-        explicitly with :meth:`with_velocity_from_acceleration`). Acceleration
-        comes from differentiating a measured ``v`` when there is one, else
-        from differentiating ``z`` twice. See :mod:`nlid.signal.derivatives` for the
-        filters.
-
-        Parameters
-        ----------
-        cutoff
-            Low-pass cut-off in Hz for the differentiating filter (default:
-            :func:`nlid.signal.derivatives.suggest_cutoff` of ``z``).
-        velocity, acceleration
-            Which channels to provide.
-        overwrite
-            Re-estimate channels even when they are present.
-        """
-        if cutoff is None:
-            cutoff = derivatives.suggest_cutoff(self.z, self.fs)
-        changes: dict[str, Any] = {}
-        prov = dict(self.provenance)
-        if velocity and (self.v is None or overwrite):
-            v, used = derivatives.differentiate(self.z, self.fs, order=1, cutoff=cutoff)
-            changes["v"] = v
-            prov["v"] = ChannelSource.differentiated(used, "z").text
-        if acceleration and (self.a is None or overwrite):
-            if self.is_measured("v") and not overwrite:
-                a, used = derivatives.differentiate(self.v, self.fs, order=1, cutoff=cutoff)
-                prov["a"] = ChannelSource.differentiated(used, "v").text
-            else:
-                a, used = derivatives.differentiate(self.z, self.fs, order=2, cutoff=cutoff)
-                prov["a"] = ChannelSource.differentiated(used, "z").text
-            changes["a"] = a
-        if not changes:
-            return self
-        return replace(self, provenance=prov, **changes)
-
     def with_velocity_from_acceleration(self, highpass: float | None = None) -> Record:
         """Replace ``v`` by the drift-free integral of the measured ``a``.
 

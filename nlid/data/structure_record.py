@@ -43,8 +43,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from ..errors import DataError, InputError
-from ..signal import derivatives
-from .checks import MIN_SAMPLES, RecordMeta, TimeAxis, uniform_step
+from .checks import MIN_SAMPLES, RecordMeta, TimeAxis
 from .checks import freeze as _freeze
 from .record import Record
 from .units import Unit, parse_units
@@ -144,6 +143,7 @@ class StructureRecord(TimeAxis):
     units: Mapping[str, str] = field(default_factory=dict)
     meta: Mapping[str, Any] = field(default_factory=dict)
     provenance: Mapping[str, str] = field(default_factory=dict)
+    _indexed = True
 
     def __post_init__(self) -> None:
         set_ = object.__setattr__
@@ -218,20 +218,6 @@ class StructureRecord(TimeAxis):
         set_(self, "provenance", _freeze(self.provenance))
 
     # ------------------------------------------------------------------ construction
-    @classmethod
-    def from_time(cls, t: np.ndarray, f: np.ndarray, z: np.ndarray, **kwargs: Any) -> StructureRecord:
-        """Build a record from a time vector, checking that it is uniform (as :meth:`Record.from_time`)."""
-        units = dict(parse_units(kwargs.pop("units", None), indexed=True))
-        time_unit = units.pop("t", None)
-        t = np.asarray(t, dtype=float).squeeze()
-        if time_unit is not None and not time_unit.is_si:
-            t = t * time_unit.factor
-            meta = dict(kwargs.pop("meta", None) or {})
-            meta["input_units"] = {**dict(meta.get("input_units") or {}), "t": time_unit.to_dict()}
-            kwargs["meta"] = meta
-        step = uniform_step(t)
-        return cls(f=f, z=z, fs=1.0 / step, t0=float(t[0]), units={c: u.symbol for c, u in units.items()}, **kwargs)
-
     @classmethod
     def from_record(cls, record: Record) -> StructureRecord:
         """A one-DOF :class:`~nlid.data.record.Record` as a structure record of one DOF (``z1``, ``f1``...)."""
@@ -390,88 +376,6 @@ class StructureRecord(TimeAxis):
         return Record(fs=self.fs, t0=self.t0, meta=meta, provenance=prov, units=units, **arrays)
 
     # ------------------------------------------------------------------ derived records
-    def _arrays(self, transform: Any) -> dict[str, np.ndarray]:
-        return {g: transform(getattr(self, g)) for g in self.groups}
-
-    def __getitem__(self, item: slice) -> StructureRecord:
-        """Slice by sample index, ``record[1000:5000]`` (a step is plain down-sampling: see :meth:`decimate`)."""
-        if not isinstance(item, slice):
-            raise TypeError("records are sliced with a slice, e.g. record[100:2000]")
-        start, _, step = item.indices(self.n)
-        return replace(self, fs=self.fs / step, t0=self.t0 + start / self.fs, **self._arrays(lambda x: x[item]))
-
-    def _steps(self, step: str) -> dict[str, str]:
-        return {c: f"{self.source_of(c)}; {step}" for c in self.channels}
-
-    def decimate(self, q: int) -> StructureRecord:
-        """Reduce the sampling frequency by an integer factor with anti-aliasing (as :meth:`Record.decimate`)."""
-        q = int(q)
-        if q < 1:
-            raise InputError(f"decimation factor must be a positive integer, got {q}")
-        if q == 1:
-            return self
-        cutoff = 0.8 * self.fs / (2 * q)
-
-        def down(x: np.ndarray) -> np.ndarray:
-            return np.stack([derivatives.lowpass(x[:, k], self.fs, cutoff, order=8)[::q] for k in range(x.shape[1])], 1)
-
-        arrays = self._arrays(down)
-        arrays["f"][:, [k for k in range(self.n_dofs) if k + 1 not in self.force_dofs]] = 0.0
-        return replace(self, fs=self.fs / q, provenance=self._steps(f"decimated by {q}"), **arrays)
-
-    def resample(self, fs: float) -> StructureRecord:
-        """Resample to a new sampling frequency (polyphase, anti-aliased; as :meth:`Record.resample`)."""
-        from fractions import Fraction
-
-        from scipy import signal
-
-        ratio = Fraction(float(fs) / self.fs).limit_denominator(1000)
-        if ratio == 1:
-            return self
-        arrays = self._arrays(lambda x: signal.resample_poly(x, ratio.numerator, ratio.denominator, axis=0))
-        new_fs = self.fs * ratio.numerator / ratio.denominator
-        return replace(self, fs=new_fs, provenance=self._steps(f"resampled to {new_fs:g} Hz"), **arrays)
-
-    def suggest_cutoff(self) -> float:
-        """One cut-off (Hz) for all DOFs: the highest :func:`nlid.signal.derivatives.suggest_cutoff` of the
-        displacements.
-
-        One filter for all DOFs keeps their estimated channels in phase with each other.
-        """
-        return max(derivatives.suggest_cutoff(self.z[:, k], self.fs) for k in range(self.n_dofs))
-
-    def with_derivatives(
-        self, *, cutoff: float | None = None, velocity: bool = True, acceleration: bool = True, overwrite: bool = False
-    ) -> StructureRecord:
-        """Fill in missing velocities/accelerations by estimation, DOF by DOF (as :meth:`Record.with_derivatives`).
-
-        One cut-off serves every DOF (default :meth:`suggest_cutoff`).
-        """
-        if cutoff is None:
-            cutoff = self.suggest_cutoff()
-        changes: dict[str, Any] = {}
-        prov = dict(self.provenance)
-        n = self.n_dofs
-        if velocity and (self.v is None or overwrite):
-            v = np.empty((self.n, n))
-            for k in range(n):
-                v[:, k], used = derivatives.differentiate(self.z[:, k], self.fs, order=1, cutoff=cutoff)
-                prov[f"v{k + 1}"] = f"estimated from z{k + 1}: {used.describe()}"
-            changes["v"] = v
-        if acceleration and (self.a is None or overwrite):
-            a = np.empty((self.n, n))
-            for k in range(n):
-                if self.is_measured(f"v{k + 1}") and not overwrite:
-                    a[:, k], used = derivatives.differentiate(self.v[:, k], self.fs, order=1, cutoff=cutoff)
-                    prov[f"a{k + 1}"] = f"estimated from v{k + 1}: {used.describe()}"
-                else:
-                    a[:, k], used = derivatives.differentiate(self.z[:, k], self.fs, order=2, cutoff=cutoff)
-                    prov[f"a{k + 1}"] = f"estimated from z{k + 1}: {used.describe()}"
-            changes["a"] = a
-        if not changes:
-            return self
-        return replace(self, provenance=prov, **changes)
-
     def without(self, *groups: str) -> StructureRecord:
         """A copy without the optional quantities named (``"v"`` and/or ``"a"``: every DOF's)."""
         for g in groups:

@@ -19,6 +19,7 @@ import numpy as np
 
 from ..errors import DataError, InputError
 from ..signal import derivatives
+from .checks import loaded_meta, table_source
 from .columnmap import column_units, split_indexed, structure_arrays
 from .units import parse_units, unit_of
 
@@ -82,16 +83,11 @@ def record_from_table(
 ) -> Any:
     """A structure record from a table
     (:meth:`StructureRecord.from_table <nlid.data.structure_record.StructureRecord.from_table>`)."""
-    if not isinstance(table, Mapping):
-        raise InputError(f"a table must map column names to arrays, got {type(table).__name__}")
-    if isinstance(source, os.PathLike):
-        label, noun = os.fspath(source), "file"
-    else:
-        label = noun = str(source)
+    named, label, noun = table_source(table, source)
     given = _merge_units(units or {}, column_units(columns))
-    named = table if all(isinstance(k, str) for k in table) else {str(k): v for k, v in table.items()}
-    given_fs = fs
-    arrays, fs = structure_arrays(named, columns, fs=fs, source=label, noun=noun)
+    arrays, table_fs = structure_arrays(named, columns, fs=fs, source=label, noun=noun)
+    meta, loaded = loaded_meta(meta, force_hold, label, columns, fs)
+    fs = table_fs
     n = max(k for c in arrays if (s := split_indexed(c)) and s[0] == "z" for k in (s[1],))
     lengths = {c: a.size for c, a in arrays.items()}
     if len(set(lengths.values())) > 1:
@@ -104,15 +100,6 @@ def record_from_table(
             provenance.update(_fill(arrays, group, n, fs, arrays.get("t")))
     except InputError as exc:
         raise DataError(f"{label}: {exc}") from None
-    meta = dict(meta or {})
-    if force_hold is not None:
-        if force_hold not in ("sampled", "zoh"):
-            raise InputError(f"force_hold must be 'sampled' or 'zoh', got {force_hold!r}")
-        meta["force_hold"] = force_hold
-    loaded = {**dict(meta.get("loaded") or {}), "source": label}
-    loaded["columns"] = dict(columns) if isinstance(columns, Mapping) else (columns or None)
-    loaded["fs"] = given_fs
-    meta["loaded"] = loaded
     dofs = sorted(k for c in arrays if (s := split_indexed(c)) and s[0] == "f" for k in (s[1],))
     kwargs: dict[str, Any] = {
         "f": np.stack([arrays[f"f{k}"] for k in dofs], axis=1),

@@ -43,7 +43,6 @@ from collections.abc import Callable, Iterable, Mapping, Sequence
 from typing import Any
 
 import numpy as np
-from numpy.polynomial import legendre
 
 from ..base.validate import HOLDOUT_FRACTION, check_cutoff
 from ..errors import InputError, NlidError
@@ -52,7 +51,7 @@ from ..estimation.structure_balance import residual_on
 from ..model.terms import Term
 from .evidence import AcceptanceRule, acceptance_rule, integrated_time
 from .library import Candidate, Variant, dissipative, resolve_candidates
-from .probes import MIN_STRUCTURE, PLAY_WIDTHS
+from .probes import MIN_STRUCTURE, PLAY_WIDTHS, _legendre
 from .structure_accept import confirmed, free_run_error, rank, rms, with_accepted
 from .structure_fit import (
     Part,
@@ -101,15 +100,6 @@ def _quiet(_message: str) -> None:
 
 def _linear_or_constant(term: Term) -> bool:
     return term.is_constant or term in (Term(z=(1, 1)), Term(v=(1, 1)))
-
-
-def _legendre(x: np.ndarray, degrees: Iterable[int]) -> np.ndarray:
-    cols = []
-    for d in degrees:
-        c = np.zeros(d + 1)
-        c[d] = 1.0
-        cols.append(legendre.legval(x, c))
-    return np.column_stack(cols)
 
 
 def _probe_columns(probe: str, x: np.ndarray, xd: np.ndarray, scale: tuple[float, float, float]) -> np.ndarray:

@@ -40,7 +40,7 @@ from ..base.frozen import FrozenDict, freeze
 from ..base.validate import check_mass
 from ..contract.estimate import Estimate
 from ..data.record import Record
-from ..errors import IdentificationError, InputError, NlidError
+from ..errors import InputError, NlidError
 from ..estimation.inputpath import InputPath, input_path
 from ..model import physics
 from ..model.physics import Equilibria, Modal
@@ -229,14 +229,7 @@ class IdentifiedModel:
         with numerics.collect_warnings() as caught:
             draft = cls._complete(estimate, model, record, method, mass, options, seconds, cutoff, diagnostics)
         found = [*numerical, *caught]
-        problems = draft.problems()
-        if problems:
-            why = f" (numpy: {numerics.describe_warnings(found)}){numerics.overflow_hint(found)}" if found else ""
-            raise IdentificationError(f"the identification by {method!r} cannot be trusted: {'; '.join(problems)}{why}")
-        if found:
-            note = f"numerical warnings while identifying (the figures are finite): {numerics.describe_warnings(found)}"
-            draft = dataclasses.replace(draft, warnings=(*draft.warnings, note))
-        return dataclasses.replace(draft, flags=plausibility.check(draft, record, cutoff=cutoff))
+        return plausibility.trusted(draft, method, found, lambda fit: plausibility.check(fit, record, cutoff=cutoff))
 
     @classmethod
     def _complete(

@@ -18,8 +18,9 @@ prints every checked figure on every preset and measured benchmark).
 
 from __future__ import annotations
 
+import dataclasses
 import math
-from collections.abc import Iterable, Mapping, Sequence
+from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
@@ -28,7 +29,7 @@ import numpy as np
 from ..base import numerics
 from ..base.dimensions import mass_unit
 from ..data.record import Record
-from ..errors import NlidError
+from ..errors import IdentificationError, NlidError
 from ..estimation.balance import regression_data
 from ..estimation.inputpath import acting_record
 from ..model.terms import Model
@@ -46,6 +47,7 @@ __all__ = [
     "headline",
     "implied_mass",
     "nonfinite_problems",
+    "trusted",
     "ZETA_MIN",
     "ZETA_MAX",
     "FORCE_RESIDUAL_MAX_PERCENT",
@@ -323,6 +325,25 @@ def check_structure(result: IdentifiedStructure) -> tuple[Flag, ...]:
             )
         )
     return tuple(flags)
+
+
+def trusted(draft: Any, method: str, found: Sequence[str], flags: Callable[[Any], tuple[Flag, ...]]) -> Any:
+    """A fit the core drafted (one DOF or a structure), checked: refused when a reported figure is not finite
+    (its ``problems()``), the numerical warnings ``found`` while identifying added as a warning, and its ``flags``.
+
+    Raises
+    ------
+    IdentificationError
+        A reported figure that is not finite, with the numerical warnings found on the way.
+    """
+    problems = draft.problems()
+    if problems:
+        why = f" (numpy: {numerics.describe_warnings(found)}){numerics.overflow_hint(found)}" if found else ""
+        raise IdentificationError(f"the identification by {method!r} cannot be trusted: {'; '.join(problems)}{why}")
+    if found:
+        note = f"numerical warnings while identifying (the figures are finite): {numerics.describe_warnings(found)}"
+        draft = dataclasses.replace(draft, warnings=(*draft.warnings, note))
+    return dataclasses.replace(draft, flags=flags(draft))
 
 
 def headline(flags: Sequence[Flag]) -> str:

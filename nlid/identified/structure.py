@@ -37,7 +37,7 @@ from ..model.statics import StructureEquilibria
 from ..model.structure import StructuralModel
 from ..report.summary import Column, Summary
 from .fileformat import check_structure
-from .plausibility import Flag
+from .plausibility import Flag, trusted
 from .plausibility import check_structure as check_plausible
 
 if TYPE_CHECKING:  # pragma: no cover
@@ -215,16 +215,7 @@ class IdentifiedStructure:
                 z_range=z_range,
                 arrays=estimate.arrays,
             )
-        problems = draft.problems()
-        if problems:
-            why = f" (numpy: {numerics.describe_warnings(caught)})" if caught else ""
-            raise IdentificationError(f"the identification by {method!r} cannot be trusted: {'; '.join(problems)}{why}")
-        if caught:
-            note = (
-                f"numerical warnings while identifying (the figures are finite): {numerics.describe_warnings(caught)}"
-            )
-            draft = dataclasses.replace(draft, warnings=(*draft.warnings, note))
-        return dataclasses.replace(draft, flags=check_plausible(draft))
+        return trusted(draft, method, caught, check_plausible)
 
     def problems(self) -> list[str]:
         """The reported figures that are not finite (empty when all is well)."""

@@ -208,43 +208,6 @@ class StructuralModel:
             static=[s],
         )
 
-    @classmethod
-    def from_modal(
-        cls,
-        fn_hz: Sequence[float],
-        zeta: Sequence[float],
-        shapes: np.ndarray,
-        *,
-        elements: ElementSet | str | Iterable[str] = (),
-        coefficients: Mapping[str, float] | None = None,
-        static: Sequence[float] | None = None,
-    ) -> StructuralModel:
-        """The structure whose underlying linear system has these modes (modal damping).
-
-        Parameters
-        ----------
-        fn_hz, zeta
-            Natural frequency (Hz) and damping ratio of each mode.
-        shapes
-            Mass-normalised mode shapes ``Phi`` (``n x n``, one column per
-            mode, ``Phi^T M Phi = I``); then ``M = (Phi Phi^T)^-1``,
-            ``K = M Phi diag(w^2) Phi^T M``, ``C = M Phi diag(2 zeta w) Phi^T M``.
-        elements, coefficients, static
-            As for the constructor.
-        """
-        phi = np.asarray(shapes, dtype=float)
-        w = 2 * np.pi * np.asarray(fn_hz, dtype=float)
-        z = np.asarray(zeta, dtype=float)
-        n = phi.shape[0]
-        if phi.shape != (n, n) or w.shape != (n,) or z.shape != (n,):
-            raise InputError(f"from_modal needs n frequencies, n damping ratios and n x n shapes, got {phi.shape}")
-        inv = np.linalg.inv(phi)
-        M = inv.T @ inv
-        K = inv.T @ np.diag(w**2) @ inv
-        C = inv.T @ np.diag(2 * z * w) @ inv
-        sym = lambda a: 0.5 * (a + a.T)  # noqa: E731 - rounding makes them asymmetric in the last bits
-        return cls(sym(M), sym(C), sym(K), elements, coefficients or {}, static)
-
     # ------------------------------------------------------------------ views
     @property
     def n_dofs(self) -> int:

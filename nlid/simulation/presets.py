@@ -204,14 +204,7 @@ class Preset:
             preset's coefficients; a changed mass also changes ``m g``
             unless the ``1`` coefficient is given).
         """
-        allowed = {f for f in self.__dataclass_fields__ if f not in ("name", "description")}
-        unknown = set(overrides) - allowed
-        if unknown:
-            bad = sorted(unknown)[0]
-            known = sorted(allowed)
-            raise InputError(
-                f"unknown preset parameter {brief(bad)}{did_you_mean(bad, known)}; known: {', '.join(known)}"
-            )
+        allowed = override_fields(self, overrides)
         coeffs = dict(self.coefficients)
         new = dict(overrides)
         if "coefficients" in new:
@@ -497,6 +490,6 @@ def get_preset(name: str) -> Preset | StructurePreset:
 # Structures with several degrees of freedom (nlid.simulation.structure_presets): one table, so that get_preset,
 # nlid.simulate
 # and `nlid simulate --help` know them too.
-from .structure_presets import STRUCTURE_PRESETS  # noqa: E402
+from .structure_presets import STRUCTURE_PRESETS, override_fields  # noqa: E402
 
 PRESETS.update(STRUCTURE_PRESETS)

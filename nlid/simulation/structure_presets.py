@@ -90,6 +90,17 @@ def _cantilever(parameters: Mapping[str, float]) -> tuple[Any, Any, Any]:
 _BUILDERS = {"cantilever": _cantilever}
 
 
+def override_fields(preset: Any, overrides: Mapping[str, Any]) -> set[str]:
+    """The fields of a preset (one DOF or a structure) ``with_overrides`` may change; InputError on an unknown one."""
+    allowed = {f for f in preset.__dataclass_fields__ if f not in ("name", "description")}
+    unknown = set(overrides) - allowed
+    if unknown:
+        bad = sorted(unknown)[0]
+        known = sorted(allowed)
+        raise InputError(f"unknown preset parameter {brief(bad)}{did_you_mean(bad, known)}; known: {', '.join(known)}")
+    return allowed
+
+
 def _finite(value: Any) -> bool:
     return not isinstance(value, bool) and isinstance(value, numbers.Real) and math.isfinite(float(value))
 
@@ -236,12 +247,7 @@ class StructurePreset:
         InputError
             An unknown field (with a suggestion) or an element not in the model.
         """
-        allowed = {f for f in self.__dataclass_fields__ if f not in ("name", "description")}
-        unknown = set(overrides) - allowed
-        if unknown:
-            bad = sorted(unknown)[0]
-            known = sorted(allowed)
-            raise InputError(f"unknown preset parameter {bad!r}{did_you_mean(bad, known)}; known: {', '.join(known)}")
+        allowed = override_fields(self, overrides)
         new = dict(overrides)
         if "coefficients" in new:
             from ..model.elements import ElementSet

@@ -69,7 +69,7 @@ from nlid.plugin import (
 )
 
 from .basis import Basis, split_model
-from .common import HOLD_ASSUMED
+from .common import HOLD_ASSUMED, check_length
 from .continuous import continuous_eigenvalues, uls_ok
 from .fit import UnstableULSError, format_eigenvalues
 from .gram import block_hankel_gram, transform_gram
@@ -90,7 +90,6 @@ __all__ = [
     "static_forces",
     "structure_arrays",
     "check_structure_options",
-    "check_length",
     "structure_gram",
     "uls_summary",
     "identify_structure_ip",
@@ -510,8 +509,7 @@ def _identify_ip(
     motion = structure_motion(record, opt, floor_hz)
     columns = [(e.name, (element_basis(e, elements).func, e.b(n))) for e in elements]
     ch = structure_channels(record, motion, columns, hold, True, opt["intersample"])
-    s = 2 * opt["block_rows"]
-    check_length(record.n, s, ch.base.shape[1])
+    check_length(record.n, opt["block_rows"], ch.base.shape[1])
     gram, noise_info, noise = structure_gram(ch, record, motion, columns, opt)
     trials: list[dict[str, Any]] = []
     fit = identify_perturbed(ch, gram, record.dt, order, elements.B, opt, trials, mass, noise)
@@ -567,11 +565,3 @@ def _identify_ip(
         arrays=structure_arrays(fit, list(elements.names)),
     )
     return est, fit.uls.fn_hz, motion
-
-
-def check_length(n: int, s: int, channels: int) -> None:
-    if n - s + 1 < s * channels:
-        raise DataError(
-            f"record too short for NSI: {n} samples, but {s} block rows of {channels} channels need at least "
-            f"{s * channels + s - 1}; lower block_rows"
-        )

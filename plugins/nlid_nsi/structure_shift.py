@@ -46,10 +46,9 @@ from nlid.plugin import (
 )
 
 from .basis import int_power
-from .common import HOLD_ASSUMED
+from .common import HOLD_ASSUMED, check_length
 from .fit import UnstableULSError
 from .structure import (
-    check_length,
     check_structure_options,
     element_basis,
     fit_structure,
@@ -216,7 +215,6 @@ def _identify_shift(
     iterate = iterate or opt["iterate"]
     following: list[dict] = []
     z_range = [(float(lo), float(hi)) for lo, hi in zip(record.z.min(axis=0), record.z.max(axis=0), strict=True)]
-    s = 2 * opt["block_rows"]
     wells: list[dict[str, Any]] = []
     warnings: list[str] = [] if opt["force_hold"] or "force_hold" in record.meta else [HOLD_ASSUMED]
     arrays: dict[str, np.ndarray] = {}
@@ -228,7 +226,7 @@ def _identify_shift(
             for it in range(iterate):
                 columns, connectivity = _columns(poly, others, elements, refs)
                 ch = structure_channels(record, motion, columns, hold, False, opt["intersample"])
-                check_length(record.n, s, ch.base.shape[1])
+                check_length(record.n, opt["block_rows"], ch.base.shape[1])
                 gram, noise_info, noise = structure_gram(ch, record, motion, columns, opt, paths)
                 fit = fit_structure(ch, gram, record.dt, order, connectivity, band, opt["zeta_max"], 0.0, mass, noise)
                 identifications += 1
