@@ -374,6 +374,7 @@ def _run_structure(args: argparse.Namespace, record, rule) -> int:
         cutoff=args.cutoff,
         progress=say,
         refine=args.refine,
+        prediction=not args.no_prediction,
     )
     if args.out:
         paths = _written(write_structure_report, result, args.out)

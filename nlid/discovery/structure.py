@@ -50,9 +50,10 @@ from ..estimation.joint import Extra
 from ..estimation.structure_balance import residual_on
 from ..model.terms import Term
 from .evidence import AcceptanceRule, acceptance_rule, integrated_time
+from .judge import MAX_JUDGED
 from .library import Candidate, Variant, dissipative, resolve_candidates
 from .probes import MIN_STRUCTURE, PLAY_WIDTHS, _legendre
-from .structure_accept import confirmed, free_run_error, rank, rms, with_accepted
+from .structure_accept import confirmed, free_run_error, judged, rank, rms, with_accepted
 from .structure_fit import (
     Part,
     Search,
@@ -138,6 +139,7 @@ def discover_structure(
     progress: Progress | None = None,
     rule: AcceptanceRule | None = None,
     refine: bool = False,
+    prediction: bool = True,
 ) -> StructureDiscoveryResult:
     """Find which connection of a structure carries the nonlinearity the declared model lacks (module docstring).
 
@@ -187,6 +189,12 @@ def discover_structure(
         from 0 to 1 %, and the cubic up to 0.9 % low at 1 % noise; the output-error refit is unbiased (within
         0.2 % on the cubic at 1 % noise; ``benchmarks/accuracy_mdof_friction.py``). The choice of elements is
         unchanged.
+    prediction
+        Judge every candidate the equation error accepts by the cross-fitted held-out free run too
+        (:func:`~nlid.discovery.structure_accept.judged`): the models before and after, fitted on the
+        estimation part, run free over the held-out part, and the reverse; a candidate that makes the pooled
+        error larger is refused and the next passing one judged (at most
+        :data:`~nlid.discovery.judge.MAX_JUDGED` a round). ``False`` decides by the equation error alone.
 
     Returns
     -------
@@ -271,7 +279,13 @@ def discover_structure(
         say(f"step {number}: testing {len(pool)} candidates on {len(conns)} connections")
         tested = _round(search, current, conns, pool, Element)
         ranking, accepted = rank(tested, rule)
-        if accepted is None:  # a noisy record: does a candidate capture the structure its connection's probes find?
+        if accepted is not None and prediction:  # a step that worsens the cross-fitted held-out free run is refused
+            blocks = ((parts["estimation"].data, held), (parts["holdout"].data, estimation))
+            ranking, accepted = judged(ranking, accepted, blocks, current, M, rule, MAX_JUDGED)
+            if accepted is None:
+                stop = "no candidate passes the acceptance rule and the cross-fitted held-out free run"
+                break
+        elif accepted is None:  # a noisy record: does a candidate capture the structure its connection's probes find?
             probes = remaining_declared if number == 1 else _probes(search, conns, structure)
             ranking, accepted = rank(tested, rule, probes)
             if accepted is not None:  # ... and does the held-out free run confirm it?

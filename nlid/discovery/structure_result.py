@@ -458,6 +458,9 @@ class StructureDiscoveryResult:
         lines += ["", "free-run error on the test part (% of std(z))", header]
         for k in range(n):
             lines.append(f"z{k + 1}".ljust(6) + "".join(f"{s.freerun_percent[k]:>28.4g}" for s in stages))
+        chaotic = [s.label for s in stages if "chaotic" in s.freerun_note]
+        if chaotic:
+            lines.append(f"({', '.join(chaotic)}: the free run is chaotic, so its error says little about the model)")
         lines += ["", "What remains: " + self.remaining.describe()]
         return "\n".join(lines)
 
