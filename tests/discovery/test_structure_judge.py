@@ -92,9 +92,10 @@ def test_an_equal_prediction_does_not_refuse(scripted):
 @pytest.mark.slow
 def test_a_chaotic_chain_is_judged_by_its_k_step_prediction_and_says_so():
     """A 3-DOF chain with an undeclared gap on 1-2: chaotic once the gap is in the model (the true model's two
-    runs 1e-6 std(z) apart part), so the gap is judged by the k-step prediction, which it improves (a single
-    free run of the gap model is worse than the linear model's on one block: judged by it, the gap was refused
-    and a Bouc-Wen element accepted), and the stages say that their free-run errors mean little."""
+    runs 1e-6 std(z) apart part), so the gap (its width refined off the grid) is judged by the k-step
+    prediction, which it improves (a single free run of the gap model is worse than the linear model's on one
+    block: judged by it, the gap was refused and a Bouc-Wen element accepted), and the stages say that their
+    free-run errors mean little."""
     hidden = "gap(z1-z2, 0.0003)"
     preset = dataclasses.replace(
         STRUCTURE_PRESETS["3dof-cubic"],
@@ -106,5 +107,9 @@ def test_a_chaotic_chain_is_judged_by_its_k_step_prediction_and_says_so():
     first = result.steps[0].evidence
     assert first.connection == (1, 2) and first.effect == "gap"
     assert "cross-fitted held-out k-step prediction" in first.reason
+    # the width refined between the grid's points (0.234 and 0.468 mm), as for one DOF: one element, not two
+    ((name, coefficient),) = first.coefficients.items()
+    assert first.shape == pytest.approx(3e-4, rel=0.05) and coefficient == pytest.approx(2e5, rel=0.05), name
+    assert len(result.steps) == 1
     assert any(CHAOTIC_NOTE in s.freerun_note for s in result.stages[1:])
     assert "the free run is chaotic" in result.summary()
