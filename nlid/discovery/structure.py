@@ -415,42 +415,60 @@ def _round(search: Search, current, conns, pool: Sequence[Candidate], Element) -
                 continue
             # as for one DOF: the shape is chosen among the fits whose signs are the effect's, when there are any
             best = max([x for x in done if not x[1]["bad"]] or done, key=lambda x: x[0])
-            if len(cand.shapes) == 1 and len(variants) > 1:
-                best = _refine_shape(search, cand, on_conn, variants, best, c, touched, base, Element)
+            if cand.shapes and len(variants) > 1:
+                best = _refine_shape(search, cand, on_conn, variants, best, scales, c, touched, base, Element)
             out.append(_evidence(search, cand, best[1], c, base, base_in, n_eff, w))
     return out
 
 
-def _refine_shape(search: Search, cand: Candidate, on_conn, variants, best, c, touched, base, Element):
-    """The best grid shape refined between its grid neighbours, as for one DOF (:mod:`nlid.discovery.trials`:
-    a bounded search in the logarithm of the shape, :data:`~nlid.discovery.trials.SHAPE_REFINE_FITS` fits), by
-    the same cross-fitted score; a shape whose signs are not the effect's never replaces one whose signs are."""
+def _refine_shape(search: Search, cand: Candidate, on_conn, variants, best, scales, c, touched, base, Element):
+    """The best grid shape refined off the grid by the same cross-fitted score, as for one DOF
+    (:func:`nlid.discovery.trials.test_candidate`): one parameter by a bounded search in its logarithm between
+    its grid neighbours (:data:`~nlid.discovery.trials.SHAPE_REFINE_FITS` fits), several by a few simplex
+    steps from the best grid point in units of the grid's spacing. A shape whose signs are not the effect's
+    never replaces one whose signs are."""
     from scipy import optimize
 
-    from .trials import SHAPE_REFINE_FITS
+    from .trials import SHAPE_REFINE_FITS, _simplex
 
-    grid = [v.shape for v in variants]
-    i = grid.index(best[1]["variant"].shape)
-    lo, hi = math.log(grid[max(i - 1, 0)]), math.log(grid[min(i + 1, len(grid) - 1)])
-    if not hi > lo:
-        return best
     found = [best]
     refused = 1e3  # a finite stand-in for a shape that cannot be used (the score is a fraction at most 1)
 
-    def objective(log_shape: float) -> float:
+    def score(shape: float | tuple[float, ...]) -> float:
         try:
-            variant = cand.variant(on_conn, float(format(math.exp(log_shape), ".3g")))
+            variant = cand.variant(on_conn, shape)
         except InputError:
             return refused
-        got = _score_variant(search, variant, c, touched, base, Element) if variant is not None else None
+        try:  # an extreme shape's columns can overflow the normal equations: such a shape is refused, not warned
+            with np.errstate(over="ignore", invalid="ignore"):
+                got = _score_variant(search, variant, c, touched, base, Element) if variant is not None else None
+        except np.linalg.LinAlgError:
+            return refused
         if got is None or (got[1]["bad"] and not best[1]["bad"]):
             return refused
         found.append(got)
         return -got[0]
 
-    optimize.minimize_scalar(
-        objective, bounds=(lo, hi), method="bounded", options={"maxiter": SHAPE_REFINE_FITS, "xatol": 0.02}
-    )
+    if len(cand.shapes) == 1:
+        grid = [v.shape for v in variants]
+        i = grid.index(best[1]["variant"].shape)
+        lo, hi = math.log(grid[max(i - 1, 0)]), math.log(grid[min(i + 1, len(grid) - 1)])
+        if hi > lo:
+            optimize.minimize_scalar(
+                lambda u: score(math.exp(u)),
+                bounds=(lo, hi),
+                method="bounded",
+                options={"maxiter": SHAPE_REFINE_FITS, "xatol": 0.02},
+            )
+    else:
+        start = np.asarray(best[1]["variant"].shape, dtype=float)
+        spacing = [max(np.ptp(sh.grid(scales)) / max(len(sh.multipliers) - 1, 1), 1e-12) for sh in cand.shapes]
+        optimize.minimize(
+            lambda u: score(tuple(start + u * np.asarray(spacing))),
+            np.zeros(len(start)),
+            method="Nelder-Mead",
+            options={"maxfev": SHAPE_REFINE_FITS * 3, "initial_simplex": _simplex(len(start), 0.5)},
+        )
     return max(found, key=lambda x: x[0])
 
 

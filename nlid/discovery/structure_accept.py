@@ -247,7 +247,8 @@ def judged(
     fitted on the one and predict the other: a free run from the block's first sample, or, when the free run
     of either model is chaotic on either block (:func:`_chaotic`: it says nothing about the model), the
     ``k``-step-ahead prediction of both on every block (:func:`_steps` of the current model), as
-    :mod:`nlid.discovery.crossfit` does for one DOF. The errors (mean over the DOFs, % of std(z)) are pooled
+    :mod:`nlid.discovery.crossfit` does for one DOF (but a model with a memory element is not judged then: its
+    k-step runs would start the memory states at zero). The errors (mean over the DOFs, % of std(z)) are pooled
     over the blocks; a candidate whose pooled error is larger than the current model's is marked ``rejected``
     and the next passing one judged, up to ``max_judged``. ``None`` is accepted when none holds.
     """
@@ -267,6 +268,12 @@ def judged(
         # one chaotic free run (either model, either block) and the k-step prediction judges every block: the
         # same dynamics on the other block are just as sensitive, however its two runs happened to stay together
         chaotic = any(chaos) or any(_chaotic(m, r) for m, r in zip(models, records, strict=True))
+        if chaotic and any(e.term.is_memory for e in new):
+            # a k-step run would start each memory state (Bouc-Wen's, Dahl's) at zero, not where the measured
+            # motion left it: no fair judge of such a model, so the equation error decides alone
+            note = "; not judged by the prediction: a free run is chaotic and a k-step run would start the memory at 0"
+            kept = replace(accepted, reason=f"{accepted.reason}{note}")
+            return tuple(kept if e is accepted else e for e in ranking), kept
         if chaotic not in before:
             before[chaotic] = pooled(fits, chaotic)
         b, a = before[chaotic], pooled(models, chaotic)
