@@ -249,7 +249,7 @@ def _compute_response(
 def _reference_response(
     size: int, fs: float, cutoff: float | None, order: int, derivative: int, hold: bool, complement: bool
 ) -> np.ndarray:
-    """The response of :func:`_compute_response` in complex arithmetic throughout (its definition; the tests' reference)."""
+    """:func:`_compute_response` in complex arithmetic throughout (its definition; the tests' reference)."""
     from scipy import fft as sp_fft
 
     freqs = sp_fft.rfftfreq(size, d=1.0 / fs)

@@ -190,3 +190,22 @@ def test_welch_density_is_scipys_welch(n):
     f, p = welch_density(x, fs, nperseg)
     np.testing.assert_allclose(f, f_ref, rtol=1e-14, atol=0)
     np.testing.assert_allclose(p, p_ref, rtol=1e-12, atol=0)
+
+
+@pytest.mark.parametrize("size", [64, 65, 4097])
+@pytest.mark.parametrize("cutoff", [None, 0.7, 43.5])
+def test_responses_in_real_arithmetic_are_the_complex_products(size, cutoff):
+    """The low-pass and the first two derivatives formed in real arithmetic (``_compute_response``) give the
+    complex products of the definition (``_reference_response``) exactly: each of those products has a zero
+    part, so no rounding differs."""
+    from nlid.signal import derivatives as d
+
+    fs = 200.0
+    for order in (2, 4):
+        for derivative in (-2, -1, 0, 1, 2, 3):
+            for hold in (False, True):
+                for complement in (False, True):
+                    args = (size, fs, cutoff, order, derivative, hold, complement)
+                    fast, reference = d._compute_response(*args), d._reference_response(*args)
+                    assert fast.dtype == reference.dtype and fast.shape == reference.shape
+                    np.testing.assert_array_equal(fast, reference, err_msg=str(args))
