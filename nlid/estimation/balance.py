@@ -228,16 +228,18 @@ def _columns(cache: dict, model: Model, z: np.ndarray, v: np.ndarray | None, fs:
     missing = [i for i, k in enumerate(keys) if k not in cache]
     if missing:
         sub = Model(tuple(model.terms[i] for i in missing), model.px_roots)
-        values = _lowpass_columns(np.asarray(sub.evaluate(z, v), dtype=float), fs, fc)
+        # evaluated and filtered column by column in a column-major matrix (each column contiguous), whose
+        # columns the cache keeps as they are (read-only views, no copies); the caller gets its own row-major G
+        values = _lowpass_columns(np.asarray(sub.evaluate(z, v, order="F"), dtype=float), fs, fc)
         if sum(1 for k in cache if k[0] == "col") + len(missing) > MAX_CACHED_COLUMNS:
             for k in [k for k in cache if k[0] == "col"]:
                 del cache[k]
         for j, term in enumerate(sub.terms):
-            column = np.ascontiguousarray(values[:, j])
+            column = values[:, j]
             column.setflags(write=False)
             cache[keys[model.terms.index(term)]] = column
-        if len(missing) == len(keys):  # every column new, in the model's order: values is the matrix (no copy)
-            return values
+        if len(missing) == len(keys):  # every column new, in the model's order: G is values, row-major
+            return np.ascontiguousarray(values)
     return np.column_stack([cache[k] for k in keys]) if keys else np.empty((z.size, 0))
 
 

@@ -135,3 +135,37 @@ def test_records_sharing_their_force_give_the_force_balances_they_give_alone(sho
         cache, first_cache = balance._record_cache(record), balance._record_cache(first)
         assert cache[("f", fc)] is first_cache[("f", fc)]
         assert (cache[("a", fc)] is first_cache[("a", fc)]) == np.array_equal(record.a, first.a)
+
+
+def test_filtered_regressors_are_each_terms_lowpass_and_their_cache_is_not_the_callers(short_record, numerical):
+    """The columns filtered in a column-major matrix and cached as its read-only columns are the low-pass of each
+    term's values to the bit; the caller's G is its own row-major array, and writing to it leaves the cache."""
+    from nlid.data.record import Record
+    from nlid.signal import derivatives
+
+    model = numerical.model()
+    record = short_record.without("v", "a")
+    data = balance.regression_data(record, model, trim=False)
+    assert data.G.flags.c_contiguous and data.G.flags.writeable
+    fc = data.filtered_at
+    expected = model.evaluate(data.z, data.v)
+    for j in range(expected.shape[1]):
+        column = expected[:, j]
+        if np.any(column != column[0]):
+            expected[:, j] = derivatives.lowpass(column, record.fs, fc)
+    np.testing.assert_array_equal(data.G, expected)
+    data.G[:] = 0.0
+    again = balance.regression_data(record, model, trim=False)  # from the cache
+    np.testing.assert_array_equal(again.G, expected)
+    copy = Record(f=record.f, fs=record.fs, z=record.z)  # nothing cached: computed afresh
+    np.testing.assert_array_equal(balance.regression_data(copy, model, trim=False).G, expected)
+
+
+def test_regressor_matrix_in_either_layout_has_the_same_numbers(short_record, numerical):
+    model = numerical.model()
+    rows = model.evaluate(short_record.z, short_record.v)
+    columns = model.evaluate(short_record.z, short_record.v, order="F")
+    assert rows.flags.c_contiguous and columns.flags.f_contiguous
+    np.testing.assert_array_equal(rows, columns)
+    with pytest.raises(InputError, match="order="):
+        model.evaluate(short_record.z, short_record.v, order="K")

@@ -190,3 +190,42 @@ def test_welch_density_is_scipys_welch(n):
     f, p = welch_density(x, fs, nperseg)
     np.testing.assert_allclose(f, f_ref, rtol=1e-14, atol=0)
     np.testing.assert_allclose(p, p_ref, rtol=1e-12, atol=0)
+
+
+def _complex_response(size, fs, cutoff, order, derivative, hold, complement):
+    """The filters' response in complex arithmetic throughout: its definition (nlid's code until the fifth
+    session of issue 36)."""
+    from scipy import fft as sp_fft
+
+    freqs = sp_fft.rfftfreq(size, d=1.0 / fs)
+    response = np.ones(freqs.size, dtype=complex)
+    if cutoff is not None:
+        low = 1.0 / (1.0 + (freqs / cutoff) ** (2 * order))
+        response *= 1.0 - low if complement else low
+    if derivative > 0:
+        response *= (2j * np.pi * freqs) ** derivative
+    elif derivative < 0:
+        response[0] = 0.0
+        response[1:] *= (2j * np.pi * freqs[1:]) ** derivative
+    if hold:
+        response *= np.sinc(freqs / fs) * np.exp(-1j * np.pi * freqs / fs)
+    return response
+
+
+@pytest.mark.parametrize("size", [64, 65, 4097])
+@pytest.mark.parametrize("cutoff", [None, 0.7, 43.5])
+def test_responses_in_real_arithmetic_are_the_complex_products(size, cutoff):
+    """The low-pass and the first two derivatives formed in real arithmetic give the complex products of the
+    definition exactly (each of those products has a zero part, so no rounding differs); the other orders
+    keep the definition."""
+    from nlid.signal import derivatives as d
+
+    fs = 200.0
+    for order in (2, 4):
+        for derivative in (-2, -1, 0, 1, 2, 3):
+            for hold in (False, True):
+                for complement in (False, True):
+                    args = (size, fs, cutoff, order, derivative, hold, complement)
+                    fast, reference = d._compute_response(*args), _complex_response(*args)
+                    assert fast.dtype == reference.dtype and fast.shape == reference.shape
+                    np.testing.assert_array_equal(fast, reference, err_msg=str(args))

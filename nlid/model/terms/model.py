@@ -221,20 +221,25 @@ class Model:
         z = np.asarray(z, dtype=float)
         return ((alpha * z + beta) * z + gamma) * z + delta
 
-    def evaluate(self, z: np.ndarray, v: np.ndarray | None = None) -> np.ndarray:
+    def evaluate(self, z: np.ndarray, v: np.ndarray | None = None, *, order: str = "C") -> np.ndarray:
         """The regressor matrix ``G[k, i] = g_i(z_k, v_k)``, shape ``(N, p)``.
 
         Parameters
         ----------
         z, v
             Samples of displacement and velocity (``v`` only if a term needs it).
+        order
+            The matrix's memory layout: ``"C"`` (rows contiguous, default) or ``"F"`` (each column
+            contiguous, for callers that work column by column); the same numbers.
         """
         z = np.asarray(z, dtype=float)
         if v is None and self.uses_velocity:
             raise InputError(f"the model ({self}) has velocity terms but no velocity was given")
         px = self.px(z) if self.uses_px else None
         cache: dict = {}
-        out = np.empty((z.size, len(self.terms)))
+        if order not in ("C", "F"):
+            raise InputError(f"order= must be 'C' or 'F', got {order!r}")
+        out = np.empty((z.size, len(self.terms)), order=order)
         for i, term in enumerate(self.terms):
             out[:, i] = term.evaluate(z, v, px, cache)
         return out
