@@ -1,9 +1,8 @@
 """A run's scores overlap the next run's identification (issue 36): one identification at a time, the same rows.
 
-The jobs of :data:`GATES` live in a module written to a temporary folder on ``sys.path`` (a run child gets the
-parent's ``sys.path``): each says when it started, notifies ``"identified"`` as a study run does after its
-identification, then waits (at most :data:`WAIT` seconds) for the next job to have started. No test asserts a
-time: the files say what happened in which order.
+The jobs of :mod:`overlap_gates` (beside this file) say when they started, notify ``"identified"`` as a
+study run does after its identification, then wait for the next job to have started. No test asserts a time:
+the files say what happened in which order.
 """
 
 from __future__ import annotations
@@ -27,72 +26,15 @@ from nlid.study.worker import run_isolated
 MACHINE = ["seconds", "method_seconds", "peak_memory_mb"]
 #: An independent held-out record, so that each run has a free run and its chaos check to score.
 HELD_OUT = 'mass = "known"\nholdout = "independent"'
-#: Longest wait of a gate job for the next one (seconds): reached only when the runs do not overlap.
-WAIT = 60.0
-
-GATES = '''
-import os
-import time
-from pathlib import Path
-
-from nlid.runtime.child import notify
-
-
-class Gate:
-    """A job that marks its start, notifies "identified", then waits for the next job to start."""
-
-    def __init__(self, index, folder, last, fail=""):
-        self.index, self.folder, self.last, self.fail = index, Path(folder), last, fail
-
-    run_id = property(lambda self: f"gate-{self.index}")
-    label = property(lambda self: self.run_id)
-    timeout = property(lambda self: 120.0)
-
-    def execute(self, threads=1):
-        # the previous job has identified when this one starts: one identification at a time
-        previous = self.index == 0 or (self.folder / f"{self.index - 1}.identified").exists()
-        (self.folder / f"{self.index}.started").touch()
-        (self.folder / f"{self.index}.identified").touch()
-        notify("identified")
-        overlapped = self.index == self.last
-        deadline = time.monotonic() + WAIT
-        while not overlapped and time.monotonic() < deadline:
-            overlapped = (self.folder / f"{self.index + 1}.started").exists()
-            time.sleep(0.005)
-        if self.fail == "raise":
-            raise ValueError("deliberate failure in the scores")
-        if self.fail == "die":
-            os._exit(5)
-        return {"run_id": self.run_id, "row": {"status": "ok", "warnings": "", "error": "",
-                "previous_identified": previous, "overlapped": overlapped}}
-
-    def failure(self, status, error):
-        return {"run_id": self.run_id, "row": {"status": status, "error": error, "warnings": ""}}
-
-
-class Scheduled:
-    def __init__(self, spec):
-        self.spec, self.run_id, self.digest = spec, spec.run_id, spec.run_id
-
-
-def notified(tag):
-    notify(tag)
-    return 7
-'''
 
 
 @pytest.fixture
-def gates(tmp_path, monkeypatch):
-    """The module of :data:`GATES` on ``sys.path``, with two cores seen by the executor."""
-    folder = tmp_path / "gates_module"
-    folder.mkdir()
-    (folder / "overlap_gates.py").write_text(GATES.replace("WAIT", repr(WAIT)))
-    monkeypatch.syspath_prepend(str(folder))
-    monkeypatch.setattr(execute_module, "default_jobs", lambda: 2)  # an idle core for the scores
+def gates(monkeypatch):
+    """The jobs of :mod:`overlap_gates`, with two cores seen by the executor (an idle core for the scores)."""
+    monkeypatch.setattr(execute_module, "default_jobs", lambda: 2)
     import overlap_gates
 
-    yield overlap_gates
-    sys.modules.pop("overlap_gates", None)
+    return overlap_gates
 
 
 def _execute(gates, folder, n, **options):
@@ -184,9 +126,8 @@ def test_a_study_killed_between_identification_and_scores_redoes_that_run_on_res
     killed = subprocess.run([sys.executable, str(script), str(study), str(out)], env=env, capture_output=True)
     assert killed.returncode == -signal.SIGKILL, killed.stderr.decode()
     stored = list((out / "runs").glob("*.json"))
-    assert len(stored) <= 2  # the third run's scores were never written, nor anything half-written
-    assert not list((out / "runs").glob(".*.tmp"))
-    for path in stored:
+    assert len(stored) <= 2  # the third run's scores were never written
+    for path in stored:  # no run half-written (a temporary file the kill may leave is swept by the next run)
         assert json.loads(path.read_text())["row"]["status"] == "ok"
     cmd = [sys.executable, "-m", "nlid.cli.main", "study", "run", str(study), "--out", str(out), "--jobs", "1"]
     resumed = subprocess.run(cmd, env=env, capture_output=True, text=True, timeout=300)
@@ -194,3 +135,4 @@ def test_a_study_killed_between_identification_and_scores_redoes_that_run_on_res
     assert f"{len(stored)} already done, {6 - len(stored)} to run" in resumed.stderr
     frame = pd.read_csv(out / "results.csv")
     assert len(frame) == 6 and (frame["status"] == "ok").all()
+    assert not list((out / "runs").glob(".*.tmp"))
