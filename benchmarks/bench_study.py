@@ -24,6 +24,7 @@ from __future__ import annotations
 
 import argparse
 import os
+import resource
 import statistics
 import subprocess
 import sys
@@ -32,6 +33,12 @@ import time
 from pathlib import Path
 
 import pandas as pd
+
+
+def _children_cpu() -> float:
+    """User + system CPU seconds of the waited-for child processes (the command and what it waited for)."""
+    usage = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return usage.ru_utime + usage.ru_stime
 
 
 def main() -> None:
@@ -46,6 +53,7 @@ def main() -> None:
         noop(args)
         return
     times = []
+    cpus = []
     loads = []
     sums = []
     frame = None
@@ -56,20 +64,24 @@ def main() -> None:
             cmd += ["--jobs", str(args.jobs)]
         for i in range(args.repeat):
             loads.append(os.getloadavg()[0])
+            cpu0 = _children_cpu()
             start = time.perf_counter()
             subprocess.run(cmd, check=True, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
             times.append(time.perf_counter() - start)
+            cpus.append(_children_cpu() - cpu0)
             frame = pd.read_csv(out / "results.csv")
             sums.append(float(frame["seconds"].sum()))
             print(
-                f"  run {i + 1}: {times[-1]:.1f} s, sum of identification times {sums[-1]:.1f} s, wall / sum "
+                f"  run {i + 1}: {times[-1]:.1f} s (CPU {cpus[-1]:.1f} s), sum of identification times "
+                f"{sums[-1]:.1f} s, wall / sum "
                 f"{times[-1] / sums[-1]:.2f}, load {loads[-1]:.1f}",
                 flush=True,
             )
     ratios = [t / s for t, s in zip(times, sums, strict=True)]
     print(
         f"nlid study run {args.study}: median {statistics.median(times):.1f} s "
-        f"(min {min(times):.1f}, max {max(times):.1f}, {len(times)} runs; {len(frame)} identifications each; "
+        f"(min {min(times):.1f}, max {max(times):.1f}, {len(times)} runs; CPU median {statistics.median(cpus):.1f} s; "
+        f"{len(frame)} identifications each; "
         f"1-min load {min(loads):.1f}-{max(loads):.1f})"
     )
     print(

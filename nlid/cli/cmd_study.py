@@ -62,7 +62,13 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         help="Dask scheduler address; without it --executor dask starts a LocalCluster. Dask sends work as pickles: "
         "a scheduler you do not trust gets code execution on this machine, so name only your own",
     )
-    run.add_argument("--jobs", type=int, metavar="N", help="runs at the same time (default: every core)")
+    run.add_argument(
+        "--jobs",
+        type=int,
+        metavar="N",
+        help="identifications at the same time; with fewer than the cores, a run's scores overlap the next "
+        "identification on an idle core (default: every core)",
+    )
     run.add_argument("--rerun", action="store_true", help="run everything again, even runs already saved")
     run.add_argument(
         "--force",

@@ -34,7 +34,7 @@ from typing import Any
 
 from .process import descendants_of
 
-__all__ = ["serve", "read_message", "write_message", "HEADER"]
+__all__ = ["serve", "read_message", "write_message", "notify", "HEADER", "NOTICE"]
 
 #: The frame header: the length of the pickled message.
 HEADER = struct.Struct("!Q")
@@ -46,6 +46,11 @@ MAX_MESSAGE = 400
 #: then, as a forked child's starts when the fork server, already loaded, forks it). A reply's frame header
 #: starts with a zero byte, so the two never mix.
 READY = b"\x01"
+#: The bit of a frame header that marks a notice (:func:`notify`), not the reply: a reply is never 2**63 bytes.
+NOTICE = 1 << 63
+
+#: Where :func:`notify` writes (the data socket of a forked child while its call runs), or ``None``.
+_notice_fd: int | None = None
 
 
 def read_exact(fd: int, size: int) -> bytes | None:
@@ -73,6 +78,24 @@ def write_message(fd: int, data: bytes) -> None:
     view = memoryview(HEADER.pack(len(data)) + data)
     while view:
         view = view[os.write(fd, view) :]
+
+
+def notify(tag: str) -> None:
+    """Tell the parent, before the reply, that the call reached ``tag`` (``"identified"``, say).
+
+    In a child forked from nlid's fork server the notice goes, framed with the :data:`NOTICE` bit, on the data
+    socket ahead of the reply (:func:`nlid.runtime.isolation.run_in_child`'s ``on_notice``); anywhere else (in
+    the parent, in a spawned child) it does nothing. It never raises: a parent that gave up finds out from
+    the reply.
+    """
+    fd = _notice_fd
+    if fd is None:
+        return
+    data = tag.encode()
+    with contextlib.suppress(OSError):
+        view = memoryview(HEADER.pack(NOTICE | len(data)) + data)
+        while view:
+            view = view[os.write(fd, view) :]
 
 
 def frame(data: bytes) -> bytes:
@@ -206,6 +229,7 @@ def serve(channel: Any = None, *, stderr_fd: int | None = None, ready: bool = Fa
         Write :data:`READY` once the request is read and applied, before
         the call (a spawned child: the parent starts its time limit then).
     """
+    global _notice_fd
     try:
         if channel is None:
             if sys.platform == "win32":  # pragma: no cover - Windows
@@ -231,6 +255,7 @@ def serve(channel: Any = None, *, stderr_fd: int | None = None, ready: bool = Fa
                 os.write(out_fd, READY)
             except OSError:
                 _end()  # the parent gave up
+        _notice_fd = None if channel is None else out_fd  # a spawned child's stdout carries the reply alone
         _send(out_fd, _call(request))
     finally:
         _end()

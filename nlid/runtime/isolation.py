@@ -60,7 +60,7 @@ from collections.abc import Callable
 from typing import Any
 
 from ..errors import InputError
-from .child import HEADER, READY, frame
+from .child import HEADER, NOTICE, READY, frame
 from .forkserver import PIN_ENV
 from .outcome import _CATEGORIES, ChildResult, IsolationError, result_from_reply
 from .preload import PRELOAD_ENV, PRELOAD_LIMIT
@@ -319,7 +319,9 @@ def _request(target: Callable[..., Any], args: tuple, pinned: bool) -> bytes:
         raise IsolationError(f"cannot send the work to a child process: {type(exc).__name__}: {exc}") from None
 
 
-def _run_forked(payload: bytes, timeout: float | None, pinned: bool) -> ChildResult:
+def _run_forked(
+    payload: bytes, timeout: float | None, pinned: bool, on_notice: Callable[[str], None] | None = None
+) -> ChildResult:
     for _attempt in range(3):
         server = _server(pinned)
         try:
@@ -354,11 +356,11 @@ def _run_forked(payload: bytes, timeout: float | None, pinned: bool) -> ChildRes
                 timed_out = True
                 break
             if data in ready:
-                reply, data_open = _read_reply(data, remaining), False
+                reply, data_open = _read_reply(data, remaining, on_notice)
             if status in ready:
                 exitcode, ended = _exit_code(status), True
-                if reply is None and data_open and select.select([data], [], [], 0)[0]:
-                    reply = _read_reply(data, END_LIMIT)  # it replied and ended before we read the reply
+                while reply is None and data_open and select.select([data], [], [], 0)[0]:
+                    reply, data_open = _read_reply(data, END_LIMIT, on_notice)  # it replied and ended before we read
         if not ended:
             if timed_out:
                 _kill(pid, "group")
@@ -390,14 +392,31 @@ def _recv_exact(sock: socket.socket, size: int) -> bytes | None:
     return bytes(buf)
 
 
-def _read_reply(data: socket.socket, remaining: float | None) -> bytes | None:
-    """The child's reply (``None``: it ended without one, or stopped sending it for longer than the limit)."""
+def _read_reply(
+    data: socket.socket, remaining: float | None, on_notice: Callable[[str], None] | None = None
+) -> tuple[bytes | None, bool]:
+    """The child's next message: ``(reply, open)``.
+
+    A notice (:func:`nlid.runtime.child.notify`) is handed to ``on_notice`` and leaves the socket open for the
+    reply: ``(None, True)``. Otherwise ``(reply, False)``, the reply ``None`` when the child ended without one
+    or stopped sending it for longer than the limit.
+    """
     data.settimeout(None if remaining is None else max(END_LIMIT, remaining))
     try:
         head = _recv_exact(data, HEADER.size)
-        return None if head is None else _recv_exact(data, HEADER.unpack(head)[0])
+        if head is None:
+            return None, False
+        size = HEADER.unpack(head)[0]
+        if size & NOTICE:
+            tag = _recv_exact(data, size & ~NOTICE)
+            if tag is None:
+                return None, False
+            if on_notice is not None:
+                on_notice(tag.decode(errors="replace"))
+            return None, True
+        return _recv_exact(data, size), False
     except OSError:  # socket.timeout included
-        return None
+        return None, False
 
 
 def _exit_code(status: socket.socket) -> int | None:
@@ -495,6 +514,7 @@ def run_in_child(
     timeout: float | None = None,
     pin_threads: bool = False,
     method: str | None = None,
+    on_notice: Callable[[str], None] | None = None,
 ) -> ChildResult:
     """Call ``target(*args)`` in a child process, killed at the time limit.
 
@@ -515,6 +535,10 @@ def run_in_child(
         One thread per numerical library in the child (studies: one child per core).
     method
         ``"forkserver"`` or ``"spawn"``; default :func:`start_method`.
+    on_notice
+        Called in this thread with the tag of each :func:`nlid.runtime.child.notify` the target makes, as it
+        makes it (a study's run: ``"identified"``, so the next run may start while this one scores). Only a
+        forked child sends notices; a spawned one sends none (``on_notice`` is then never called).
 
     Returns
     -------
@@ -538,7 +562,7 @@ def run_in_child(
         raise InputError("method='forkserver' needs POSIX; use 'spawn' on this platform")
     payload = _request(target, args, bool(pin_threads))
     if chosen == "forkserver":
-        return _run_forked(payload, timeout, bool(pin_threads))
+        return _run_forked(payload, timeout, bool(pin_threads), on_notice)
     return _run_spawned(payload, timeout, bool(pin_threads))
 
 

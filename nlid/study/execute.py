@@ -7,8 +7,9 @@ and both hand each finished run back to the caller (``on_done(run, payload)``)
 in the calling thread as soon as it finishes, where it is persisted at once.
 
 :class:`LocalExecutor`
-    A pool of ``jobs`` threads on this machine (default: every core), each
-    waiting on one child process at a time.
+    ``jobs`` identifications at a time on this machine (default: every core), each
+    run in a child process; with fewer jobs than cores, a run's scores overlap the
+    next run's identification on an idle core.
 :class:`DaskExecutor`
     The same function submitted to a Dask distributed cluster
     (``pip install "nlid[dask]"``): an existing scheduler by address, or a
@@ -23,6 +24,7 @@ its spec alone (:mod:`nlid.study.plan`).
 from __future__ import annotations
 
 import os
+import threading
 from collections.abc import Callable, Sequence
 from concurrent.futures import FIRST_COMPLETED, ThreadPoolExecutor
 from concurrent.futures import wait as wait_futures
@@ -31,6 +33,7 @@ from typing import Any
 from ..errors import InputError
 from ..runtime.isolation import start_fork_server
 from .job import Scheduled
+from .run import IDENTIFIED
 from .worker import kill_children, run_isolated
 
 __all__ = ["LocalExecutor", "DaskExecutor", "make_executor", "default_jobs"]
@@ -47,18 +50,29 @@ def default_jobs() -> int:
 
 
 class LocalExecutor:
-    """Run processes on this machine, ``jobs`` at a time.
+    """Run processes on this machine: ``jobs`` identifications at a time.
+
+    With fewer identifications at a time than cores, a run that has identified (its child's notice,
+    :data:`nlid.study.run.IDENTIFIED`) frees its slot: the next run starts identifying while it computes its
+    scores on an idle core, in the same child as before. ``--jobs 1`` on two cores thus means one
+    identification at a time, not one core. Each run is still computed whole in its own child, so the rows,
+    the stored files and the failures are those of runs executed one after the other; a run's ``seconds``
+    is still its identification alone.
 
     Parameters
     ----------
     jobs
-        Concurrent runs (default: :func:`default_jobs`).
+        Identifications at the same time (default: :func:`default_jobs`).
+    overlap
+        Let a run's scores overlap the next identification on the idle cores (default); ``False``: one
+        child per slot from start to end.
     """
 
     name = "local"
 
-    def __init__(self, jobs: int | None = None) -> None:
+    def __init__(self, jobs: int | None = None, *, overlap: bool = True) -> None:
         self.jobs = jobs
+        self.overlap = overlap
 
     def run(self, runs: Sequence[Scheduled], on_done: OnDone) -> None:
         """Execute ``runs``, calling ``on_done`` in this thread as each finishes."""
@@ -66,20 +80,47 @@ class LocalExecutor:
             return
         jobs = self.jobs or default_jobs()
         start_fork_server(pin_threads=True)  # it loads the plugins while the pool starts
-        pool = ThreadPoolExecutor(max_workers=min(jobs, len(runs)), thread_name_prefix="nlid-run")
+        active = min(jobs, len(runs))
+        # children still scoring beside the identifying ones: as many as there are idle cores (at most one each)
+        scoring = min(active, default_jobs() - active, len(runs) - active) if self.overlap else 0
+        workers = active + max(0, scoring)
+        pool = ThreadPoolExecutor(max_workers=workers, thread_name_prefix="nlid-run")
+        slots = threading.Semaphore(active)  # identifications under way
+        stopping = threading.Event()
         try:
-            # fewer runs than cores: each run's scores may use the idle cores (the same numbers)
-            threads = max(1, default_jobs() // min(jobs, len(runs)))
-            pending = {pool.submit(run_isolated, run.spec, threads=threads): run for run in runs}
+            # fewer children than cores: each run's scores may use the idle cores (the same numbers)
+            threads = max(1, default_jobs() // workers)
+            pending = {pool.submit(_run_in_slot, run.spec, slots, stopping, threads): run for run in runs}
             while pending:
                 done, _ = wait_futures(pending, timeout=0.5, return_when=FIRST_COMPLETED)
                 for fut in done:
                     on_done(pending.pop(fut), fut.result())
         except BaseException:
+            stopping.set()  # a worker waiting for a slot starts nothing more
             pool.shutdown(wait=False, cancel_futures=True)
             kill_children()
             raise
         pool.shutdown(wait=True)
+
+
+def _run_in_slot(spec: Any, slots: threading.Semaphore, stopping: threading.Event, threads: int) -> dict[str, Any]:
+    """:func:`run_isolated` once a slot is free; the slot is freed when the run has identified, or ends."""
+    slots.acquire()
+    lock = threading.Lock()
+    held = [True]
+
+    def release(tag: str = IDENTIFIED) -> None:
+        with lock:
+            if held[0] and tag == IDENTIFIED:
+                held[0] = False
+                slots.release()
+
+    try:
+        if stopping.is_set():
+            return spec.failure("failed", "interrupted")  # never stored: the study is stopping
+        return run_isolated(spec, threads=threads, on_notice=release)
+    finally:
+        release()
 
 
 class DaskExecutor:

@@ -25,7 +25,7 @@ from ..contract.registry import load_registry
 from ..errors import NlidError
 from ..identification.pipeline import as_model, identify
 from ..identified.reference import compare
-from ..runtime import parallel
+from ..runtime import child, parallel
 from . import columns as col
 from . import metrics
 from .data import build_data
@@ -34,7 +34,10 @@ from .worker import _add_warning, json_problem
 if TYPE_CHECKING:
     from .plan import RunSpec
 
-__all__ = ["execute_spec", "spec_failure"]
+__all__ = ["execute_spec", "spec_failure", "IDENTIFIED"]
+
+#: The notice a run child sends when its identification is done (:func:`nlid.runtime.child.notify`).
+IDENTIFIED = "identified"
 
 
 def _base_row(spec: RunSpec) -> dict[str, Any]:
@@ -117,6 +120,7 @@ def _execute(spec: RunSpec) -> dict[str, Any]:
         data.record,
     )
     lap("identify")
+    child.notify(IDENTIFIED)  # the executor may start the next run's identification while this run scores
     row = {**_base_row(spec), **cost}
     row[col.EPS.key()] = result.eps_percent
     row[col.FORCE_RESIDUAL.key()] = result.force_residual_percent

@@ -23,6 +23,7 @@ every run as failed for a reason that is not theirs.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -97,7 +98,12 @@ def kill_children() -> None:
 
 
 def run_isolated(
-    spec: Job, timeout: float | None = None, *, use_subprocess: bool | None = None, threads: int = 1
+    spec: Job,
+    timeout: float | None = None,
+    *,
+    use_subprocess: bool | None = None,
+    threads: int = 1,
+    on_notice: Callable[[str], None] | None = None,
 ) -> dict:
     """Run :func:`execute_run` in a child process killed at its time limit (``isolation.run_in_child``).
 
@@ -112,6 +118,10 @@ def run_isolated(
         :func:`nlid.runtime.isolation.start_method` says; default: that.
     threads
         Threads the run's scores may use (:func:`execute_run`; its identification and libraries stay on one).
+    on_notice
+        Called in this thread with each notice the child sends before its reply
+        (:func:`nlid.runtime.child.notify`: a study run sends ``"identified"`` when its identification is
+        done and its scores begin); a forked child only.
 
     Returns
     -------
@@ -132,7 +142,12 @@ def run_isolated(
     label = spec.label
     for _attempt in range(2):  # a fork server that died under the run (the OOM killer): once more, on a new one
         outcome = isolation.run_in_child(
-            execute_run, (spec, threads), timeout=timeout, pin_threads=True, method="spawn" if use_subprocess else None
+            execute_run,
+            (spec, threads),
+            timeout=timeout,
+            pin_threads=True,
+            method="spawn" if use_subprocess else None,
+            on_notice=on_notice,
         )
         if not outcome.infrastructure:
             break
