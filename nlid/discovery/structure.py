@@ -421,6 +421,11 @@ def _round(search: Search, current, conns, pool: Sequence[Candidate], Element) -
     return out
 
 
+#: Largest magnitude of a candidate's column: beyond it the normal equations of a record's samples could overflow
+#: (an extreme shape, e.g. a Bouc-Wen whose state grows without bound), and the shape is not used.
+MAX_COLUMN = 1e100
+
+
 def _refine_shape(search: Search, cand: Candidate, on_conn, variants, best, scales, c, touched, base, Element):
     """The best grid shape refined off the grid by the same cross-fitted score, as for one DOF
     (:func:`nlid.discovery.trials.test_candidate`): one parameter by a bounded search in its logarithm between
@@ -462,11 +467,15 @@ def _refine_shape(search: Search, cand: Candidate, on_conn, variants, best, scal
             )
     else:
         start = np.asarray(best[1]["variant"].shape, dtype=float)
-        spacing = [max(np.ptp(sh.grid(scales)) / max(len(sh.multipliers) - 1, 1), 1e-12) for sh in cand.shapes]
+        grids = [np.asarray(sh.grid(scales), dtype=float) for sh in cand.shapes]
+        spacing = np.array([max(np.ptp(g) / max(len(g) - 1, 1), 1e-12) for g in grids])
+        # within the grid's range: a shape outside it is not the candidate the library describes
+        bounds = [((g.min() - x) / d, (g.max() - x) / d) for g, x, d in zip(grids, start, spacing, strict=True)]
         optimize.minimize(
-            lambda u: score(tuple(start + u * np.asarray(spacing))),
+            lambda u: score(tuple(start + u * spacing)),
             np.zeros(len(start)),
             method="Nelder-Mead",
+            bounds=bounds,
             options={"maxfev": SHAPE_REFINE_FITS * 3, "initial_simplex": _simplex(len(start), 0.5)},
         )
     return max(found, key=lambda x: x[0])
@@ -480,6 +489,8 @@ def _score_variant(search: Search, variant: Variant, c, touched, base, Element):
     except NlidError:
         return None
     if not (np.all(np.isfinite(col_e)) and np.all(np.isfinite(col_h))) or np.ptp(col_e) == 0:
+        return None
+    if max(np.abs(col_e).max(), np.abs(col_h).max()) > MAX_COLUMN:  # its normal equations would overflow
         return None
     extra = Extra(col_e, connectivity(c, search.n))
     scored = search.cross_scores({"extras": [extra], "estimation": [col_e], "holdout": [col_h]})
