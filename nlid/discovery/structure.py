@@ -52,23 +52,21 @@ from ..model.terms import Term
 from .evidence import AcceptanceRule, acceptance_rule, integrated_time
 from .judge import MAX_JUDGED
 from .library import Candidate, Variant, dissipative, resolve_candidates
-from .probes import MIN_STRUCTURE, PLAY_WIDTHS, _legendre
+from .probes import MIN_STRUCTURE
 from .structure_accept import confirmed, free_run_error, judged, rank, rms, with_accepted
 from .structure_fit import (
     Part,
     Search,
-    connection_columns,
     connectivity,
     element_columns,
     fraction,
     per_dof,
     relative,
 )
+from .structure_probes import remaining_structure
 from .structure_result import (
     ConnectionEvidence,
-    ConnectionProbe,
     StructureDiscoveryResult,
-    StructureRemaining,
     StructureStage,
     StructureStep,
     connection_name,
@@ -78,7 +76,6 @@ from .structure_result import (
 __all__ = [
     "DEFAULT_TEST",
     "DEFAULT_MAX_STEPS",
-    "STRUCTURE_PROBES",
     "discover_structure",
 ]
 
@@ -88,8 +85,6 @@ DEFAULT_TEST = 0.2
 DEFAULT_HOLDOUT = 0.25
 #: Most elements added by one run.
 DEFAULT_MAX_STEPS = 3
-#: Remaining-structure probes on each connection, in report order.
-STRUCTURE_PROBES = ("z", "v", "memory")
 
 Progress = Callable[[str], None]
 Connection = tuple[int, int]
@@ -101,23 +96,6 @@ def _quiet(_message: str) -> None:
 
 def _linear_or_constant(term: Term) -> bool:
     return term.is_constant or term in (Term(z=(1, 1)), Term(v=(1, 1)))
-
-
-def _probe_columns(probe: str, x: np.ndarray, xd: np.ndarray, scale: tuple[float, float, float]) -> np.ndarray:
-    mid, half, vhalf = scale
-    if probe == "z":
-        return _legendre(np.clip((x - mid) / half, -1, 1), range(2, 9))
-    if probe == "v":
-        return np.column_stack([_legendre(np.clip(xd / vhalf, -1, 1), range(2, 8)), np.sign(xd)])
-    from ..model.terms.memory_kernels import play_loop
-
-    std = max(half / 2.0, 1e-300)
-    cols = []
-    for width in PLAY_WIDTHS:
-        out = np.empty_like(x)
-        play_loop(np.ascontiguousarray(x), float(width * std), out)
-        cols.append(out / std)
-    return np.column_stack(cols)
 
 
 def discover_structure(
@@ -271,7 +249,7 @@ def discover_structure(
     current = elements0
     stages = [stage("declared model")]
     say("remaining-structure probes on the declared model")
-    remaining_declared = _probes(search, conns, structure)
+    remaining_declared = remaining_structure(search, conns, structure)
     steps: list[StructureStep] = []
     ranking: tuple[ConnectionEvidence, ...] = ()
     stop = "maximum number of steps reached"
@@ -286,7 +264,7 @@ def discover_structure(
                 stop = "no candidate passes the acceptance rule and the cross-fitted held-out free run"
                 break
         elif accepted is None:  # a noisy record: does a candidate capture the structure its connection's probes find?
-            probes = remaining_declared if number == 1 else _probes(search, conns, structure)
+            probes = remaining_declared if number == 1 else remaining_structure(search, conns, structure)
             ranking, accepted = rank(tested, rule, probes)
             if accepted is not None:  # ... and does the held-out free run confirm it?
                 ranking, accepted = confirmed(ranking, accepted, parts["estimation"].data, held, current, M)
@@ -308,7 +286,7 @@ def discover_structure(
             stop = "maximum number of steps reached (0)"
     refined = _refine(selection, current, M, fc, test_record, test_data, parts, simulate, say) if refine else None
     say("remaining-structure probes on the final model")
-    remaining = remaining_declared if not steps else _probes(search, conns, structure)
+    remaining = remaining_declared if not steps else remaining_structure(search, conns, structure)
     stop = (
         f"{stop}; the final model is " + remaining.describe()
         if not remaining.structured
@@ -553,24 +531,3 @@ def _evidence(search: Search, cand: Candidate, found: dict, c, base, base_in, n_
         reason=reason,
         terms=tuple(variant.terms),
     )
-
-
-def _probes(search: Search, conns, threshold: float) -> StructureRemaining:
-    """Flexible functions of each connection's coordinate, cross-fitted on the current model's residual."""
-    n, w = search.n, search.weights
-    base = search.cross_scores(None)
-    est, ho = search.parts["estimation"], search.parts["holdout"]
-    out = []
-    for c in conns:
-        touched = [c[0] - 1] + ([c[1] - 1] if c[1] else [])
-        x_e, xd_e = relative(est.data, c)
-        scale = (0.5 * (x_e.max() + x_e.min()), max(0.5 * np.ptp(x_e), 1e-300), max(float(np.abs(xd_e).max()), 1e-300))
-        for probe in STRUCTURE_PROBES:
-            columns = lambda x, xd, probe=probe, scale=scale: _probe_columns(probe, x, xd, scale)  # noqa: E731
-            col_e, col_h = connection_columns(est.data, c, columns), connection_columns(ho.data, c, columns)
-            extra = Extra(col_e, connectivity(c, n))
-            scored = search.cross_scores({"extras": [extra], "estimation": [col_e], "holdout": [col_h]})
-            a = fraction(scored["on_holdout"], base["on_holdout"], w, touched)
-            b = fraction(scored["on_estimation"], base["on_estimation"], w, touched)
-            out.append(ConnectionProbe(c, probe, float(0.5 * (a + b)), float(a), float(b), col_e.shape[1]))
-    return StructureRemaining(tuple(out), float(threshold))

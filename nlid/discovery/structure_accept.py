@@ -24,7 +24,7 @@ import numpy as np
 from ..estimation.joint import joint_least_squares
 from ..model.elements import Element, ElementSet
 from .evidence import PARSIMONY, AcceptanceRule
-from .structure_result import ConnectionEvidence, StructureRemaining
+from .structure_result import DOF_PROBES, ConnectionEvidence, StructureRemaining
 
 __all__ = [
     "CAPTURE",
@@ -159,7 +159,9 @@ def captures(e: ConnectionEvidence, probes: StructureRemaining, rule: Acceptance
     """``e`` marked as passing when it captures its connection's remaining structure (:func:`rank`)."""
     if e.status != "below threshold" or e.delta_bic is None or e.delta_bic > rule.max_delta_bic:
         return e
-    found = max((p.explained for p in probes.probes if p.connection == e.connection), default=0.0)
+    # the connection's own probes (a DOF probe on DOF k finds what no connection k-ground carries)
+    on = [p.explained for p in probes.probes if p.connection == e.connection and p.probe not in DOF_PROBES]
+    found = max(on, default=0.0)
     explained = float(e.explained or 0.0)
     if found < probes.threshold or explained < max(probes.threshold, CAPTURE * found):
         return e

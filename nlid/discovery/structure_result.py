@@ -13,6 +13,7 @@ from .evidence import AcceptanceRule
 from .probes import MIN_STRUCTURE
 
 __all__ = [
+    "DOF_PROBES",
     "ConnectionEvidence",
     "StructureStage",
     "StructureStep",
@@ -258,6 +259,15 @@ class ConnectionProbe:
 
 
 _WHAT = {"z": "the relative displacement", "v": "the relative velocity", "memory": "the history of the displacement"}
+#: Probes of one DOF's residual for what no connection carries (:func:`nlid.discovery.structure._dof_columns`):
+#: a wrong mass, the force's path. Each with what it finds and its likely cause.
+DOF_PROBES = ("acceleration", "force")
+_DOF_WHAT = {
+    "acceleration": "its acceleration: the mass matrix given is likely wrong there (check its values and their "
+    "units, kg; and the units of the displacements and forces)",
+    "force": "the force's neighbouring samples: an effect in the force's path (the force acting delayed, early or "
+    "filtered), or a mass matrix wrong there",
+}
 
 
 @dataclass(frozen=True)
@@ -289,12 +299,18 @@ class StructureRemaining:
         best = self.best
         if best is None:
             return "no probe was run"
-        where = _connection_name(best.connection)
+        where = f"DOF {best.connection[0]}" if best.probe in DOF_PROBES else _connection_name(best.connection)
         if not self.structured:
             return (
-                f"clean: no flexible function of a connection predicts {100 * self.threshold:g} % or more of the "
+                f"clean: no flexible function of a connection, and neither a DOF's acceleration nor its force's "
+                f"neighbouring samples, predicts {100 * self.threshold:g} % or more of the "
                 f"held-out residual of its DOFs (largest: {best.probe} on {where}, "
                 f"{100 * max(best.explained, 0.0):.2g} %)"
+            )
+        if best.probe in _DOF_WHAT:
+            return (
+                f"{100 * best.explained:.2g} % of the held-out residual of DOF {best.connection[0]} remains "
+                f"predictable from {_DOF_WHAT[best.probe]}"
             )
         return (
             f"{100 * best.explained:.2g} % of the held-out residual of the DOFs of connection {where} remains "

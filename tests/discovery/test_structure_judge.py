@@ -113,3 +113,43 @@ def test_a_chaotic_chain_is_judged_by_its_k_step_prediction_and_says_so():
     assert len(result.steps) == 1
     assert any(CHAOTIC_NOTE in s.freerun_note for s in result.stages[1:])
     assert "the free run is chaotic" in result.summary()
+
+
+@pytest.fixture(scope="module")
+def chain():
+    """The 3dof-cubic chain, 20 s, 1 % noise, and its true mass matrix."""
+    preset = dataclasses.replace(STRUCTURE_PRESETS["3dof-cubic"], duration=20.0)
+    return preset.simulate(1, noise=0.01), np.asarray(preset.M, dtype=float)
+
+
+def _largest(result) -> tuple[tuple[int, int], str, float]:
+    best = result.remaining_declared.best
+    return best.connection, best.probe, best.explained
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize(
+    "case, probe, words",
+    [("mass", "acceleration", "mass matrix given is likely wrong"), ("delay", "force", "the force's path")],
+)
+def test_what_no_connection_carries_is_said_on_its_dof(chain, case, probe, words):
+    """A mass matrix 1.5x the true one, or a force acting 3 samples late: no connection carries it, and the
+    search used to call such a model clean (issue 31's probe). The DOF probes find it on the forced DOF."""
+    record, M = chain
+    if case == "delay":
+        f = np.asarray(record.f).copy()
+        f[3:], f[:3] = f[:-3].copy(), 0.0
+        record = dataclasses.replace(record, f=f)
+    result = discover_structure(record, "z3^3", mass=1.5 * M if case == "mass" else M, max_steps=1, simulate=False)
+    connection, found, explained = _largest(result)
+    assert (connection, found) == ((1, 0), probe) and explained > 0.3
+    assert words in result.stop_reason and "clean" not in result.stop_reason
+
+
+@pytest.mark.slow
+def test_the_dof_probes_find_nothing_in_the_complete_model(chain):
+    record, M = chain
+    result = discover_structure(record, "z3^3", mass=M, max_steps=1, simulate=False)
+    assert not result.steps and "clean" in result.stop_reason
+    dof = [p.explained for p in result.remaining_declared.probes if p.probe in ("acceleration", "force")]
+    assert dof and max(dof) < result.remaining_declared.threshold
