@@ -354,9 +354,15 @@ class Discovery:
         after = fits[accepted.effect]
         notes: list[str] = []
         if accepted.effect == "mass":
+            from ..base.dimensions import mass_unit
+            from ..identified.plausibility import mass_cause
+
+            units = ctx.estimation.units
+            unit = mass_unit(str(units.get("f", "N")), str(units.get("z", "m")))
             notes.append(
-                f"the given mass looks wrong: the data say m = {after.mass:.4g} kg (given: {current.mass:.4g} kg); "
-                "the mass is estimated from here on"
+                f"the given mass looks wrong: the data say m = {after.mass:.4g} {unit} (given: {current.mass:.4g} "
+                f"{unit}; {mass_cause(current.mass, after.mass, unit).split(': ', 1)[-1]}); the mass is estimated "
+                "from here on"
             )
         if after.model.uses_px:
             # re-identify with the px(z) fixed point instead of the screening's fixed roots

@@ -46,6 +46,7 @@ __all__ = [
     "check_structure",
     "headline",
     "implied_mass",
+    "mass_cause",
     "nonfinite_problems",
     "trusted",
     "ZETA_MIN",
@@ -181,7 +182,7 @@ def implied_mass(record: Record, model: Model, *, cutoff: float | None = None) -
     return ImpliedMass(value, se)
 
 
-def _mass_cause(given: float, implied: float, unit: str = "kg") -> str:
+def mass_cause(given: float, implied: float, unit: str = "kg") -> str:
     """The likely unit slip behind a given mass ``given`` where the data imply ``implied`` (both in ``unit``)."""
     if unit != "kg":  # a record in other units (volts): its mass is force per unit of acceleration
         return f"the data suggest m ≈ {implied:.2g} {unit}: is mass= in {unit}, the force per unit of acceleration?"
@@ -222,7 +223,7 @@ def check(fit: IdentifiedModel, record: Record | None = None, *, cutoff: float |
                         "mass",
                         f"the given mass {fit.mass:.4g} {mass} is {ratio:.3g} times the {implied.value:.3g} {mass} "
                         "the record's force balance implies",
-                        _mass_cause(fit.mass, implied.value, mass),
+                        mass_cause(fit.mass, implied.value, mass),
                     )
                 )
     unit_slip = "a wrong mass or a unit slip (mass in g, z in mm)"

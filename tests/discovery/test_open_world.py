@@ -63,3 +63,14 @@ def test_the_report_shows_what_remains(tmp_path):
     assert (tmp_path / "figures" / "remaining.png").is_file() and tmp_path / "report.html" in paths
     html = (tmp_path / "report.html").read_text()
     assert "What remains" in html and "force-rate" in html
+
+
+def test_a_displacement_in_millimetres_is_named_as_such():
+    """z written in mm but read as m makes the given mass look 1000 times too large: the note names the unit
+    slip, not only the mass (issue 31's probe)."""
+    record, declared, _ = build_open_case("wrong-mass", 0)
+    mm = nlid.Record(f=record.f, z=1e3 * record.z, fs=record.fs, meta=dict(record.meta))
+    result = nlid.discover(mm, declared, "rfs", mass=0.2, simulate=False, views=False)
+    assert result.steps and result.steps[0].effect == "mass"
+    note = result.steps[0].notes[0]
+    assert "units='z=mm'" in note and "(not g)" in note
