@@ -407,12 +407,16 @@ class Discovery:
             say("scores on the validation record")
             states = [validation_scores(ctx, st, validation, self.simulate) for st in states]
         steps = [dataclasses.replace(step, before=states[k], after=states[k + 1]) for k, step in enumerate(state.steps)]
-        refined = None
+        refined, refine_failed = None, None
         if self.refine:
             name = choose_refiner(self.registry)
             say(f"refining the final model with {name} (output error on the free run)")
             refiner = self.registry.create(name, {"init": run.method})
-            refined = refine_stage(ctx, states[-1], refiner, self.simulate, validation)
+            try:
+                refined = refine_stage(ctx, states[-1], refiner, self.simulate, validation)
+            except IdentificationError as exc:  # the search's result stands; say why it is not refined
+                refine_failed = f"the refinement by {name} failed ({exc}): the search's own fit is reported"
+                say(refine_failed)
         estimation, held = ctx.estimation, ctx.holdout
         info = {
             "samples_estimation": estimation.n,
@@ -442,6 +446,7 @@ class Discovery:
             "freerun_rule": states[-1].holdout.freerun_rule,
             "freerun_rule_validation": None if validation is None else states[-1].validation.freerun_rule,
             "refined_on": None if refined is None else refit_description(ctx),
+            "refine_failed": refine_failed,
             "seconds": time.perf_counter() - run.started,
         }
         return DiscoveryResult(

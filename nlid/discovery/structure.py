@@ -45,7 +45,7 @@ from typing import Any
 import numpy as np
 
 from ..base.validate import HOLDOUT_FRACTION, check_cutoff
-from ..errors import InputError, NlidError
+from ..errors import IdentificationError, InputError, NlidError
 from ..estimation.joint import Extra
 from ..estimation.structure_balance import residual_on
 from ..model.terms import Term
@@ -284,7 +284,13 @@ def discover_structure(
     else:
         if max_steps == 0:
             stop = "maximum number of steps reached (0)"
-    refined = _refine(selection, current, M, fc, test_record, test_data, parts, simulate, say) if refine else None
+    refined, refine_failed = None, None
+    if refine:
+        try:
+            refined = _refine(selection, current, M, fc, test_record, test_data, parts, simulate, say)
+        except IdentificationError as exc:  # the search's result stands; say why it is not refined
+            refine_failed = f"the refinement failed ({exc}): the search's own fit is reported"
+            say(refine_failed)
     say("remaining-structure probes on the final model")
     remaining = remaining_declared if not steps else remaining_structure(search, conns, structure)
     stop = (
@@ -305,6 +311,7 @@ def discover_structure(
         "source": str(record.meta.get("source", "")),
         "max_steps": int(max_steps),
         "refined_on": f"the selection record ({selection.n} samples)" if refined is not None else None,
+        "refine_failed": refine_failed,
         "noise_percent": _noise_percent(selection),
         "derivatives_measured": all(record.is_measured(f"{g}{k}") for g in ("v", "a") for k in range(1, n + 1)),
         "seconds": time.perf_counter() - started,

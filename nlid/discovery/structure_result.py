@@ -466,6 +466,8 @@ class StructureDiscoveryResult:
         if self.refined is not None:
             coef = ", ".join(f"{k} = {v:.6g}" for k, v in self.refined.model.coefficients.items())
             lines.append(f"{self.refined.label}, fitted on {self.info.get('refined_on')}: {coef}")
+        if self.info.get("refine_failed"):
+            lines.append(str(self.info["refine_failed"]))
         stages = self.reported
         header = "DOF".ljust(6) + "".join(f"{s.label[:24]:>28}" for s in stages)
         lines += ["", "epsilon on the test part (%)", header]

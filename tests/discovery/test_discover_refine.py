@@ -58,3 +58,23 @@ def test_the_judging_fits_are_looser_than_the_refit_the_search_delivers(rfs_oe_r
     result = discover(record, "1, z, z^2, z^3, v, v*|v|", "rfs", mass=0.2, max_steps=0, registry=registry,
                       refine=True, views=False, simulate=False)  # fmt: skip
     assert result.refined_model.options["tol"] == default
+
+
+def test_a_refinement_that_fails_leaves_the_search_result_and_says_why(rfs_oe_registry, monkeypatch):
+    """An output-error refit that does not converge (Bouc-Wen, issue 31's probe) used to lose the finished search:
+    the result now stands unrefined, and its summary and JSON say why."""
+    import nlid.discovery.search as search
+    from nlid.errors import IdentificationError
+
+    def fails(*args, **kwargs):
+        raise IdentificationError("oe: the free-run fit did not converge in 100 evaluations")
+
+    monkeypatch.setattr(search, "refine_stage", fails)
+    record = get_preset("paper-numerical").with_overrides(duration=5.0).simulate(0, noise={"z": 0.02})
+    result = discover(record, "1, z, z^2, z^3, v, v*|v|", "rfs", mass=0.2, max_steps=0, registry=rfs_oe_registry(),
+                      refine=True, views=False, simulate=False)  # fmt: skip
+    assert result.refined is None
+    note = result.info["refine_failed"]
+    assert note.startswith("the refinement by oe failed (oe: the free-run fit did not converge")
+    assert "refinement: the refinement by oe failed" in str(result.summary())
+    assert result.to_dict()["info"]["refine_failed"] == note

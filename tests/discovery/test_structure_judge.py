@@ -153,3 +153,16 @@ def test_the_dof_probes_find_nothing_in_the_complete_model(chain):
     assert not result.steps and "clean" in result.stop_reason
     dof = [p.explained for p in result.remaining_declared.probes if p.probe in ("acceleration", "force")]
     assert dof and max(dof) < result.remaining_declared.threshold
+
+
+def test_a_structure_refinement_that_fails_leaves_the_search_result(chain, monkeypatch):
+    import nlid.discovery.structure as structure
+    from nlid.errors import IdentificationError
+
+    def fails(*args, **kwargs):
+        raise IdentificationError("oe: did not converge")
+
+    monkeypatch.setattr(structure, "_refine", fails)
+    record, M = chain
+    result = discover_structure(record, "z3^3", mass=M, max_steps=0, simulate=False, refine=True)
+    assert result.refined is None and "the refinement failed (oe: did not converge)" in result.summary()
