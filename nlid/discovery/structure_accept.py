@@ -23,6 +23,7 @@ import numpy as np
 
 from ..estimation.joint import joint_least_squares
 from ..model.elements import Element, ElementSet
+from ..scoring import SENSITIVITY_DELTA, SENSITIVITY_LIMIT
 from .evidence import PARSIMONY, AcceptanceRule
 from .structure_result import DOF_PROBES, ConnectionEvidence, StructureRemaining
 
@@ -48,8 +49,9 @@ CAPTURE = 0.8
 MIN_FREERUN_GAIN = 0.01
 #: What a stage's free-run note says when the model's free run is chaotic there (:func:`_chaotic`).
 CHAOTIC_NOTE = (
-    "chaotic: two free runs started 1e-06 std(z) apart part by more than 0.1 % of std(z), so this error says little "
-    "about the model (the search judges such a model by its k-step-ahead prediction)"
+    f"chaotic: two free runs started {SENSITIVITY_DELTA:g} std(z) apart part by more than "
+    f"{100 * SENSITIVITY_LIMIT:g} % of std(z), so this error says little about the model (the search judges such "
+    "a model by its k-step-ahead prediction)"
 )
 
 
@@ -220,7 +222,6 @@ def _chaotic(model, record) -> bool:
     """The one-DOF chaos check (:func:`nlid.scoring.free_run_error`) on a structure: two free runs started
     :data:`~nlid.scoring.SENSITIVITY_DELTA` std(z) apart differ by more than
     :data:`~nlid.scoring.SENSITIVITY_LIMIT` std(z) over the second half (or a run diverges)."""
-    from ..scoring import SENSITIVITY_DELTA, SENSITIVITY_LIMIT
     from ..simulation import SimulationError
     from ..simulation.structure import free_run
 
