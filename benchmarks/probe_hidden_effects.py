@@ -45,6 +45,10 @@ ONE_DOF: dict[str, tuple[dict[str, float], str, float]] = {
     "mass-x2": ({}, "", 2 * _M),
     "mass-x0.5": ({}, "", 0.5 * _M),
     "mm": ({}, "mm", _M),
+    "kN": ({}, "kN", _M),
+    "f-negated": ({}, "f-negated", _M),
+    "z-drift": ({}, "z-drift", _M),
+    "z-only-no-meta": ({}, "z-only-no-meta", _M),
 }
 
 
@@ -64,8 +68,19 @@ def corrupt(record: Record, how: str) -> Record:
         return Record(
             f=record.f[k:], z=record.z[:-k], v=record.v[:-k], a=record.a[:-k], fs=record.fs, meta=dict(record.meta)
         )
+    if how == "kN":
+        return dataclasses.replace(record, f=record.f / 1e3)
+    if how == "f-negated":  # the load cell mounted the other way round
+        return dataclasses.replace(record, f=-record.f)
+    if how == "z-drift":  # a displacement sensor drifting 0.1 mm/s; z only (v and a estimated from it)
+        t = np.arange(record.z.size) / record.fs
+        return Record(f=record.f, z=record.z + 1e-4 * t, fs=record.fs, meta=dict(record.meta))
+    if how == "z-only-no-meta":  # z only, as read from a file without a sidecar (the force hold unknown)
+        return Record(f=record.f, z=record.z, fs=record.fs)
     if how == "mm":
-        return Record(f=record.f, z=record.z * 1e3, v=record.v * 1e3, a=record.a * 1e3, fs=record.fs, meta=dict(record.meta))
+        return Record(
+            f=record.f, z=record.z * 1e3, v=record.v * 1e3, a=record.a * 1e3, fs=record.fs, meta=dict(record.meta)
+        )
     return record
 
 
@@ -76,12 +91,13 @@ def restoring_error(stage, clean: Record, mass_true: float, how: str) -> float:
     if how == "delay3":
         r_true = r_true[:-3]
     try:
-        r_id = stage.identified.restoring_force(rec.z, rec.v)
+        r_id = stage.identified.restoring_force(rec.z, clean.v if rec.v is None else rec.v)
     except Exception:  # noqa: BLE001  (memory terms need the history)
         return float("nan")
     a_true = clean.a[:-3] if how == "delay3" else clean.a
     # what the identified model predicts for f - m_true a: its R plus its own inertia minus the true one
-    pred = r_id + stage.mass * rec.a - mass_true * a_true
+    a_rec = a_true if rec.a is None else rec.a  # z-only records: the true acceleration (the drift has none)
+    pred = r_id + stage.mass * a_rec - mass_true * a_true
     return float(100 * np.sqrt(np.mean((pred - r_true) ** 2)) / np.sqrt(np.mean(r_true**2)))
 
 
@@ -105,7 +121,9 @@ def run_one_dof(names: list[str], seeds: list[int], refine: bool) -> None:
                     print(f"== {name} seed {seed}: CRASH {type(exc).__name__}: {exc}")
                     continue
             secs = time.perf_counter() - start
-            print(f"== {name} seed {seed} ({secs:.1f} s) truth: {extra or '-'} corruption: {how or '-'} mass given {mass}")
+            print(
+                f"== {name} seed {seed} ({secs:.1f} s) truth: {extra or '-'} corruption: {how or '-'} mass given {mass}"
+            )
             for s in res.steps:
                 coefs = {t: f"{s.after.coefficients[t]:.4g}" for t in s.terms if t in s.after.coefficients}
                 print(f"   step {s.effect}: {coefs}; notes {s.notes}")
@@ -114,9 +132,10 @@ def run_one_dof(names: list[str], seeds: list[int], refine: bool) -> None:
                 c = st.coefficients
                 truth = dict(preset.coefficients)
                 cerr = {t: f"{100 * (c[t] - truth[t]) / truth[t]:+.1f}%" for t in ("z^3", "z^2", "z") if t in c}
+                r_err = restoring_error(st, clean, _M, how)
                 print(
                     f"   {label:8s} eps_ho {st.scores.eps_holdout:.3g}% free-run ho {_g(st.sim_rms_holdout)} "
-                    f"test {_g(st.sim_rms_validation)} {st.sim_note[:80]} R err {restoring_error(st, clean, _M, how):.3g}%  "
+                    f"test {_g(st.sim_rms_validation)} {st.sim_note[:80]} R err {r_err:.3g}%  "
                     f"m {st.mass:.4g} coef err {cerr} terms {list(c)}"
                 )
             print(f"   stop: {res.stop_reason}")
