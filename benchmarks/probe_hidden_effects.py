@@ -156,6 +156,8 @@ MDOF: dict[str, tuple[dict[str, float], float]] = {
     "cubic1g": ({"z1^3": 3e9}, 1.0),
     "boucwen23": ({"bouc_wen(z2-z3, 3000, -1000)": 3e4}, 1.0),
     "mass-x1.5": ({}, 1.5),
+    "mass-x0.5": ({}, 0.5),
+    "delay3": ({}, 1.0),  # the force that acts lags the recorded channel by 3 samples (3 ms)
 }
 
 
@@ -170,6 +172,9 @@ def run_mdof(names: list[str], seeds: list[int], refine: bool) -> None:
         p = dataclasses.replace(base, elements=elements, coefficients={"z3^3": 5e9, **extra}, duration=20.0)
         for seed in seeds:
             rec = p.simulate(seed, noise=0.01)
+            if name == "delay3":
+                k = 3
+                rec = dataclasses.replace(rec, f=rec.f[k:], z=rec.z[:-k], v=rec.v[:-k], a=rec.a[:-k])
             mass = factor * np.asarray(base.M)
             start = time.perf_counter()
             with warnings.catch_warnings(record=True) as caught:
