@@ -45,9 +45,7 @@ def main() -> None:
                 load = os.getloadavg()[0]
                 cpu, start = _cpu(), time.perf_counter()
                 executor = LocalExecutor(jobs=1, overlap=overlap)
-                run_study(
-                    config, out, executor=executor, rerun=True, report=False, progress=False, log=open(os.devnull, "w")
-                )
+                run_study(config, out, executor=executor, rerun=True, report=False, progress=False, log=quiet)
                 wall, cpu = time.perf_counter() - start, _cpu() - cpu
                 seconds = float(ResultStore(out).results(runs)["seconds"].sum())
                 figures[overlap].append((wall, cpu, seconds, load))
