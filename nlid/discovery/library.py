@@ -385,6 +385,7 @@ LIBRARY: tuple[Candidate, ...] = (
         positive=("sign(v)*exp(-(v/{c})^2)",),
     ),
     Candidate("offset", ("1",), "constant force (static load, sensor offset): 1"),
+    Candidate("linear-stiffness", ("z",), "linear stiffness: z (a spring left out of the declared model)"),
     Candidate("quadratic-stiffness", ("z^2",), "quadratic (asymmetric) stiffness: z^2"),
     Candidate("cubic-stiffness", ("z^3",), "cubic (Duffing) stiffness: z^3"),
     Candidate("quintic-stiffness", ("z^5",), "quintic stiffness: z^5"),

@@ -20,6 +20,7 @@ ISSUE_NAMES = [
     "position-dependent-friction",
     "stribeck",
     "offset",
+    "linear-stiffness",
     "quadratic-stiffness",
     "cubic-stiffness",
     "quintic-stiffness",

@@ -74,3 +74,21 @@ def test_a_displacement_in_millimetres_is_named_as_such():
     assert result.steps and result.steps[0].effect == "mass"
     note = result.steps[0].notes[0]
     assert "units='z=mm'" in note and "(not g)" in note
+
+
+def test_a_declared_model_without_its_spring_gets_it_back():
+    """``z^3, z^2`` declared on the double well without its quadratic damping: the linear spring (negative), the
+    viscous damping and the offset are found, where a gap, two stops and z^5 piled up without the candidate."""
+    import dataclasses
+
+    from nlid.simulation.presets import get_preset
+
+    preset = get_preset("paper-numerical")
+    truth = {k: v for k, v in preset.coefficients.items() if k != "v*|v|"}
+    without = dataclasses.replace(preset, duration=20.0, terms="z^3, z^2", coefficients=truth)
+    record = without.simulate(1, noise=0.01)
+    result = nlid.discover(record, "z^3, z^2", "rfs", mass=preset.mass, simulate=False, views=False)
+    assert [s.effect for s in result.steps][:1] == ["linear-stiffness"]
+    found = result.final.coefficients
+    assert set(found) == set(truth)
+    assert all(found[k] == pytest.approx(truth[k], rel=0.02) for k in truth), found
