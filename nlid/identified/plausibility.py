@@ -184,6 +184,8 @@ def implied_mass(record: Record, model: Model, *, cutoff: float | None = None) -
 
 def mass_cause(given: float, implied: float, unit: str = "kg") -> str:
     """The likely unit slip behind a given mass ``given`` where the data imply ``implied`` (both in ``unit``)."""
+    if not implied > 0:
+        return f"the data suggest m ≈ {implied:.2g} {unit}: is the force's sign reversed against z?"
     if unit != "kg":  # a record in other units (volts): its mass is force per unit of acceleration
         return f"the data suggest m ≈ {implied:.2g} {unit}: is mass= in {unit}, the force per unit of acceleration?"
     decade = round(math.log10(given / implied) / 3) * 3
@@ -215,7 +217,11 @@ def check(fit: IdentifiedModel, record: Record | None = None, *, cutoff: float |
     mass = mass_unit(force, length)
     if record is not None and fit.mass is not None and not fit.mass_estimated:
         implied = implied_mass(acting_record(fit, record), fit.model, cutoff=cutoff)
-        if implied is not None and implied.determined:
+        if implied is not None and _negative(implied.value, implied.standard_error):
+            flags.append(
+                _reversed_flag(f"the record's force balance implies a negative mass ({implied.value:.3g} {mass})")
+            )
+        elif implied is not None and implied.determined:
             ratio = fit.mass / implied.value
             if ratio > MASS_RATIO_MAX or ratio < 1 / MASS_RATIO_MAX:
                 flags.append(
@@ -226,6 +232,8 @@ def check(fit: IdentifiedModel, record: Record | None = None, *, cutoff: float |
                         mass_cause(fit.mass, implied.value, mass),
                     )
                 )
+    if fit.mass is not None and fit.mass_estimated and fit.mass < 0:
+        flags.append(_reversed_flag(f"the estimated mass is negative ({fit.mass:.3g} {mass})"))
     unit_slip = "a wrong mass or a unit slip (mass in g, z in mm)"
     flags += _zeta_flags([(f"at z* = {m.equilibrium:.4g} {length}", m.zeta) for m in fit.modal], unit_slip)
     residual = None if fit.scores is None else fit.scores.force_residual_percent
@@ -244,6 +252,21 @@ def check(fit: IdentifiedModel, record: Record | None = None, *, cutoff: float |
             )
         )
     return tuple(flags)
+
+
+def _negative(value: float, standard_error: float) -> bool:
+    """A mass the record determines (:data:`MASS_DETERMINED_WITHIN`) and negative."""
+    return numerics.is_finite(value) and value < 0 and standard_error < MASS_DETERMINED_WITHIN * -value
+
+
+def _reversed_flag(found: str) -> Flag:
+    """A negative mass: the force pushes against the motion it causes, so its sign is likely reversed."""
+    return Flag(
+        "mass",
+        found,
+        "the force's sign is likely reversed against z (a force pushing z up must be positive), or the force and "
+        "displacement channels do not belong together",
+    )
 
 
 def _zeta_flags(points: Sequence[tuple[str, float]], unit_slip: str) -> list[Flag]:

@@ -118,7 +118,10 @@ class RestoringForceSurface(Identifier):
         if mass is None:
             est_mass, mass_se = float(theta[0]), float(se[0])
             if not est_mass > 0:
-                raise IdentificationError(f"rfs: the estimated mass is not positive ({est_mass:.4g} kg)")
+                raise IdentificationError(
+                    f"rfs: the estimated mass is not positive ({est_mass:.4g} kg): is the force's sign reversed "
+                    "against z (a force pushing z up must be positive)?"
+                )
             theta, se, se_iid = theta[1:], se[1:], se_iid[1:]
         sign_fraction, nonsmooth = nonsmooth_warnings(model, data.v, record.fs, data.filtered_at)
         return Estimate(

@@ -213,3 +213,15 @@ def test_a_structure_damping_element_with_the_wrong_sign_is_flagged(well_structu
     structure = dataclasses.replace(fit.structure, coefficients=coefficients)
     flipped = dataclasses.replace(fit, structure=structure, standard_errors=None)
     assert [f.code for f in check_structure(flipped)] == ["dissipative-sign"]
+
+
+def test_a_reversed_force_is_named_as_such(record, tmp_path, capfd):
+    """f written with the opposite sign (issue 31's probe): the force balance implies a negative mass, and the
+    headline names the reversed sign instead of a wrong mass or a unit slip; with the mass estimated, the
+    identifier's refusal says the same."""
+    path = tmp_path / "reversed.csv"
+    pd.DataFrame({"t": record.t, "f": -record.f, "z": record.z}).to_csv(path, index=False)
+    status, _, err = run(capfd, "identify", str(path), "--method", "rfs", "--terms", TERMS, "--mass", "0.2")
+    assert status == 1 and "implies a negative mass" in err and "the force's sign is likely reversed" in err
+    status, _, err = run(capfd, "identify", str(path), "--method", "rfs", "--terms", TERMS)
+    assert status == 1 and "is the force's sign reversed against z" in err
