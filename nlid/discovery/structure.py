@@ -441,6 +441,8 @@ def _refine_shape(search: Search, cand: Candidate, on_conn, variants, best, scal
 
     if len(cand.shapes) == 1:
         grid = [v.shape for v in variants]
+        if min(grid) <= 0:  # a user's grid through zero: searched in the logarithm, it stays on its grid
+            return best
         i = grid.index(best[1]["variant"].shape)
         lo, hi = math.log(grid[max(i - 1, 0)]), math.log(grid[min(i + 1, len(grid) - 1)])
         if hi > lo:
