@@ -53,7 +53,16 @@ from .evidence import AcceptanceRule, acceptance_rule, integrated_time
 from .judge import MAX_JUDGED
 from .library import Candidate, Variant, dissipative, resolve_candidates
 from .probes import MIN_STRUCTURE
-from .structure_accept import confirmed, free_run_error, judged, rank, rms, with_accepted
+from .structure_accept import (
+    confirmed,
+    free_run_error,
+    judged,
+    prediction_percent,
+    prediction_steps,
+    rank,
+    rms,
+    with_accepted,
+)
 from .structure_fit import (
     Part,
     Search,
@@ -365,9 +374,12 @@ def _stage(model, label: str, test_record, test_data, parts, simulate: bool) -> 
     n = model.n_dofs
     nan = tuple([float("nan")] * n)
     run_rms, run_pct, note = nan, nan, "not computed"
+    ahead, steps = (), None
     if simulate:
         run_rms, run_pct, note = free_run_error(model, test_record)
-    return StructureStage(label, model, eps(test_data), in_sample, run_rms, run_pct, note)
+        steps = prediction_steps(model, test_record.fs)
+        ahead = tuple(float(x) for x in prediction_percent(model, test_record, steps))
+    return StructureStage(label, model, eps(test_data), in_sample, run_rms, run_pct, note, ahead, steps)
 
 
 def _round(search: Search, current, conns, pool: Sequence[Candidate], Element) -> list[ConnectionEvidence]:

@@ -35,6 +35,8 @@ __all__ = [
     "captures",
     "confirmed",
     "judged",
+    "prediction_percent",
+    "prediction_steps",
     "with_accepted",
     "free_run_error",
     "rms",
@@ -183,7 +185,7 @@ def _fit(elements, data, M):
     return joint_least_squares(data.with_elements(elements), elements, M, context="discover: ").model(elements, M)
 
 
-def _steps(model, fs: float) -> int:
+def prediction_steps(model, fs: float) -> int:
     """``k`` of the chaotic fallback: two periods of the fastest mode of the underlying linear system, in samples
     (bounded as for one DOF, :data:`~nlid.discovery.crossfit.CHAOTIC_MIN_STEPS` to ``CHAOTIC_MAX_STEPS``)."""
     from .crossfit import CHAOTIC_MAX_STEPS, CHAOTIC_MIN_STEPS, CHAOTIC_PERIODS
@@ -196,8 +198,15 @@ def _steps(model, fs: float) -> int:
 
 def _prediction_error(model, record, steps: int | None) -> float:
     """The error (mean over the DOFs, % of std(z)) of the model's free run over ``record`` from its first sample
-    (``steps`` ``None``) or of its ``steps``-ahead prediction (runs of ``steps`` samples, each from the record's
-    state at its start); ``inf`` when a run diverges."""
+    (``steps`` ``None``) or of its ``steps``-ahead prediction (:func:`prediction_percent`); ``inf`` when a run
+    diverges."""
+    return float(np.mean(prediction_percent(model, record, steps)))
+
+
+def prediction_percent(model, record, steps: int | None) -> np.ndarray:
+    """Each DOF's error (% of std(z)) of the model's free run over ``record`` from its first sample (``steps``
+    ``None``) or of its ``steps``-ahead prediction (runs of ``steps`` samples, each from the record's state at its
+    start); ``inf`` when a run diverges."""
     from ..simulation import SimulationError
     from ..simulation.structure import free_run, free_run_segments
 
@@ -212,10 +221,10 @@ def _prediction_error(model, record, steps: int | None) -> float:
             states = np.hstack([np.asarray(record.z)[starts], np.asarray(full.v)[starts]])
             z, _ = free_run_segments(model, record.f, record.fs, starts, states, force_hold=record.force_hold)
     except SimulationError:
-        return math.inf
+        return np.full(model.n_dofs, math.inf)
     if not np.all(np.isfinite(z)):
-        return math.inf
-    return float(np.mean(100 * rms(z - record.z) / std))
+        return np.full(model.n_dofs, math.inf)
+    return 100 * rms(z - record.z) / std
 
 
 def _chaotic(model, record) -> bool:
@@ -249,7 +258,7 @@ def judged(
     estimation part predicting the held-out part and the reverse. The current model and each candidate's are
     fitted on the one and predict the other: a free run from the block's first sample, or, when the free run
     of either model is chaotic on either block (:func:`_chaotic`: it says nothing about the model), the
-    ``k``-step-ahead prediction of both on every block (:func:`_steps` of the current model), as
+    ``k``-step-ahead prediction of both on every block (:func:`prediction_steps` of the current model), as
     :mod:`nlid.discovery.crossfit` does for one DOF (but a model with a memory element is not judged then: its
     k-step runs would start the memory states at zero). The errors (mean over the DOFs, % of std(z)) are pooled
     over the blocks; a candidate whose pooled error is larger than the current model's is marked ``rejected``
@@ -257,7 +266,7 @@ def judged(
     """
     records = [record for _, record in blocks]
     fits = [_fit(current, data, M) for data, _ in blocks]
-    steps = [_steps(fit, r.fs) for fit, r in zip(fits, records, strict=True)]
+    steps = [prediction_steps(fit, r.fs) for fit, r in zip(fits, records, strict=True)]
     chaos = [_chaotic(fit, r) for fit, r in zip(fits, records, strict=True)]
     before: dict[bool, float] = {}  # k-step or free run -> the current model's pooled error
 

@@ -174,6 +174,11 @@ class StructureStage:
         The same relative to the standard deviation of each DOF's measured displacement (%).
     freerun_note
         How the free run was made, or why it failed.
+    predict_percent, predict_steps
+        Each DOF's ``k``-step-ahead prediction error on the test part (% of the standard deviation of its
+        displacement; runs of ``predict_steps`` samples, each from the measured state at its start): a figure
+        that a lightly damped or chaotic structure's free run, whose error a small frequency error or the
+        sensitivity to the start makes large, does not give (issue 31's probe).
     """
 
     label: str
@@ -183,6 +188,8 @@ class StructureStage:
     freerun_rms: tuple[float, ...] = ()
     freerun_percent: tuple[float, ...] = ()
     freerun_note: str = ""
+    predict_percent: tuple[float, ...] = ()
+    predict_steps: int | None = None
 
     @property
     def elements(self) -> tuple[str, ...]:
@@ -201,6 +208,8 @@ class StructureStage:
             "freerun_rms": list(self.freerun_rms),
             "freerun_percent": list(self.freerun_percent),
             "freerun_note": self.freerun_note,
+            "predict_percent": list(self.predict_percent),
+            "predict_steps": self.predict_steps,
         }
 
 
@@ -479,6 +488,11 @@ class StructureDiscoveryResult:
         chaotic = [s.label for s in stages if "chaotic" in s.freerun_note]
         if chaotic:
             lines.append(f"({', '.join(chaotic)}: the free run is chaotic, so its error says little about the model)")
+        if all(s.predict_percent for s in stages):
+            steps = ", ".join(dict.fromkeys(str(s.predict_steps) for s in stages))
+            lines += ["", f"{steps}-step-ahead prediction error on the test part (% of std(z))", header]
+            for k in range(n):
+                lines.append(f"z{k + 1}".ljust(6) + "".join(f"{s.predict_percent[k]:>28.4g}" for s in stages))
         lines += ["", "What remains: " + self.remaining.describe()]
         return "\n".join(lines)
 

@@ -50,7 +50,7 @@ def scripted(monkeypatch):
 
     monkeypatch.setattr(structure_accept, "_fit", fit)
     monkeypatch.setattr(structure_accept, "_chaotic", lambda model, record: False)
-    monkeypatch.setattr(structure_accept, "_steps", lambda model, fs: 10)
+    monkeypatch.setattr(structure_accept, "prediction_steps", lambda model, fs: 10)
     monkeypatch.setattr(structure_accept, "_prediction_error", error)
     return errors
 
@@ -113,6 +113,9 @@ def test_a_chaotic_chain_is_judged_by_its_k_step_prediction_and_says_so():
     assert len(result.steps) == 1
     assert any(CHAOTIC_NOTE in s.freerun_note for s in result.stages[1:])
     assert "the free run is chaotic" in result.summary()
+    # the stages' k-step prediction on the test part says what their free runs cannot: the gap helps
+    before, after = (np.mean(s.predict_percent) for s in result.stages[:2])
+    assert after < 0.5 * before and "-step-ahead prediction error on the test part" in result.summary()
 
 
 @pytest.fixture(scope="module")
