@@ -355,13 +355,13 @@ class Discovery:
         notes: list[str] = []
         if accepted.effect == "mass":
             from ..base.dimensions import mass_unit
-            from ..identified.plausibility import mass_cause
+            from ..identified.plausibility import mass_hint
 
             units = ctx.estimation.units
             unit = mass_unit(str(units.get("f", "N")), str(units.get("z", "m")))
             notes.append(
                 f"the given mass looks wrong: the data say m = {after.mass:.4g} {unit} (given: {current.mass:.4g} "
-                f"{unit}; {mass_cause(current.mass, after.mass, unit).split(': ', 1)[-1]}); the mass is estimated "
+                f"{unit}; {mass_hint(current.mass, after.mass, unit)}); the mass is estimated "
                 "from here on"
             )
         if after.model.uses_px:

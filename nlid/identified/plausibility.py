@@ -47,6 +47,7 @@ __all__ = [
     "headline",
     "implied_mass",
     "mass_cause",
+    "mass_hint",
     "nonfinite_problems",
     "trusted",
     "ZETA_MIN",
@@ -184,17 +185,22 @@ def implied_mass(record: Record, model: Model, *, cutoff: float | None = None) -
 
 def mass_cause(given: float, implied: float, unit: str = "kg") -> str:
     """The likely unit slip behind a given mass ``given`` where the data imply ``implied`` (both in ``unit``)."""
+    return f"the data suggest m ≈ {implied:.2g} {unit}: {mass_hint(given, implied, unit)}"
+
+
+def mass_hint(given: float, implied: float, unit: str = "kg") -> str:
+    """What to check when a given mass ``given`` is far from the ``implied`` one (both in ``unit``): the question
+    of :func:`mass_cause`."""
     if not implied > 0:
-        return f"the data suggest m ≈ {implied:.2g} {unit}: is the force's sign reversed against z?"
+        return "is the force's sign reversed against z?"
     if unit != "kg":  # a record in other units (volts): its mass is force per unit of acceleration
-        return f"the data suggest m ≈ {implied:.2g} {unit}: is mass= in {unit}, the force per unit of acceleration?"
+        return f"is mass= in {unit}, the force per unit of acceleration?"
     decade = round(math.log10(given / implied) / 3) * 3
-    hint = "is mass= the moving mass, in kg? is z in m and f in N (units= when they are not)?"
     if decade >= 3:  # a mass in g, or a displacement in mm read as m (the acceleration 1000 times too large)
-        hint = "is mass= in kg (not g)? is z in m (units='z=mm' when it is in mm)?"
-    elif decade <= -3:  # a mass in t, or a force in kN read as N
-        hint = "is mass= in kg (not t)? is f in N (units='f=kN' when it is in kN)? is z in m?"
-    return f"the data suggest m ≈ {implied:.2g} kg: {hint}"
+        return "is mass= in kg (not g)? is z in m (units='z=mm' when it is in mm)?"
+    if decade <= -3:  # a mass in t, or a force in kN read as N
+        return "is mass= in kg (not t)? is f in N (units='f=kN' when it is in kN)? is z in m?"
+    return "is mass= the moving mass, in kg? is z in m and f in N (units= when they are not)?"
 
 
 def check(fit: IdentifiedModel, record: Record | None = None, *, cutoff: float | None = None) -> tuple[Flag, ...]:
