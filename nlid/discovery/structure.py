@@ -62,6 +62,7 @@ from .structure_accept import (
     rank,
     rms,
     with_accepted,
+    with_velocity,
 )
 from .structure_fit import (
     Part,
@@ -243,6 +244,8 @@ def discover_structure(
 
     parts = {"estimation": Part(data(estimation)), "holdout": Part(data(held))}
     test_data = data(test_record)
+    # the state every free run on the test part starts from, its velocities estimated once
+    moving = with_velocity(test_record) if simulate else test_record
     search = Search(parts, M, rule, n)
     say(f"fitting the declared model ({elements0 or 'linear system only'}) on {n} DOFs")
     search.equations(elements0)
@@ -253,7 +256,7 @@ def discover_structure(
     search.weights = 1.0 / sigma2
 
     def stage(label: str):
-        return _stage(search.model(), label, test_record, test_data, parts, simulate)
+        return _stage(search.model(), label, moving, test_data, parts, simulate)
 
     current = elements0
     stages = [stage("declared model")]
@@ -296,7 +299,7 @@ def discover_structure(
     refined, refine_failed = None, None
     if refine:
         try:
-            refined = _refine(selection, current, M, fc, test_record, test_data, parts, simulate, say)
+            refined = _refine(selection, current, M, fc, moving, test_data, parts, simulate, say)
         except IdentificationError as exc:  # the search's result stands; say why it is not refined
             refine_failed = f"the refinement failed ({exc}): the search's own fit is reported"
             say(refine_failed)
@@ -363,7 +366,8 @@ def _refine(selection, elements, M, cutoff, test_record, test_data, parts, simul
 
 
 def _stage(model, label: str, test_record, test_data, parts, simulate: bool) -> StructureStage:
-    """The model's errors: epsilon per DOF on the test part and the selection record, the free run on the test part."""
+    """The model's errors: epsilon per DOF on the test part and the selection record, the free run and the k-step
+    prediction on the test part (``test_record`` with its velocities: :func:`with_velocity`)."""
 
     def eps(data) -> tuple[float, ...]:
         return residual_on(model, data.with_elements(model.elements)).eps_percent

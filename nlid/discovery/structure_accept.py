@@ -38,6 +38,7 @@ __all__ = [
     "prediction_percent",
     "prediction_steps",
     "with_accepted",
+    "with_velocity",
     "free_run_error",
     "rms",
 ]
@@ -62,10 +63,33 @@ def rms(x: np.ndarray) -> np.ndarray:
     return np.sqrt(np.mean(np.asarray(x) ** 2, axis=0))
 
 
-def _initial_state(record) -> tuple[np.ndarray, np.ndarray]:
-    """The record's first displacement and velocity (measured, or estimated from the displacements)."""
-    full = record if record.v is not None else record.with_derivatives()
-    return np.asarray(record.z[0], dtype=float), np.asarray(full.v[0], dtype=float)
+def with_velocity(record):
+    """The record with its velocities: measured, or estimated from the displacements (once, for every run on it)."""
+    return record if record.v is not None else record.with_derivatives()
+
+
+def _run(model, record, shift: float = 0.0) -> np.ndarray | None:
+    """The displacements of the model's free run over ``record`` (its velocities present: :func:`with_velocity`)
+    from its first measured state, the displacements moved by ``shift`` std(z); ``None`` when the run diverges."""
+    from ..simulation import SimulationError
+    from ..simulation.structure import free_run
+
+    z0 = np.asarray(record.z[0], dtype=float)
+    if shift:
+        z0 = z0 + shift * _std(record)
+    try:
+        z, _, _ = free_run(
+            model, record.f, record.fs, force_hold=record.force_hold, x0=(z0, np.asarray(record.v[0], dtype=float))
+        )
+    except SimulationError:
+        return None
+    return z if np.all(np.isfinite(z)) else None
+
+
+def _std(record) -> np.ndarray:
+    """Each DOF's displacement standard deviation (1 where it is 0), the scale of the errors and of the shift."""
+    std = np.std(record.z, axis=0)
+    return np.where(std > 0, std, 1.0)
 
 
 def free_run_error(model, record) -> tuple[tuple[float, ...], tuple[float, ...], str]:
@@ -83,10 +107,12 @@ def free_run_error(model, record) -> tuple[tuple[float, ...], tuple[float, ...],
     from ..simulation import SimulationError
     from ..simulation.structure import free_run
 
+    record = with_velocity(record)
     n = model.n_dofs
     nan = tuple([float("nan")] * n)
+    x0 = (np.asarray(record.z[0], dtype=float), np.asarray(record.v[0], dtype=float))
     try:
-        z, _, _ = free_run(model, record.f, record.fs, force_hold=record.force_hold, x0=_initial_state(record))
+        z, _, _ = free_run(model, record.f, record.fs, force_hold=record.force_hold, x0=x0)
     except SimulationError as exc:
         return nan, nan, f"diverged: {exc}"
     if not np.all(np.isfinite(z)):
@@ -98,7 +124,7 @@ def free_run_error(model, record) -> tuple[tuple[float, ...], tuple[float, ...],
         f"from the test part's first sample (measured state), force as recorded ({record.force_hold}), "
         f"{record.n} samples scored"
     )
-    if _chaotic(model, record):
+    if _chaotic(model, record, z):
         note += f"; {CHAOTIC_NOTE}"
     return tuple(float(x) for x in err), pct, note
 
@@ -140,6 +166,7 @@ def confirmed(ranking, accepted, data, held, current, M) -> tuple[tuple[Connecti
     part, by the models fitted on the estimation part, improves by at least :data:`MIN_FREERUN_GAIN` with it;
     otherwise it is marked ``not confirmed`` and nothing is accepted."""
     new = with_accepted(current, accepted)
+    held = with_velocity(held)  # the velocities both runs start from, estimated once
 
     def error(elements) -> float:
         fit = joint_least_squares(data.with_elements(elements), elements, M, context="discover: ")
@@ -196,56 +223,38 @@ def prediction_steps(model, fs: float) -> int:
     return int(min(max(round(k), CHAOTIC_MIN_STEPS), CHAOTIC_MAX_STEPS))
 
 
-def _prediction_error(model, record, steps: int | None) -> float:
-    """The error (mean over the DOFs, % of std(z)) of the model's free run over ``record`` from its first sample
-    (``steps`` ``None``) or of its ``steps``-ahead prediction (:func:`prediction_percent`); ``inf`` when a run
-    diverges."""
-    return float(np.mean(prediction_percent(model, record, steps)))
-
-
-def prediction_percent(model, record, steps: int | None) -> np.ndarray:
+def prediction_percent(model, record, steps: int | None, run: np.ndarray | None = None) -> np.ndarray:
     """Each DOF's error (% of std(z)) of the model's free run over ``record`` from its first sample (``steps``
-    ``None``) or of its ``steps``-ahead prediction (runs of ``steps`` samples, each from the record's state at its
-    start); ``inf`` when a run diverges."""
+    ``None``; ``run``: that run's displacements when they are at hand) or of its ``steps``-ahead prediction (runs
+    of ``steps`` samples, each from the record's state at its start); ``inf`` when a run diverges."""
     from ..simulation import SimulationError
-    from ..simulation.structure import free_run, free_run_segments
+    from ..simulation.structure import free_run_segments
 
-    std = np.std(record.z, axis=0)
-    std = np.where(std > 0, std, 1.0)
-    try:
-        if steps is None:
-            z, _, _ = free_run(model, record.f, record.fs, force_hold=record.force_hold, x0=_initial_state(record))
-        else:
-            full = record if record.v is not None else record.with_derivatives()
-            starts = np.arange(0, record.n, steps)
-            states = np.hstack([np.asarray(record.z)[starts], np.asarray(full.v)[starts]])
+    record = with_velocity(record)
+    if steps is None:
+        z = _run(model, record) if run is None else run
+    else:
+        starts = np.arange(0, record.n, steps)
+        states = np.hstack([np.asarray(record.z)[starts], np.asarray(record.v)[starts]])
+        try:
             z, _ = free_run_segments(model, record.f, record.fs, starts, states, force_hold=record.force_hold)
-    except SimulationError:
+        except SimulationError:
+            z = None
+    if z is None or not np.all(np.isfinite(z)):
         return np.full(model.n_dofs, math.inf)
-    if not np.all(np.isfinite(z)):
-        return np.full(model.n_dofs, math.inf)
-    return 100 * rms(z - record.z) / std
+    return 100 * rms(z - record.z) / _std(record)
 
 
-def _chaotic(model, record) -> bool:
-    """The one-DOF chaos check (:func:`nlid.scoring.free_run_error`) on a structure: two free runs started
-    :data:`~nlid.scoring.SENSITIVITY_DELTA` std(z) apart differ by more than
-    :data:`~nlid.scoring.SENSITIVITY_LIMIT` std(z) over the second half (or a run diverges)."""
-    from ..simulation import SimulationError
-    from ..simulation.structure import free_run
-
-    std = np.std(record.z, axis=0)
-    std = np.where(std > 0, std, 1.0)
-    z0, v0 = _initial_state(record)
-    try:
-        runs = [
-            free_run(model, record.f, record.fs, force_hold=record.force_hold, x0=(z0 + shift * std, v0))[0]
-            for shift in (0.0, SENSITIVITY_DELTA)
-        ]
-    except SimulationError:
+def _chaotic(model, record, run: np.ndarray | None) -> bool:
+    """The one-DOF chaos check (:func:`nlid.scoring.free_run_error`) on a structure: the free run ``run`` (its
+    displacements over ``record``, velocities present; ``None``: it diverged) and one started
+    :data:`~nlid.scoring.SENSITIVITY_DELTA` std(z) away differ by more than :data:`~nlid.scoring.SENSITIVITY_LIMIT`
+    std(z) over the second half (or a run diverges)."""
+    shifted = None if run is None else _run(model, record, SENSITIVITY_DELTA)
+    if shifted is None:
         return True
     half = record.n // 2
-    spread = rms(runs[1][half:] - runs[0][half:]) / std
+    spread = rms(shifted[half:] - run[half:]) / _std(record)
     return not np.all(np.isfinite(spread)) or bool(np.any(spread > SENSITIVITY_LIMIT))
 
 
@@ -264,22 +273,27 @@ def judged(
     over the blocks; a candidate whose pooled error is larger than the current model's is marked ``rejected``
     and the next passing one judged, up to ``max_judged``. ``None`` is accepted when none holds.
     """
-    records = [record for _, record in blocks]
+    records = [with_velocity(record) for _, record in blocks]  # each velocity estimated once for every run
     fits = [_fit(current, data, M) for data, _ in blocks]
+    runs = [_run(fit, r) for fit, r in zip(fits, records, strict=True)]
     steps = [prediction_steps(fit, r.fs) for fit, r in zip(fits, records, strict=True)]
-    chaos = [_chaotic(fit, r) for fit, r in zip(fits, records, strict=True)]
+    chaos = [_chaotic(*x) for x in zip(fits, records, runs, strict=True)]
     before: dict[bool, float] = {}  # k-step or free run -> the current model's pooled error
 
-    def pooled(models, ahead: bool) -> float:
-        runs = zip(models, records, steps, strict=True)
-        return float(np.mean([_prediction_error(m, r, k if ahead else None) for m, r, k in runs]))
+    def pooled(models, ahead: bool, free: list) -> float:
+        errors = [
+            prediction_percent(m, r, k if ahead else None, run)
+            for m, r, k, run in zip(models, records, steps, free, strict=True)
+        ]
+        return float(np.mean([np.mean(e) for e in errors]))
 
     for _ in range(max_judged):
         new = with_accepted(current, accepted)
         models = [_fit(new, data, M) for data, _ in blocks]
+        free = [_run(m, r) for m, r in zip(models, records, strict=True)]
         # one chaotic free run (either model, either block) and the k-step prediction judges every block: the
         # same dynamics on the other block are just as sensitive, however its two runs happened to stay together
-        chaotic = any(chaos) or any(_chaotic(m, r) for m, r in zip(models, records, strict=True))
+        chaotic = any(chaos) or any(_chaotic(*x) for x in zip(models, records, free, strict=True))
         if chaotic and any(e.term.is_memory for e in new):
             # a k-step run would start each memory state (Bouc-Wen's, Dahl's) at zero, not where the measured
             # motion left it: no fair judge of such a model, so the equation error decides alone
@@ -287,8 +301,8 @@ def judged(
             kept = replace(accepted, reason=f"{accepted.reason}{note}")
             return tuple(kept if e is accepted else e for e in ranking), kept
         if chaotic not in before:
-            before[chaotic] = pooled(fits, chaotic)
-        b, a = before[chaotic], pooled(models, chaotic)
+            before[chaotic] = pooled(fits, chaotic, runs)
+        b, a = before[chaotic], pooled(models, chaotic, free)
         how = "k-step prediction (a free run is chaotic)" if chaotic else "free run"
         said = f"cross-fitted held-out {how} {b:.3g} -> {a:.3g} % of std(z)"
         if a <= b:

@@ -45,13 +45,15 @@ def scripted(monkeypatch):
     def fit(elements, data, M):
         return elements
 
-    def error(model, record, steps):
-        return errors[", ".join(sorted(model.names))]
+    def error(model, record, steps, run=None):
+        return np.array([errors[", ".join(sorted(model.names))]])
 
     monkeypatch.setattr(structure_accept, "_fit", fit)
-    monkeypatch.setattr(structure_accept, "_chaotic", lambda model, record: False)
+    monkeypatch.setattr(structure_accept, "with_velocity", lambda record: record)
+    monkeypatch.setattr(structure_accept, "_run", lambda model, record, shift=0.0: None)
+    monkeypatch.setattr(structure_accept, "_chaotic", lambda model, record, run: False)
     monkeypatch.setattr(structure_accept, "prediction_steps", lambda model, fs: 10)
-    monkeypatch.setattr(structure_accept, "_prediction_error", error)
+    monkeypatch.setattr(structure_accept, "prediction_percent", error)
     return errors
 
 
