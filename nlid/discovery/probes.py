@@ -25,6 +25,14 @@ probe               what it is given (besides a constant)
                     2, 4 and 8 periods of the equation band (an unmodelled mode, a
                     viscoelastic force); its fraction is what the history adds to the
                     static functions of (z, v)
+``time``            every static function of (z, v) plus Legendre polynomials of time, degree
+                    1-:data:`TIME_DEGREE`, across each record: a drift (a sensor's offset
+                    creeping, a temperature) or a parameter that changes during the record.
+                    A function of time fitted on one record cannot predict another, so this
+                    probe is cross-fitted *within* each record, over :data:`TIME_BLOCKS`
+                    interleaved blocks (fit on the even blocks, score on the odd ones, and the
+                    reverse); its fraction is what time adds to the static functions under the
+                    same split, averaged over both records
 ==================  =====================================================================
 
 A probe finds structure when its fraction reaches :data:`MIN_STRUCTURE`
@@ -53,7 +61,7 @@ __all__ = ["MIN_STRUCTURE", "PROBES", "ProbeResult", "Remaining", "probe_residua
 #: Smallest cross-fitted held-out fraction of the residual variance that counts as structure.
 MIN_STRUCTURE = 0.05
 #: Probe names, in report order.
-PROBES = ("z", "v", "z,v", "acceleration", "force-rate", "memory")
+PROBES = ("z", "v", "z,v", "acceleration", "force-rate", "memory", "time")
 #: Widths of the play operators, as multiples of std(z).
 PLAY_WIDTHS = (0.05, 0.15, 0.4, 1.0)
 #: Lags of z and v, in periods of the equation band.
@@ -63,7 +71,13 @@ LAG_PERIODS = (1, 2, 4, 8)
 #: the fractions of real structure change by under 0.01).
 RIDGE = 0.01
 #: Probes counted by what they add to every static function of (z, v).
-INCREMENTAL = ("acceleration", "force-rate", "memory")
+INCREMENTAL = ("acceleration", "force-rate", "memory", "time")
+#: Highest degree of the ``time`` probe's polynomials (3: a ramp, a bow and an S across the record; a drift slow
+#: against the record's length).
+TIME_DEGREE = 3
+#: Interleaved blocks of each record over which the ``time`` probe is cross-fitted (8: a gap of 1/8 of the record
+#: between the blocks a cubic in time is fitted on, which it bridges without extrapolating).
+TIME_BLOCKS = 8
 
 
 @dataclass(frozen=True)
@@ -269,27 +283,48 @@ def probe_residual(estimation: Residual, holdout: Residual, threshold: float = M
     raw: dict[str, tuple[float, float]] = {}
     columns: dict[str, int] = {}
     for name in (*PROBES, "static"):
+        if name == "time":  # cross-fitted within each record (module docstring)
+            raw[name] = (_time_gain(ph_h, holdout.r), _time_gain(pe_e, estimation.r))
+            continue
         x_fit = _design(pe_e, name)
         columns[name] = x_fit.shape[1]
         ho = _explained(x_fit, estimation.r, _design(ph_e, name), holdout.r, skip)
         del x_fit
         es = _explained(_design(ph_h, name), holdout.r, _design(pe_h, name), estimation.r, skip)
         raw[name] = (ho, es)
+    columns["time"] = columns["static"] + TIME_DEGREE
     # what the acceleration, the force rate and the history add to every static function of (z, v);
-    # a static fit that predicts nothing counts as 0
+    # a static fit that predicts nothing counts as 0 (time's gain is already an increment, under its own split)
     base_ho, base_es = (max(x, 0.0) for x in raw["static"])
     for name in PROBES:
         ho, es = raw[name]
-        if name in INCREMENTAL:
+        if name in INCREMENTAL and name != "time":
             ho, es = ho - base_ho, es - base_es
         value = 0.5 * (ho + es)
         results[name] = ProbeResult(name, value, ho, es, columns[name], value >= threshold)
     total = {n: results[n].explained for n in PROBES}
-    total.update({n: 0.5 * sum(raw[n]) for n in INCREMENTAL})
+    total.update({n: 0.5 * sum(raw[n]) for n in INCREMENTAL if n != "time"})
     structured = any(r.structured for r in results.values())
     scale = float(np.sqrt(np.mean(holdout.r**2)) / max(np.sqrt(np.mean(holdout.f**2)), 1e-300))
     dominant = _dominant(results) if structured else None
     return Remaining(structured, max(total.values()), dominant, results, threshold, scale)
+
+
+def _time_gain(parts: dict[str, Any], r: np.ndarray) -> float:
+    """What polynomials of time add to the static functions of (z, v) in predicting ``r`` (one record).
+
+    The record is cut into :data:`TIME_BLOCKS` blocks; both designs are fitted on the even blocks and scored on
+    the odd ones, and the reverse; the gain is the mean difference of the fractions predicted.
+    """
+    static = _design(parts, "static")
+    time = _legendre(np.linspace(-1.0, 1.0, r.size), range(1, TIME_DEGREE + 1))
+    both = np.column_stack([static, time])
+    even = (np.arange(r.size) * TIME_BLOCKS // r.size) % 2 == 0
+    gain = 0.0
+    for fit, test in ((even, ~even), (~even, even)):
+        gain += _explained(both[fit], r[fit], both[test], r[test], 0)
+        gain -= _explained(static[fit], r[fit], static[test], r[test], 0)
+    return 0.5 * gain
 
 
 #: A simpler probe is named dominant when it explains within this much of a richer one.
@@ -316,6 +351,8 @@ _WHERE = {
     "force-rate": "the force's rate of change: the force and the motion are skewed in time",
     "memory": "the motion's history beyond the instantaneous (z, v): an effect with memory "
     "(hysteresis, pre-sliding friction, an unmodelled mode)",
+    "time": "time itself, beyond any function of (z, v): a drift (a sensor's offset creeping, a temperature) or a "
+    "parameter that changes during the record",
 }
 _TRY = {
     "z": "try stiffness candidates (gap, stop, z^5) or a candidate of your own",
@@ -324,6 +361,8 @@ _TRY = {
     "acceleration": "let the method estimate the mass (omit it) or check the value given",
     "force-rate": "check the channels' synchronisation (anti-aliasing filters, sample-and-hold) and align them",
     "memory": "try hysteretic terms (bouc_wen(a, b), dahl(rho)) or a model with more states",
+    "time": "check the sensors for drift (detrend or high-pass a drifting displacement before identifying) and "
+    "identify on parts short enough to be stationary",
 }
 
 

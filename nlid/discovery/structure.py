@@ -249,11 +249,7 @@ def discover_structure(
     search = Search(parts, M, rule, n)
     say(f"fitting the declared model ({elements0 or 'linear system only'}) on {n} DOFs")
     search.equations(elements0)
-    declared_fit = search.selection_fit()
-    rss = search.parts["estimation"].eq.rss(declared_fit.p) + search.parts["holdout"].eq.rss(declared_fit.p)
-    samples = parts["estimation"].data.z.shape[0] + parts["holdout"].data.z.shape[0]
-    sigma2 = np.maximum(rss / samples, 1e-300)
-    search.weights = 1.0 / sigma2
+    sigma2 = search.reweight()
 
     def stage(label: str):
         return _stage(search.model(), label, moving, test_data, parts, simulate)
@@ -290,6 +286,7 @@ def discover_structure(
         before = stages[-1]
         current = with_accepted(current, accepted)
         search.equations(current)
+        search.reweight()
         after = stage(f"after step {number}: {accepted.effect} on {accepted.where}")
         stages.append(after)
         steps.append(StructureStep(number, accepted, before, after, ranking))

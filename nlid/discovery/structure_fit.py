@@ -118,6 +118,20 @@ class Search:
             part.data = part.data.with_elements(elements)
             part.eq = NormalEquations(part.data, self.M, elements)
 
+    def reweight(self) -> np.ndarray:
+        """Weight each DOF by the inverse of its residual variance under the current model; returns the variances.
+
+        The joint fit is then a feasible generalised least squares: a DOF whose balance the model leaves noisier
+        counts less. Called on the declared model and again after each accepted step, so that a DOF whose misfit
+        the step removed is not left weighted by the misfit it no longer has.
+        """
+        fit = self.selection_fit()
+        est, ho = self.parts["estimation"], self.parts["holdout"]
+        rss = est.eq.rss(fit.p) + ho.eq.rss(fit.p)
+        sigma2 = np.maximum(rss / (est.data.z.shape[0] + ho.data.z.shape[0]), 1e-300)
+        self.weights = 1.0 / sigma2
+        return sigma2
+
     def cross_scores(self, extras_by_part: Mapping[str, Sequence[Any]] | None) -> dict[str, Any]:
         """Fit on each of estimation/held-out and score on the other: the per-DOF RSS of both directions."""
         est, ho = self.parts["estimation"], self.parts["holdout"]

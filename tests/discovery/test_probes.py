@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
 import pytest
 
 import nlid
@@ -57,6 +58,20 @@ def test_each_probe_names_its_kind_of_missing_effect(case, probe):
             {k: round(p.explained, 3) for k, p in remaining.probes.items()},
         )
         assert remaining.probes[probe].explained >= MIN_STRUCTURE
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("well", ["double", "single"])
+def test_a_drifting_displacement_sensor_is_named_by_the_time_probe(well):
+    """z drifting by 10 % of its standard deviation over the record (issue 31's probe: called clean before):
+    no function of (z, v) predicts it, a function of time does."""
+    preset, declared = build_case(well, "none")
+    for seed in (5, 6):
+        record = preset.simulate(seed, noise={"z": 0.02}, channels=("z",))
+        drift = 0.1 * np.std(record.z) * np.linspace(0.0, 1.0, record.z.size)
+        remaining = _probe(record.replace(z=record.z + drift), declared, preset.mass)
+        assert remaining.dominant == "time", {k: round(p.explained, 3) for k, p in remaining.probes.items()}
+        assert remaining.probes["time"].explained >= MIN_STRUCTURE and "drift" in describe_remaining(remaining)
 
 
 def test_the_json_object_and_the_sentence():
