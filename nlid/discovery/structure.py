@@ -242,11 +242,11 @@ def discover_structure(
     def data(part: StructureRecord):
         return structure_regression_data(part, elements0, cutoff=fc)
 
-    parts = {"estimation": Part(data(estimation)), "holdout": Part(data(held))}
+    parts = {"estimation": Part(data(estimation), record=estimation), "holdout": Part(data(held), record=held)}
     test_data = data(test_record)
     # the state every free run on the test part starts from, its velocities estimated once
     moving = with_velocity(test_record) if simulate else test_record
-    search = Search(parts, M, rule, n)
+    search = Search(parts, M, rule, n, cutoff=fc)
     say(f"fitting the declared model ({elements0 or 'linear system only'}) on {n} DOFs")
     search.equations(elements0)
     sigma2 = search.reweight()

@@ -47,6 +47,8 @@ class Part:
 
     data: StructureRegressionData
     eq: Any = None
+    #: The part's record, when the probes' null is wanted (:func:`nlid.discovery.structure_probes.probe_null`).
+    record: Any = None
 
 
 def relative(data: StructureRegressionData, c: Connection) -> tuple[np.ndarray, np.ndarray]:
@@ -106,8 +108,8 @@ def per_dof(after_h, before_h, after_e, before_e) -> tuple[float, ...]:
 class Search:
     """The state shared by the rounds of one search: the parts, the mass matrix and the DOFs' weights."""
 
-    def __init__(self, parts: dict[str, Part], M: np.ndarray, rule: Any, n: int):
-        self.parts, self.M, self.rule, self.n = parts, M, rule, n
+    def __init__(self, parts: dict[str, Part], M: np.ndarray, rule: Any, n: int, cutoff: float | None = None):
+        self.parts, self.M, self.rule, self.n, self.cutoff = parts, M, rule, n, cutoff
         self.weights = np.ones(n)
         self.elements: ElementSet | None = None
 

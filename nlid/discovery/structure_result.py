@@ -245,7 +245,11 @@ class StructureStep:
 
 @dataclass(frozen=True)
 class ConnectionProbe:
-    """A remaining-structure probe on one connection: the cross-fitted held-out fraction it predicts."""
+    """A remaining-structure probe on one connection: the cross-fitted held-out fraction it predicts.
+
+    Its fractions are counted beyond ``null``: what the same probe finds on the current model simulated at the
+    record's noise (:func:`nlid.discovery.structure_probes.probe_null`; 0 when there is no null).
+    """
 
     connection: Connection
     probe: str
@@ -253,6 +257,7 @@ class ConnectionProbe:
     explained_holdout: float
     explained_estimation: float
     columns: int
+    null: float = 0.0
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-friendly dictionary."""
@@ -264,6 +269,7 @@ class ConnectionProbe:
             "explained_holdout": self.explained_holdout,
             "explained_estimation": self.explained_estimation,
             "columns": self.columns,
+            "null": self.null,
         }
 
 
