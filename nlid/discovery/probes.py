@@ -56,7 +56,17 @@ from numpy.polynomial import legendre
 
 from ..scoring import Residual
 
-__all__ = ["MIN_STRUCTURE", "PROBES", "ProbeResult", "Remaining", "probe_residual", "describe_remaining"]
+__all__ = [
+    "MIN_STRUCTURE",
+    "PROBES",
+    "TIME_DEGREE",
+    "TIME_BLOCKS",
+    "ProbeResult",
+    "Remaining",
+    "probe_residual",
+    "describe_remaining",
+    "time_gain",
+]
 
 #: Smallest cross-fitted held-out fraction of the residual variance that counts as structure.
 MIN_STRUCTURE = 0.05
@@ -311,19 +321,26 @@ def probe_residual(estimation: Residual, holdout: Residual, threshold: float = M
 
 
 def _time_gain(parts: dict[str, Any], r: np.ndarray) -> float:
-    """What polynomials of time add to the static functions of (z, v) in predicting ``r`` (one record).
+    """What polynomials of time add to the static functions of (z, v) in predicting ``r`` (one record)."""
+    return time_gain(r, _design(parts, "static"))
+
+
+def time_gain(r: np.ndarray, static: np.ndarray | None = None) -> float:
+    """What polynomials of time (degree 1-:data:`TIME_DEGREE` across the record) add to ``static`` (columns; none:
+    a constant only) in predicting ``r``, cross-fitted within the record.
 
     The record is cut into :data:`TIME_BLOCKS` blocks; both designs are fitted on the even blocks and scored on
     the odd ones, and the reverse; the gain is the mean difference of the fractions predicted.
     """
-    static = _design(parts, "static")
+    static = np.empty((r.size, 0)) if static is None else static
     time = _legendre(np.linspace(-1.0, 1.0, r.size), range(1, TIME_DEGREE + 1))
     both = np.column_stack([static, time])
     even = (np.arange(r.size) * TIME_BLOCKS // r.size) % 2 == 0
     gain = 0.0
     for fit, test in ((even, ~even), (~even, even)):
         gain += _explained(both[fit], r[fit], both[test], r[test], 0)
-        gain -= _explained(static[fit], r[fit], static[test], r[test], 0)
+        if static.shape[1]:
+            gain -= _explained(static[fit], r[fit], static[test], r[test], 0)
     return 0.5 * gain
 
 

@@ -147,6 +147,7 @@ class Search:
             "on_estimation": est.eq.rss(fit_h.p, extras, cols["estimation"]),
             "in_estimation": fit_e.rss,
             "fit_estimation": fit_e,
+            "fit_holdout": fit_h,
         }
 
     def selection_fit(self, extras: Sequence[Extra] = (), columns: Mapping[str, Any] | None = None) -> JointFit:

@@ -6,7 +6,8 @@ flexible functions of each connection's relative displacement (Legendre polynomi
 candidates; one that explains :data:`~nlid.discovery.probes.MIN_STRUCTURE` or more of the held-out residual
 of its DOFs counts as remaining structure. Two probes of each DOF find what no connection carries
 (:data:`~nlid.discovery.structure_result.DOF_PROBES`): its acceleration (a mass matrix wrong on that DOF) and
-the force's neighbouring samples (a force acting delayed, early or filtered). Both are counted beyond what they
+the force's neighbouring samples (a force acting delayed, early or filtered); a third, polynomials of time
+fitted within each part (:func:`nlid.discovery.probes.time_gain`), finds a drift. All are counted beyond what they
 find on the current model simulated at the record's noise (:func:`probe_null`), where nothing is missing; so
 are the connections' probes.
 """
@@ -19,7 +20,7 @@ import numpy as np
 
 from ..errors import NlidError
 from ..estimation.joint import Extra
-from .probes import PLAY_WIDTHS, _legendre
+from .probes import PLAY_WIDTHS, TIME_DEGREE, _legendre, time_gain
 from .structure_fit import Part, Search, connection_columns, connectivity, fraction, relative
 from .structure_result import DOF_PROBES, ConnectionProbe, StructureRemaining
 
@@ -88,6 +89,11 @@ def _fractions(search: Search, conns) -> dict[tuple[Any, str], tuple[float, floa
     linear = {part: _linear_acceleration(d.data, fit.K, fit.C, search.M) for part, d in (("e", est), ("h", ho))}
     for k in range(1, n + 1):
         for probe in DOF_PROBES:
+            if probe == "time":  # a drift: within each part, its residual under the other part's fit
+                a = time_gain(search.residual(ho, fit, k - 1))
+                b = time_gain(search.residual(est, base["fit_holdout"], k - 1))
+                out[((k, 0), probe)] = (float(a), float(b), TIME_DEGREE)
+                continue
             col_e, col_h = _dof_columns(probe, est.data, k, linear["e"]), _dof_columns(probe, ho.data, k, linear["h"])
             if col_e is not None and col_h is not None:
                 score(((k, 0), probe), col_e, col_h, [k - 1])

@@ -276,12 +276,14 @@ class ConnectionProbe:
 _WHAT = {"z": "the relative displacement", "v": "the relative velocity", "memory": "the history of the displacement"}
 #: Probes of one DOF's residual for what no connection carries (:func:`nlid.discovery.structure._dof_columns`):
 #: a wrong mass, the force's path. Each with what it finds and its likely cause.
-DOF_PROBES = ("acceleration", "force")
+DOF_PROBES = ("acceleration", "force", "time")
 _DOF_WHAT = {
     "acceleration": "its acceleration: the mass matrix given is likely wrong there (check its values and their "
     "units, kg; and the units of the displacements and forces)",
     "force": "the force's neighbouring samples: an effect in the force's path (the force acting delayed, early or "
     "filtered), or a mass matrix wrong there",
+    "time": "time itself: a drift (a displacement sensor's offset creeping, a temperature) or a parameter that "
+    "changes during the record; check the sensors for drift and identify on parts short enough to be stationary",
 }
 
 
@@ -317,8 +319,8 @@ class StructureRemaining:
         where = f"DOF {best.connection[0]}" if best.probe in DOF_PROBES else _connection_name(best.connection)
         if not self.structured:
             return (
-                f"clean: no flexible function of a connection, and neither a DOF's acceleration nor its force's "
-                f"neighbouring samples, predicts {100 * self.threshold:g} % or more of the "
+                f"clean: no flexible function of a connection, and neither a DOF's acceleration, its force's "
+                f"neighbouring samples nor time, predicts {100 * self.threshold:g} % or more of the "
                 f"held-out residual of its DOFs (largest: {best.probe} on {where}, "
                 f"{100 * max(best.explained, 0.0):.2g} %)"
             )

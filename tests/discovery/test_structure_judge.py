@@ -180,6 +180,20 @@ def test_noise_on_the_displacements_is_not_named_as_a_wrong_mass_or_a_delayed_fo
 
 
 @pytest.mark.slow
+def test_a_drifting_displacement_sensor_is_named_on_its_dof(chain):
+    """z2 drifting by 5 % of its standard deviation over the record, velocities and accelerations estimated
+    from it: no element of any connection holds it, and it was called clean; the time probe names DOF 2."""
+    record, M = chain
+    z = np.asarray(record.z).copy()
+    z[:, 1] += 0.05 * z[:, 1].std() * np.linspace(0.0, 1.0, z.shape[0])
+    result = discover_structure(dataclasses.replace(record, z=z, v=None, a=None), "z3^3", mass=M, max_steps=1,
+                                simulate=False)  # fmt: skip
+    best = result.remaining.best
+    assert (best.connection, best.probe) == ((2, 0), "time") and best.explained > 0.2
+    assert "drift" in result.stop_reason and "clean" not in result.stop_reason
+
+
+@pytest.mark.slow
 def test_a_mass_ten_percent_off_is_named(chain):
     record, M = chain
     M = M.copy()
