@@ -258,6 +258,10 @@ class ConnectionProbe:
     explained_estimation: float
     columns: int
     null: float = 0.0
+    #: The acceleration probe's correction of its DOF's mass (kg; its sign is what to read:
+    #: :func:`nlid.discovery.structure_probes.mass_corrections`) and the mass given; ``None`` for the other probes.
+    mass_change: float | None = None
+    given_mass: float | None = None
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-friendly dictionary."""
@@ -270,6 +274,8 @@ class ConnectionProbe:
             "explained_estimation": self.explained_estimation,
             "columns": self.columns,
             "null": self.null,
+            "mass_change": self.mass_change,
+            "given_mass": self.given_mass,
         }
 
 
@@ -325,9 +331,13 @@ class StructureRemaining:
                 f"{100 * max(best.explained, 0.0):.2g} %)"
             )
         if best.probe in _DOF_WHAT:
+            said = ""
+            if best.mass_change is not None and best.given_mass is not None and best.probe == "acceleration":
+                way = "smaller" if best.mass_change < 0 else "larger"
+                said = f" (the data ask for a {way} mass there than the {best.given_mass:.4g} kg given)"
             return (
                 f"{100 * best.explained:.2g} % of the held-out residual of DOF {best.connection[0]} remains "
-                f"predictable from {_DOF_WHAT[best.probe]}"
+                f"predictable from {_DOF_WHAT[best.probe]}{said}"
             )
         return (
             f"{100 * best.explained:.2g} % of the held-out residual of the DOFs of connection {where} remains "

@@ -201,6 +201,10 @@ def test_a_mass_ten_percent_off_is_named(chain):
     result = discover_structure(record, "z3^3", mass=M, max_steps=0, simulate=False)
     connection, found, explained = _largest(result)
     assert (connection, found) == ((1, 0), "acceleration") and explained > 0.3
+    assert "the data ask for a smaller mass there than the 1.1 kg given" in result.stop_reason
+    # given x0.5 everywhere: a larger mass asked for
+    result = discover_structure(record, "z3^3", mass=0.5 * np.asarray(chain[1]), max_steps=0, simulate=False)
+    assert "the data ask for a larger mass there" in result.stop_reason
 
 
 def test_a_structure_refinement_that_fails_leaves_the_search_result(chain, monkeypatch):
