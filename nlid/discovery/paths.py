@@ -10,7 +10,9 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-__all__ = ["InputPathCandidate", "INPUT_PATH", "INPUT_PATH_GRID"]
+from ..data.forcehold import force_hold_source
+
+__all__ = ["InputPathCandidate", "INPUT_PATH", "INPUT_PATH_GRID", "HALF_SAMPLE", "held_force_note"]
 
 
 @dataclass(frozen=True)
@@ -95,3 +97,25 @@ INPUT_PATH: tuple[InputPathCandidate, ...] = (
         "the force is held between samples where the record says band-limited, or the reverse",
     ),
 )
+
+
+#: Delays and lags (in samples) that a force held over each sample (zoh) and read as sampled looks like: half a
+#: sample, give or take (:func:`held_force_note`).
+HALF_SAMPLE = (0.35, 0.65)
+
+
+def held_force_note(path, record) -> str:
+    """A note when an accepted delay or lag is about half a sample on a record that does not say how its force was
+    held: a force held over each sample and read as band-limited acts half a sample late (issue 31's probe: such a
+    record was given a lag of 0.51 samples and no word about the hold)."""
+    if path is None or force_hold_source(record.meta) != "default" or record.force_hold != "sampled":
+        return ""
+    for what, seconds in (("delay", path.delay), ("lag", path.lag)):
+        samples = float(seconds) * record.fs
+        if HALF_SAMPLE[0] <= samples <= HALF_SAMPLE[1]:
+            return (
+                f"a {what} of {samples:.2g} samples is what a force held constant over each sample looks like when "
+                "it is read as a sampled, band-limited signal, and the record does not say how its force was held: "
+                "if it was held (a DAC's output, a simulation), give force_hold='zoh' and run again"
+            )
+    return ""

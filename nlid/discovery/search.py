@@ -51,7 +51,7 @@ from .evidence import AcceptanceRule, Evidence, acceptance_rule, judge
 from .inputs import DEFAULT_HOLDOUT, CandidateLibrary, Split
 from .judge import Judge, judging_options
 from .library import Candidate
-from .paths import InputPathCandidate
+from .paths import InputPathCandidate, held_force_note
 from .probes import MIN_STRUCTURE, describe_remaining
 from .result import DiscoveryResult, Stage, Step
 from .state import SearchSetup, SearchState
@@ -364,6 +364,9 @@ class Discovery:
                 f"{unit}; {mass_hint(current.mass, after.mass, unit)}); the mass is estimated "
                 "from here on"
             )
+        held = held_force_note(after.path, ctx.estimation)
+        if held:
+            notes.append(held)
         if after.model.uses_px:
             # re-identify with the px(z) fixed point instead of the screening's fixed roots
             try:

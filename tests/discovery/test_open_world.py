@@ -92,3 +92,21 @@ def test_a_declared_model_without_its_spring_gets_it_back():
     found = result.final.coefficients
     assert set(found) == set(truth)
     assert all(found[k] == pytest.approx(truth[k], rel=0.02) for k in truth), found
+
+
+@pytest.mark.parametrize(
+    "delay_samples, meta, noted",
+    [(0.5, {}, True), (0.42, {}, True), (2.0, {}, False), (0.5, {"force_hold": "sampled"}, False)],
+)
+def test_half_a_sample_on_a_record_silent_about_its_hold_is_said_to_look_like_a_held_force(delay_samples, meta, noted):
+    """Issue 31's probe: a z-only record of a held force, read without its sidecar, was given a lag of 0.51
+    samples and no word about the hold."""
+    from nlid.discovery.paths import held_force_note
+    from nlid.estimation.inputpath import InputPath
+
+    record = nlid.simulate("paper-numerical", seed=1, duration=1.0)
+    record = nlid.Record(f=record.f, z=record.z, fs=record.fs, meta=meta)
+    note = held_force_note(InputPath(delay=delay_samples / record.fs), record)
+    assert bool(note) is noted and (not noted or "force_hold='zoh'" in note)
+    lag = held_force_note(InputPath(lag=delay_samples / record.fs), record)
+    assert bool(lag) is noted
