@@ -52,9 +52,10 @@ def _probe_columns(probe: str, x: np.ndarray, xd: np.ndarray, scale: tuple[float
 def remaining_structure(search: Search, conns, threshold: float) -> StructureRemaining:
     """Flexible functions of each connection's coordinate, and the DOF probes, cross-fitted on the current model's
     residual and counted beyond what they find on the model simulated at the record's noise (:func:`probe_null`)."""
-    found = _fractions(search, conns)
+    linear = _linear(search)
+    found = _fractions(search, conns, linear)
     null = probe_null(search, conns)
-    dm = mass_corrections(search)
+    dm = mass_corrections(search, linear)
     out = []
     for (c, probe), (a, b, columns) in found.items():
         a0, b0 = (max(x, 0.0) for x in null.get((c, probe), (0.0, 0.0))[:2])
@@ -66,7 +67,7 @@ def remaining_structure(search: Search, conns, threshold: float) -> StructureRem
     return StructureRemaining(tuple(out), float(threshold))
 
 
-def mass_corrections(search: Search) -> np.ndarray | None:
+def mass_corrections(search: Search, linear: dict[str, np.ndarray | None] | None = None) -> np.ndarray | None:
     """The correction ``dm_k`` of each DOF's mass the data ask for, fitted together with the model (the
     acceleration probe's columns on all DOFs at once); the mean of the two parts' fits (kg); ``None`` when the
     linear system's response to the force is not finite.
@@ -77,9 +78,7 @@ def mass_corrections(search: Search) -> np.ndarray | None:
     the stiffnesses take up part of the error.
     """
     n = search.n
-    est, ho = search.parts["estimation"], search.parts["holdout"]
-    fit = search.cross_scores(None)["fit_estimation"]
-    lin_e, lin_h = (_linear_acceleration(d.data, fit.K, fit.C, search.M) for d in (est, ho))
+    lin_e, lin_h = (linear or _linear(search))["estimation"], (linear or _linear(search))["holdout"]
     if lin_e is None or lin_h is None:
         return None
     extras = [Extra(lin_e[:, k : k + 1], connectivity((k + 1, 0), n)) for k in range(n)]
@@ -93,9 +92,17 @@ def mass_corrections(search: Search) -> np.ndarray | None:
     return dm
 
 
-def _fractions(search: Search, conns) -> dict[tuple[Any, str], tuple[float, float, int]]:
+def _linear(search: Search) -> dict[str, np.ndarray | None]:
+    """Each part's accelerations as the linear system fitted on the estimation part gives them its force."""
+    fit = search.cross_scores(None)["fit_estimation"]
+    return {name: _linear_acceleration(p.data, fit.K, fit.C, search.M) for name, p in search.parts.items()}
+
+
+def _fractions(
+    search: Search, conns, linear: dict[str, np.ndarray | None] | None = None
+) -> dict[tuple[Any, str], tuple[float, float, int]]:
     """Each probe's cross-fitted fractions (held-out, estimation) of its DOFs' residual, and its columns, keyed by
-    (connection, probe); the DOF probes on ``(k, 0)``."""
+    (connection, probe); the DOF probes on ``(k, 0)``. ``linear``: :func:`_linear`, when already computed."""
     n, w = search.n, search.weights
     base = search.cross_scores(None)
     est, ho = search.parts["estimation"], search.parts["holdout"]
@@ -117,7 +124,7 @@ def _fractions(search: Search, conns) -> dict[tuple[Any, str], tuple[float, floa
             col_e, col_h = connection_columns(est.data, c, columns), connection_columns(ho.data, c, columns)
             score((c, probe), col_e, col_h, touched)
     fit = base["fit_estimation"]  # what no connection carries: the mass given and the force's path, DOF by DOF
-    linear = {part: _linear_acceleration(d.data, fit.K, fit.C, search.M) for part, d in (("e", est), ("h", ho))}
+    lin = linear or _linear(search)
     for k in range(1, n + 1):
         for probe in DOF_PROBES:
             if probe == "time":  # a drift: within each part, its residual under the other part's fit
@@ -125,12 +132,15 @@ def _fractions(search: Search, conns) -> dict[tuple[Any, str], tuple[float, floa
                 b = time_gain(search.residual(est, base["fit_holdout"], k - 1))
                 out[((k, 0), probe)] = (float(a), float(b), TIME_DEGREE)
                 continue
-            col_e, col_h = _dof_columns(probe, est.data, k, linear["e"]), _dof_columns(probe, ho.data, k, linear["h"])
+            col_e = _dof_columns(probe, est.data, k, lin["estimation"])
+            col_h = _dof_columns(probe, ho.data, k, lin["holdout"])
             if col_e is not None and col_h is not None:
                 score(((k, 0), probe), col_e, col_h, [k - 1])
     return out
 
 
+#: Frequencies per batch of the linear system's solves (:func:`_linear_acceleration`).
+SOLVE_CHUNK = 4096
 #: Seed of the noise the probes' null record is given (:func:`probe_null`): the same null on every run.
 NULL_SEED = 20261128
 
@@ -205,13 +215,17 @@ def _linear_acceleration(data, K: np.ndarray, C: np.ndarray, M: np.ndarray) -> n
     N, n = f.shape
     size = 2 * N
     w = 2 * np.pi * np.fft.rfftfreq(size, 1.0 / float(data.fs))
-    F = np.fft.rfft(f, n=size, axis=0)
-    Z = K[None, :, :] + 1j * w[:, None, None] * C[None, :, :] - (w**2)[:, None, None] * M[None, :, :]
-    try:
-        X = np.linalg.solve(Z, F[:, :, None])[:, :, 0]
-    except np.linalg.LinAlgError:
-        return None
-    a = np.fft.irfft(-(w**2)[:, None] * X, n=size, axis=0)[:N]
+    A = np.fft.rfft(f, n=size, axis=0)
+    for lo in range(0, w.size, SOLVE_CHUNK):  # (chunk, n, n) at a time: no n^2 N array
+        wc = w[lo : lo + SOLVE_CHUNK, None, None]
+        Z = K[None, :, :] + 1j * wc * C[None, :, :] - wc**2 * M[None, :, :]
+        try:
+            A[lo : lo + SOLVE_CHUNK] = (
+                -(wc[:, :, 0] ** 2) * np.linalg.solve(Z, A[lo : lo + SOLVE_CHUNK, :, None])[:, :, 0]
+            )
+        except np.linalg.LinAlgError:
+            return None
+    a = np.fft.irfft(A, n=size, axis=0)[:N]
     return a if np.all(np.isfinite(a)) else None
 
 
