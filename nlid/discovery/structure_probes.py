@@ -64,7 +64,7 @@ def remaining_structure(search: Search, conns, threshold: float) -> StructureRem
         if probe == "acceleration" and dm is not None:
             mass = {"mass_change": float(dm[c[0] - 1]), "given_mass": float(search.M[c[0] - 1, c[0] - 1])}
         out.append(ConnectionProbe(c, probe, 0.5 * (a + b), a, b, columns, 0.5 * (a0 + b0), **mass))
-    return StructureRemaining(tuple(out), float(threshold))
+    return StructureRemaining(tuple(out), float(threshold), null=bool(null))
 
 
 def mass_corrections(search: Search, linear: dict[str, np.ndarray | None] | None = None) -> np.ndarray | None:

@@ -299,6 +299,9 @@ class StructureRemaining:
 
     probes: tuple[ConnectionProbe, ...]
     threshold: float = MIN_STRUCTURE
+    #: Whether the probes were counted beyond a null (:func:`nlid.discovery.structure_probes.probe_null`); not when
+    #: the model's free run diverged.
+    null: bool = True
 
     @property
     def best(self) -> ConnectionProbe | None:
@@ -330,11 +333,12 @@ class StructureRemaining:
                 f"held-out residual of its DOFs (largest: {best.probe} on {where}, "
                 f"{100 * max(best.explained, 0.0):.2g} %)"
             )
+        unchecked = "" if self.null else " (not counted beyond noise: the model's simulated null diverged)"
         if best.probe in _DOF_WHAT:
-            said = ""
+            said = unchecked
             if best.mass_change is not None and best.given_mass is not None and best.probe == "acceleration":
                 way = "smaller" if best.mass_change < 0 else "larger"
-                said = f" (the data ask for a {way} mass there than the {best.given_mass:.4g} kg given)"
+                said = f" (the data ask for a {way} mass there than the {best.given_mass:.4g} kg given){unchecked}"
             return (
                 f"{100 * best.explained:.2g} % of the held-out residual of DOF {best.connection[0]} remains "
                 f"predictable from {_DOF_WHAT[best.probe]}{said}"
@@ -342,7 +346,7 @@ class StructureRemaining:
         return (
             f"{100 * best.explained:.2g} % of the held-out residual of the DOFs of connection {where} remains "
             f"predictable from {_WHAT[best.probe]} of that connection; try candidates of that kind there "
-            "(connections=, extra_candidates=)"
+            f"(connections=, extra_candidates=){unchecked}"
         )
 
     def to_dict(self) -> dict[str, Any]:
@@ -351,6 +355,7 @@ class StructureRemaining:
             "structured": self.structured,
             "explained": self.explained,
             "threshold": self.threshold,
+            "null": self.null,
             "text": self.describe(),
             "probes": [p.to_dict() for p in self.probes],
         }

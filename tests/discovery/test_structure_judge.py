@@ -218,3 +218,13 @@ def test_a_structure_refinement_that_fails_leaves_the_search_result(chain, monke
     record, M = chain
     result = discover_structure(record, "z3^3", mass=M, max_steps=0, simulate=False, refine=True)
     assert result.refined is None and "the refinement failed (oe: did not converge)" in result.summary()
+
+
+def test_without_a_null_the_probes_say_they_were_not_counted_beyond_noise(chain, monkeypatch):
+    import nlid.discovery.structure_probes as probes
+
+    record, M = chain
+    monkeypatch.setattr(probes, "probe_null", lambda search, conns: {})  # as when the model's free run diverges
+    result = discover_structure(record, "z3^3", mass=1.5 * M, max_steps=0, simulate=False)
+    assert result.remaining_declared.null is False and result.to_dict()["remaining_declared"]["null"] is False
+    assert "not counted beyond noise" in result.stop_reason
