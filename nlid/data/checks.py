@@ -28,6 +28,7 @@ from .units import Unit, parse_units, unit_of
 
 __all__ = [
     "TimeAxis",
+    "indexed_form",
     "CHANNELS",
     "MIN_SAMPLES",
     "TIME_TOLERANCE",
@@ -285,11 +286,21 @@ def uniform_step(t: np.ndarray) -> float:
     return step
 
 
+def indexed_form(z: Any, force_dofs: Any, indexed: bool | None) -> bool:
+    """Whether a record is built in its indexed form (a structure's channels ``z1 .. zn``).
+
+    ``indexed`` when given; else when ``force_dofs`` is given or ``z`` has more than one column (a
+    one-column ``z`` is squeezed to one DOF's 1-D channel, as it always was).
+    """
+    if indexed is not None:
+        return bool(indexed)
+    return force_dofs is not None or (np.ndim(z) == 2 and np.shape(z)[1] > 1)
+
+
 class TimeAxis:
-    """What every record shares (a mixin of the dataclasses :class:`~nlid.data.record.Record` and
-    :class:`~nlid.data.structure_record.StructureRecord`): its time axis (length, step, duration, sample
-    times), how its force was held, where each channel came from, and the copies that change its metadata
-    or keep part of its samples.
+    """The time axis of a :class:`~nlid.data.record.Record`, in either form (1-D channels or a structure's
+    ``(N, n)``): its length, step, duration and sample times, how its force was held, where each channel
+    came from, and the copies that change its metadata or keep part of its samples.
 
     The class defines ``n`` (samples), ``fs`` (Hz), ``t0`` (s), ``meta``, ``provenance`` and slicing by
     sample index (``record[i0:i1]``).
@@ -300,8 +311,6 @@ class TimeAxis:
     t0: float
     meta: Mapping[str, Any]
     provenance: Mapping[str, str]
-    #: Units may name single channels of a DOF (``z2``): a structure's.
-    _indexed = False
 
     @classmethod
     def from_time(cls, t: np.ndarray, f: np.ndarray, z: np.ndarray, **kwargs: Any) -> Self:
@@ -316,7 +325,8 @@ class TimeAxis:
             As for the record's class (``fs`` and ``t0`` are taken from ``t``);
             ``units={"t": "ms"}`` says that ``t`` is in ms.
         """
-        units = dict(parse_units(kwargs.pop("units", None), indexed=cls._indexed))
+        indexed = indexed_form(z, kwargs.get("force_dofs"), kwargs.get("indexed"))
+        units = dict(parse_units(kwargs.pop("units", None), indexed=indexed))
         time_unit = units.pop("t", None)
         t = real_array("t", t).squeeze()
         if time_unit is not None and not time_unit.is_si:
