@@ -36,6 +36,7 @@ __all__ = [
     "META_ALIASES",
     "RecordMeta",
     "checked_fields",
+    "checked_meta",
     "uniform_step",
     "real_array",
     "merge_units",
@@ -242,6 +243,15 @@ def checked_fields(
     si = dict(DEFAULT_UNITS)
     si.update({c: u.si for c, u in declared.items()})
     out["units"] = freeze(si)
+    return {**out, **checked_meta(meta, provenance, declared, n)}
+
+
+def checked_meta(
+    meta: Mapping[str, Any] | None, provenance: Mapping[str, str] | None, declared: Mapping[str, Unit], n: int
+) -> dict[str, Any]:
+    """A record's ``meta`` (a :class:`RecordMeta`, with ``input_units`` for each channel ``declared`` in a unit
+    other than SI) and ``provenance`` (read-only), checked: ``force_hold`` and ``periodic`` (of ``n`` samples).
+    """
     if meta and meta.get("force_hold", "sampled") not in ("sampled", "zoh"):
         raise DataError(f"meta['force_hold'] must be 'sampled' or 'zoh', got {meta['force_hold']!r}")
     periodic = meta.get("periodic") if meta else None
@@ -252,9 +262,7 @@ def checked_fields(
     if converted:
         meta = dict(meta or {})
         meta["input_units"] = {**dict(meta.get("input_units") or {}), **converted}
-    out["meta"] = RecordMeta.of(meta)
-    out["provenance"] = freeze(provenance)
-    return out
+    return {"meta": RecordMeta.of(meta), "provenance": freeze(provenance)}
 
 
 def uniform_step(t: np.ndarray) -> float:

@@ -72,7 +72,7 @@ from .checks import (
 )
 from .columnmap import channel_arrays, column_units, dataset_table, frame_table, split_indexed
 from .digest import record_sha256
-from .structure_tables import indexed_fields, record_from_table
+from .structure_tables import indexed_channels, indexed_fields
 from .units import parse_units
 
 if TYPE_CHECKING:  # pragma: no cover
@@ -219,18 +219,20 @@ class Record(TimeAxis):
             A malformed column map, both a time column and ``fs=``, a bad
             ``force_hold``, or a unit outside the vocabulary.
         """
-        if indexed:
-            return record_from_table(cls, table, columns, fs, force_hold, meta, units, source)
         named, label, noun = table_source(table, source)
-        given = merge_units(parse_units(units), column_units(columns))
-        arrays, table_fs = channel_arrays(named, columns, fs=fs, source=label, noun=noun)
+        if indexed:
+            kwargs, t, table_fs = indexed_channels(named, columns, fs, units, label, noun)
+        else:
+            given = merge_units(parse_units(units), column_units(columns))
+            arrays, table_fs = channel_arrays(named, columns, fs=fs, source=label, noun=noun)
+            kwargs = {"units": given, **{c: arrays[c] for c in CHANNELS if c in arrays}}
+            t = arrays.get("t")
         meta, loaded = loaded_meta(meta, force_hold, label, columns, fs)
-        kwargs: dict[str, Any] = {c: arrays[c] for c in CHANNELS if c in arrays}
         try:
-            if "t" in arrays:
-                record = cls.from_time(arrays["t"], meta=meta, units=given, **kwargs)
+            if t is not None:
+                record = cls.from_time(t, meta=meta, **kwargs)
             else:
-                record = cls(fs=table_fs, meta=meta, units=given, **kwargs)
+                record = cls(fs=table_fs, meta=meta, **kwargs)
         except DataError as exc:
             raise DataError(f"{label}: {exc}") from None
         return record.with_meta(loaded={**loaded, "record_sha256": record_sha256(record)})

@@ -4,7 +4,7 @@ A structure's record is a :class:`~nlid.data.record.Record` whose channels
 are indexed by DOF (``z1 .. zn``; :attr:`Record.indexed <nlid.data.record.Record.indexed>`),
 built by ``Record(f=..., z=...)`` from ``(N, n)`` arrays, with ``force_dofs=``
 or with ``indexed=True``. ``StructureRecord`` stays importable from here and
-from :mod:`nlid.plugin` until nlid 0.9 (CHANGELOG.md): calling it builds the
+from :mod:`nlid.plugin` until nlid 0.3 (CHANGELOG.md): calling it builds the
 indexed record, its ``from_record``, ``from_table``, ``from_frame`` and
 ``from_time`` do what they did, and ``isinstance(record, StructureRecord)`` is
 true of every indexed record (and of no other object), so that code written

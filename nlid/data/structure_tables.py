@@ -3,18 +3,17 @@
 :func:`indexed_fields` checks the fields of an indexed record on construction
 (the rules are in the docstring of :mod:`nlid.data.record`), as
 :func:`nlid.data.checks.checked_fields` does for 1-D channels.
-:func:`record_from_table` is the one path of every source of a structure
-record (files through :func:`nlid.data.io.read_record`, DataFrames, xarray
-Datasets and mappings through :func:`nlid.data.sources.as_record`), as
-:meth:`Record.from_table <nlid.data.record.Record.from_table>` is for one DOF: the
-column map is applied by :func:`nlid.data.columnmap.structure_arrays`, units are
-merged from ``units=`` and the map, and ``meta["loaded"]`` says where the
-record came from.
+:func:`indexed_channels` reads a table's indexed channels for
+:meth:`Record.from_table <nlid.data.record.Record.from_table>` (``indexed=True``),
+the one path of every source of a record (files through
+:func:`nlid.data.io.read_record`, DataFrames, xarray Datasets and mappings
+through :func:`nlid.data.sources.as_record`): the column map is applied by
+:func:`nlid.data.columnmap.structure_arrays` and units are merged from
+``units=`` and the map.
 """
 
 from __future__ import annotations
 
-import os
 from collections.abc import Mapping
 from typing import Any
 
@@ -22,12 +21,11 @@ import numpy as np
 
 from ..errors import DataError, InputError
 from ..signal import derivatives
-from .checks import CHANNELS, DEFAULT_UNITS, MIN_SAMPLES, RecordMeta, freeze, loaded_meta, table_source
+from .checks import CHANNELS, DEFAULT_UNITS, MIN_SAMPLES, checked_meta, freeze
 from .columnmap import column_units, split_indexed, structure_arrays
-from .digest import record_sha256
 from .units import Unit, parse_units, unit_of
 
-__all__ = ["indexed_fields", "record_from_table"]
+__all__ = ["indexed_fields", "indexed_channels"]
 
 
 def _units(spec: Any, n: int) -> dict[str, Unit]:
@@ -152,15 +150,7 @@ def indexed_fields(
             unit = declared.get(f"{name}{k}")
             si[f"{name}{k}"] = DEFAULT_UNITS[name] if unit is None else unit.si
     out["units"] = freeze(si)
-    if meta and meta.get("force_hold", "sampled") not in ("sampled", "zoh"):
-        raise DataError(f"meta['force_hold'] must be 'sampled' or 'zoh', got {meta['force_hold']!r}")
-    converted = {c: u.to_dict() for c, u in declared.items() if not u.is_si and c != "t"}
-    if converted:
-        meta = dict(meta or {})
-        meta["input_units"] = {**dict(meta.get("input_units") or {}), **converted}
-    out["meta"] = RecordMeta.of(meta)
-    out["provenance"] = freeze(provenance)
-    return out
+    return {**out, **checked_meta(meta, provenance, declared, N)}
 
 
 def _merge_units(given: Mapping[str, Any], mapped: Mapping[str, str]) -> dict[str, str]:
@@ -196,23 +186,18 @@ def _fill(arrays: dict[str, np.ndarray], group: str, n: int, fs: float | None, t
     return prov
 
 
-def record_from_table(
-    cls: type,
-    table: Mapping[str, Any],
-    columns: str | Mapping[str, str] | None,
-    fs: float | None,
-    force_hold: str | None,
-    meta: Mapping[str, Any] | None,
-    units: Mapping[str, str] | None,
-    source: str | os.PathLike[str],
-) -> Any:
-    """An indexed record from a table (:meth:`Record.from_table <nlid.data.record.Record.from_table>` with
-    ``indexed=True``)."""
-    named, label, noun = table_source(table, source)
+def indexed_channels(
+    named: Mapping[str, Any], columns: Any, fs: float | None, units: Any, label: str, noun: str
+) -> tuple[dict[str, Any], np.ndarray | None, float | None]:
+    """The channels of an indexed record in a table (:meth:`Record.from_table <nlid.data.record.Record.from_table>`
+    with ``indexed=True``; see :func:`nlid.data.columnmap.structure_arrays` for the map's rules).
+
+    Returns the keywords of the record (``f``, ``z``, ``v``, ``a``, ``force_dofs``, ``units`` and the
+    ``provenance`` of the DOFs' velocities or accelerations estimated because the table gives only some),
+    the time column (or ``None``) and the sampling frequency given or found.
+    """
     given = _merge_units(units or {}, column_units(columns))
-    arrays, table_fs = structure_arrays(named, columns, fs=fs, source=label, noun=noun)
-    meta, loaded = loaded_meta(meta, force_hold, label, columns, fs)
-    fs = table_fs
+    arrays, fs = structure_arrays(named, columns, fs=fs, source=label, noun=noun)
     n = max(k for c in arrays if (s := split_indexed(c)) and s[0] == "z" for k in (s[1],))
     lengths = {c: a.size for c, a in arrays.items()}
     if len(set(lengths.values())) > 1:
@@ -230,15 +215,10 @@ def record_from_table(
         "f": np.stack([arrays[f"f{k}"] for k in dofs], axis=1),
         "z": np.stack([arrays[f"z{k}"] for k in range(1, n + 1)], axis=1),
         "force_dofs": tuple(dofs),
-        "meta": meta,
         "provenance": provenance,
         "units": given,
     }
     for group in ("v", "a"):
         if f"{group}1" in arrays:
             kwargs[group] = np.stack([arrays[f"{group}{k}"] for k in range(1, n + 1)], axis=1)
-    try:
-        record = cls.from_time(arrays["t"], **kwargs) if "t" in arrays else cls(fs=fs, **kwargs)
-    except DataError as exc:
-        raise DataError(f"{label}: {exc}") from None
-    return record.with_meta(loaded={**loaded, "record_sha256": record_sha256(record)})
+    return kwargs, arrays.get("t"), fs
