@@ -25,7 +25,6 @@ from typing import TYPE_CHECKING, Any, cast
 
 from .data.record import Record
 from .data.sources import as_record
-from .data.structure_record import StructureRecord
 from .errors import InputError, NlidError, brief
 from .identification.pipeline import as_model, identify
 from .identified.model import IdentifiedModel
@@ -52,7 +51,7 @@ def load(
     fs: float | None = None,
     force_hold: str | None = None,
     units: str | Mapping[str, str] | None = None,
-) -> Record | StructureRecord:
+) -> Record:
     """Read a record from a file, a bundled benchmark, a DataFrame, an xarray Dataset or a mapping of arrays.
 
     Files and tables share one column map and one set of rules (a DataFrame
@@ -113,7 +112,7 @@ def simulate(
     noise: float | Mapping[str, float] = 0.0,
     channels: str | Sequence[str] = ("z", "v", "a"),
     **overrides: Any,
-) -> Record | StructureRecord:
+) -> Record:
     """A record simulated from a preset (:mod:`nlid.simulation.presets`), in one call.
 
     Parameters
@@ -209,7 +208,7 @@ def compare(
         An unknown method name, or an option value a method refuses, is refused before
         anything runs (:class:`~nlid.errors.InputError`, with a suggestion), whatever ``errors``.
 
-    On a :class:`~nlid.data.structure_record.StructureRecord` (several DOFs) ``terms`` are elements on
+    On an indexed :class:`~nlid.data.record.Record` (several DOFs) ``terms`` are elements on
     connections (``"z3^3, (z1-z2)^3"``, checked before any method runs) and the rows are
     each element's coefficient, the underlying linear modes (``m1``, ``m2``...) and each
     DOF's residual against the structure's reference (:mod:`nlid.identification.structure_compare`);
@@ -238,7 +237,7 @@ def compare(
 
     if errors not in ("record", "raise"):
         raise InputError(f"errors must be 'record' or 'raise', got {errors!r}")
-    structure = not isinstance(record, Record)  # several DOFs: elements on connections
+    structure = record.indexed  # several DOFs: elements on connections
     model = None if structure else as_model(terms, without=without, px_roots=px_roots)
     if isinstance(methods, str):
         methods = [m.strip() for m in methods.split(",") if m.strip()]
@@ -264,7 +263,7 @@ def compare(
         from .identification.structure_compare import compare_structure
 
         srows, sfits = compare_structure(
-            cast(StructureRecord, record),
+            record,
             terms,
             names,
             mass=mass,
@@ -276,10 +275,9 @@ def compare(
         frame = pd.DataFrame(srows, columns=FRAME_COLUMNS)
         frame.attrs["models"] = sfits
         return _said(frame, record)
-    record = cast(Record, record)
     ref = Reference.of(record, reference)
     rule = None if rule is None else rule_from_spec(rule)
-    if holdout is not None and not isinstance(holdout, Record):
+    if holdout is not None and not (isinstance(holdout, Record) and not holdout.indexed):
         if isinstance(holdout, (str, Path)):
             holdout = cast(Record, as_record(holdout))
         else:
@@ -349,7 +347,7 @@ def discover(
 ) -> DiscoveryResult | StructureDiscoveryResult:
     """Find the effects a declared model lacks (see :func:`nlid.discovery.discover` for the settings).
 
-    On a :class:`~nlid.data.structure_record.StructureRecord` (several DOFs) this is
+    On an indexed :class:`~nlid.data.record.Record` (several DOFs) this is
     :func:`nlid.discovery.structure.discover_structure`: ``declared`` are the
     declared elements (``"tanh(v3/0.001)"``), the settings are its own, and the
     result is a :class:`~nlid.discovery.structure_result.StructureDiscoveryResult`
@@ -363,7 +361,7 @@ def discover(
         ``.summary()``, ``.to_dict()``.
     """
     record = as_record(record)
-    if isinstance(record, StructureRecord):  # several DOFs: which connection lacks an element
+    if record.indexed:  # several DOFs: which connection lacks an element
         from .discovery.structure import discover_structure
 
         if method is not None:

@@ -17,8 +17,9 @@ The toolkit has four axes, which identifiers compose rather than re-implement:
   ``nlid_identifiers`` hook;
 * **data and terms**: :class:`Record`, :class:`Model`, :class:`Term`,
   :func:`parse_term`; for structures of several degrees of freedom (an
-  identifier declaring ``dofs = "multi"``) :class:`StructureRecord`,
-  :class:`ElementSet`, :class:`Element`, :class:`StructuralModel`,
+  identifier declaring ``dofs = "multi"``) a :class:`Record` in its indexed
+  form (:attr:`Record.indexed`; :class:`StructureRecord` is its deprecated
+  alias until 0.9), :class:`ElementSet`, :class:`Element`, :class:`StructuralModel`,
   :class:`StructureModes`, :func:`linear_modes` and the
   :class:`StructureEstimate` it returns;
 * **the force balance and derivatives**: :func:`regression_data` (the

@@ -348,10 +348,9 @@ class PosteriorSampler:
 
     def _prepare_structure(self, record: Any, fit: Any) -> _Problem:
         """A structure's likelihood (:mod:`nlid.bayes.structure`): every DOF's balance, bias-corrected by simulation."""
-        from ..data.structure_record import StructureRecord
         from .structure import select_structure_params, structure_likelihood, structure_warnings
 
-        if not isinstance(record, StructureRecord):
+        if not (isinstance(record, Record) and record.indexed):
             raise InputError(
                 f"the fit is a structure of {fit.structure.n_dofs} DOFs but the record is not a structure record"
             )

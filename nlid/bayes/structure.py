@@ -47,7 +47,7 @@ from ..errors import InputError
 from .likelihood import Likelihood, SufficientStatistics, sandwich
 
 if TYPE_CHECKING:  # pragma: no cover
-    from ..data.structure_record import StructureRecord
+    from ..data.record import Record
     from ..identified.structure import IdentifiedStructure
 
 __all__ = [
@@ -80,7 +80,7 @@ ESTIMATED_VELOCITY = (
 )
 
 
-def structure_warnings(record: StructureRecord, corrected: bool) -> tuple[str, ...]:
+def structure_warnings(record: Record, corrected: bool) -> tuple[str, ...]:
     """What a structure posterior says about itself: :data:`NO_CORRECTION` and :data:`ESTIMATED_VELOCITY`
     without the correction, :data:`NOISY_VELOCITY` with it when a velocity is measured."""
     n = record.n_dofs
@@ -248,7 +248,7 @@ def _balance_design(record: Any, elements: Any, M: np.ndarray, form: str, cutoff
 
 
 def correct_bias(
-    record: StructureRecord,
+    record: Record,
     design: Any,
     elements: Any,
     M: np.ndarray,
@@ -271,7 +271,7 @@ def correct_bias(
     IdentificationError
         The fitted structure's free run under the record's force diverged.
     """
-    from ..data.structure_record import StructureRecord as _Record
+    from ..data.record import Record as _Record
     from ..errors import IdentificationError, NlidError
     from ..model.structure import StructuralModel
     from ..signal import derivatives
@@ -322,7 +322,7 @@ def correct_bias(
 
 
 def structure_likelihood(
-    record: StructureRecord,
+    record: Record,
     fit: IdentifiedStructure,
     *,
     cutoff: float | None = None,

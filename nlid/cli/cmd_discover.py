@@ -244,9 +244,7 @@ def run(args: argparse.Namespace) -> int:
     default_share = prediction.screen if prediction.enabled else AcceptanceRule().min_explained
     share = default_share if args.min_explained is None else args.min_explained
     rule = AcceptanceRule(min_explained=share, max_delta_bic=args.max_delta_bic)
-    from ..data.structure_record import StructureRecord
-
-    if isinstance(record, StructureRecord):
+    if record.indexed:
         if args.min_explained is None:  # structures are judged by the equation error (issue 31 covers one DOF)
             rule = AcceptanceRule(max_delta_bic=args.max_delta_bic)
         return _run_structure(args, record, rule)

@@ -8,7 +8,7 @@ An identifier is a class with
 * ``needs_mass``: ``True`` if it cannot estimate the mass itself;
 * ``dofs``: ``"single"`` (the default) or ``"multi"`` when it also identifies
   structures of several degrees of freedom (:mod:`nlid.model.structure`): its
-  ``identify_structure`` then receives a :class:`~nlid.data.structure_record.StructureRecord`, an
+  ``identify_structure`` then receives an indexed :class:`~nlid.data.record.Record`, an
   :class:`~nlid.model.elements.ElementSet` and a mass matrix (or ``None``) and returns a
   :class:`~nlid.contract.structure_estimate.StructureEstimate` (by default :meth:`Identifier.identify_structure`
   passes them on to ``identify``); the core refuses a structure record for a single-DOF identifier, naming it;
@@ -49,7 +49,6 @@ import numpy as np
 from ..base.jsonable import to_jsonable
 from ..base.validate import did_you_mean
 from ..data.record import Record
-from ..data.structure_record import StructureRecord
 from ..errors import OptionError, brief
 from ..model.elements import ElementSet
 from ..model.terms import Model
@@ -275,8 +274,8 @@ class Identifier:
     options: ClassVar[tuple[Option, ...]] = ()
     #: True if the method cannot estimate the mass.
     needs_mass: ClassVar[bool] = False
-    #: ``"single"``: one degree of freedom only; ``"multi"``: also structures of several (a
-    #: :class:`~nlid.data.structure_record.StructureRecord` and an :class:`~nlid.model.elements.ElementSet` in, a
+    #: ``"single"``: one degree of freedom only; ``"multi"``: also structures of several (an
+    #: indexed :class:`~nlid.data.record.Record` and an :class:`~nlid.model.elements.ElementSet` in, a
     #: :class:`~nlid.contract.structure_estimate.StructureEstimate` out). The core refuses a structure for a single-DOF
     #: identifier.
     dofs: ClassVar[str] = "single"
@@ -313,7 +312,7 @@ class Identifier:
         raise NotImplementedError
 
     def identify_structure(
-        self, record: StructureRecord, elements: ElementSet, *, mass: np.ndarray | None = None
+        self, record: Record, elements: ElementSet, *, mass: np.ndarray | None = None
     ) -> StructureEstimate:
         """Estimate a structure's elements and linear system (called for an identifier declaring ``dofs = "multi"``).
 

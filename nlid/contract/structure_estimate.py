@@ -1,7 +1,7 @@
 """What an identifier of several degrees of freedom returns: :class:`StructureEstimate`, and its check.
 
 An identifier that declares ``dofs = "multi"`` (:class:`nlid.plugin.Identifier`)
-receives a :class:`~nlid.data.structure_record.StructureRecord`, the
+receives an indexed :class:`~nlid.data.record.Record`, the
 :class:`~nlid.model.elements.ElementSet` to identify and the mass matrix (or ``None``:
 estimate it), and returns a :class:`StructureEstimate`: the coefficient of
 every element and the underlying linear system it estimated. The core

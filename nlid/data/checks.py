@@ -28,6 +28,7 @@ from .units import Unit, parse_units, unit_of
 
 __all__ = [
     "TimeAxis",
+    "indexed_form",
     "CHANNELS",
     "MIN_SAMPLES",
     "TIME_TOLERANCE",
@@ -35,6 +36,7 @@ __all__ = [
     "META_ALIASES",
     "RecordMeta",
     "checked_fields",
+    "checked_meta",
     "uniform_step",
     "real_array",
     "merge_units",
@@ -241,6 +243,15 @@ def checked_fields(
     si = dict(DEFAULT_UNITS)
     si.update({c: u.si for c, u in declared.items()})
     out["units"] = freeze(si)
+    return {**out, **checked_meta(meta, provenance, declared, n)}
+
+
+def checked_meta(
+    meta: Mapping[str, Any] | None, provenance: Mapping[str, str] | None, declared: Mapping[str, Unit], n: int
+) -> dict[str, Any]:
+    """A record's ``meta`` (a :class:`RecordMeta`, with ``input_units`` for each channel ``declared`` in a unit
+    other than SI) and ``provenance`` (read-only), checked: ``force_hold`` and ``periodic`` (of ``n`` samples).
+    """
     if meta and meta.get("force_hold", "sampled") not in ("sampled", "zoh"):
         raise DataError(f"meta['force_hold'] must be 'sampled' or 'zoh', got {meta['force_hold']!r}")
     periodic = meta.get("periodic") if meta else None
@@ -251,9 +262,7 @@ def checked_fields(
     if converted:
         meta = dict(meta or {})
         meta["input_units"] = {**dict(meta.get("input_units") or {}), **converted}
-    out["meta"] = RecordMeta.of(meta)
-    out["provenance"] = freeze(provenance)
-    return out
+    return {"meta": RecordMeta.of(meta), "provenance": freeze(provenance)}
 
 
 def uniform_step(t: np.ndarray) -> float:
@@ -285,11 +294,21 @@ def uniform_step(t: np.ndarray) -> float:
     return step
 
 
+def indexed_form(z: Any, force_dofs: Any, indexed: bool | None) -> bool:
+    """Whether a record is built in its indexed form (a structure's channels ``z1 .. zn``).
+
+    ``indexed`` when given; else when ``force_dofs`` is given or ``z`` has more than one column (a
+    one-column ``z`` is squeezed to one DOF's 1-D channel, as it always was).
+    """
+    if indexed is not None:
+        return bool(indexed)
+    return force_dofs is not None or (np.ndim(z) == 2 and np.shape(z)[1] > 1)
+
+
 class TimeAxis:
-    """What every record shares (a mixin of the dataclasses :class:`~nlid.data.record.Record` and
-    :class:`~nlid.data.structure_record.StructureRecord`): its time axis (length, step, duration, sample
-    times), how its force was held, where each channel came from, and the copies that change its metadata
-    or keep part of its samples.
+    """The time axis of a :class:`~nlid.data.record.Record`, in either form (1-D channels or a structure's
+    ``(N, n)``): its length, step, duration and sample times, how its force was held, where each channel
+    came from, and the copies that change its metadata or keep part of its samples.
 
     The class defines ``n`` (samples), ``fs`` (Hz), ``t0`` (s), ``meta``, ``provenance`` and slicing by
     sample index (``record[i0:i1]``).
@@ -300,8 +319,6 @@ class TimeAxis:
     t0: float
     meta: Mapping[str, Any]
     provenance: Mapping[str, str]
-    #: Units may name single channels of a DOF (``z2``): a structure's.
-    _indexed = False
 
     @classmethod
     def from_time(cls, t: np.ndarray, f: np.ndarray, z: np.ndarray, **kwargs: Any) -> Self:
@@ -316,7 +333,8 @@ class TimeAxis:
             As for the record's class (``fs`` and ``t0`` are taken from ``t``);
             ``units={"t": "ms"}`` says that ``t`` is in ms.
         """
-        units = dict(parse_units(kwargs.pop("units", None), indexed=cls._indexed))
+        indexed = indexed_form(z, kwargs.get("force_dofs"), kwargs.get("indexed"))
+        units = dict(parse_units(kwargs.pop("units", None), indexed=indexed))
         time_unit = units.pop("t", None)
         t = real_array("t", t).squeeze()
         if time_unit is not None and not time_unit.is_si:

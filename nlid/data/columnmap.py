@@ -49,8 +49,8 @@ Indexed channels name the DOFs of a structure: ``z1, z2, z3`` (displacements,
 each DOF one), ``f1, f3`` (the forces that act, on some DOFs), ``v2``,
 ``a1``... (``"f1=load, z1[mm]=disp_a, z2[mm]=disp_b"``). A map naming indexed
 channels, or a table without a column ``z`` but with columns ``z1``, ``z2``...
-(what :func:`nlid.data.io.write_csv` writes for a
-:class:`~nlid.data.structure_record.StructureRecord`), is read as a structure
+(what :func:`nlid.data.io.write_csv` writes for a record of indexed
+channels), is read as a structure
 (:func:`structure_arrays`, :func:`uses_indexed`); one map cannot name both
 ``z`` and ``z1``. Units apply per channel (``z2[mm]=``), each in its
 quantity's vocabulary.

@@ -34,7 +34,7 @@ Several degrees of freedom
 --------------------------
 A column map naming indexed channels (``z1=``, ``f1=``...), or a file with
 columns ``z1``, ``z2``... and no ``z``, is read as a
-:class:`~nlid.data.structure_record.StructureRecord` (:mod:`nlid.data.columnmap`); the writers
+record of indexed channels (:mod:`nlid.data.columnmap`); the writers
 write its channels ``f1``, ``z1``, ``z2``... the same way, so a written
 structure record reads back as one.
 
@@ -56,7 +56,7 @@ import json
 import reprlib
 from collections.abc import Iterator, Mapping
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import numpy as np
 
@@ -66,9 +66,6 @@ from ..runtime.outputs import META_KEYS, check_sidecar, sidecar_path
 from .columnmap import uses_indexed
 from .filetables import SizeError, open_file_table, size_text
 from .record import Record
-
-if TYPE_CHECKING:  # pragma: no cover
-    from .structure_record import StructureRecord
 
 __all__ = [
     "read_record",
@@ -281,7 +278,7 @@ def _read_sidecar(path: Path) -> dict[str, Any]:
     return {k: data[k] for k in META_KEYS if k in data}
 
 
-def _write_sidecar(record: Record | StructureRecord, path: Path) -> None:
+def _write_sidecar(record: Record, path: Path) -> None:
     meta = {k: record.meta[k] for k in META_KEYS if k in record.meta}
     meta["force_hold"] = record.force_hold
     sidecar_path(path).write_text(json.dumps(to_jsonable(meta), indent=1, allow_nan=False) + "\n")
@@ -294,11 +291,11 @@ def read_record(
     fs: float | None = None,
     meta: Mapping[str, Any] | None = None,
     units: Mapping[str, str] | None = None,
-) -> Record | StructureRecord:
+) -> Record:
     """Read a record from a CSV, NPZ, MAT (v7.3 included), HDF5 or Parquet file.
 
     A column map with indexed channels (``z1=``...), or a file with columns
-    ``z1``, ``z2``... and no ``z``, gives a :class:`~nlid.data.structure_record.StructureRecord`.
+    ``z1``, ``z2``... and no ``z``, gives a record of indexed channels (:attr:`Record.indexed`).
 
     Parameters
     ----------
@@ -317,7 +314,7 @@ def read_record(
 
     Returns
     -------
-    Record or StructureRecord
+    Record
         With ``meta["loaded"]``: the path, the file's SHA-256, the column map
         and ``fs=`` as given.
 
@@ -336,16 +333,13 @@ def read_record(
             side["force_hold_source"] = f"the sidecar {sidecar_path(path).name}"
         meta = {"source": str(path), **side, **dict(meta or {})}
         meta["loaded"] = {**dict(meta.get("loaded") or {}), "sha256": file_sha256(path)}
-        if uses_indexed(table, columns):
-            from .structure_record import StructureRecord
-
-            return StructureRecord.from_table(table, columns, fs=fs, meta=meta, units=units, source=path)
-        return Record.from_table(table, columns, fs=fs, meta=meta, units=units, source=path)
+        indexed = uses_indexed(table, columns)
+        return Record.from_table(table, columns, fs=fs, meta=meta, units=units, source=path, indexed=indexed)
 
 
-def _columns_of(record: Record | StructureRecord, channels: tuple[str, ...] | None) -> dict[str, np.ndarray]:
+def _columns_of(record: Record, channels: tuple[str, ...] | None) -> dict[str, np.ndarray]:
     """The named channels of a record; for a structure, ``"z"`` names every DOF's (``z1``, ``z2``...)."""
-    if not isinstance(record, Record):
+    if record.indexed:
         names = []
         for c in channels or record.channels:
             names += [n for n in record.channels if n.rstrip("0123456789") == c] if c in ("f", "z", "v", "a") else [c]
@@ -360,14 +354,14 @@ def _columns_of(record: Record | StructureRecord, channels: tuple[str, ...] | No
     return {c: getattr(record, c) for c in channels}
 
 
-def write_csv(record: Record | StructureRecord, path: str | Path, channels: tuple[str, ...] | None = None) -> Path:
+def write_csv(record: Record, path: str | Path, channels: tuple[str, ...] | None = None) -> Path:
     """Write ``t`` and the channels to CSV (12 significant digits), and the metadata sidecar.
 
     Parameters
     ----------
     channels
         Channels to write (default: all present). ``t`` is always first. For
-        a :class:`~nlid.data.structure_record.StructureRecord`, ``"z"`` writes ``z1``, ``z2``...
+        an indexed record, ``"z"`` writes ``z1``, ``z2``...
         and ``"f"`` the forces of the driven DOFs; single channels (``"a2"``) are named as such.
     """
     import pandas as pd
@@ -380,7 +374,7 @@ def write_csv(record: Record | StructureRecord, path: str | Path, channels: tupl
     return path
 
 
-def write_npz(record: Record | StructureRecord, path: str | Path) -> Path:
+def write_npz(record: Record, path: str | Path) -> Path:
     """Write the channels, ``t`` and ``fs`` to an NPZ file (no pickled objects), and the metadata sidecar."""
     path = Path(path)
     check_sidecar(path)

@@ -18,7 +18,8 @@ Files and tables share one column map and one set of rules (:mod:`nlid.data.colu
 and one way of declaring units (``units={"z": "mm"}`` or ``z[mm]=`` in the
 column map; :mod:`nlid.data.units`).
 A table or file whose channels are indexed (``z1, z2, f1``; :mod:`nlid.data.columnmap`)
-gives a :class:`~nlid.data.structure_record.StructureRecord`, which is also accepted as is.
+gives a record in its indexed form (:attr:`Record.indexed <nlid.data.record.Record.indexed>`);
+any record is also accepted as is.
 Anything else is an :class:`~nlid.errors.InputError` naming what was given.
 pandas and xarray are never imported here: an object can only be a DataFrame
 or a Dataset if its library is already loaded.
@@ -30,7 +31,7 @@ import os
 import reprlib
 import sys
 from collections.abc import Mapping
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import numpy as np
 
@@ -41,9 +42,6 @@ from .columnmap import dataset_table, frame_table, uses_indexed
 from .digest import record_sha256
 from .io import read_record
 from .record import Record
-
-if TYPE_CHECKING:  # pragma: no cover
-    from .structure_record import StructureRecord
 
 __all__ = ["as_record", "ACCEPTED"]
 
@@ -61,11 +59,11 @@ def as_record(
     fs: float | None = None,
     force_hold: str | None = None,
     units: str | Mapping[str, str] | None = None,
-) -> Record | StructureRecord:
+) -> Record:
     """A :class:`~nlid.data.record.Record` from any accepted source (see the module docstring).
 
     A source with indexed channels (``z1``, ``z2``, ``f1``...) gives a
-    :class:`~nlid.data.structure_record.StructureRecord` (several degrees of freedom).
+    record of indexed channels (several degrees of freedom, :attr:`Record.indexed <nlid.data.record.Record.indexed>`).
 
     Parameters
     ----------
@@ -87,7 +85,7 @@ def as_record(
 
     Returns
     -------
-    Record or StructureRecord
+    Record
         ``source`` itself when it is a record and ``force_hold`` is not given.
 
     Raises
@@ -108,12 +106,8 @@ def as_record(
 
 
 def _table_record(table: Mapping[str, Any], columns: Any, fs: float | None, units: Any, source: str) -> Any:
-    """A :class:`Record`, or a :class:`~nlid.data.structure_record.StructureRecord` when the channels are indexed."""
-    if uses_indexed(table, columns):
-        from .structure_record import StructureRecord
-
-        return StructureRecord.from_table(table, columns, fs=fs, units=units, source=source)
-    return Record.from_table(table, columns, fs=fs, units=units, source=source)
+    """A :class:`Record`, in the indexed form when the channels are indexed."""
+    return Record.from_table(table, columns, fs=fs, units=units, source=source, indexed=uses_indexed(table, columns))
 
 
 def _convert(source: Any, columns: str | Mapping[str, str] | None, fs: float | None, units: Any) -> Any:

@@ -65,7 +65,7 @@ class Split:
     def __post_init__(self) -> None:
         if self.freerun_rule is not None:
             object.__setattr__(self, "freerun_rule", rule_from_spec(self.freerun_rule))
-        if isinstance(self.holdout, Record):
+        if isinstance(self.holdout, Record) and not self.holdout.indexed:
             if self.holdout.fs <= 0:
                 raise DataError("the held-out record has no sampling frequency")
             return
@@ -76,7 +76,7 @@ class Split:
 
     def divide(self, record: Record) -> tuple[Record, Record, str]:
         """The estimation record, the held-out record and a description of the hold-out."""
-        if isinstance(self.holdout, Record):
+        if isinstance(self.holdout, Record) and not self.holdout.indexed:
             held = self.holdout
             return record, held, f"separate record ({held.n} samples, {held.meta.get('source', 'given')})"
         fraction = float(self.holdout)

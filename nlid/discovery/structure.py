@@ -134,7 +134,7 @@ def discover_structure(
     Parameters
     ----------
     record
-        A :class:`~nlid.data.structure_record.StructureRecord` (velocities and accelerations measured or estimated).
+        An indexed :class:`~nlid.data.record.Record` (velocities and accelerations measured or estimated).
     declared
         The declared elements, ``"tanh(v3/0.001)"`` (``""``: the underlying linear system alone); the
         linear ``K``, ``C`` and a constant force per DOF are always fitted.
@@ -145,8 +145,8 @@ def discover_structure(
     holdout
         Fraction of the selection record held out (its last part), ``0 < holdout < 1``.
     test
-        Fraction of the record kept at its end for the errors before and after, or a separate
-        :class:`~nlid.data.structure_record.StructureRecord`.
+        Fraction of the record kept at its end for the errors before and after, or another
+        indexed :class:`~nlid.data.record.Record`.
     connections
         The connections to test (:func:`parse_connections`; default every pair and every DOF to the ground).
     candidates, extra_candidates, plugins
@@ -157,7 +157,7 @@ def discover_structure(
         Most elements to add.
     cutoff
         Equation band (Hz) for estimated channels, one for every part (default
-        :meth:`~nlid.data.structure_record.StructureRecord.suggest_cutoff` of the selection record;
+        :meth:`~nlid.data.record.Record.suggest_cutoff` of the selection record;
         :func:`nlid.estimation.structure_regression.structure_regression_data`).
     structure
         Fraction a remaining-structure probe must predict to count as structure.
@@ -193,7 +193,7 @@ def discover_structure(
     InputError
         Not a structure record, no mass matrix, bad elements, fractions, connections or candidates.
     """
-    from ..data.structure_record import StructureRecord
+    from ..data.record import Record
     from ..estimation.structure_regression import structure_regression_data
     from ..model.elements import Element, ElementSet
     from ..model.structure import structure_mass
@@ -201,7 +201,7 @@ def discover_structure(
     accept = acceptance_rule(accept, rule)
     say = progress or _quiet
     started = time.perf_counter()
-    if not isinstance(record, StructureRecord):
+    if not (isinstance(record, Record) and record.indexed):
         raise InputError(f"discover_structure needs a StructureRecord, got {type(record).__name__}")
     n = record.n_dofs
     M = structure_mass(mass, record)
@@ -226,7 +226,8 @@ def discover_structure(
         raise InputError(f"structure must lie between 0 and 1, got {structure}")
     rule = accept or AcceptanceRule()
     conns = parse_connections(connections, n)
-    if isinstance(test, StructureRecord):
+    given = isinstance(test, Record) and test.indexed
+    if given:
         selection, test_record = record, test
         if test.n_dofs != n:
             raise InputError(f"the test record has {test.n_dofs} DOFs but the record has {n}")
@@ -239,7 +240,7 @@ def discover_structure(
     pool = [c for c in resolve_candidates(candidates, extra_candidates, plugins=plugins) if isinstance(c, Candidate)]
     fc = selection.suggest_cutoff() if cutoff is None else float(cutoff)  # one band for every part
 
-    def data(part: StructureRecord):
+    def data(part: Record):
         return structure_regression_data(part, elements0, cutoff=fc)
 
     parts = {"estimation": Part(data(estimation), record=estimation), "holdout": Part(data(held), record=held)}
@@ -312,7 +313,7 @@ def discover_structure(
         "samples_holdout": int(parts["holdout"].data.z.shape[0]),
         "samples_test": int(test_data.z.shape[0]),
         "holdout": float(holdout),
-        "test": "given record" if isinstance(test, StructureRecord) else float(test),
+        "test": "given record" if given else float(test),
         "fs_hz": record.fs,
         "band_hz": parts["estimation"].data.filtered_at,
         "weights_sigma": [float(x) for x in np.sqrt(sigma2)],

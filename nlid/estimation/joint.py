@@ -360,7 +360,7 @@ def fit_linear_elements(
     Parameters
     ----------
     record
-        A :class:`~nlid.data.structure_record.StructureRecord`.
+        An indexed :class:`~nlid.data.record.Record`.
     elements
         The elements (``"z5^3, tanh(v3/0.001)"`` or an :class:`ElementSet`).
     mass

@@ -27,7 +27,7 @@ import numpy as np
 from .structure_regression import StructureRegressionData, structure_regression_data
 
 if TYPE_CHECKING:  # pragma: no cover
-    from ..data.structure_record import StructureRecord
+    from ..data.record import Record
     from ..model.structure import StructuralModel
 
 __all__ = ["StructureResidual", "residual", "residual_on", "restoring_on"]
@@ -85,7 +85,7 @@ def residual_on(model: StructuralModel, data: StructureRegressionData) -> Struct
     return StructureResidual(data, measured, fitted, tuple(map(float, eps)), tuple(map(float, rel)))
 
 
-def residual(model: StructuralModel, record: StructureRecord, *, cutoff: float | None = None) -> StructureResidual:
+def residual(model: StructuralModel, record: Record, *, cutoff: float | None = None) -> StructureResidual:
     """The residual ``f - M a - R_hat(z, v)`` of a structure on a record, per DOF, with its scores.
 
     Parameters
@@ -96,6 +96,6 @@ def residual(model: StructuralModel, record: StructureRecord, *, cutoff: float |
         The data.
     cutoff
         The balance filter's cut-off (Hz) when a channel is estimated; default
-        :meth:`~nlid.data.structure_record.StructureRecord.suggest_cutoff`.
+        :meth:`~nlid.data.record.Record.suggest_cutoff`.
     """
     return residual_on(model, structure_regression_data(record, model.elements, cutoff=cutoff))

@@ -16,7 +16,7 @@ same zero-phase filters, as for one DOF:
 * the force is low-passed at ``fc`` (given the hold's response first when it
   was zero-order held and ``a`` is derived from the motion).
 
-One cut-off serves every DOF (:meth:`StructureRecord.suggest_cutoff`), and
+One cut-off serves every DOF (:meth:`Record.suggest_cutoff <nlid.data.record.Record.suggest_cutoff>`), and
 ``EDGE_PERIODS * fs / fc`` samples are dropped at each end. With every
 velocity and acceleration measured nothing is filtered. Any other nonlinear
 function of the motion (a candidate element, a probe) enters the balance on
@@ -39,7 +39,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from ..base.validate import check_cutoff
-from ..data.structure_record import StructureRecord
+from ..data.record import Record
 from ..errors import InputError
 from ..model.elements import ElementSet
 from ..signal import derivatives
@@ -162,7 +162,7 @@ def _columns(x: np.ndarray) -> list[np.ndarray]:
 
 
 def structure_regression_data(
-    record: StructureRecord, elements: ElementSet, *, cutoff: float | None = None, trim: bool = True
+    record: Record, elements: ElementSet, *, cutoff: float | None = None, trim: bool = True
 ) -> StructureRegressionData:
     """The samples of a structure's force balance and its element regressors (module docstring).
 
@@ -173,8 +173,8 @@ def structure_regression_data(
     elements
         The elements whose regressors are evaluated.
     cutoff
-        Equation band ``fc`` (Hz); default :meth:`StructureRecord.suggest_cutoff`. Only used when a
-        channel is estimated.
+        Equation band ``fc`` (Hz); default :meth:`Record.suggest_cutoff <nlid.data.record.Record.suggest_cutoff>`.
+        Only used when a channel is estimated.
     trim
         Drop the unsettled ends (default); with ``False`` every sample is kept and :attr:`kept` says
         which hold a settled balance.

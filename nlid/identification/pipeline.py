@@ -170,7 +170,7 @@ def identify(
 ) -> IdentifiedModel | IdentifiedStructure:
     """Identify the coefficients of a model from a record.
 
-    A record of several degrees of freedom (:class:`~nlid.data.structure_record.StructureRecord`)
+    A record of several degrees of freedom (indexed :class:`~nlid.data.record.Record`)
     is identified by :func:`nlid.identification.structure_fit.identify_structure`: ``terms`` are
     then elements on connections (``"(z1-z2)^3, z3^3"``), ``mass`` the mass
     matrix, and the method must declare ``dofs = "multi"``; the result is an
@@ -247,7 +247,7 @@ def identify(
         (:class:`nlid.runtime.outcome.IsolationError`).
     """
     record = as_record(record)
-    if isinstance(mass, str) and mass.strip().lower() == ESTIMATE and isinstance(record, Record):
+    if isinstance(mass, str) and mass.strip().lower() == ESTIMATE and not record.indexed:
         mass = None  # one DOF: None already asks the method to estimate it
     without = () if without is None else without  # None: nothing removed
     path = to_input_path(input_path, getattr(record, "fs", None))
@@ -271,7 +271,7 @@ def identify(
                 input_path=path,
             ),
         )
-    if not isinstance(record, Record):  # several degrees of freedom
+    if record.indexed:  # several degrees of freedom
         if not path.identity:
             raise InputError("input_path= is for a record of one degree of freedom")
         from .structure_fit import identify_structure

@@ -17,7 +17,7 @@ from typing import Any
 
 import numpy as np
 
-from ..data.structure_record import StructureRecord
+from ..data.record import Record
 from ..errors import InputError, NlidError, brief
 from ..identified.structure import IdentifiedStructure
 from .structure_fit import as_elements
@@ -39,7 +39,7 @@ def _numbers(value: Any, what: str) -> list[float]:
     return [_number(x, what) for x in value]
 
 
-def structure_reference(record: StructureRecord, reference: Any) -> dict[str, Any]:
+def structure_reference(record: Record, reference: Any) -> dict[str, Any]:
     """``{"coefficients": {element: value}, "linear_modes": {"fn_hz": [...], "zeta": [...]}}`` (either may be empty).
 
     Raises
@@ -124,7 +124,7 @@ def structure_rows(fit: IdentifiedStructure, reference: Mapping[str, Any]) -> li
 
 
 def compare_structure(
-    record: StructureRecord,
+    record: Record,
     terms: Any,
     names: Sequence[str],
     *,

@@ -21,8 +21,8 @@ from ..base.validate import check_cutoff
 from ..contract.estimate import timed_call
 from ..contract.registry import Registry, make_identifier
 from ..contract.structure_estimate import check_structure_estimate
-from ..data.structure_record import StructureRecord
-from ..data.structure_tables import structure_sha256
+from ..data.digest import record_sha256
+from ..data.record import Record
 from ..errors import InputError
 from ..identified.structure import IdentifiedStructure
 from ..model.elements import ElementSet
@@ -84,7 +84,7 @@ def as_elements(
     return elements
 
 
-def check_dofs(identifier: Any, record: StructureRecord) -> None:
+def check_dofs(identifier: Any, record: Record) -> None:
     """Refuse, in one line naming it, an identifier that does not declare ``dofs = "multi"``."""
     if getattr(identifier, "dofs", "single") != "multi":
         name = str(getattr(identifier, "name", type(identifier).__name__))
@@ -95,9 +95,9 @@ def check_dofs(identifier: Any, record: StructureRecord) -> None:
         )
 
 
-def _provenance(record: StructureRecord, elements: ElementSet, method: str, mass: Any, options: Mapping) -> dict:
+def _provenance(record: Record, elements: ElementSet, method: str, mass: Any, options: Mapping) -> dict:
     loaded = dict(record.meta.get("loaded") or {})
-    sha = structure_sha256(record)
+    sha = record_sha256(record)
     return {
         "nlid_version": __version__,
         "data": {
@@ -126,7 +126,7 @@ def _provenance(record: StructureRecord, elements: ElementSet, method: str, mass
 
 
 def identify_structure(
-    record: StructureRecord,
+    record: Record,
     terms: Any,
     method: Any = None,
     *,

@@ -43,7 +43,7 @@ from .plausibility import check_structure as check_plausible
 if TYPE_CHECKING:  # pragma: no cover
     import pandas as pd
 
-    from ..data.structure_record import StructureRecord
+    from ..data.record import Record
     from ..model.elements import ElementSet
 
 __all__ = ["IdentifiedStructure", "SCHEMA"]
@@ -61,7 +61,7 @@ STALE_NOTE = (
 class IdentifiedStructure:
     """A structure with its identified coefficients and everything derived from them.
 
-    Build it with :func:`nlid.identify` on a :class:`~nlid.data.structure_record.StructureRecord`
+    Build it with :func:`nlid.identify` on an indexed :class:`~nlid.data.record.Record`
     (or :meth:`from_dict`).
 
     Attributes
@@ -139,7 +139,7 @@ class IdentifiedStructure:
         estimate: StructureEstimate,
         *,
         elements: ElementSet,
-        record: StructureRecord,
+        record: Record,
         method: str,
         mass: np.ndarray | None = None,
         options: Mapping[str, Any] | None = None,
@@ -268,7 +268,7 @@ class IdentifiedStructure:
         return self.structure.coefficient(term)
 
     # ------------------------------------------------------------------ meeting data
-    def residual(self, record: StructureRecord, *, cutoff: float | None = None) -> StructureResidual:
+    def residual(self, record: Record, *, cutoff: float | None = None) -> StructureResidual:
         """The residual ``f - M a - R(z, v)`` per DOF on a record
         (:func:`nlid.estimation.structure_balance.residual`)."""
         return residual(self.structure, record, cutoff=cutoff)
@@ -285,15 +285,15 @@ class IdentifiedStructure:
         x0: Sequence[Sequence[float]] | None = None,
         force_hold: str = "sampled",
         oversample: int | None = None,
-    ) -> StructureRecord:
+    ) -> Record:
         """Free run driven by a force ``(N, n)`` (:func:`nlid.simulation.structure.free_run`), as a record.
 
         Returns
         -------
-        StructureRecord
+        Record
             ``f``, ``z``, ``v``, ``a`` with the identified structure as ``meta["reference"]``.
         """
-        from ..data.structure_record import StructureRecord
+        from ..data.record import Record
         from ..simulation import FREE_RUN_OVERSAMPLE
         from ..simulation.structure import free_run
 
@@ -306,7 +306,7 @@ class IdentifiedStructure:
             "force_hold": force_hold,
             "reference": self.structure.to_dict(),
         }
-        return StructureRecord(f=f.reshape(len(z), -1), z=z, v=v, a=a, fs=float(fs), meta=meta)
+        return Record(f=f.reshape(len(z), -1), z=z, v=v, a=a, fs=float(fs), meta=meta, indexed=True)
 
     # ------------------------------------------------------------------ what it predicts
     def frequency_response(self, force: Any, band: Any, *, harmonics: int = 7, **options: Any) -> Any:
@@ -470,7 +470,7 @@ class IdentifiedStructure:
         return self.summary().as_html()
 
     # ------------------------------------------------------------------ figures
-    def plot_elements(self, record: StructureRecord | None = None, ax: Any = None) -> Any:
+    def plot_elements(self, record: Record | None = None, ax: Any = None) -> Any:
         """Restoring force of each element against its relative coordinate
         (:func:`nlid.identified.structure_plots.plot_elements`)."""
         from .structure_plots import plot_elements

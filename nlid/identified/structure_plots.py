@@ -16,7 +16,7 @@ from ..errors import InputError
 from ..report.plotting import new_figure
 
 if TYPE_CHECKING:  # pragma: no cover
-    from ..data.structure_record import StructureRecord
+    from ..data.record import Record
     from ..model.structure import StructuralModel
 
 __all__ = ["plot_elements", "plot_frf"]
@@ -34,7 +34,7 @@ def _axes(ax: Any, count: int, nrows: int, ncols: int, width: float, height: flo
 
 def plot_elements(
     model: StructuralModel,
-    record: StructureRecord | None = None,
+    record: Record | None = None,
     ax: Any = None,
     *,
     z_range: Sequence[Sequence[float]] | None = None,

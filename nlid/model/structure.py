@@ -32,7 +32,7 @@ from .physics import linear_damping
 from .terms import Model
 
 if TYPE_CHECKING:  # pragma: no cover
-    from ..data.structure_record import StructureRecord
+    from ..data.record import Record
     from .modes import StructureModes
     from .statics import StructureEquilibria
 
@@ -74,7 +74,7 @@ def as_matrix(value: Any, n: int | None, name: str, *, positive: bool = False) -
     return arr
 
 
-def structure_mass(mass: Any, record: StructureRecord, *, name: str = "mass=") -> np.ndarray | None:
+def structure_mass(mass: Any, record: Record, *, name: str = "mass=") -> np.ndarray | None:
     """The mass matrix a structure is fitted with: the one read by every structure path (identify, discover).
 
     Parameters

@@ -2,8 +2,8 @@
 
 Each is a :class:`StructurePreset`: the underlying linear system, the
 nonlinear elements and their coefficients, the excitation and the sampling;
-``nlid.simulate(name, seed=, noise=, channels=)`` makes a
-:class:`~nlid.data.structure_record.StructureRecord` with the truth in ``meta["reference"]``
+``nlid.simulate(name, seed=, noise=, channels=)`` makes an
+indexed :class:`~nlid.data.record.Record` with the truth in ``meta["reference"]``
 (:meth:`StructurePreset.truth`). They are registered with the one-DOF presets
 (:func:`nlid.simulation.presets.get_preset`, ``nlid simulate --help``).
 
@@ -55,7 +55,7 @@ from ..errors import InputError, NlidError, brief
 if TYPE_CHECKING:  # pragma: no cover
     import numpy as np
 
-    from ..data.structure_record import StructureRecord
+    from ..data.record import Record
     from ..model.structure import StructuralModel
 
 __all__ = ["StructurePreset", "STRUCTURE_PRESETS", "RESPONSE_GROUPS"]
@@ -331,7 +331,7 @@ class StructurePreset:
         *,
         noise: float | Mapping[str, float] = 0.0,
         channels: Sequence[str] = RESPONSE_GROUPS,
-    ) -> StructureRecord:
+    ) -> Record:
         """Simulate one record.
 
         Parameters
@@ -349,13 +349,13 @@ class StructurePreset:
 
         Returns
         -------
-        StructureRecord
+        Record
             With ``meta`` holding ``mass`` (the matrix), ``g``, ``source``,
             ``preset``, ``seed``, ``noise`` (per channel) and ``reference`` (:meth:`truth`).
         """
         import numpy as np
 
-        from ..data.structure_record import StructureRecord
+        from ..data.record import Record
         from .structure import free_run
 
         seed = check_seed(seed)
@@ -391,7 +391,7 @@ class StructurePreset:
             "force_hold": "zoh",
             "reference": self.truth(),
         }
-        return StructureRecord(f=f, fs=self.fs, meta=meta, force_dofs=self.force_dofs, **out)
+        return Record(f=f, fs=self.fs, meta=meta, force_dofs=self.force_dofs, indexed=True, **out)
 
 
 _G = 9.81

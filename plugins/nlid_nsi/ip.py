@@ -97,7 +97,6 @@ from nlid.plugin import (
     Option,
     Record,
     StructureEstimate,
-    StructureRecord,
     equilibria,
     modal,
 )
@@ -315,7 +314,7 @@ class NSIInputPerturbation(Identifier):
             return self._identify(record, model, mass)
 
     def identify_structure(
-        self, record: StructureRecord, elements: ElementSet, *, mass: np.ndarray | None = None
+        self, record: Record, elements: ElementSet, *, mass: np.ndarray | None = None
     ) -> StructureEstimate:
         """Every element and the linear system of a structure (:mod:`nlid_nsi.structure`)."""
         from .structure import identify_structure_ip

@@ -65,7 +65,6 @@ from nlid.plugin import (
     Option,
     Record,
     StructureEstimate,
-    StructureRecord,
     equilibria,
 )
 
@@ -146,7 +145,7 @@ class NSIZeroShift(Identifier):
             return self._identify(record, model, mass)
 
     def identify_structure(
-        self, record: StructureRecord, elements: ElementSet, *, mass: np.ndarray | None = None
+        self, record: Record, elements: ElementSet, *, mass: np.ndarray | None = None
     ) -> StructureEstimate:
         """Every element and the linear system of a structure (:mod:`nlid_nsi.structure_shift`)."""
         from .structure_shift import identify_structure_shift

@@ -1,7 +1,7 @@
 """NSI on a structure of several degrees of freedom: channels, one fit, the input perturbation, the estimate.
 
-Both identifiers (``nsi-ip``, ``nsi-shift``) declare ``dofs = "multi"``: on a
-:class:`~nlid.plugin.StructureRecord` they identify the coefficient of every
+Both identifiers (``nsi-ip``, ``nsi-shift``) declare ``dofs = "multi"``: on an
+indexed :class:`~nlid.plugin.Record` they identify the coefficient of every
 element of an :class:`~nlid.plugin.ElementSet` and the underlying linear
 system (ULS) ``M``, ``C``, ``K`` by the MIMO subspace step of
 :mod:`nlid_nsi.mimo` (Marchesiello & Garibaldi 2008).
@@ -63,8 +63,8 @@ from nlid.plugin import (
     ElementSet,
     InputError,
     Model,
+    Record,
     StructureEstimate,
-    StructureRecord,
     source_entries,
 )
 
@@ -159,7 +159,7 @@ class StructureChannels:
 
 
 def structure_channels(
-    record: StructureRecord,
+    record: Record,
     motion: Motion,
     columns: list[tuple[str, Any]],
     hold: str,
@@ -337,7 +337,7 @@ def fit_structure(
 
 def structure_gram(
     ch: StructureChannels,
-    record: StructureRecord,
+    record: Record,
     motion: Motion,
     columns: list[tuple[str, Any]],
     opt: dict[str, Any],
@@ -445,9 +445,7 @@ def identify_perturbed(
     )
 
 
-def static_forces(
-    record: StructureRecord, motion: Motion, K: np.ndarray, elements: ElementSet, theta: np.ndarray
-) -> np.ndarray:
+def static_forces(record: Record, motion: Motion, K: np.ndarray, elements: ElementSet, theta: np.ndarray) -> np.ndarray:
     """The constant force per DOF from the static balance ``mean(f) - K mean(z) - B diag(theta) mean(g)``."""
     g = elements.evaluate(motion.z, motion.v)
     return (
@@ -482,7 +480,7 @@ def uls_summary(fit: StructureFit) -> dict[str, Any]:
     }
 
 
-def identify_structure_ip(identifier: Any, record: StructureRecord, elements: ElementSet, mass: Any) -> Any:
+def identify_structure_ip(identifier: Any, record: Record, elements: ElementSet, mass: Any) -> Any:
     """``nsi-ip`` on a structure (module docstring); again with raised cut-offs when :func:`band_floor` asks."""
     t0 = time.perf_counter()
     est, fn_hz, motion = _identify_ip(identifier, record, elements, mass, 0.0)
@@ -499,7 +497,7 @@ def identify_structure_ip(identifier: Any, record: StructureRecord, elements: El
 
 
 def _identify_ip(
-    identifier: Any, record: StructureRecord, elements: ElementSet, mass: Any, floor_hz: float
+    identifier: Any, record: Record, elements: ElementSet, mass: Any, floor_hz: float
 ) -> tuple[Any, np.ndarray, Motion]:
     t0 = time.perf_counter()
     opt = identifier.settings

@@ -14,7 +14,7 @@ from typing import Any
 
 import numpy as np
 
-from nlid.plugin import ChannelSource, DataError, InputError, StructureRecord, derivatives
+from nlid.plugin import ChannelSource, DataError, InputError, Record, derivatives
 
 from .common import CUTOFF_FACTOR
 
@@ -36,7 +36,7 @@ class Motion:
 
 
 def structure_motion(
-    record: StructureRecord, opt: dict[str, Any], floor_hz: float = 0.0, suggested: tuple[float, ...] = ()
+    record: Record, opt: dict[str, Any], floor_hz: float = 0.0, suggested: tuple[float, ...] = ()
 ) -> Motion:
     """Each DOF's ``z`` low-passed and ``v`` (measured and low-passed, or differentiated from ``z``).
 

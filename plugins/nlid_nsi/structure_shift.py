@@ -38,9 +38,9 @@ from nlid.plugin import (
     ElementSet,
     IdentificationError,
     InputError,
+    Record,
     StructuralModel,
     StructureEstimate,
-    StructureRecord,
     linear_modes,
     source_entries,
 )
@@ -162,7 +162,7 @@ def _linear_part(poly: dict, elements: ElementSet, theta: np.ndarray, refs: dict
     return out
 
 
-def identify_structure_shift(identifier: Any, record: StructureRecord, elements: ElementSet, mass: Any) -> Any:
+def identify_structure_shift(identifier: Any, record: Record, elements: ElementSet, mass: Any) -> Any:
     """``nsi-shift`` on a structure (module docstring); again with raised cut-offs when :func:`band_floor` asks."""
     t0 = time.perf_counter()
     opt = identifier.settings
@@ -185,7 +185,7 @@ def identify_structure_shift(identifier: Any, record: StructureRecord, elements:
 
 def _identify_shift(
     identifier: Any,
-    record: StructureRecord,
+    record: Record,
     elements: ElementSet,
     mass: Any,
     motion: Motion,

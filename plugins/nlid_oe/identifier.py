@@ -40,7 +40,7 @@ Shapes
     ``diagnostics["shapes"]`` lists the fitted values and their standard errors.
 
 Several degrees of freedom (``dofs = "multi"``)
-    A :class:`~nlid.data.structure_record.StructureRecord` is fitted on the free run of every DOF's displacement with
+    An indexed :class:`~nlid.plugin.Record` is fitted on the free run of every DOF's displacement with
     the
     structure simulator, from another identifier's estimate (:mod:`nlid_oe.structure`).
 """
@@ -65,7 +65,6 @@ from nlid.plugin import (
     Record,
     SimulationError,
     StructureEstimate,
-    StructureRecord,
     choose_method,
     derivatives,
     fine_force,
@@ -231,7 +230,7 @@ class OutputError(Identifier):
         return estimate
 
     def identify_structure(
-        self, record: StructureRecord, elements: ElementSet, *, mass: np.ndarray | None = None
+        self, record: Record, elements: ElementSet, *, mass: np.ndarray | None = None
     ) -> StructureEstimate:
         """Fit every DOF's free run of a structure (:mod:`nlid_oe.structure`)."""
         from .structure import identify_structure

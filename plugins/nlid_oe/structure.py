@@ -65,10 +65,10 @@ import numpy as np
 from nlid.plugin import (
     ElementSet,
     InputError,
+    Record,
     SimulationError,
     StructuralModel,
     StructureEstimate,
-    StructureRecord,
     choose_method,
     derivatives,
     identify,
@@ -114,7 +114,7 @@ class StructureProblem(Shooting):
 
     def __init__(
         self,
-        record: StructureRecord,
+        record: Record,
         elements: ElementSet,
         start: StructuralModel,
         states: np.ndarray,
@@ -254,7 +254,7 @@ def _starts(n: int, length: int) -> np.ndarray:
 
 
 def identify_structure(
-    identifier: OutputError, record: StructureRecord, elements: ElementSet, mass: np.ndarray | None
+    identifier: OutputError, record: Record, elements: ElementSet, mass: np.ndarray | None
 ) -> StructureEstimate:
     """oe on a structure record (module docstring)."""
     from .uncertainty import standard_errors

@@ -26,8 +26,8 @@ warnings naming the pair, and non-smooth velocity terms (``sign(v)``...) when
 the band-limited velocity misses a noticeable part of the velocity reversals
 (:func:`nlid.estimation.regression.nonsmooth_warnings`).
 
-Several degrees of freedom (``dofs = "multi"``): a
-:class:`~nlid.data.structure_record.StructureRecord` is identified by one joint least squares
+Several degrees of freedom (``dofs = "multi"``): an
+indexed :class:`~nlid.plugin.Record` is identified by one joint least squares
 of every DOF's force balance, the element coefficients shared between the
 DOFs they connect and ``K``, ``C`` estimated with them
 (:mod:`nlid_rfs.structure`).
@@ -47,7 +47,6 @@ from nlid.plugin import (
     Option,
     Record,
     StructureEstimate,
-    StructureRecord,
     collinearity_warnings,
     least_squares,
     nonsmooth_warnings,
@@ -86,7 +85,7 @@ class RestoringForceSurface(Identifier):
     docs = "docs/rfs.md"
 
     def identify_structure(
-        self, record: StructureRecord, elements: ElementSet, *, mass: np.ndarray | None = None
+        self, record: Record, elements: ElementSet, *, mass: np.ndarray | None = None
     ) -> StructureEstimate:
         """Estimate a structure's elements and linear system by one joint least squares (:mod:`nlid_rfs.structure`)."""
         from .structure import identify_structure

@@ -42,8 +42,8 @@ import numpy as np
 
 from nlid.plugin import (
     ElementSet,
+    Record,
     StructureEstimate,
-    StructureRecord,
     check_elements_nonlinear,
     collinearity_warnings,
     joint_least_squares,
@@ -54,7 +54,7 @@ __all__ = ["identify_structure"]
 
 
 def identify_structure(
-    record: StructureRecord, elements: ElementSet, mass: np.ndarray | None, settings: Mapping[str, Any]
+    record: Record, elements: ElementSet, mass: np.ndarray | None, settings: Mapping[str, Any]
 ) -> StructureEstimate:
     """rfs on a structure record (module docstring)."""
     check_elements_nonlinear(elements, "rfs: ")

@@ -67,7 +67,6 @@ from nlid.plugin import (
     Option,
     Record,
     StructureEstimate,
-    StructureRecord,
     collinearity_warnings,
     column_scale,
     derivatives,
@@ -310,7 +309,7 @@ class SparseIdentification(Identifier):
     docs = "docs/sindy.md"
 
     def identify_structure(
-        self, record: StructureRecord, elements: ElementSet, *, mass: np.ndarray | None = None
+        self, record: Record, elements: ElementSet, *, mass: np.ndarray | None = None
     ) -> StructureEstimate:
         """Fit every DOF's sparse equation of a structure (:mod:`nlid_sindy.structure`)."""
         from .structure import identify_structure

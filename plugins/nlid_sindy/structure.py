@@ -45,8 +45,8 @@ from nlid.plugin import (
     EDGE_PERIODS,
     ElementSet,
     IdentificationError,
+    Record,
     StructureEstimate,
-    StructureRecord,
     check_elements_nonlinear,
     dof_weights,
     least_squares,
@@ -82,7 +82,7 @@ def _library(elements: ElementSet, settings: Mapping[str, Any]) -> ElementSet:
 
 
 def identify_structure(
-    record: StructureRecord, elements: ElementSet, mass: np.ndarray | None, settings: Mapping[str, Any]
+    record: Record, elements: ElementSet, mass: np.ndarray | None, settings: Mapping[str, Any]
 ) -> StructureEstimate:
     """sindy on a structure record (module docstring)."""
     if settings["differentiation"] != "nlid":

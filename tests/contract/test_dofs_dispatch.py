@@ -36,13 +36,17 @@ def _structure_estimate(elements: ElementSet) -> StructureEstimate:
 
 
 class Calls:
-    """Each call an identifier receives: ``(method, type of record, type of model, type of mass)``."""
+    """Each call an identifier receives: ``(method, kind of record, type of model, type of mass)``.
+
+    The kind of an indexed record is ``"StructureRecord"`` (its deprecated alias still answers ``isinstance``).
+    """
 
     seen: list[tuple[str, str, str, str]] = []
 
     @classmethod
     def note(cls, method: str, record: object, model: object, mass: object) -> None:
-        cls.seen.append((method, type(record).__name__, type(model).__name__, type(mass).__name__))
+        kind = "StructureRecord" if isinstance(record, StructureRecord) else type(record).__name__
+        cls.seen.append((method, kind, type(model).__name__, type(mass).__name__))
 
 
 class Both(Identifier):
