@@ -893,7 +893,9 @@ def _temporary_files(folder: Path) -> list[str]:
 def test_e_ctrl_c_on_a_running_study_prints_one_line_and_the_study_resumes(r3_plugins, tmp_path):
     """The terminal's Ctrl-C reaches the whole foreground process group: the fork server no longer is in it."""
     study = _study(tmp_path, '"r3-sleepy"', repetitions=2)
-    env = _child_env(r3_plugins, NLID_R3_SLEEP="30")
+    # the runs sleep far longer than the wait below for them to start: on a loaded machine (a full suite beside
+    # another engineer's tests) a 30-s sleep had ended, and the study with it, before the Ctrl-C was sent
+    env = _child_env(r3_plugins, NLID_R3_SLEEP="600")
     argv = [sys.executable, "-m", "nlid.cli.main", "study", "run", str(study), "--out", "out", "--jobs", "2"]
     proc = subprocess.Popen(argv, cwd=tmp_path, env=env, stderr=subprocess.PIPE, text=True, start_new_session=True)
     first = proc.stderr.readline()  # the study has started: the fork server runs, the runs are on their way
