@@ -277,7 +277,9 @@ def compare(
         return _said(frame, record)
     ref = Reference.of(record, reference)
     rule = None if rule is None else rule_from_spec(rule)
-    if holdout is not None and not (isinstance(holdout, Record) and not holdout.indexed):
+    if isinstance(holdout, Record) and holdout.indexed:
+        raise InputError("holdout=: a structure's record cannot hold out a one-DOF record's comparison")
+    if holdout is not None and not isinstance(holdout, Record):
         if isinstance(holdout, (str, Path)):
             holdout = cast(Record, as_record(holdout))
         else:

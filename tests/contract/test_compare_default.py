@@ -31,3 +31,13 @@ def test_the_help_says_so():
     sub = next(a for a in build_parser()._subparsers._group_actions).choices["compare"]
     text = " ".join(sub.format_help().split())
     assert "except those that refine another's fit" in text and "refining ones (oe)" in text
+
+
+def test_a_structure_record_as_the_holdout_of_a_one_dof_comparison_is_refused(short_record):
+    import pytest
+
+    from nlid.errors import InputError
+
+    structure = nlid.simulate("3dof-cubic", seed=1, duration=1.0)
+    with pytest.raises(InputError, match="holdout="):
+        nlid.compare(short_record, "z^3, z^2, v*|v|", mass=0.2, methods=["rfs"], holdout=structure)
