@@ -893,11 +893,13 @@ def _temporary_files(folder: Path) -> list[str]:
 def test_e_ctrl_c_on_a_running_study_prints_one_line_and_the_study_resumes(r3_plugins, tmp_path):
     """The terminal's Ctrl-C reaches the whole foreground process group: the fork server no longer is in it."""
     study = _study(tmp_path, '"r3-sleepy"', repetitions=2)
-    # the runs sleep far longer than the wait below for them to start: on a loaded machine (a full suite beside
-    # another engineer's tests) a 30-s sleep had ended, and the study with it, before the Ctrl-C was sent
-    env = _child_env(r3_plugins, NLID_R3_SLEEP="600")
+    env = _child_env(r3_plugins, NLID_R3_SLEEP="30")
     argv = [sys.executable, "-m", "nlid.cli.main", "study", "run", str(study), "--out", "out", "--jobs", "2"]
-    proc = subprocess.Popen(argv, cwd=tmp_path, env=env, stderr=subprocess.PIPE, text=True, start_new_session=True)
+    # a terminal's foreground command hears Ctrl-C: a suite started in the background (`pytest &` in a script,
+    # nohup) inherits SIGINT ignored, and so would the study without this reset
+    proc = subprocess.Popen(
+        argv, cwd=tmp_path, env=env, stderr=subprocess.PIPE, text=True, start_new_session=True, preexec_fn=_hear_sigint
+    )
     first = proc.stderr.readline()  # the study has started: the fork server runs, the runs are on their way
     assert first.startswith("nlid study r3: 2 runs"), first
     for _ in range(300):  # the fork server and the two sleeping runs it forked
@@ -917,6 +919,10 @@ def test_e_ctrl_c_on_a_running_study_prints_one_line_and_the_study_resumes(r3_pl
     )
     assert done.returncode == 0, done.stderr[-3000:]
     assert "0 already done, 2 to run" in done.stderr, done.stderr  # the interrupted runs were not stored as done
+
+
+def _hear_sigint() -> None:
+    signal.signal(signal.SIGINT, signal.SIG_DFL)
 
 
 def _descendants(pid: int) -> list[int]:
