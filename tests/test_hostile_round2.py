@@ -536,7 +536,7 @@ def test_api_refuses_missing_terms(record):
 
 
 def test_api_score_names_a_wrong_record_type(fit):
-    with pytest.raises(InputError, match="record must be an nlid Record .*, got str"):
+    with pytest.raises(InputError, match="record must be a one-DOF nlid Record .*, got str"):
         fit.score("text")
 
 

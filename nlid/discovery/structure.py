@@ -202,7 +202,8 @@ def discover_structure(
     say = progress or _quiet
     started = time.perf_counter()
     if not (isinstance(record, Record) and record.indexed):
-        raise InputError(f"discover_structure needs a StructureRecord, got {type(record).__name__}")
+        what = "a one-DOF record (nlid.discover takes it)" if isinstance(record, Record) else type(record).__name__
+        raise InputError(f"discover_structure needs a structure's record (channels z1..zn), got {what}")
     n = record.n_dofs
     M = structure_mass(mass, record)
     if M is None:

@@ -538,8 +538,8 @@ def score(
     Scores
     """
     if not isinstance(record, Record) or record.indexed:  # nlid.load reads files, DataFrames and mappings
-        what = "StructureRecord" if isinstance(record, Record) else type(record).__name__
-        raise InputError(f"record must be an nlid Record (see nlid.load), got {what}")
+        what = "a structure's record (channels z1..zn)" if isinstance(record, Record) else type(record).__name__
+        raise InputError(f"record must be a one-DOF nlid Record (see nlid.load), got {what}")
     if fit.mass is None:
         note = "skipped: the mass is unknown" if free_run else "not computed"
         return Scores(NAN, NAN, freerun_note=note)

@@ -94,7 +94,7 @@ def test_connections():
 
 def test_refusals(beam):
     record = beam.with_overrides(duration=2.0).simulate(0)
-    with pytest.raises(InputError, match="StructureRecord"):
+    with pytest.raises(InputError, match="structure.s record .channels z1..zn., got a one-DOF record"):
         discover_structure(record.dof(4), "")
     with pytest.raises(InputError, match="mass"):
         discover_structure(record.with_meta(mass=None), "")

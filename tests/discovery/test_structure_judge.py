@@ -228,3 +228,12 @@ def test_without_a_null_the_probes_say_they_were_not_counted_beyond_noise(chain,
     result = discover_structure(record, "z3^3", mass=1.5 * M, max_steps=0, simulate=False)
     assert result.remaining_declared.null is False and result.to_dict()["remaining_declared"]["null"] is False
     assert "not counted beyond noise" in result.stop_reason
+
+
+def test_a_one_dof_record_given_to_the_structure_search_is_refused_by_name():
+    from nlid import simulate
+    from nlid.errors import InputError
+
+    record = simulate("paper-numerical", seed=1, duration=1.0)
+    with pytest.raises(InputError, match=r"structure's record \(channels z1\.\.zn\), got a one-DOF record"):
+        discover_structure(record, "z^3")
