@@ -80,8 +80,9 @@ LAG_PERIODS = (1, 2, 4, 8)
 #: (0.01: measured to keep a 5-s held-out record's fit of the (z, v) products from extrapolating, while
 #: the fractions of real structure change by under 0.01).
 RIDGE = 0.01
-#: Probes counted by what they add to every static function of (z, v).
-INCREMENTAL = ("acceleration", "force-rate", "memory", "time")
+#: Probes counted by what they add to every static function of (z, v) under the records' cross-fit (``time``
+#: is too, under its own split within each record: :func:`time_gain`).
+INCREMENTAL = ("acceleration", "force-rate", "memory")
 #: Highest degree of the ``time`` probe's polynomials (3: a ramp, a bow and an S across the record; a drift slow
 #: against the record's length).
 TIME_DEGREE = 3
@@ -308,12 +309,12 @@ def probe_residual(estimation: Residual, holdout: Residual, threshold: float = M
     base_ho, base_es = (max(x, 0.0) for x in raw["static"])
     for name in PROBES:
         ho, es = raw[name]
-        if name in INCREMENTAL and name != "time":
+        if name in INCREMENTAL:
             ho, es = ho - base_ho, es - base_es
         value = 0.5 * (ho + es)
         results[name] = ProbeResult(name, value, ho, es, columns[name], value >= threshold)
     total = {n: results[n].explained for n in PROBES}
-    total.update({n: 0.5 * sum(raw[n]) for n in INCREMENTAL if n != "time"})
+    total.update({n: 0.5 * sum(raw[n]) for n in INCREMENTAL})
     structured = any(r.structured for r in results.values())
     scale = float(np.sqrt(np.mean(holdout.r**2)) / max(np.sqrt(np.mean(holdout.f**2)), 1e-300))
     dominant = _dominant(results) if structured else None

@@ -68,9 +68,9 @@ def with_velocity(record):
     return record if record.v is not None else record.with_derivatives()
 
 
-def _run(model, record, shift: float = 0.0) -> np.ndarray | None:
-    """The displacements of the model's free run over ``record`` (its velocities present: :func:`with_velocity`)
-    from its first measured state, the displacements moved by ``shift`` std(z); ``None`` when the run diverges."""
+def run_from_start(model, record, shift: float = 0.0) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
+    """The model's free run over ``record`` (its velocities present: :func:`with_velocity`) from its first measured
+    state, the displacements moved by ``shift`` std(z): ``(z, v, a)``; ``None`` when the run diverges."""
     from ..simulation import SimulationError
     from ..simulation.structure import free_run
 
@@ -78,12 +78,18 @@ def _run(model, record, shift: float = 0.0) -> np.ndarray | None:
     if shift:
         z0 = z0 + shift * _std(record)
     try:
-        z, _, _ = free_run(
+        run = free_run(
             model, record.f, record.fs, force_hold=record.force_hold, x0=(z0, np.asarray(record.v[0], dtype=float))
         )
     except SimulationError:
         return None
-    return z if np.all(np.isfinite(z)) else None
+    return run if all(np.all(np.isfinite(x)) for x in run) else None
+
+
+def _run(model, record, shift: float = 0.0) -> np.ndarray | None:
+    """The displacements of :func:`run_from_start`; ``None`` when the run diverges."""
+    run = run_from_start(model, record, shift)
+    return None if run is None else run[0]
 
 
 def _std(record) -> np.ndarray:

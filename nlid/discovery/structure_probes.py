@@ -52,8 +52,9 @@ def _probe_columns(probe: str, x: np.ndarray, xd: np.ndarray, scale: tuple[float
 def remaining_structure(search: Search, conns, threshold: float) -> StructureRemaining:
     """Flexible functions of each connection's coordinate, and the DOF probes, cross-fitted on the current model's
     residual and counted beyond what they find on the model simulated at the record's noise (:func:`probe_null`)."""
-    linear = _linear(search)
-    found = _fractions(search, conns, linear)
+    base = search.cross_scores(None)
+    linear = _linear(search, base["fit_estimation"])
+    found = _fractions(search, conns, base, linear)
     null = probe_null(search, conns)
     dm = mass_corrections(search, linear)
     out = []
@@ -67,10 +68,10 @@ def remaining_structure(search: Search, conns, threshold: float) -> StructureRem
     return StructureRemaining(tuple(out), float(threshold), null=bool(null))
 
 
-def mass_corrections(search: Search, linear: dict[str, np.ndarray | None] | None = None) -> np.ndarray | None:
+def mass_corrections(search: Search, linear: dict[str, np.ndarray | None]) -> np.ndarray | None:
     """The correction ``dm_k`` of each DOF's mass the data ask for, fitted together with the model (the
-    acceleration probe's columns on all DOFs at once); the mean of the two parts' fits (kg); ``None`` when the
-    linear system's response to the force is not finite.
+    acceleration probe's columns on all DOFs at once, ``linear``: :func:`_linear`); the mean of the two parts'
+    fits (kg); ``None`` when the linear system's response to the force is not finite.
 
     Its sign is what to read: on the 3-DOF chain (1 % noise) the masses given x1.5, x1.1 and x0.5 gave DOF 1
     1.085, 1.033 and 0.641 kg against the true 1 kg. The corrected value lies between the given and the true one,
@@ -78,7 +79,7 @@ def mass_corrections(search: Search, linear: dict[str, np.ndarray | None] | None
     the stiffnesses take up part of the error.
     """
     n = search.n
-    lin_e, lin_h = (linear or _linear(search))["estimation"], (linear or _linear(search))["holdout"]
+    lin_e, lin_h = linear["estimation"], linear["holdout"]
     if lin_e is None or lin_h is None:
         return None
     extras = [Extra(lin_e[:, k : k + 1], connectivity((k + 1, 0), n)) for k in range(n)]
@@ -92,19 +93,18 @@ def mass_corrections(search: Search, linear: dict[str, np.ndarray | None] | None
     return dm
 
 
-def _linear(search: Search) -> dict[str, np.ndarray | None]:
-    """Each part's accelerations as the linear system fitted on the estimation part gives them its force."""
-    fit = search.cross_scores(None)["fit_estimation"]
+def _linear(search: Search, fit: Any) -> dict[str, np.ndarray | None]:
+    """Each part's accelerations as the linear system of ``fit`` (the estimation part's) gives them its force."""
     return {name: _linear_acceleration(p.data, fit.K, fit.C, search.M) for name, p in search.parts.items()}
 
 
 def _fractions(
-    search: Search, conns, linear: dict[str, np.ndarray | None] | None = None
+    search: Search, conns, base: dict[str, Any], linear: dict[str, np.ndarray | None]
 ) -> dict[tuple[Any, str], tuple[float, float, int]]:
     """Each probe's cross-fitted fractions (held-out, estimation) of its DOFs' residual, and its columns, keyed by
-    (connection, probe); the DOF probes on ``(k, 0)``. ``linear``: :func:`_linear`, when already computed."""
+    (connection, probe); the DOF probes on ``(k, 0)``. ``base``: the search's :meth:`~Search.cross_scores` without
+    a probe; ``linear``: :func:`_linear` of its estimation fit."""
     n, w = search.n, search.weights
-    base = search.cross_scores(None)
     est, ho = search.parts["estimation"], search.parts["holdout"]
     out = {}
 
@@ -124,7 +124,6 @@ def _fractions(
             col_e, col_h = connection_columns(est.data, c, columns), connection_columns(ho.data, c, columns)
             score((c, probe), col_e, col_h, touched)
     fit = base["fit_estimation"]  # what no connection carries: the mass given and the force's path, DOF by DOF
-    lin = linear or _linear(search)
     for k in range(1, n + 1):
         for probe in DOF_PROBES:
             if probe == "time":  # a drift: within each part, its residual under the other part's fit
@@ -132,8 +131,8 @@ def _fractions(
                 b = time_gain(search.residual(est, base["fit_holdout"], k - 1))
                 out[((k, 0), probe)] = (float(a), float(b), TIME_DEGREE)
                 continue
-            col_e = _dof_columns(probe, est.data, k, lin["estimation"])
-            col_h = _dof_columns(probe, ho.data, k, lin["holdout"])
+            col_e = _dof_columns(probe, est.data, k, linear["estimation"])
+            col_h = _dof_columns(probe, ho.data, k, linear["holdout"])
             if col_e is not None and col_h is not None:
                 score(((k, 0), probe), col_e, col_h, [k - 1])
     return out
@@ -166,9 +165,7 @@ def probe_null(search: Search, conns) -> dict[tuple[Any, str], tuple[float, floa
 
     from ..estimation.structure_regression import structure_regression_data
     from ..signal.noisefloor import noise_sd
-    from ..simulation import SimulationError
-    from ..simulation.structure import free_run
-    from .structure_accept import with_velocity
+    from .structure_accept import run_from_start, with_velocity
 
     if search.elements is None or any(p.record is None for p in search.parts.values()):
         return {}
@@ -176,14 +173,10 @@ def probe_null(search: Search, conns) -> dict[tuple[Any, str], tuple[float, floa
     rng = np.random.default_rng(NULL_SEED)
     parts = {}
     for name, part in search.parts.items():
-        record = with_velocity(part.record)
-        x0 = (np.asarray(record.z[0], dtype=float), np.asarray(record.v[0], dtype=float))
-        try:
-            z, v, a = free_run(model, record.f, record.fs, force_hold=record.force_hold, x0=x0)
-        except SimulationError:
+        run = run_from_start(model, with_velocity(part.record))
+        if run is None:
             return {}
-        if not (np.all(np.isfinite(z)) and np.all(np.isfinite(v)) and np.all(np.isfinite(a))):
-            return {}
+        z, v, a = run
         given = part.record
         sd = np.asarray([noise_sd(np.asarray(given.z[:, k], dtype=float), given.fs) for k in range(search.n)])
         channels = {
@@ -199,7 +192,8 @@ def probe_null(search: Search, conns) -> dict[tuple[Any, str], tuple[float, floa
     null = Search(parts, search.M, search.rule, search.n, cutoff=search.cutoff)
     null.weights = search.weights
     null.equations(search.elements)
-    return _fractions(null, conns)
+    base = null.cross_scores(None)
+    return _fractions(null, conns, base, _linear(null, base["fit_estimation"]))
 
 
 def _linear_acceleration(data, K: np.ndarray, C: np.ndarray, M: np.ndarray) -> np.ndarray | None:
