@@ -187,6 +187,7 @@ def discovery_summary(result: Result) -> Summary:
     if result.info.get("force_hold"):  # the assumption about the force between samples, and its source
         hold = describe_force_hold(result.info["force_hold"], result.info.get("force_hold_source", "default"))
         out.add_text(f"force between samples: {hold}", width=TERMINAL_WIDTH, subsequent="  ")
+    out.add_text(*(f"data: {w}" for w in result.info.get("data_warnings") or ()), width=TERMINAL_WIDTH, subsequent="  ")
     out.add_text(*freerun_rules(result), width=TERMINAL_WIDTH, subsequent="  ")
     judged = result.info.get("prediction_rule") or {}
     if judged.get("enabled") and judged.get("folds_note"):

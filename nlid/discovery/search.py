@@ -46,6 +46,7 @@ from ..model.terms import Model
 from ..runtime.parallel import kernel_threads
 from ..scoring import TransientRule
 from ..signal import derivatives
+from ..signal.clipping import find_clipping
 from .crossfit import PredictionRule
 from .evidence import AcceptanceRule, Evidence, acceptance_rule, judge
 from .inputs import DEFAULT_HOLDOUT, CandidateLibrary, Split
@@ -403,6 +404,10 @@ class Discovery:
         assert remaining is not None
         clean = "" if remaining.structured else "the final model is "
         stop_reason = f"{stop_reason}; {clean}" + describe_remaining(remaining)
+        data = ctx.whole if ctx.whole is not None else ctx.estimation
+        clipped = find_clipping(data)
+        if clipped:  # a clipped channel's samples look like noise to every probe: "clean" says nothing then
+            stop_reason += "; but no probe sees a clipped channel: " + "; ".join(c.short() for c in clipped)
         if self.simulate:
             say("free-run simulation on the held-out record")
             states = [with_free_run(ctx, stage) for stage in states]
@@ -430,6 +435,7 @@ class Discovery:
             "units": dict(run.units),
             "force_hold": estimation.force_hold,
             "force_hold_source": force_hold_source(estimation.meta),
+            "data_warnings": [c.describe() for c in clipped],
             "source": run.source,
             "holdout_source": run.holdout_source,
             "candidates": run.library.names,

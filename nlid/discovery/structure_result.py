@@ -472,6 +472,7 @@ class StructureDiscoveryResult:
             f"choice on the selection record ({self.info.get('samples_estimation')} estimation + "
             f"{self.info.get('samples_holdout')} held-out samples, cross-fitted), errors on the test part "
             f"({self.info.get('samples_test')} samples)",
+            *(f"data: {w}" for w in self.info.get("data_warnings") or ()),
         ]
         for step in self.steps:
             e = step.evidence

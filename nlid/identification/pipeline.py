@@ -39,6 +39,7 @@ from ..estimation.inputpath import input_path as to_input_path
 from ..identified.model import IdentifiedModel
 from ..model import physics
 from ..model.terms import Model, Term
+from ..signal.clipping import clipping_warnings
 from .provenance import identify_provenance
 
 if TYPE_CHECKING:  # pragma: no cover
@@ -276,10 +277,11 @@ def identify(
             raise InputError("input_path= is for a record of one degree of freedom")
         from .structure_fit import identify_structure
 
-        return identify_structure(
+        fitted = identify_structure(
             record, terms, method, mass=mass, options=options, without=without, px_roots=px_roots, cutoff=cutoff,
             registry=registry,
         )  # fmt: skip
+        return with_data_warnings(fitted, record)
     model = as_model(terms, without=without, px_roots=px_roots)
     identifier = make_identifier(method, options, registry)
     mass = check_mass(mass)
@@ -333,7 +335,15 @@ def identify(
     )
     if not path.identity:
         provenance["identify"]["input_path"] = path.to_spec()
-    return dataclasses.replace(result, provenance=provenance, input_path=path)
+    return with_data_warnings(dataclasses.replace(result, provenance=provenance, input_path=path), measured)
+
+
+def with_data_warnings(result: Any, record: Record) -> Any:
+    """``result`` with a warning for each clipped channel of ``record`` (:mod:`nlid.signal.clipping`)."""
+    found = clipping_warnings(record)
+    if not found:
+        return result
+    return dataclasses.replace(result, warnings=(*result.warnings, *found))
 
 
 # --------------------------------------------------------------------------- isolated

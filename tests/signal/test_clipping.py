@@ -1,0 +1,112 @@
+"""Clipped channels (nlid.signal.clipping): found where a range cut them, not where a record merely peaks."""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+import pytest
+
+import nlid
+from nlid.data.record import Record
+from nlid.signal.clipping import find_clipping
+from nlid.simulation.presets import PRESETS, get_preset
+
+
+def _clip(x: np.ndarray, fraction: float) -> np.ndarray:
+    limit = fraction * np.max(np.abs(x))
+    return np.clip(x, -limit, limit)
+
+
+@pytest.fixture(scope="module")
+def noisy(numerical):
+    """10 s of paper-numerical at 1 % noise (z, v, a measured)."""
+    return numerical.with_overrides(duration=10.0).simulate(3, noise=0.01)
+
+
+@pytest.mark.parametrize("name", sorted(PRESETS))
+def test_no_preset_looks_clipped(name):  # one DOF and structures
+    preset = get_preset(name)
+    if getattr(preset, "multisine", None) is None:  # a multisine's length is its periods'
+        preset = preset.with_overrides(duration=min(preset.duration, 20.0))
+    assert find_clipping(preset.simulate(1, noise=0.01)) == ()
+    assert find_clipping(preset.simulate(1)) == ()  # noise-free: sines hit at their crests are not cuts
+
+
+def test_no_measured_benchmark_looks_clipped(data_dir):
+    for name in ("dataset:emps", "dataset:silverbox", "dataset:bouc-wen"):
+        assert find_clipping(nlid.load(name)) == (), name
+
+
+def test_a_clipped_displacement_is_found_on_the_side_it_was_cut(noisy):
+    z = _clip(noisy.z, 0.9)  # the double well swings further to one side: only that side reaches the cut
+    found = find_clipping(dataclasses.replace(noisy, z=z))
+    assert found, "a displacement cut at 90 % of its peak"
+    assert {c.channel for c in found} == {"z"}
+    for c in found:
+        level = z.max() if c.side == "maximum" else z.min()
+        assert c.level == level and c.unit == "m"
+        assert c.samples <= int(np.sum(z == level)) and c.visits >= 3
+        assert c.share == pytest.approx(c.samples / z.size)
+        assert "looks clipped" in c.describe() and f"{c.samples} samples" in c.describe()
+
+
+def test_a_clipped_broadband_force_is_found_on_both_sides(noisy):
+    found = find_clipping(dataclasses.replace(noisy, f=_clip(noisy.f, 0.85)))
+    assert {(c.channel, c.side) for c in found} == {("f", "maximum"), ("f", "minimum")}
+
+
+def test_an_uncut_channel_beside_a_cut_one_is_not_named(noisy):
+    found = find_clipping(dataclasses.replace(noisy, v=_clip(noisy.v, 0.8)))
+    assert {c.channel for c in found} == {"v"}
+
+
+def test_a_stage_resting_at_the_ends_of_its_travel_is_not_clipped():
+    fs, t = 1000.0, np.arange(20_000) / 1000.0
+    z = np.empty_like(t)
+    for k in range(10):  # moves smoothly between -1 and +1 mm and rests a second at each end
+        span = (t >= 2 * k) & (t < 2 * k + 1)
+        z[span] = (-1) ** k * np.cos(np.pi * (t[span] - 2 * k)) * -1e-3
+        z[(t >= 2 * k + 1) & (t < 2 * k + 2)] = (-1) ** k * 1e-3
+    z = 1e-6 * np.round(z / 1e-6)  # an encoder of 1 um: the rests sit exactly at the extremes
+    force = np.random.default_rng(0).normal(size=t.size)
+    assert find_clipping(Record(f=force, z=z, fs=fs)) == ()
+
+
+def test_a_force_held_over_several_samples_is_not_clipped():
+    rng = np.random.default_rng(1)
+    force = np.repeat(rng.normal(size=4000), 5)  # every value repeats five times, the extremes too
+    record = Record(f=force, z=np.sin(np.arange(force.size) / 50.0), fs=1000.0)
+    assert find_clipping(record) == ()
+    held = np.repeat(_clip(rng.normal(size=4000), 0.6), 5)  # the same, cut: each cut value is held too
+    assert find_clipping(Record(f=held, z=record.z, fs=1000.0))
+
+
+def test_a_square_wave_and_a_sine_hit_at_its_crest_are_not_clipped():
+    n = np.arange(8000)
+    square = np.where((n // 100) % 2 == 0, 1.0, -1.0)
+    crest = np.sin(2 * np.pi * n / 40)  # a period of 40 samples: the crest is sampled exactly, 200 times
+    assert find_clipping(Record(f=square, z=crest, fs=1000.0)) == ()
+
+
+def test_an_estimated_channel_is_not_read(noisy):
+    record = Record(f=noisy.f, z=noisy.z, fs=noisy.fs).with_derivatives()  # v and a estimated
+    cut = dataclasses.replace(record, v=_clip(record.v, 0.5))
+    assert find_clipping(cut) == ()
+
+
+def test_a_structure_names_the_dof(chain_record):
+    z = np.array(chain_record.z, copy=True)
+    z[:, 1] = _clip(z[:, 1], 0.8)
+    found = find_clipping(dataclasses.replace(chain_record, z=z))
+    assert {c.channel for c in found} == {"z2"}
+
+
+def test_identify_and_discover_say_so(noisy):
+    cut = dataclasses.replace(noisy, z=_clip(noisy.z, 0.85))
+    fit = nlid.identify(cut, "z, z^2, z^3, v, v*|v|", "rfs", mass=noisy.mass)
+    assert any("channel z looks clipped" in w for w in fit.warnings)
+    assert not any("clipped" in w for w in nlid.identify(noisy, "z, z^2, z^3, v, v*|v|", "rfs").warnings)
+    result = nlid.discover(cut, ["z", "z^2", "z^3", "v", "v*|v|"], mass=noisy.mass, simulate=False, views=False)
+    assert "no probe sees a clipped channel: channel z looks clipped" in result.stop_reason
+    assert result.info["data_warnings"] and "data: channel z looks clipped" in str(result.summary())
