@@ -46,7 +46,7 @@ from ..model.terms import Model
 from ..runtime.parallel import kernel_threads
 from ..scoring import TransientRule
 from ..signal import derivatives
-from ..signal.clipping import find_clipping
+from ..signal.clipping import clipped_note, find_clipping
 from .crossfit import PredictionRule
 from .evidence import AcceptanceRule, Evidence, acceptance_rule, judge
 from .inputs import DEFAULT_HOLDOUT, CandidateLibrary, Split
@@ -406,8 +406,8 @@ class Discovery:
         stop_reason = f"{stop_reason}; {clean}" + describe_remaining(remaining)
         data = ctx.whole if ctx.whole is not None else ctx.estimation
         clipped = find_clipping(data)
-        if clipped:  # a clipped channel's samples look like noise to every probe: "clean" says nothing then
-            stop_reason += "; but no probe sees a clipped channel: " + "; ".join(c.short() for c in clipped)
+        if clipped:  # what no probe can tell from an effect
+            stop_reason += clipped_note(clipped)
         if self.simulate:
             say("free-run simulation on the held-out record")
             states = [with_free_run(ctx, stage) for stage in states]

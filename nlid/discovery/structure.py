@@ -49,7 +49,7 @@ from ..errors import IdentificationError, InputError, NlidError
 from ..estimation.joint import Extra
 from ..estimation.structure_balance import residual_on
 from ..model.terms import Term
-from ..signal.clipping import find_clipping
+from ..signal.clipping import clipped_note, find_clipping
 from .evidence import AcceptanceRule, acceptance_rule, integrated_time
 from .judge import MAX_JUDGED
 from .library import Candidate, Variant, dissipative, resolve_candidates
@@ -311,8 +311,8 @@ def discover_structure(
         else f"{stop}; " + remaining.describe()
     )
     clipped = find_clipping(record)
-    if clipped:  # a clipped channel's samples look like noise to every probe: "clean" says nothing then
-        stop += "; but no probe sees a clipped channel: " + "; ".join(c.short() for c in clipped)
+    if clipped:  # what no probe can tell from an effect
+        stop += clipped_note(clipped)
     info = {
         "data_warnings": [c.describe() for c in clipped],
         "samples_estimation": int(parts["estimation"].data.z.shape[0]),

@@ -36,6 +36,7 @@ __all__ = [
     "Clipping",
     "find_clipping",
     "clipping_warnings",
+    "clipped_note",
     "SPIKE",
     "MIN_VISITS",
     "MOTION_STEP",
@@ -164,13 +165,22 @@ def find_clipping(record: Any) -> tuple[Clipping, ...]:
         x = np.asarray(record.channel(name), dtype=float)
         if x.size < 2 * MIN_VISITS or not np.all(np.isfinite(x)) or x.max() == x.min():
             continue
-        unit = str(units.get(name.rstrip("0123456789"), ""))
+        unit = str(units.get(name) or units.get(name.rstrip("0123456789")) or "")
         for sign, side in ((1.0, "maximum"), (-1.0, "minimum")):
             visits, samples = _visits(sign * x)
             if visits:
                 level = float(x.max() if sign > 0 else x.min())
                 found.append(Clipping(name, side, level, unit, visits, samples, samples / x.size))
     return tuple(found)
+
+
+def clipped_note(found: tuple[Clipping, ...]) -> str:
+    """The end of a search's stop reason when channels look clipped: an effect found may be fitting the cut."""
+    names = "; ".join(c.short() for c in found)
+    return (
+        f"; but {names}: the cut samples do not measure the motion, so the model cannot be clean and any effect "
+        "added may only be fitting the cut (data, above)"
+    )
 
 
 def clipping_warnings(record: Any) -> list[str]:

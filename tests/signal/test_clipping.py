@@ -9,6 +9,7 @@ import pytest
 
 import nlid
 from nlid.data.record import Record
+from nlid.discovery.structure import discover_structure
 from nlid.signal.clipping import find_clipping
 from nlid.simulation.presets import PRESETS, get_preset
 
@@ -99,7 +100,7 @@ def test_a_structure_names_the_dof(chain_record):
     z = np.array(chain_record.z, copy=True)
     z[:, 1] = _clip(z[:, 1], 0.8)
     found = find_clipping(dataclasses.replace(chain_record, z=z))
-    assert {c.channel for c in found} == {"z2"}
+    assert {c.channel for c in found} == {"z2"} and {c.unit for c in found} == {"m"}
 
 
 def test_identify_and_discover_say_so(noisy):
@@ -108,5 +109,14 @@ def test_identify_and_discover_say_so(noisy):
     assert any("channel z looks clipped" in w for w in fit.warnings)
     assert not any("clipped" in w for w in nlid.identify(noisy, "z, z^2, z^3, v, v*|v|", "rfs").warnings)
     result = nlid.discover(cut, ["z", "z^2", "z^3", "v", "v*|v|"], mass=noisy.mass, simulate=False, views=False)
-    assert "no probe sees a clipped channel: channel z looks clipped" in result.stop_reason
+    assert "; but channel z looks clipped at its" in result.stop_reason and "fitting the cut" in result.stop_reason
     assert result.info["data_warnings"] and "data: channel z looks clipped" in str(result.summary())
+
+
+def test_discover_structure_says_so(chain):
+    record = chain.simulate(0, noise=0.01)
+    z = np.array(record.z, copy=True)
+    z[:, 1] = _clip(z[:, 1], 0.8)
+    result = discover_structure(dataclasses.replace(record, z=z), "z3^3", max_steps=1)
+    assert "; but channel z2 looks clipped at its" in result.stop_reason
+    assert "data: channel z2 looks clipped" in result.summary() and result.info["data_warnings"]
