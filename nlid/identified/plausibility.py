@@ -196,10 +196,10 @@ def mass_hint(given: float, implied: float, unit: str = "kg") -> str:
     if unit != "kg":  # a record in other units (volts): its mass is force per unit of acceleration
         return f"is mass= in {unit}, the force per unit of acceleration?"
     decade = round(math.log10(given / implied) / 3) * 3
-    if decade >= 3:  # a mass in g, or a displacement in mm read as m (the acceleration 1000 times too large)
-        return "is mass= in kg (not g)? is z in m (units='z=mm' when it is in mm)?"
-    if decade <= -3:  # a mass in t, or a force in kN read as N
-        return "is mass= in kg (not t)? is f in N (units='f=kN' when it is in kN)? is z in m?"
+    if decade >= 3:  # a mass in g, a displacement in mm read as m, or a force in kN read as N
+        return "is mass= in kg (not g)? is z in m (units='z=mm' when it is in mm)? is f in N (units='f=kN')?"
+    if decade <= -3:  # a mass in t, or a force in mN read as N
+        return "is mass= in kg (not t)? is f in N (units='f=mN' when it is in mN)? is z in m?"
     return "is mass= the moving mass, in kg? is z in m and f in N (units= when they are not)?"
 
 

@@ -32,12 +32,13 @@ def record():
 
 @pytest.fixture(scope="module")
 def files(record, tmp_path_factory):
-    """The record as a CSV in SI (with its force hold said) and the same with z written in mm."""
+    """The record as a CSV in SI (with its force hold said), the same with z written in mm, and with f in kN."""
     folder = tmp_path_factory.mktemp("plausibility")
-    si, mm = folder / "x.csv", folder / "xmm.csv"
+    si, mm, kn = folder / "x.csv", folder / "xmm.csv", folder / "xkn.csv"
     pd.DataFrame({"t": record.t, "f": record.f, "z": record.z}).to_csv(si, index=False)
     pd.DataFrame({"t": record.t, "f": record.f, "z": 1e3 * record.z}).to_csv(mm, index=False)
-    return si, mm
+    pd.DataFrame({"t": record.t, "f": 1e-3 * record.f, "z": record.z}).to_csv(kn, index=False)
+    return si, mm, kn
 
 
 def run(capfd, *argv: str) -> tuple[int, str, str]:
@@ -56,10 +57,12 @@ def run(capfd, *argv: str) -> tuple[int, str, str]:
         ("si", "0.0002", {"mass", "overdamped"}, "is --mass in kg (not t)?"),
         # z written in mm, read as m (no --units): the same as a mass 1000 times too large
         ("mm", "0.2", {"mass", "negative-damping"}, "--units z=mm"),
+        # f written in kN, read as N: the implied mass 1000 times too small, as with z in mm
+        ("kN", "0.2", {"mass"}, "--units f=kN"),
     ],
 )
 def test_each_row_of_the_table_exits_1_naming_the_cause(files, capfd, which, mass, codes, cause):
-    path = files[0] if which == "si" else files[1]
+    path = files[("si", "mm", "kN").index(which)]
     status, out, err = run(capfd, "identify", str(path), "--method", "rfs", "--terms", TERMS, "--mass", mass)
     assert status == 1
     lines = err.strip().splitlines()
