@@ -46,7 +46,7 @@ from ..model.terms import Model
 from ..runtime.parallel import kernel_threads
 from ..scoring import TransientRule
 from ..signal import derivatives
-from ..signal.clipping import clipped_note, find_clipping
+from ..signal.glitches import find_glitches, glitch_note
 from .crossfit import PredictionRule
 from .evidence import AcceptanceRule, Evidence, acceptance_rule, judge
 from .inputs import DEFAULT_HOLDOUT, CandidateLibrary, Split
@@ -405,9 +405,9 @@ class Discovery:
         clean = "" if remaining.structured else "the final model is "
         stop_reason = f"{stop_reason}; {clean}" + describe_remaining(remaining)
         data = ctx.whole if ctx.whole is not None else ctx.estimation
-        clipped = find_clipping(data)
-        if clipped:  # what no probe can tell from an effect
-            stop_reason += clipped_note(clipped)
+        glitches = find_glitches(data)
+        if glitches:  # what no probe can tell from an effect
+            stop_reason += glitch_note(glitches)
         if self.simulate:
             say("free-run simulation on the held-out record")
             states = [with_free_run(ctx, stage) for stage in states]
@@ -435,7 +435,7 @@ class Discovery:
             "units": dict(run.units),
             "force_hold": estimation.force_hold,
             "force_hold_source": force_hold_source(estimation.meta),
-            "data_warnings": [c.describe() for c in clipped],
+            "data_warnings": [g.describe() for g in glitches],
             "source": run.source,
             "holdout_source": run.holdout_source,
             "candidates": run.library.names,

@@ -49,7 +49,7 @@ from ..errors import IdentificationError, InputError, NlidError
 from ..estimation.joint import Extra
 from ..estimation.structure_balance import residual_on
 from ..model.terms import Term
-from ..signal.clipping import clipped_note, find_clipping
+from ..signal.glitches import find_glitches, glitch_note
 from .evidence import AcceptanceRule, acceptance_rule, integrated_time
 from .judge import MAX_JUDGED
 from .library import Candidate, Variant, dissipative, resolve_candidates
@@ -310,11 +310,11 @@ def discover_structure(
         if not remaining.structured
         else f"{stop}; " + remaining.describe()
     )
-    clipped = find_clipping(record)
-    if clipped:  # what no probe can tell from an effect
-        stop += clipped_note(clipped)
+    glitches = find_glitches(record)
+    if glitches:  # what no probe can tell from an effect
+        stop += glitch_note(glitches)
     info = {
-        "data_warnings": [c.describe() for c in clipped],
+        "data_warnings": [g.describe() for g in glitches],
         "samples_estimation": int(parts["estimation"].data.z.shape[0]),
         "samples_holdout": int(parts["holdout"].data.z.shape[0]),
         "samples_test": int(test_data.z.shape[0]),

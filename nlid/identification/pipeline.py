@@ -39,7 +39,7 @@ from ..estimation.inputpath import input_path as to_input_path
 from ..identified.model import IdentifiedModel
 from ..model import physics
 from ..model.terms import Model, Term
-from ..signal.clipping import clipping_warnings
+from ..signal.glitches import glitch_warnings
 from .provenance import identify_provenance
 
 if TYPE_CHECKING:  # pragma: no cover
@@ -339,8 +339,8 @@ def identify(
 
 
 def with_data_warnings(result: Any, record: Record) -> Any:
-    """``result`` with a warning for each clipped channel of ``record`` (:mod:`nlid.signal.clipping`)."""
-    found = clipping_warnings(record)
+    """``result`` with a warning for each glitch of ``record`` (:mod:`nlid.signal.glitches`)."""
+    found = glitch_warnings(record)
     if not found:
         return result
     return dataclasses.replace(result, warnings=(*result.warnings, *found))

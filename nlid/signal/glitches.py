@@ -1,0 +1,330 @@
+"""Glitches a record carries and no model of the motion can fit: clipped channels and isolated spikes.
+
+## Clipped channels
+
+A channel that leaves its instrument's range is cut flat at the range's edge: the samples there stop
+measuring the motion, and nothing downstream can tell. On ``paper-numerical`` at 1 % noise (rfs, mass
+given, seeds 1-3; ``python benchmarks/record_glitches.py``), a displacement cut at 90 % of its peak (0.3-0.5 %
+of the samples) makes the cubic spring 0.8-1.2 % too stiff, one cut at 80 % (3-4 % of the samples) 8-10 %,
+one cut at 60 % 62-71 %. A model can look clean with its input cut: the probes of what remains read a few
+cut samples as noise.
+
+:func:`find_clipping` looks for the cut itself, on each side of each measured channel:
+
+* **a spike at the extreme**: at least :data:`SPIKE` times as many samples sit exactly at the channel's
+  largest (or smallest) value as at its next value. A continuous channel reaches its extreme once; a
+  periodic one once a period, and every other value as often; a quantised one about as often as the
+  levels next to it;
+* **reached and left in motion**: the step into each visit of the extreme and the step out of it are at
+  least :data:`MOTION_STEP` of the channel's median step (:data:`SINGLE_STEP` for a visit of one sample),
+  so a stage that slows down and rests at the end of its travel is not taken for a clipped sensor; and
+  the visit is not left by exactly the step it was reached by, as a synthetic sine is at a crest that
+  the sampling hits (:data:`SYMMETRIC`);
+* **repeatedly**: at least :data:`MIN_VISITS` such visits (runs of one or more samples).
+
+## Isolated spikes
+
+A displacement cannot leave its path for one sample and come back, nor can a velocity: such a sample is a
+glitch of the sensor or the acquisition (a lost count, a bit error, an interference pulse). On
+``paper-numerical`` at 1 % noise (seeds 1-3), 20 spikes of twice std(z) (0.016 % of the samples) make the
+cubic spring 4-8 % weak and the quadratic 7-21 %, with nothing said (``python benchmarks/record_glitches.py``,
+which measures both kinds of glitch); spikes of one std(z) still move them by 0.5-2.5 %.
+
+:func:`find_spikes` finds them on each measured displacement and velocity channel: a sample that both the
+line through its two left neighbours and the line through its two right neighbours miss on the same side,
+each by more than :data:`SPIKE_SCALES` times the channel's robust scale of such misses and more than
+:data:`SPIKE_STD` of its standard deviation. A velocity is rougher than a displacement (the misses' scale
+is 0.25 std(v) against 0.024 std(z) on ``paper-numerical``), so only spikes of several std(v) stand out.
+A kink (an impact reversing the velocity) is met by one of the two lines, a step (a velocity jump) by the
+line on its far side. Forces and accelerations are not read: a hammer's blow or an impact is a real
+one-sample pulse there.
+
+:func:`find_glitches` gives both kinds; :func:`glitch_warnings` one line each. :func:`nlid.identify` adds them
+to the model's warnings, :func:`nlid.discover` and :func:`~nlid.discovery.structure.discover_structure` to
+their report and stop reason. Works for records of any number of DOFs (every channel, ``z2`` of a structure
+as ``z`` of one DOF).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+__all__ = [
+    "Clipping",
+    "Spikes",
+    "find_clipping",
+    "find_spikes",
+    "find_glitches",
+    "glitch_warnings",
+    "glitch_note",
+    "SPIKE",
+    "SPIKE_SCALES",
+    "SPIKE_STD",
+    "MIN_VISITS",
+    "MOTION_STEP",
+    "SINGLE_STEP",
+    "SYMMETRIC",
+]
+
+#: How many times more samples must sit at the extreme than at the channel's next value. A sine quantised
+#: with a level at its peak puts up to 2.4 times as many samples in its top level as in the next (the
+#: arcsine density); a stepped or swept sine repeats its peak sample once a period, as every other sample.
+SPIKE = 4.0
+#: Fewest visits of the extreme, each reached and left in motion, that call a side clipped.
+MIN_VISITS = 3
+#: The step into and out of a visit, as a fraction of the channel's median nonzero step, that counts as
+#: motion (a sine clipped at 95 % of its peak is entered at about 0.45 of its median step; a stage that
+#: decelerates to rest, at the noise's or the quantisation's step).
+MOTION_STEP = 0.25
+#: A visit of one sample must be reached and left by at least this fraction of the median step: a smooth
+#: crest that rounds to the same value at several crests (a noise-free sine at ``sin = 1.0``) is reached by
+#: a small step (measured: 0.02-0.13 of the median on the swept- and stepped-sine presets), a broadband force
+#: cut at 90 % of its peak by 2.3-5.9 of it.
+SINGLE_STEP = 1.0
+#: A visit left by the same step as it was reached, to this relative difference, is a smooth crest that the
+#: sampling hits exactly (a synthetic sine whose period is a multiple of four samples), not a cut.
+SYMMETRIC = 1e-6
+
+
+@dataclass(frozen=True)
+class Clipping:
+    """One side of one channel found clipped (:func:`find_clipping`).
+
+    Attributes
+    ----------
+    channel
+        The channel's name (``"z"``, a structure's ``"z2"``).
+    side
+        ``"maximum"`` or ``"minimum"``.
+    level
+        The value it is cut at, in the record's (SI) unit of the channel.
+    unit
+        That unit.
+    visits
+        Runs of samples at the level, each reached and left in motion.
+    samples
+        Samples in those runs.
+    share
+        ``samples`` over the record's length.
+    """
+
+    channel: str
+    side: str
+    level: float
+    unit: str
+    visits: int
+    samples: int
+    share: float
+
+    def short(self) -> str:
+        """``"channel z looks clipped at its maximum, 0.0036 m"``."""
+        return f"channel {self.channel} looks clipped at its {self.side}, {self.level:.6g} {self.unit}".rstrip()
+
+    def describe(self) -> str:
+        """One line for a warning."""
+        return (
+            self.short()
+            + f": {self.samples} samples ({100 * self.share:.2g} % of the record) sit exactly there, reached and "
+            f"left in motion {self.visits} times (a sensor or amplifier past its range?); they do not measure the "
+            "motion and bias what is fitted to them: cut them out, or use a record within the range"
+        )
+
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-friendly form."""
+        return {
+            "channel": self.channel,
+            "side": self.side,
+            "level": self.level,
+            "unit": self.unit,
+            "visits": self.visits,
+            "samples": self.samples,
+            "share": self.share,
+        }
+
+
+def _visits(y: np.ndarray) -> tuple[int, int]:
+    """``(visits, samples)`` of the clipped-looking top of ``y`` (its maximum); ``(0, 0)`` when it is not."""
+    level = y.max()
+    at = y == level
+    count = int(at.sum())
+    below = y[~at]
+    if count < MIN_VISITS or below.size == 0 or count < SPIKE * int((y == below.max()).sum()):
+        return 0, 0
+    edges = np.diff(np.concatenate([[0], at.astype(np.int8), [0]]))
+    start, stop = np.flatnonzero(edges == 1), np.flatnonzero(edges == -1)
+    inside = (start >= 1) & (stop <= y.size - 1)  # a visit at the record's edge has no way in or out
+    start, stop = start[inside], stop[inside]
+    steps = np.abs(np.diff(y))
+    scale = float(np.median(steps[steps > 0]))
+    into, out = level - y[start - 1], level - y[stop]
+    least = np.where(stop - start > 1, MOTION_STEP, SINGLE_STEP) * scale
+    moving = (into >= least) & (out >= least)
+    moving &= np.abs(into - out) > SYMMETRIC * np.maximum(into, out)  # not a sampled crest, left as reached
+    if int(moving.sum()) < MIN_VISITS:
+        return 0, 0
+    return int(moving.sum()), int((stop - start)[moving].sum())
+
+
+def find_clipping(record: Any) -> tuple[Clipping, ...]:
+    """Every channel side of ``record`` that looks clipped (see the module docstring); empty when none does.
+
+    Parameters
+    ----------
+    record
+        A :class:`~nlid.data.record.Record` of any number of DOFs. Only measured channels are read: a channel
+        estimated from a clipped one inherits its flat tops, and the warning names the source.
+
+    Returns
+    -------
+    tuple of Clipping
+        In the record's channel order, the maximum before the minimum.
+    """
+    found = []
+    for name in _measured(record):
+        x = np.asarray(record.channel(name), dtype=float)
+        if x.size < 2 * MIN_VISITS or not np.all(np.isfinite(x)) or x.max() == x.min():
+            continue
+        unit = _unit(record, name)
+        for sign, side in ((1.0, "maximum"), (-1.0, "minimum")):
+            visits, samples = _visits(sign * x)
+            if visits:
+                level = float(x.max() if sign > 0 else x.min())
+                found.append(Clipping(name, side, level, unit, visits, samples, samples / x.size))
+    return tuple(found)
+
+
+#: A spike misses both lines through its neighbours by more than this many robust scales (1.4826 times the
+#: median absolute deviation of every such miss in the channel). The largest miss on a healthy channel: 11.3
+#: scales (noise-free paper-experimental z), 5.3 on the structures, 4.6 on Silverbox, 18.9 on EMPS (an encoder
+#: at rest: the scale is a fraction of a count, and :data:`SPIKE_STD` rules it out); a spike of half std(z)
+#: at 1 % noise misses by 19 scales, one of twice std(z) by 80.
+SPIKE_SCALES = 25.0
+#: ... and by more than this fraction of the channel's standard deviation (EMPS: 1e-5 at most; a smooth channel
+#: sampled a few times a period misses by up to 2 std: Silverbox).
+SPIKE_STD = 0.05
+#: Sample indices a :class:`Spikes` lists (the first ones).
+SPIKES_LISTED = 5
+
+
+@dataclass(frozen=True)
+class Spikes:
+    """Isolated spikes of one channel (:func:`find_spikes`).
+
+    Attributes
+    ----------
+    channel
+        The channel's name (``"z"``, a structure's ``"z2"``).
+    count
+        Spikes found.
+    largest
+        The largest miss, in the record's (SI) unit of the channel.
+    unit
+        That unit.
+    std
+        The channel's standard deviation, in that unit.
+    samples
+        The first :data:`SPIKES_LISTED` spikes' sample indices.
+    """
+
+    channel: str
+    count: int
+    largest: float
+    unit: str
+    std: float
+    samples: tuple[int, ...]
+
+    def short(self) -> str:
+        """``"channel z has 20 isolated spikes"``."""
+        return f"channel {self.channel} has {self.count} isolated spike{'s' if self.count > 1 else ''}"
+
+    def describe(self) -> str:
+        """One line for a warning."""
+        at = ", ".join(str(i) for i in self.samples) + (", ..." if self.count > len(self.samples) else "")
+        return (
+            f"{self.short()} (samples {at}; up to {self.largest:.3g} {self.unit} = {self.largest / self.std:.2g} "
+            "std off the line through their neighbours on both sides, and back): glitches of the sensor or the "
+            "acquisition? they bias what is fitted to them: replace each by its neighbours' mean, or cut them out"
+        ).replace(" ;", ";")
+
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-friendly form."""
+        return {
+            "channel": self.channel,
+            "count": self.count,
+            "largest": self.largest,
+            "unit": self.unit,
+            "std": self.std,
+            "samples": list(self.samples),
+        }
+
+
+def _spikes(x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Sample indices of the isolated spikes of ``x`` and the size of each (its smaller miss)."""
+    left = x[2:-2] - (2.0 * x[1:-3] - x[:-4])
+    right = x[2:-2] - (2.0 * x[3:-1] - x[4:])
+    misses = np.concatenate([left, right])
+    scale = 1.4826 * float(np.median(np.abs(misses - np.median(misses))))
+    size = np.where(np.sign(left) == np.sign(right), np.minimum(np.abs(left), np.abs(right)), 0.0)
+    found = np.flatnonzero((size > SPIKE_SCALES * scale) & (size > SPIKE_STD * float(np.std(x))))
+    return found + 2, size[found]
+
+
+def find_spikes(record: Any) -> tuple[Spikes, ...]:
+    """Every measured displacement and velocity channel of ``record`` with isolated spikes (module docstring).
+
+    Parameters
+    ----------
+    record
+        A :class:`~nlid.data.record.Record` of any number of DOFs.
+
+    Returns
+    -------
+    tuple of Spikes
+        In the record's channel order; empty when no channel has any.
+    """
+    found = []
+    for name in _measured(record, ("z", "v")):
+        x = np.asarray(record.channel(name), dtype=float)
+        if x.size < 5 or not np.all(np.isfinite(x)):
+            continue
+        where, size = _spikes(x)
+        if where.size:
+            found.append(
+                Spikes(name, int(where.size), float(size.max()), _unit(record, name), float(np.std(x)),
+                       tuple(int(i) for i in where[:SPIKES_LISTED]))
+            )  # fmt: skip
+    return tuple(found)
+
+
+def _measured(record: Any, groups: tuple[str, ...] | None = None) -> list[str]:
+    """The measured channels of ``record`` (of ``groups`` only, when given)."""
+    names = [n for n in record.channels if str(record.source_of(n)).startswith("measured")]
+    return [n for n in names if groups is None or n.rstrip("0123456789") in groups]
+
+
+def _unit(record: Any, name: str) -> str:
+    """The SI unit of channel ``name`` ("" when the record does not say)."""
+    units = getattr(record, "units", {}) or {}
+    return str(units.get(name) or units.get(name.rstrip("0123456789")) or "")
+
+
+def find_glitches(record: Any) -> tuple[Clipping | Spikes, ...]:
+    """:func:`find_clipping` and :func:`find_spikes` together."""
+    return (*find_clipping(record), *find_spikes(record))
+
+
+def glitch_warnings(record: Any) -> list[str]:
+    """:func:`find_glitches` as warning lines (empty when the record has none)."""
+    return [g.describe() for g in find_glitches(record)]
+
+
+def glitch_note(found: tuple[Clipping | Spikes, ...]) -> str:
+    """The end of a search's stop reason when the record has glitches: an effect found may be fitting them."""
+    names = "; ".join(g.short() for g in found)
+    return (
+        f"; but {names}: those samples do not measure the motion, so the model cannot be clean and any effect "
+        "added may only be fitting them (data, above)"
+    )
