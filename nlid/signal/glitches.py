@@ -47,6 +47,7 @@ as ``z`` of one DOF).
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
 from typing import Any
 
@@ -58,6 +59,7 @@ __all__ = [
     "find_clipping",
     "find_spikes",
     "find_glitches",
+    "despike",
     "glitch_warnings",
     "glitch_note",
     "SPIKE",
@@ -246,7 +248,8 @@ class Spikes:
         return (
             f"{self.short()} (samples {at}; up to {self.largest:.3g} {self.unit} = {self.largest / self.std:.2g} "
             "std off the line through their neighbours on both sides, and back): glitches of the sensor or the "
-            "acquisition? they bias what is fitted to them: replace each by its neighbours' mean, or cut them out"
+            "acquisition? they bias what is fitted to them: replace each by its neighbours' mean "
+            "(nlid.signal.glitches.despike), or cut them out"
         ).replace(" ;", ";")
 
     def to_dict(self) -> dict[str, Any]:
@@ -309,6 +312,44 @@ def _unit(record: Any, name: str) -> str:
     """The SI unit of channel ``name`` ("" when the record does not say)."""
     units = getattr(record, "units", {}) or {}
     return str(units.get(name) or units.get(name.rstrip("0123456789")) or "")
+
+
+def despike(record: Any) -> Any:
+    """``record`` with every isolated spike of :func:`find_spikes` replaced by the mean of its two neighbours.
+
+    The repair the warning suggests, never applied unasked. The channels touched are named in
+    ``meta["despiked"]`` (channel: sample indices), so the record says what was changed.
+
+    Parameters
+    ----------
+    record
+        A :class:`~nlid.data.record.Record` of any number of DOFs.
+
+    Returns
+    -------
+    Record
+        A new record (``record`` itself when it has no spike).
+    """
+    found = find_spikes(record)
+    if not found:
+        return record
+    changes: dict[str, Any] = {}
+    touched: dict[str, list[int]] = {}
+    for spikes in found:
+        name = spikes.channel
+        group = name.rstrip("0123456789")
+        x = np.array(record.channel(name), dtype=float, copy=True)
+        where, _ = _spikes(x)
+        x[where] = 0.5 * (x[where - 1] + x[where + 1])
+        touched[name] = [int(i) for i in where]
+        if record.indexed:
+            block = np.array(changes.get(group, getattr(record, group)), dtype=float, copy=True)
+            block[:, int(name[len(group) :]) - 1] = x
+            changes[group] = block
+        else:
+            changes[group] = x
+    meta = {**dict(record.meta), "despiked": touched}
+    return dataclasses.replace(record, meta=meta, **changes)
 
 
 def find_glitches(record: Any) -> tuple[Clipping | Spikes, ...]:

@@ -11,7 +11,7 @@ import pytest
 import nlid
 from nlid.data.record import Record
 from nlid.discovery.structure import discover_structure
-from nlid.signal.glitches import find_clipping, find_glitches, find_spikes
+from nlid.signal.glitches import despike, find_clipping, find_glitches, find_spikes
 from nlid.simulation.presets import PRESETS, get_preset
 
 
@@ -168,3 +168,22 @@ def test_identify_and_discover_say_a_spike(noisy):
     assert any("channel z has 5 isolated spikes" in w for w in fit.warnings)
     result = nlid.discover(spiked, ["z", "z^2", "z^3", "v", "v*|v|"], mass=noisy.mass, simulate=False, views=False)
     assert "; but channel z has 5 isolated spikes" in result.stop_reason
+
+
+def test_despike_repairs_what_the_spikes_biased_and_says_so(noisy, chain_record):
+    assert despike(noisy) is noisy
+    where = np.array([1000, 3000, 5000, 7000, 9000])
+    spiked = _spiked(noisy, "z", where, 2.0)
+    repaired = despike(spiked)
+    assert find_spikes(repaired) == () and repaired.meta["despiked"] == {"z": [int(i) for i in where]}
+    terms = "z, z^2, z^3, v, v*|v|"
+    clean, hit, mended = (
+        nlid.identify(r, terms, "rfs", mass=noisy.mass).coefficients for r in (noisy, spiked, repaired)
+    )
+    for term in ("z^2", "z^3"):  # back to the clean record's fit, from an error several times larger
+        assert abs(mended[term] - clean[term]) < 0.1 * abs(hit[term] - clean[term])
+    z = np.array(chain_record.z, copy=True)
+    z[[500, 2500], 2] += 2 * np.std(z[:, 2])
+    repaired = despike(dataclasses.replace(chain_record, z=z))
+    assert repaired.meta["despiked"] == {"z3": [500, 2500]}
+    assert np.max(np.abs(repaired.z - chain_record.z)) < 0.1 * np.std(chain_record.z[:, 2])
