@@ -12,15 +12,16 @@ cut samples as noise.
 :func:`find_clipping` looks for the cut itself, on each side of each measured channel:
 
 * **a spike at the extreme**: at least :data:`SPIKE` times as many samples sit exactly at the channel's
-  largest (or smallest) value as at its next value. A continuous channel reaches its extreme once; a
-  periodic one once a period, and every other value as often; a quantised one about as often as the
-  levels next to it;
+  largest (or smallest) value as at each of its next values (:data:`NEXT_VALUES`, on average). A
+  continuous channel reaches its extreme once; a periodic one once a period, and every other value as
+  often; a quantised one about as often as the levels next to it;
 * **reached and left in motion**: the step into each visit of the extreme and the step out of it are at
   least :data:`MOTION_STEP` of the channel's median step (:data:`SINGLE_STEP` for a visit of one sample),
   so a stage that slows down and rests at the end of its travel is not taken for a clipped sensor; and
   the visit is not left by exactly the step it was reached by, as a synthetic sine is at a crest that
   the sampling hits (:data:`SYMMETRIC`);
-* **repeatedly**: at least :data:`MIN_VISITS` such visits (runs of one or more samples).
+* **repeatedly**: at least :data:`MIN_VISITS` such visits (runs of one or more samples), at as many places
+  of the period on a periodic record (``meta["periodic"]``), whose crests repeat every period.
 
 ## Isolated spikes
 
@@ -32,9 +33,10 @@ which measures both kinds of glitch); spikes of one std(z) still move them by 0.
 
 :func:`find_spikes` finds them on each measured displacement and velocity channel: a sample that both the
 line through its two left neighbours and the line through its two right neighbours miss on the same side,
-each by more than :data:`SPIKE_SCALES` times the channel's robust scale of such misses and more than
-:data:`SPIKE_STD` of its standard deviation. A velocity is rougher than a displacement (the misses' scale
-is 0.25 std(v) against 0.024 std(z) on ``paper-numerical``), so only spikes of several std(v) stand out.
+each by more than :data:`SPIKE_SCALES` times the channel's robust scale of such misses, :data:`SPIKE_STD` of
+its standard deviation and :data:`SPIKE_QUANTA` of its quanta. A velocity is rougher than a displacement
+(the misses' scale is 0.25 std(v) against 0.024 std(z) on ``paper-numerical``), so only spikes of several
+std(v) stand out.
 A kink (an impact reversing the velocity) is met by one of the two lines, a step (a velocity jump) by the
 line on its far side. Forces and accelerations are not read: a hammer's blow or an impact is a real
 one-sample pulse there.
@@ -63,8 +65,10 @@ __all__ = [
     "glitch_warnings",
     "glitch_note",
     "SPIKE",
+    "NEXT_VALUES",
     "SPIKE_SCALES",
     "SPIKE_STD",
+    "SPIKE_QUANTA",
     "MIN_VISITS",
     "MOTION_STEP",
     "SINGLE_STEP",
@@ -75,6 +79,10 @@ __all__ = [
 #: with a level at its peak puts up to 2.4 times as many samples in its top level as in the next (the
 #: arcsine density); a stepped or swept sine repeats its peak sample once a period, as every other sample.
 SPIKE = 4.0
+#: The next values the extreme's count is compared with (their mean count): one next value alone is too few
+#: samples to judge a coarsely quantised channel by (a beam's acceleration rounded to 0.1 std: 4 samples at
+#: its lowest level, 1, 2 and 9 at the next three).
+NEXT_VALUES = 3
 #: Fewest visits of the extreme, each reached and left in motion, that call a side clipped.
 MIN_VISITS = 3
 #: The step into and out of a visit, as a fraction of the channel's median nonzero step, that counts as
@@ -147,13 +155,25 @@ class Clipping:
         }
 
 
-def _visits(y: np.ndarray) -> tuple[int, int]:
-    """``(visits, samples)`` of the clipped-looking top of ``y`` (its maximum); ``(0, 0)`` when it is not."""
+def _phases(start: np.ndarray, period: int | None) -> int:
+    """How many distinct places of the period the visits starting at ``start`` take (within a sample)."""
+    if not period:
+        return int(start.size)
+    phases = np.sort(start % period)
+    return int(1 + np.sum(np.diff(phases) > 1)) if phases.size else 0
+
+
+def _visits(y: np.ndarray, period: int | None = None) -> tuple[int, int]:
+    """``(visits, samples)`` of the clipped-looking top of ``y`` (its maximum); ``(0, 0)`` when it is not.
+
+    ``period``: a periodic record's period in samples; its visits must then take :data:`MIN_VISITS` distinct
+    places of the period (one crest repeated every period is one visit).
+    """
     level = y.max()
     at = y == level
     count = int(at.sum())
-    below = y[~at]
-    if count < MIN_VISITS or below.size == 0 or count < SPIKE * int((y == below.max()).sum()):
+    values, counts = np.unique(y[~at], return_counts=True)
+    if count < MIN_VISITS or values.size == 0 or count < SPIKE * float(np.mean(counts[-NEXT_VALUES:])):
         return 0, 0
     edges = np.diff(np.concatenate([[0], at.astype(np.int8), [0]]))
     start, stop = np.flatnonzero(edges == 1), np.flatnonzero(edges == -1)
@@ -165,7 +185,7 @@ def _visits(y: np.ndarray) -> tuple[int, int]:
     least = np.where(stop - start > 1, MOTION_STEP, SINGLE_STEP) * scale
     moving = (into >= least) & (out >= least)
     moving &= np.abs(into - out) > SYMMETRIC * np.maximum(into, out)  # not a sampled crest, left as reached
-    if int(moving.sum()) < MIN_VISITS:
+    if int(moving.sum()) < MIN_VISITS or _phases(start[moving], period) < MIN_VISITS:
         return 0, 0
     return int(moving.sum()), int((stop - start)[moving].sum())
 
@@ -185,13 +205,15 @@ def find_clipping(record: Any) -> tuple[Clipping, ...]:
         In the record's channel order, the maximum before the minimum.
     """
     found = []
+    period = record.meta.get("periodic")
+    period = int(period) if isinstance(period, (int, np.integer)) and not isinstance(period, bool) else None
     for name in _measured(record):
         x = np.asarray(record.channel(name), dtype=float)
         if x.size < 2 * MIN_VISITS or not np.all(np.isfinite(x)) or x.max() == x.min():
             continue
         unit = _unit(record, name)
         for sign, side in ((1.0, "maximum"), (-1.0, "minimum")):
-            visits, samples = _visits(sign * x)
+            visits, samples = _visits(sign * x, period)
             if visits:
                 level = float(x.max() if sign > 0 else x.min())
                 found.append(Clipping(name, side, level, unit, visits, samples, samples / x.size))
@@ -207,6 +229,10 @@ SPIKE_SCALES = 25.0
 #: ... and by more than this fraction of the channel's standard deviation (EMPS: 1e-5 at most; a smooth channel
 #: sampled a few times a period misses by up to 2 std: Silverbox).
 SPIKE_STD = 0.05
+#: ... and by more than this many of its quanta (its smallest step): a coarse encoder or a CSV of few digits
+#: toggles by one quantum and back, and a channel mostly at rest has a robust scale below one quantum (the
+#: 2dof-double-well's z2 rounded to 1 % of the std of both displacements: 416 toggles taken for spikes).
+SPIKE_QUANTA = 4.0
 #: Sample indices a :class:`Spikes` lists (the first ones).
 SPIKES_LISTED = 5
 
@@ -271,7 +297,10 @@ def _spikes(x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     misses = np.concatenate([left, right])
     scale = 1.4826 * float(np.median(np.abs(misses - np.median(misses))))
     size = np.where(np.sign(left) == np.sign(right), np.minimum(np.abs(left), np.abs(right)), 0.0)
-    found = np.flatnonzero((size > SPIKE_SCALES * scale) & (size > SPIKE_STD * float(np.std(x))))
+    steps = np.abs(np.diff(x))
+    quantum = float(steps[steps > 0].min()) if np.any(steps > 0) else 0.0
+    floor = max(SPIKE_SCALES * scale, SPIKE_STD * float(np.std(x)), SPIKE_QUANTA * quantum)
+    found = np.flatnonzero(size > floor)
     return found + 2, size[found]
 
 
