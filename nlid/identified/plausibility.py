@@ -200,7 +200,11 @@ def mass_hint(given: float, implied: float, unit: str = "kg") -> str:
         return "is mass= in kg (not g)? is z in m (units='z=mm' when it is in mm)? is f in N (units='f=kN')?"
     if decade <= -3:  # a mass in t, or a force in mN read as N
         return "is mass= in kg (not t)? is f in N (units='f=mN' when it is in mN)? is z in m?"
-    return "is mass= the moving mass, in kg? is z in m and f in N (units= when they are not)?"
+    return (
+        "is mass= the moving mass, in kg? is z in m and f in N (units= when they are not)? is fs right (a "
+        f"sampling rate {math.sqrt(given / implied):.3g} times the true one gives this: the implied mass scales "
+        "with its square)?"
+    )
 
 
 def check(fit: IdentifiedModel, record: Record | None = None, *, cutoff: float | None = None) -> tuple[Flag, ...]:

@@ -19,6 +19,7 @@ from nlid.identified.plausibility import (
     check,
     headline,
     implied_mass,
+    mass_hint,
 )
 
 TERMS = "z^3,z^2,v*|v|"
@@ -228,3 +229,13 @@ def test_a_reversed_force_is_named_as_such(record, tmp_path, capfd):
     assert status == 1 and "implies a negative mass" in err and "the force's sign is likely reversed" in err
     status, _, err = run(capfd, "identify", str(path), "--method", "rfs", "--terms", TERMS)
     assert status == 1 and "is the force's sign reversed against z" in err
+
+
+def test_a_wrong_sampling_rate_is_asked_about_with_its_factor(record):
+    # a sampling rate 5 % high scales every acceleration by 1/1.05^2: the data imply a mass 1.05^2 times smaller,
+    # exactly as a mass given too large would; the hint says which rate would explain it
+    assert "is fs right (a sampling rate 1.05 times the true one" in mass_hint(0.2, 0.2 / 1.05**2)
+    fast = nlid.Record(f=record.f, z=record.z, fs=1.05 * record.fs, meta=dict(record.meta))
+    result = nlid.discover(fast, ["1", "z", "v", "z^2", "z^3", "v*|v|"], mass=0.2, simulate=False, views=False)
+    assert [s.effect for s in result.steps][:1] == ["mass"]
+    assert "is fs right (a sampling rate 1.05 times the true one" in result.steps[0].notes[0]
