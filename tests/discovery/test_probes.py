@@ -90,3 +90,39 @@ def test_a_short_held_out_record_gets_the_same_lagged_features_as_the_estimation
     remaining = _probe(record, "1, z, z^3, v", 0.2)  # 1.5 s to fit on, 0.5 s held out
     assert set(remaining.probes) == set(PROBES)
     assert all(math.isfinite(p.explained) and p.explained <= 1.0 for p in remaining.probes.values())
+
+
+def _appended(seed: int, ratio: float, m2: float) -> nlid.Record:
+    """DOF 1 of a Duffing oscillator (1 kg, 1e5 N/m, 5e9 N/m^3) carrying a hidden appendage of mass ``m2`` tuned
+    to ``ratio`` times its 50.3 Hz: the record a one-DOF user takes, the force and DOF 1's motion."""
+    import dataclasses
+
+    from nlid.simulation.presets import get_preset
+
+    k2 = m2 * (2 * np.pi * 50.33 * ratio) ** 2
+    c2 = 2 * 0.02 * np.sqrt(k2 * m2)
+    preset = dataclasses.replace(
+        get_preset("3dof-cubic"), elements="z1^3", coefficients={"z1^3": 5e9}, M=((1.0, 0.0), (0.0, m2)),
+        C=((20.0 + c2, -c2), (-c2, c2)), K=((1e5 + k2, -k2), (-k2, k2)), force_dofs=(1,), duration=20.0,
+    )  # fmt: skip
+    record = preset.simulate(seed, noise=0.01)
+    return nlid.Record(f=record.f[:, 0], z=record.z[:, 0], v=record.v[:, 0], a=record.a[:, 0], fs=record.fs)
+
+
+@pytest.mark.parametrize("ratio, m2", [(0.6, 0.05), (1.6, 0.1)])
+def test_a_hidden_mode_is_named_with_its_frequency(ratio, m2):
+    record = _appended(1, ratio, m2)
+    result = nlid.discover(record, ["z", "v", "z^3"], mass=1.0, simulate=False, views=False, max_steps=0)
+    remaining = result.states[-1].remaining
+    assert remaining.dominant == "memory"
+    assert remaining.resonance_hz == pytest.approx(50.33 * ratio, rel=0.05)
+    assert f"a resonance near {remaining.resonance_hz:.3g} Hz" in result.stop_reason
+
+
+@pytest.mark.parametrize("effect", ["hysteresis", "pre-sliding"])
+def test_hysteresis_is_not_taken_for_a_mode(effect):
+    record, declared, mass = build_open_case(effect, 1)
+    result = nlid.discover(record, declared, mass=mass, simulate=False, views=False, max_steps=0)
+    remaining = result.states[-1].remaining
+    assert remaining.dominant == ("memory" if effect == "hysteresis" else "z,v")  # Dahl reads as a (z, v) law
+    assert remaining.resonance_hz is None and "resonance" not in result.stop_reason
