@@ -345,9 +345,11 @@ def resonance(res: Residual, band: float) -> float | None:
 
     The residual's response to the displacement, ``H(f) = S_zr / S_zz`` (Welch, segments of a sixteenth of
     the record), is searched below ``band`` for its largest gain weighted by the coherence; it is a
-    resonance when that gain is :data:`RESONANCE_GAIN` times the band's median and the coherence there is
-    at least :data:`RESONANCE_COHERENCE`: a mode of the structure that the model does not hold (an
-    appendage, a second degree of freedom coupled to this one).
+    resonance when that gain is :data:`RESONANCE_GAIN` times the band's median, the coherence there is
+    at least :data:`RESONANCE_COHERENCE`, and the gain falls to half of it on both sides within the band
+    (Silverbox's final model: a gain that rises to the band's edge, 198.5 of 200.3 Hz, is not one): a mode
+    of the structure that the model does not hold (an appendage, a second degree of freedom coupled to this
+    one).
     """
     from scipy import signal
 
@@ -363,6 +365,8 @@ def resonance(res: Residual, band: float) -> float | None:
     k = int(np.argmax(gain * coherence))
     if gain[k] < RESONANCE_GAIN * float(np.median(gain)) or coherence[k] < RESONANCE_COHERENCE:
         return None
+    if not (np.any(gain[:k] < 0.5 * gain[k]) and np.any(gain[k + 1 :] < 0.5 * gain[k])):
+        return None  # a gain that rises to the band's edge (a mass error's w^2) is no resonance
     return float(f[inside][k])
 
 

@@ -9,7 +9,7 @@ import pytest
 
 import nlid
 from nlid.discovery.cases import build_case, build_open_case
-from nlid.discovery.probes import MIN_STRUCTURE, PROBES, describe_remaining, probe_residual
+from nlid.discovery.probes import MIN_STRUCTURE, PROBES, describe_remaining, probe_residual, resonance
 from nlid.signal import derivatives
 
 
@@ -126,3 +126,12 @@ def test_hysteresis_is_not_taken_for_a_mode(effect):
     remaining = result.states[-1].remaining
     assert remaining.dominant == ("memory" if effect == "hysteresis" else "z,v")  # Dahl reads as a (z, v) law
     assert remaining.resonance_hz is None and "resonance" not in result.stop_reason
+
+
+def test_a_gain_rising_to_the_band_edge_is_no_resonance(data_dir):
+    # Silverbox's final model (discover-refine's terms): its residual's gain rises to the band's edge, as the w^2
+    # of a mass error does; it is coherent there, but it is no mode
+    record = nlid.load("dataset:silverbox")[40650:105712]
+    fit = nlid.identify(record, "1, z, z^2, z^3, v, z^2*v, z*v^2, v*|v|, v^3", "rfs")
+    residual = fit.residual(record)
+    assert resonance(residual, residual.band_hz) is None
