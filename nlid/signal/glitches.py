@@ -142,18 +142,6 @@ class Clipping:
             "motion and bias what is fitted to them: cut them out, or use a record within the range"
         )
 
-    def to_dict(self) -> dict[str, Any]:
-        """JSON-friendly form."""
-        return {
-            "channel": self.channel,
-            "side": self.side,
-            "level": self.level,
-            "unit": self.unit,
-            "visits": self.visits,
-            "samples": self.samples,
-            "share": self.share,
-        }
-
 
 def _phases(start: np.ndarray, period: int | None) -> int:
     """How many distinct places of the period the visits starting at ``start`` take (within a sample)."""
@@ -277,17 +265,6 @@ class Spikes:
             "acquisition? they bias what is fitted to them: replace each by its neighbours' mean "
             "(nlid.signal.glitches.despike), or cut them out"
         ).replace(" ;", ";")
-
-    def to_dict(self) -> dict[str, Any]:
-        """JSON-friendly form."""
-        return {
-            "channel": self.channel,
-            "count": self.count,
-            "largest": self.largest,
-            "unit": self.unit,
-            "std": self.std,
-            "samples": list(self.samples),
-        }
 
 
 def _spikes(x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
