@@ -11,7 +11,7 @@ cut samples as noise.
 
 :func:`find_clipping` looks for the cut itself, on each side of each measured channel:
 
-* **a spike at the extreme**: at least :data:`SPIKE` times as many samples sit exactly at the channel's
+* **a spike at the extreme**: at least :data:`EXTREME_RATIO` times as many samples sit exactly at the channel's
   largest (or smallest) value as at each of its next values (:data:`NEXT_VALUES`, on average). A
   continuous channel reaches its extreme once; a periodic one once a period, and every other value as
   often; a quantised one about as often as the levels next to it;
@@ -64,7 +64,7 @@ __all__ = [
     "despike",
     "glitch_warnings",
     "glitch_note",
-    "SPIKE",
+    "EXTREME_RATIO",
     "NEXT_VALUES",
     "SPIKE_SCALES",
     "SPIKE_STD",
@@ -78,7 +78,7 @@ __all__ = [
 #: How many times more samples must sit at the extreme than at the channel's next value. A sine quantised
 #: with a level at its peak puts up to 2.4 times as many samples in its top level as in the next (the
 #: arcsine density); a stepped or swept sine repeats its peak sample once a period, as every other sample.
-SPIKE = 4.0
+EXTREME_RATIO = 4.0
 #: The next values the extreme's count is compared with (their mean count): one next value alone is too few
 #: samples to judge a coarsely quantised channel by (a beam's acceleration rounded to 0.1 std: 4 samples at
 #: its lowest level, 1, 2 and 9 at the next three).
@@ -161,7 +161,7 @@ def _visits(y: np.ndarray, period: int | None = None) -> tuple[int, int]:
     at = y == level
     count = int(at.sum())
     values, counts = np.unique(y[~at], return_counts=True)
-    if count < MIN_VISITS or values.size == 0 or count < SPIKE * float(np.mean(counts[-NEXT_VALUES:])):
+    if count < MIN_VISITS or values.size == 0 or count < EXTREME_RATIO * float(np.mean(counts[-NEXT_VALUES:])):
         return 0, 0
     edges = np.diff(np.concatenate([[0], at.astype(np.int8), [0]]))
     start, stop = np.flatnonzero(edges == 1), np.flatnonzero(edges == -1)
