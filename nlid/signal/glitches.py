@@ -11,7 +11,7 @@ cut samples as noise.
 
 :func:`find_clipping` looks for the cut itself, on each side of each measured channel:
 
-* **a spike at the extreme**: at least :data:`EXTREME_RATIO` times as many samples sit exactly at the channel's
+* **a pile at the extreme**: at least :data:`EXTREME_RATIO` times as many samples sit exactly at the channel's
   largest (or smallest) value as at each of its next values (:data:`NEXT_VALUES`, on average). A
   continuous channel reaches its extreme once; a periodic one once a period, and every other value as
   often; a quantised one about as often as the levels next to it;
