@@ -76,14 +76,7 @@ def model_to_dict(fit: IdentifiedModel) -> dict[str, Any]:
             "eps_percent": fit.eps_percent,
             "force_residual_percent": fit.force_residual_percent,
             "scores": None if fit.scores is None else fit.scores.to_dict(),
-            "options": dict(fit.options),
-            "diagnostics": dict(fit.diagnostics),
-            "warnings": list(fit.warnings),
-            # written only when a check of what physics forbids failed (the layout of other models is unchanged)
-            **({"flags": [f.to_dict() for f in fit.flags]} if fit.flags else {}),
-            "seconds": fit.seconds,
-            "z_range": None if fit.z_range is None else list(fit.z_range),
-            "provenance": dict(fit.provenance) or None,
+            **fit._shared_dict(),  # options ... provenance, as every result's layout ends
             # written only when the force does not act as recorded (the layout of older models is unchanged)
             **({} if fit.input_path.identity else {"input_path": fit.input_path.to_dict()}),
         }
@@ -130,21 +123,12 @@ def model_from_dict(cls: type[IdentifiedModel], data: Mapping[str, Any]) -> Iden
         model=model,
         coefficients=coefficients,
         mass=data.get("mass"),
-        method=str(data.get("method", "")),
-        mass_estimated=bool(data.get("mass_estimated", False)),
-        standard_errors=data.get("standard_errors"),
         mass_standard_error=data.get("mass_standard_error"),
         equilibria=None if eq is None else Equilibria.from_dict(eq),
         modal=tuple(data.get("modal") or ()),
         scores=scores,
-        options=data.get("options") or {},
-        diagnostics=data.get("diagnostics") or {},
-        warnings=tuple(data.get("warnings") or ()),
-        flags=tuple(data.get("flags") or ()),
-        seconds=data.get("seconds"),
-        z_range=data.get("z_range"),
-        provenance=data.get("provenance") or {},
         input_path=InputPath.from_dict(data.get("input_path")),
+        **cls._shared_fields(data),
     )
     return _fresh(fit)
 

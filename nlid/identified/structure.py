@@ -27,7 +27,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from ..base import numerics
-from ..base.frozen import FrozenDict, freeze
+from ..base.frozen import FrozenDict
 from ..base.jsonable import to_jsonable
 from ..contract.structure_estimate import StructureEstimate
 from ..errors import IdentificationError, InputError, NlidError, brief
@@ -39,6 +39,7 @@ from ..report.summary import Column, Summary
 from .fileformat import check_structure
 from .plausibility import Flag, trusted
 from .plausibility import check_structure as check_plausible
+from .result import Identified
 
 if TYPE_CHECKING:  # pragma: no cover
     import pandas as pd
@@ -58,7 +59,7 @@ STALE_NOTE = (
 
 
 @dataclass(frozen=True, eq=False)
-class IdentifiedStructure:
+class IdentifiedStructure(Identified):
     """A structure with its identified coefficients and everything derived from them.
 
     Build it with :func:`nlid.identify` on an indexed :class:`~nlid.data.record.Record`
@@ -111,7 +112,6 @@ class IdentifiedStructure:
 
     def __post_init__(self) -> None:
         set_ = object.__setattr__
-        set_(self, "flags", tuple(Flag.from_dict(f) for f in self.flags))
         if not isinstance(self.structure, StructuralModel):
             raise InputError(f"structure must be an nlid StructuralModel, got {type(self.structure).__name__}")
         if self.standard_errors is not None:
@@ -124,11 +124,7 @@ class IdentifiedStructure:
             value = getattr(self, name)
             if value is not None:
                 set_(self, name, tuple(float("nan") if x is None else float(x) for x in value))
-        set_(self, "options", freeze(dict(self.options)))
-        set_(self, "diagnostics", freeze(dict(self.diagnostics)))
-        set_(self, "warnings", tuple(str(w) for w in self.warnings))
-        set_(self, "arrays", FrozenDict(self.arrays))
-        set_(self, "provenance", freeze(dict(self.provenance or {})))
+        self._freeze_shared()
         if self.z_range is not None:
             set_(self, "z_range", tuple((float(min(r)), float(max(r))) for r in self.z_range))
 
@@ -218,10 +214,12 @@ class IdentifiedStructure:
         return trusted(draft, method, caught, check_plausible)
 
     def problems(self) -> list[str]:
-        """The reported figures that are not finite (empty when all is well)."""
-        out = []
-        found = numerics.nonfinite("standard errors", dict(self.standard_errors or {}))
-        out += [found] if found else []
+        """The reported figures that are not finite, or contradict each other (empty when all is well).
+
+        Checked: the standard errors (finite, not negative, as on one DOF), the modes (positive natural
+        frequencies, finite damping ratios) and epsilon per DOF.
+        """
+        out = self._standard_error_problems()
         for m in (*self.modes, *([self.linear_modes] if self.linear_modes is not None else [])):
             if not (np.all(np.isfinite(m.fn_hz)) and np.all(m.fn_hz > 0) and np.all(np.isfinite(m.zeta))):
                 out.append(
@@ -242,6 +240,11 @@ class IdentifiedStructure:
     def coefficients(self) -> Mapping[str, float]:
         """``{canonical element name: coefficient}``."""
         return self.structure.coefficients
+
+    @property
+    def indexed(self) -> bool:
+        """``True``: a structure's result (:attr:`nlid.identified.result.Identified.indexed`)."""
+        return True
 
     @property
     def n_dofs(self) -> int:
@@ -308,22 +311,6 @@ class IdentifiedStructure:
         }
         return Record(f=f.reshape(len(z), -1), z=z, v=v, a=a, fs=float(fs), meta=meta, indexed=True)
 
-    # ------------------------------------------------------------------ what it predicts
-    def frequency_response(self, force: Any, band: Any, *, harmonics: int = 7, **options: Any) -> Any:
-        """The periodic response of every DOF to ``F cos(2 pi f t)`` on a DOF (``dof=``, default 1) over a band.
-
-        As :meth:`nlid.IdentifiedModel.frequency_response` (:func:`nlid.response.frequency_response`).
-        """
-        from ..response import frequency_response
-
-        return frequency_response(self, force, band, harmonics=harmonics, **options)
-
-    def backbone(self, amplitude: float, *, harmonics: int = 7, modes: Sequence[int] | None = None) -> Any:
-        """The backbone of each mode (``modes=``) of the conservative part up to ``amplitude`` (m)."""
-        from ..response import backbone
-
-        return backbone(self, amplitude, harmonics=harmonics, modes=modes)
-
     # ------------------------------------------------------------------ plain data
     def to_dict(self) -> dict[str, Any]:
         """JSON-serialisable dictionary (without :attr:`arrays`); :meth:`from_dict` reverses it."""
@@ -342,13 +329,7 @@ class IdentifiedStructure:
                 "force_residual_percent": None
                 if self.force_residual_percent is None
                 else list(self.force_residual_percent),
-                "options": dict(self.options),
-                "diagnostics": dict(self.diagnostics),
-                "warnings": list(self.warnings),
-                **({"flags": [f.to_dict() for f in self.flags]} if self.flags else {}),
-                "seconds": self.seconds,
-                "z_range": None if self.z_range is None else [list(r) for r in self.z_range],
-                "provenance": dict(self.provenance) or None,
+                **self._shared_dict(),  # options ... provenance, as every result's layout ends
             }
         )
 
@@ -375,21 +356,12 @@ class IdentifiedStructure:
         eq = data.get("equilibria")
         fit = cls(
             structure=StructuralModel.from_dict(data["structure"]),
-            method=str(data.get("method", "")),
-            mass_estimated=bool(data.get("mass_estimated", False)),
-            standard_errors=data.get("standard_errors"),
             equilibria=None if eq is None else StructureEquilibria.from_dict(eq),
             modes=tuple(data.get("modes") or ()),
             linear_modes=data.get("linear_modes"),
             eps_percent=data.get("eps_percent"),
             force_residual_percent=data.get("force_residual_percent"),
-            options=data.get("options") or {},
-            diagnostics=data.get("diagnostics") or {},
-            warnings=tuple(data.get("warnings") or ()),
-            seconds=data.get("seconds"),
-            z_range=data.get("z_range"),
-            provenance=data.get("provenance") or {},
-            flags=tuple(data.get("flags") or ()),
+            **cls._shared_fields(data),
         )
         return _fresh(fit)
 
@@ -455,16 +427,12 @@ class IdentifiedStructure:
         if self.eps_percent is not None:
             scores.append(("epsilon per DOF", ", ".join(f"{x:.3g} %" for x in self.eps_percent)))
         out.add_fields(scores, gap=True)
-        tail = [] if self.seconds is None else [("time", f"{self.seconds:.3g} s")]
-        out.add_fields(tail + [("warning", w) for w in self.warnings])
-        out.add_fields([("NOT TRUSTED", str(f)) for f in self.flags])
-        return out
+        return self._summary_tail(out)
 
     def __repr__(self) -> str:
         mass = "mass estimated" if self.mass_estimated else "mass given"
-        flagged = f"; NOT TRUSTED: {', '.join(f.code for f in self.flags)}" if self.flags else ""
         names = ", ".join(self.elements.names)
-        return f"<IdentifiedStructure {self.method!r}: {self.n_dofs} DOFs; {names}; {mass}{flagged}>"
+        return f"<IdentifiedStructure {self.method!r}: {self.n_dofs} DOFs; {names}; {mass}{self._flagged()}>"
 
     def _repr_html_(self) -> str:
         return self.summary().as_html()
