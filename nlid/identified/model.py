@@ -50,8 +50,8 @@ from ..scoring import Prediction, Residual, Scores, TransientRule
 from . import plausibility
 from . import plots as modelplots
 from .plausibility import Flag
-from .result import Identified
-from .schema import model_from_dict, model_to_dict
+from .result import Identified, Recomputed
+from .schema import STALE_NOTE, model_from_dict, model_to_dict
 from .tables import coefficient_frame, model_summary, record_units
 
 if TYPE_CHECKING:  # pragma: no cover
@@ -483,6 +483,15 @@ class IdentifiedModel(Identified):
         return Record(f=force, z=z, v=v, a=a, fs=float(fs), meta=meta)
 
     # ------------------------------------------------------------------ plain data
+    def _recomputed(self) -> Recomputed | None:
+        if self.z_range is None or self.mass is None:
+            return None
+        eq = physics.equilibria(self.model, self.theta, self.z_range)
+        computed = physics.modal(self.model, self.theta, self.mass, eq.stable, self.z_range)
+        derived = [m for m in self.modal if not m.source]
+        replacement = {"equilibria": eq, "modal": tuple(computed), "scores": None}
+        return eq, [(derived, computed)], replacement, STALE_NOTE
+
     def to_dict(self) -> dict[str, Any]:
         """JSON-serialisable dictionary (without :attr:`arrays`); :meth:`from_dict` reverses it."""
         return model_to_dict(self)

@@ -11,6 +11,7 @@ reads ``fit.indexed``, never the result's class, so that the two can become one 
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Mapping, Sequence
 from typing import TYPE_CHECKING, Any
 
@@ -18,12 +19,19 @@ import numpy as np
 
 from ..base import numerics
 from ..base.frozen import FrozenDict, freeze
+from ..errors import NlidError
 from .plausibility import Flag
 
 if TYPE_CHECKING:  # pragma: no cover
     from ..report.summary import Summary
 
-__all__ = ["Identified"]
+__all__ = ["Identified", "STALE_RTOL"]
+
+#: Relative difference beyond which a stored equilibrium or modal figure is not the one its coefficients give
+#: (a coefficient edited after the fit); far above the last bits a root finder moves by across machines.
+STALE_RTOL = 1e-6
+#: What a result recomputes from its coefficients (:meth:`Identified._recomputed`).
+Recomputed = tuple[Any, list[tuple[Sequence[Any], Sequence[Any]]], dict[str, Any], str]
 
 
 class Identified:
@@ -81,6 +89,37 @@ class Identified:
         return out
 
     # ------------------------------------------------------------------ plain data
+    def _recomputed(self) -> Recomputed | None:
+        """What :meth:`_fresh` compares and replaces: ``(equilibria, [(stored modes, computed modes)...],
+        replacement fields, warning)``, computed from the coefficients; ``None`` when they cannot be."""
+        raise NotImplementedError(type(self).__name__)  # pragma: no cover - each form computes its own
+
+    def _fresh(self) -> Any:
+        """``self``, or when its stored equilibria or modes are not what its coefficients give (edited in the JSON),
+        the same result with them recomputed, its scores on the original record dropped and a warning saying so.
+
+        Modes a method measured itself (``source`` set, e.g. NSI's) are not compared; they are replaced when the
+        equilibria or the computed modes show an edit. A result without the data range, or whose figures cannot
+        be recomputed, is returned as it is.
+        """
+        stored = getattr(self, "equilibria", None)
+        if self.z_range is None or stored is None:
+            return self
+        try:
+            with numerics.collect_warnings():  # a figure that cannot be recomputed quietly leaves it as stored
+                found = self._recomputed()
+        except (NlidError, np.linalg.LinAlgError, ValueError, FloatingPointError):
+            return self
+        if found is None:
+            return self
+        eq, modes, replacement, note = found
+        same = len(stored.stable) == len(eq.stable) and len(stored.unstable) == len(eq.unstable)
+        same = same and all(_close(a, b) for a, b in zip(stored.all, eq.all, strict=True))
+        same = same and all(_same_modes(old, new) for old, new in modes if old)
+        if same:
+            return self
+        return dataclasses.replace(self, **replacement, warnings=(*self.warnings, note))  # type: ignore[type-var]
+
     def _shared_dict(self) -> dict[str, Any]:
         """The fields every JSON layout ends with, in their order (passed through ``to_jsonable`` by the caller)."""
         return {
@@ -143,3 +182,24 @@ class Identified:
         from ..response import backbone
 
         return backbone(self, amplitude, harmonics=harmonics, modes=modes)
+
+
+def _close(a: Any, b: Any) -> bool:
+    """Two stored and computed figures (numbers or arrays) agree: within :data:`STALE_RTOL` where finite, equal
+    (NaN to NaN) where not."""
+    a, b = np.asarray(a, dtype=float), np.asarray(b, dtype=float)
+    if a.shape != b.shape:
+        return False
+    finite = np.isfinite(a)
+    if not np.array_equal(finite, np.isfinite(b)) or not np.array_equal(a[~finite], b[~finite], equal_nan=True):
+        return False
+    a, b = a[finite], b[finite]
+    return bool(np.all(np.abs(a - b) <= STALE_RTOL * np.maximum(np.maximum(np.abs(a), np.abs(b)), 1e-300)))
+
+
+def _same_modes(stored: Sequence[Any], computed: Sequence[Any]) -> bool:
+    """Stored modes (each with ``equilibrium``, ``fn_hz``, ``zeta``) are the computed ones, one for one."""
+    return len(stored) == len(computed) and all(
+        _close(a.equilibrium, b.equilibrium) and _close(a.fn_hz, b.fn_hz) and _close(a.zeta, b.zeta)
+        for a, b in zip(stored, computed, strict=True)
+    )

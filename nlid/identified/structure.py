@@ -19,7 +19,6 @@ linear system's modes, and the residual per DOF on the estimation record
 
 from __future__ import annotations
 
-import dataclasses
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
@@ -39,7 +38,7 @@ from ..report.summary import Column, Summary
 from .fileformat import check_structure
 from .plausibility import Flag, trusted
 from .plausibility import check_structure as check_plausible
-from .result import Identified
+from .result import Identified, Recomputed
 
 if TYPE_CHECKING:  # pragma: no cover
     import pandas as pd
@@ -312,6 +311,25 @@ class IdentifiedStructure(Identified):
         return Record(f=f.reshape(len(z), -1), z=z, v=v, a=a, fs=float(fs), meta=meta, indexed=True)
 
     # ------------------------------------------------------------------ plain data
+    def _recomputed(self) -> Recomputed | None:
+        structure = self.structure
+        eq = structure.equilibria(self.z_range)
+        modes = structure.modes(points=eq.stable)
+        linear = linear_modes(structure.M, structure.C, structure.K, [0.0] * structure.n_dofs)
+        stored_linear = [] if self.linear_modes is None or self.linear_modes.source else [self.linear_modes]
+        pairs: list[tuple[Sequence[Any], Sequence[Any]]] = [
+            ([m for m in self.modes if not m.source], modes),
+            (stored_linear, [linear]),
+        ]
+        replacement: dict[str, Any] = {
+            "equilibria": eq,
+            "modes": modes,
+            "linear_modes": linear,
+            "eps_percent": None,
+            "force_residual_percent": None,
+        }
+        return eq, pairs, replacement, STALE_NOTE
+
     def to_dict(self) -> dict[str, Any]:
         """JSON-serialisable dictionary (without :attr:`arrays`); :meth:`from_dict` reverses it."""
         return to_jsonable(
@@ -338,7 +356,7 @@ class IdentifiedStructure(Identified):
         """Rebuild an identified structure from :meth:`to_dict`.
 
         Stored equilibria and modes that its coefficients and matrices no longer give (edited in the JSON) are
-        recomputed, as :meth:`nlid.IdentifiedModel.from_dict` does (:func:`_fresh`).
+        recomputed, as :meth:`nlid.IdentifiedModel.from_dict` does (:meth:`~nlid.identified.result.Identified._fresh`).
 
         Raises
         ------
@@ -363,7 +381,7 @@ class IdentifiedStructure(Identified):
             force_residual_percent=data.get("force_residual_percent"),
             **cls._shared_fields(data),
         )
-        return _fresh(fit)
+        return fit._fresh()
 
     def to_frame(self) -> pd.DataFrame:
         """One row per element (the index): ``connection``, ``coefficient``, ``std_error``, ``unit``, ``family``."""
@@ -453,61 +471,3 @@ class IdentifiedStructure(Identified):
         from .structure_plots import plot_frf
 
         return plot_frf(self.structure, ax=ax, at=at, frequency_hz=frequency_hz)
-
-
-def _fresh(fit: IdentifiedStructure) -> IdentifiedStructure:
-    """``fit``, or when its stored equilibria or modes are not what its coefficients and matrices give (edited in
-    the JSON), the same structure with them recomputed, its residuals on the original record dropped and a warning
-    (:data:`STALE_NOTE`): the one-DOF rule (:func:`nlid.identified.schema.model_from_dict`).
-
-    Modes a method measured itself (``source`` set) are not compared; they are replaced when the equilibria or the
-    computed modes show an edit. A structure without the data range, or whose figures cannot be recomputed, is
-    returned as it is.
-    """
-    from .schema import STALE_RTOL
-
-    if fit.z_range is None or fit.equilibria is None:
-        return fit
-    structure = fit.structure
-    try:
-        with numerics.collect_warnings():  # a figure that cannot be recomputed quietly leaves the structure as stored
-            eq = structure.equilibria(fit.z_range)
-            modes = structure.modes(points=eq.stable)
-            linear = linear_modes(structure.M, structure.C, structure.K, [0.0] * structure.n_dofs)
-    except (NlidError, np.linalg.LinAlgError, ValueError, FloatingPointError):
-        return fit
-
-    def close(a: Any, b: Any) -> bool:
-        a, b = np.asarray(a, dtype=float), np.asarray(b, dtype=float)
-        if a.shape != b.shape:
-            return False
-        both = np.isfinite(a) & np.isfinite(b)
-        if not np.array_equal(both, np.isfinite(a)) or not np.array_equal(both, np.isfinite(b)):
-            return False
-        return bool(np.all(np.abs(a - b) <= STALE_RTOL * np.maximum(np.maximum(np.abs(a), np.abs(b)), 1e-300)))
-
-    def same_modes(stored: Sequence[StructureModes], computed: Sequence[StructureModes]) -> bool:
-        return len(stored) == len(computed) and all(
-            close(a.equilibrium, b.equilibrium) and close(a.fn_hz, b.fn_hz) and close(a.zeta, b.zeta)
-            for a, b in zip(stored, computed, strict=True)
-        )
-
-    stored = fit.equilibria
-    same = len(stored.stable) == len(eq.stable) and len(stored.unstable) == len(eq.unstable)
-    same = same and all(close(a, b) for a, b in zip(stored.all, eq.all, strict=True))
-    derived = [m for m in fit.modes if not m.source]
-    if same and derived:
-        same = same_modes(derived, modes)
-    if same and fit.linear_modes is not None and not fit.linear_modes.source:
-        same = same_modes([fit.linear_modes], [linear])
-    if same:
-        return fit
-    return dataclasses.replace(
-        fit,
-        equilibria=eq,
-        modes=modes,
-        linear_modes=linear,
-        eps_percent=None,
-        force_residual_percent=None,
-        warnings=(*fit.warnings, STALE_NOTE),
-    )
