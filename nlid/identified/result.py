@@ -5,7 +5,8 @@ an :class:`~nlid.identified.structure.IdentifiedStructure` on an indexed one. Bo
 :class:`Identified`, which holds what they do the same way: the form (:attr:`Identified.indexed`, as
 :attr:`nlid.data.record.Record.indexed`) and the number of DOFs, the freezing of the method's options,
 diagnostics, warnings, arrays and provenance, the check of the standard errors, the fields every JSON
-layout ends with, the tail of the summary and the responses. Code that must tell the two forms apart
+layout ends with and the check that a loaded result's stored figures are those of its coefficients, the
+tail of the summary and the responses. Code that must tell the two forms apart
 reads ``fit.indexed``, never the result's class, so that the two can become one type (issue 32).
 """
 
