@@ -17,6 +17,7 @@ from ..errors import IdentificationError, InputError, NlidError
 from ..estimation.balance import regression_data
 from ..identified.model import IdentifiedModel
 from ..identified.reference import Reference
+from ..identified.result import Identified
 from ..model.terms import Model, parse_term
 from .likelihood import build_likelihood, check_identifiable
 from .priors import (
@@ -268,7 +269,7 @@ class PosteriorSampler:
             posterior.warnings = (*posterior.warnings, f"numerical warnings: {numerics.describe_warnings(caught)}")
         posterior.record = record
         posterior.force_hold = (record.force_hold, force_hold_source(record.meta))
-        if isinstance(fit, IdentifiedModel):  # what physics forbids, and a correction beyond its bound
+        if not fit.indexed:  # what physics forbids, and a correction beyond its bound
             force, unit = str(dict(record.units).get("f", "N")), str(dict(record.units).get("z", "m"))
             posterior.channel_units = {"f": force, "z": unit}
             if posterior.units is None:  # each coefficient in the record's own units (s^2/V for volts)
@@ -280,12 +281,10 @@ class PosteriorSampler:
 
     def _run(self, record: Record, fit: IdentifiedModel) -> tuple[Posterior, dict[str, float]]:
         start_time = time.perf_counter()
-        from ..identified.structure import IdentifiedStructure
-
-        if isinstance(fit, IdentifiedStructure):
-            return self._sample(self._prepare_structure(record, fit), start_time)
-        if not isinstance(fit, IdentifiedModel):
+        if not isinstance(fit, Identified):
             raise InputError(f"fit must be the IdentifiedModel nlid.identify returns, got {type(fit).__name__}")
+        if fit.indexed:
+            return self._sample(self._prepare_structure(record, fit), start_time)
         return self._sample(self._prepare(record, fit), start_time)
 
     def _check_sampled(self, gram: np.ndarray, idx: list[int], names: tuple[str, ...]) -> None:

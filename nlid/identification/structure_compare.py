@@ -13,12 +13,13 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping, Sequence
-from typing import Any
+from typing import Any, cast
 
 import numpy as np
 
 from ..data.record import Record
 from ..errors import InputError, NlidError, brief
+from ..identified.result import Identified
 from ..identified.structure import IdentifiedStructure
 from .structure_fit import as_elements
 
@@ -50,7 +51,8 @@ def structure_reference(record: Record, reference: Any) -> dict[str, Any]:
     """
     if reference is None:
         reference = record.meta.get("reference") or {}
-    if isinstance(reference, IdentifiedStructure):
+    if isinstance(reference, Identified) and reference.indexed:  # a structure's fit, whatever its class
+        reference = cast(IdentifiedStructure, reference)
         lm = reference.linear_modes
         modes = {} if lm is None else {"fn_hz": list(lm.fn_hz), "zeta": list(lm.zeta)}
         return {"coefficients": dict(reference.coefficients), "linear_modes": modes}

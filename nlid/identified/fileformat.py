@@ -381,7 +381,6 @@ def _score_fields() -> tuple[Field, ...]:
 
 _PROVENANCE = Nullable("a provenance object or null", Obj("a provenance object", PROVENANCE_FIELDS))
 
-#: The fields of ``nlid.IdentifiedModel/1`` (one degree of freedom).
 #: The checks of what physics forbids that a model fails (:mod:`nlid.identified.plausibility`).
 _FLAGS = Field(
     "flags",
@@ -401,18 +400,33 @@ _FLAGS = Field(
 )
 
 
+#: The fields both layouts (one DOF and a structure) write the same way.
+_METHOD = Field("method", Text("a string"), False, "the identifier's name")
+_STANDARD_ERRORS = Field(
+    "standard_errors",
+    Nullable("an object of numbers or null", MapOf("an object of numbers or null", _ANY_NUMBER)),
+    False,
+    "each coefficient's standard error",
+)
+_UNITS = Field("units", MapOf("an object of strings", Text("a string")), False, "each coefficient's SI unit (written)")
+#: The fields both layouts end with, before the data range and the provenance (``Identified._shared_dict``).
+_SHARED = (
+    Field("options", _JSON_OBJECT, False, "the identifier's settings"),
+    Field("diagnostics", _JSON_OBJECT, False, "what the identifier reported"),
+    Field("warnings", _STRINGS, False, "warnings"),
+    _FLAGS,
+    Field("seconds", Nullable("a number not below 0 or null", _NONNEGATIVE), False, "time of the identification"),
+)
+
+
+#: The fields of ``nlid.IdentifiedModel/1`` (one degree of freedom).
 MODEL_FIELDS: tuple[Field, ...] = (
     Field("schema", Text("nlid.IdentifiedModel/1", ("nlid.IdentifiedModel/1",)), False, "the layout"),
-    Field("method", Text("a string"), False, "the identifier's name"),
+    _METHOD,
     Field("terms", _STRINGS, True, "the model's terms, in order"),
     Field("coefficients", MapOf("an object of finite numbers", Json("")), True, "each term's coefficient"),
-    Field(
-        "standard_errors",
-        Nullable("an object of numbers or null", MapOf("an object of numbers or null", _ANY_NUMBER)),
-        False,
-        "each coefficient's standard error",
-    ),
-    Field("units", MapOf("an object of strings", Text("a string")), False, "each coefficient's SI unit (written)"),
+    _STANDARD_ERRORS,
+    _UNITS,
     Field("mass", Nullable("a positive number or null", _POSITIVE), False, "the mass (kg)"),
     Field("mass_estimated", Flag("true or false"), False, "whether the method estimated the mass"),
     Field("mass_standard_error", _ANY_NUMBER, False, "its standard error (kg)"),
@@ -460,11 +474,7 @@ MODEL_FIELDS: tuple[Field, ...] = (
         False,
         "every score on the estimation record (nlid.scoring.Scores)",
     ),
-    Field("options", _JSON_OBJECT, False, "the identifier's settings"),
-    Field("diagnostics", _JSON_OBJECT, False, "what the identifier reported"),
-    Field("warnings", _STRINGS, False, "warnings"),
-    _FLAGS,
-    Field("seconds", Nullable("a number not below 0 or null", _NONNEGATIVE), False, "time of the identification"),
+    *_SHARED,
     Field("z_range", Nullable("two finite numbers or null", _PAIR), False, "displacement range of the record (m)"),
     Field("provenance", _PROVENANCE, False, "where the model came from (nlid.identification.provenance)"),
     Field(
@@ -495,7 +505,7 @@ _VECTORS = ListOf("a list of points", ListOf("a list of finite numbers", _FINITE
 #: The fields of ``nlid.IdentifiedStructure/1`` (several degrees of freedom).
 STRUCTURE_FIELDS: tuple[Field, ...] = (
     Field("schema", Text("nlid.IdentifiedStructure/1", ("nlid.IdentifiedStructure/1",)), True, "the layout"),
-    Field("method", Text("a string"), False, "the identifier's name"),
+    _METHOD,
     Field(
         "structure",
         Obj(
@@ -513,13 +523,8 @@ STRUCTURE_FIELDS: tuple[Field, ...] = (
         True,
         "the identified structure",
     ),
-    Field("units", MapOf("an object of strings", Text("a string")), False, "each coefficient's SI unit (written)"),
-    Field(
-        "standard_errors",
-        Nullable("an object of numbers or null", MapOf("an object of numbers or null", _ANY_NUMBER)),
-        False,
-        "each coefficient's standard error",
-    ),
+    _UNITS,
+    _STANDARD_ERRORS,
     Field("mass_estimated", Flag("true or false"), False, "whether the method estimated the mass matrix"),
     Field(
         "equilibria",
@@ -542,11 +547,7 @@ STRUCTURE_FIELDS: tuple[Field, ...] = (
         False,
         "force residual per DOF (%)",
     ),
-    Field("options", _JSON_OBJECT, False, "the identifier's settings"),
-    Field("diagnostics", _JSON_OBJECT, False, "what the identifier reported"),
-    Field("warnings", _STRINGS, False, "warnings"),
-    _FLAGS,
-    Field("seconds", Nullable("a number not below 0 or null", _NONNEGATIVE), False, "time of the identification"),
+    *_SHARED,
     Field("z_range", Nullable("a list of pairs or null", ListOf("pairs", _PAIR)), False, "each DOF's range (m)"),
     Field("provenance", _PROVENANCE, False, "where the model came from"),
 )

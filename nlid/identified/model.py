@@ -36,7 +36,7 @@ import numpy as np
 from .. import scoring
 from ..base import numerics
 from ..base.dimensions import mass_unit
-from ..base.frozen import FrozenDict, freeze
+from ..base.frozen import FrozenDict
 from ..base.validate import check_mass
 from ..contract.estimate import Estimate
 from ..data.record import Record
@@ -50,7 +50,8 @@ from ..scoring import Prediction, Residual, Scores, TransientRule
 from . import plausibility
 from . import plots as modelplots
 from .plausibility import Flag
-from .schema import model_from_dict, model_to_dict
+from .result import Identified, Recomputed
+from .schema import STALE_NOTE, model_from_dict, model_to_dict
 from .tables import coefficient_frame, model_summary, record_units
 
 if TYPE_CHECKING:  # pragma: no cover
@@ -62,7 +63,7 @@ __all__ = [
 
 
 @dataclass(frozen=True, eq=False)
-class IdentifiedModel:
+class IdentifiedModel(Identified):
     """A model with its identified coefficients, mass and everything derived from them.
 
     Build it with :func:`nlid.identify` (or :meth:`from_dict`); the
@@ -158,12 +159,7 @@ class IdentifiedModel:
         if self.mass is not None:
             set_(self, "mass", check_mass(self.mass))
         set_(self, "modal", tuple(Modal.from_dict(m) for m in self.modal))
-        set_(self, "options", freeze(dict(self.options)))
-        set_(self, "diagnostics", freeze(dict(self.diagnostics)))
-        set_(self, "warnings", tuple(str(w) for w in self.warnings))
-        set_(self, "flags", tuple(Flag.from_dict(f) for f in self.flags))
-        set_(self, "arrays", FrozenDict(self.arrays))
-        set_(self, "provenance", freeze(dict(self.provenance or {})))
+        self._freeze_shared()
         set_(self, "input_path", input_path(self.input_path))
         if self.z_range is not None:
             set_(self, "z_range", (float(min(self.z_range)), float(max(self.z_range))))
@@ -299,7 +295,25 @@ class IdentifiedModel:
         damping ratios, and epsilon and the force residual on the estimation
         record.
         """
-        return plausibility.nonfinite_problems(self)
+        out = []
+        found = numerics.nonfinite("coefficients", self.coefficients)
+        out += [found] if found else []
+        out += self._standard_error_problems()
+        se_mass = self.mass_standard_error
+        if se_mass is not None and not (numerics.is_finite(se_mass) and se_mass >= 0):
+            out.append(f"the standard error of the mass is {se_mass}")
+        if self.equilibria is not None:
+            bad_eq = [z for z in self.equilibria.all if not numerics.is_finite(z)]
+            if bad_eq:
+                out.append(f"an equilibrium is {bad_eq[0]}")
+        for m in self.modal:
+            if not (numerics.is_finite(m.fn_hz) and m.fn_hz > 0 and numerics.is_finite(m.zeta)):
+                out.append(f"the modal parameters at z* = {m.equilibrium:.6g} m are fn = {m.fn_hz} Hz, zeta = {m.zeta}")
+        if self.scores is not None:
+            scores = {"epsilon": self.scores.eps_percent, "the force residual": self.scores.force_residual_percent}
+            found = numerics.nonfinite("", scores)
+            out += [found] if found else []
+        return out
 
     # ------------------------------------------------------------------ plain views
     @property
@@ -468,25 +482,16 @@ class IdentifiedModel:
         }
         return Record(f=force, z=z, v=v, a=a, fs=float(fs), meta=meta)
 
-    # ------------------------------------------------------------------ what it predicts
-    def frequency_response(self, force: Any, band: Any, *, harmonics: int = 7, **options: Any) -> Any:
-        """The periodic response to ``F cos(2 pi f t)`` over a band, by harmonic balance and continuation.
-
-        ``force``: amplitudes (N); ``band``: ``(low, high)`` Hz; ``options``: those of
-        :func:`nlid.response.frequency_response` (``starts``, ``backbone``, ``settings``). Returns a
-        :class:`~nlid.response.FrequencyResponse` (``to_frame()``, ``plot(ax=)``, ``verify()``...).
-        """
-        from ..response import frequency_response
-
-        return frequency_response(self, force, band, harmonics=harmonics, **options)
-
-    def backbone(self, amplitude: float, *, harmonics: int = 7) -> Any:
-        """The backbone curves of the conservative part up to ``amplitude`` (m) (:func:`nlid.response.backbone`)."""
-        from ..response import backbone
-
-        return backbone(self, amplitude, harmonics=harmonics)
-
     # ------------------------------------------------------------------ plain data
+    def _recomputed(self) -> Recomputed | None:
+        if self.z_range is None or self.mass is None:
+            return None
+        eq = physics.equilibria(self.model, self.theta, self.z_range)
+        computed = physics.modal(self.model, self.theta, self.mass, eq.stable, self.z_range)
+        derived = [m for m in self.modal if not m.source]
+        replacement = {"equilibria": eq, "modal": tuple(computed), "scores": None}
+        return eq, [(derived, computed)], replacement, STALE_NOTE
+
     def to_dict(self) -> dict[str, Any]:
         """JSON-serialisable dictionary (without :attr:`arrays`); :meth:`from_dict` reverses it."""
         return model_to_dict(self)
@@ -540,8 +545,7 @@ class IdentifiedModel:
         if self.mass is not None:
             mass += " (estimated)" if self.mass_estimated else " (given)"
         eps = "" if self.eps_percent is None else f", eps={self.eps_percent:.3g} %"
-        flagged = f"; NOT TRUSTED: {', '.join(f.code for f in self.flags)}" if self.flags else ""
-        return f"<IdentifiedModel {self.method!r}: {', '.join(self.terms)}; {mass}{eps}{flagged}>"
+        return f"<IdentifiedModel {self.method!r}: {', '.join(self.terms)}; {mass}{eps}{self._flagged()}>"
 
     def _repr_html_(self) -> str:
         return self.summary().as_html()

@@ -48,7 +48,6 @@ __all__ = [
     "implied_mass",
     "mass_cause",
     "mass_hint",
-    "nonfinite_problems",
     "trusted",
     "ZETA_MIN",
     "ZETA_MAX",
@@ -387,38 +386,3 @@ def headline(flags: Sequence[Flag]) -> str:
     first, rest = flags[0], flags[1:]
     also = f" (also: {'; '.join(f.message for f in rest)})" if rest else ""
     return f"the result cannot be trusted: {first.message}; {first.cause}{also}"
-
-
-def nonfinite_problems(fit: IdentifiedModel) -> list[str]:
-    """The reported figures of ``fit`` that are not finite, or contradict each other (empty when all is well).
-
-    Checked: coefficients, standard errors (finite, not negative), mass and its standard error,
-    equilibria, natural frequencies (positive), damping ratios, and epsilon and the force residual on the
-    estimation record (:meth:`nlid.identified.model.IdentifiedModel.problems`).
-    """
-    out = []
-    check_ = numerics.nonfinite
-    found = check_("coefficients", fit.coefficients)
-    out += [found] if found else []
-    se = dict(fit.standard_errors or {})
-    found = check_("standard errors", se)
-    out += [found] if found else []
-    negative = [n for n, x in se.items() if numerics.is_finite(x) and x < 0]
-    if negative:
-        out.append(f"standard errors of {', '.join(negative)} are negative")
-    if fit.mass_standard_error is not None and not (
-        numerics.is_finite(fit.mass_standard_error) and fit.mass_standard_error >= 0
-    ):
-        out.append(f"the standard error of the mass is {fit.mass_standard_error}")
-    if fit.equilibria is not None:
-        bad_eq = [z for z in fit.equilibria.all if not numerics.is_finite(z)]
-        if bad_eq:
-            out.append(f"an equilibrium is {bad_eq[0]}")
-    for m in fit.modal:
-        if not (numerics.is_finite(m.fn_hz) and m.fn_hz > 0 and numerics.is_finite(m.zeta)):
-            out.append(f"the modal parameters at z* = {m.equilibrium:.6g} m are fn = {m.fn_hz} Hz, zeta = {m.zeta}")
-    if fit.scores is not None:
-        scores = {"epsilon": fit.scores.eps_percent, "the force residual": fit.scores.force_residual_percent}
-        found = check_("", scores)
-        out += [found] if found else []
-    return out

@@ -17,11 +17,9 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from ..base import numerics
 from ..base.jsonable import to_jsonable
-from ..errors import InputError, NlidError, brief
+from ..errors import InputError, brief
 from ..estimation.inputpath import InputPath
-from ..model import physics
 from ..model.physics import Equilibria
 from ..model.terms import Model, parse_term
 from ..scoring import Scores
@@ -35,9 +33,6 @@ __all__ = ["SCHEMA", "model_to_dict", "model_from_dict"]
 
 #: Identifies the JSON layout of :meth:`IdentifiedModel.to_dict`.
 SCHEMA = "nlid.IdentifiedModel/1"
-#: Relative difference beyond which a stored equilibrium or modal figure is not the one its coefficients give
-#: (a coefficient edited after the fit); far above the last bits a root finder moves by across machines.
-STALE_RTOL = 1e-6
 #: The warning of a model whose stored figures did not match its coefficients (they are recomputed).
 STALE_NOTE = (
     "the coefficients do not give the stored equilibria and modal parameters (edited after the fit?): both "
@@ -76,14 +71,7 @@ def model_to_dict(fit: IdentifiedModel) -> dict[str, Any]:
             "eps_percent": fit.eps_percent,
             "force_residual_percent": fit.force_residual_percent,
             "scores": None if fit.scores is None else fit.scores.to_dict(),
-            "options": dict(fit.options),
-            "diagnostics": dict(fit.diagnostics),
-            "warnings": list(fit.warnings),
-            # written only when a check of what physics forbids failed (the layout of other models is unchanged)
-            **({"flags": [f.to_dict() for f in fit.flags]} if fit.flags else {}),
-            "seconds": fit.seconds,
-            "z_range": None if fit.z_range is None else list(fit.z_range),
-            "provenance": dict(fit.provenance) or None,
+            **fit._shared_dict(),  # options ... provenance, as every result's layout ends
             # written only when the force does not act as recorded (the layout of older models is unchanged)
             **({} if fit.input_path.identity else {"input_path": fit.input_path.to_dict()}),
         }
@@ -130,60 +118,11 @@ def model_from_dict(cls: type[IdentifiedModel], data: Mapping[str, Any]) -> Iden
         model=model,
         coefficients=coefficients,
         mass=data.get("mass"),
-        method=str(data.get("method", "")),
-        mass_estimated=bool(data.get("mass_estimated", False)),
-        standard_errors=data.get("standard_errors"),
         mass_standard_error=data.get("mass_standard_error"),
         equilibria=None if eq is None else Equilibria.from_dict(eq),
         modal=tuple(data.get("modal") or ()),
         scores=scores,
-        options=data.get("options") or {},
-        diagnostics=data.get("diagnostics") or {},
-        warnings=tuple(data.get("warnings") or ()),
-        flags=tuple(data.get("flags") or ()),
-        seconds=data.get("seconds"),
-        z_range=data.get("z_range"),
-        provenance=data.get("provenance") or {},
         input_path=InputPath.from_dict(data.get("input_path")),
+        **cls._shared_fields(data),
     )
-    return _fresh(fit)
-
-
-def _close(a: float, b: float) -> bool:
-    if not (math.isfinite(a) and math.isfinite(b)):
-        return math.isnan(a) == math.isnan(b) and (math.isnan(a) or a == b)
-    return abs(a - b) <= STALE_RTOL * max(abs(a), abs(b), 1e-300)
-
-
-def _fresh(fit: IdentifiedModel) -> IdentifiedModel:
-    """``fit``, or when its stored equilibria or modal parameters are not what its coefficients give (a coefficient
-    edited in the JSON), the same model with both recomputed (:mod:`nlid.model.physics`), its scores dropped and a
-    warning (:data:`STALE_NOTE`).
-
-    Modal parameters a method measured itself (``source`` set, e.g. NSI's) are not those of the coefficients and are
-    not compared; they are replaced when the equilibria or the computed modal parameters show an edit. A model
-    without the data range or the mass, or whose figures cannot be recomputed, is returned as it is.
-    """
-    if fit.z_range is None or fit.mass is None or fit.equilibria is None:
-        return fit
-    theta = fit.model.vector(dict(fit.coefficients))
-    try:
-        with numerics.collect_warnings():  # a figure that cannot be recomputed quietly leaves the model as stored
-            eq = physics.equilibria(fit.model, theta, fit.z_range)
-            computed = physics.modal(fit.model, theta, fit.mass, eq.stable, fit.z_range)
-    except (NlidError, np.linalg.LinAlgError, ValueError, FloatingPointError):
-        return fit
-    stored = fit.equilibria
-    same = len(stored.stable) == len(eq.stable) and len(stored.unstable) == len(eq.unstable)
-    same = same and all(_close(a, b) for a, b in zip(stored.all, eq.all, strict=True))
-    derived = [m for m in fit.modal if not m.source]
-    if same and derived:
-        same = len(derived) == len(computed) and all(
-            _close(a.fn_hz, b.fn_hz) and _close(a.zeta, b.zeta) and _close(a.equilibrium, b.equilibrium)
-            for a, b in zip(derived, computed, strict=True)
-        )
-    if same:
-        return fit
-    return dataclasses.replace(
-        fit, equilibria=eq, modal=tuple(computed), scores=None, warnings=(*fit.warnings, STALE_NOTE)
-    )
+    return fit._fresh()

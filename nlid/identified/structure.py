@@ -19,7 +19,6 @@ linear system's modes, and the residual per DOF on the estimation record
 
 from __future__ import annotations
 
-import dataclasses
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
@@ -27,7 +26,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from ..base import numerics
-from ..base.frozen import FrozenDict, freeze
+from ..base.frozen import FrozenDict
 from ..base.jsonable import to_jsonable
 from ..contract.structure_estimate import StructureEstimate
 from ..errors import IdentificationError, InputError, NlidError, brief
@@ -39,6 +38,7 @@ from ..report.summary import Column, Summary
 from .fileformat import check_structure
 from .plausibility import Flag, trusted
 from .plausibility import check_structure as check_plausible
+from .result import Identified, Recomputed
 
 if TYPE_CHECKING:  # pragma: no cover
     import pandas as pd
@@ -58,7 +58,7 @@ STALE_NOTE = (
 
 
 @dataclass(frozen=True, eq=False)
-class IdentifiedStructure:
+class IdentifiedStructure(Identified):
     """A structure with its identified coefficients and everything derived from them.
 
     Build it with :func:`nlid.identify` on an indexed :class:`~nlid.data.record.Record`
@@ -111,7 +111,6 @@ class IdentifiedStructure:
 
     def __post_init__(self) -> None:
         set_ = object.__setattr__
-        set_(self, "flags", tuple(Flag.from_dict(f) for f in self.flags))
         if not isinstance(self.structure, StructuralModel):
             raise InputError(f"structure must be an nlid StructuralModel, got {type(self.structure).__name__}")
         if self.standard_errors is not None:
@@ -124,11 +123,7 @@ class IdentifiedStructure:
             value = getattr(self, name)
             if value is not None:
                 set_(self, name, tuple(float("nan") if x is None else float(x) for x in value))
-        set_(self, "options", freeze(dict(self.options)))
-        set_(self, "diagnostics", freeze(dict(self.diagnostics)))
-        set_(self, "warnings", tuple(str(w) for w in self.warnings))
-        set_(self, "arrays", FrozenDict(self.arrays))
-        set_(self, "provenance", freeze(dict(self.provenance or {})))
+        self._freeze_shared()
         if self.z_range is not None:
             set_(self, "z_range", tuple((float(min(r)), float(max(r))) for r in self.z_range))
 
@@ -218,10 +213,12 @@ class IdentifiedStructure:
         return trusted(draft, method, caught, check_plausible)
 
     def problems(self) -> list[str]:
-        """The reported figures that are not finite (empty when all is well)."""
-        out = []
-        found = numerics.nonfinite("standard errors", dict(self.standard_errors or {}))
-        out += [found] if found else []
+        """The reported figures that are not finite, or contradict each other (empty when all is well).
+
+        Checked: the standard errors (finite, not negative, as on one DOF), the modes (positive natural
+        frequencies, finite damping ratios) and epsilon per DOF.
+        """
+        out = self._standard_error_problems()
         for m in (*self.modes, *([self.linear_modes] if self.linear_modes is not None else [])):
             if not (np.all(np.isfinite(m.fn_hz)) and np.all(m.fn_hz > 0) and np.all(np.isfinite(m.zeta))):
                 out.append(
@@ -242,6 +239,11 @@ class IdentifiedStructure:
     def coefficients(self) -> Mapping[str, float]:
         """``{canonical element name: coefficient}``."""
         return self.structure.coefficients
+
+    @property
+    def indexed(self) -> bool:
+        """``True``: a structure's result (:attr:`nlid.identified.result.Identified.indexed`)."""
+        return True
 
     @property
     def n_dofs(self) -> int:
@@ -308,23 +310,26 @@ class IdentifiedStructure:
         }
         return Record(f=f.reshape(len(z), -1), z=z, v=v, a=a, fs=float(fs), meta=meta, indexed=True)
 
-    # ------------------------------------------------------------------ what it predicts
-    def frequency_response(self, force: Any, band: Any, *, harmonics: int = 7, **options: Any) -> Any:
-        """The periodic response of every DOF to ``F cos(2 pi f t)`` on a DOF (``dof=``, default 1) over a band.
-
-        As :meth:`nlid.IdentifiedModel.frequency_response` (:func:`nlid.response.frequency_response`).
-        """
-        from ..response import frequency_response
-
-        return frequency_response(self, force, band, harmonics=harmonics, **options)
-
-    def backbone(self, amplitude: float, *, harmonics: int = 7, modes: Sequence[int] | None = None) -> Any:
-        """The backbone of each mode (``modes=``) of the conservative part up to ``amplitude`` (m)."""
-        from ..response import backbone
-
-        return backbone(self, amplitude, harmonics=harmonics, modes=modes)
-
     # ------------------------------------------------------------------ plain data
+    def _recomputed(self) -> Recomputed | None:
+        structure = self.structure
+        eq = structure.equilibria(self.z_range)
+        modes = structure.modes(points=eq.stable)
+        linear = linear_modes(structure.M, structure.C, structure.K, [0.0] * structure.n_dofs)
+        stored_linear = [] if self.linear_modes is None or self.linear_modes.source else [self.linear_modes]
+        pairs: list[tuple[Sequence[Any], Sequence[Any]]] = [
+            ([m for m in self.modes if not m.source], modes),
+            (stored_linear, [linear]),
+        ]
+        replacement: dict[str, Any] = {
+            "equilibria": eq,
+            "modes": modes,
+            "linear_modes": linear,
+            "eps_percent": None,
+            "force_residual_percent": None,
+        }
+        return eq, pairs, replacement, STALE_NOTE
+
     def to_dict(self) -> dict[str, Any]:
         """JSON-serialisable dictionary (without :attr:`arrays`); :meth:`from_dict` reverses it."""
         return to_jsonable(
@@ -342,13 +347,7 @@ class IdentifiedStructure:
                 "force_residual_percent": None
                 if self.force_residual_percent is None
                 else list(self.force_residual_percent),
-                "options": dict(self.options),
-                "diagnostics": dict(self.diagnostics),
-                "warnings": list(self.warnings),
-                **({"flags": [f.to_dict() for f in self.flags]} if self.flags else {}),
-                "seconds": self.seconds,
-                "z_range": None if self.z_range is None else [list(r) for r in self.z_range],
-                "provenance": dict(self.provenance) or None,
+                **self._shared_dict(),  # options ... provenance, as every result's layout ends
             }
         )
 
@@ -357,7 +356,7 @@ class IdentifiedStructure:
         """Rebuild an identified structure from :meth:`to_dict`.
 
         Stored equilibria and modes that its coefficients and matrices no longer give (edited in the JSON) are
-        recomputed, as :meth:`nlid.IdentifiedModel.from_dict` does (:func:`_fresh`).
+        recomputed, as :meth:`nlid.IdentifiedModel.from_dict` does (:meth:`~nlid.identified.result.Identified._fresh`).
 
         Raises
         ------
@@ -375,23 +374,14 @@ class IdentifiedStructure:
         eq = data.get("equilibria")
         fit = cls(
             structure=StructuralModel.from_dict(data["structure"]),
-            method=str(data.get("method", "")),
-            mass_estimated=bool(data.get("mass_estimated", False)),
-            standard_errors=data.get("standard_errors"),
             equilibria=None if eq is None else StructureEquilibria.from_dict(eq),
             modes=tuple(data.get("modes") or ()),
             linear_modes=data.get("linear_modes"),
             eps_percent=data.get("eps_percent"),
             force_residual_percent=data.get("force_residual_percent"),
-            options=data.get("options") or {},
-            diagnostics=data.get("diagnostics") or {},
-            warnings=tuple(data.get("warnings") or ()),
-            seconds=data.get("seconds"),
-            z_range=data.get("z_range"),
-            provenance=data.get("provenance") or {},
-            flags=tuple(data.get("flags") or ()),
+            **cls._shared_fields(data),
         )
-        return _fresh(fit)
+        return fit._fresh()
 
     def to_frame(self) -> pd.DataFrame:
         """One row per element (the index): ``connection``, ``coefficient``, ``std_error``, ``unit``, ``family``."""
@@ -455,16 +445,12 @@ class IdentifiedStructure:
         if self.eps_percent is not None:
             scores.append(("epsilon per DOF", ", ".join(f"{x:.3g} %" for x in self.eps_percent)))
         out.add_fields(scores, gap=True)
-        tail = [] if self.seconds is None else [("time", f"{self.seconds:.3g} s")]
-        out.add_fields(tail + [("warning", w) for w in self.warnings])
-        out.add_fields([("NOT TRUSTED", str(f)) for f in self.flags])
-        return out
+        return self._summary_tail(out)
 
     def __repr__(self) -> str:
         mass = "mass estimated" if self.mass_estimated else "mass given"
-        flagged = f"; NOT TRUSTED: {', '.join(f.code for f in self.flags)}" if self.flags else ""
         names = ", ".join(self.elements.names)
-        return f"<IdentifiedStructure {self.method!r}: {self.n_dofs} DOFs; {names}; {mass}{flagged}>"
+        return f"<IdentifiedStructure {self.method!r}: {self.n_dofs} DOFs; {names}; {mass}{self._flagged()}>"
 
     def _repr_html_(self) -> str:
         return self.summary().as_html()
@@ -485,61 +471,3 @@ class IdentifiedStructure:
         from .structure_plots import plot_frf
 
         return plot_frf(self.structure, ax=ax, at=at, frequency_hz=frequency_hz)
-
-
-def _fresh(fit: IdentifiedStructure) -> IdentifiedStructure:
-    """``fit``, or when its stored equilibria or modes are not what its coefficients and matrices give (edited in
-    the JSON), the same structure with them recomputed, its residuals on the original record dropped and a warning
-    (:data:`STALE_NOTE`): the one-DOF rule (:func:`nlid.identified.schema.model_from_dict`).
-
-    Modes a method measured itself (``source`` set) are not compared; they are replaced when the equilibria or the
-    computed modes show an edit. A structure without the data range, or whose figures cannot be recomputed, is
-    returned as it is.
-    """
-    from .schema import STALE_RTOL
-
-    if fit.z_range is None or fit.equilibria is None:
-        return fit
-    structure = fit.structure
-    try:
-        with numerics.collect_warnings():  # a figure that cannot be recomputed quietly leaves the structure as stored
-            eq = structure.equilibria(fit.z_range)
-            modes = structure.modes(points=eq.stable)
-            linear = linear_modes(structure.M, structure.C, structure.K, [0.0] * structure.n_dofs)
-    except (NlidError, np.linalg.LinAlgError, ValueError, FloatingPointError):
-        return fit
-
-    def close(a: Any, b: Any) -> bool:
-        a, b = np.asarray(a, dtype=float), np.asarray(b, dtype=float)
-        if a.shape != b.shape:
-            return False
-        both = np.isfinite(a) & np.isfinite(b)
-        if not np.array_equal(both, np.isfinite(a)) or not np.array_equal(both, np.isfinite(b)):
-            return False
-        return bool(np.all(np.abs(a - b) <= STALE_RTOL * np.maximum(np.maximum(np.abs(a), np.abs(b)), 1e-300)))
-
-    def same_modes(stored: Sequence[StructureModes], computed: Sequence[StructureModes]) -> bool:
-        return len(stored) == len(computed) and all(
-            close(a.equilibrium, b.equilibrium) and close(a.fn_hz, b.fn_hz) and close(a.zeta, b.zeta)
-            for a, b in zip(stored, computed, strict=True)
-        )
-
-    stored = fit.equilibria
-    same = len(stored.stable) == len(eq.stable) and len(stored.unstable) == len(eq.unstable)
-    same = same and all(close(a, b) for a, b in zip(stored.all, eq.all, strict=True))
-    derived = [m for m in fit.modes if not m.source]
-    if same and derived:
-        same = same_modes(derived, modes)
-    if same and fit.linear_modes is not None and not fit.linear_modes.source:
-        same = same_modes([fit.linear_modes], [linear])
-    if same:
-        return fit
-    return dataclasses.replace(
-        fit,
-        equilibria=eq,
-        modes=modes,
-        linear_modes=linear,
-        eps_percent=None,
-        force_residual_percent=None,
-        warnings=(*fit.warnings, STALE_NOTE),
-    )

@@ -165,7 +165,4 @@ def model_summary(fit: IdentifiedModel, units: str | Mapping[str, str] | None = 
             ("force residual", f"{fit.scores.force_residual_percent:.3g} %"),
         ]
     out.add_fields(scores, separator="   ", gap=True)  # the blank line stays when there are no scores
-    tail = [] if fit.seconds is None else [("time", f"{fit.seconds:.3g} s")]
-    out.add_fields(tail + [("warning", w) for w in fit.warnings])
-    out.add_fields([("NOT TRUSTED", str(f)) for f in getattr(fit, "flags", ())])
-    return out
+    return fit._summary_tail(out)

@@ -34,6 +34,16 @@ class Opaque:
     """Neither a number nor JSON."""
 
 
+class Unreadable(dict):
+    """A mapping that breaks when it is read: a plugin's own container gone wrong."""
+
+    def items(self):
+        raise RuntimeError("no items today")
+
+    def __iter__(self):
+        raise RuntimeError("no keys today")
+
+
 def _one(coefficient=1.0, **fields) -> Exception | Estimate:
     model = Model.from_spec(ONE, defaults=False)
     fields.setdefault("coefficients", {ONE: coefficient})
@@ -75,6 +85,9 @@ REFUSED = {
     "a standard error that is text": {"standard_errors": {"TERM": "small"}},
     "warnings as one string": {"warnings": "careful"},
     "a warning that is not a string": {"warnings": ["fine", 3]},
+    "an object among the warnings": {"warnings": [Opaque()]},
+    "coefficients that break when read": {"coefficients": "UNREADABLE"},
+    "standard errors that break when read": {"standard_errors": "UNREADABLE"},
 }
 
 
@@ -86,6 +99,8 @@ def _fields(case: dict, name: str) -> dict:
             value = {(name if k == "TERM" else k): v for k, v in value.items()}
         if key == "coefficients" and isinstance(value, dict) and len(value) == 3:
             value = {name: 1.0, "zz1": 2.0, "zz2": 3.0}
+        if isinstance(value, str) and value == "UNREADABLE":
+            value = Unreadable({name: 1.0})
         out[key] = value
     return out
 
@@ -113,6 +128,55 @@ def test_unserialisable_diagnostics_and_odd_arrays_are_dropped_the_same_way():
     assert dict(one.diagnostics) == dict(many.diagnostics) == {"ok": 1.5, "big": "d" * 100}
     assert list(one.arrays) == list(many.arrays) == ["good"]
     assert one.warnings == many.warnings and len(one.warnings) == 2
+
+
+@pytest.mark.parametrize("field", ["diagnostics", "arrays"])
+def test_diagnostics_or_arrays_that_are_not_a_mapping_are_dropped_the_same_way(field):
+    one, many = _one(**{field: "not a mapping"}), _many(**{field: "not a mapping"})
+    assert not dict(getattr(one, field)) and not dict(getattr(many, field))
+    assert one.warnings == many.warnings and len(one.warnings) == 1
+    assert one.warnings[0].startswith(f"{field} dropped")
+
+
+def test_a_return_that_is_no_estimate_is_refused_by_name_on_both():
+    """Each form names the type it expects (they differ), in one line naming the identifier."""
+    model = Model.from_spec(ONE, defaults=False)
+    elements = as_elements(PAIR, 2, without="1")
+    with pytest.raises(PluginError) as one:
+        check_estimate(None, model, "probe", mass=1.0)
+    with pytest.raises(PluginError) as many:
+        check_structure_estimate(None, elements, "probe", np.eye(2))
+    for said, expected in ((one, "nlid.Estimate"), (many, "StructureEstimate")):
+        line = str(said.value)
+        assert line.startswith("identifier 'probe' returned NoneType") and expected in line and "\n" not in line
+
+
+def _result(indexed: bool, error: float) -> object:
+    """A result of each form whose one term has the standard error ``error``, as the core drafts it."""
+    from nlid.identified.model import IdentifiedModel
+    from nlid.identified.structure import IdentifiedStructure
+    from nlid.model.structure import StructuralModel
+
+    if not indexed:
+        se = {ONE: error}
+        return IdentifiedModel(Model.from_spec(ONE, defaults=False), {ONE: 1.0}, 1.0, "probe", standard_errors=se)
+    elements = as_elements(PAIR, 2, without="1")
+    structure = StructuralModel(np.eye(2), np.eye(2), np.eye(2), elements, {PAIR: 1.0})
+    return IdentifiedStructure(structure=structure, method="probe", standard_errors={PAIR: error})
+
+
+@pytest.mark.parametrize("value", [-0.1, math.nan, math.inf], ids=["negative", "nan", "infinite"])
+def test_a_standard_error_that_cannot_be_trusted_is_refused_the_same_way(value):
+    """A standard error the contract lets through (a number) but that means nothing: the core refuses both forms."""
+    from nlid.identified.plausibility import trusted
+
+    said = []
+    for indexed in (False, True):
+        with pytest.raises(IdentificationError) as caught:
+            trusted(_result(indexed, value), "probe", [], lambda fit: ())
+        said.append(str(caught.value).replace(PAIR, "TERM").replace(ONE, "TERM"))
+    assert said[0] == said[1]
+    assert said[0].startswith("the identification by 'probe' cannot be trusted: standard errors")
 
 
 def test_a_structure_estimate_comes_back_normalised():
