@@ -39,7 +39,7 @@ from pathlib import Path
 import numpy as np
 
 from nlid.bayes.bias import indirect_inference
-from nlid.bayes.likelihood import sandwich, widen_for_dof
+from nlid.bayes.likelihood import sandwich
 from nlid.estimation.balance import regression_data
 from nlid.simulation.presets import get_preset
 
@@ -60,8 +60,6 @@ def replicate(preset_name: str, channels: tuple[str, ...], noise: float, seed: i
     )
     p = len(model.names)
     moves = np.array(parts["level_moves"]).reshape(-1, p)
-    sampling_dof = np.array([info["variance_dof"][n] for n in model.names])
-    widened, nu, _ = widen_for_dof(cov, parts["sampling"], sampling_dof, 1.25 * parts["spread"], parts["spread_dof"])
     return {
         "seed": np.array(seed),
         "theta_hat": theta_hat,
@@ -71,8 +69,6 @@ def replicate(preset_name: str, channels: tuple[str, ...], noise: float, seed: i
         "spread": parts["spread"],
         "levels": moves.T @ moves,
         "cov": cov,
-        "widened": widened,
-        "nu": nu,
         "dof": np.array(dof),
         "block": np.array(info["block_samples"]),
         "samples": np.array(info["samples"]),
@@ -104,8 +100,7 @@ def summarise(preset_name: str, reps: dict[int, dict[str, np.ndarray]], pairs: i
     seeds = sorted(reps)
     st = {k: np.stack([reps[s][k] for s in seeds]) for k in reps[seeds[0]]}
     combos = {
-        "widened for dof": st["widened"],
-        "before": st["cov"],
+        "as sampled": st["cov"],
         "S/pairs": st["sampling"] + st["spread"] / pairs + st["levels"],
         "sandwich only": st["sampling"],
     }
@@ -119,7 +114,6 @@ def summarise(preset_name: str, reps: dict[int, dict[str, np.ndarray]], pairs: i
             z = (st["center"][:, i] - truth[i]) / np.sqrt(c[:, i, i])
             parts.append(f"{name}: sd(z) {np.std(z, ddof=1):.2f} cover {100 * np.mean(np.abs(z) <= Z90):.0f}%")
         mean_z = np.mean((st["center"][:, i] - truth[i]) / np.sqrt(st["cov"][:, i, i]))
-        parts.append(f"median dof {np.median(st['nu'][:, i]):.0f}")
         lines.append(
             f"  {model.names[i]:>22}: sd(ls)/rms(sandwich) {ls_ratio:.2f}; spread {100 * share:.0f}% "
             f"levels {100 * lev:.0f}% of V_c; mean z {mean_z:+.2f}; " + "; ".join(parts)

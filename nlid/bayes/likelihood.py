@@ -41,19 +41,6 @@ Adjustments (:func:`build_likelihood`)
        (2007), the raw likelihood is evaluated at
        ``phi(theta) = theta_hat + C (theta - theta_c)`` with ``C`` chosen so
        that its curvature at ``theta_c`` is ``-V_c^-1``.
-    4. *The covariance's own uncertainty.* ``V_c`` is estimated from the
-       record: the batch means of the friction terms' scores are heavy-tailed
-       (a sign change of a noisy velocity is a burst), so a coefficient's
-       sandwich variance scatters between records like a chi-square of
-       ``nu_V`` degrees of freedom far below the batch count (measured 11-17
-       for ``v^3 |px(z)|`` of ``paper-experimental`` with 64-95 batches), and
-       ``S`` has the pairs' few. Each coefficient's degrees of freedom
-       ``nu_j`` combine the two by Satterthwaite's rule (:func:`variance_dof`
-       reads ``nu_V`` from the fourth moment of the batch sums), and its
-       standard deviation is widened by ``sqrt(nu_j / (nu_j - 2))``, the
-       standard deviation of a Student-t of ``nu_j`` degrees of freedom with
-       unit scale (the predictive spread of an error standardised by an
-       estimated variance).
 
     The adjusted log-likelihood ``-(nu/2) log RSS(phi(theta))`` equals, up to
     a constant, ``-(nu/2) log(1 + (theta - theta_c)^T V_c^-1 (theta - theta_c) / nu)``:
@@ -92,9 +79,6 @@ __all__ = [
     "block_length",
     "check_identifiable",
     "sandwich",
-    "variance_dof",
-    "widen_for_dof",
-    "MIN_VARIANCE_DOF",
 ]
 
 #: Blocks of the long-run covariance span this many integrated autocorrelation
@@ -105,9 +89,6 @@ BLOCK_TAUS = 50.0
 MAX_CONDITION = 1e10
 #: The whole model is refused beyond this (the normal equations lose every digit).
 FULL_MAX_CONDITION = 1e14
-#: Fewest degrees of freedom a coefficient's variance is given (:func:`variance_dof`): the widening
-#: ``sqrt(nu / (nu - 2))`` is at most ``sqrt(3)``.
-MIN_VARIANCE_DOF = 3.0
 
 
 class DegenerateParametersError(InputError):
@@ -219,81 +200,6 @@ def long_run_covariance(scores: np.ndarray, block: int) -> np.ndarray:
     csum = np.concatenate([np.zeros((1, s.shape[1])), np.cumsum(s, axis=0)])
     sums = csum[block:] - csum[:-block]
     return (sums.T @ sums) / (block * sums.shape[0])
-
-
-def variance_dof(scores: np.ndarray, weights: np.ndarray, block: int) -> np.ndarray:
-    """Degrees of freedom of the batch-means variance of each weighted sum of the scores.
-
-    A variance estimated from ``K`` independent, Gaussian batch sums scatters
-    like ``chi^2_K / K``; heavy-tailed batch sums (bursts) scatter more. The
-    effective degrees of freedom ``2 K E[B^2]^2 / Var(B^2)`` (Satterthwaite) are
-    estimated from the ``K = N // block`` non-overlapping batch sums ``B`` of
-    ``scores @ w`` for each row ``w`` of ``weights``: ``K`` for Gaussian sums,
-    fewer when they are heavy-tailed. The overlapping batch means of
-    :func:`long_run_covariance` scatter somewhat less than the
-    non-overlapping ones (1.5 times the degrees of freedom for Gaussian
-    sums), so this is on the safe side.
-
-    Parameters
-    ----------
-    scores
-        Zero-mean series, shape ``(N, k)``.
-    weights
-        Shape ``(q, k)``: one weighted sum per row (e.g. a coefficient's row
-        of ``H^-1``).
-    block
-        Batch length (samples), as for :func:`long_run_covariance`.
-
-    Returns
-    -------
-    numpy.ndarray
-        Shape ``(q,)``, at least :data:`MIN_VARIANCE_DOF`.
-    """
-    s = np.asarray(scores, dtype=float)
-    s = s.reshape(s.shape[0], -1)
-    batches = s.shape[0] // int(block)
-    if batches < 2:
-        raise InputError(f"block length {block} leaves fewer than 2 batches of the {s.shape[0]} samples")
-    sums = s[: batches * block].reshape(batches, block, -1).sum(axis=1) @ np.asarray(weights, dtype=float).T
-    sq = sums**2
-    mean = np.mean(sq, axis=0)
-    var = np.var(sq, axis=0, ddof=1)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        dof = np.where(var > 0, 2.0 * batches * mean**2 / var, float(batches))
-    return np.maximum(dof, MIN_VARIANCE_DOF)
-
-
-def widen_for_dof(
-    covariance: np.ndarray,
-    sampling: np.ndarray,
-    sampling_dof: np.ndarray,
-    spread: np.ndarray | None = None,
-    spread_dof: float = np.inf,
-) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Widen each coefficient's standard deviation for the degrees of freedom of its estimated variance.
-
-    Satterthwaite's rule for a variance that is the sum of a sampling part
-    (``sampling``, with ``sampling_dof`` per coefficient) and a simulated
-    spread (``spread``, ``spread_dof``): ``nu = (a + s)^2 / (a^2 / nu_a + s^2 / nu_s)``
-    over the diagonal (the rest of ``covariance``, e.g. the noise levels'
-    moves, is counted as exact); then ``D covariance D`` with
-    ``D = diag(sqrt(nu / (nu - 2)))``.
-
-    Returns
-    -------
-    covariance, nu, factor
-        The widened covariance, each coefficient's degrees of freedom and
-        its widening factor.
-    """
-    a = np.diag(sampling)
-    s = np.zeros_like(a) if spread is None else np.diag(spread)
-    parts = a**2 / np.asarray(sampling_dof, dtype=float) + (s**2 / spread_dof if np.isfinite(spread_dof) else 0.0)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        nu = np.where(parts > 0, (a + s) ** 2 / parts, np.inf)
-    nu = np.maximum(nu, MIN_VARIANCE_DOF)
-    factor = np.sqrt(nu / (nu - 2.0))
-    cov = np.asarray(covariance, dtype=float) * np.outer(factor, factor)
-    return 0.5 * (cov + cov.T), nu, factor
 
 
 def check_identifiable(information: np.ndarray, names: Sequence[str], max_condition: float = MAX_CONDITION) -> None:
@@ -497,26 +403,9 @@ def build_likelihood(
     stats, theta_hat, cov, dof, info = sandwich(data.G, y, model.names)
     info = {"samples": info.pop("samples"), "band_hz": data.filtered_at, **info, "bias_correction": bias_correction}
     center = theta_hat
-    sampling_dof = np.array([info["variance_dof"][n] for n in model.names])
-    if not bias_correction:
-        cov, nu, factor = widen_for_dof(cov, cov, sampling_dof)
-    else:
-        parts: dict[str, Any] = {}
+    if bias_correction:
         center, cov, corr_info = indirect_inference(
-            record,
-            model,
-            theta_hat,
-            mass,
-            data,
-            cov,
-            pairs=pairs,
-            iterations=iterations,
-            noise=noise,
-            rng=rng,
-            parts=parts,
-        )
-        cov, nu, factor = widen_for_dof(
-            cov, parts["sampling"], sampling_dof, (1.0 + 1.0 / pairs) * parts["spread"], parts["spread_dof"]
+            record, model, theta_hat, mass, data, cov, pairs=pairs, iterations=iterations, noise=noise, rng=rng
         )
         info["noise_sd"] = corr_info["noise_sd"]
         info["noise"] = corr_info["noise"]
@@ -529,8 +418,6 @@ def build_likelihood(
         info["bias_shift_sd"] = {
             n: float(x) for n, x in zip(model.names, (center - theta_hat) / np.sqrt(np.diag(cov)), strict=True)
         }
-    info["variance_dof"] = {n: float(x) for n, x in zip(model.names, nu, strict=True)}
-    info["dof_widening"] = {n: float(x) for n, x in zip(model.names, factor, strict=True)}
     return Likelihood(tuple(model.names), stats, theta_hat, center, cov, dof, info)
 
 
@@ -584,8 +471,6 @@ def sandwich(
     h_inv = np.linalg.inv(corr_g)
     cov = (h_inv @ omega @ h_inv) / np.outer(s, s)
     cov = 0.5 * (cov + cov.T)
-    # each coefficient's variance is a weighted sum of the scores' long-run covariance: its own degrees of freedom
-    dof_v = variance_dof(scores, h_inv, block)
     tau_resid = max(tau_resid, 1.0)
     dof = stats.n / tau_resid
     info: dict[str, Any] = {
@@ -595,7 +480,6 @@ def sandwich(
         "tau_residual_samples": tau_resid,
         "dof": dof,
         "residual_rms": float(np.sqrt(np.mean(resid**2))),
-        "variance_dof": {n: float(x) for n, x in zip(names, dof_v, strict=True)},
         "sandwich_over_iid_sd": {
             n: float(x)
             for n, x in zip(
