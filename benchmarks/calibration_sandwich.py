@@ -33,6 +33,10 @@ instead (:func:`given_force`): the sandwich against the conditional scatter of
 the least-squares estimates, and the degrees of freedom of its variance,
 observed and estimated.
 
+``--slope 3`` compares, on each seed's record, the binding function's slope
+(:func:`binding_slope`, central differences at +-3 sd) with the attenuation
+``J`` the covariance uses.
+
 Replicates are cached in ``--out`` (one ``.npz`` per cell, a rerun adds the
 missing seeds), so the summary can be reprinted with other combinations.
 
@@ -215,6 +219,57 @@ def given_force(preset_name: str, channels: tuple[str, ...], noise: float, seed:
     ]
 
 
+def binding_slope(preset_name: str, channels: tuple[str, ...], noise: float, seed: int, step: float) -> list[str]:
+    """The slope of the binding function ``b(theta) = E[theta_hat]`` against the attenuation ``J``, on one record.
+
+    ``b`` is simulated at the corrected estimate moved by ``+-step`` of its
+    sd along each coefficient, with the same trajectories' shifts and noise
+    draws (common random numbers, 8 pairs); the central differences give
+    ``B = db/dtheta``. Indirect inference's covariance uses ``J``; with ``B``
+    it would be ``B^-1 V B^-T``.
+    """
+    from nlid.bayes.bias import _bindings
+
+    preset = get_preset(preset_name)
+    model = preset.model()
+    dam = [i for i, t in enumerate(model.terms) if t.family == "damping"]
+    record = preset.simulate(seed, noise=noise, channels=channels)
+    data = regression_data(record, model)
+    _, theta_hat, V, _, _ = sandwich(data.G, data.restoring_force(preset.mass), model.names)
+    centre, cov, info = indirect_inference(
+        record, model, theta_hat, preset.mass, data, V, rng=np.random.default_rng(seed)
+    )
+
+    def binding(theta: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        (corr,) = _bindings(
+            record,
+            model,
+            theta,
+            preset.mass,
+            data,
+            [info["noise_sd"]],
+            pairs=8,
+            rng=np.random.default_rng(7),
+            phase=0.0,
+        )
+        return corr.binding @ theta + corr.offset, corr.binding
+
+    _, J = binding(centre)
+    sd = np.sqrt(np.diag(cov))
+    B = np.zeros_like(J)
+    for j in range(len(centre)):
+        e = np.zeros_like(centre)
+        e[j] = step * sd[j]
+        B[:, j] = (binding(centre + e)[0] - binding(centre - e)[0]) / (2 * step * sd[j])
+    with_j = np.linalg.solve(J, np.linalg.solve(J, V).T)
+    with_b = np.linalg.solve(B, np.linalg.solve(B, V).T)
+    return [
+        f"  {model.names[i]:>22}: J_ii {J[i, i]:.3f} B_ii {B[i, i]:.3f}; sd with B over sd with J "
+        f"{np.sqrt(with_b[i, i] / with_j[i, i]):.3f}"
+        for i in dam
+    ]
+
+
 def load(path: Path) -> dict[int, dict[str, np.ndarray]]:
     """The cached replicates of a cell, by seed."""
     if not path.exists():
@@ -272,10 +327,16 @@ def main() -> None:
     ap.add_argument("--seeds", default="1000:1050")
     ap.add_argument("--out", type=Path, default=Path("/work/scratch/calib"))
     ap.add_argument("--summary-only", action="store_true")
+    ap.add_argument("--slope", type=float, default=0.0, help="the binding function's slope at +-SLOPE sd instead")
     ap.add_argument("--noise-draws", type=int, default=0, help="fix each seed's force, draw the noise this many times")
     args = ap.parse_args()
     lo, hi = (int(x) for x in args.seeds.split(":"))
     channels = tuple(args.channels.split(","))
+    if args.slope:
+        for seed in range(lo, hi):
+            print(f"{args.preset} {args.channels} {args.noise:g}, seed {seed}: binding slope at +-{args.slope:g} sd")
+            print("\n".join(binding_slope(args.preset, channels, args.noise, seed, args.slope)))
+        return
     if args.noise_draws:
         for seed in range(lo, hi):
             print(
