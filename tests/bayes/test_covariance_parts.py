@@ -30,3 +30,25 @@ def test_the_parts_add_up_to_the_covariance_and_leave_it_unchanged():
     total = total + sum(np.outer(m, m) for m in parts["level_moves"])
     assert np.allclose(0.5 * (total + total.T), cov, rtol=1e-12, atol=0.0)
     assert parts["spread_dof"] == 2 + 2 + 4 - 3  # the pairs of the three steps less one mean per step
+
+
+def _benchmark():
+    import importlib.util
+    from pathlib import Path
+
+    path = Path(__file__).resolve().parents[2] / "benchmarks" / "calibration_sandwich.py"
+    spec = importlib.util.spec_from_file_location("calibration_sandwich", path)
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+def test_the_benchmarks_variance_dof_is_the_batch_count_for_gaussian_scores_and_fewer_for_bursts():
+    variance_dof = _benchmark().variance_dof
+    rng = np.random.default_rng(5)
+    white = rng.standard_normal((40_000, 1))
+    nu = variance_dof(white, np.eye(1), 400)  # 100 batches
+    assert 60 < nu[0] < 160  # K = 100 up to the scatter of a fourth moment estimated from 100 sums
+    # about 12 scores 100 times the others: the batches holding one carry the variance, ~10-22 dof over seeds
+    bursts = white * np.where(rng.random((40_000, 1)) < 0.0003, 100.0, 1.0)
+    assert variance_dof(bursts, np.eye(1), 400)[0] < 30
