@@ -44,7 +44,7 @@ missing seeds), so the summary can be reprinted with other combinations.
     python benchmarks/calibration_sandwich.py --preset paper-experimental --channels z,a --noise 0.02 \
         --seeds 3000:3002 --noise-draws 40
 
-Load: one core; 1.5-4 s a replicate (the bias correction's 8 simulations), 0.3 s a noise draw
+Load: one core; 1-4 s a replicate (the bias correction's 8 simulations), 0.3 s a noise draw
 (measured at a load average of 5-7 on the shared 2-core machine).
 """
 
