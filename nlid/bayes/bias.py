@@ -440,6 +440,7 @@ def indirect_inference(
     noise: Mapping[str, float] | None = None,
     rng: np.random.Generator | None = None,
     substeps: int | None = None,
+    parts: dict[str, Any] | None = None,
 ) -> tuple[np.ndarray, np.ndarray, dict[str, Any]]:
     """Bias-corrected estimate and its covariance.
 
@@ -472,6 +473,11 @@ def indirect_inference(
     substeps
         RK4 sub-steps per sample of every step's simulations (default
         :func:`correction_substeps` at ``theta_hat``, kept for every step).
+    parts
+        A dictionary that, when given, receives the covariance's parts (for
+        calibration experiments): ``sampling`` (``J^-1 V J^-T``), ``spread``
+        (``S``), ``level_moves`` (the noise levels' rank-one moves) and
+        ``spread_dof``.
 
     Returns
     -------
@@ -514,12 +520,17 @@ def indirect_inference(
     dev = np.concatenate(deviations)
     spread = dev.T @ dev / (dev.shape[0] - iterations)
     jinv = np.linalg.inv(corr.binding)
-    cov = jinv @ np.asarray(covariance, dtype=float) @ jinv.T + (1.0 + 1.0 / pairs) * spread
+    sampling = jinv @ np.asarray(covariance, dtype=float) @ jinv.T
+    cov = sampling + (1.0 + 1.0 / pairs) * spread
     widening = {}
+    level_moves = []
     for c, other in zip(uncertain, others, strict=True):
         move = other.correct(theta_hat) - theta
         cov = cov + np.outer(move, move)
+        level_moves.append(move)
         widening[c] = {n: float(x) for n, x in zip(model.names, move, strict=True)}
+    if parts is not None:
+        parts.update(sampling=sampling, spread=spread, level_moves=level_moves, spread_dof=dev.shape[0] - iterations)
     info = {
         "noise_sd": corr.noise,
         "noise": {c: level.to_dict() for c, level in levels.items()},
