@@ -68,9 +68,9 @@ def test_every_channel_set_is_calibrated(name):
 #: terms, and only below the band, turn the failure into an expected one; any other failure still fails.
 KNOWN_UNDERCOVERAGE = {
     "paper-experimental": {
-        "v^3*|px(z)|": "0.76 on these 50 seeds; 85-92 % in every cell of the 100-replicate matrix, and the friction terms "
-        "88-93 % over 250 records of one cell (z,a at 2 %; docs/posterior.md, issue 35): these seeds' luck more "
-        "than a defect. A "
+        "v^3*|px(z)|": "0.76 on these 50 seeds; 85-92 % in every cell of the 100-replicate matrix, and the "
+        "friction terms 88-93 % over 250 records of one cell (z,a at 2 %; docs/posterior.md, issue 35): these "
+        "seeds' luck more than a defect. A "
         "per-coefficient Satterthwaite widening was tried and reverted: it over-covers (92-95 % pooled)",
     },
 }
