@@ -3,11 +3,11 @@
 ## Clipped channels
 
 A channel that leaves its instrument's range is cut flat at the range's edge: the samples there stop
-measuring the motion, and nothing downstream can tell. On ``paper-numerical`` at 1 % noise (rfs, mass
-given, seeds 1-3; ``python benchmarks/record_glitches.py``), a displacement cut at 90 % of its peak (0.3-0.5 %
-of the samples) makes the cubic spring 0.8-1.2 % too stiff, one cut at 80 % (3-4 % of the samples) 8-10 %,
-one cut at 60 % 62-71 %. A model can look clean with its input cut: the probes of what remains read a few
-cut samples as noise.
+measuring the motion, and nothing downstream can tell. On ``paper-numerical`` at 1 % noise (rfs,
+mass given, seeds 1-3; ``python benchmarks/record_glitches.py``), a displacement cut at 90 % of its peak
+(0.27-0.54 % of the samples) makes the cubic spring 0.8-1.2 % too stiff, one cut at 80 % (3.0-4.4 % of
+the samples) 8-10 %, one cut at 60 % 62-71 %. A model can look clean with its input cut: the probes of
+what remains read a few cut samples as noise.
 
 :func:`find_clipping` looks for the cut itself, on each side of each measured channel:
 
