@@ -489,7 +489,8 @@ def _write_report(result: Result, out: Path) -> list[Path]:
             "which allow for the correlated, filtered equation error but take the regressors as exact "
             "(docs/rfs.md); no posterior was available."
         )
-    notes = [f.sim_note for f in result.states if f.sim_note] + list(final.identified.warnings)
+    notes = [*(result.info.get("data_warnings") or ()), *(f.sim_note for f in result.states if f.sim_note)]
+    notes += list(final.identified.warnings)
     if notes:
         doc.h(3, "Notes")
         doc.items(list(dict.fromkeys(notes)))

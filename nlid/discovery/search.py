@@ -46,7 +46,7 @@ from ..model.terms import Model
 from ..runtime.parallel import kernel_threads
 from ..scoring import TransientRule
 from ..signal import derivatives
-from ..signal.glitches import find_glitches, glitch_note
+from ..signal.glitches import find_glitches, glitch_note, reported_by_caller
 from .crossfit import PredictionRule
 from .evidence import AcceptanceRule, Evidence, acceptance_rule, judge
 from .inputs import DEFAULT_HOLDOUT, CandidateLibrary, Split
@@ -224,7 +224,8 @@ class Discovery:
             The declared model itself cannot be identified.
         """
         say = progress or _quiet
-        with kernel_threads():  # each unit of work on the shared pool: steps() and run() give the same numbers
+        # each unit of work on the shared pool (steps() and run() give the same numbers); glitches said once
+        with kernel_threads(), reported_by_caller():
             state = self._start(record, declared, say)
         return self._rounds(state, say)
 
@@ -280,7 +281,8 @@ class Discovery:
             yield dataclasses.replace(state, stop_reason=MAX_STEPS_REACHED)
             return
         for number in range(1, self.max_steps + 1):
-            with kernel_threads():  # not held across the yield: the caller's code between rounds keeps its threads
+            # not held across the yield: the caller's code between rounds keeps its threads
+            with kernel_threads(), reported_by_caller():
                 state = self._round(state, number, say)
             if not state.done and number == self.max_steps:
                 state = dataclasses.replace(state, stop_reason=MAX_STEPS_REACHED)
@@ -391,7 +393,7 @@ class Discovery:
         ``state`` is usually the last one :meth:`steps` yielded; a search the caller stopped early says so
         in its stop reason.
         """
-        with kernel_threads():
+        with kernel_threads(), reported_by_caller():
             return self._finish(state, progress or _quiet)
 
     def _finish(self, state: SearchState, say: Progress) -> DiscoveryResult:
@@ -404,10 +406,8 @@ class Discovery:
         assert remaining is not None
         clean = "" if remaining.structured else "the final model is "
         stop_reason = f"{stop_reason}; {clean}" + describe_remaining(remaining)
-        data = ctx.whole if ctx.whole is not None else ctx.estimation
-        glitches = find_glitches(data)
-        if glitches:  # what no probe can tell from an effect
-            stop_reason += glitch_note(glitches)
+        glitches = find_glitches(ctx.whole if ctx.whole is not None else ctx.estimation)
+        stop_reason += glitch_note(glitches) if glitches else ""  # what no probe can tell from an effect
         if self.simulate:
             say("free-run simulation on the held-out record")
             states = [with_free_run(ctx, stage) for stage in states]

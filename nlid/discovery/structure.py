@@ -49,7 +49,7 @@ from ..errors import IdentificationError, InputError, NlidError
 from ..estimation.joint import Extra
 from ..estimation.structure_balance import residual_on
 from ..model.terms import Term
-from ..signal.glitches import find_glitches, glitch_note
+from ..signal.glitches import find_glitches, glitch_note, reported_by_caller
 from .evidence import AcceptanceRule, acceptance_rule, integrated_time
 from .judge import MAX_JUDGED
 from .library import Candidate, Variant, dissipative, resolve_candidates
@@ -365,7 +365,8 @@ def _refine(selection, elements, M, cutoff, test_record, test_data, parts, simul
 
     refiner = choose_refiner()
     say(f"refining the final model with {refiner} on the selection record ({selection.n} samples)")
-    fit = identify(selection, elements, refiner, mass=M, cutoff=cutoff)
+    with reported_by_caller():  # discover_structure says the record's glitches itself
+        fit = identify(selection, elements, refiner, mass=M, cutoff=cutoff)
     return _stage(fit.structure, f"refined ({refiner})", test_record, test_data, parts, simulate)
 
 

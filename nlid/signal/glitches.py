@@ -50,6 +50,9 @@ as ``z`` of one DOF).
 from __future__ import annotations
 
 import dataclasses
+from collections.abc import Iterator
+from contextlib import contextmanager
+from contextvars import ContextVar
 from dataclasses import dataclass
 from typing import Any
 
@@ -64,6 +67,7 @@ __all__ = [
     "despike",
     "glitch_warnings",
     "glitch_note",
+    "reported_by_caller",
     "EXTREME_RATIO",
     "NEXT_VALUES",
     "SPIKE_SCALES",
@@ -160,6 +164,8 @@ def _visits(y: np.ndarray, period: int | None = None) -> tuple[int, int]:
     level = y.max()
     at = y == level
     count = int(at.sum())
+    if count < MIN_VISITS:  # the usual case, settled without sorting
+        return 0, 0
     values, counts = np.unique(y[~at], return_counts=True)
     if count < MIN_VISITS or values.size == 0 or count < EXTREME_RATIO * float(np.mean(counts[-NEXT_VALUES:])):
         return 0, 0
@@ -221,6 +227,9 @@ SPIKE_STD = 0.05
 #: toggles by one quantum and back, and a channel mostly at rest has a robust scale below one quantum (the
 #: 2dof-double-well's z2 rounded to 1 % of the std of both displacements: 416 toggles taken for spikes).
 SPIKE_QUANTA = 4.0
+#: Misses per side the robust scale is read from (every k-th of a longer record): the scale of 32768 is within
+#: about 1 % of all of them, at a fraction of the cost of sorting a long record's.
+SCALE_SAMPLES = 32768
 #: Sample indices a :class:`Spikes` lists (the first ones).
 SPIKES_LISTED = 5
 
@@ -271,13 +280,15 @@ def _spikes(x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Sample indices of the isolated spikes of ``x`` and the size of each (its smaller miss)."""
     left = x[2:-2] - (2.0 * x[1:-3] - x[:-4])
     right = x[2:-2] - (2.0 * x[3:-1] - x[4:])
-    misses = np.concatenate([left, right])
-    scale = 1.4826 * float(np.median(np.abs(misses - np.median(misses))))
     size = np.where(np.sign(left) == np.sign(right), np.minimum(np.abs(left), np.abs(right)), 0.0)
-    steps = np.abs(np.diff(x))
-    quantum = float(steps[steps > 0].min()) if np.any(steps > 0) else 0.0
-    floor = max(SPIKE_SCALES * scale, SPIKE_STD * float(np.std(x)), SPIKE_QUANTA * quantum)
-    found = np.flatnonzero(size > floor)
+    found = np.flatnonzero(size > SPIKE_STD * float(np.std(x)))
+    if found.size:  # the usual case has none: the robust scale and the quantum only when there are candidates
+        stride = max(1, left.size // SCALE_SAMPLES)  # a robust scale needs no more than that many misses
+        misses = np.concatenate([left[::stride], right[::stride]])
+        scale = 1.4826 * float(np.median(np.abs(misses - np.median(misses))))
+        steps = np.abs(np.diff(x))
+        quantum = float(steps[steps > 0].min()) if np.any(steps > 0) else 0.0
+        found = found[size[found] > max(SPIKE_SCALES * scale, SPIKE_QUANTA * quantum)]
     return found + 2, size[found]
 
 
@@ -363,8 +374,27 @@ def find_glitches(record: Any) -> tuple[Clipping | Spikes, ...]:
     return (*find_clipping(record), *find_spikes(record))
 
 
+#: True within :func:`reported_by_caller`.
+_REPORTED: ContextVar[bool] = ContextVar("nlid_glitches_reported", default=False)
+
+
+@contextmanager
+def reported_by_caller() -> Iterator[None]:
+    """Within the block :func:`glitch_warnings` gives nothing: the caller checks the whole record once and says
+    what it finds. A search fits its model on parts of the record hundreds of times, and checking every part
+    again took a fifth of ``discover``'s time (paper-numerical: 6.4 s against 5.3 s)."""
+    token = _REPORTED.set(True)
+    try:
+        yield
+    finally:
+        _REPORTED.reset(token)
+
+
 def glitch_warnings(record: Any) -> list[str]:
-    """:func:`find_glitches` as warning lines (empty when the record has none)."""
+    """:func:`find_glitches` as warning lines (empty when the record has none, or within
+    :func:`reported_by_caller`)."""
+    if _REPORTED.get():
+        return []
     return [g.describe() for g in find_glitches(record)]
 
 

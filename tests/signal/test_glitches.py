@@ -10,6 +10,7 @@ import pytest
 
 import nlid
 from nlid.data.record import Record
+from nlid.discovery.report import write_report
 from nlid.discovery.structure import discover_structure
 from nlid.signal.glitches import despike, find_clipping, find_glitches, find_spikes
 from nlid.simulation.presets import PRESETS, get_preset
@@ -106,7 +107,7 @@ def test_a_structure_names_the_dof(chain_record):
     assert {c.channel for c in found} == {"z2"} and {c.unit for c in found} == {"m"}
 
 
-def test_identify_and_discover_say_so(noisy):
+def test_identify_and_discover_say_so(noisy, tmp_path):
     cut = dataclasses.replace(noisy, z=_clip(noisy.z, 0.85))
     fit = nlid.identify(cut, "z, z^2, z^3, v, v*|v|", "rfs", mass=noisy.mass)
     assert any("channel z looks clipped" in w for w in fit.warnings)
@@ -114,6 +115,8 @@ def test_identify_and_discover_say_so(noisy):
     result = nlid.discover(cut, ["z", "z^2", "z^3", "v", "v*|v|"], mass=noisy.mass, simulate=False, views=False)
     assert "; but channel z looks clipped at its" in result.stop_reason and "fitting them" in result.stop_reason
     assert result.info["data_warnings"] and "data: channel z looks clipped" in str(result.summary())
+    written = write_report(result, tmp_path / "report")
+    assert "channel z looks clipped" in next(p for p in written if p.suffix == ".md").read_text(encoding="utf-8")
 
 
 def test_discover_structure_says_so(chain):
@@ -228,3 +231,18 @@ def test_a_periodic_crest_is_one_visit_but_a_cut_period_is_not():
     assert find_clipping(smooth) == ()
     cut = dataclasses.replace(smooth, z=_clip(smooth.z, 0.6))  # several crests of each period cut
     assert {c.side for c in find_clipping(cut)} == {"maximum", "minimum"}
+
+
+def test_a_search_checks_the_record_once(noisy, monkeypatch):
+    # discover fits its parts hundreds of times; none of those fits checks its part again (the search checks
+    # the whole record once, by its own call)
+    from nlid.signal import glitches
+
+    calls = []
+    real = glitches.find_glitches
+    monkeypatch.setattr(glitches, "find_glitches", lambda record: calls.append(record.n) or real(record))
+    nlid.discover(noisy, ["z", "z^2", "z^3", "v", "v*|v|"], mass=noisy.mass, simulate=False, views=False)
+    assert calls == []
+    with glitches.reported_by_caller():
+        assert glitches.glitch_warnings(dataclasses.replace(noisy, z=_clip(noisy.z, 0.8))) == []
+    assert glitches.glitch_warnings(dataclasses.replace(noisy, z=_clip(noisy.z, 0.8)))
