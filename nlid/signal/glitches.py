@@ -167,7 +167,7 @@ def _visits(y: np.ndarray, period: int | None = None) -> tuple[int, int]:
     if count < MIN_VISITS:  # the usual case, settled without sorting
         return 0, 0
     values, counts = np.unique(y[~at], return_counts=True)
-    if count < MIN_VISITS or values.size == 0 or count < EXTREME_RATIO * float(np.mean(counts[-NEXT_VALUES:])):
+    if values.size == 0 or count < EXTREME_RATIO * float(np.mean(counts[-NEXT_VALUES:])):
         return 0, 0
     edges = np.diff(np.concatenate([[0], at.astype(np.int8), [0]]))
     start, stop = np.flatnonzero(edges == 1), np.flatnonzero(edges == -1)
@@ -273,7 +273,7 @@ class Spikes:
             "std off the line through their neighbours on both sides, and back): glitches of the sensor or the "
             "acquisition? they bias what is fitted to them: replace each by its neighbours' mean "
             "(nlid.signal.glitches.despike), or cut them out"
-        ).replace(" ;", ";")
+        )
 
 
 def _spikes(x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -292,6 +292,17 @@ def _spikes(x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return found + 2, size[found]
 
 
+def _spiked(record: Any) -> Iterator[tuple[str, np.ndarray, np.ndarray, np.ndarray]]:
+    """``(name, channel, indices, sizes)`` of each measured displacement and velocity channel with spikes."""
+    for name in _measured(record, ("z", "v")):
+        x = np.asarray(record.channel(name), dtype=float)
+        if x.size < 5 or not np.all(np.isfinite(x)):
+            continue
+        where, size = _spikes(x)
+        if where.size:
+            yield name, x, where, size
+
+
 def find_spikes(record: Any) -> tuple[Spikes, ...]:
     """Every measured displacement and velocity channel of ``record`` with isolated spikes (module docstring).
 
@@ -305,18 +316,11 @@ def find_spikes(record: Any) -> tuple[Spikes, ...]:
     tuple of Spikes
         In the record's channel order; empty when no channel has any.
     """
-    found = []
-    for name in _measured(record, ("z", "v")):
-        x = np.asarray(record.channel(name), dtype=float)
-        if x.size < 5 or not np.all(np.isfinite(x)):
-            continue
-        where, size = _spikes(x)
-        if where.size:
-            found.append(
-                Spikes(name, int(where.size), float(size.max()), _unit(record, name), float(np.std(x)),
-                       tuple(int(i) for i in where[:SPIKES_LISTED]))
-            )  # fmt: skip
-    return tuple(found)
+    return tuple(
+        Spikes(name, int(where.size), float(size.max()), _unit(record, name), float(np.std(x)),
+               tuple(int(i) for i in where[:SPIKES_LISTED]))
+        for name, x, where, size in _spiked(record)
+    )  # fmt: skip
 
 
 def _measured(record: Any, groups: tuple[str, ...] | None = None) -> list[str]:
@@ -347,16 +351,11 @@ def despike(record: Any) -> Any:
     Record
         A new record (``record`` itself when it has no spike).
     """
-    found = find_spikes(record)
-    if not found:
-        return record
     changes: dict[str, Any] = {}
     touched: dict[str, list[int]] = {}
-    for spikes in found:
-        name = spikes.channel
+    for name, x, where, _ in _spiked(record):
         group = name.rstrip("0123456789")
-        x = np.array(record.channel(name), dtype=float, copy=True)
-        where, _ = _spikes(x)
+        x = x.copy()
         x[where] = 0.5 * (x[where - 1] + x[where + 1])
         touched[name] = [int(i) for i in where]
         if record.indexed:
@@ -365,6 +364,8 @@ def despike(record: Any) -> Any:
             changes[group] = block
         else:
             changes[group] = x
+    if not touched:
+        return record
     meta = {**dict(record.meta), "despiked": touched}
     return dataclasses.replace(record, meta=meta, **changes)
 
