@@ -406,7 +406,7 @@ class Discovery:
         assert remaining is not None
         clean = "" if remaining.structured else "the final model is "
         stop_reason = f"{stop_reason}; {clean}" + describe_remaining(remaining)
-        glitches = find_glitches(ctx.whole if ctx.whole is not None else ctx.estimation)
+        glitches = find_glitches(ctx.whole_record)
         stop_reason += glitch_note(glitches) if glitches else ""  # what no probe can tell from an effect
         if self.simulate:
             say("free-run simulation on the held-out record")

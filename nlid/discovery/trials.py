@@ -102,6 +102,11 @@ class Context:
     freerun_rule: TransientRule | None = None
     whole: Record | None = None
 
+    @property
+    def whole_record(self) -> Record:
+        """:attr:`whole`, or the estimation record when there is none."""
+        return self.whole if self.whole is not None else self.estimation
+
 
 def root_mean_square(x: np.ndarray) -> float:
     """RMS of an array."""
@@ -533,7 +538,7 @@ def test_input_path(ctx: Context, current: Stage, cand: InputPathCandidate) -> t
 
 def refit_description(ctx: Context) -> str:
     """What the final refit was fitted on (:func:`refine_stage`), and whether its held-out scores are in-sample."""
-    record = ctx.whole if ctx.whole is not None else ctx.estimation
+    record = ctx.whole_record
     inside = record is not ctx.estimation
     return f"the whole record ({record.n} samples)" + (": its held-out scores are in-sample" if inside else "")
 
@@ -545,7 +550,7 @@ def refine_stage(ctx: Context, final: Stage, refiner: Any, simulate: bool, valid
     estimation and held-out parts of a divided record), so its held-out scores are not out-of-sample when
     the hold-out was a part of the record.
     """
-    record = ctx.whole if ctx.whole is not None else ctx.estimation
+    record = ctx.whole_record
     fit = identify(record, final.model, refiner, mass=final.given_mass, cutoff=ctx.cutoff, input_path=final.path)
     rule = ctx.freerun_rule if simulate else None
     stage = Stage(fit, fit.score(ctx.holdout, cutoff=ctx.cutoff, free_run=simulate, rule=rule))

@@ -281,7 +281,7 @@ def identify(
             record, terms, method, mass=mass, options=options, without=without, px_roots=px_roots, cutoff=cutoff,
             registry=registry,
         )  # fmt: skip
-        return with_data_warnings(fitted, record)
+        return _with_data_warnings(fitted, record)
     model = as_model(terms, without=without, px_roots=px_roots)
     identifier = make_identifier(method, options, registry)
     mass = check_mass(mass)
@@ -335,10 +335,10 @@ def identify(
     )
     if not path.identity:
         provenance["identify"]["input_path"] = path.to_spec()
-    return with_data_warnings(dataclasses.replace(result, provenance=provenance, input_path=path), measured)
+    return _with_data_warnings(dataclasses.replace(result, provenance=provenance, input_path=path), measured)
 
 
-def with_data_warnings(result: Any, record: Record) -> Any:
+def _with_data_warnings(result: Any, record: Record) -> Any:
     """``result`` with a warning for each glitch of ``record`` (:mod:`nlid.signal.glitches`)."""
     found = glitch_warnings(record)
     if not found:
