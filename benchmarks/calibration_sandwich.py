@@ -141,17 +141,23 @@ def widen_for_dof(
     return 0.5 * (cov + cov.T), nu, factor
 
 
+def _fit(record, model, mass: float):
+    """The regression data, least squares with its sandwich, and the degrees of freedom of each variance."""
+    data = regression_data(record, model)
+    y = data.restoring_force(mass)
+    stats, theta_hat, V, dof, info = sandwich(data.G, y, model.names)
+    s = stats.scale
+    scores = (data.G / s) * (y - data.G @ theta_hat)[:, None]
+    nu = variance_dof(scores, np.linalg.inv(stats.gtg / np.outer(s, s)), info["block_samples"])
+    return data, theta_hat, V, dof, info, nu
+
+
 def replicate(preset_name: str, channels: tuple[str, ...], noise: float, seed: int) -> dict[str, np.ndarray]:
     """The estimates and covariance parts of one replicate (all coefficients, model order)."""
     preset = get_preset(preset_name)
     model = preset.model()
     record = preset.simulate(seed, noise=noise, channels=channels)
-    data = regression_data(record, model)
-    y = data.restoring_force(preset.mass)
-    stats, theta_hat, V, dof, info = sandwich(data.G, y, model.names)
-    s = stats.scale
-    scores = (data.G / s) * (y - data.G @ theta_hat)[:, None]
-    sampling_dof = variance_dof(scores, np.linalg.inv(stats.gtg / np.outer(s, s)), info["block_samples"])
+    data, theta_hat, V, dof, info, sampling_dof = _fit(record, model, preset.mass)
     parts: dict = {}
     center, cov, _ = indirect_inference(
         record, model, theta_hat, preset.mass, data, V, rng=np.random.default_rng(seed), parts=parts
@@ -200,12 +206,7 @@ def given_force(preset_name: str, channels: tuple[str, ...], noise: float, seed:
             c: getattr(clean, c) + noise * getattr(clean, c).std() * rng.standard_normal(clean.n) for c in channels
         }
         record = Record(f=clean.f, fs=clean.fs, meta=clean.meta, **noisy)
-        data = regression_data(record, model)
-        y = data.restoring_force(preset.mass)
-        stats, theta_hat, V, _, info = sandwich(data.G, y, model.names)
-        s = stats.scale
-        scores = (data.G / s) * (y - data.G @ theta_hat)[:, None]
-        nu = variance_dof(scores, np.linalg.inv(stats.gtg / np.outer(s, s)), info["block_samples"])
+        _, theta_hat, V, _, _, nu = _fit(record, model, preset.mass)
         est.append(theta_hat[dam])
         var.append(np.diag(V)[dam])
         nus.append(nu[dam])
