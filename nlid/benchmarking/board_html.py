@@ -21,6 +21,7 @@ from .board_rows import (
     integer,
     legend,
     num,
+    range_note,
     ranks,
     remark,
     rule_text,
@@ -197,6 +198,9 @@ def leaderboard_html(
             parts.append(f'<h3 id="{_e(bench)}--{_e(test)}">test <code>{_e(test)}</code></h3>')
             parts.append(f"<p>{_e(t.source.description or test)}.</p>")
             rule = _e(rule_text(group).replace("`", "")) + (f" ({_e(t.rule_note)})" if t.rule_note else "")
+            beyond = range_note(group)
+            if beyond:
+                rule += f"<br><b>Range</b> {_e(beyond)}."
             svg = svgs.get((bench, test))
             if svg:
                 parts.append(f"<figure>{svg}</figure>")

@@ -106,6 +106,15 @@ def rule_text(rows: Sequence[Mapping[str, Any]]) -> str:
     return f"`{declared}`" + (f": {'; '.join(texts)}" if texts else "")
 
 
+def range_note(rows: Sequence[Mapping[str, Any]]) -> str:
+    """How far a table's test set leaves the estimation range, capitalised (:func:`nlid.scoring.range_excess`).
+
+    Empty when the test stays within the range, or for rows written before the column existed.
+    """
+    text = next((str(r["extrapolation"]) for r in rows if r.get("extrapolation")), "")
+    return text[:1].upper() + text[1:]
+
+
 def legend(rows: Sequence[Mapping[str, Any]]) -> list[tuple[str, str]]:
     """``(badge, meaning)`` of the badges the rows use, in :data:`~nlid.benchmarking.prior.LEGEND` order."""
     used = {b for r in rows for b in badges(r)}

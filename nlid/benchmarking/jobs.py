@@ -253,6 +253,8 @@ class BenchJob:
             if spec.kind != TRUTH_KIND:  # no truth declared: the benchmark's truth is unknown, no row is missing
                 rows += [_skipped_row(protocol, test, spec.name, spec.kind, why) for test in protocol.tests]
         floors: dict[str, float] = {}
+        ranges: dict[str, dict[str, Any]] = {}
+        fitted_range = scoring.value_range(estimation.z)
         for test in protocol.tests:
             if test.noise_floor is not None:
                 floors[test.name] = noise_floor(estimation, test.noise_floor)
@@ -263,6 +265,9 @@ class BenchJob:
             except DataError as exc:
                 rows += [self._row(protocol, test, f, None, "not run", str(exc)) for f in fits]
                 continue
+            reach = scoring.range_excess(fitted_range, record.z)
+            ranges[test.name] = {"beyond": reach.beyond, "outside": reach.outside, "text": reach.describe("the test")}
+            first = len(rows)
             for fitted in fits:
                 try:
                     scores = score_model(fitted, record, test.rule)
@@ -270,11 +275,14 @@ class BenchJob:
                     rows.append(self._row(protocol, test, fitted, scores, status, scores["note"], _where(record)))
                 except NlidError as exc:
                     rows.append(self._row(protocol, test, fitted, None, "failed", str(exc)))
+            for r in rows[first:]:
+                r["extrapolation"] = ranges[test.name]["text"]
         result = {
             "rows": rows,
             "fits": [_fit_dict(f) for f in fits],
             "skipped": {spec.name: why for spec, why in skipped},
             "noise_floors": floors,
+            "ranges": ranges,
             "estimation": {"samples": estimation.n, "source": estimation.meta.get("source", "")},
             "offsets": {"f": offsets.f, "z": offsets.z},
         }

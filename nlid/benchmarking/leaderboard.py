@@ -28,6 +28,7 @@ from .board_rows import (
     integer,
     legend,
     num,
+    range_note,
     ranks,
     remark,
     rule_text,
@@ -78,6 +79,7 @@ COLUMNS = (
     "status",
     "note",
     "source",
+    "extrapolation",
 )
 
 
@@ -295,6 +297,9 @@ def markdown_tables(
             lines += [f"{hashes}# `{p.name}` — test `{test}`", ""]
             lines += [f"{t.source.description or test}.", ""]
             lines += [f"Rule {rule_text(group)}" + (f" ({t.rule_note})." if t.rule_note else "."), ""]
+            beyond = range_note(group)
+            if beyond:
+                lines += [f"Range: {beyond}.", ""]
             if figures is not None and any(not math.isnan(_nan(r["rmse"])) for r in group):
                 lines += [f"![RMSE of every row, log axis]({figures}/{figure_name(p.name, test)}.png)", ""]
             lines += table_markdown(group)

@@ -24,6 +24,7 @@ from ..identified.model import IdentifiedModel
 from ..model.terms import Model
 from ..report.summary import Summary
 from ..scoring import Scores as ScoreSet
+from ..scoring.coverage import beyond_range
 from .crossfit import FoldPrediction
 from .evidence import AcceptanceRule, Evidence, Scores
 from .probes import Remaining
@@ -289,9 +290,8 @@ class DiscoveryResult:
             "error but not the simulation there"
         )
         zr, zv = self.info.get("z_range"), self.info.get("z_range_validation")
-        if zr and zv and (zv[0] < zr[0] or zv[1] > zr[1]):
-            span = zr[1] - zr[0]
-            beyond = max(zr[0] - zv[0], zv[1] - zr[1]) / span if span > 0 else float("inf")
+        beyond = beyond_range(zr, zv) if zr and zv else 0.0
+        if beyond > 0:
             text += (
                 f"; the validation record reaches {100 * beyond:.3g} % of the estimation range beyond it, "
                 "where added terms extrapolate"

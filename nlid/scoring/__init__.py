@@ -59,6 +59,7 @@ from typing import TYPE_CHECKING
 from ..base.lazy import lazy_face
 
 if TYPE_CHECKING:  # loaded on first use by __getattr__ below: importing one submodule loads no other
+    from .coverage import RANGE_TOLERANCE, RangeExcess, beyond_range, range_excess, value_range
     from .periods import detect_period, multisine_lines, record_period
     from .prediction import Prediction, predict
     from .rules import FromFirstSample, InitWindow, PeriodicSteadyState, TransientRule, default_rule, rule_from_spec
@@ -84,6 +85,11 @@ if TYPE_CHECKING:  # loaded on first use by __getattr__ below: importing one sub
 
 #: Public name -> module that defines it (imported on first access).
 _LAZY: dict[str, str] = {
+    "RANGE_TOLERANCE": "nlid.scoring.coverage",
+    "RangeExcess": "nlid.scoring.coverage",
+    "beyond_range": "nlid.scoring.coverage",
+    "range_excess": "nlid.scoring.coverage",
+    "value_range": "nlid.scoring.coverage",
     "Prediction": "nlid.scoring.prediction",
     "predict": "nlid.scoring.prediction",
     "FromFirstSample": "nlid.scoring.rules",
@@ -145,6 +151,11 @@ __all__ = [
     "rule_from_spec",
     "Prediction",
     "predict",
+    "RANGE_TOLERANCE",
+    "RangeExcess",
+    "beyond_range",
+    "range_excess",
+    "value_range",
 ]
 
 

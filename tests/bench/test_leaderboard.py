@@ -9,10 +9,11 @@ import pytest
 
 from nlid.benchmarking import BenchJob, Prior, leaderboard_rows, parse_pipelines, parse_protocol, write_leaderboard
 from nlid.benchmarking.board_figures import write_figures
-from nlid.benchmarking.data import load_estimation
+from nlid.benchmarking.data import load_estimation, load_test
 from nlid.benchmarking.leaderboard import COLUMNS, badges, markdown_tables, read_leaderboard
 from nlid.benchmarking.pipelines import fit_pipelines
 from nlid.benchmarking.prior import LEGEND
+from nlid.scoring import range_excess, value_range
 
 #: The toy benchmark with its truth declared (and means kept, so the true model is the record's own).
 TRUTH = """
@@ -134,3 +135,23 @@ def test_the_csv_round_trips_the_prior_columns(toy_rows, tmp_path):
     back = read_leaderboard(tmp_path / "leaderboard.csv")
     assert [(r["pipeline"], r["prior"]) for r in back] == [(r["pipeline"], r["prior"] or "") for r in rows]
     assert json.dumps([badges(r) for r in back]) == json.dumps([badges(r) for r in rows])
+
+
+def test_a_test_set_beyond_the_estimation_range_is_said_once_per_table(toy_rows, toy, tmp_path):
+    protocol, rows = toy_rows
+    text, est_file, test_file, _ = toy
+    estimation, offsets = load_estimation(_protocol(text), path=str(est_file))
+    test = load_test(_protocol(text), protocol.test("independent"), offsets, path=str(test_file))
+    expected = range_excess(value_range(estimation.z), test.z).describe("the test")
+    job_rows = [r for r in rows if r["kind"] in ("nlid", "peer", "truth")]
+    assert job_rows and {r["extrapolation"] for r in job_rows} == {expected}  # the job's own measure
+    said = "The test reaches 31 % of the estimation range beyond it (2 % of its samples lie outside)"
+    beyond = [dict(r, extrapolation=said[:1].lower() + said[1:]) if r in job_rows else r for r in rows]
+    md = "\n".join(markdown_tables({protocol.name: protocol}, beyond))
+    assert md.count(f"Range: {said}.") == 1
+    write_leaderboard(tmp_path, {protocol.name: protocol}, beyond)
+    assert (tmp_path / "leaderboard.html").read_text().count("<b>Range</b> The test reaches 31 %") == 1
+    back = {r["pipeline"]: r["extrapolation"] for r in read_leaderboard(tmp_path / "leaderboard.csv")}
+    assert back["rfs"] == said[:1].lower() + said[1:] and back["a made-up figure"] == ""
+    inside = [dict(r, extrapolation="") for r in rows]
+    assert "Range:" not in "\n".join(markdown_tables({protocol.name: protocol}, inside))
