@@ -28,7 +28,7 @@ EPILOG = """\
 pipelines (--pipeline, comma-separated): any installed identifier (rfs, sindy, oe...),
   linear (the default identifier on the declared model's linear terms), discover, discover-refine
   (discover, then refined by oe: "discover --refine" works too), the peers pysindy, sysidentpy
-  (polynomial NARX; pip install 'nlid[bench]') and linear-ss (a linear state space, output error),
+  (polynomial NARX; pip install sysidentpy) and linear-ss (a linear state space, output error),
   and truth (the benchmark's own model, where its file declares it).
 
 benchmarks (--benchmark, comma-separated): emps, emps-internal, silverbox, bouc-wen, or a
