@@ -14,20 +14,17 @@ import dataclasses
 from collections.abc import Iterable, Mapping
 from typing import Any
 
-import numpy as np
-
-from .. import __version__
 from ..base.validate import check_cutoff
 from ..contract.estimate import timed_call
 from ..contract.registry import Registry, make_identifier
 from ..contract.structure_estimate import check_structure_estimate
-from ..data.digest import record_sha256
 from ..data.record import Record
 from ..errors import InputError
 from ..identified.structure import IdentifiedStructure
 from ..model.elements import ElementSet
 from ..model.spelling import Connection
 from ..model.structure import structure_mass
+from .provenance import structure_provenance
 
 __all__ = ["identify_structure", "as_elements", "check_dofs"]
 
@@ -93,36 +90,6 @@ def check_dofs(identifier: Any, record: Record) -> None:
             f"(z1..z{record.n_dofs}); choose a method for several (its Identifier declares dofs = 'multi')"
             + (" or identify record.dof(1)" if record.n_dofs == 1 else "")
         )
-
-
-def _provenance(record: Record, elements: ElementSet, method: str, mass: Any, options: Mapping) -> dict:
-    loaded = dict(record.meta.get("loaded") or {})
-    sha = record_sha256(record)
-    return {
-        "nlid_version": __version__,
-        "data": {
-            "source": loaded.get("source") or record.meta.get("source"),
-            "sha256": loaded.get("sha256") or sha,
-            "sha256_of": "file" if loaded.get("sha256") else "record",
-            "record_sha256": sha,
-            "as_loaded": loaded.get("record_sha256") in (None, sha),
-            "columns": loaded.get("columns"),
-            "fs_given": loaded.get("fs"),
-            "samples": record.n,
-            "fs": record.fs,
-            "t0": record.t0,
-            "channels": list(record.channels),
-            "force_hold": record.force_hold,
-            "channel_sources": {c: record.source_of(c) for c in record.channels},
-        },
-        "identify": {
-            "method": method,
-            "elements": list(elements.names),
-            "static": elements.static,
-            "mass": None if mass is None else np.asarray(mass).tolist(),
-            "options": dict(options),
-        },
-    }
 
 
 def identify_structure(
@@ -198,4 +165,5 @@ def identify_structure(
         seconds=seconds,
         cutoff=cutoff,
     )
-    return dataclasses.replace(result, provenance=_provenance(record, elements, name, M, settings))
+    provenance = structure_provenance(record, elements, method=name, mass=M, options=settings)
+    return dataclasses.replace(result, provenance=provenance)
