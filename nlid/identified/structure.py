@@ -440,9 +440,6 @@ class IdentifiedStructure(Identified):
         names = ", ".join(self.elements.names)
         return f"<IdentifiedStructure {self.method!r}: {self.n_dofs} DOFs; {names}; {mass}{self._flagged()}>"
 
-    def _repr_html_(self) -> str:
-        return self.summary().as_html()
-
     # ------------------------------------------------------------------ figures
     def plot_elements(self, record: Record | None = None, ax: Any = None) -> Any:
         """Restoring force of each element against its relative coordinate
