@@ -125,16 +125,21 @@ class RecordMeta(FrozenDict):
             return default
 
 
-def merge_units(given: dict[str, Unit], mapped: Mapping[str, str]) -> dict[str, Unit]:
-    """The units of ``units=`` and those of the column map (``z[mm]=disp``); the same channel twice must agree."""
+def merge_units(given: dict[str, Unit], mapped: Mapping[str, str], *, indexed: bool = False) -> dict[str, Unit]:
+    """The units of ``units=`` and those of the column map (``z[mm]=disp``); the same channel twice must agree.
+
+    With ``indexed`` (a structure's channels), a quantity's unit in ``units=`` (``z``) applies to each of
+    its channels (``z2[mm]=`` in the map must agree with it unless ``units=`` names ``z2`` itself).
+    """
     out = dict(given)
     for channel, text in mapped.items():
-        unit = unit_of(channel, text, where="column map")
-        if channel in out and out[channel] != unit:
-            raise InputError(
-                f"the unit of {channel!r} is given twice: {out[channel].symbol!r} in units= "
-                f"and {unit.symbol!r} in the column map"
-            )
+        unit = unit_of(channel, text, where="column map", indexed=indexed)
+        for key in (channel, channel.rstrip("0123456789")):
+            if key in out and out[key] != unit and (key == channel or channel not in out):
+                raise InputError(
+                    f"the unit of {channel!r} is given twice: {out[key].symbol!r} in units= "
+                    f"and {unit.symbol!r} in the column map"
+                )
         out[channel] = unit
     return out
 

@@ -21,9 +21,9 @@ import numpy as np
 
 from ..errors import DataError, InputError
 from ..signal import derivatives
-from .checks import CHANNELS, DEFAULT_UNITS, MIN_SAMPLES, checked_meta, freeze
+from .checks import CHANNELS, DEFAULT_UNITS, MIN_SAMPLES, checked_meta, freeze, merge_units
 from .columnmap import column_units, split_indexed, structure_arrays
-from .units import Unit, parse_units, unit_of
+from .units import Unit, parse_units
 
 __all__ = ["indexed_fields", "indexed_channels"]
 
@@ -153,21 +153,6 @@ def indexed_fields(
     return {**out, **checked_meta(meta, provenance, declared, N)}
 
 
-def _merge_units(given: Mapping[str, Any], mapped: Mapping[str, str]) -> dict[str, str]:
-    """``units=`` and the column map's ``z2[mm]=``; one channel given two different units is an error."""
-    out = {c: u.symbol for c, u in parse_units(given, indexed=True).items()}
-    for channel, text in mapped.items():
-        unit = unit_of(channel, text, where="column map", indexed=True).symbol
-        group = channel.rstrip("0123456789")
-        for key in (channel, group):
-            if key in out and out[key] != unit and (key == channel or channel not in out):
-                raise InputError(
-                    f"the unit of {channel!r} is given twice: {out[key]!r} in units= and {unit!r} in the column map"
-                )
-        out[channel] = unit
-    return out
-
-
 def _fill(arrays: dict[str, np.ndarray], group: str, n: int, fs: float | None, t: np.ndarray | None) -> dict[str, str]:
     """Estimate the DOFs of ``group`` (``v`` or ``a``) that are missing when some are given; their provenance."""
     have = [k for k in range(1, n + 1) if f"{group}{k}" in arrays]
@@ -196,7 +181,7 @@ def indexed_channels(
     ``provenance`` of the DOFs' velocities or accelerations estimated because the table gives only some),
     the time column (or ``None``) and the sampling frequency given or found.
     """
-    given = _merge_units(units or {}, column_units(columns))
+    given = merge_units(parse_units(units or {}, indexed=True), column_units(columns), indexed=True)
     arrays, fs = structure_arrays(named, columns, fs=fs, source=label, noun=noun)
     n = max(k for c in arrays if (s := split_indexed(c)) and s[0] == "z" for k in (s[1],))
     lengths = {c: a.size for c, a in arrays.items()}

@@ -22,7 +22,7 @@ from __future__ import annotations
 
 import dataclasses
 from collections.abc import Iterable, Mapping, Sequence
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import numpy as np
 
@@ -31,19 +31,21 @@ from ..base.validate import ESTIMATE, check_cutoff, check_mass
 from ..contract.estimate import Estimate, check_estimate, refined_terms, timed_call
 from ..contract.methods import choose_method
 from ..contract.registry import Registry, make_identifier
+from ..contract.structure_estimate import check_structure_estimate
 from ..data.record import Record
 from ..data.sources import as_record
 from ..errors import IdentificationError, InputError, NlidError, describe_exception
 from ..estimation.inputpath import InputPath
 from ..estimation.inputpath import input_path as to_input_path
 from ..identified.model import IdentifiedModel
+from ..identified.structure import IdentifiedStructure
 from ..model import physics
+from ..model.elements import ElementSet
+from ..model.structure import structure_mass
 from ..model.terms import Model, Term
 from ..signal.glitches import glitch_warnings
-from .provenance import identify_provenance
-
-if TYPE_CHECKING:  # pragma: no cover
-    from ..identified.structure import IdentifiedStructure
+from .provenance import identify_provenance, structure_provenance
+from .structure_fit import as_elements, check_dofs
 
 __all__ = [
     "identify",
@@ -171,11 +173,12 @@ def identify(
 ) -> IdentifiedModel | IdentifiedStructure:
     """Identify the coefficients of a model from a record.
 
-    A record of several degrees of freedom (indexed :class:`~nlid.data.record.Record`)
-    is identified by :func:`nlid.identification.structure_fit.identify_structure`: ``terms`` are
-    then elements on connections (``"(z1-z2)^3, z3^3"``), ``mass`` the mass
-    matrix, and the method must declare ``dofs = "multi"``; the result is an
-    :class:`~nlid.identified.structure.IdentifiedStructure`.
+    A record of several degrees of freedom (indexed :class:`~nlid.data.record.Record`): ``terms`` are
+    then elements on connections (``"(z1-z2)^3, z3^3"``, or an :class:`~nlid.model.elements.ElementSet`;
+    :func:`nlid.identification.structure_fit.as_elements`), ``mass`` the mass matrix, and the method must
+    declare ``dofs = "multi"`` (it is given the record, the elements and the mass matrix, and returns a
+    :class:`~nlid.contract.structure_estimate.StructureEstimate`); the result is an
+    :class:`~nlid.identified.structure.IdentifiedStructure`, with the residual per DOF.
 
     Parameters
     ----------
@@ -200,14 +203,14 @@ def identify(
     options
         Identifier options (validated against its declaration).
     without
-        Default terms to remove (``None``: none).
+        Default terms to remove (``None``: none); of a structure, ``"1"`` leaves out the constant force per DOF.
     px_roots
         ``(z-, z+)`` for ``px(z)``; default: iterate on the identified
-        stiffness (see module docstring).
+        stiffness (see module docstring). Of a structure, ``{(i, j): (z-, z+)}`` for elements using ``px``.
     px_tol, px_max_iter
         Convergence tolerance (relative change of the roots) and iteration cap.
     cutoff
-        Differentiating-filter cut-off (Hz) used by the core for epsilon.
+        Differentiating-filter cut-off (Hz) used by the core for epsilon (of a structure, for the residual per DOF).
     registry
         Where to find ``method``; default: the installed plugins.
     timeout
@@ -272,22 +275,27 @@ def identify(
                 input_path=path,
             ),
         )
-    if record.indexed:  # several degrees of freedom
-        if not path.identity:
-            raise InputError("input_path= is for a record of one degree of freedom")
-        from .structure_fit import identify_structure
-
-        fitted = identify_structure(
-            record, terms, method, mass=mass, options=options, without=without, px_roots=px_roots, cutoff=cutoff,
-            registry=registry,
-        )  # fmt: skip
-        return _with_data_warnings(fitted, record)
-    model = as_model(terms, without=without, px_roots=px_roots)
+    if record.indexed and not path.identity:
+        raise InputError("input_path= is for a record of one degree of freedom")
+    model = None if record.indexed else as_model(terms, without=without, px_roots=px_roots)
     identifier = make_identifier(method, options, registry)
-    mass = check_mass(mass)
+    if record.indexed:  # several degrees of freedom: elements on connections, a mass matrix
+        check_dofs(identifier, record)
+        elements = as_elements(terms, record.n_dofs, without=without, px_roots=px_roots)
+        mass = structure_mass(mass, record)
+    else:
+        mass = check_mass(mass)
     check_cutoff(cutoff, getattr(record, "fs", None))  # before a long identification, not after it
     if mass is None and getattr(identifier, "needs_mass", False):
+        if record.indexed:
+            raise InputError(
+                f"method {_name(identifier)!r} cannot estimate the mass matrix: give mass= (kg; a vector for a "
+                "lumped mass) or the record's meta['mass']"
+            )
         raise InputError(f"method {_name(identifier)!r} cannot estimate the mass: give mass= (in kg)")
+    if record.indexed:
+        return _with_data_warnings(_identify_structure(identifier, record, elements, mass, cutoff), record)
+    assert model is not None
     extra: dict[str, Any] = {}
     given = model
     measured, record = record, path.apply(record)  # the identifier sees the force that acts
@@ -336,6 +344,31 @@ def identify(
     if not path.identity:
         provenance["identify"]["input_path"] = path.to_spec()
     return _with_data_warnings(dataclasses.replace(result, provenance=provenance, input_path=path), measured)
+
+
+def _identify_structure(
+    identifier: Any, record: Record, elements: ElementSet, mass: np.ndarray | None, cutoff: float | None
+) -> IdentifiedStructure:
+    """Run a ``dofs = "multi"`` identifier on an indexed record, check its estimate and complete the result."""
+    name = _name(identifier)
+    # an Identifier takes a structure in identify_structure; a class of its own may take it in identify
+    estimate, seconds = timed_call(
+        name, getattr(identifier, "identify_structure", identifier.identify), record, elements, mass=mass
+    )
+    estimate = check_structure_estimate(estimate, elements, name, mass)
+    settings = dict(getattr(identifier, "settings", None) or {})
+    result = IdentifiedStructure.from_estimate(
+        estimate,
+        elements=estimate.elements,
+        record=record,
+        method=name,
+        mass=mass,
+        options=settings,
+        seconds=seconds,
+        cutoff=cutoff,
+    )
+    provenance = structure_provenance(record, elements, method=name, mass=mass, options=settings)
+    return dataclasses.replace(result, provenance=provenance)
 
 
 def _with_data_warnings(result: Any, record: Record) -> Any:

@@ -57,7 +57,9 @@ from __future__ import annotations
 
 import sys
 from collections.abc import Mapping
-from typing import Any
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
 
 from ..data.checks import CHANNELS
 from ..data.digest import record_sha256
@@ -66,9 +68,13 @@ from ..data.record import Record
 from ..data.units import SI, VOCABULARY
 from ..model.terms import DEFAULT_TERMS, Model
 
+if TYPE_CHECKING:  # pragma: no cover
+    from ..model.elements import ElementSet
+
 __all__ = [
     "data_provenance",
     "identify_provenance",
+    "structure_provenance",
 ]
 
 
@@ -87,26 +93,32 @@ def _units(record: Record) -> dict[str, dict[str, Any]]:
 
 
 def data_provenance(record: Record) -> dict[str, Any]:
-    """What identifies a record and how it was read (the ``"data"`` part of a provenance)."""
+    """What identifies a record and how it was read (the ``"data"`` part of a provenance).
+
+    A structure's (an indexed record's, :attr:`Record.indexed <nlid.data.record.Record.indexed>`) has no
+    ``units`` and no ``force_hold_source``, and its ``as_loaded`` is true for a record not read from a file
+    (one DOF's is null): the layout each has always written.
+    """
     loaded = dict(record.meta.get("loaded") or {})
     digest = record_sha256(record)
     file_hash = loaded.get("sha256")
     at_load = loaded.get("record_sha256")
+    indexed = record.indexed
     return {
         "source": loaded.get("source") or record.meta.get("source"),
         "sha256": file_hash or digest,
         "sha256_of": "file" if file_hash else "record",
         "record_sha256": digest,
-        "as_loaded": None if at_load is None else at_load == digest,
+        "as_loaded": (at_load in (None, digest)) if indexed else (None if at_load is None else at_load == digest),
         "columns": loaded.get("columns"),
         "fs_given": loaded.get("fs"),
-        "units": _units(record),
+        **({} if indexed else {"units": _units(record)}),
         "samples": record.n,
         "fs": record.fs,
         "t0": record.t0,
         "channels": list(record.channels),
         "force_hold": record.force_hold,
-        "force_hold_source": force_hold_source(record.meta),
+        **({} if indexed else {"force_hold_source": force_hold_source(record.meta)}),
         "channel_sources": {c: record.source_of(c) for c in record.channels},
     }
 
@@ -149,5 +161,29 @@ def identify_provenance(
         "px_tol": px_tol,
         "px_max_iter": px_max_iter,
         "cutoff": cutoff,
+    }
+    return {"nlid_version": _version(), "data": data_provenance(record), "identify": call}
+
+
+def structure_provenance(
+    record: Record, elements: ElementSet, *, method: str, mass: np.ndarray | None, options: Mapping[str, Any]
+) -> dict[str, Any]:
+    """The provenance :func:`nlid.identify` stores for a structure: the nlid version, the data and the call.
+
+    Parameters
+    ----------
+    record
+        The indexed record identified.
+    elements
+        The elements as given.
+    method, mass, options
+        The identifier's name, the mass matrix given (``None``: estimated) and its resolved settings.
+    """
+    call = {
+        "method": method,
+        "elements": list(elements.names),
+        "static": elements.static,
+        "mass": None if mass is None else np.asarray(mass).tolist(),
+        "options": dict(options),
     }
     return {"nlid_version": _version(), "data": data_provenance(record), "identify": call}

@@ -19,6 +19,7 @@ import numpy as np
 
 from ..data.record import Record
 from ..errors import InputError, NlidError, brief
+from ..identified.reference import frame_row
 from ..identified.result import Identified
 from ..identified.structure import IdentifiedStructure
 from .structure_fit import as_elements
@@ -79,49 +80,30 @@ def structure_reference(record: Record, reference: Any) -> dict[str, Any]:
     return {"coefficients": coefficients, "linear_modes": linear}
 
 
-def _error(value: float, ref: float | None) -> float:
-    return NAN if ref is None or ref == 0 or not math.isfinite(value) else 100.0 * (value - ref) / abs(ref)
-
-
 def structure_rows(fit: IdentifiedStructure, reference: Mapping[str, Any]) -> list[dict[str, Any]]:
     """The rows of one identified structure against a reference (:func:`structure_reference`)."""
-    rows: list[dict[str, Any]] = []
     se = fit.standard_errors or {}
     ref_coef = reference.get("coefficients") or {}
-    for e in fit.elements:
-        value = float(fit.coefficients[e.name])
-        ref = ref_coef.get(e.name)
-        rows.append(
-            {
-                "quantity": "coefficient",
-                "name": e.name,
-                "value": value,
-                "std_error": se.get(e.name, NAN),
-                "unit": e.coefficient_unit,
-                "reference": NAN if ref is None else ref,
-                "error_pct": _error(value, ref),
-            }
+    rows = [
+        frame_row(
+            "coefficient",
+            e.name,
+            fit.coefficients[e.name],
+            e.coefficient_unit,
+            ref_coef.get(e.name),
+            se.get(e.name, NAN),
         )
+        for e in fit.elements
+    ]
     lm = fit.linear_modes
     ref_modes = reference.get("linear_modes") or {}
     if lm is not None:
         for quantity, values, unit in (("fn_hz", lm.fn_hz, "Hz"), ("zeta", lm.zeta, "1")):
             refs = list(ref_modes.get(quantity) or [])
             for k, value in enumerate(np.asarray(values, dtype=float)):
-                ref = refs[k] if k < len(refs) else None
-                rows.append(
-                    {
-                        "quantity": quantity,
-                        "name": f"m{k + 1}",
-                        "value": float(value),
-                        "unit": unit,
-                        "reference": NAN if ref is None else ref,
-                        "error_pct": _error(float(value), ref),
-                    }
-                )
-    for k, eps in enumerate(fit.eps_percent or ()):
-        rows.append({"quantity": "eps_percent", "name": f"z{k + 1}", "value": float(eps), "unit": "%"})
-    rows.append({"quantity": "seconds", "name": "identification", "value": fit.seconds, "unit": "s"})
+                rows.append(frame_row(quantity, f"m{k + 1}", value, unit, refs[k] if k < len(refs) else None))
+    rows += [frame_row("eps_percent", f"z{k + 1}", eps, "%") for k, eps in enumerate(fit.eps_percent or ())]
+    rows.append(frame_row("seconds", "identification", NAN if fit.seconds is None else fit.seconds, "s"))
     return [{"note": "", **r} for r in rows]
 
 

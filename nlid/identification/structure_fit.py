@@ -1,35 +1,21 @@
-"""How :func:`nlid.identify` runs an identifier on a structure record (several DOFs).
+"""What :func:`nlid.identify` reads of its arguments on a structure record (several DOFs).
 
-:func:`identify_structure` is the multi-DOF branch of :func:`nlid.identify`:
-it resolves the identifier, refuses one that handles a single DOF (its
-``dofs`` class attribute, :class:`nlid.plugin.Identifier`), parses the elements,
-checks the mass matrix, runs the identifier (timing it and isolating its
-failures as for one DOF), checks its :class:`~nlid.contract.structure_estimate.StructureEstimate`
-and completes it into an :class:`~nlid.identified.structure.IdentifiedStructure`.
+:func:`as_elements` parses the elements to identify (terms on connections, or an
+:class:`~nlid.model.elements.ElementSet`), and :func:`check_dofs` refuses an identifier that handles a
+single DOF (its ``dofs`` class attribute, :class:`nlid.plugin.Identifier`).
 """
 
 from __future__ import annotations
 
-import dataclasses
 from collections.abc import Iterable, Mapping
 from typing import Any
 
-import numpy as np
-
-from .. import __version__
-from ..base.validate import check_cutoff
-from ..contract.estimate import timed_call
-from ..contract.registry import Registry, make_identifier
-from ..contract.structure_estimate import check_structure_estimate
-from ..data.digest import record_sha256
 from ..data.record import Record
 from ..errors import InputError
-from ..identified.structure import IdentifiedStructure
 from ..model.elements import ElementSet
 from ..model.spelling import Connection
-from ..model.structure import structure_mass
 
-__all__ = ["identify_structure", "as_elements", "check_dofs"]
+__all__ = ["as_elements", "check_dofs"]
 
 
 def as_elements(
@@ -93,109 +79,3 @@ def check_dofs(identifier: Any, record: Record) -> None:
             f"(z1..z{record.n_dofs}); choose a method for several (its Identifier declares dofs = 'multi')"
             + (" or identify record.dof(1)" if record.n_dofs == 1 else "")
         )
-
-
-def _provenance(record: Record, elements: ElementSet, method: str, mass: Any, options: Mapping) -> dict:
-    loaded = dict(record.meta.get("loaded") or {})
-    sha = record_sha256(record)
-    return {
-        "nlid_version": __version__,
-        "data": {
-            "source": loaded.get("source") or record.meta.get("source"),
-            "sha256": loaded.get("sha256") or sha,
-            "sha256_of": "file" if loaded.get("sha256") else "record",
-            "record_sha256": sha,
-            "as_loaded": loaded.get("record_sha256") in (None, sha),
-            "columns": loaded.get("columns"),
-            "fs_given": loaded.get("fs"),
-            "samples": record.n,
-            "fs": record.fs,
-            "t0": record.t0,
-            "channels": list(record.channels),
-            "force_hold": record.force_hold,
-            "channel_sources": {c: record.source_of(c) for c in record.channels},
-        },
-        "identify": {
-            "method": method,
-            "elements": list(elements.names),
-            "static": elements.static,
-            "mass": None if mass is None else np.asarray(mass).tolist(),
-            "options": dict(options),
-        },
-    }
-
-
-def identify_structure(
-    record: Record,
-    terms: Any,
-    method: Any = None,
-    *,
-    mass: Any = None,
-    options: Mapping[str, Any] | None = None,
-    without: str | Iterable[str] = (),
-    px_roots: Mapping[Connection, Any] | None = None,
-    cutoff: float | None = None,
-    registry: Registry | None = None,
-) -> IdentifiedStructure:
-    """Identify a structure's elements and underlying linear system (the multi-DOF branch of :func:`nlid.identify`).
-
-    Parameters
-    ----------
-    record
-        The structure record.
-    terms
-        The elements, ``"(z1-z2)^3, sign(v2-v1)"``, or an :class:`ElementSet`.
-    method
-        Identifier name or instance; it must declare ``dofs = "multi"``.
-    mass
-        The mass matrix (kg; a vector is a lumped mass, text as :func:`nlid.base.validate.parse_mass`); ``None``:
-        the record's (``meta['mass']``, a file's sidecar), as ``discover`` takes it
-        (:func:`~nlid.model.structure.structure_mass`); ``"estimate"``: the method estimates it.
-    options, registry
-        As for :func:`nlid.identify`.
-    without
-        ``"1"`` leaves out the constant force per DOF.
-    px_roots
-        ``{(i, j): (z-, z+)}`` for elements using ``px``.
-    cutoff
-        The balance filter's cut-off (Hz) for the residual per DOF.
-
-    Raises
-    ------
-    InputError
-        A single-DOF method, bad terms, mass or options.
-    PluginError
-        The identifier is broken or broke the contract.
-    IdentificationError
-        The answer cannot be trusted.
-    """
-    if method is None:
-        raise InputError("method= is needed for a structure: name an identifier that handles several DOFs")
-    identifier = make_identifier(method, options, registry)
-    name = str(getattr(identifier, "name", type(identifier).__name__))
-    check_dofs(identifier, record)
-    elements = as_elements(terms, record.n_dofs, without=without, px_roots=px_roots)
-    M = structure_mass(mass, record)
-    check_cutoff(cutoff, record.fs)
-    if M is None and getattr(identifier, "needs_mass", False):
-        raise InputError(
-            f"method {name!r} cannot estimate the mass matrix: give mass= (kg; a vector for a lumped mass) "
-            "or the record's meta['mass']"
-        )
-    # an Identifier takes a structure in identify_structure; a class of its own may take it in identify
-    estimate, seconds = timed_call(
-        name, getattr(identifier, "identify_structure", identifier.identify), record, elements, mass=M
-    )
-    estimate = check_structure_estimate(estimate, elements, name, M)
-    settings = dict(getattr(identifier, "settings", None) or {})
-    result = IdentifiedStructure.from_estimate(
-        estimate,
-        elements=estimate.elements,
-        record=record,
-        method=name,
-        mass=M,
-        options=settings,
-        seconds=seconds,
-        cutoff=cutoff,
-    )
-    return dataclasses.replace(result, provenance=_provenance(record, elements, name, M, settings))

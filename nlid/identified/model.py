@@ -547,9 +547,6 @@ class IdentifiedModel(Identified):
         eps = "" if self.eps_percent is None else f", eps={self.eps_percent:.3g} %"
         return f"<IdentifiedModel {self.method!r}: {', '.join(self.terms)}; {mass}{eps}{self._flagged()}>"
 
-    def _repr_html_(self) -> str:
-        return self.summary().as_html()
-
     # ------------------------------------------------------------------ figures
     def plot_stiffness(self, ax: Any = None, *, potential: bool = False) -> Any:
         """``K(z)`` (or ``U(z)``) over the data range with the equilibria marked; returns the axes."""

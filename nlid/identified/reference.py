@@ -66,6 +66,7 @@ __all__ = [
     "compare",
     "true_model",
     "match_equilibria",
+    "frame_row",
     "FRAME_COLUMNS",
     "META_KEY",
     "TRUE_MODEL",
@@ -403,6 +404,25 @@ def _error_pct(value: float, ref: float | None) -> float:
     return 100.0 * (value - ref) / abs(ref)
 
 
+def frame_row(
+    quantity: str, name: str, value: float, unit: str, ref: float | None = None, std: float = NAN
+) -> dict[str, Any]:
+    """One tidy row of :data:`FRAME_COLUMNS` without ``method`` and ``note``, one DOF's or a structure's.
+
+    ``error_pct`` is the signed error in % of ``|ref|``; NaN without a reference, for a zero one or for a
+    value that is not finite.
+    """
+    return {
+        "quantity": quantity,
+        "name": name,
+        "value": float(value),
+        "std_error": float(std),
+        "unit": unit,
+        "reference": NAN if ref is None else float(ref),
+        "error_pct": _error_pct(float(value), ref),
+    }
+
+
 @dataclass(frozen=True)
 class Comparison:
     """An identified model against a :class:`Reference`, with an optional held-out record.
@@ -465,18 +485,7 @@ class Comparison:
         rows: list[dict[str, Any]] = []
 
         def add(quantity: str, name: str, value: float, unit: str, ref: float | None = None, std: float = NAN):
-            rows.append(
-                {
-                    "method": fit.method,
-                    "quantity": quantity,
-                    "name": name,
-                    "value": float(value),
-                    "std_error": float(std),
-                    "unit": unit,
-                    "reference": NAN if ref is None else float(ref),
-                    "error_pct": _error_pct(float(value), ref),
-                }
-            )
+            rows.append({"method": fit.method, **frame_row(quantity, name, value, unit, ref, std)})
 
         force, length = record_units(fit)  # every unit derived from the record's (SI, or volts for an analogue)
         for name, term in zip(fit.terms, fit.model.terms, strict=True):

@@ -162,6 +162,10 @@ class Identified:
         """The end of the repr of a result that is not trusted (empty otherwise)."""
         return f"; NOT TRUSTED: {', '.join(f.code for f in self.flags)}" if self.flags else ""
 
+    def _repr_html_(self) -> str:
+        """The summary as HTML (what Jupyter shows)."""
+        return self.summary().as_html()  # type: ignore[attr-defined]  # each form has its own summary()
+
     # ------------------------------------------------------------------ what it predicts
     def frequency_response(self, force: Any, band: Any, *, harmonics: int = 7, **options: Any) -> Any:
         """The periodic response to ``F cos(2 pi f t)`` over a band, by harmonic balance and continuation.

@@ -34,11 +34,12 @@ from ..estimation.structure_balance import StructureResidual, residual
 from ..model.modes import StructureModes, linear_modes
 from ..model.statics import StructureEquilibria
 from ..model.structure import StructuralModel
-from ..report.summary import Column, Summary
+from ..report.summary import Summary
 from .fileformat import check_structure
 from .plausibility import Flag, trusted
 from .plausibility import check_structure as check_plausible
 from .result import Identified, Recomputed
+from .tables import coefficient_table
 
 if TYPE_CHECKING:  # pragma: no cover
     import pandas as pd
@@ -409,21 +410,8 @@ class IdentifiedStructure(Identified):
         how = "estimated" if self.mass_estimated else "given"
         out.add_fields([("method", self.method), ("degrees of freedom", str(self.n_dofs)), ("mass matrix", how)])
         se = self.standard_errors or {}
-        rows = []
-        for e in self.elements:
-            error = se.get(e.name)
-            rows.append(
-                [
-                    e.name,
-                    f"{self.coefficients[e.name]:.6g}",
-                    "" if error is None else f"{error:.3g}",
-                    e.coefficient_unit,
-                ]
-            )
-        out.add_table(
-            [Column("element"), Column("coefficient", "right", 14), Column("std. error", "right", 11), Column("unit")],
-            rows,
-        )
+        rows = [(e.name, self.coefficients[e.name], se.get(e.name), e.coefficient_unit) for e in self.elements]
+        coefficient_table(out, "element", rows)
         if self.linear_modes is not None:
             lm = self.linear_modes
             text = ", ".join(f"{f:.4g} Hz ({100 * z:.3g} %)" for f, z in zip(lm.fn_hz, lm.zeta, strict=True))
@@ -451,9 +439,6 @@ class IdentifiedStructure(Identified):
         mass = "mass estimated" if self.mass_estimated else "mass given"
         names = ", ".join(self.elements.names)
         return f"<IdentifiedStructure {self.method!r}: {self.n_dofs} DOFs; {names}; {mass}{self._flagged()}>"
-
-    def _repr_html_(self) -> str:
-        return self.summary().as_html()
 
     # ------------------------------------------------------------------ figures
     def plot_elements(self, record: Record | None = None, ax: Any = None) -> Any:

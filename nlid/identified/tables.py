@@ -7,7 +7,7 @@ Used by :meth:`nlid.identified.model.IdentifiedModel.summary` and
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Iterable, Mapping
 from typing import TYPE_CHECKING, Any
 
 from ..base.dimensions import mass_unit
@@ -21,7 +21,7 @@ if TYPE_CHECKING:  # pragma: no cover
 
     from .model import IdentifiedModel
 
-__all__ = ["shown_units", "record_units", "coefficient_frame", "model_summary"]
+__all__ = ["shown_units", "record_units", "coefficient_frame", "coefficient_table", "model_summary"]
 
 
 def record_units(fit: Any) -> tuple[str, str]:
@@ -132,18 +132,8 @@ def model_summary(fit: IdentifiedModel, units: str | Mapping[str, str] | None = 
             (1.0, term.coefficient_unit_in(force, length)) if shown is None else coefficient_conversion(term, shown)
         )
         error = se.get(name)
-        rows.append(
-            [
-                name,
-                f"{fit.coefficients[name] * factor:.6g}",
-                "" if error is None else f"{error * factor:.3g}",
-                unit,
-            ]
-        )
-    out.add_table(
-        [Column("term"), Column("coefficient", "right", 14), Column("std. error", "right", 11), Column("unit")],
-        rows,
-    )
+        rows.append((name, fit.coefficients[name] * factor, None if error is None else error * factor, unit))
+    coefficient_table(out, "term", rows)
     if fit.px_roots:
         zm, zp = fit.px_roots[0] / zf, fit.px_roots[1] / zf
         out.add_fields([("px(z) roots", f"z- = {zm:.6g} {zu}, z+ = {zp:.6g} {zu}")])
@@ -166,3 +156,14 @@ def model_summary(fit: IdentifiedModel, units: str | Mapping[str, str] | None = 
         ]
     out.add_fields(scores, separator="   ", gap=True)  # the blank line stays when there are no scores
     return fit._summary_tail(out)
+
+
+def coefficient_table(out: Summary, label: str, rows: Iterable[tuple[str, float, float | None, str]]) -> None:
+    """Add the table of coefficients to a summary, one DOF's (``label`` ``"term"``) or a structure's (``"element"``).
+
+    Each row is ``(name, coefficient, standard error or None, unit)``, shown to 6 and 3 significant digits.
+    """
+    out.add_table(
+        [Column(label), Column("coefficient", "right", 14), Column("std. error", "right", 11), Column("unit")],
+        [[name, f"{value:.6g}", "" if error is None else f"{error:.3g}", unit] for name, value, error, unit in rows],
+    )
