@@ -30,11 +30,17 @@ from .crossfit import (
 )
 from .evidence import AcceptanceRule, Evidence, eligible, rank
 
-__all__ = ["Judge", "MAX_JUDGED", "JUDGE_TOL", "judging_options"]
+__all__ = ["Judge", "MAX_JUDGED", "RIVAL_SHARE", "JUDGE_TOL", "judging_options"]
 
 #: Candidates judged by their cross-fitted prediction in one round (in the order of the equation-error rule); a
 #: round whose first ones all fail the prediction check stops the search.
 MAX_JUDGED = 3
+
+#: Once a candidate improves the prediction, the next ones are judged against it only while they explain at least
+#: this share of its part of the held-out equation residual (Silverbox after ``1, z, z^3, v``: ``z^2`` 8.5 %,
+#: ``v*|v|`` 6.5 %, both judged, ``v*|v|`` predicts better; Bouc-Wen: the hysteresis 98 %, the mass and ``z^3``
+#: under 1 %, not judged: two output-error fits per block saved, 40 s of its 90).
+RIVAL_SHARE = 0.5
 
 #: Relative tolerance (option ``tol``) of the refiner's fits that judge candidates, when it declares one (``oe``:
 #: 1e-8 by default). A judging fit only has to rank two models' held-out predictions against a 1 % gain
@@ -111,8 +117,9 @@ class Judge:
         Candidates the equation-error rule accepts are judged in its order, :data:`MAX_JUDGED` at most; one
         that does not improve the prediction is rejected (and said). Of those that improve it, the one with the
         lowest pooled free-run error is accepted: the equation error screens and ranks, the prediction decides
-        between the candidates too (a ``k``-step prediction, on a chaotic record, only vetoes: there the first
-        that passes is accepted, as the equation error ranks them). Returns the ranking, the accepted candidate
+        between the candidates too. Once one improves it, the next are judged only while they explain at least
+        :data:`RIVAL_SHARE` of its share of the held-out residual; a ``k``-step prediction (a chaotic record)
+        only vetoes, so there the first that passes is accepted. Returns the ranking, the accepted candidate
         (``None``: none) and the current stage with its prediction measured.
         """
         ranking, accepted = rank(tested)
@@ -121,6 +128,10 @@ class Judge:
         judged: list[Evidence] = []
         improving: list[tuple[Evidence, FoldPrediction, str]] = []
         while accepted is not None and len(judged) < MAX_JUDGED:
+            if improving and float(accepted.explained_holdout or 0.0) < RIVAL_SHARE * float(
+                improving[0][0].explained_holdout or 0.0
+            ):
+                break  # explains far less than a candidate that improves the prediction: not judged against it
             judged.append(accepted)
             current, after, ok, why = self._judge_one(current, accepted, fits, say)
             if ok:
@@ -154,7 +165,11 @@ class Judge:
             if all(ev is not j for j in judged) and eligible(ev):
                 ev.passes["prediction"] = False
                 ev.status = "rejected"
-                ev.reason = f"{ev.rule_reason}; not judged by prediction: {MAX_JUDGED} candidates were judged before it"
+                ev.reason = (
+                    f"{ev.rule_reason}; not judged by prediction: {best.effect!r}, judged before it, improves the "
+                    f"prediction (at most {MAX_JUDGED} are judged, those explaining {100 * RIVAL_SHARE:g} % of its "
+                    "share or more)"
+                )
         ranking, accepted = rank(tested)
         assert accepted is best
         accepted.reason = f"{accepted.rule_reason}; {best_why}"

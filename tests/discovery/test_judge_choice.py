@@ -13,7 +13,7 @@ import dataclasses
 from nlid.discovery import AcceptanceRule, Evidence, Scores
 from nlid.discovery.crossfit import FoldPrediction, Folds, PredictionRule
 from nlid.discovery.evidence import judge
-from nlid.discovery.judge import MAX_JUDGED, Judge
+from nlid.discovery.judge import MAX_JUDGED, RIVAL_SHARE, Judge
 
 
 @dataclasses.dataclass(frozen=True)
@@ -109,3 +109,12 @@ def test_a_k_step_prediction_only_vetoes_so_the_first_that_passes_is_accepted():
 def test_one_improving_candidate_is_accepted_with_its_figures():
     by_name, accepted, *_ = _run({"current": (3.0, 3.0), "a": (2.0, 2.0)}, {"a": 0.5})
     assert accepted is by_name["a"] and "3 -> 2" in accepted.reason
+
+
+def test_a_candidate_that_explains_far_less_is_not_judged_against_one_that_improves():
+    """Bouc-Wen's hysteresis explains 98 % and the mass 1 %: the mass is not judged against it (RIVAL_SHARE)."""
+    shares = {"a": 0.6, "b": 0.6 * RIVAL_SHARE - 0.05}
+    by_name, accepted, _, _, said = _run({"current": (3.0, 3.0), "a": (2.0, 2.0), "b": (1.0, 1.0)}, shares)
+    assert accepted is by_name["a"]
+    assert sum(line.startswith("judging") for line in said) == 1
+    assert by_name["b"].status == "rejected" and "not judged by prediction" in by_name["b"].reason
