@@ -364,6 +364,11 @@ def test_dictionary(ctx: Context, current: Stage, z_range: tuple[float, float]) 
 
 #: Fits spent refining a shape parameter between its grid neighbours.
 SHAPE_REFINE_FITS = 4
+#: How far below the smallest time of its grid an input path is refined when that time is the best of the grid
+#: (twice the fits): a factor of 64, down to 1/256 of a sample with the default grid. On a broadband force a
+#: quarter of a sample is already far from zero: on the Silverbox estimation part every grid delay explained
+#: -1500 % of the held-out residual, so a delay of a few hundredths of a sample could never be found.
+INPUT_PATH_BELOW_GRID = 64.0
 
 
 def _simplex(n: int, size: float) -> np.ndarray:
@@ -479,7 +484,8 @@ def test_input_path(ctx: Context, current: Stage, cand: InputPathCandidate) -> t
 
     A delay (either sign: the force channel late or early) or a lag is chosen on the candidate's grid
     (multiples of the sampling interval) by the estimation record's force residual, then refined between the
-    grid neighbours (bounded search in the log of the time, :data:`SHAPE_REFINE_FITS` fits); ``hold`` tries the
+    grid neighbours (bounded search in the log of the time, :data:`SHAPE_REFINE_FITS` fits), or, when the grid's
+    smallest time is best, down to :data:`INPUT_PATH_BELOW_GRID` times below it; ``hold`` tries the
     other force hold. The path found is added to the current one (a delay found after a lag keeps the lag).
     """
     evidence = Evidence(cand.name)
@@ -519,6 +525,11 @@ def test_input_path(ctx: Context, current: Stage, cand: InputPathCandidate) -> t
         sizes = sorted(g * dt for g in cand.grid)
         i = int(np.argmin([abs(g - abs(best_time)) for g in sizes]))
         lo, hi = np.log(sizes[max(i - 1, 0)]), np.log(sizes[min(i + 1, len(sizes) - 1)])
+        fits = SHAPE_REFINE_FITS
+        if i == 0:
+            # the smallest time of the grid is best: the path may be shorter still (a broadband force, whose
+            # residual a quarter of a sample already moves a lot), so the refinement reaches down towards zero
+            lo, fits = np.log(sizes[0] / INPUT_PATH_BELOW_GRID), 2 * SHAPE_REFINE_FITS
 
         def objective(log_t: float) -> float:
             got = attempt(dataclasses.replace(base, **{cand.kind: sign * float(np.exp(log_t))}))
@@ -526,7 +537,7 @@ def test_input_path(ctx: Context, current: Stage, cand: InputPathCandidate) -> t
 
         if hi > lo:
             optimize.minimize_scalar(
-                objective, bounds=(lo, hi), method="bounded", options={"maxiter": SHAPE_REFINE_FITS, "xatol": 0.02}
+                objective, bounds=(lo, hi), method="bounded", options={"maxiter": fits, "xatol": 0.02}
             )
     fit = min(tried.values(), key=lambda st: st.scores.force_residual)
     evidence.input_path = fit.path.to_spec()
