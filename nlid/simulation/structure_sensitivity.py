@@ -27,7 +27,7 @@ import numpy as np
 from ..errors import InputError
 from ..model.terms.memory_kernels import bouc_wen_step_d, dahl_step_d
 from . import FREE_RUN_OVERSAMPLE, SimulationError
-from .kernels import sign as _sign
+from .kernels import _sign
 from .stage_terms import abs_powers, signed_part_d, special_factor_d
 
 if TYPE_CHECKING:  # pragma: no cover
