@@ -336,6 +336,16 @@ def _rk4_memory(force, dt, mass, plain, theta, memory, parts, special, pxc, z0, 
                   top, z0, v0, out_z, out_v, out_a)  # fmt: skip
 
 
+def _sub_steps(force_hold: str, oversample: int) -> int:
+    """The RK4 sub-steps per sample of a free run, ``oversample``, checked with its ``force_hold``."""
+    q = int(oversample)
+    if q < 1:
+        raise InputError(f"oversample must be a positive integer, got {oversample}")
+    if force_hold not in ("sampled", "zoh"):
+        raise InputError(f"force_hold must be 'sampled' or 'zoh', got {force_hold!r}")
+    return q
+
+
 def simulate(
     model: Model,
     coefficients: dict[str, float] | np.ndarray,
@@ -440,11 +450,7 @@ def free_run(
     SimulationError
         If the simulated state becomes non-finite.
     """
-    q = int(oversample)
-    if q < 1:
-        raise InputError(f"oversample must be a positive integer, got {oversample}")
-    if force_hold not in ("sampled", "zoh"):
-        raise InputError(f"force_hold must be 'sampled' or 'zoh', got {force_hold!r}")
+    q = _sub_steps(force_hold, oversample)
     fine = fine_force(force, force_hold, q)
     z, v, a = simulate(model, coefficients, mass, fine, fs * q, x0)
     return z[::q], v[::q], a[::q]

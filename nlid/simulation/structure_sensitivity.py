@@ -365,14 +365,12 @@ def structure_segments(
     SimulationError
         A state becomes non-finite.
     """
-    from .structure import _encoded, _fine, _inverse_mass
+    from .structure import _encoded, _fine, _inverse_mass, _segment_starts
 
     fine, q, fs = _fine(model, force, fs, force_hold, oversample)
     n, N = model.n_dofs, fine.shape[0] // q
-    starts = np.asarray(starts, dtype=np.int64)
+    starts = _segment_starts(starts, N)
     states = np.ascontiguousarray(states, dtype=float)
-    if starts.ndim != 1 or starts.size == 0 or starts[0] != 0 or np.any(np.diff(starts) <= 0) or starts[-1] >= N:
-        raise InputError(f"starts must increase from 0 and stay below the {N} samples")
     if states.shape != (starts.size, 2 * n) or not np.all(np.isfinite(states)):
         raise InputError(f"states must be finite, of shape ({starts.size}, {2 * n}), got {states.shape}")
     theta, _, memory, parts, special, pxc, ci, cj, _, _ = _encoded(model)
