@@ -92,45 +92,6 @@ def _part_d(pw, p, s, sx):
 
 
 @numba.njit(cache=True, inline="always")
-def _term_d(i, z, v, parts, special, sz, sv, spx, dpx, pz, pv, pp, fac, dfac):
-    """Term ``i``'s value and derivatives at ``(z, v)`` from the powers ``pz``, ``pv``, ``pp`` of ``|z|``, ``|v|``,
-    ``|px(z)|``, their signs and ``dpx = px'(z)`` (the one DOF's terms and a structure's elements alike).
-
-    Returns ``(g, dg/dz, dg/dv, g before its special factors, the number of special factors k)``, and the
-    special factors and their derivatives in their scales in ``fac[:k]``, ``dfac[:k]``.
-    """
-    val, dz_ = _part_d(pz, parts[i, 0], parts[i, 1], sz)
-    f, fv = _part_d(pv, parts[i, 2], parts[i, 3], sv)
-    dz_ *= f
-    dv_ = val * fv
-    val *= f
-    if parts[i, 4] != 0 or parts[i, 5] != 0:
-        f, fp = _part_d(pp, parts[i, 4], parts[i, 5], spx)
-        dz_ = dz_ * f + val * fp * dpx
-        dv_ *= f
-        val *= f
-    base = val
-    k = 0
-    for j in range(special.shape[1]):
-        kind = special[i, j, 0]
-        if kind == 0.0:
-            break
-        on_v = special[i, j, 1] != 0.0
-        f, fx, fc = _special_d(kind, v if on_v else z, special[i, j, 2], special[i, j, 3])
-        fac[j] = f
-        dfac[j] = fc
-        if on_v:
-            dv_ = dv_ * f + val * fx
-            dz_ *= f
-        else:
-            dz_ = dz_ * f + val * fx
-            dv_ *= f
-        val *= f
-        k += 1
-    return val, dz_, dv_, base, k
-
-
-@numba.njit(cache=True, inline="always")
 def _terms_d(z, v, parts, special, pxc, memory, top, g, gz, gv, gs, fac, dfac, pz, pv, pp):
     """Every non-memory term's value and derivatives at ``(z, v)``.
 
@@ -156,13 +117,44 @@ def _terms_d(z, v, parts, special, pxc, memory, top, g, gz, gv, gs, fac, dfac, p
             gz[i] = 0.0
             gv[i] = 0.0
             continue
-        g[i], gz[i], gv[i], base, k = _term_d(i, z, v, parts, special, sz, sv, spx, dpx, pz, pv, pp, fac, dfac)
-        for j in range(k):
-            other = base
-            for jj in range(k):
-                if jj != j:
-                    other *= fac[jj]
-            gs[i, j] = other * dfac[j]
+        val, dz_ = _part_d(pz, parts[i, 0], parts[i, 1], sz)
+        f, fv = _part_d(pv, parts[i, 2], parts[i, 3], sv)
+        dz_ *= f
+        dv_ = val * fv
+        val *= f
+        if parts[i, 4] != 0 or parts[i, 5] != 0:
+            f, fp = _part_d(pp, parts[i, 4], parts[i, 5], spx)
+            dz_ = dz_ * f + val * fp * dpx
+            dv_ *= f
+            val *= f
+        if special[i, 0, 0] != 0.0:
+            base = val
+            k = 0
+            for j in range(special.shape[1]):
+                kind = special[i, j, 0]
+                if kind == 0.0:
+                    break
+                x = z if special[i, j, 1] == 0.0 else v
+                f, fx, fc = _special_d(kind, x, special[i, j, 2], special[i, j, 3])
+                fac[j] = f
+                dfac[j] = fc
+                if special[i, j, 1] == 0.0:
+                    dz_ = dz_ * f + val * fx
+                    dv_ *= f
+                else:
+                    dv_ = dv_ * f + val * fx
+                    dz_ *= f
+                val *= f
+                k += 1
+            for j in range(k):
+                other = base
+                for jj in range(k):
+                    if jj != j:
+                        other *= fac[jj]
+                gs[i, j] = other * dfac[j]
+        g[i] = val
+        gz[i] = dz_
+        gv[i] = dv_
 
 
 @numba.njit(cache=True)

@@ -28,7 +28,7 @@ from ..errors import InputError
 from ..model.terms.memory_kernels import bouc_wen_step_d, dahl_step_d
 from . import FREE_RUN_OVERSAMPLE, SimulationError
 from .kernels import _sign
-from .stage_terms import _powers, _term_d
+from .stage_terms import _part_d, _powers, _special_d
 
 if TYPE_CHECKING:  # pragma: no cover
     from ..model.structure import StructuralModel
@@ -37,26 +37,47 @@ __all__ = ["structure_segments", "structure_sensitivity_columns", "StructureSegm
 
 
 @numba.njit(cache=True, inline="always")
-def _element_d(e, x, xd, parts, special, pxc, pz, pv, pp, fac, dfac, out):
-    """``g_e(x, x')``, ``dg/dx`` and ``dg/dx'`` of a non-memory element into ``out[0:3]`` (the one DOF's
-    :func:`~nlid.simulation.stage_terms._term_d` on the element's own powers); ``fac``, ``dfac`` are scratch."""
+def _element_d(e, x, xd, parts, special, pxc, pz, pv, pp, out):
+    """``g_e(x, x')``, ``dg/dx`` and ``dg/dx'`` of a non-memory element into ``out[0:3]``."""
+    sz = _sign(x)
+    sv = _sign(xd)
     _powers(x, parts[e, 0], pz)
     _powers(xd, parts[e, 2], pv)
-    spx = 0.0
-    dpx = 0.0
+    val, dz_ = _part_d(pz, parts[e, 0], parts[e, 1], sz)
+    f, fv = _part_d(pv, parts[e, 2], parts[e, 3], sv)
+    dz_ *= f
+    dv_ = val * fv
+    val *= f
     if parts[e, 4] != 0 or parts[e, 5] != 0:
         px = ((pxc[e, 0] * x + pxc[e, 1]) * x + pxc[e, 2]) * x + pxc[e, 3]
         dpx = (3.0 * pxc[e, 0] * x + 2.0 * pxc[e, 1]) * x + pxc[e, 2]
         _powers(px, parts[e, 4], pp)
-        spx = _sign(px)
-    out[0], out[1], out[2], _, _ = _term_d(e, x, xd, parts, special, _sign(x), _sign(xd), spx, dpx, pz, pv, pp, fac,
-                                           dfac)  # fmt: skip
+        f, fp = _part_d(pp, parts[e, 4], parts[e, 5], _sign(px))
+        dz_ = dz_ * f + val * fp * dpx
+        dv_ *= f
+        val *= f
+    for j in range(special.shape[1]):
+        kind = special[e, j, 0]
+        if kind == 0.0:
+            break
+        on_v = special[e, j, 1] != 0.0
+        f, fx, _ = _special_d(kind, xd if on_v else x, special[e, j, 2], special[e, j, 3])
+        if on_v:
+            dv_ = dv_ * f + val * fx
+            dz_ *= f
+        else:
+            dz_ = dz_ * f + val * fx
+            dv_ *= f
+        val *= f
+    out[0] = val
+    out[1] = dz_
+    out[2] = dv_
 
 
 # fmt: off
 @numba.njit(cache=True)
 def _accel_d(fk, z, v, w, Sz, Sv, Sw, Minv, diagonal, K, C, static, theta, parts, special, pxc, memory, ci, cj,
-             upper, col_K, col_C, col_s, sens, gd, fac, dfac, pz, pv, pp, R, dR, a, da):
+             upper, col_K, col_C, col_s, sens, gd, pz, pv, pp, R, dR, a, da):
     """``a = M^-1 (f - R)`` at a stage and (if ``sens``) ``da`` for every column; ``R``, ``dR`` are scratch.
 
     ``diagonal``: ``M`` (hence ``M^-1``) is diagonal."""
@@ -89,7 +110,7 @@ def _accel_d(fk, z, v, w, Sz, Sv, Sw, Minv, diagonal, K, C, static, theta, parts
         else:
             x = z[i] - z[j] if j >= 0 else z[i]
             xd = v[i] - v[j] if j >= 0 else v[i]
-            _element_d(e, x, xd, parts, special, pxc, pz, pv, pp, fac, dfac, gd)
+            _element_d(e, x, xd, parts, special, pxc, pz, pv, pp, gd)
             g = gd[0]
             force = theta[e] * g
             if sens:
@@ -176,8 +197,6 @@ def _segment_d(fine, q, dt, Minv, K, C, static, theta, parts, special, pxc, memo
     pv = np.zeros(top + 1)
     pp = np.zeros(top + 1)
     gd = np.zeros(3)
-    fac = np.zeros(special.shape[1])
-    dfac = np.zeros(special.shape[1])
     R = np.zeros(n)
     dR = np.zeros((n, ncol))
     z = x0[:n].copy()
@@ -225,7 +244,7 @@ def _segment_d(fine, q, dt, Minv, K, C, static, theta, parts, special, pxc, memo
                     if sens:
                         Svs[0] = Sv
                     _accel_d(fk, z, v, w, Sz, Sv, Sw, Minv, diagonal, K, C, static, theta, parts, special, pxc,
-                             memory, ci, cj, upper, col_K, col_C, col_s, sens, gd, fac, dfac, pz, pv, pp, R, dR, acc[0],
+                             memory, ci, cj, upper, col_K, col_C, col_s, sens, gd, pz, pv, pp, R, dR, acc[0],
                              dacc[0])
                 else:
                     h = dt if stage == 3 else h2
@@ -240,8 +259,8 @@ def _segment_d(fine, q, dt, Minv, K, C, static, theta, parts, special, pxc, memo
                     if has_memory:
                         _move_d(memory, ci, cj, w, zs, z, Szs, Sz, Sw, sens, ws, Sws)
                     _accel_d(fk, zs, vs[stage], ws, Szs, Svs[stage], Sws, Minv, diagonal, K, C, static, theta, parts,
-                             special, pxc, memory, ci, cj, upper, col_K, col_C, col_s, sens, gd, fac, dfac, pz, pv, pp,
-                             R, dR, acc[stage], dacc[stage])
+                             special, pxc, memory, ci, cj, upper, col_K, col_C, col_s, sens, gd, pz, pv, pp, R,
+                             dR, acc[stage], dacc[stage])
             finite = True
             for i in range(n):
                 zs[i] = z[i] + h6 * (vs[0, i] + 2.0 * vs[1, i] + 2.0 * vs[2, i] + vs[3, i])
