@@ -218,66 +218,32 @@ def _restoring_special(z, v, theta, special, pxc, plan, top):
 
 
 @numba.njit(cache=True, inline="always")
-def _no_memory(memory, w, dz, out):
-    """No memory term: no state to move."""
-    return
-
-
-@numba.njit(cache=True, inline="always")
-def _no_held(theta, w):
-    """No memory term: no force of the states."""
-    return 0.0
-
-
-@numba.njit(cache=True, inline="always")
-def _held(theta, w):
-    """The memory terms' force ``sum_i theta_i w_i``."""
-    return np.dot(theta, w)
-
-
-@numba.njit(cache=True, inline="always")
-def _steps(restoring, move, held, force, dt, mass, plain, theta, memory, special, pxc, plan, top, z0, v0, out_z,
-           out_v, out_a):  # fmt: skip
+def _steps(restoring, force, dt, mass, theta, special, pxc, plan, top, z0, v0, out_z, out_v, out_a):
     """Classical RK4 with one step per force sample, the force held over the step.
-
-    ``restoring`` evaluates ``R`` of the terms ``plain``; ``move`` moves the memory states ``w`` (one per
-    row of ``memory``, none without memory terms) along each stage's displacement from the step's start
-    (:func:`_memory_step`) and ``held`` is their force, ``theta . w``. Each combination is its own
-    instantiation: a model without memory terms runs the loop without them (``x - 0.0`` is ``x``).
 
     Returns the first sample whose state is not finite, or -1.
     """
-    m = memory.shape[0]
-    w = np.zeros(m)
-    ws = np.zeros(m)
     z = z0
     v = v0
     inv_m = 1.0 / mass
     h2 = 0.5 * dt
     for k in range(force.size):
         fk = force[k]
-        a1 = (fk - restoring(z, v, plain, special, pxc, plan, top) - held(theta, w)) * inv_m
+        a1 = (fk - restoring(z, v, theta, special, pxc, plan, top)) * inv_m
         out_z[k] = z
         out_v[k] = v
         out_a[k] = a1
         z2 = z + h2 * v
         v2 = v + h2 * a1
-        move(memory, w, z2 - z, ws)
-        a2 = (fk - restoring(z2, v2, plain, special, pxc, plan, top) - held(theta, ws)) * inv_m
+        a2 = (fk - restoring(z2, v2, theta, special, pxc, plan, top)) * inv_m
         z3 = z + h2 * v2
         v3 = v + h2 * a2
-        move(memory, w, z3 - z, ws)
-        a3 = (fk - restoring(z3, v3, plain, special, pxc, plan, top) - held(theta, ws)) * inv_m
+        a3 = (fk - restoring(z3, v3, theta, special, pxc, plan, top)) * inv_m
         z4 = z + dt * v3
         v4 = v + dt * a3
-        move(memory, w, z4 - z, ws)
-        a4 = (fk - restoring(z4, v4, plain, special, pxc, plan, top) - held(theta, ws)) * inv_m
-        z_new = z + dt / 6.0 * (v + 2.0 * v2 + 2.0 * v3 + v4)
+        a4 = (fk - restoring(z4, v4, theta, special, pxc, plan, top)) * inv_m
+        z = z + dt / 6.0 * (v + 2.0 * v2 + 2.0 * v3 + v4)
         v = v + dt / 6.0 * (a1 + 2.0 * a2 + 2.0 * a3 + a4)
-        move(memory, w, z_new - z, ws)
-        for i in range(m):
-            w[i] = ws[i]
-        z = z_new
         if not (np.isfinite(z) and np.isfinite(v)):
             return k
     return -1
@@ -285,19 +251,16 @@ def _steps(restoring, move, held, force, dt, mass, plain, theta, memory, special
 
 @numba.njit(cache=True, nogil=True)  # releases the GIL: two free runs of a score at once
 def _rk4(force, dt, mass, theta, parts, special, pxc, z0, v0, out_z, out_v, out_a):
-    """Integrate a model without memory terms over the whole record in one compiled loop (see :func:`simulate`).
+    """Integrate over the whole record in one compiled loop (see :func:`simulate`).
 
     The model is decoded once (:func:`_plan`); a model without special factors
     runs a step loop whose force evaluation has no library calls (their
     register spills cost ~15 % even when never taken).
     """
     plan, top = _plan(parts, special)
-    none = np.zeros((0, 3))
     if plan[:, 4].max() > 0:
-        return _steps(_restoring_special, _no_memory, _no_held, force, dt, mass, theta, theta, none, special, pxc,
-                      plan, top, z0, v0, out_z, out_v, out_a)  # fmt: skip
-    return _steps(_restoring_plain, _no_memory, _no_held, force, dt, mass, theta, theta, none, special, pxc, plan,
-                  top, z0, v0, out_z, out_v, out_a)  # fmt: skip
+        return _steps(_restoring_special, force, dt, mass, theta, special, pxc, plan, top, z0, v0, out_z, out_v, out_a)
+    return _steps(_restoring_plain, force, dt, mass, theta, special, pxc, plan, top, z0, v0, out_z, out_v, out_a)
 
 
 @numba.njit(cache=True, inline="always")
@@ -328,12 +291,44 @@ def _memory_step(memory, w, dz, out):
 def _rk4_memory(force, dt, mass, plain, theta, memory, parts, special, pxc, z0, v0, out_z, out_v, out_a):
     """RK4 of ``(z, v)`` with the memory terms' states moved exactly along each stage's displacement.
 
-    The memory force is ``theta_i w_i``; ``plain`` holds the other terms' coefficients (0 for a memory
-    term: it acts through its state).
+    The memory force is ``theta_i w_i``; each stage's states are those after
+    the stage's displacement from the step's start (:func:`_memory_step`).
     """
     plan, top = _plan(parts, special)
-    return _steps(_restoring_special, _memory_step, _held, force, dt, mass, plain, theta, memory, special, pxc, plan,
-                  top, z0, v0, out_z, out_v, out_a)  # fmt: skip
+    n = theta.size
+    w = np.zeros(n)
+    ws = np.zeros(n)
+    z = z0
+    v = v0
+    inv_m = 1.0 / mass
+    h2 = 0.5 * dt
+    for k in range(force.size):
+        fk = force[k]
+        a1 = (fk - _restoring_special(z, v, plain, special, pxc, plan, top) - np.dot(theta, w)) * inv_m
+        out_z[k] = z
+        out_v[k] = v
+        out_a[k] = a1
+        z2 = z + h2 * v
+        v2 = v + h2 * a1
+        _memory_step(memory, w, z2 - z, ws)
+        a2 = (fk - _restoring_special(z2, v2, plain, special, pxc, plan, top) - np.dot(theta, ws)) * inv_m
+        z3 = z + h2 * v2
+        v3 = v + h2 * a2
+        _memory_step(memory, w, z3 - z, ws)
+        a3 = (fk - _restoring_special(z3, v3, plain, special, pxc, plan, top) - np.dot(theta, ws)) * inv_m
+        z4 = z + dt * v3
+        v4 = v + dt * a3
+        _memory_step(memory, w, z4 - z, ws)
+        a4 = (fk - _restoring_special(z4, v4, plain, special, pxc, plan, top) - np.dot(theta, ws)) * inv_m
+        z_new = z + dt / 6.0 * (v + 2.0 * v2 + 2.0 * v3 + v4)
+        v = v + dt / 6.0 * (a1 + 2.0 * a2 + 2.0 * a3 + a4)
+        _memory_step(memory, w, z_new - z, ws)
+        for i in range(n):
+            w[i] = ws[i]
+        z = z_new
+        if not (np.isfinite(z) and np.isfinite(v)):
+            return k
+    return -1
 
 
 def _sub_steps(force_hold: str, oversample: int) -> int:
