@@ -46,13 +46,12 @@ __all__ = ["simulate_segments", "SegmentRun", "sensitivity_columns"]
 
 
 @numba.njit(cache=True)
-def _accel_d(fk, z, v, ws, SZ, SV, Sw, st, inv_m, theta, parts, special, pxc, memory, mem_terms, shape_col,
-             col_mass, col_x0, top, g, gz, gv, gs, fac, dfac, pz, pv, pp, DA):
-    """Acceleration ``(f - R) / m`` at stage ``st`` and its derivative for every column into ``DA[st]``.
+def _accel_d(fk, z, v, ws, Sz, Sv, Sw, inv_m, theta, parts, special, pxc, memory, mem_terms, shape_col,
+             col_mass, col_x0, sens, top, g, gz, gv, gs, fac, dfac, pz, pv, pp, out_da):
+    """Acceleration ``(f - R) / m`` at a stage and (if ``sens``) its derivative for every column.
 
-    ``SZ[st]``, ``SV[st]``: the stage's sensitivities of ``z`` and ``v`` (read by row index: passing the rows as
-    views was slower, 84 against 73 ms on a Bouc-Wen run with sensitivities). The global columns (coefficients,
-    mass, shapes) come before the initial state's; ``col_x0 == 0``: the state's columns only.
+    The global columns (coefficients, mass, shapes) come before the initial state's; ``col_x0 == 0``: the
+    state's columns only.
     """
     _terms_d(z, v, parts, special, pxc, memory, top, g, gz, gv, gs, fac, dfac, pz, pv, pp)
     R = 0.0
@@ -65,35 +64,36 @@ def _accel_d(fk, z, v, ws, SZ, SV, Sw, st, inv_m, theta, parts, special, pxc, me
     for r in range(mem_terms.size):
         R += theta[mem_terms[r]] * ws[r]
     a = (fk - R) * inv_m
-    ncol = DA.shape[1]
+    if not sens:
+        return a
+    ncol = out_da.size
     for c in range(ncol):
-        acc = Rz * SZ[st, c] + Rv * SV[st, c]
+        acc = Rz * Sz[c] + Rv * Sv[c]
         for r in range(mem_terms.size):
             acc += theta[mem_terms[r]] * Sw[r, c]
-        DA[st, c] = -acc * inv_m
+        out_da[c] = -acc * inv_m
     if col_x0 == 0:
         return a
     for i in range(theta.size):  # the coefficients' columns are the first ones
-        DA[st, i] -= g[i] * inv_m
+        out_da[i] -= g[i] * inv_m
         for j in range(special.shape[1]):
             col = shape_col[i, j]
             if col >= 0 and memory[i, 0] == 0.0:
-                DA[st, col] -= theta[i] * gs[i, j] * inv_m
+                out_da[col] -= theta[i] * gs[i, j] * inv_m
     for r in range(mem_terms.size):
-        DA[st, mem_terms[r]] -= ws[r] * inv_m
+        out_da[mem_terms[r]] -= ws[r] * inv_m
     if col_mass >= 0:
-        DA[st, col_mass] -= a * inv_m
+        out_da[col_mass] -= a * inv_m
     return a
 
 
 @numba.njit(cache=True)
-def _memory_sens(Sw, SZ, st, mw, mdz, ma, mb, mem_terms, shape_col, out):
-    """Sensitivities of the memory states after the displacement of stage ``st`` (``SZ[st]``) from the step's
-    start (``SZ[0]``): the chain rule of the exact step."""
+def _memory_sens(Sw, Sz_stage, Sz, mw, mdz, ma, mb, mem_terms, shape_col, out):
+    """Sensitivities of the memory states after a stage's displacement (chain rule of the exact step)."""
     for r in range(mem_terms.size):
         i = mem_terms[r]
         for c in range(out.shape[1]):
-            out[r, c] = mw[r] * Sw[r, c] + mdz[r] * (SZ[st, c] - SZ[0, c])
+            out[r, c] = mw[r] * Sw[r, c] + mdz[r] * (Sz_stage[c] - Sz[c])
         if shape_col[i, 0] >= 0:
             out[r, shape_col[i, 0]] += ma[r]
         if shape_col.shape[1] > 1 and shape_col[i, 1] >= 0:
@@ -219,13 +219,13 @@ def _segment_f(fine, q, dt, mass, theta, parts, special, pxc, memory, shape_col,
 
 @numba.njit(cache=True)
 def _segment_d(fine, q, dt, mass, theta, parts, special, pxc, memory, mem_terms, shape_col, col_mass, col_x0,
-               x0, start, n, out_z, out_v, out_a, out_S, end_x, end_S):
+               x0, start, n, sens, out_z, out_v, out_a, out_S, end_x, end_S):
     """RK4 over ``n`` samples from sample ``start`` and state ``x0``, with forward sensitivities.
 
     Returns the first sample (relative to ``start``) whose state is not finite, or -1.
     """
     M = mem_terms.size
-    ncol = out_S.shape[2]
+    ncol = out_S.shape[2] if sens else 1
     p = theta.size
     k_max = special.shape[1]
     g = np.zeros(p)
@@ -238,15 +238,21 @@ def _segment_d(fine, q, dt, mass, theta, parts, special, pxc, memory, mem_terms,
     pz = np.zeros(max(top[0], 0) + 1)
     pv = np.zeros(max(top[1], 0) + 1)
     pp = np.zeros(max(top[2], 0) + 1)
-    SZ = np.zeros((5, ncol))  # each stage's sensitivities of z, v and a; row 0: the state's, SZ[4]: the next one's
-    SV = np.zeros((4, ncol))
-    DA = np.zeros((4, ncol))
-    Sz = SZ[0]
-    Sv = SV[0]
+    Sz = np.zeros(ncol)
+    Sv = np.zeros(ncol)
     Sw = np.zeros((M, ncol))
-    Sws = np.zeros((M, ncol))  # after each stage's displacement; at stage 1, Sw (as after every step)
-    V = np.zeros(4)
-    A = np.zeros(4)
+    Sz2 = np.zeros(ncol)
+    Sv2 = np.zeros(ncol)
+    Sz3 = np.zeros(ncol)
+    Sv3 = np.zeros(ncol)
+    Sz4 = np.zeros(ncol)
+    Sv4 = np.zeros(ncol)
+    Szn = np.zeros(ncol)
+    Sws = np.zeros((M, ncol))
+    da1 = np.zeros(ncol)
+    da2 = np.zeros(ncol)
+    da3 = np.zeros(ncol)
+    da4 = np.zeros(ncol)
     w = np.zeros(M)
     ws = np.zeros(M)
     mw = np.zeros(M)
@@ -257,55 +263,77 @@ def _segment_d(fine, q, dt, mass, theta, parts, special, pxc, memory, mem_terms,
     v = x0[1]
     for r in range(M):
         w[r] = x0[2 + r]
-    Sz[col_x0] = 1.0
-    Sv[col_x0 + 1] = 1.0
-    for r in range(M):
-        Sw[r, col_x0 + 2 + r] = 1.0
-        Sws[r, col_x0 + 2 + r] = 1.0
+    if sens:
+        Sz[col_x0] = 1.0
+        Sv[col_x0 + 1] = 1.0
+        for r in range(M):
+            Sw[r, col_x0 + 2 + r] = 1.0
     inv_m = 1.0 / mass
     h2 = 0.5 * dt
     h6 = dt / 6.0
     for k in range(n):
         out_z[start + k] = z
         out_v[start + k] = v
-        for c in range(ncol):
-            out_S[0, start + k, c] = Sz[c]
-            out_S[1, start + k, c] = Sv[c]
+        if sens:
+            for c in range(ncol):
+                out_S[0, start + k, c] = Sz[c]
+                out_S[1, start + k, c] = Sv[c]
         for sub in range(q):
             fk = fine[(start + k) * q + sub]
             for r in range(M):
                 ws[r] = w[r]
-            for st in range(4):  # stage 1 at the state, stages 2 to 4 at their steps from it
-                if st == 0:
-                    zs = z
-                    vs = v
-                else:
-                    h = dt if st == 3 else h2
-                    zs = z + h * V[st - 1]
-                    vs = v + h * A[st - 1]
-                    _memory_d(memory, mem_terms, w, zs - z, ws, mw, mdz, ma, mb)
-                    for c in range(ncol):
-                        SZ[st, c] = Sz[c] + h * SV[st - 1, c]
-                        SV[st, c] = Sv[c] + h * DA[st - 1, c]
-                    _memory_sens(Sw, SZ, st, mw, mdz, ma, mb, mem_terms, shape_col, Sws)
-                V[st] = vs
-                A[st] = _accel_d(fk, zs, vs, ws, SZ, SV, Sws, st, inv_m, theta, parts, special, pxc, memory, mem_terms,
-                                 shape_col, col_mass, col_x0, top, g, gz, gv, gs, fac, dfac, pz, pv, pp, DA)
+            a1 = _accel_d(fk, z, v, ws, Sz, Sv, Sw, inv_m, theta, parts, special, pxc, memory, mem_terms,
+                          shape_col, col_mass, col_x0, sens, top, g, gz, gv, gs, fac, dfac, pz, pv, pp, da1)
             if sub == 0:
-                out_a[start + k] = A[0]
+                out_a[start + k] = a1
+                if sens:
+                    for c in range(ncol):
+                        out_S[2, start + k, c] = da1[c]
+            # stage 2
+            z2 = z + h2 * v
+            v2 = v + h2 * a1
+            _memory_d(memory, mem_terms, w, z2 - z, ws, mw, mdz, ma, mb)
+            if sens:
                 for c in range(ncol):
-                    out_S[2, start + k, c] = DA[0, c]
-            z_new = z + h6 * (v + 2.0 * V[1] + 2.0 * V[2] + V[3])
-            v_new = v + h6 * (A[0] + 2.0 * A[1] + 2.0 * A[2] + A[3])
+                    Sz2[c] = Sz[c] + h2 * Sv[c]
+                    Sv2[c] = Sv[c] + h2 * da1[c]
+                _memory_sens(Sw, Sz2, Sz, mw, mdz, ma, mb, mem_terms, shape_col, Sws)
+            a2 = _accel_d(fk, z2, v2, ws, Sz2, Sv2, Sws, inv_m, theta, parts, special, pxc, memory, mem_terms,
+                          shape_col, col_mass, col_x0, sens, top, g, gz, gv, gs, fac, dfac, pz, pv, pp, da2)
+            # stage 3
+            z3 = z + h2 * v2
+            v3 = v + h2 * a2
+            _memory_d(memory, mem_terms, w, z3 - z, ws, mw, mdz, ma, mb)
+            if sens:
+                for c in range(ncol):
+                    Sz3[c] = Sz[c] + h2 * Sv2[c]
+                    Sv3[c] = Sv[c] + h2 * da2[c]
+                _memory_sens(Sw, Sz3, Sz, mw, mdz, ma, mb, mem_terms, shape_col, Sws)
+            a3 = _accel_d(fk, z3, v3, ws, Sz3, Sv3, Sws, inv_m, theta, parts, special, pxc, memory, mem_terms,
+                          shape_col, col_mass, col_x0, sens, top, g, gz, gv, gs, fac, dfac, pz, pv, pp, da3)
+            # stage 4
+            z4 = z + dt * v3
+            v4 = v + dt * a3
+            _memory_d(memory, mem_terms, w, z4 - z, ws, mw, mdz, ma, mb)
+            if sens:
+                for c in range(ncol):
+                    Sz4[c] = Sz[c] + dt * Sv3[c]
+                    Sv4[c] = Sv[c] + dt * da3[c]
+                _memory_sens(Sw, Sz4, Sz, mw, mdz, ma, mb, mem_terms, shape_col, Sws)
+            a4 = _accel_d(fk, z4, v4, ws, Sz4, Sv4, Sws, inv_m, theta, parts, special, pxc, memory, mem_terms,
+                          shape_col, col_mass, col_x0, sens, top, g, gz, gv, gs, fac, dfac, pz, pv, pp, da4)
+            z_new = z + h6 * (v + 2.0 * v2 + 2.0 * v3 + v4)
+            v_new = v + h6 * (a1 + 2.0 * a2 + 2.0 * a3 + a4)
             _memory_d(memory, mem_terms, w, z_new - z, ws, mw, mdz, ma, mb)
-            for c in range(ncol):
-                SZ[4, c] = Sz[c] + h6 * (Sv[c] + 2.0 * SV[1, c] + 2.0 * SV[2, c] + SV[3, c])
-                Sv[c] = Sv[c] + h6 * (DA[0, c] + 2.0 * DA[1, c] + 2.0 * DA[2, c] + DA[3, c])
-            _memory_sens(Sw, SZ, 4, mw, mdz, ma, mb, mem_terms, shape_col, Sws)
-            for c in range(ncol):
-                Sz[c] = SZ[4, c]
-                for r in range(M):
-                    Sw[r, c] = Sws[r, c]
+            if sens:
+                for c in range(ncol):
+                    Szn[c] = Sz[c] + h6 * (Sv[c] + 2.0 * Sv2[c] + 2.0 * Sv3[c] + Sv4[c])
+                    Sv[c] = Sv[c] + h6 * (da1[c] + 2.0 * da2[c] + 2.0 * da3[c] + da4[c])
+                _memory_sens(Sw, Szn, Sz, mw, mdz, ma, mb, mem_terms, shape_col, Sws)
+                for c in range(ncol):
+                    Sz[c] = Szn[c]
+                    for r in range(M):
+                        Sw[r, c] = Sws[r, c]
             for r in range(M):
                 w[r] = ws[r]
             z = z_new
@@ -316,11 +344,12 @@ def _segment_d(fine, q, dt, mass, theta, parts, special, pxc, memory, mem_terms,
     end_x[1] = v
     for r in range(M):
         end_x[2 + r] = w[r]
-    for c in range(ncol):
-        end_S[0, c] = Sz[c]
-        end_S[1, c] = Sv[c]
-        for r in range(M):
-            end_S[2 + r, c] = Sw[r, c]
+    if sens:
+        for c in range(ncol):
+            end_S[0, c] = Sz[c]
+            end_S[1, c] = Sv[c]
+            for r in range(M):
+                end_S[2 + r, c] = Sw[r, c]
     return -1
 
 
@@ -338,8 +367,8 @@ def _segments_d(fine, q, dt, mass, theta, parts, special, pxc, memory, mem_terms
                                 x0[s], starts[s], lengths[s], out_z, out_v, out_a, out_S, end_x[s], end_S[s])
             continue
         bad[s] = _segment_d(fine, q, dt, mass, theta, parts, special, pxc, memory, mem_terms, shape_col,
-                            col_mass, col_x0, x0[s], starts[s], lengths[s], out_z, out_v, out_a, out_S, end_x[s],
-                            end_S[s])
+                            col_mass, col_x0, x0[s], starts[s], lengths[s], sens, out_z, out_v, out_a, out_S,
+                            end_x[s], end_S[s])
 # fmt: on
 
 
