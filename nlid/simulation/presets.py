@@ -37,8 +37,6 @@ from dataclasses import dataclass, replace
 from typing import TYPE_CHECKING, Any
 
 from ..base.validate import DURATION, FS, MASS, check_noise, check_samples, check_seed, did_you_mean
-from ..base.validate import MAX_FS as MAX_FS  # re-exported: the limits are declared with their rules
-from ..base.validate import MAX_SAMPLES as MAX_SAMPLES
 from ..errors import InputError, TermError, brief
 from .structure_presets import (
     STRUCTURE_PRESETS,
