@@ -331,6 +331,16 @@ def _rk4_memory(force, dt, mass, plain, theta, memory, parts, special, pxc, z0, 
     return -1
 
 
+def _sub_steps(force_hold: str, oversample: int) -> int:
+    """The RK4 sub-steps per sample of a free run, ``oversample``, checked with its ``force_hold``."""
+    q = int(oversample)
+    if q < 1:
+        raise InputError(f"oversample must be a positive integer, got {oversample}")
+    if force_hold not in ("sampled", "zoh"):
+        raise InputError(f"force_hold must be 'sampled' or 'zoh', got {force_hold!r}")
+    return q
+
+
 def simulate(
     model: Model,
     coefficients: dict[str, float] | np.ndarray,
@@ -435,22 +445,7 @@ def free_run(
     SimulationError
         If the simulated state becomes non-finite.
     """
-    q = int(oversample)
-    if q < 1:
-        raise InputError(f"oversample must be a positive integer, got {oversample}")
-    if force_hold not in ("sampled", "zoh"):
-        raise InputError(f"force_hold must be 'sampled' or 'zoh', got {force_hold!r}")
+    q = _sub_steps(force_hold, oversample)
     fine = fine_force(force, force_hold, q)
     z, v, a = simulate(model, coefficients, mass, fine, fs * q, x0)
     return z[::q], v[::q], a[::q]
-
-
-# The evaluation of one term, shared with the integrator of several degrees of freedom
-# (nlid.simulation.structure_kernels), which
-# evaluates each element's term on its relative coordinate with exactly these functions.
-term_plan = _plan
-sign = _sign
-term_value = _term
-powers = _powers
-special_factors = _special_factors
-memory_step = _memory_step

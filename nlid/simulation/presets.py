@@ -37,16 +37,21 @@ from dataclasses import dataclass, replace
 from typing import TYPE_CHECKING, Any
 
 from ..base.validate import DURATION, FS, MASS, check_noise, check_samples, check_seed, did_you_mean
-from ..base.validate import MAX_FS as MAX_FS  # re-exported: the limits are declared with their rules
-from ..base.validate import MAX_SAMPLES as MAX_SAMPLES
 from ..errors import InputError, TermError, brief
+from .structure_presets import (
+    STRUCTURE_PRESETS,
+    StructurePreset,
+    _check_band,
+    _check_coefficients,
+    _finite,
+    override_fields,
+)
 
 if TYPE_CHECKING:  # imported where used: the preset table is read by 'nlid simulate --help'
     import numpy as np
 
     from ..data.record import Record
     from ..model.terms import Model
-    from .structure_presets import StructurePreset
 
 __all__ = ["Preset", "PRESETS", "get_preset", "RESPONSE_CHANNELS"]
 
@@ -136,32 +141,15 @@ class Preset:
         if not (isinstance(self.x0, (tuple, list)) and len(self.x0) == 2):
             raise InputError(f"preset {self.name!r}: x0 must be (displacement, velocity), got {brief(self.x0)}")
         for i, x in enumerate(self.x0):
-            if isinstance(x, bool) or not isinstance(x, numbers.Real) or not math.isfinite(float(x)):
+            if not _finite(x):
                 raise InputError(f"preset {self.name!r}: x0[{i}] must be a finite number, got {x!r}")
-        bad = [
-            k
-            for k, v in self.coefficients.items()
-            if isinstance(v, bool) or not isinstance(v, numbers.Real) or not math.isfinite(float(v))
-        ]
-        if bad:
-            raise InputError(f"preset {self.name!r}: the coefficient of {bad[0]} must be a finite number")
+        _check_coefficients(self)
         for name in ("terms", "reference", "description"):
             if not isinstance(getattr(self, name), str):
                 raise InputError(f"preset {self.name!r}: {name} must be text, got {brief(getattr(self, name))}")
         if self.excitation not in ("force", "base"):
             raise InputError(f"preset {self.name!r}: excitation must be 'force' or 'base', got {self.excitation!r}")
-        if self.band is not None:
-            band = self.band
-            ok = (
-                isinstance(band, (tuple, list))
-                and len(band) == 2
-                and all(isinstance(x, numbers.Real) and not isinstance(x, bool) and math.isfinite(x) for x in band)
-            )
-            if not ok or not 0 <= band[0] < band[1] < self.fs / 2:
-                raise InputError(
-                    f"preset {self.name!r}: band must be (low, high) in Hz with 0 <= low < high < fs/2 = "
-                    f"{self.fs / 2:g}, got {brief(band)}"
-                )
+        _check_band(self)
 
     @property
     def n(self) -> int:
@@ -488,8 +476,5 @@ def get_preset(name: str) -> Preset | StructurePreset:
 
 
 # Structures with several degrees of freedom (nlid.simulation.structure_presets): one table, so that get_preset,
-# nlid.simulate
-# and `nlid simulate --help` know them too.
-from .structure_presets import STRUCTURE_PRESETS, override_fields  # noqa: E402
-
+# nlid.simulate and `nlid simulate --help` know them too.
 PRESETS.update(STRUCTURE_PRESETS)

@@ -20,7 +20,7 @@ from ..errors import InputError
 from ..model.terms import Model
 from .encode import encode_memory, encode_model
 from .excitation import fine_force
-from .kernels import FREE_RUN_OVERSAMPLE, SimulationError, _plan
+from .kernels import FREE_RUN_OVERSAMPLE, SimulationError, _plan, _sub_steps
 from .stage_terms import _memory_d, _segment_v, _terms_d
 
 __all__ = ["simulate_segments", "SegmentRun", "sensitivity_columns"]
@@ -472,11 +472,7 @@ def simulate_segments(
     mass = MASS.check(mass, "mass=")
     if sensitivities not in (True, False, "states"):
         raise InputError(f"sensitivities must be True, False or 'states', got {sensitivities!r}")
-    q = int(oversample)
-    if q < 1:
-        raise InputError(f"oversample must be a positive integer, got {oversample}")
-    if force_hold not in ("sampled", "zoh"):
-        raise InputError(f"force_hold must be 'sampled' or 'zoh', got {force_hold!r}")
+    q = _sub_steps(force_hold, oversample)
     force = np.asarray(force, dtype=float)
     n = force.size
     starts = np.asarray(starts, dtype=np.int64)

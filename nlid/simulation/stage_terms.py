@@ -17,8 +17,6 @@ import numpy as np
 from ..model.terms.memory_kernels import bouc_wen_step_d, dahl_step_d
 from .kernels import _plan, _sign
 
-__all__ = ["abs_powers", "signed_part_d", "special_factor_d"]
-
 # numba's on-disk cache of a kernel is invalidated by changes of its own file only: after editing _plan or
 # _sign in kernels.py (or the memory steps of nlid.model.terms), delete
 # nlid/simulation/__pycache__/stage_terms.*.nb[ci] and sensitivity.*.nb[ci].
@@ -275,10 +273,3 @@ def _segment_v(fine, q, dt, mass, theta, parts, special, pxc, memory, mem_terms,
         end_x[2 + r] = w[r]
     return -1
 # fmt: on
-
-
-# public names of the pieces the structure's sensitivities (nlid.simulation.structure_sensitivity) evaluate each
-# element with
-abs_powers = _powers
-signed_part_d = _part_d
-special_factor_d = _special_d

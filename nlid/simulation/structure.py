@@ -20,6 +20,7 @@ import numpy as np
 from ..errors import InputError
 from ..model.terms import Model, Term
 from . import FREE_RUN_OVERSAMPLE, SimulationError, encode_memory, encode_model, fine_force
+from .kernels import _sub_steps
 
 if TYPE_CHECKING:  # pragma: no cover
     from ..model.structure import StructuralModel
@@ -58,7 +59,6 @@ def _encoded(model: StructuralModel) -> tuple:
     """The elements as the kernel's arrays (one row each) and the order of ``K z`` and ``C z'`` among them."""
     elements = model.elements.elements
     count = len(elements)
-    rows = Model(tuple(e.term for e in elements)) if count else None
     parts = np.zeros((count, 6), np.int64)
     width = max([len(e.term.special) for e in elements] + [1])
     special = np.zeros((count, width, 4))
@@ -71,7 +71,6 @@ def _encoded(model: StructuralModel) -> tuple:
         special[k, : s.shape[1]] = s[0]
         pxc[k] = c
         memory[k] = encode_memory(one)[0]
-    del rows
     theta = np.ascontiguousarray(model.theta)
     plain = np.where(memory[:, 0] > 0, 0.0, theta)
     ci = np.array([e.i - 1 for e in elements], np.int64)
@@ -193,16 +192,20 @@ def free_run(
 
 def _fine(model: StructuralModel, force: np.ndarray, fs: float, force_hold: str, oversample: int) -> tuple:
     """The checked sub-step force ``(N q, n)``, ``q`` and ``fs``."""
-    q = int(oversample)
-    if q < 1:
-        raise InputError(f"oversample must be a positive integer, got {oversample}")
-    if force_hold not in ("sampled", "zoh"):
-        raise InputError(f"force_hold must be 'sampled' or 'zoh', got {force_hold!r}")
+    q = _sub_steps(force_hold, oversample)
     fs = float(fs)
     if not np.isfinite(fs) or fs <= 0:
         raise InputError(f"fs must be a positive number of Hz, got {fs!r}")
     f = _forces(model, force)
     return np.stack([fine_force(f[:, k], force_hold, q) for k in range(f.shape[1])], axis=1), q, fs
+
+
+def _segment_starts(starts: Sequence[int] | np.ndarray, N: int) -> np.ndarray:
+    """The checked first sample of each segment of ``N`` samples: increasing from 0, below ``N``."""
+    starts = np.asarray(starts, dtype=np.int64)
+    if starts.ndim != 1 or starts.size == 0 or starts[0] != 0 or np.any(np.diff(starts) <= 0) or starts[-1] >= N:
+        raise InputError(f"starts must increase from 0 and stay below the {N} samples")
+    return starts
 
 
 def free_run_segments(
@@ -245,10 +248,8 @@ def free_run_segments(
     """
     fine, q, fs = _fine(model, force, fs, force_hold, oversample)
     n, N = model.n_dofs, fine.shape[0] // q
-    starts = np.asarray(starts, dtype=np.int64)
+    starts = _segment_starts(starts, N)
     states = np.asarray(states, dtype=float)
-    if starts.ndim != 1 or starts.size == 0 or starts[0] != 0 or np.any(np.diff(starts) <= 0) or starts[-1] >= N:
-        raise InputError(f"starts must increase from 0 and stay below the {N} samples")
     if states.shape != (starts.size, 2 * n):
         raise InputError(f"states must have shape ({starts.size}, {2 * n}), got {states.shape}")
     args = _arguments(model)

@@ -24,18 +24,14 @@ from __future__ import annotations
 import numba
 import numpy as np
 
-from .kernels import memory_step as _memory_step
-from .kernels import powers as _powers
-from .kernels import special_factors as _special_factors
-from .kernels import term_plan as _plan
-from .kernels import term_value as _term
+from .kernels import _memory_step, _plan, _powers, _special_factors, _term
 
 __all__ = ["integrate", "element_plans"]
 
 
 @numba.njit(cache=True)
 def element_plans(parts, special):
-    """The one-DOF evaluation plan of each element on its own (:func:`nlid.simulation.kernels.term_plan`)."""
+    """The one-DOF evaluation plan of each element on its own (:func:`nlid.simulation.kernels._plan`)."""
     count = parts.shape[0]
     plan = np.zeros((count, 5), np.int64)
     tops = np.full((count, 3), -1, np.int64)

@@ -105,6 +105,26 @@ def _finite(value: Any) -> bool:
     return not isinstance(value, bool) and isinstance(value, numbers.Real) and math.isfinite(float(value))
 
 
+def _check_band(preset: Any) -> None:
+    """A preset's ``band`` (one DOF or a structure) is ``None`` or ``(low, high)`` Hz below ``fs / 2``."""
+    band = preset.band
+    if band is None:
+        return
+    ok = isinstance(band, (tuple, list)) and len(band) == 2 and all(_finite(x) for x in band)
+    if not ok or not 0 <= band[0] < band[1] < preset.fs / 2:
+        raise InputError(
+            f"preset {preset.name!r}: band must be (low, high) in Hz with 0 <= low < high < fs/2 = "
+            f"{preset.fs / 2:g}, got {brief(band)}"
+        )
+
+
+def _check_coefficients(preset: Any) -> None:
+    """Every coefficient of a preset (one DOF or a structure) is a finite number."""
+    bad = [k for k, v in preset.coefficients.items() if not _finite(v)]
+    if bad:
+        raise InputError(f"preset {preset.name!r}: the coefficient of {bad[0]} must be a finite number")
+
+
 @dataclass(frozen=True)
 class StructurePreset:
     """A simulated test of a structure: the model, its truth, the excitation and the sampling.
@@ -177,17 +197,8 @@ class StructurePreset:
             raise InputError(f"preset {self.name!r}: give the matrices M, C, K or a builder (linear=), one of them")
         if self.linear and self.linear not in _BUILDERS:
             raise InputError(f"preset {self.name!r}: unknown builder {self.linear!r}; known: {', '.join(_BUILDERS)}")
-        if self.band is not None:
-            band = self.band
-            ok = isinstance(band, (tuple, list)) and len(band) == 2 and all(_finite(x) for x in band)
-            if not ok or not 0 <= band[0] < band[1] < self.fs / 2:
-                raise InputError(
-                    f"preset {self.name!r}: band must be (low, high) in Hz with 0 <= low < high < fs/2 = "
-                    f"{self.fs / 2:g}, got {brief(band)}"
-                )
-        bad = [k for k, v in self.coefficients.items() if not _finite(v)]
-        if bad:
-            raise InputError(f"preset {self.name!r}: the coefficient of {bad[0]} must be a finite number")
+        _check_band(self)
+        _check_coefficients(self)
 
     @property
     def n(self) -> int:

@@ -27,8 +27,8 @@ import numpy as np
 from ..errors import InputError
 from ..model.terms.memory_kernels import bouc_wen_step_d, dahl_step_d
 from . import FREE_RUN_OVERSAMPLE, SimulationError
-from .kernels import sign as _sign
-from .stage_terms import abs_powers, signed_part_d, special_factor_d
+from .kernels import _sign
+from .stage_terms import _part_d, _powers, _special_d
 
 if TYPE_CHECKING:  # pragma: no cover
     from ..model.structure import StructuralModel
@@ -41,18 +41,18 @@ def _element_d(e, x, xd, parts, special, pxc, pz, pv, pp, out):
     """``g_e(x, x')``, ``dg/dx`` and ``dg/dx'`` of a non-memory element into ``out[0:3]``."""
     sz = _sign(x)
     sv = _sign(xd)
-    abs_powers(x, parts[e, 0], pz)
-    abs_powers(xd, parts[e, 2], pv)
-    val, dz_ = signed_part_d(pz, parts[e, 0], parts[e, 1], sz)
-    f, fv = signed_part_d(pv, parts[e, 2], parts[e, 3], sv)
+    _powers(x, parts[e, 0], pz)
+    _powers(xd, parts[e, 2], pv)
+    val, dz_ = _part_d(pz, parts[e, 0], parts[e, 1], sz)
+    f, fv = _part_d(pv, parts[e, 2], parts[e, 3], sv)
     dz_ *= f
     dv_ = val * fv
     val *= f
     if parts[e, 4] != 0 or parts[e, 5] != 0:
         px = ((pxc[e, 0] * x + pxc[e, 1]) * x + pxc[e, 2]) * x + pxc[e, 3]
         dpx = (3.0 * pxc[e, 0] * x + 2.0 * pxc[e, 1]) * x + pxc[e, 2]
-        abs_powers(px, parts[e, 4], pp)
-        f, fp = signed_part_d(pp, parts[e, 4], parts[e, 5], _sign(px))
+        _powers(px, parts[e, 4], pp)
+        f, fp = _part_d(pp, parts[e, 4], parts[e, 5], _sign(px))
         dz_ = dz_ * f + val * fp * dpx
         dv_ *= f
         val *= f
@@ -61,7 +61,7 @@ def _element_d(e, x, xd, parts, special, pxc, pz, pv, pp, out):
         if kind == 0.0:
             break
         on_v = special[e, j, 1] != 0.0
-        f, fx, _ = special_factor_d(kind, xd if on_v else x, special[e, j, 2], special[e, j, 3])
+        f, fx, _ = _special_d(kind, xd if on_v else x, special[e, j, 2], special[e, j, 3])
         if on_v:
             dv_ = dv_ * f + val * fx
             dz_ *= f
@@ -384,14 +384,12 @@ def structure_segments(
     SimulationError
         A state becomes non-finite.
     """
-    from .structure import _encoded, _fine, _inverse_mass
+    from .structure import _encoded, _fine, _inverse_mass, _segment_starts
 
     fine, q, fs = _fine(model, force, fs, force_hold, oversample)
     n, N = model.n_dofs, fine.shape[0] // q
-    starts = np.asarray(starts, dtype=np.int64)
+    starts = _segment_starts(starts, N)
     states = np.ascontiguousarray(states, dtype=float)
-    if starts.ndim != 1 or starts.size == 0 or starts[0] != 0 or np.any(np.diff(starts) <= 0) or starts[-1] >= N:
-        raise InputError(f"starts must increase from 0 and stay below the {N} samples")
     if states.shape != (starts.size, 2 * n) or not np.all(np.isfinite(states)):
         raise InputError(f"states must be finite, of shape ({starts.size}, {2 * n}), got {states.shape}")
     theta, _, memory, parts, special, pxc, ci, cj, _, _ = _encoded(model)
