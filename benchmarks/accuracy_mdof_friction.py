@@ -66,9 +66,9 @@ def joint(seeds, noises, duration) -> None:
 
 
 def discovery(seeds, noises, duration, steps, refine=False) -> None:
-    print("| noise | seed | named | law | coefficient | explained % | refused above it | cubic % | friction % | right "
-          "| s |")  # fmt: skip
-    print("|---|---|---|---|---|---|---|---|---|---|---|")
+    print("| noise | seed | named | law | coefficient | explained % | refused above it | search's cubic % | cubic % "
+          "| friction % | right | s |")  # fmt: skip
+    print("|---|---|---|---|---|---|---|---|---|---|---|---|")
     right = 0
     for noise in noises:
         for seed in seeds:
@@ -77,6 +77,7 @@ def discovery(seeds, noises, duration, steps, refine=False) -> None:
             res = discover_structure(rec, CUBIC, max_steps=steps, refine=refine)
             seconds = time.perf_counter() - clock
             final = res.refined if refine else res.final
+            search = pct(res.final.model.coefficient(CUBIC), TRUTH[CUBIC])
             cubic = pct(final.model.coefficient(CUBIC), TRUTH[CUBIC])
             coefficients = final.model.coefficients
             friction = pct(coefficients[FRICTION], TRUTH[FRICTION]) if FRICTION in coefficients else "-"
@@ -92,7 +93,7 @@ def discovery(seeds, noises, duration, steps, refine=False) -> None:
                 named, law, coef, explained, above, ok = "none", "", "", "", "-", False
             right += ok
             print(
-                f"| {noise:g} | {seed} | {named} | {law} | {coef} | {explained} | {above} | {cubic} | {friction} | "
+                f"| {noise:g} | {seed} | {named} | {law} | {coef} | {explained} | {above} | {search} | {cubic} | {friction} | "
                 f"{'yes' if ok else 'NO'} | {seconds:.0f} |",
                 flush=True,
             )
