@@ -93,8 +93,8 @@ def discovery(seeds, noises, duration, steps, refine=False) -> None:
                 named, law, coef, explained, above, ok = "none", "", "", "", "-", False
             right += ok
             print(
-                f"| {noise:g} | {seed} | {named} | {law} | {coef} | {explained} | {above} | {search} | {cubic} | {friction} | "
-                f"{'yes' if ok else 'NO'} | {seconds:.0f} |",
+                f"| {noise:g} | {seed} | {named} | {law} | {coef} | {explained} | {above} | {search} | {cubic} | "
+                f"{friction} | {'yes' if ok else 'NO'} | {seconds:.0f} |",
                 flush=True,
             )
     print(f"\nconnection 1-2, a positive dissipative law and the cubic within 1 %: {right} of "

@@ -367,7 +367,7 @@ def _noise_percent(record) -> list[float]:
 
 
 def _refiner() -> str | None:
-    """The installed refining identifier (:func:`~nlid.contract.methods.choose_refiner`), ``None`` when there is none."""
+    """The installed refining identifier (:func:`~nlid.contract.methods.choose_refiner`); ``None``: there is none."""
     from ..contract.methods import choose_refiner
 
     try:
