@@ -78,16 +78,16 @@ def joint(seeds, noises, duration, factors=(1.0,)) -> None:
 
 def discovery(seeds, noises, duration, steps, refine=False) -> None:
     print("| noise | seed | named | law | coefficient | explained % | refused above it | search's cubic % | cubic % "
-          "| friction % | right | s |")  # fmt: skip
-    print("|---|---|---|---|---|---|---|---|---|---|---|---|")
+          "| friction % | right | s | CPU s |")  # fmt: skip
+    print("|---|---|---|---|---|---|---|---|---|---|---|---|---|")
     right = 0
     for noise in noises:
         for seed in seeds:
             rec = record(duration, seed, noise)
-            clock = time.perf_counter()
+            clock, cpu = time.perf_counter(), time.process_time()
             res = discover_structure(rec, CUBIC, max_steps=steps, refine=refine)
             assert res.model is (res.refined if refine else res.final).model
-            seconds = time.perf_counter() - clock
+            seconds, cpu = time.perf_counter() - clock, time.process_time() - cpu
             final = res.refined if refine else res.final
             search = pct(res.final.model.coefficient(CUBIC), TRUTH[CUBIC])
             cubic = pct(final.model.coefficient(CUBIC), TRUTH[CUBIC])
@@ -106,7 +106,7 @@ def discovery(seeds, noises, duration, steps, refine=False) -> None:
             right += ok
             print(
                 f"| {noise:g} | {seed} | {named} | {law} | {coef} | {explained} | {above} | {search} | {cubic} | "
-                f"{friction} | {'yes' if ok else 'NO'} | {seconds:.0f} |",
+                f"{friction} | {'yes' if ok else 'NO'} | {seconds:.0f} | {cpu:.0f} |",
                 flush=True,
             )
     print(f"\nconnection 1-2, a positive dissipative law and the cubic within 1 %: {right} of "
