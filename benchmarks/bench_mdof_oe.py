@@ -7,8 +7,8 @@ each displacement's std) on the displacements, the velocities and accelerations 
 matrix given. ``oe`` fits both elements from its ``rfs`` start. Printed: each run's wall time (the whole
 ``nlid.identify`` call, rfs start included), the median of ``--repeat`` runs, the Jacobian used, oe's
 iterations and segments, and the coefficients' errors; the CPU time of every thread of the process beside the
-wall time (on a loaded machine the wall time measures the load). State the machine's load (``uptime``) beside the
-figures: the runs use the 2 cores.
+wall time (on a loaded machine the wall time measures the load). State the machine's load (``uptime``)
+beside the figures: the runs use the 2 cores.
 
     python benchmarks/bench_mdof_oe.py [--duration 30] [--repeat 3] [--seed 1] [--noise 0.01]
 """
@@ -52,7 +52,8 @@ def main() -> None:
             f"{name} {100 * (fit.structure.coefficient(name) / v - 1):+.3g} %" for name, v in TRUTH.items()
         )
         print(
-            f"run {k + 1}: {times[-1]:.1f} s, CPU {cpu:.1f} s (fit {d.get('seconds_fit', float('nan')):.1f} s; jacobian "
+            f"run {k + 1}: {times[-1]:.1f} s, CPU {cpu:.1f} s (fit {d.get('seconds_fit', float('nan')):.1f} s; "
+            "jacobian "
             f"{d.get('jacobian', 'finite differences')}; {d.get('segments')} segments; nfev {d.get('nfev')}, "
             f"njev {d.get('njev')}); {errors}",
             flush=True,
