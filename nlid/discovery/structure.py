@@ -175,13 +175,13 @@ def discover_structure(
         (:attr:`StructureDiscoveryResult.model`). The default ``None`` refines when a velocity or an
         acceleration of the record is estimated (and a refining identifier is installed); ``False`` never does
         (faster: the search's equation-error fit is reported). The search's fits are equation-error fits of
-        velocities and accelerations estimated from the measured displacements, so noise on the displacements
-        biases them and scatters them (errors in variables: the noise enters the regressors and, twice
+        velocities and accelerations estimated from the measured displacements, so the noise on the
+        displacements scatters them (errors in variables: it enters the element regressors and, twice
         differentiated, the inertia force), and the estimate's low-pass smooths a friction law's step: on the
-        reviewer's 3-DOF chain, with the true elements, a 2 N Coulomb force comes out 12-16 % low at any noise
-        level from 0 to 1 %, and the cubic 0.2 % low on average at 0.5 % noise, 0.7-0.8 % at 1 % and 1.3 % at
-        2 %, seed to seed within about +-1 % at 1 % noise and +-2 % at 2 % (no cut-off removes both: a higher
-        one halves the bias and keeps the scatter). The output-error refit has neither
+        reviewer's 3-DOF chain a 2 N Coulomb force comes out 12-23 % low, and the search's cubic was -1.43 to
+        +0.88 % off at 1 % noise and -2.23 to +0.91 % at 2 % (seeds 1-12 and 6-10); twice the default cut-off
+        does not narrow that. The output-error refit was within 0.35 % on every seed where the search chose
+        Coulomb friction
         (``benchmarks/accuracy_mdof_friction.py``). The choice of elements is unchanged.
     prediction
         Judge every candidate the equation error accepts by the cross-fitted held-out free run too
