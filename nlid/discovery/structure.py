@@ -178,11 +178,11 @@ def discover_structure(
         velocities and accelerations estimated from the measured displacements, so the noise on the
         displacements scatters them (errors in variables: it enters the element regressors and, twice
         differentiated, the inertia force), and the estimate's low-pass smooths a friction law's step: on the
-        reviewer's 3-DOF chain a 2 N Coulomb force comes out 12-23 % low, and the search's cubic was -1.43 to
-        +0.88 % off at 1 % noise and -2.23 to +0.91 % at 2 % (seeds 1-12 and 6-10); twice the default cut-off
-        does not narrow that. The output-error refit was within 0.35 % on every seed where the search chose
-        Coulomb friction
-        (``benchmarks/accuracy_mdof_friction.py``). The choice of elements is unchanged.
+        reviewer's 3-DOF chain a 2 N Coulomb force comes out 11-26 % low, and the search's cubic was -1.43 to
+        +0.88 % off at 1 % noise (seeds 1-15) and -2.23 to +0.91 % at 2 % (seeds 6-15); twice the default
+        cut-off does not narrow that. The output-error refit of the elements the search chose was within
+        0.35 % wherever they were the true ones (``benchmarks/accuracy_mdof_friction.py``). The choice of
+        elements is unchanged.
     prediction
         Judge every candidate the equation error accepts by the cross-fitted held-out free run too
         (:func:`~nlid.discovery.structure_accept.judged`): the models before and after, fitted on the
