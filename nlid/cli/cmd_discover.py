@@ -167,11 +167,13 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     add_timeout_argument(p, DISCOVER_TIMEOUT, "the search (every identification of it)")
     p.add_argument(
         "--refine",
-        action="store_true",
+        action=argparse.BooleanOptionalAction,
+        default=None,
         help="refine the final model with the output-error identifier oe (fits the free-run error, shape "
         "parameters included) and report the errors before and after; on a structure record, the chosen elements "
-        "refitted by oe on the selection record (the search's equation-error fits are biased when velocities are "
-        "estimated from noisy displacements)",
+        "refitted by oe on the selection record, and that refit is the final structure model (the search's "
+        "equation-error fits are biased when velocities are estimated from noisy displacements). Default: off for "
+        "one DOF; on for a structure record whose velocities or accelerations are estimated (--no-refine: off)",
     )
     p.set_defaults(func=run)
 
@@ -269,7 +271,7 @@ def run(args: argparse.Namespace) -> int:
         cutoff=args.cutoff,
         options=parse_settings(args.set),
         views=bool(args.out),
-        refine=args.refine,
+        refine=bool(args.refine),
         freerun_rule=args.rule,
         prediction=prediction,
     )

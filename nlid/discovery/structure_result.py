@@ -33,9 +33,6 @@ def connection_name(c: Connection) -> str:
     return f"{c[0]}-ground" if c[1] == 0 else f"{c[0]}-{c[1]}"
 
 
-_connection_name = connection_name
-
-
 def parse_connections(spec: Any, n_dofs: int) -> tuple[Connection, ...]:
     """The connections to test: every pair and every DOF to the ground (``None``), or the ones given.
 
@@ -131,7 +128,7 @@ class ConnectionEvidence:
     @property
     def where(self) -> str:
         """The connection as text, ``5-ground`` or ``4-5``."""
-        return _connection_name(self.connection)
+        return connection_name(self.connection)
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-friendly dictionary."""
@@ -267,7 +264,7 @@ class ConnectionProbe:
         """JSON-friendly dictionary."""
         return {
             "connection": list(self.connection),
-            "where": _connection_name(self.connection),
+            "where": connection_name(self.connection),
             "probe": self.probe,
             "explained": self.explained,
             "explained_holdout": self.explained_holdout,
@@ -325,7 +322,7 @@ class StructureRemaining:
         best = self.best
         if best is None:
             return "no probe was run"
-        where = f"DOF {best.connection[0]}" if best.probe in DOF_PROBES else _connection_name(best.connection)
+        where = f"DOF {best.connection[0]}" if best.probe in DOF_PROBES else connection_name(best.connection)
         if not self.structured:
             return (
                 f"clean: no flexible function of a connection, and neither a DOF's acceleration, its force's "
@@ -414,6 +411,11 @@ class StructureDiscoveryResult:
         return self.stages[-1]
 
     @property
+    def model(self) -> Any:
+        """The final structure model reported: the refit (:attr:`refined`) if there is one, else :attr:`final`'s."""
+        return (self.refined or self.final).model
+
+    @property
     def reported(self) -> tuple[StructureStage, ...]:
         """The stages the tables show: every stage of the search, then the refined one when there is one."""
         return self.stages if self.refined is None else (*self.stages, self.refined)
@@ -461,6 +463,7 @@ class StructureDiscoveryResult:
             "rule": self.rule.to_dict(),
             "info": dict(self.info),
             "refined": None if self.refined is None else self.refined.to_dict(),
+            "model": (self.refined or self.final).label,
         }
 
     def summary(self) -> str:
@@ -525,7 +528,7 @@ class StructureDiscoveryResult:
         n = self.n_dofs
         out = ["# nlid discover: structure", ""]
         out.append(f"- declared elements: {', '.join(f'`{d}`' for d in self.declared) or '(linear system only)'}")
-        out.append(f"- connections tested: {', '.join(_connection_name(c) for c in self.connections)}")
+        out.append(f"- connections tested: {', '.join(connection_name(c) for c in self.connections)}")
         out.append(f"- candidates: {', '.join(self.candidates)}")
         out.append(f"- rule: {self.rule.describe()}")
         out.append(f"- {self.stop_reason}")

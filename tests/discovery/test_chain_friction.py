@@ -70,6 +70,7 @@ def found(short_record):
         plugins=False,
         max_steps=1,
         simulate=False,
+        refine=False,
     )
 
 
@@ -94,12 +95,16 @@ def test_a_law_that_would_feed_energy_in_is_refused_and_said(found):
 
 def test_without_refine_the_summary_says_the_coefficients_are_biased(found):
     assert found.refined is None and found.to_dict()["refined"] is None
+    assert found.model is found.final.model and found.to_dict()["model"] == found.final.label
     assert "refining (refine=True) refits the final elements by output error" in found.summary()
 
 
 @pytest.fixture(scope="module")
 def refined():
-    """10 s at 1 % noise: the equation error's cubic is about 1.2 % low here, its Coulomb force 14 % low."""
+    """10 s at 1 % noise: the equation error's cubic is about 1.2 % low here, its Coulomb force 14 % low.
+
+    ``refine`` is left at its default: the velocities and accelerations are estimated, so the search refines.
+    """
     record = _chain(10.0).simulate(1, noise={"z": 0.01}, channels=("z",))
     return discover_structure(
         record,
@@ -108,21 +113,38 @@ def refined():
         plugins=False,
         max_steps=1,
         simulate=False,
-        refine=True,
     )
 
 
-def test_refine_refits_the_chosen_elements_by_output_error_without_their_bias(refined):
+def test_by_default_the_chosen_elements_are_refitted_by_output_error_without_their_bias(refined):
     assert refined.located == (1, 2)
     assert refined.refined is not None and refined.refined.elements == refined.final.elements
     search, refit = refined.final.model, refined.refined.model
     assert search.coefficient(FRICTION) < 0.92 * TRUTH[FRICTION]  # the filter's smoothing of the step
     assert refit.coefficient(FRICTION) == pytest.approx(TRUTH[FRICTION], rel=0.03)
     assert refit.coefficient(CUBIC) == pytest.approx(TRUTH[CUBIC], rel=0.005)
+    # the refit is the structure model the result reports
+    assert refined.model is refit and refined.to_dict()["model"] == "refined (oe)"
     assert "refined (oe), fitted on the selection record" in refined.summary()
     assert "## Refined (oe)" in refined.report()
     assert refined.to_dict()["refined"]["coefficients"][FRICTION] == refit.coefficient(FRICTION)
     assert "refining (refine=True)" not in refined.summary()
+
+
+def test_with_measured_derivatives_or_no_refiner_the_default_does_not_refine(short_record, monkeypatch):
+    """The search's fits are unbiased when v and a are measured; without an installed refiner there is none."""
+    import nlid.discovery.structure as structure
+
+    called = []
+    monkeypatch.setattr(structure, "_refine", lambda *args: called.append(args))
+    measured = _chain(10.0).simulate(1, noise={"z": 0.002})
+    assert measured.is_measured("v1") and measured.is_measured("a3")
+    found = discover_structure(measured, CUBIC, plugins=False, candidates="coulomb", max_steps=0, simulate=False)
+    assert found.refined is None and not called and found.model is found.final.model
+    monkeypatch.setattr(structure, "_refiner", lambda: None)
+    found = discover_structure(short_record, CUBIC, plugins=False, candidates="coulomb", max_steps=0, simulate=False)
+    assert found.refined is None and not called
+    assert found.info["derivatives_measured"] is False
 
 
 def _evidence(explained: float, dbic: float = -100.0, status: str = "below threshold", connection=(1, 2)):
@@ -177,7 +199,7 @@ def noisy_record():
 def _discover_noisy(record):
     return discover_structure(
         record, CUBIC, candidates="coulomb, quadratic-damping, cubic-damping, stribeck", plugins=False,
-        max_steps=1, simulate=False,
+        max_steps=1, simulate=False, refine=False,
     )  # fmt: skip
 
 
@@ -215,5 +237,5 @@ def test_without_the_friction_a_noisy_record_names_nothing(noise):
         .with_overrides(duration=15.0, elements=CUBIC, coefficients={CUBIC: TRUTH[CUBIC]})
         .simulate(1, noise={"z": noise}, channels=("z",))
     )
-    found = discover_structure(record, CUBIC, plugins=False, max_steps=1, simulate=False)
+    found = discover_structure(record, CUBIC, plugins=False, max_steps=1, simulate=False, refine=False)
     assert found.steps == ()
