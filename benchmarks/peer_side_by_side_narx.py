@@ -42,7 +42,7 @@ Measured (sysidentpy 0.9.0, numpy 2.4; 2 shared cores at load average 4-16; the 
 side-by-side's whole choice and refit, and the row's)::
 
     benchmark / test (rule)                   as documented  nlid's row   row / side-by-side  fit time
-    emps-internal / last-quarter (window:20)  18.2 mm        3.27 mm      0.18                874 s / 15 s
+    emps-internal / last-quarter (window:20)  18.2 mm        3.27 mm      0.18                364 s / 3 s
     silverbox / arrow-full (window:50)        4.148 mV       4.737 mV     1.14                898 s / 32 s
     silverbox / arrow-no-extrapolation        2.229 mV       3.367 mV     1.51
     silverbox / multisine                     2.690 mV       4.353 mV     1.62
