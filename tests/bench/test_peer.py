@@ -146,3 +146,54 @@ def peer_library(settings):
     from nlid.benchmarking.peer import _library
 
     return _library(settings)
+
+
+# --------------------------------------------------------------------------- sysidentpy's NARX (skipped without it)
+def _narx_record(n=3000, seed=0, fs=100.0):
+    """A record of the polynomial NARX ``y_k = 1.2 y_{k-1} - 0.5 y_{k-2} + 0.3 u_{k-1} + 0.1 u_{k-2} - 0.1 y_{k-1}^3``.
+
+    It is in the row's model class (degree 3, lags 2), starts at rest (force and output zero), and is noise-free.
+    """
+    rng = np.random.default_rng(seed)
+    u = np.convolve(rng.standard_normal(n), np.ones(5) / 5, mode="same")
+    u[:2] = 0.0  # at rest before the record: no force, no output
+    y = np.zeros(n)
+    for k in range(2, n):
+        y[k] = 1.2 * y[k - 1] - 0.5 * y[k - 2] + 0.3 * u[k - 1] + 0.1 * u[k - 2] - 0.1 * y[k - 1] ** 3
+    return Record(f=u, z=y, fs=fs)
+
+
+def test_narx_free_run_is_sysidentpys_predict():
+    """The row's free run under a window is sysidentpy's ``predict`` as its Silverbox tutorial calls it."""
+    pytest.importorskip("sysidentpy")
+    from nlid.benchmarking.blackbox import NarxModel, _frols
+
+    rec = _narx_record()
+    row = NarxModel(_frols(rec, 3, 2, 10), 3, 2, 10)
+    test = _narx_record(seed=1)
+    window = 20
+    score = row.free_run(test, f"window:{window}")
+    # the tutorial: start = n - max_lag; yhat = model.predict(X=x_test[start:], y=y_test[start:n])[max_lag:]
+    lag = row.model.max_lag
+    yhat = row.model.predict(X=test.f[window - lag :, None], y=test.z[window - lag : window, None]).ravel()[lag:]
+    expected = float(np.sqrt(np.mean((yhat - test.z[window:]) ** 2)))
+    assert score.scored_samples == test.n - window
+    assert score.rmse == pytest.approx(expected, rel=1e-9)
+    assert score.rmse < 1e-6 * np.std(test.z)  # the system is in the model class and the record noise-free
+    # from the first sample the lags are the first sample (the record starts at rest): the same run
+    assert row.free_run(test, "first-sample").rmse < 1e-6 * np.std(test.z)
+
+
+def test_narx_choices_are_made_on_the_estimation_record():
+    """Degree, lags and terms are the held-out end's best; the chosen model generalises to another record."""
+    pytest.importorskip("sysidentpy")
+    from nlid.benchmarking.blackbox import NARX_GRID, NARX_TERMS, fit_narx
+
+    narx = fit_narx(_narx_record(), rule="window:20")
+    errors = narx.selection["holdout_rmse"]
+    assert set(errors) == {f"degree {d}, lags {g}, {t} terms" for d, g in NARX_GRID for t in NARX_TERMS}
+    finite = {k: v for k, v in errors.items() if np.isfinite(v)}
+    chosen = f"degree {narx.degree}, lags {narx.lag}, {narx.terms} terms"
+    assert finite[chosen] == min(finite.values())
+    test = _narx_record(seed=2)
+    assert narx.free_run(test, "window:20").rmse < 1e-3 * np.std(test.z)
