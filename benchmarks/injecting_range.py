@@ -1,0 +1,202 @@
+"""Which ``INJECTING_RANGE`` (issue 31): the energy check of discover measured on simulated records only.
+
+``nlid.discovery.trials.INJECTING_RANGE`` scales the estimation samples ``(z, v)`` (``z`` about the centre of its
+range) before a candidate model's velocity-dependent force ``D(z, v)`` is checked to dissipate (``D v >= 0``; a
+candidate that feeds energy in on ``MAX_INJECTING`` more of them than the current model is refused). No benchmark
+test set is used here: every record is simulated from a known truth (the single well of
+``nlid.discovery.cases``: a hardening Duffing oscillator, k = 2000 N/m, k3 = 5e6 N/m^3, the Silverbox-like case),
+2 % noise on ``z`` only, 20 s at 1024 Hz, 20 N RMS.
+
+Cases:
+
+* *soak*: an undeclared effect the search cannot express (its candidate left out of the library), so that a
+  damping law of the wrong sign could soak it up: Bouc-Wen hysteresis, Dahl pre-sliding friction (memory), a
+  mass given 1.15 times too large, the force recorded 2 samples late;
+* *true law*: an undeclared dissipative law with a positive coefficient, which must never be refused:
+  ``v*|v|`` (3 N s^2/m^2), ``sign(v)`` (2 N), ``z^2*v`` (5e4 N s/m^3).
+
+For each case and seed, ``nlid.discover`` (rfs, the known mass, the default rules) runs once at
+``--active`` (default 1.5); every call of the energy check is logged with the verdict it would give at each value
+of ``--ranges`` (the check is the only reader of the constant). A value whose verdicts differ from the active
+run's anywhere (or any run where the dictionary dropped a term for energy, whose choice also reads the
+constant) gets its own run, with the module constant monkeypatched. The final model of each value is then run
+free on held-out records of the same system simulated with ``--amplitudes`` times the force (another seed;
+the skew of the time-skew case too), under each record's default transient rule.
+
+Printed: per case and value, the steps taken, the candidates refused by the energy check and the held-out
+free-run fit (%) per amplitude; then every energy refusal with its injecting shares at each value.
+
+    python benchmarks/injecting_range.py [--seeds 1] [--jobs 2]
+
+Load: about one minute of one core per discover run (8 cases, 1 run each plus the reruns).
+"""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import sys
+import time
+from concurrent.futures import ProcessPoolExecutor
+from typing import Any
+
+import numpy as np
+
+import nlid
+import nlid.discovery.search as search_module
+import nlid.discovery.trials as trials
+from nlid.discovery.cases import SKEW_SAMPLES, WELLS, WRONG_MASS_FACTOR
+from nlid.discovery.inputs import CandidateLibrary
+
+NOISE = 0.02
+#: case -> (kind, extra true terms, candidates left out of the search, note)
+CASES: dict[str, tuple[str, dict[str, float], tuple[str, ...]]] = {
+    "hysteresis": ("soak", {"bouc_wen(150, -50)": 1000.0}, ("hysteresis-bouc-wen", "dahl-friction")),
+    "pre-sliding": ("soak", {"dahl(0.0005)": 2.0}, ("hysteresis-bouc-wen", "dahl-friction")),
+    "wrong-mass": ("soak", {}, ("mass",)),
+    "time-skew": ("soak", {}, ("input-delay", "actuator-lag", "force-hold")),
+    "v*|v|": ("true law", {"v*|v|": 3.0}, ()),
+    "sign(v)": ("true law", {"sign(v)": 2.0}, ()),
+    "z^2*v": ("true law", {"z^2*v": 5e4}, ()),
+}
+
+
+def _preset(extra: dict[str, float]):
+    base = WELLS["single"]
+    coefficients = {**base.coefficients, **extra}
+    terms = ", ".join(t for t in coefficients if t not in ("1", "z", "v"))
+    return dataclasses.replace(base, terms=terms, coefficients=coefficients)
+
+
+def _skewed(record):
+    f = np.concatenate([np.full(SKEW_SAMPLES, record.f[0]), record.f[:-SKEW_SAMPLES]])
+    return record.replace(f=f)
+
+
+def _records(case: str, seed: int, amplitudes: list[float]):
+    """The estimation record, the declared terms, the mass to give and the larger-amplitude held-out records."""
+    _, extra, _ = CASES[case]
+    preset = _preset(extra)
+    record = preset.simulate(seed, noise={"z": NOISE}, channels=("z",))
+    held = {
+        a: preset.with_overrides(force_rms=a * preset.force_rms).simulate(
+            1000 + seed, noise={"z": NOISE}, channels=("z",)
+        )
+        for a in amplitudes
+    }
+    if case == "time-skew":
+        record, held = _skewed(record), {a: _skewed(r) for a, r in held.items()}
+    declared = [t for t in preset.coefficients if t not in extra]
+    mass = preset.mass * (WRONG_MASS_FACTOR if case == "wrong-mass" else 1.0)
+    return record, declared, mass, held
+
+
+def _run(
+    case: str, seed: int, value: float, ranges: list[float], amplitudes: list[float], log: list[dict[str, Any]] | None
+) -> dict[str, Any]:
+    """One discover run with ``INJECTING_RANGE = value``; each energy check logged with its verdict at every range."""
+    original = trials.injects_energy
+
+    def logged(fit, current, z, v):
+        verdicts = {}
+        for r in ranges:
+            trials.INJECTING_RANGE = r
+            verdicts[r] = original(fit, current, z, v)
+        trials.INJECTING_RANGE = value
+        answer = original(fit, current, z, v)
+        if log is not None:
+            added = [t for t in fit.model.terms if t not in current.model.terms]
+            shares = {}
+            for r in ranges:
+                trials.INJECTING_RANGE = r
+                zs, vs = trials._widened(z, v)
+                shares[r] = (trials._injecting_share(fit, zs, vs), trials._injecting_share(current, zs, vs))
+            trials.INJECTING_RANGE = value
+            log.append(
+                {
+                    "caller": sys._getframe(1).f_code.co_name,
+                    "added": [t.name for t in added],
+                    "coefficients": {k: float(c) for k, c in fit.coefficients.items() if k in {t.name for t in added}},
+                    "refused": {r: bool(s) for r, s in verdicts.items()},
+                    "shares": shares,
+                }
+            )
+        return answer
+
+    _, _, excluded = CASES[case]
+    names = [n for n in [*CandidateLibrary.select(None).names, "mass", "dictionary"] if n not in excluded]
+    record, declared, mass, held = _records(case, seed, amplitudes)
+    trials.INJECTING_RANGE = value
+    trials.injects_energy, search_module.injects_energy = logged, logged
+    try:
+        result = nlid.discover(record, declared, "rfs", mass=mass, candidates=names, views=False)
+    finally:
+        trials.injects_energy, search_module.injects_energy = original, original
+    model = result.final_model
+    fits = {}
+    for a, rec in held.items():
+        scores = model.score(rec)
+        fits[a] = scores.freerun_fit_percent
+    return {
+        "steps": [f"{s.effect} ({', '.join(s.terms)})" if s.terms else s.effect for s in result.steps],
+        "fits": fits,
+    }
+
+
+def _case(args: tuple[str, int, float, list[float], list[float]]) -> dict[str, Any]:
+    case, seed, active, ranges, amplitudes = args
+    start = time.perf_counter()
+    log: list[dict[str, Any]] = []
+    runs = {active: _run(case, seed, active, ranges, amplitudes, log)}
+    dictionary_dropped = any(e["caller"] == "test_dictionary" and e["refused"][active] for e in log)
+    for r in ranges:
+        if r == active:
+            continue
+        differs = any(e["refused"][r] != e["refused"][active] for e in log)
+        runs[r] = _run(case, seed, r, ranges, amplitudes, None) if differs or dictionary_dropped else None
+    return {"case": case, "seed": seed, "log": log, "runs": runs, "seconds": time.perf_counter() - start}
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--seeds", type=int, default=1)
+    parser.add_argument("--ranges", default="1.0,1.2,1.5,2.0")
+    parser.add_argument("--active", type=float, default=1.5)
+    parser.add_argument("--amplitudes", default="1.2,1.5")
+    parser.add_argument("--cases", default=",".join(CASES))
+    parser.add_argument("--jobs", type=int, default=1)
+    args = parser.parse_args()
+    ranges = [float(x) for x in args.ranges.split(",")]
+    amplitudes = [float(x) for x in args.amplitudes.split(",")]
+    work = [(c, s, args.active, ranges, amplitudes) for c in args.cases.split(",") for s in range(args.seeds)]
+    with ProcessPoolExecutor(args.jobs) as pool:
+        done = list(pool.map(_case, work))
+    amps = " | ".join(f"free-run fit {a:g}x (%)" for a in amplitudes)
+    print(f"| case | kind | seed | INJECTING_RANGE | energy refusals | steps | {amps} |")
+    print("|" + " --- |" * (6 + len(amplitudes)))
+    for out in done:
+        kind = CASES[out["case"]][0]
+        for r in ranges:
+            run = out["runs"][r] or out["runs"][args.active]
+            same = "" if out["runs"][r] is not None else " (= active run)"
+            refused = sorted({"+".join(e["added"]) for e in out["log"] if e["refused"][r]})
+            fits = " | ".join(f"{run['fits'][a]:.2f}" for a in amplitudes)
+            print(
+                f"| {out['case']} | {kind} | {out['seed']} | {r:g}{same} | {', '.join(refused) or '-'} | "
+                f"{'; '.join(run['steps']) or '-'} | {fits} |"
+            )
+    print("\nEnergy refusals (added terms: coefficients; injecting share of candidate / current model at each value):")
+    for out in done:
+        for e in out["log"]:
+            if any(e["refused"].values()):
+                coef = ", ".join(f"{k} {v:.3g}" for k, v in e["coefficients"].items())
+                shares = ", ".join(
+                    f"{r:g}: {100 * s:.2g}/{100 * c:.2g} %{' R' if e['refused'][r] else ''}"
+                    for r, (s, c) in e["shares"].items()
+                )
+                print(f"  {out['case']} seed {out['seed']} [{e['caller']}] {coef}: {shares}")
+    print(f"\n{sum(o['seconds'] for o in done):.0f} s of worker time")
+
+
+if __name__ == "__main__":
+    main()
