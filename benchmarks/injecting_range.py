@@ -102,31 +102,23 @@ def _records(case: str, seed: int, amplitudes: list[float]):
     return record, declared, mass, held
 
 
-def _run(
-    case: str, seed: int, value: float, ranges: list[float], amplitudes: list[float], log: list[dict[str, Any]] | None
-) -> dict[str, Any]:
-    """One discover run with ``INJECTING_RANGE = value``; each energy check logged with its verdict at every range."""
+def _logged_discover(value: float, ranges: list[float], log: list[dict[str, Any]] | None, *args, **kwargs):
+    """``nlid.discover`` with ``INJECTING_RANGE = value``; each energy check logged with its verdict at every range."""
     original = trials.injects_energy
 
     def logged(fit, current, z, v):
-        verdicts = {}
+        verdicts, shares = {}, {}
         for r in ranges:
             trials.INJECTING_RANGE = r
             verdicts[r] = original(fit, current, z, v)
+            zs, vs = trials._widened(z, v)
+            shares[r] = (trials._injecting_share(fit, zs, vs), trials._injecting_share(current, zs, vs))
         trials.INJECTING_RANGE = value
-        answer = original(fit, current, z, v)
         if log is not None:
-            added = [t for t in fit.model.terms if t not in current.model.terms]
-            shares = {}
-            for r in ranges:
-                trials.INJECTING_RANGE = r
-                zs, vs = trials._widened(z, v)
-                shares[r] = (trials._injecting_share(fit, zs, vs), trials._injecting_share(current, zs, vs))
-            trials.INJECTING_RANGE = value
             log.append(
                 {
                     "caller": sys._getframe(1).f_code.co_name,
-                    "added": [t.name for t in added],
+                    "added": [t.name for t in fit.model.terms if t not in current.model.terms],
                     "coefficients": {
                         t.name: float(fit.coefficients[t.name]) for t in fit.model.terms if t.family == "damping"
                     },
@@ -134,26 +126,30 @@ def _run(
                     "shares": shares,
                 }
             )
-        return answer
+        return original(fit, current, z, v)
 
-    excluded = CASES[case][-1]
-    names = [n for n in [*CandidateLibrary.select(None).names, "mass", "dictionary"] if n not in excluded]
-    record, declared, mass, held = _records(case, seed, amplitudes)
     trials.INJECTING_RANGE = value
     trials.injects_energy, search_module.injects_energy = logged, logged
     try:
-        result = nlid.discover(record, declared, "rfs", mass=mass, candidates=names, views=False)
+        return nlid.discover(*args, **kwargs)
     finally:
         trials.injects_energy, search_module.injects_energy = original, original
+
+
+def _steps(result) -> list[str]:
+    return [f"{s.effect} ({', '.join(s.terms)})" if s.terms else s.effect for s in result.steps]
+
+
+def _run(
+    case: str, seed: int, value: float, ranges: list[float], amplitudes: list[float], log: list[dict[str, Any]] | None
+) -> dict[str, Any]:
+    """One discover run of a simulated case with ``INJECTING_RANGE = value``, and its held-out free-run fits."""
+    excluded = CASES[case][-1]
+    names = [n for n in [*CandidateLibrary.select(None).names, "mass", "dictionary"] if n not in excluded]
+    record, declared, mass, held = _records(case, seed, amplitudes)
+    result = _logged_discover(value, ranges, log, record, declared, "rfs", mass=mass, candidates=names, views=False)
     model = result.final_model
-    fits = {}
-    for a, rec in held.items():
-        scores = model.score(rec)
-        fits[a] = scores.freerun_fit_percent
-    return {
-        "steps": [f"{s.effect} ({', '.join(s.terms)})" if s.terms else s.effect for s in result.steps],
-        "fits": fits,
-    }
+    return {"steps": _steps(result), "fits": {a: model.score(rec).freerun_fit_percent for a, rec in held.items()}}
 
 
 def _case(args: tuple[str, int, float, list[float], list[float]]) -> dict[str, Any]:
@@ -170,6 +166,67 @@ def _case(args: tuple[str, int, float, list[float], list[float]]) -> dict[str, A
     return {"case": case, "seed": seed, "log": log, "runs": runs, "seconds": time.perf_counter() - start}
 
 
+def _excursions(case: str, seed: int, amplitudes: list[float]) -> dict[float, tuple[float, float]]:
+    """How far the larger-amplitude records go beyond the estimation one (noise-free): half-range of z, top |v|."""
+    _, base_name, extra, _, _ = CASES[case]
+    preset = _preset(base_name, extra)
+
+    def reach(p, s):
+        r = p.simulate(s, channels=("z", "v"))
+        return 0.5 * float(np.ptp(r.z)), float(np.max(np.abs(r.v)))
+
+    z0, v0 = reach(preset, seed)
+    out = {}
+    for a in amplitudes:
+        z1, v1 = reach(preset.with_overrides(force_rms=a * preset.force_rms), 1000 + seed)
+        out[a] = (z1 / z0, v1 / v0)
+    return out
+
+
+def _silverbox(active: float, ranges: list[float]) -> None:
+    """discover on Silverbox's estimation part (the bench's settings, no test set): refusals and held-out scores."""
+    from nlid.benchmarking.data import load_estimation
+    from nlid.benchmarking.protocol import load_protocol
+
+    protocol = load_protocol("silverbox")
+    record, _ = load_estimation(protocol)
+    settings = protocol.pipelines
+    kwargs = {"mass": settings.mass, "holdout": settings.holdout, "views": False, "freerun_rule": settings.rule}
+    log: list[dict[str, Any]] = []
+    runs = {active: _logged_discover(active, ranges, log, record, settings.declared, **kwargs)}
+    for r in ranges:
+        if r != active and any(e["refused"][r] != e["refused"][active] for e in log):
+            runs[r] = _logged_discover(r, ranges, None, record, settings.declared, **kwargs)
+    for r in ranges:
+        result = runs.get(r, runs[active])
+        final = result.final
+        pred = final.prediction.pooled if final.prediction is not None else float("nan")
+        print(
+            f"Silverbox estimation part, INJECTING_RANGE {r:g}{'' if r in runs else ' (= active run)'}: "
+            f"refused {sorted({'+'.join(e['added']) or '(no new term)' for e in log if e['refused'][r]}) or '-'}; "
+            f"steps {'; '.join(_steps(result)) or '-'}; held-out free run {final.holdout.freerun_rmse:.4e} V; "
+            f"cross-fitted prediction {pred:.4e} V"
+        )
+    _print_log([{"case": "silverbox-estimation", "seed": 0, "log": log}])
+
+
+def _print_log(done: list[dict[str, Any]]) -> None:
+    print(
+        "\nEnergy checks refused at some value (the candidate's damping terms and coefficients; share of the samples"
+        " where candidate / current model inject at each value, R: refused):"
+    )
+    for out in done:
+        for e in out["log"]:
+            if any(e["refused"].values()):
+                coef = ", ".join(f"{k} {v:.3g}" for k, v in e["coefficients"].items())
+                shares = ", ".join(
+                    f"{r:g}: {100 * s:.2g}/{100 * c:.2g} %{' R' if e['refused'][r] else ''}"
+                    for r, (s, c) in e["shares"].items()
+                )
+                added = "+".join(e["added"]) or "(no new term)"
+                print(f"  {out['case']} seed {out['seed']} [{e['caller']}] adds {added}; {coef}: {shares}")
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--seeds", type=int, default=1)
@@ -178,8 +235,23 @@ def main() -> None:
     parser.add_argument("--amplitudes", default="1.2,1.5")
     parser.add_argument("--cases", default=",".join(CASES))
     parser.add_argument("--jobs", type=int, default=1)
+    parser.add_argument("--silverbox", action="store_true", help="Silverbox's estimation part instead (no test set)")
+    parser.add_argument("--excursions", action="store_true", help="only how far the larger-amplitude records go")
     args = parser.parse_args()
     ranges = [float(x) for x in args.ranges.split(",")]
+    if args.silverbox:
+        _silverbox(args.active, ranges)
+        return
+    if args.excursions:
+        amplitudes = [float(x) for x in args.amplitudes.split(",")]
+        print("| case | seed | " + " | ".join(f"{a:g}x force: z, |v| reach" for a in amplitudes) + " |")
+        print("|" + " --- |" * (2 + len(amplitudes)))
+        for case in args.cases.split(","):
+            for seed in range(args.seeds):
+                found = _excursions(case, seed, amplitudes)
+                cells = " | ".join(f"{z:.2f}, {v:.2f}" for z, v in found.values())
+                print(f"| {case} | {seed} | {cells} |")
+        return
     amplitudes = [float(x) for x in args.amplitudes.split(",")]
     work = [(c, s, args.active, ranges, amplitudes) for c in args.cases.split(",") for s in range(args.seeds)]
     with ProcessPoolExecutor(args.jobs) as pool:
@@ -198,20 +270,7 @@ def main() -> None:
                 f"| {out['case']} | {kind} | {out['seed']} | {r:g}{same} | {', '.join(refused) or '-'} | "
                 f"{'; '.join(run['steps']) or '-'} | {fits} |"
             )
-    print(
-        "\nEnergy checks refused at some value (the candidate's damping terms and coefficients; share of the samples"
-        " where candidate / current model inject at each value, R: refused):"
-    )
-    for out in done:
-        for e in out["log"]:
-            if any(e["refused"].values()):
-                coef = ", ".join(f"{k} {v:.3g}" for k, v in e["coefficients"].items())
-                shares = ", ".join(
-                    f"{r:g}: {100 * s:.2g}/{100 * c:.2g} %{' R' if e['refused'][r] else ''}"
-                    for r, (s, c) in e["shares"].items()
-                )
-                added = "+".join(e["added"]) or "(no new term)"
-                print(f"  {out['case']} seed {out['seed']} [{e['caller']}] adds {added}; {coef}: {shares}")
+    _print_log(done)
     print(f"\n{sum(o['seconds'] for o in done):.0f} s of worker time")
 
 
