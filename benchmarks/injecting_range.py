@@ -230,6 +230,7 @@ def _print_log(done: list[dict[str, Any]]) -> None:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--seeds", type=int, default=1)
+    parser.add_argument("--first-seed", type=int, default=0)
     parser.add_argument("--ranges", default="1.0,1.2,1.5,2.0")
     parser.add_argument("--active", type=float, default=1.5)
     parser.add_argument("--amplitudes", default="1.2,1.5")
@@ -247,13 +248,14 @@ def main() -> None:
         print("| case | seed | " + " | ".join(f"{a:g}x force: z, |v| reach" for a in amplitudes) + " |")
         print("|" + " --- |" * (2 + len(amplitudes)))
         for case in args.cases.split(","):
-            for seed in range(args.seeds):
+            for seed in range(args.first_seed, args.first_seed + args.seeds):
                 found = _excursions(case, seed, amplitudes)
                 cells = " | ".join(f"{z:.2f}, {v:.2f}" for z, v in found.values())
                 print(f"| {case} | {seed} | {cells} |")
         return
     amplitudes = [float(x) for x in args.amplitudes.split(",")]
-    work = [(c, s, args.active, ranges, amplitudes) for c in args.cases.split(",") for s in range(args.seeds)]
+    seeds = range(args.first_seed, args.first_seed + args.seeds)
+    work = [(c, s, args.active, ranges, amplitudes) for c in args.cases.split(",") for s in seeds]
     with ProcessPoolExecutor(args.jobs) as pool:
         done = list(pool.map(_case, work))
     amps = " | ".join(f"free-run fit {a:g}x (%)" for a in amplitudes)
