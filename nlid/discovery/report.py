@@ -217,6 +217,8 @@ def discovery_summary(result: Result) -> Summary:
     )
     if result.validation_note:
         out.add_text(f"validation: {result.validation_note}", width=TERMINAL_WIDTH)
+    elif result.validation_range:  # the note, when there is one, already says how far
+        out.add_text(f"validation: {result.validation_range}", width=TERMINAL_WIDTH)
     if result.info.get("refine_failed"):
         out.add_text(f"refinement: {result.info['refine_failed']}", width=TERMINAL_WIDTH, subsequent="  ")
     _add_table(out, *_coefficient_rows(final, units))

@@ -24,7 +24,7 @@ from ..identified.model import IdentifiedModel
 from ..model.terms import Model
 from ..report.summary import Summary
 from ..scoring import Scores as ScoreSet
-from ..scoring.coverage import beyond_range
+from ..scoring.coverage import RANGE_TOLERANCE, beyond_range
 from .crossfit import FoldPrediction
 from .evidence import AcceptanceRule, Evidence, Scores
 from .probes import Remaining
@@ -298,6 +298,23 @@ class DiscoveryResult:
             )
         return text
 
+    @property
+    def validation_range(self) -> str | None:
+        """A sentence when the validation record goes beyond the estimation record's displacements, else ``None``.
+
+        Said when it reaches more than :data:`nlid.scoring.coverage.RANGE_TOLERANCE` of the estimation range
+        beyond it (:func:`nlid.scoring.beyond_range`, the measure ``nlid bench`` states under its tables): its
+        free-run errors then measure how the models extrapolate as much as the models themselves.
+        """
+        zr, zv = self.info.get("z_range"), self.info.get("z_range_validation")
+        beyond = beyond_range(zr, zv) if zr and zv else 0.0
+        if beyond <= RANGE_TOLERANCE:
+            return None
+        return (
+            f"the validation record reaches {100 * beyond:.3g} % of the estimation range beyond it: its free-run "
+            "errors measure how the models extrapolate there as much as the models"
+        )
+
     def summary(self) -> Summary:
         """The table ``nlid discover`` prints: each model's errors, each step, the stop reason.
 
@@ -359,6 +376,7 @@ class DiscoveryResult:
                 "prediction_final": None if last.prediction is None else last.prediction.to_dict(),
                 "remaining": None if last.remaining is None else last.remaining.to_dict(),
                 "validation_note": self.validation_note,
+                "validation_range": self.validation_range,
                 "remaining_initial": None if first.remaining is None else first.remaining.to_dict(),
                 "final_model": last.identified.to_dict(),
                 "final_check": {

@@ -111,3 +111,27 @@ def test_validation_note_names_the_better_earlier_model(make_case):
     close = dataclasses.replace(last.validation, freerun_rmse=1.1 * first.sim_rms_validation)
     fine = dataclasses.replace(run, states=[first, dataclasses.replace(last, validation=close)])
     assert fine.validation_note is None
+
+
+def test_a_validation_record_beyond_the_estimation_range_is_said(make_case):
+    """The validation record's reach beyond the estimation range is said once, in the summary and the JSON."""
+    import dataclasses
+
+    from nlid.scoring import RANGE_TOLERANCE
+
+    record, declared = make_case("single", "coulomb", ("z",), 22)
+    est, val = record.split(0.3)
+    run = discover(est, declared, "rfs", candidates="coulomb", validation=val)
+    lo, hi = run.info["z_range"]
+    width = hi - lo
+
+    def reaching(beyond: float):
+        info = dict(run.info, z_range_validation=[lo, hi + beyond * width])
+        return dataclasses.replace(run, info=info)
+
+    assert reaching(0.9 * RANGE_TOLERANCE).validation_range is None
+    far = reaching(0.25)
+    assert far.validation_range.startswith("the validation record reaches 25 % of the estimation range beyond it")
+    assert far.validation_note is None  # the step improves the validation free run: no note, so the range is said
+    assert summary_table(far).count("validation: the validation record reaches 25 %") == 1
+    assert json.loads(json.dumps(far.to_dict()))["validation_range"] == far.validation_range
