@@ -24,7 +24,7 @@ from ..identified.model import IdentifiedModel
 from ..model.terms import Model
 from ..report.summary import Summary
 from ..scoring import Scores as ScoreSet
-from ..scoring.coverage import RANGE_TOLERANCE, beyond_range
+from ..scoring.coverage import RangeExcess, beyond_range
 from .crossfit import FoldPrediction
 from .evidence import AcceptanceRule, Evidence, Scores
 from .probes import Remaining
@@ -303,17 +303,14 @@ class DiscoveryResult:
         """A sentence when the validation record goes beyond the estimation record's displacements, else ``None``.
 
         Said when it reaches more than :data:`nlid.scoring.coverage.RANGE_TOLERANCE` of the estimation range
-        beyond it (:func:`nlid.scoring.beyond_range`, the measure ``nlid bench`` states under its tables): its
-        free-run errors then measure how the models extrapolate as much as the models themselves.
+        beyond it (:class:`nlid.scoring.RangeExcess`, the sentence ``nlid bench`` states under its tables, without
+        the share of samples outside: only the validation record's range is kept): its free-run errors then
+        measure how the models extrapolate as much as the models themselves.
         """
         zr, zv = self.info.get("z_range"), self.info.get("z_range_validation")
-        beyond = beyond_range(zr, zv) if zr and zv else 0.0
-        if beyond <= RANGE_TOLERANCE:
+        if not (zr and zv):
             return None
-        return (
-            f"the validation record reaches {100 * beyond:.3g} % of the estimation range beyond it: its free-run "
-            "errors measure how the models extrapolate there as much as the models"
-        )
+        return RangeExcess.from_ranges(zr, zv).describe("the validation record") or None
 
     def summary(self) -> Summary:
         """The table ``nlid discover`` prints: each model's errors, each step, the stop reason.

@@ -39,7 +39,8 @@ class RangeExcess:
     beyond
         The furthest excursion beyond the fitted range, as a fraction of the range's width (0 inside it).
     outside
-        The share of the record's samples outside the fitted range (0 to 1).
+        The share of the record's samples outside the fitted range (0 to 1); ``None`` when only the record's
+        ``(min, max)`` is known (:meth:`from_ranges`).
     fitted, reached
         The fitted range and the record's own ``(min, max)``, in the unit of the displacement (for a
         structure: of the DOF that goes furthest).
@@ -48,10 +49,16 @@ class RangeExcess:
     """
 
     beyond: float
-    outside: float
+    outside: float | None
     fitted: tuple[float, float]
     reached: tuple[float, float]
     dof: int = 0
+
+    @classmethod
+    def from_ranges(cls, fitted: Sequence[float], reached: Sequence[float]) -> RangeExcess:
+        """The excess of a record of which only its ``(min, max)``, ``reached``, is known (no share outside)."""
+        lo, hi = float(min(fitted)), float(max(fitted))
+        return cls(beyond_range((lo, hi), reached), None, (lo, hi), (float(min(reached)), float(max(reached))))
 
     @property
     def extrapolates(self) -> bool:
@@ -62,10 +69,9 @@ class RangeExcess:
         """One sentence, empty when the record stays within :data:`RANGE_TOLERANCE` of the range."""
         if not self.extrapolates:
             return ""
-        return (
-            f"{what} reaches {100 * self.beyond:.3g} % of {range_name} beyond it "
-            f"({100 * self.outside:.3g} % of its samples lie outside): the models extrapolate there"
-        )
+        share = "" if self.outside is None else f" ({100 * self.outside:.3g} % of its samples lie outside)"
+        reach = f"{what} reaches {100 * self.beyond:.3g} % of {range_name} beyond it"
+        return f"{reach}{share}: the models extrapolate there"
 
 
 def beyond_range(fitted: Sequence[float], reached: Sequence[float]) -> float:

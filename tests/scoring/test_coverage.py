@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from nlid.errors import InputError
-from nlid.scoring import RANGE_TOLERANCE, beyond_range, range_excess, value_range
+from nlid.scoring import RANGE_TOLERANCE, RangeExcess, beyond_range, range_excess, value_range
 
 
 def _sine(amplitude: float, n: int = 4000) -> np.ndarray:
@@ -65,3 +65,13 @@ def test_the_one_formula_also_serves_ranges_without_samples():
 def test_bad_input_is_refused_in_one_line(fitted, z, fragment):
     with pytest.raises(InputError, match=fragment.replace("(", r"\(").replace(")", r"\)")):
         range_excess(fitted, z)
+
+
+def test_a_record_known_only_by_its_range_gets_the_same_sentence_without_the_share():
+    z = _sine(1.4)
+    fitted = value_range(_sine(1.0))
+    whole, bare = range_excess(fitted, z), RangeExcess.from_ranges(fitted, (z.min(), z.max()))
+    assert bare.beyond == whole.beyond and bare.outside is None
+    assert bare.describe("the test") == whole.describe("the test").replace(
+        f" ({100 * whole.outside:.3g} % of its samples lie outside)", ""
+    )
