@@ -266,7 +266,8 @@ class BenchJob:
                 rows += [self._row(protocol, test, f, None, "not run", str(exc)) for f in fits]
                 continue
             reach = scoring.range_excess(fitted_range, record.z)
-            ranges[test.name] = {"beyond": reach.beyond, "outside": reach.outside, "text": reach.describe("the test")}
+            said = reach.describe("the test")
+            ranges[test.name] = {"beyond": reach.beyond, "outside": reach.outside, "text": said}
             first = len(rows)
             for fitted in fits:
                 try:
@@ -276,7 +277,7 @@ class BenchJob:
                 except NlidError as exc:
                     rows.append(self._row(protocol, test, fitted, None, "failed", str(exc)))
             for r in rows[first:]:
-                r["extrapolation"] = ranges[test.name]["text"]
+                r["extrapolation"] = said
         result = {
             "rows": rows,
             "fits": [_fit_dict(f) for f in fits],
