@@ -64,14 +64,19 @@ degree-3, lag-14 configurations build a regressor matrix of 4 495 columns, about
 
 from __future__ import annotations
 
-import argparse
 import math
 import os
+import sys
 import time
 import warnings
 from dataclasses import dataclass, field, replace
+from pathlib import Path
 
 import numpy as np
+
+sys.path.insert(0, str(Path(__file__).parent))
+
+from _common import side_by_side_main  # noqa: E402
 
 #: Fraction of the estimation part held out for the choices (the bench's own).
 HOLDOUT = 0.25
@@ -263,31 +268,8 @@ def side_by_side(name: str) -> list[tuple]:
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("--benchmark", default="silverbox,emps-internal,bouc-wen")
-    args = parser.parse_args()
-    print(f"load average at the start: {os.getloadavg()[0]:.1f} (2 cores shared)")
-    results = []
-    for name in [b.strip() for b in args.benchmark.split(",") if b.strip()]:
-        from nlid.benchmarking import load_protocol
-
-        unit = load_protocol(name).unit
-        results += [(name, unit, *r) for r in side_by_side(name)]
-    print()
-    print(
-        "| benchmark / test (rule) | sysidentpy as documented | nlid's sysidentpy row | row / side-by-side "
-        "| fit time (side-by-side / row) |"
-    )
-    print("| --- | --- | --- | --- | --- |")
-    worst = 0.0
-    for name, unit, test, ours, row, rule, ours_s, row_s in results:
-        ratio = row / ours if ours > 0 else math.nan
-        worst = max(worst, ratio) if math.isfinite(ratio) else math.inf
-        print(
-            f"| `{name}` / `{test}` (`{rule}`) | {ours:.4g} {unit} | {row:.4g} {unit} | {ratio:.2f} "
-            f"| {ours_s:.0f} s / {row_s:.0f} s |"
-        )
-    print(f"\nworst ratio {worst:.2f} (the row passes at <= 2); load average at the end: {os.getloadavg()[0]:.1f}")
+    """Run the side-by-side on each benchmark and print the ratio table (:func:`_common.side_by_side_main`)."""
+    side_by_side_main(__doc__, side_by_side, "sysidentpy", times=True)
 
 
 if __name__ == "__main__":
